@@ -1,0 +1,104 @@
+"""Which symbolic energy builds which kernel: (element, effect, gauss) -> casadi.Function (q, p) -> (e, g, H)."""
+from __future__ import annotations
+
+import casadi as ca
+
+from .. import registry
+from ..elements import beam, cable
+from ..elements.quadrature import gauss01
+from . import forms
+
+
+def _cable_station(effect: str, dim: int):
+    def station(q, p, xi, w):
+        L, k = p[0], p[1]
+        rx = cable.slope(q, L, xi, dim)
+        if effect == "axial_green":
+            yield rx, lambda v, p: cable.green_density(v, p[1]), w * L
+        elif effect == "axial_biot":
+            yield rx, lambda v, p: cable.biot_density(v, p[1]), w * L
+        elif effect == "bending":
+            u = ca.vertcat(rx, cable.curvature_vector(q, L, xi, dim))
+            yield u, lambda v, p: cable.bending_density(v[:dim], v[dim:], p[1]), w * L
+        else:
+            raise KeyError(effect)
+    return station
+
+
+def _beam_station(effect: str):
+    def station(q, p, xi, w):
+        L = p[0]
+        if effect == "continuum":
+            b, h = p[1], p[2]
+            ys, wy = gauss01(3)
+            for yy, w2 in zip(ys, wy):
+                for zz, w3 in zip(ys, wy):
+                    rx, ry, rz = beam.gradients(q, L, xi, (yy - 0.5) * b, (zz - 0.5) * h)
+                    dens = lambda v, p: beam.svk_density(v[0:3], v[3:6], v[6:9], p[3], p[4])
+                    yield ca.vertcat(rx, ry, rz), dens, w * w2 * w3 * L * b * h
+            return
+        rx, ry, rz, rxx, ryx, rzx = beam.line_fields(q, L, xi)
+        if effect == "line_strain":
+            area = p[1] * p[2]
+            yield ca.vertcat(rx, ry, rz), lambda v, p: beam.svk_density(v[0:3], v[3:6], v[6:9], p[3], p[4]), w * L * area
+        elif effect == "line_bending":
+            dens = lambda v, p: beam.line_bending_density(v[0:3], v[3:6], v[6:9], v[9:12], p[1], p[2])
+            yield ca.vertcat(rx, ry, rz, rxx), dens, w * L
+        elif effect == "line_torsion":
+            dens = lambda v, p: beam.torsion_density(v[0:3], v[3:6], v[6:9], v[9:12], p[1])
+            yield ca.vertcat(ry, rz, ryx, rzx), dens, w * L
+        else:
+            raise KeyError(effect)
+    return station
+
+
+_QUADRATURE = {"axial_green", "axial_biot", "bending", "continuum", "line_strain", "line_bending", "line_torsion"}
+
+
+def _direct_energy(element: str, effect: str, gauss: int | None):
+    el = registry.ELEMENTS[element]
+    if element.startswith("cable"):
+        dim = el.dim
+        if effect == "axial_decoupled":
+            return lambda q, p: cable.decoupled_energy(q, p, dim, gauss)
+        if effect == "gravity":
+            return lambda q, p: cable.gravity_energy(q, p, dim)
+        if effect == "moment":
+            return lambda q, p: cable.moment_energy(q, p, dim)
+    else:
+        if effect == "gravity":
+            return beam.gravity_energy
+        if effect == "moment_z":
+            return beam.moment_z_energy
+        if effect == "moment_y":
+            return beam.moment_y_energy
+    raise KeyError((element, effect))
+
+
+_POINT_CACHE: dict[tuple[str, str], ca.Function] = {}
+
+
+def point_function(element: str, effect: str) -> ca.Function:
+    key = (element, effect)
+    if key not in _POINT_CACHE:
+        el, eff = registry.ELEMENTS[element], registry.EFFECTS[key]
+        station = _cable_station(effect, el.dim) if element.startswith("cable") else _beam_station(effect)
+        _POINT_CACHE[key] = forms.point_function(f"{element}_{effect}_point", el.ndof, len(eff.params), station)
+    return _POINT_CACHE[key]
+
+
+def kernel(element: str, effect: str, gauss: int | None = None) -> ca.Function:
+    """The symbolic kernel (q, p) -> (energy, gradient, hessian) for one (element, effect, quadrature order)."""
+    el, eff = registry.ELEMENTS[element], registry.EFFECTS[(element, effect)]
+    gauss = gauss or eff.default_gauss
+    name = registry.kernel_name(element, effect, gauss)
+    if effect in _QUADRATURE:
+        return forms.quadrature_kernel(name, point_function(element, effect), gauss)
+    return forms.direct_kernel(name, el.ndof, len(eff.params), _direct_energy(element, effect, gauss))
+
+
+def mass(element: str) -> ca.Function:
+    el = registry.ELEMENTS[element]
+    p = ca.SX.sym("p", len(registry.MASS_PARAMS[element]))
+    M = cable.mass_matrix(p, el.dim) if element.startswith("cable") else beam.mass_matrix(p)
+    return ca.Function(f"{element}_mass", [p], [ca.densify(M)], ["p"], ["mass"])

@@ -1,0 +1,80 @@
+"""Turn energies into CasADi Functions (energy, gradient, Hessian) with as few operations as the structure allows.
+
+Two forms:
+- quadrature form: U = sum_k w_k L f(u(xi_k), p) where the local fields u (slopes, curvature vectors) are linear
+  in q, u = B(xi, p) q. Then grad = sum w L B^T f_u and Hess = sum w L B^T f_uu B: the density's small Hessian is
+  differentiated once, not the whole element energy twice. One SX point-function is emitted and called per point,
+  so gcc compiles it once whatever the quadrature order.
+- direct form: CasADi's own gradient and Hessian of an element energy that is not a sum of local densities
+  (decoupled strain, loads).
+"""
+from __future__ import annotations
+
+from typing import Callable
+
+import casadi as ca
+
+from ..elements.quadrature import gauss01
+
+KERNEL_IN = ["q", "p"]
+KERNEL_OUT = ["energy", "gradient", "hessian"]
+
+
+def point_terms(q: ca.SX, p: ca.SX, u: ca.SX, density: Callable[[ca.SX, ca.SX], ca.SX], scale):
+    """(scale*f, scale*B^T f_u, tril(scale*B^T f_uu B)) for fields u linear in q."""
+    v = ca.SX.sym("v", u.shape[0])
+    f = scale * density(v, p)  # scaling before differentiating costs one product per unique Hessian entry
+    fu, fuu = ca.gradient(f, v), ca.hessian(f, v)[0]
+    f_q, fu_q, fuu_q = ca.substitute([f, fu, fuu], [v], [u])
+    B = ca.jacobian(u, q)  # constant in q: depends on p and the point only
+    return f_q, ca.mtimes(B.T, fu_q), lower_product(B, fuu_q)
+
+
+def lower_product(B: ca.SX, A: ca.SX) -> ca.SX:
+    """Lower triangle of B^T A B for symmetric A (the kernel mirrors it once, after summing the points)."""
+    BtA = ca.mtimes(B.T, A)
+    n = B.shape[1]
+    H = ca.SX(ca.Sparsity.lower(n))
+    for i in range(n):
+        for j in range(i + 1):
+            hij = ca.dot(BtA[i, :].T, B[:, j])
+            H[i, j] = hij
+    return H
+
+
+def point_function(name: str, nq: int, n_p: int, station: Callable) -> ca.Function:
+    """SX Function (q, p, xi, w) -> (e, g, H): contribution of one quadrature station.
+
+    station(q, p, xi, w) yields (u, density, scale) triples, one per sub-point (several for a cross-section).
+    """
+    q, p = ca.SX.sym("q", nq), ca.SX.sym("p", n_p)
+    xi, w = ca.SX.sym("xi"), ca.SX.sym("w")
+    e, g, H = ca.SX(0), ca.SX.zeros(nq), ca.SX(ca.Sparsity.lower(nq))
+    for u, density, scale in station(q, p, xi, w):
+        de, dg, dH = point_terms(q, p, u, density, scale)
+        e, g, H = e + de, g + dg, H + dH
+    return ca.Function(name, [q, p, xi, w], [e, g, H], ["q", "p", "xi", "w"], KERNEL_OUT)
+
+
+def quadrature_kernel(name: str, point: ca.Function, gauss: int) -> ca.Function:
+    nq, n_p = point.size1_in(0), point.size1_in(1)
+    q, p = ca.MX.sym("q", nq), ca.MX.sym("p", n_p)
+    xs, ws = gauss01(gauss)
+    e, g, H = 0, 0, 0
+    for x, w in zip(xs, ws):
+        de, dg, dH = point(q, p, float(x), float(w))
+        e, g, H = e + de, g + dg, H + dH
+    return ca.Function(name, [q, p], [e, g, ca.densify(ca.tril2symm(H))], KERNEL_IN, KERNEL_OUT)
+
+
+def direct_kernel(name: str, nq: int, n_p: int, energy: Callable[[ca.SX, ca.SX], ca.SX]) -> ca.Function:
+    q, p = ca.SX.sym("q", nq), ca.SX.sym("p", n_p)
+    U = energy(q, p)
+    H, g = ca.hessian(U, q)
+    return ca.Function(name, [q, p], [U, g, ca.densify(H)], KERNEL_IN, KERNEL_OUT)
+
+
+def energy_function(kernel: ca.Function) -> ca.Function:
+    """(q, p) -> energy, the function IPOPT differentiates through; its companions give gradient and Hessian."""
+    q, p = ca.MX.sym("q", kernel.size1_in(0)), ca.MX.sym("p", kernel.size1_in(1))
+    return ca.Function(kernel.name() + "_energy", [q, p], [kernel(q, p)[0]], KERNEL_IN, ["energy"])

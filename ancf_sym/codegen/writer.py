@@ -1,0 +1,40 @@
+"""Write CasADi Functions as C sources into generated/, one file per kernel, plus the umbrella header."""
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import casadi as ca
+
+CODEGEN_OPTIONS = {"with_header": True, "casadi_real": "double", "casadi_int": "long long int"}
+
+
+def companions(kernel: ca.Function) -> list[ca.Function]:
+    """The kernel, its energy alone and that energy's reverse-mode companion adj1_<name>_energy.
+
+    casadi.external(<name>_energy) finds adj1_<name>_energy in the same library, so an MX objective built from it
+    (e.g. an IPOPT problem) gets its gradient from compiled code; the Hessian comes from the kernel itself.
+    """
+    from .forms import energy_function
+
+    energy = energy_function(kernel)
+    return [kernel, energy, energy.reverse(1)]
+
+
+def write_c(name: str, functions: list[ca.Function], out_dir: Path) -> dict[str, str]:
+    """Generate <name>.c and <name>.h in out_dir; returns {filename: text}."""
+    with tempfile.TemporaryDirectory() as tmp:
+        cwd = os.getcwd()
+        os.chdir(tmp)
+        try:
+            cg = ca.CodeGenerator(name + ".c", CODEGEN_OPTIONS)
+            for f in functions:
+                cg.add(f)
+            cg.generate()
+        finally:
+            os.chdir(cwd)
+        files = {fn: (Path(tmp) / fn).read_text() for fn in (name + ".c", name + ".h")}
+    for fn, text in files.items():
+        (out_dir / fn).write_text(text)
+    return files

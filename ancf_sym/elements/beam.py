@@ -1,0 +1,110 @@
+"""Fully parameterised 3D ANCF beam (paper 001, 24 DOF): kinematics and one energy per effect.
+
+Per node k: r, r_x, r_y, r_z (3-vectors). Material coordinates x in [0, L], y in [-b/2, b/2], z in [-h/2, h/2].
+Shape functions (paper 001 eq. 4, with its misprinted s6 corrected to L(-xi^2 + xi^3)):
+r = s1 rA + s2 r_xA + s3 r_yA + s4 r_zA + s5 rB + s6 r_xB + s7 r_yB + s8 r_zB.
+"""
+from __future__ import annotations
+
+import casadi as ca
+
+from . import hermite
+from .cable import planar_angle
+from .quadrature import gauss01
+
+
+def nodal(q):
+    """rA, r_xA, r_yA, r_zA, rB, r_xB, r_yB, r_zB."""
+    return tuple(q[3 * i:3 * i + 3] for i in range(8))
+
+
+def centreline(q, L, xi):
+    rA, txA, _, _, rB, txB, _, _ = nodal(q)
+    h = hermite.h(xi)
+    return h[0] * rA + L * h[1] * txA + h[2] * rB + L * h[3] * txB
+
+
+def gradients(q, L, xi, y, z):
+    """r_x, r_y, r_z at material point (xi*L, y, z)."""
+    rA, txA, tyA, tzA, rB, txB, tyB, tzB = nodal(q)
+    d = hermite.dh(xi)
+    rx = (d[0] * rA + d[2] * rB) / L + d[1] * txA + d[3] * txB + (y * (tyB - tyA) + z * (tzB - tzA)) / L
+    ry = (1 - xi) * tyA + xi * tyB
+    rz = (1 - xi) * tzA + xi * tzB
+    return rx, ry, rz
+
+
+def line_fields(q, L, xi):
+    """Centreline r_x, r_y, r_z, r_xx, r_yx, r_zx at xi."""
+    rA, txA, tyA, tzA, rB, txB, tyB, tzB = nodal(q)
+    rx, ry, rz = gradients(q, L, xi, 0, 0)
+    dd = hermite.ddh(xi)
+    rxx = (dd[0] * rA + dd[2] * rB) / L**2 + (dd[1] * txA + dd[3] * txB) / L
+    return rx, ry, rz, rxx, (tyB - tyA) / L, (tzB - tzA) / L
+
+
+def lame(E, nu):
+    return E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
+
+
+def svk_density(rx, ry, rz, E, nu):
+    """St. Venant-Kirchhoff: lambda/2 (tr E)^2 + G tr(E^2), E = (J^T J - I)/2 with J = [r_x r_y r_z]."""
+    lam, G = lame(E, nu)
+    J = ca.horzcat(rx, ry, rz)
+    Eg = (ca.mtimes(J.T, J) - ca.SX.eye(3)) / 2
+    return lam / 2 * ca.trace(Eg)**2 + G * ca.sumsqr(Eg)
+
+
+def line_bending_density(rx, ry, rz, rxx, EIy, EIz):
+    """Curvatures that are curvatures (1/m) and smooth when straight, squared so no norm appears in a numerator."""
+    gx = ca.dot(rx, rx)
+    ky2 = ca.dot(rz, rxx)**2 / (ca.dot(rz, rz) * gx**2)
+    kz2 = ca.dot(ry, rxx)**2 / (ca.dot(ry, ry) * gx**2)
+    return (EIy * ky2 + EIz * kz2) / 2
+
+
+def torsion_density(ry, rz, ryx, rzx, GIp):
+    theta = (ca.dot(ryx, rz) - ca.dot(ry, rzx)) / 2
+    return GIp / 2 * theta**2
+
+
+def gravity_energy(q, p):
+    L, rhoA, g = p[0], p[1], p[2:5]
+    xs, ws = gauss01(4)
+    return -sum(w * L * rhoA * ca.dot(g, centreline(q, L, x)) for x, w in zip(xs, ws))
+
+
+def moment_z_energy(q, p):
+    """Paper 001 Q_Mz: the section vector r_y turns by gamma about Z, r_y = (-sin g, cos g, .): pair (r_y1, r_y2).
+
+    Virtual work M dgamma with dgamma = (r_y1 dr_y2 - r_y2 dr_y1)/f^2 (the paper prints the opposite sign).
+    """
+    L, xi, M, ref1, ref2 = (p[i] for i in range(5))
+    ry = (1 - xi) * q[6:9] + xi * q[18:21]
+    # r_y = (-sin g, cos g): rotate the pair (r_y2, -r_y1) which is (cos g, sin g)
+    return -M * planar_angle(ref2, -ref1, ry[1], -ry[0])
+
+
+def moment_y_energy(q, p):
+    """Paper 001 Q_My: the section vector r_z turns by beta about Y, r_z = (sin b, ., cos b): pair (r_z3, r_z1)."""
+    L, xi, M, ref3, ref1 = (p[i] for i in range(5))
+    rz = (1 - xi) * q[9:12] + xi * q[21:24]
+    return -M * planar_angle(ref3, ref1, rz[2], rz[0])
+
+
+def mass_matrix(p):
+    """rho int S^T S dV; cubic x cubic in x (4 points), linear x linear in y and z (2 points): exact."""
+    L, b, h, rho = (p[i] for i in range(4))
+    xs, wx = gauss01(4)
+    ys, wy = gauss01(2)
+    M = ca.SX.zeros(24, 24)
+    eye = ca.SX.eye(3)
+    for x, w in zip(xs, wx):
+        hx = hermite.h(x)
+        for yy, w2 in zip(ys, wy):
+            for zz, w3 in zip(ys, wy):
+                y, z = (yy - 0.5) * b, (zz - 0.5) * h
+                s = [hx[0], L * hx[1], y * (1 - x), z * (1 - x), hx[2], L * hx[3], y * x, z * x]
+                S = ca.horzcat(*[sk * eye for sk in s])
+                M += w * w2 * w3 * L * b * h * rho * ca.mtimes(S.T, S)
+    return M

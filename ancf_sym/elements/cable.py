@@ -1,0 +1,121 @@
+"""Gradient-deficient ANCF cable (planar 8 DOF, spatial 12 DOF): kinematics and one energy per effect.
+
+q = [r(0), r_x(0), r(L), r_x(L)], each a dim-vector. Energies are written in squared forms wherever a norm
+would put a non-differentiable point inside a physical state (zero curvature).
+"""
+from __future__ import annotations
+
+import casadi as ca
+
+from . import hermite
+from .quadrature import gauss01
+
+
+def nodal(q: ca.SX, dim: int) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX]:
+    """Split q into r(0), r_x(0), r(L), r_x(L)."""
+    return tuple(q[i * dim:(i + 1) * dim] for i in range(4))
+
+
+def position(q, L, xi, dim: int):
+    r0, t0, r1, t1 = nodal(q, dim)
+    h = hermite.h(xi)
+    return h[0] * r0 + L * h[1] * t0 + h[2] * r1 + L * h[3] * t1
+
+
+def slope(q, L, xi, dim: int):
+    """r_x at xi [-]."""
+    r0, t0, r1, t1 = nodal(q, dim)
+    d = hermite.dh(xi)
+    return (d[0] * r0 + d[2] * r1) / L + d[1] * t0 + d[3] * t1
+
+
+def curvature_vector(q, L, xi, dim: int):
+    """r_xx at xi [1/m]."""
+    r0, t0, r1, t1 = nodal(q, dim)
+    d = hermite.ddh(xi)
+    return (d[0] * r0 + d[2] * r1) / L**2 + (d[1] * t0 + d[3] * t1) / L
+
+
+def cross2(a, b):
+    """z-component of a x b for planar vectors, or the 3-vector for spatial ones."""
+    if a.shape[0] == 2:
+        return a[0] * b[1] - a[1] * b[0]
+    return ca.cross(a, b)
+
+
+# Energy densities per unit reference length, as functions of the local fields (linear in q) ------------------
+
+def green_density(rx, EA):
+    eps = (ca.dot(rx, rx) - 1) / 2
+    return EA / 2 * eps**2
+
+
+def biot_density(rx, EA):
+    eps = ca.sqrt(ca.dot(rx, rx)) - 1
+    return EA / 2 * eps**2
+
+
+def bending_density(rx, rxx, EI):
+    c = cross2(rx, rxx)
+    g = ca.dot(rx, rx)
+    return EI / 2 * ca.sumsqr(c) / g**3  # kappa^2 = |r_x x r_xx|^2/|r_x|^6: smooth at zero curvature
+
+
+# Whole-element energies (direct form; the decoupled strain needs the whole element at once) ------------------
+
+def decoupled_energy(q, p, dim: int, gauss: int):
+    """Paper 000 sec. 2: axial energy of the equivalent rod q_D = [0, |r_x(0)|, L_D, |r_x(L)|]."""
+    L, EA = p[0], p[1]
+    _, t0, _, t1 = nodal(q, dim)
+    xs, ws = gauss01(gauss)
+    LD = L * sum(w * ca.sqrt(ca.sumsqr(slope(q, L, x, dim))) for x, w in zip(xs, ws))
+    a, c = ca.sqrt(ca.sumsqr(t0)), ca.sqrt(ca.sumsqr(t1))
+    U = 0
+    for x, w in zip(xs, ws):
+        d = hermite.dh(x)
+        rDx = d[1] * a + d[2] * LD / L + d[3] * c  # d r_D / dx with r_D(0) = 0
+        eps = (rDx**2 - 1) / 2
+        U += w * L * EA / 2 * eps**2
+    return U
+
+
+def gravity_energy(q, p, dim: int):
+    """-int rhoA g.r dx; the cubic times a constant is integrated exactly by 2 Gauss points, 4 used."""
+    L, rhoA, g = p[0], p[1], p[2:2 + dim]
+    xs, ws = gauss01(4)
+    return -sum(w * L * rhoA * ca.dot(g, position(q, L, x, dim)) for x, w in zip(xs, ws))
+
+
+def planar_angle(ref_a, ref_b, a, b):
+    """Signed angle turning the planar vector (ref_a, ref_b) to (a, b); its gradient is smooth except at 0."""
+    return ca.atan2(ref_a * b - ref_b * a, ref_a * a + ref_b * b)
+
+
+def moment_energy(q, p, dim: int):
+    """Potential -M*phi of a moment turning the tangent at xi; phi measured from the reference t0.
+
+    The energy has a branch cut at phi = +-pi (2*pi*M jump), its gradient and Hessian are smooth through it.
+    """
+    L, xi, M = p[0], p[1], p[2]
+    t = slope(q, L, xi, dim)
+    if dim == 2:
+        t0 = p[3:5]
+        phi = planar_angle(t0[0], t0[1], t[0], t[1])
+    else:
+        n, t0 = p[3:6], p[6:9]
+        n = n / ca.norm_2(n)
+        phi = ca.atan2(ca.dot(n, ca.cross(t0, t)), ca.dot(t0, t) - ca.dot(n, t0) * ca.dot(n, t))
+    return -M * phi
+
+
+def mass_matrix(p, dim: int):
+    """M = rhoA int S^T S dx; the products of cubics are integrated exactly by 4 Gauss points."""
+    L, rhoA = p[0], p[1]
+    xs, ws = gauss01(4)
+    M = ca.SX.zeros(4 * dim, 4 * dim)
+    eye = ca.SX.eye(dim)
+    for x, w in zip(xs, ws):
+        h = hermite.h(x)
+        S = ca.horzcat(*[hk * (L if k in (1, 3) else 1) * eye for k, hk in enumerate(h)])
+        M += w * L * rhoA * ca.mtimes(S.T, S)
+    return M

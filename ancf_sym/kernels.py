@@ -1,0 +1,159 @@
+"""Load the compiled element kernels (built by `pip install .` from generated/) as casadi Functions.
+
+Each kernel is (q, p) -> (energy, gradient, hessian) for one (element, effect); `parameters` names the entries
+of p. The functions come from the shared libraries installed in ancf_sym/_kernels: there is no fallback to a
+symbolic or interpreted version, a missing library is an error that says how to build it.
+"""
+from __future__ import annotations
+
+import functools
+import json
+from pathlib import Path
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from . import registry
+
+KERNEL_DIR = Path(__file__).resolve().parent / "_kernels"
+
+
+class KernelError(ValueError):
+    """Bad kernel request or bad kernel input; the message names the argument and its value."""
+
+
+def _check_names(element: str, effect: str) -> registry.Effect:
+    if element not in registry.ELEMENTS:
+        raise KernelError(f"element={element!r} is not an element; known: {sorted(registry.ELEMENTS)}")
+    eff = registry.EFFECTS.get((element, effect))
+    if eff is None:
+        known = sorted(e for (el, e) in registry.EFFECTS if el == element)
+        raise KernelError(f"effect={effect!r} is not an effect of element {element!r}; known: {known}")
+    return eff
+
+
+def library_path(name: str) -> Path:
+    hits = sorted(KERNEL_DIR.glob(f"{name}.*so")) + sorted(KERNEL_DIR.glob(f"{name}.so"))
+    if not hits:
+        raise FileNotFoundError(
+            f"compiled kernel library for {name!r} not found in {KERNEL_DIR}; the kernels are compiled when the "
+            f"package is installed: run `pip install .` from the project root (not an editable install)")
+    return hits[0]
+
+
+class Kernel(ca.Function):
+    """A compiled kernel that checks numeric inputs before they reach C (sizes, finiteness, positive lengths)."""
+
+    def __init__(self, f: ca.Function, element: str, effect: str, params: tuple[str, ...], library: Path):
+        super().__init__(f)
+        self.element, self.effect, self.params, self.library = element, effect, params, library
+
+    def __call__(self, *args, **kwargs):
+        if not kwargs and len(args) == 2:
+            check_inputs(self.element, self.effect, args[0], args[1])
+        return super().__call__(*args, **kwargs)
+
+
+def _as_numeric(x: Any) -> np.ndarray | None:
+    if isinstance(x, (ca.MX, ca.SX)):
+        return None
+    try:
+        return np.asarray(ca.DM(x) if isinstance(x, ca.DM) else x, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise KernelError(f"cannot read {x!r} as numbers: {exc}") from None
+
+
+def check_inputs(element: str, effect: str, q: Any, p: Any) -> None:
+    """Raise KernelError naming the argument if q or p has the wrong size, is not finite or has L <= 0."""
+    eff = _check_names(element, effect)
+    nq, n_p = registry.ELEMENTS[element].ndof, len(eff.params)
+    for name, x, n in (("q", q, nq), ("p", p, n_p)):
+        if isinstance(x, (ca.MX, ca.SX)):
+            if x.numel() != n:
+                raise KernelError(f"{name} of {element}/{effect} must have {n} entries, got shape {x.shape}")
+            continue
+        a = _as_numeric(x)
+        if a.size != n:
+            raise KernelError(f"{name} of {element}/{effect} must have {n} entries {'(' + ', '.join(eff.params) + ')' if name == 'p' else ''}, "
+                              f"got {a.size} (shape {a.shape})")
+        if not np.all(np.isfinite(a)):
+            bad = np.flatnonzero(~np.isfinite(a.ravel()))[0]
+            label = eff.params[bad] if name == "p" else registry.ELEMENTS[element].dof_names[bad]
+            raise KernelError(f"{name}[{bad}] ({label}) of {element}/{effect} is not finite: {a.ravel()[bad]}")
+        if name == "p" and a.ravel()[eff.params.index("L")] <= 0:
+            raise KernelError(f"p: element length L must be positive, got L={a.ravel()[eff.params.index('L')]}")
+
+
+@functools.lru_cache(maxsize=None)
+def _load(element: str, effect: str, gauss: int | None) -> Kernel:
+    eff = _check_names(element, effect)
+    if gauss is not None and gauss not in eff.gauss:
+        raise KernelError(f"gauss={gauss!r}: {element}/{effect} is generated for orders {list(eff.gauss) or 'none (exact)'}")
+    name = registry.kernel_name(element, effect, gauss)
+    lib = library_path(name)
+    return Kernel(ca.external(name, str(lib)), element, effect, eff.params, lib)
+
+
+def load(element: str, effect: str, gauss: int | None = None) -> Kernel:
+    """Compiled kernel (q, p) -> (energy, gradient, hessian) of one effect on one element.
+
+    q: (ndof,) nodal coordinates [m, -]; p: parameters in the order of `parameters(element, effect)`.
+    gauss: quadrature order (default 5 for quadrature effects; see `registry.EFFECTS[...].gauss`).
+    """
+    return _load(element, effect, gauss)
+
+
+def load_energy(element: str, effect: str, gauss: int | None = None) -> ca.Function:
+    """(q, p) -> energy alone, with its compiled reverse-mode companion (for CasADi/IPOPT graphs that need it)."""
+    _check_names(element, effect)
+    name = registry.kernel_name(element, effect, gauss) + "_energy"
+    return ca.external(name, str(library_path(name[:-len("_energy")])))
+
+
+def parameters(element: str, effect: str) -> tuple[str, ...]:
+    """Names of the entries of p, in order."""
+    return _check_names(element, effect).params
+
+
+@functools.lru_cache(maxsize=None)
+def _mass_function(element: str) -> ca.Function:
+    if element not in registry.ELEMENTS:
+        raise KernelError(f"element={element!r} is not an element; known: {sorted(registry.ELEMENTS)}")
+    return ca.external(f"{element}_mass", str(library_path("ancf_mass")))
+
+
+def mass_matrix(element: str, p: Any) -> np.ndarray:
+    """Constant element mass matrix; p as `mass_parameters(element)` (cable: L, rhoA; beam3d: L, b, h, rho)."""
+    names = registry.MASS_PARAMS.get(element)
+    f = _mass_function(element)
+    a = _as_numeric(p).ravel()
+    if a.size != len(names):
+        raise KernelError(f"p of {element} mass must have {len(names)} entries {names}, got {a.size}")
+    if not np.all(np.isfinite(a)) or np.any(a <= 0):
+        raise KernelError(f"p of {element} mass must be positive and finite {names}, got {a.tolist()}")
+    return np.asarray(f(a))
+
+
+def mass_parameters(element: str) -> tuple[str, ...]:
+    return registry.MASS_PARAMS[element]
+
+
+@functools.lru_cache(maxsize=1)
+def manifest() -> dict:
+    return json.loads((KERNEL_DIR / "manifest.json").read_text())
+
+
+def catalogue() -> list[dict]:
+    """Every kernel: element, effect, gauss order, inputs, outputs, parameter names, library path, C flags."""
+    out = []
+    for k in manifest()["kernels"]:
+        if k["element"] is None:
+            continue
+        out.append({
+            "name": k["name"], "element": k["element"], "effect": k["effect"], "gauss": k["gauss"],
+            "inputs": {"q": registry.ELEMENTS[k["element"]].ndof, "p": k["params"]},
+            "outputs": ["energy", "gradient", "hessian"], "description": registry.EFFECTS[(k["element"], k["effect"])].description,
+            "library": str(library_path(k["name"])), "cflags": k["cflags"], "functions": k["functions"],
+        })
+    return out

@@ -1,0 +1,128 @@
+"""What kernels exist: element kinds, their effects and the parameter vector of each.
+
+Plain data, no symbolic code: the loader, the build and the code generator all read it, so the names and the
+order of `p` are defined once. Effect names are public API.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+DEFAULT_GAUSS = 5
+# Extra Gauss orders emitted for the effects whose accuracy studies need them (cheap: one point-function each).
+STUDY_GAUSS = (3, 4, 7)
+
+
+@dataclass(frozen=True)
+class Element:
+    name: str
+    dim: int  # spatial dimension of r
+    ndof: int  # nodal coordinates per element
+    dof_names: tuple[str, ...]
+    description: str
+
+
+@dataclass(frozen=True)
+class Effect:
+    element: str
+    name: str
+    params: tuple[str, ...]
+    description: str
+    gauss: tuple[int, ...] = ()  # quadrature orders emitted; () = exact/closed form, no quadrature choice
+    elastic: bool = True  # elastic effects vanish under rigid-body motion
+
+    @property
+    def default_gauss(self) -> int | None:
+        return DEFAULT_GAUSS if DEFAULT_GAUSS in self.gauss else (self.gauss[0] if self.gauss else None)
+
+
+def _cable_dofs(dim: int) -> tuple[str, ...]:
+    axes = "xyz"[:dim]
+    names = []
+    for node in ("0", "1"):
+        names += [f"r{a}{node}" for a in axes] + [f"rx_{a}{node}" for a in axes]
+    return tuple(names)
+
+
+def _beam_dofs() -> tuple[str, ...]:
+    names = []
+    for node in ("0", "1"):
+        for vec in ("r", "r_x", "r_y", "r_z"):
+            names += [f"{vec}{a}{node}" for a in "xyz"]
+    return tuple(names)
+
+
+ELEMENTS: dict[str, Element] = {
+    "cable2d": Element("cable2d", 2, 8, _cable_dofs(2), "planar gradient-deficient ANCF cable, cubic Hermite"),
+    "cable3d": Element("cable3d", 3, 12, _cable_dofs(3), "spatial gradient-deficient ANCF cable, cubic Hermite"),
+    "beam3d": Element("beam3d", 3, 24, _beam_dofs(), "fully parameterised ANCF beam (paper 001), b x h section"),
+}
+
+_G = (3, 4, 5, 7)
+
+
+def _cable_effects(el: str, dim: int) -> list[Effect]:
+    g_names = tuple(f"g{a}" for a in "xyz"[:dim])
+    moment_params = ("L", "xi", "M", "t0x", "t0y") if dim == 2 else ("L", "xi", "M", "nx", "ny", "nz", "t0x", "t0y", "t0z")
+    return [
+        Effect(el, "axial_green", ("L", "EA"), "coupled Green strain eps=(r_x.r_x-1)/2, U=1/2 int EA eps^2", _G),
+        Effect(el, "axial_biot", ("L", "EA"), "coupled Biot strain eps=|r_x|-1, U=1/2 int EA eps^2", _G),
+        Effect(el, "axial_decoupled", ("L", "EA"),
+               "decoupled strain of paper 000: equivalent rod q_D=[0,|r_x(0)|,L_D,|r_x(L)|]", _G),
+        Effect(el, "bending", ("L", "EI"), "U=1/2 int EI |r_x x r_xx|^2/|r_x|^6", _G),
+        Effect(el, "gravity", ("L", "rhoA") + g_names, "U=-int rhoA g.r dx (exact, linear in q)", elastic=False),
+        Effect(el, "moment", moment_params,
+               "potential -M*phi of a moment M turning the tangent r_x(xi) by phi from reference t0"
+               + ("" if dim == 2 else " about axis n (angle of the projection on the plane normal to n)"),
+               elastic=False),
+    ]
+
+
+def _beam_effects() -> list[Effect]:
+    return [
+        Effect("beam3d", "continuum", ("L", "b", "h", "E", "nu"),
+               "continuum mechanics method: St. Venant-Kirchhoff on Green-Lagrange E=(J^T J-I)/2, 5x3x3 Gauss", (5,)),
+        Effect("beam3d", "line_strain", ("L", "b", "h", "E", "nu"),
+               "elastic-line method: Green-Lagrange strains of the centreline (eps011, eps22, eps33, gamma012, "
+               "gamma013, gamma23) times the section area", _G),
+        Effect("beam3d", "line_bending", ("L", "EIy", "EIz"),
+               "elastic-line bending, kappa_y=r_z.r_xx/(|r_z||r_x|^2), kappa_z=-r_y.r_xx/(|r_y||r_x|^2)", _G),
+        Effect("beam3d", "line_torsion", ("L", "GIp"), "elastic-line torsion theta=(r_y'.r_z-r_y.r_z')/2", _G),
+        Effect("beam3d", "gravity", ("L", "rhoA", "gx", "gy", "gz"), "U=-int rhoA g.r dx (exact)", elastic=False),
+        Effect("beam3d", "moment_z", ("L", "xi", "M", "ref1", "ref2"),
+               "paper 001 nodal moment about Z: potential -M*gamma, gamma = rotation of (r_y1, r_y2) at xi from ref",
+               elastic=False),
+        Effect("beam3d", "moment_y", ("L", "xi", "M", "ref3", "ref1"),
+               "paper 001 nodal moment about Y: potential -M*beta, beta = rotation of (r_z3, r_z1) at xi from ref",
+               elastic=False),
+    ]
+
+
+EFFECTS: dict[tuple[str, str], Effect] = {
+    (e.element, e.name): e
+    for e in _cable_effects("cable2d", 2) + _cable_effects("cable3d", 3) + _beam_effects()
+}
+
+MASS_PARAMS: dict[str, tuple[str, ...]] = {
+    "cable2d": ("L", "rhoA"),
+    "cable3d": ("L", "rhoA"),
+    "beam3d": ("L", "b", "h", "rho"),
+}
+
+
+def kernel_name(element: str, effect: str, gauss: int | None = None) -> str:
+    eff = EFFECTS[(element, effect)]
+    if gauss is None or gauss == eff.default_gauss or not eff.gauss:
+        return f"{element}_{effect}"
+    return f"{element}_{effect}_g{gauss}"
+
+
+def all_kernels() -> list[tuple[str, str, int | None]]:
+    """(element, effect, gauss) for every kernel the generator emits, in a fixed order."""
+    out = []
+    for (el, ef), eff in EFFECTS.items():
+        if not eff.gauss:
+            out.append((el, ef, None))
+        else:
+            out.append((el, ef, eff.default_gauss))
+            out += [(el, ef, g) for g in eff.gauss if g != eff.default_gauss]
+    return out

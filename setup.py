@@ -1,0 +1,46 @@
+"""Build: compile every kernel in generated/ (committed C from `python -m ancf_sym.codegen`) into a shared library
+inside the installed package, ancf_sym/_kernels/. Nothing is generated or compiled at run time."""
+import json
+import os
+import shutil
+from pathlib import Path
+
+from setuptools import Extension, setup
+from setuptools.command.build_ext import build_ext
+from setuptools.command.build_py import build_py
+
+HERE = Path(__file__).resolve().parent
+GENERATED = HERE / "generated"
+MANIFEST = json.loads((GENERATED / "manifest.json").read_text())
+
+
+class ParallelBuildExt(build_ext):
+    """Compile kernels on every core; they are independent translation units."""
+
+    def finalize_options(self):
+        super().finalize_options()
+        if not self.parallel:
+            self.parallel = os.cpu_count() or 1
+
+    def get_export_symbols(self, ext):
+        return []  # plain C libraries, not Python modules: no PyInit_ symbol to export
+
+
+class BuildPyWithManifest(build_py):
+    def run(self):
+        super().run()
+        dst = Path(self.build_lib) / "ancf_sym" / "_kernels"
+        dst.mkdir(parents=True, exist_ok=True)
+        shutil.copy(GENERATED / "manifest.json", dst / "manifest.json")
+        shutil.copy(GENERATED / "ancf_kernels.h", dst / "ancf_kernels.h")
+        for k in MANIFEST["kernels"]:
+            shutil.copy(GENERATED / k["c_file"].replace(".c", ".h"), dst)
+
+
+extensions = [
+    Extension(f"ancf_sym._kernels.{k['name']}", sources=[f"generated/{k['c_file']}"],
+              extra_compile_args=k["cflags"], libraries=["m"])
+    for k in MANIFEST["kernels"]
+]
+
+setup(ext_modules=extensions, cmdclass={"build_ext": ParallelBuildExt, "build_py": BuildPyWithManifest})
