@@ -34,7 +34,7 @@ int beam3d_continuum_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_i
 #define beam3d_continuum_SZ_ARG 6
 #define beam3d_continuum_SZ_RES 6
 #define beam3d_continuum_SZ_IW 25
-#define beam3d_continuum_SZ_W 3893
+#define beam3d_continuum_SZ_W 3892
 int beam3d_continuum_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int beam3d_continuum_energy_checkout(void);
 void beam3d_continuum_energy_release(int mem);
@@ -52,7 +52,7 @@ int beam3d_continuum_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, c
 #define beam3d_continuum_energy_SZ_ARG 8
 #define beam3d_continuum_energy_SZ_RES 7
 #define beam3d_continuum_energy_SZ_IW 25
-#define beam3d_continuum_energy_SZ_W 3926
+#define beam3d_continuum_energy_SZ_W 3925
 int adj1_beam3d_continuum_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int adj1_beam3d_continuum_energy_checkout(void);
 void adj1_beam3d_continuum_energy_release(int mem);

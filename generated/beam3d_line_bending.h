@@ -34,7 +34,7 @@ int beam3d_line_bending_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casad
 #define beam3d_line_bending_SZ_ARG 6
 #define beam3d_line_bending_SZ_RES 6
 #define beam3d_line_bending_SZ_IW 25
-#define beam3d_line_bending_SZ_W 2986
+#define beam3d_line_bending_SZ_W 2985
 int beam3d_line_bending_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int beam3d_line_bending_energy_checkout(void);
 void beam3d_line_bending_energy_release(int mem);
@@ -52,7 +52,7 @@ int beam3d_line_bending_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res
 #define beam3d_line_bending_energy_SZ_ARG 8
 #define beam3d_line_bending_energy_SZ_RES 7
 #define beam3d_line_bending_energy_SZ_IW 25
-#define beam3d_line_bending_energy_SZ_W 3017
+#define beam3d_line_bending_energy_SZ_W 3016
 int adj1_beam3d_line_bending_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int adj1_beam3d_line_bending_energy_checkout(void);
 void adj1_beam3d_line_bending_energy_release(int mem);

@@ -34,7 +34,7 @@ int cable2d_axial_biot_g7_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, cas
 #define cable2d_axial_biot_g7_SZ_ARG 6
 #define cable2d_axial_biot_g7_SZ_RES 6
 #define cable2d_axial_biot_g7_SZ_IW 9
-#define cable2d_axial_biot_g7_SZ_W 456
+#define cable2d_axial_biot_g7_SZ_W 455
 int cable2d_axial_biot_g7_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int cable2d_axial_biot_g7_energy_checkout(void);
 void cable2d_axial_biot_g7_energy_release(int mem);
@@ -52,7 +52,7 @@ int cable2d_axial_biot_g7_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_r
 #define cable2d_axial_biot_g7_energy_SZ_ARG 8
 #define cable2d_axial_biot_g7_energy_SZ_RES 7
 #define cable2d_axial_biot_g7_energy_SZ_IW 9
-#define cable2d_axial_biot_g7_energy_SZ_W 470
+#define cable2d_axial_biot_g7_energy_SZ_W 469
 int adj1_cable2d_axial_biot_g7_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int adj1_cable2d_axial_biot_g7_energy_checkout(void);
 void adj1_cable2d_axial_biot_g7_energy_release(int mem);

@@ -34,7 +34,7 @@ int cable2d_bending_g7_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi
 #define cable2d_bending_g7_SZ_ARG 6
 #define cable2d_bending_g7_SZ_RES 6
 #define cable2d_bending_g7_SZ_IW 9
-#define cable2d_bending_g7_SZ_W 484
+#define cable2d_bending_g7_SZ_W 483
 int cable2d_bending_g7_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int cable2d_bending_g7_energy_checkout(void);
 void cable2d_bending_g7_energy_release(int mem);
@@ -52,7 +52,7 @@ int cable2d_bending_g7_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res,
 #define cable2d_bending_g7_energy_SZ_ARG 8
 #define cable2d_bending_g7_energy_SZ_RES 7
 #define cable2d_bending_g7_energy_SZ_IW 9
-#define cable2d_bending_g7_energy_SZ_W 498
+#define cable2d_bending_g7_energy_SZ_W 497
 int adj1_cable2d_bending_g7_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int adj1_cable2d_bending_g7_energy_checkout(void);
 void adj1_cable2d_bending_g7_energy_release(int mem);

@@ -34,7 +34,7 @@ int cable3d_axial_green_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casad
 #define cable3d_axial_green_SZ_ARG 6
 #define cable3d_axial_green_SZ_RES 6
 #define cable3d_axial_green_SZ_IW 13
-#define cable3d_axial_green_SZ_W 772
+#define cable3d_axial_green_SZ_W 771
 int cable3d_axial_green_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int cable3d_axial_green_energy_checkout(void);
 void cable3d_axial_green_energy_release(int mem);
@@ -52,7 +52,7 @@ int cable3d_axial_green_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res
 #define cable3d_axial_green_energy_SZ_ARG 8
 #define cable3d_axial_green_energy_SZ_RES 7
 #define cable3d_axial_green_energy_SZ_IW 13
-#define cable3d_axial_green_energy_SZ_W 790
+#define cable3d_axial_green_energy_SZ_W 789
 int adj1_cable3d_axial_green_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int adj1_cable3d_axial_green_energy_checkout(void);
 void adj1_cable3d_axial_green_energy_release(int mem);

@@ -34,7 +34,7 @@ int cable3d_axial_green_g7_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, ca
 #define cable3d_axial_green_g7_SZ_ARG 6
 #define cable3d_axial_green_g7_SZ_RES 6
 #define cable3d_axial_green_g7_SZ_IW 13
-#define cable3d_axial_green_g7_SZ_W 952
+#define cable3d_axial_green_g7_SZ_W 951
 int cable3d_axial_green_g7_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int cable3d_axial_green_g7_energy_checkout(void);
 void cable3d_axial_green_g7_energy_release(int mem);
@@ -52,7 +52,7 @@ int cable3d_axial_green_g7_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_
 #define cable3d_axial_green_g7_energy_SZ_ARG 8
 #define cable3d_axial_green_g7_energy_SZ_RES 7
 #define cable3d_axial_green_g7_energy_SZ_IW 13
-#define cable3d_axial_green_g7_energy_SZ_W 970
+#define cable3d_axial_green_g7_energy_SZ_W 969
 int adj1_cable3d_axial_green_g7_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int adj1_cable3d_axial_green_g7_energy_checkout(void);
 void adj1_cable3d_axial_green_g7_energy_release(int mem);

@@ -34,7 +34,7 @@ int cable3d_bending_g7_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi
 #define cable3d_bending_g7_SZ_ARG 6
 #define cable3d_bending_g7_SZ_RES 6
 #define cable3d_bending_g7_SZ_IW 13
-#define cable3d_bending_g7_SZ_W 996
+#define cable3d_bending_g7_SZ_W 995
 int cable3d_bending_g7_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int cable3d_bending_g7_energy_checkout(void);
 void cable3d_bending_g7_energy_release(int mem);
@@ -52,7 +52,7 @@ int cable3d_bending_g7_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res,
 #define cable3d_bending_g7_energy_SZ_ARG 8
 #define cable3d_bending_g7_energy_SZ_RES 7
 #define cable3d_bending_g7_energy_SZ_IW 13
-#define cable3d_bending_g7_energy_SZ_W 1014
+#define cable3d_bending_g7_energy_SZ_W 1013
 int adj1_cable3d_bending_g7_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int adj1_cable3d_bending_g7_energy_checkout(void);
 void adj1_cable3d_bending_g7_energy_release(int mem);

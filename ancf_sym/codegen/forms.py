@@ -34,7 +34,7 @@ def lower_product(B: ca.SX, A: ca.SX) -> ca.SX:
     """Lower triangle of B^T A B for symmetric A (the kernel mirrors it once, after summing the points)."""
     BtA = ca.mtimes(B.T, A)
     n = B.shape[1]
-    H = ca.SX(ca.Sparsity.lower(n))
+    H = ca.SX.zeros(ca.Sparsity.lower(n))
     for i in range(n):
         for j in range(i + 1):
             hij = ca.dot(BtA[i, :].T, B[:, j])
@@ -49,7 +49,7 @@ def point_function(name: str, nq: int, n_p: int, station: Callable) -> ca.Functi
     """
     q, p = ca.SX.sym("q", nq), ca.SX.sym("p", n_p)
     xi, w = ca.SX.sym("xi"), ca.SX.sym("w")
-    e, g, H = ca.SX(0), ca.SX.zeros(nq), ca.SX(ca.Sparsity.lower(nq))
+    e, g, H = ca.SX(0), ca.SX.zeros(nq), ca.SX.zeros(ca.Sparsity.lower(nq))
     for u, density, scale in station(q, p, xi, w):
         de, dg, dH = point_terms(q, p, u, density, scale)
         e, g, H = e + de, g + dg, H + dH

@@ -1,0 +1,233 @@
+"""Assembled scene: total potential, its exact gradient and sparse Hessian from mapped compiled kernels.
+
+One mapped kernel call per term (never a Python loop over elements); global gradient by bincount, global
+Hessian by a precomputed CSC pattern. The same assembly gives CasADi expressions for IPOPT (`casadi_parts`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+import scipy.sparse as sp
+
+from . import kernels
+from .constraints import Constraints, build_constraints
+from .loads import load_vector
+from .mesh import Mesh, build_mesh
+from .registry import ELEMENTS
+from .scene import Scene
+from .terms import Term, scene_terms
+
+
+LOAD_LABELS = ("gravity", "loads")  # energy buckets scaled by a load factor in load stepping
+
+
+class MappedKernel:
+    """A compiled kernel mapped over a term's elements, called through CasADi's buffer interface."""
+
+    def __init__(self, term: Term):
+        self.term = term
+        self.kernel = kernels.load(term.element, term.effect, term.gauss)
+        self.N, self.nd = term.idx.shape
+        self.f = self.kernel.map(self.N)
+        self.P = np.ascontiguousarray(term.P)
+        self.X = np.zeros((self.N, self.nd))
+        self.E = np.zeros(self.N)
+        self.G = np.zeros((self.N, self.nd))
+        self.H = np.zeros((self.N, self.nd, self.nd))
+        self.buf, self._eval = self.f.buffer()
+        for i, a in enumerate((self.X, self.P)):
+            self.buf.set_arg(i, memoryview(a))
+        for i, a in enumerate((self.E, self.G, self.H)):
+            self.buf.set_res(i, memoryview(a))
+
+    def __call__(self, x: np.ndarray) -> None:
+        np.take(x, self.term.idx, out=self.X)
+        self._eval()
+
+
+@dataclass
+class Evaluation:
+    energy: float
+    energies: dict  # label -> J
+    gradient: np.ndarray
+    hessian: sp.csc_matrix | None
+
+
+class Assembly:
+    def __init__(self, scene: Scene):
+        self.scene = scene
+        self.mesh: Mesh = build_mesh(scene)
+        self.n = self.mesh.n
+        self.x0 = self.mesh.x0
+        self.terms = scene_terms(self.mesh)
+        self.mapped = [MappedKernel(t) for t in self.terms]
+        self.Q = load_vector(self.mesh)  # dead point loads: potential -Q.x
+        self.constraints: Constraints = build_constraints(self.mesh)
+        pen = np.flatnonzero(self.constraints.k > 0)
+        self.penalty = self.constraints.subset(pen) if len(pen) else None
+        self.exact = self.constraints.subset(np.flatnonzero(self.constraints.k == 0))
+        self._pattern()
+
+    # -- sparse pattern ------------------------------------------------------------------------------------
+    def _pattern(self) -> None:
+        rows, cols = [], []
+        for mk in self.mapped:
+            idx = mk.term.idx  # H[e, b, a] is d2U/dx_a dx_b
+            rows.append(np.broadcast_to(idx[:, None, :], mk.H.shape).ravel())
+            cols.append(np.broadcast_to(idx[:, :, None], mk.H.shape).ravel())
+        if self.penalty is not None:
+            J = self.penalty.jacobian(self.x0 + 1.0).tocoo()  # structural pattern (bilinear terms non-zero)
+            # J^T J pattern and the constant quadratic-term Hessian
+            JtJ = (abs(J).T @ abs(J)).tocoo()
+            Hq = abs(self.penalty.hessian(np.ones(self.penalty.m))).tocoo()
+            rows += [JtJ.row, Hq.row]
+            cols += [JtJ.col, Hq.col]
+        r = np.concatenate(rows) if rows else np.zeros(0, int)
+        c = np.concatenate(cols) if cols else np.zeros(0, int)
+        key = c.astype(np.int64) * self.n + r
+        uniq, inv = np.unique(key, return_inverse=True)
+        self._hpos = inv
+        self._n_kernel_entries = sum(mk.H.size for mk in self.mapped)
+        ucol, urow = uniq // self.n, uniq % self.n
+        indptr = np.zeros(self.n + 1, dtype=np.int64)
+        np.add.at(indptr, ucol + 1, 1)
+        self.h_indptr, self.h_indices = np.cumsum(indptr), urow
+        self.h_key = uniq
+        self.h_nnz = len(uniq)
+
+    # -- evaluation ------------------------------------------------------------------------------------------
+    def evaluate(self, x: np.ndarray, hessian: bool = True) -> Evaluation:
+        """Total potential Pi(x) = sum of element terms - Q.x + penalties; gradient; sparse Hessian (CSC)."""
+        x = np.asarray(x, dtype=float)
+        energies: dict[str, float] = {}
+        g = np.zeros(self.n)
+        vals = []
+        for mk in self.mapped:
+            mk(x)
+            energies[mk.term.label] = energies.get(mk.term.label, 0.0) + float(mk.E.sum())
+            g += np.bincount(mk.term.idx.ravel(), mk.G.ravel(), minlength=self.n)
+            if hessian:
+                vals.append(mk.H.ravel())
+        if np.any(self.Q):
+            energies["loads"] = energies.get("loads", 0.0) - float(self.Q @ x)
+            g -= self.Q
+        H = None
+        if self.penalty is not None:
+            pc = self.penalty
+            c = pc.value(x)
+            energies["penalty"] = float(0.5 * np.sum(pc.k * c * c))
+            J = pc.jacobian(x)
+            g += J.T @ (pc.k * c)
+            if hessian:
+                Hp = (J.T @ sp.diags(pc.k) @ J + pc.hessian(pc.k * c)).tocsc()
+                Hp.sum_duplicates()
+                vals.append(self._scatter_dense(Hp))
+        if hessian:
+            data = np.bincount(self._hpos, np.concatenate(vals) if vals else np.zeros(0), minlength=self.h_nnz) \
+                if self.penalty is None else self._combine(vals)
+            H = sp.csc_matrix((data, self.h_indices, self.h_indptr), shape=(self.n, self.n))
+        return Evaluation(float(sum(energies.values())), energies, g, H)
+
+    def _scatter_dense(self, Hp: sp.csc_matrix) -> np.ndarray:
+        """Penalty Hessian values laid out on the tail of the pattern (J^T J and quadratic entries)."""
+        coo = Hp.tocoo()
+        key = coo.col.astype(np.int64) * self.n + coo.row
+        pos = np.searchsorted(self.h_key, key)
+        out = np.zeros(self.h_nnz)
+        np.add.at(out, pos, coo.data)
+        return out
+
+    def _combine(self, vals: list) -> np.ndarray:
+        kern = np.concatenate(vals[:-1]) if len(vals) > 1 else np.zeros(0)
+        data = np.bincount(self._hpos[:self._n_kernel_entries], kern, minlength=self.h_nnz)
+        return data + vals[-1]
+
+    def energy(self, x: np.ndarray) -> float:
+        return self.evaluate(x, hessian=False).energy
+
+    # -- element queries ---------------------------------------------------------------------------------------
+    def member_coordinates(self, x: np.ndarray, name: str) -> np.ndarray:
+        mm = self.mesh.members[name]
+        return np.asarray(x[mm.offset:mm.offset + mm.x0.size]).reshape(mm.n_nodes, mm.node_size)
+
+    # -- CasADi form for IPOPT -----------------------------------------------------------------------------
+    def casadi_parts(self, x: ca.MX, load_factor: ca.MX | float = 1.0):
+        """(f, grad, hess_upper, g_exact) as MX of x, loads (gravity, external) scaled by load_factor: objective from the compiled energy functions (their reverse
+        companions give CasADi the gradient), the exact gradient and upper-triangular Hessian assembled from the
+        kernels through constant sparse matrices, and the exact constraints."""
+        f = 0
+        grad = 0
+        hvals = []
+        for mk in self.mapped:
+            t = mk.term
+            Xe = ca.reshape(x[t.idx.ravel().tolist()], mk.nd, mk.N)
+            Pm = ca.DM(mk.P.T)
+            efun = kernels.load_energy(t.element, t.effect, t.gauss).map(mk.N)
+            s = load_factor if t.label in LOAD_LABELS else 1.0
+            f += s * ca.sum2(efun(Xe, Pm))
+            _, G, H = mk.kernel.map(mk.N)(Xe, Pm)
+            G, H = s * G, s * H
+            Ag = ca.DM(ca.Sparsity.triplet(self.n, mk.N * mk.nd, t.idx.ravel().tolist(), list(range(mk.N * mk.nd))), 1.0)
+            grad += ca.mtimes(Ag, ca.vec(G))
+            hvals.append(ca.vec(H))  # column-major H (nd x nd*N) == our (N, b, a) C-order layout
+        if np.any(self.Q):
+            Qd = ca.DM(self.Q)
+            f -= load_factor * ca.dot(Qd, x)
+            grad -= load_factor * Qd
+        if self.penalty is not None:
+            pc = self.penalty
+            c = self._casadi_constraint(pc, x)
+            f += 0.5 * ca.sum1(ca.DM(pc.k) * c * c)
+        # Hessian: kernel entries summed into the upper triangle of the global pattern
+        sel = self.h_key // self.n >= self.h_key % self.n  # col >= row
+        upper_pos = -np.ones(self.h_nnz, dtype=np.int64)
+        upper_pos[sel] = np.arange(sel.sum())
+        ucols, urows = self.h_key[sel] // self.n, self.h_key[sel] % self.n
+        indptr = np.zeros(self.n + 1, dtype=np.int64)
+        np.add.at(indptr, ucols + 1, 1)
+        sp_up = ca.Sparsity(self.n, self.n, np.cumsum(indptr).tolist(), urows.tolist())
+        hess = None
+        if hvals:
+            pos = upper_pos[self._hpos[:self._n_kernel_entries]]
+            keep = np.flatnonzero(pos >= 0)
+            A = ca.DM(ca.Sparsity.triplet(int(sel.sum()), self._n_kernel_entries, pos[keep].tolist(), keep.tolist()), 1.0)
+            hess = ca.MX(sp_up, ca.mtimes(A, ca.vertcat(*hvals)))
+        if self.penalty is not None:
+            # exact penalty Hessian by CasADi AD of its small (bilinear) MX expression, upper triangle
+            pen = 0.5 * ca.sum1(ca.DM(self.penalty.k) * self._casadi_constraint(self.penalty, x) ** 2)
+            Hp = ca.triu(ca.hessian(pen, x)[0])
+            grad += ca.gradient(pen, x)
+            hess = Hp if hess is None else hess + Hp
+        if hess is None:
+            hess = ca.MX(sp_up, 0)
+        g_exact = self._casadi_constraint(self.exact, x) if self.exact.m else ca.MX(0, 1)
+        return f, grad, hess, g_exact
+
+    @staticmethod
+    def _casadi_constraint(c: Constraints, x: ca.MX) -> ca.MX:
+        A = ca.DM(ca.Sparsity.triplet(c.m, c.A.shape[1], *[v.tolist() for v in c.A.tocoo().nonzero()]),
+                  c.A.tocoo().data)
+        out = ca.mtimes(A, x) - ca.DM(c.d)
+        if len(c.qrow):
+            S = ca.DM(ca.Sparsity.triplet(c.m, len(c.qrow), c.qrow.tolist(), list(range(len(c.qrow)))), c.qcoef)
+            out += ca.mtimes(S, x[c.qi.tolist()] * x[c.qj.tolist()])
+        return out
+
+    def mass_matrix(self) -> sp.csc_matrix:
+        """Constant global mass matrix (sparse)."""
+        rows, cols, vals = [], [], []
+        for mm in self.mesh.members.values():
+            m = mm.member
+            idx = mm.elem_dofs()
+            for e in range(len(idx)):
+                L = mm.elem_length[e]
+                p = [L, m.material.density * m.section.area] if m.element != "beam3d" else \
+                    [L, m.section.b, m.section.h, m.material.density]
+                Me = kernels.mass_matrix(m.element, p)
+                rows.append(np.repeat(idx[e], len(idx[e])))
+                cols.append(np.tile(idx[e], len(idx[e])))
+                vals.append(Me.ravel())
+        return sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                             shape=(self.n, self.n)).tocsc()

@@ -1,0 +1,184 @@
+"""Supports and joints as equality constraints c(x) = A x + sum_k coef_k x_i x_j - d = 0.
+
+Every support and joint of this package is linear or bilinear in the nodal coordinates, so c, its Jacobian
+and its Hessian are exact sparse arrays without any symbolic work at run time:
+- pin: r = r0; clamp: pin + slope direction (n . r_x = 0 for each normal n of the reference slope; beam3d:
+  all gradients fixed); fix_slope: the slope part alone;
+- hinge: r_a = r_b; rigid: hinge + the relative slope direction (planar: (R t_a) x t_b = 0 with R the reference
+  rotation from t_a to t_b; beam3d: J_b = J_a R0 with R0 = J_a0^T J_b0).
+The penalty form of paper 002 adds 1/2 k c^2 per row instead (k from EA/(1 m) for positions, EI/(1 m) for slopes).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from .mesh import Mesh, MemberMesh
+
+
+@dataclass
+class Rows:
+    """A growing set of constraint rows."""
+    n: int
+    lin: list = field(default_factory=list)  # (row, col, coef)
+    quad: list = field(default_factory=list)  # (row, i, j, coef)
+    d: list = field(default_factory=list)
+    label: list = field(default_factory=list)  # what each row enforces
+    kind: list = field(default_factory=list)  # "position" | "slope" (sets the penalty scale)
+    k: list = field(default_factory=list)  # penalty stiffness, or 0 for exact rows
+
+    def row(self, coefs: dict, d: float, label: str, kind: str, quad: list | None = None) -> None:
+        r = len(self.d)
+        self.lin += [(r, c, v) for c, v in coefs.items() if v != 0]
+        self.quad += [(r, i, j, v) for i, j, v in (quad or [])]
+        self.d.append(d)
+        self.label.append(label)
+        self.kind.append(kind)
+
+
+def _normals(t: np.ndarray) -> list[np.ndarray]:
+    if len(t) == 2:
+        return [np.array([-t[1], t[0]])]
+    a = np.array([1.0, 0, 0]) if abs(t[0]) < 0.9 else np.array([0, 1.0, 0])
+    n1 = np.cross(t, a)
+    n1 /= np.linalg.norm(n1)
+    return [n1, np.cross(t, n1)]
+
+
+def _slices(mm: MemberMesh, node: int, dim: int):
+    """Global indices of r, r_x (and r_y, r_z for beam3d) at a node."""
+    dofs = mm.node_dofs(node)
+    return [dofs[k * dim:(k + 1) * dim] for k in range(mm.node_size // dim)]
+
+
+def _fix(rows: Rows, idx, values, label, kind):
+    for i, v in zip(idx, values):
+        rows.row({int(i): 1.0}, float(v), label, kind)
+
+
+def support_rows(rows: Rows, mesh: Mesh, s) -> None:
+    mm = mesh.members[s.member]
+    dim = mesh.scene.dim
+    node = mm.node(s.at)
+    parts = _slices(mm, node, dim)
+    ref = mm.x0[node].reshape(-1, dim)
+    label = f"{s.kind} {s.member}@{s.at}"
+    if s.kind in ("pin", "clamp"):
+        _fix(rows, parts[0], ref[0], label, "position")
+    if s.kind in ("clamp", "slope"):
+        if mm.member.element == "beam3d" and s.kind == "clamp":
+            for p, rv in zip(parts[1:], ref[1:]):
+                _fix(rows, p, rv, label, "slope")
+        else:
+            for n in _normals(ref[1] / np.linalg.norm(ref[1])):
+                rows.row({int(i): float(v) for i, v in zip(parts[1], n)}, 0.0, label, "slope")
+
+
+def joint_rows(rows: Rows, dim: int, ma: MemberMesh, na: int, mb: MemberMesh, nb: int, kind: str, label: str) -> None:
+    """Rows of a hinge or rigid joint between internal node na of ma and nb of mb."""
+    pa, pb = _slices(ma, na, dim), _slices(mb, nb, dim)
+    gap = ma.x0[na][:dim] - mb.x0[nb][:dim]  # reference offset kept (zero for coincident nodes)
+    for k in range(dim):
+        rows.row({int(pa[0][k]): 1.0, int(pb[0][k]): -1.0}, float(gap[k]), label, "position")
+    if kind != "rigid":
+        return
+    if ma.member.element == "beam3d":
+        Ja0 = ma.x0[na].reshape(4, 3)[1:].T  # columns r_x, r_y, r_z
+        Jb0 = mb.x0[nb].reshape(4, 3)[1:].T
+        R0 = np.linalg.solve(Ja0, Jb0)
+        for c in range(3):  # column c of J_b - J_a R0 = 0
+            for k in range(3):
+                coefs = {int(pb[1 + c][k]): 1.0}
+                for m in range(3):
+                    coefs[int(pa[1 + m][k])] = coefs.get(int(pa[1 + m][k]), 0.0) - R0[m, c]
+                rows.row(coefs, 0.0, label, "slope")
+    else:
+        ta, tb = ma.x0[na][dim:2 * dim], mb.x0[nb][dim:2 * dim]
+        ang = np.arctan2(ta[0] * tb[1] - ta[1] * tb[0], ta @ tb)
+        c, s = np.cos(ang), np.sin(ang)
+        R = np.array([[c, -s], [s, c]])
+        # (R t_a) x t_b = (R t_a)_0 t_b1 - (R t_a)_1 t_b0, bilinear in (t_a, t_b)
+        ia, ib = pa[1], pb[1]
+        quad = [(int(ia[m]), int(ib[1]), R[0, m]) for m in range(2)] + [(int(ia[m]), int(ib[0]), -R[1, m]) for m in range(2)]
+        rows.row({}, 0.0, label, "slope", quad)
+
+
+def _penalty_scale(mm: MemberMesh, kind: str) -> float:
+    """Paper 002's references: EA/L for positions, EI/L for slopes, with L = 1 m."""
+    m = mm.member
+    EA = m.material.E * m.section.area
+    EI = m.material.E * (m.section.bending_inertia or 0.0)
+    return EA if kind == "position" else (EI if EI > 0 else EA * 1e-6)
+
+
+@dataclass
+class Constraints:
+    """c(x) = A x + sum_k coef_k x_i x_j - d; rows with k > 0 are penalties, the others exact."""
+    A: sp.csr_matrix
+    qrow: np.ndarray
+    qi: np.ndarray
+    qj: np.ndarray
+    qcoef: np.ndarray
+    d: np.ndarray
+    k: np.ndarray
+    labels: list
+
+    @property
+    def m(self) -> int:
+        return len(self.d)
+
+    def value(self, x: np.ndarray) -> np.ndarray:
+        return self.A @ x + np.bincount(self.qrow, self.qcoef * x[self.qi] * x[self.qj], minlength=self.m) - self.d
+
+    def jacobian(self, x: np.ndarray) -> sp.csr_matrix:
+        n = self.A.shape[1]
+        Q = sp.coo_matrix((np.r_[self.qcoef * x[self.qj], self.qcoef * x[self.qi]],
+                           (np.r_[self.qrow, self.qrow], np.r_[self.qi, self.qj])), shape=(self.m, n))
+        return (self.A + Q).tocsr()
+
+    def hessian(self, lam: np.ndarray) -> sp.csr_matrix:
+        """Hessian of lam . c(x) (constant: the constraints are at most bilinear)."""
+        n = self.A.shape[1]
+        v = lam[self.qrow] * self.qcoef
+        return sp.coo_matrix((np.r_[v, v], (np.r_[self.qi, self.qj], np.r_[self.qj, self.qi])), shape=(n, n)).tocsr()
+
+    def subset(self, rows: np.ndarray) -> "Constraints":
+        rows = np.asarray(rows, dtype=int)
+        remap = -np.ones(self.m, dtype=int)
+        remap[rows] = np.arange(len(rows))
+        keep = remap[self.qrow] >= 0
+        return Constraints(self.A[rows], remap[self.qrow[keep]], self.qi[keep], self.qj[keep], self.qcoef[keep],
+                           self.d[rows], self.k[rows], [self.labels[r] for r in rows])
+
+
+def build_constraints(mesh: Mesh) -> Constraints:
+    rows = Rows(mesh.n)
+    scene, dim = mesh.scene, mesh.scene.dim
+
+    def close(start: int, method: str, factor: float | None, mm: MemberMesh):
+        for r in range(start, len(rows.d)):
+            rows.k.append((factor or 1.0) * _penalty_scale(mm, rows.kind[r]) if method == "penalty" else 0.0)
+
+    for s in scene.supports:
+        start = len(rows.d)
+        support_rows(rows, mesh, s)
+        close(start, s.method, s.penalty, mesh.members[s.member])
+    for j in scene.joints:
+        start = len(rows.d)
+        ma, mb = mesh.members[j.a[0]], mesh.members[j.b[0]]
+        label = f"{j.kind} {j.a[0]}@{j.a[1]}-{j.b[0]}@{j.b[1]}"
+        joint_rows(rows, dim, ma, ma.node(j.a[1]), mb, mb.node(j.b[1]), j.kind, label)
+        close(start, j.method, j.penalty, ma)
+    for name, mm in mesh.members.items():
+        for a, b in mm.vertex_pairs:
+            start = len(rows.d)
+            joint_rows(rows, dim, mm, a, mm, b, "rigid", f"vertex {name}#{a}")
+            close(start, "exact", None, mm)
+    m = len(rows.d)
+    lin = np.array(rows.lin, dtype=float).reshape(-1, 3)
+    A = sp.coo_matrix((lin[:, 2], (lin[:, 0].astype(int), lin[:, 1].astype(int))), shape=(m, mesh.n)).tocsr()
+    q = np.array(rows.quad, dtype=float).reshape(-1, 4)
+    return Constraints(A, q[:, 0].astype(int), q[:, 1].astype(int), q[:, 2].astype(int), q[:, 3],
+                       np.array(rows.d, float), np.array(rows.k, float), rows.label)

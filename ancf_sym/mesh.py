@@ -1,0 +1,129 @@
+"""Mesh members into elements: global coordinate numbering and the reference (straight, unstretched) state.
+
+Each member owns its nodes; a polyline member gets one run of nodes per straight segment, the vertex nodes
+duplicated and tied by internal rigid joints. Node coordinates: cables [r, r_x], beam3d [r, r_x, r_y, r_z].
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .registry import ELEMENTS
+from .scene import Member, Scene, SceneError
+
+
+def node_size(element: str) -> int:
+    return ELEMENTS[element].ndof // 2
+
+
+@dataclass
+class MemberMesh:
+    member: Member
+    offset: int  # first global coordinate of the member
+    node_size: int
+    x0: np.ndarray  # (n_nodes, node_size) reference nodal coordinates
+    elem_nodes: np.ndarray  # (n_el, 2) node indices (member-local) of each element
+    elem_length: np.ndarray  # (n_el,) reference length [m]
+    public_nodes: np.ndarray  # public node index -> internal node (vertex duplicates are hidden)
+    vertex_pairs: list[tuple[int, int]]  # internal nodes tied rigidly at polyline vertices
+    s_node: np.ndarray  # (n_nodes,) material coordinate of each internal node [m]
+
+    @property
+    def n_nodes(self) -> int:
+        return len(self.x0)
+
+    def node_dofs(self, node: int) -> np.ndarray:
+        return self.offset + node * self.node_size + np.arange(self.node_size)
+
+    def elem_dofs(self) -> np.ndarray:
+        """(n_el, 2*node_size) global coordinate indices per element."""
+        base = self.offset + self.elem_nodes * self.node_size  # (n_el, 2)
+        k = np.arange(self.node_size)
+        return np.concatenate([base[:, :1] + k, base[:, 1:] + k], axis=1)
+
+    def node(self, at) -> int:
+        """Internal node index of a public location: 'start', 'end' or a public node index."""
+        if at == "start":
+            return 0
+        if at == "end":
+            return self.n_nodes - 1
+        return int(self.public_nodes[at])
+
+    def locate(self, s: float) -> tuple[int, float]:
+        """(element, xi) of material coordinate s [m]."""
+        ends = np.cumsum(self.elem_length)
+        e = int(min(np.searchsorted(ends, s - 1e-12 * ends[-1]), len(ends) - 1))
+        start = ends[e] - self.elem_length[e]
+        return e, float(np.clip((s - start) / self.elem_length[e], 0.0, 1.0))
+
+
+def _frame(t: np.ndarray, y_axis: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """Section axes y, z orthonormal to the axis t: the given y projected, else z-up convention."""
+    if y_axis is None:
+        y = np.cross([0.0, 0.0, 1.0], t) if abs(t[2]) < 0.9 else np.cross(t, [1.0, 0.0, 0.0])
+    else:
+        y = y_axis - np.dot(y_axis, t) * t
+        if np.linalg.norm(y) < 1e-9:
+            raise SceneError(f"y_axis={y_axis.tolist()} is parallel to the member axis {t.tolist()}")
+    y = y / np.linalg.norm(y)
+    return y, np.cross(t, y)
+
+
+def mesh_member(m: Member, offset: int) -> MemberMesh:
+    pts = m.points
+    seg_len = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    nseg = len(seg_len)
+    # elements per segment proportional to length, at least one each, summing to m.elements
+    share = np.maximum(1, np.round(m.elements * seg_len / seg_len.sum()).astype(int))
+    while share.sum() > m.elements:
+        share[np.argmax(share)] -= 1
+    while share.sum() < m.elements:
+        share[np.argmax(seg_len / share)] += 1
+    ns = node_size(m.element)
+    rows, elem_nodes, elem_len, public, pairs, s_nodes = [], [], [], [], [], []
+    s0 = 0.0
+    for k in range(nseg):
+        t = (pts[k + 1] - pts[k]) / seg_len[k]
+        first = len(rows)
+        if k > 0:
+            pairs.append((first - 1, first))
+        for j in range(share[k] + 1):
+            r = pts[k] + t * seg_len[k] * j / share[k]
+            if m.element == "beam3d":
+                y, z = _frame(t, m.y_axis)
+                rows.append(np.concatenate([r, t, y, z]))
+            else:
+                rows.append(np.concatenate([r, t]))
+            s_nodes.append(s0 + seg_len[k] * j / share[k])
+            if k == 0 or j > 0:
+                public.append(first + j)
+        for j in range(share[k]):
+            elem_nodes.append((first + j, first + j + 1))
+            elem_len.append(seg_len[k] / share[k])
+        s0 += seg_len[k]
+    return MemberMesh(m, offset, ns, np.array(rows), np.array(elem_nodes), np.array(elem_len), np.array(public),
+                      pairs, np.array(s_nodes))
+
+
+@dataclass
+class Mesh:
+    scene: Scene
+    members: dict[str, MemberMesh]
+    n: int  # number of global coordinates
+
+    @property
+    def x0(self) -> np.ndarray:
+        x = np.zeros(self.n)
+        for mm in self.members.values():
+            x[mm.offset:mm.offset + mm.x0.size] = mm.x0.ravel()
+        return x
+
+
+def build_mesh(scene: Scene) -> Mesh:
+    members, offset = {}, 0
+    for name, m in scene.members.items():
+        mm = mesh_member(m, offset)
+        members[name] = mm
+        offset += mm.x0.size
+    return Mesh(scene, members, offset)

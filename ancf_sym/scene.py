@@ -1,0 +1,384 @@
+"""Scene description: members (meshed cables/beams), materials, sections, supports, joints, loads, effects.
+
+The Python API reads like the physics:
+
+    s = Scene(dim=2, gravity=(0, -9.81))
+    beam = s.member("beam", points=[(0, 0), (3, 0)], elements=6, material=Material(E=20e9, density=7200),
+                    section=Section(area=7.854e-5, I=4.909e-10), axial="decoupled", bending=True, gravity=True)
+    s.clamp("beam", at="start")
+    s.force("beam", at="end", force=(0, -10))
+
+Every value is checked when it is given; errors name the field and the value. Locations `at` are "start",
+"end", a node index (int, negative counts from the end) or, for loads, a material coordinate in metres (float).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Sequence
+
+import numpy as np
+
+AXIAL = ("green", "biot", "decoupled")
+BEAM_METHODS = ("continuum", "elastic_line")
+ELEMENT_KINDS = ("cable2d", "cable3d", "beam3d")
+
+
+class SceneError(ValueError):
+    """A scene value that cannot be simulated; the message names the field and the value."""
+
+
+def _positive(field_name: str, value: Any) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise SceneError(f"{field_name} must be a positive number, got {value!r}") from None
+    if not math.isfinite(v) or v <= 0:
+        raise SceneError(f"{field_name} must be a positive finite number, got {value!r}")
+    return v
+
+
+def _finite(field_name: str, value: Any) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise SceneError(f"{field_name} must be a number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise SceneError(f"{field_name} must be finite, got {value!r}")
+    return v
+
+
+def _vector(field_name: str, value: Any, dim: int) -> np.ndarray:
+    try:
+        a = np.asarray(value, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise SceneError(f"{field_name} must be a vector of {dim} numbers, got {value!r}") from None
+    if a.size != dim:
+        raise SceneError(f"{field_name} must have {dim} components in a {dim}D scene, got {value!r}")
+    if not np.all(np.isfinite(a)):
+        raise SceneError(f"{field_name} must be finite, got {value!r}")
+    return a
+
+
+@dataclass(frozen=True)
+class Material:
+    """E [Pa], density [kg/m^3]; shear modulus G [Pa] or Poisson ratio (default 0.3) for torsion and beam3d."""
+    E: float
+    density: float
+    G: float | None = None
+    poisson: float | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "E", _positive("material.E", self.E))
+        object.__setattr__(self, "density", _positive("material.density", self.density))
+        if self.G is not None:
+            object.__setattr__(self, "G", _positive("material.G", self.G))
+        if self.poisson is not None:
+            nu = _finite("material.poisson", self.poisson)
+            if not -1 < nu < 0.5:
+                raise SceneError(f"material.poisson must lie in (-1, 0.5), got {self.poisson!r}")
+
+    @property
+    def nu(self) -> float:
+        if self.poisson is not None:
+            return float(self.poisson)
+        if self.G is not None:
+            return self.E / (2 * self.G) - 1
+        return 0.3
+
+    @property
+    def shear_modulus(self) -> float:
+        return self.G if self.G is not None else self.E / (2 * (1 + self.nu))
+
+
+@dataclass(frozen=True)
+class Section:
+    """area [m^2]; second moments Iy, Iz [m^4] (I sets both); polar/torsion constant J [m^4]; b x h for beam3d."""
+    area: float
+    I: float | None = None
+    Iy: float | None = None
+    Iz: float | None = None
+    J: float | None = None
+    b: float | None = None
+    h: float | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "area", _positive("section.area", self.area))
+        for name in ("I", "Iy", "Iz", "J", "b", "h"):
+            v = getattr(self, name)
+            if v is not None:
+                object.__setattr__(self, name, _positive(f"section.{name}", v))
+        if self.I is not None:
+            if self.Iy is None:
+                object.__setattr__(self, "Iy", self.I)
+            if self.Iz is None:
+                object.__setattr__(self, "Iz", self.I)
+        elif self.Iy is not None and self.Iz is None:
+            object.__setattr__(self, "Iz", self.Iy)
+        elif self.Iz is not None and self.Iy is None:
+            object.__setattr__(self, "Iy", self.Iz)
+        if self.J is None and self.Iy is not None:
+            object.__setattr__(self, "J", self.Iy + self.Iz)
+
+    @classmethod
+    def circle(cls, diameter: float) -> "Section":
+        d = _positive("section.diameter", diameter)
+        I = math.pi * d**4 / 64
+        return cls(area=math.pi * d**2 / 4, I=I, J=2 * I, b=d * math.sqrt(math.pi) / 2, h=d * math.sqrt(math.pi) / 2)
+
+    @classmethod
+    def rectangle(cls, b: float, h: float) -> "Section":
+        """b along the section's y axis, h along z; J by the thin-rectangle-corrected formula."""
+        b, h = _positive("section.b", b), _positive("section.h", h)
+        a, c = max(b, h), min(b, h)
+        J = a * c**3 * (1 / 3 - 0.21 * c / a * (1 - c**4 / (12 * a**4)))
+        return cls(area=b * h, Iy=b * h**3 / 12, Iz=h * b**3 / 12, J=J, b=b, h=h)
+
+    @property
+    def bending_inertia(self) -> float | None:
+        return self.Iz if self.Iz is not None else self.Iy
+
+
+@dataclass
+class Member:
+    name: str
+    points: np.ndarray  # (npts, dim) polyline vertices [m]
+    elements: int
+    material: Material
+    section: Section
+    element: str
+    axial: str | None = "green"
+    bending: bool = True
+    torsion: bool = False
+    gravity: bool = True
+    beam_method: str = "continuum"
+    gauss: int | None = None
+    y_axis: np.ndarray | None = None  # beam3d section axis y (reference); z = x cross y
+
+    @property
+    def length(self) -> float:
+        return float(np.sum(np.linalg.norm(np.diff(self.points, axis=0), axis=1)))
+
+    @property
+    def n_nodes(self) -> int:
+        return self.elements + 1
+
+
+@dataclass
+class Support:
+    kind: str  # "clamp" | "pin" | "slope"
+    member: str
+    at: Any
+    method: str = "exact"  # "exact" (equality constraints) | "penalty"
+    penalty: float | None = None  # factor on EA/(1 m) for positions and EI/(1 m) for slopes (paper 002), default 1
+
+
+@dataclass
+class Joint:
+    kind: str  # "hinge" | "rigid"
+    a: tuple[str, Any]
+    b: tuple[str, Any]
+    method: str = "exact"
+    penalty: float | None = None
+
+
+@dataclass
+class Load:
+    kind: str  # "force" | "distributed" | "moment" | "tension"
+    member: str
+    at: Any = None
+    value: Any = None
+
+
+@dataclass
+class Scene:
+    dim: int = 2
+    gravity: Sequence[float] | None = None
+    members: dict[str, Member] = field(default_factory=dict)
+    supports: list[Support] = field(default_factory=list)
+    joints: list[Joint] = field(default_factory=list)
+    loads: list[Load] = field(default_factory=list)
+    name: str = "scene"
+
+    def __post_init__(self):
+        if self.dim not in (2, 3):
+            raise SceneError(f"scene.dim must be 2 or 3, got {self.dim!r}")
+        g = self.gravity if self.gravity is not None else [0.0] * self.dim
+        self.gravity = _vector("scene.gravity", g, self.dim)
+
+    # -- members ---------------------------------------------------------------------------------------------
+    def member(self, name: str, points: Sequence[Sequence[float]], elements: int, material: Material,
+               section: Section, axial: str | None = "green", bending: bool = True, torsion: bool = False,
+               gravity: bool = True, element: str | None = None, beam_method: str = "continuum",
+               gauss: int | None = None, y_axis: Sequence[float] | None = None) -> Member:
+        """Add a straight (2 points) or polyline member meshed into `elements` elements of one kind.
+
+        axial: strain measure "green" | "biot" | "decoupled" (cables) or None for no axial stiffness.
+        element: "cable2d" (default in 2D), "cable3d" (default in 3D) or "beam3d" (beam_method "continuum" or
+        "elastic_line"). Polyline vertices become rigid joints between straight segments.
+        """
+        if not isinstance(name, str) or not name or name in self.members:
+            raise SceneError(f"member name must be a new non-empty string, got {name!r}")
+        pts = np.asarray(points, dtype=float)
+        if pts.ndim != 2 or pts.shape[1] != self.dim or pts.shape[0] < 2:
+            raise SceneError(f"member {name!r}: points must be a list of >= 2 points with {self.dim} coordinates, got {points!r}")
+        if not np.all(np.isfinite(pts)):
+            raise SceneError(f"member {name!r}: points must be finite, got {points!r}")
+        seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+        if np.any(seg <= 0):
+            raise SceneError(f"member {name!r}: points must be distinct (segment length {seg.min()!r})")
+        if isinstance(elements, bool) or not isinstance(elements, (int, np.integer)) or elements < 1:
+            raise SceneError(f"member {name!r}: elements must be a positive integer, got {elements!r}")
+        if len(pts) > 2 and elements < len(pts) - 1:
+            raise SceneError(f"member {name!r}: elements={elements} is fewer than its {len(pts) - 1} segments")
+        element = element or ("cable2d" if self.dim == 2 else "cable3d")
+        if element not in ELEMENT_KINDS:
+            raise SceneError(f"member {name!r}: element must be one of {ELEMENT_KINDS}, got {element!r}")
+        if (element == "cable2d") != (self.dim == 2):
+            raise SceneError(f"member {name!r}: element {element!r} does not fit a {self.dim}D scene")
+        if axial is not None and axial not in AXIAL:
+            raise SceneError(f"member {name!r}: axial must be one of {AXIAL} or None, got {axial!r}")
+        if beam_method not in BEAM_METHODS:
+            raise SceneError(f"member {name!r}: beam_method must be one of {BEAM_METHODS}, got {beam_method!r}")
+        if not isinstance(material, Material):
+            raise SceneError(f"member {name!r}: material must be a Material, got {material!r}")
+        if not isinstance(section, Section):
+            raise SceneError(f"member {name!r}: section must be a Section, got {section!r}")
+        if element.startswith("cable") and bending and section.bending_inertia is None:
+            raise SceneError(f"member {name!r}: bending=True needs section.I (or Iy/Iz)")
+        if element == "beam3d":
+            if section.b is None or section.h is None:
+                raise SceneError(f"member {name!r}: beam3d needs a section with b and h (Section.rectangle)")
+            if beam_method == "elastic_line" and (section.Iy is None or section.J is None):
+                raise SceneError(f"member {name!r}: elastic_line needs section Iy, Iz and J")
+        if gauss is not None and gauss not in (3, 4, 5, 7):
+            raise SceneError(f"member {name!r}: gauss must be one of 3, 4, 5, 7, got {gauss!r}")
+        ya = None
+        if y_axis is not None:
+            ya = _vector(f"member {name!r}: y_axis", y_axis, 3)
+        m = Member(name, pts, int(elements), material, section, element, axial, bool(bending), bool(torsion),
+                   bool(gravity), beam_method, gauss, ya)
+        self.members[name] = m
+        return m
+
+    # -- supports and joints -----------------------------------------------------------------------------------
+    def _support(self, kind: str, member: str, at: Any, method: str, penalty: float | None) -> Support:
+        self._check_at(member, at, node_only=True, field_name=f"{kind}.at")
+        self._check_method(kind, method, penalty)
+        s = Support(kind, member, at, method, penalty)
+        self.supports.append(s)
+        return s
+
+    def clamp(self, member: str, at: Any = "start", method: str = "exact", penalty: float | None = None) -> Support:
+        """Position and slope direction fixed (beam3d: position and all gradients)."""
+        return self._support("clamp", member, at, method, penalty)
+
+    def pin(self, member: str, at: Any = "start", method: str = "exact", penalty: float | None = None) -> Support:
+        """Position fixed, slope free."""
+        return self._support("pin", member, at, method, penalty)
+
+    def fix_slope(self, member: str, at: Any = "start", method: str = "exact", penalty: float | None = None) -> Support:
+        """Slope direction fixed to its reference direction, position free."""
+        return self._support("slope", member, at, method, penalty)
+
+    def hinge(self, a: tuple[str, Any], b: tuple[str, Any], method: str = "exact", penalty: float | None = None) -> Joint:
+        """Shared point, independent slopes."""
+        return self._joint("hinge", a, b, method, penalty)
+
+    def rigid(self, a: tuple[str, Any], b: tuple[str, Any], method: str = "exact", penalty: float | None = None) -> Joint:
+        """Shared point and relative slope direction fixed at its reference angle (e.g. a T)."""
+        return self._joint("rigid", a, b, method, penalty)
+
+    def _joint(self, kind, a, b, method, penalty) -> Joint:
+        for label, end in (("a", a), ("b", b)):
+            if not isinstance(end, (tuple, list)) or len(end) != 2:
+                raise SceneError(f"{kind}.{label} must be (member, at), got {end!r}")
+            self._check_at(end[0], end[1], node_only=True, field_name=f"{kind}.{label}")
+        if a[0] == b[0]:
+            raise SceneError(f"{kind}: a and b must be different members, got {a!r} and {b!r}")
+        if kind == "rigid" and self.members[a[0]].element == "cable3d":
+            raise SceneError(f"rigid joint on cable3d member {a[0]!r}: a cable carries no section orientation; "
+                             "use beam3d members or a planar scene")
+        self._check_method(kind, method, penalty)
+        j = Joint(kind, tuple(a), tuple(b), method, penalty)
+        self.joints.append(j)
+        return j
+
+    @staticmethod
+    def _check_method(kind, method, penalty):
+        if method not in ("exact", "penalty"):
+            raise SceneError(f"{kind}.method must be 'exact' or 'penalty', got {method!r}")
+        if penalty is not None:
+            _positive(f"{kind}.penalty", penalty)
+
+    # -- loads -------------------------------------------------------------------------------------------------
+    def force(self, member: str, at: Any, force: Sequence[float]) -> Load:
+        """Dead point force [N] at a node or at a material coordinate s [m] (float)."""
+        self._check_at(member, at, node_only=False, field_name="force.at")
+        return self._add_load(Load("force", member, at, _vector("force.force", force, self.dim)))
+
+    def distributed(self, member: str, force_per_length: Sequence[float]) -> Load:
+        """Dead load [N/m] per unit reference length over the whole member."""
+        self._member(member, "distributed.member")
+        return self._add_load(Load("distributed", member, None, _vector("distributed.force_per_length",
+                                                                        force_per_length, self.dim)))
+
+    def moment(self, member: str, at: Any, moment: Any) -> Load:
+        """Moment [N m] at a node: scalar (about z) in 2D; a 3-vector in 3D (beam3d: y and z components)."""
+        m = self._member(member, "moment.member")
+        self._check_at(member, at, node_only=True, field_name="moment.at")
+        if self.dim == 2:
+            value = _finite("moment.moment", moment)
+        else:
+            value = _vector("moment.moment", moment, 3)
+            if m.element == "beam3d" and abs(value[0]) > 0:
+                raise SceneError(f"moment.moment: beam3d takes moments about the section axes y and z only, got x "
+                                 f"component {value[0]!r}")
+        return self._add_load(Load("moment", member, at, value))
+
+    def tension(self, member: str, at: Any, tension: float) -> Load:
+        """Prescribed tension [N]: a dead force along the member's outward reference axis at that end."""
+        self._check_at(member, at, node_only=True, field_name="tension.at")
+        return self._add_load(Load("tension", member, at, _finite("tension.tension", tension)))
+
+    def _add_load(self, load: Load) -> Load:
+        self.loads.append(load)
+        return load
+
+    # -- checks ------------------------------------------------------------------------------------------------
+    def _member(self, name: str, field_name: str) -> Member:
+        if name not in self.members:
+            raise SceneError(f"{field_name}={name!r} names no member; members: {sorted(self.members)}")
+        return self.members[name]
+
+    def _check_at(self, member: str, at: Any, node_only: bool, field_name: str) -> None:
+        m = self._member(member, f"{field_name} member")
+        if at in ("start", "end"):
+            return
+        if isinstance(at, (int, np.integer)) and not isinstance(at, bool):
+            if not -m.n_nodes <= at < m.n_nodes:
+                raise SceneError(f"{field_name}={at!r}: member {member!r} has nodes 0..{m.n_nodes - 1}")
+            return
+        if not node_only and isinstance(at, float):
+            if not (math.isfinite(at) and 0 <= at <= m.length):
+                raise SceneError(f"{field_name}={at!r}: material coordinate must lie in [0, {m.length}] m")
+            return
+        raise SceneError(f"{field_name}={at!r}: expected 'start', 'end', a node index"
+                         + ("" if node_only else " or a material coordinate in metres (float)"))
+
+    def validate_for_statics(self) -> None:
+        """Refuse scenes with a free rigid-body motion: every connected group of members needs a support."""
+        if not self.members:
+            raise SceneError("scene has no members")
+        groups = {name: {name} for name in self.members}
+        for j in self.joints:
+            ga, gb = groups[j.a[0]], groups[j.b[0]]
+            if ga is not gb:
+                ga |= gb
+                for n in gb:
+                    groups[n] = ga
+        supported = {s.member for s in self.supports if s.kind in ("clamp", "pin")}
+        for name, g in groups.items():
+            if not g & supported:
+                raise SceneError(f"member {name!r} has a free rigid-body motion: neither it nor a member joined to "
+                                 "it has a support (clamp, pin)")

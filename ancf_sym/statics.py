@@ -1,0 +1,240 @@
+"""Static equilibrium: minimise the total potential with IPOPT (exact sparse Hessian from the kernels).
+
+Strategy, from measurements (DESIGN.md): IPOPT's line search creeps along the narrow valley that a large EA/EI
+makes, while full Newton steps converge in a few iterations. So the first attempt accepts every trial step
+(IPOPT's inertia correction still keeps the steps descent directions); if it fails, IPOPT runs again with its
+line search; if that fails, the loads are stepped up (continuation) from the last good point. Termination is
+relative to the gradient's round-off floor, which grows with the element count. A stationary point with a
+negative-curvature direction (e.g. a straight column past the Euler load) is left along that direction.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+
+from . import fields
+from .assembly import Assembly
+from .scene import Scene, SceneError
+
+SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+
+
+@dataclass
+class StaticOptions:
+    tol: float | None = None  # IPOPT tol; default relative to the gradient round-off floor
+    max_iter: int = 500
+    load_steps: int = 8  # continuation steps if the direct solves fail
+    escape_saddle: bool = True
+    print_level: int = 0
+
+    def __post_init__(self):
+        if self.tol is not None and not (np.isfinite(self.tol) and self.tol > 0):
+            raise SceneError(f"tol must be positive and finite, got {self.tol!r}")
+        if int(self.max_iter) < 1:
+            raise SceneError(f"max_iter must be >= 1, got {self.max_iter!r}")
+        if int(self.load_steps) < 1:
+            raise SceneError(f"load_steps must be >= 1, got {self.load_steps!r}")
+
+
+@dataclass
+class StaticResult:
+    status: str
+    success: bool
+    iterations: int
+    wall_s: float
+    x: np.ndarray
+    energies: dict
+    constraint_forces: dict  # label -> multipliers (exact constraints) or penalty forces
+    constraint_violation: float
+    stable: bool | None  # smallest eigenvalue of the reduced Hessian > 0 (None if not checked)
+    attempts: list = field(default_factory=list)  # what was tried, in order
+    assembly: Assembly | None = None
+
+    @property
+    def potential(self) -> float:
+        return float(sum(self.energies.values()))
+
+    @property
+    def strain_energy(self) -> float:
+        return float(sum(v for k, v in self.energies.items() if k not in ("gravity", "loads", "penalty")))
+
+    def nodes(self, member: str) -> np.ndarray:
+        """Node positions (public nodes) [m]."""
+        mm = self.assembly.mesh.members[member]
+        xn = self.assembly.member_coordinates(self.x, member)
+        return xn[mm.public_nodes, :self.assembly.scene.dim]
+
+    def slopes(self, member: str) -> np.ndarray:
+        mm = self.assembly.mesh.members[member]
+        d = self.assembly.scene.dim
+        return self.assembly.member_coordinates(self.x, member)[mm.public_nodes, d:2 * d]
+
+    def tip(self, member: str) -> np.ndarray:
+        return self.nodes(member)[-1]
+
+    def along(self, member: str, per_element: int = 8) -> dict:
+        """s, r, axial strain |r_x|-1 and curvature along the member."""
+        mm = self.assembly.mesh.members[member]
+        return fields.sample(mm, self.assembly.member_coordinates(self.x, member), per_element)
+
+    def to_dict(self) -> dict:
+        return {
+            "status": self.status, "success": self.success, "iterations": self.iterations, "wall_s": self.wall_s,
+            "energies": self.energies, "potential": self.potential if self.success else None,
+            "constraint_violation": self.constraint_violation, "stable": self.stable, "attempts": self.attempts,
+            "members": {name: {"nodes": self.nodes(name).tolist(), "slopes": self.slopes(name).tolist()}
+                        for name in self.assembly.mesh.members},
+            "constraint_forces": {k: np.asarray(v).tolist() for k, v in self.constraint_forces.items()},
+        }
+
+
+class StaticProblem:
+    """The IPOPT problem of a scene, built once (load factor as a parameter) and solved as often as needed."""
+
+    def __init__(self, scene_or_assembly: Scene | Assembly):
+        self.asm = scene_or_assembly if isinstance(scene_or_assembly, Assembly) else Assembly(scene_or_assembly)
+        a = self.asm
+        x, lam = ca.MX.sym("x", a.n), ca.MX.sym("load_factor")
+        f, grad, hess, g = a.casadi_parts(x, lam)
+        lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", g.shape[0])
+        hl = lam_f * hess
+        if g.shape[0] and len(a.exact.qrow):
+            hl += ca.triu(ca.hessian(ca.dot(lam_g, g), x)[0])
+        self.nlp = {"x": x, "p": lam, "f": f, "g": g}
+        self.grad_f = ca.Function("nlp_grad_f", [x, lam], [f, grad], ["x", "p"], ["f", "grad_f_x"])
+        self.hess_lag = ca.Function("nlp_hess_l", [x, lam, lam_f, lam_g], [hl],
+                                    ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
+        self.floor = self._roundoff_floor()
+        self._solvers: dict = {}
+
+    def _roundoff_floor(self) -> float:
+        """Gradient round-off floor [N]: machine eps times the largest stiffness times the size of the scene,
+        times sqrt of the number of contributions summed per coordinate."""
+        ev = self.asm.evaluate(self.asm.x0)
+        kmax = float(abs(ev.hessian).max()) if ev.hessian.nnz else 1.0
+        span = float(np.max(np.abs(self.asm.x0))) + 1.0
+        n_el = sum(mk.N for mk in self.asm.mapped)
+        return np.finfo(float).eps * kmax * span * np.sqrt(max(n_el, 1))
+
+    def solver(self, line_search: bool, opts: StaticOptions):
+        key = (line_search, opts.tol, opts.max_iter, opts.print_level)
+        if key not in self._solvers:
+            tol = opts.tol if opts.tol is not None else max(1e-8, 100 * self.floor)
+            ipopt = {"tol": tol, "acceptable_tol": 10 * tol, "max_iter": int(opts.max_iter),
+                     "print_level": opts.print_level, "constr_viol_tol": 1e-10, "dual_inf_tol": max(1e-6, 100 * self.floor),
+                     "acceptable_iter": 5, "sb": "yes"}
+            if not line_search:
+                ipopt.update({"accept_every_trial_step": "yes", "acceptable_iter": 1})
+            self._solvers[key] = ca.nlpsol("statics", "ipopt", self.nlp, {
+                "ipopt": ipopt, "print_time": False, "grad_f": self.grad_f, "hess_lag": self.hess_lag,
+                "error_on_fail": False})
+        return self._solvers[key]
+
+    def _run(self, x0, lam_g0, load, line_search, opts):
+        S = self.solver(line_search, opts)
+        m = self.asm.exact.m
+        args = {"x0": x0, "p": load, "lbg": np.zeros(m), "ubg": np.zeros(m)}
+        if lam_g0 is not None:
+            args["lam_g0"] = lam_g0
+        sol = S(**args)
+        st = S.stats()
+        x = np.asarray(sol["x"]).ravel()
+        ok = st["return_status"] in SUCCESS and np.all(np.isfinite(x))
+        return ok, st["return_status"], int(st["iter_count"]), x, np.asarray(sol["lam_g"]).ravel()
+
+    def solve(self, opts: StaticOptions | None = None, x0: np.ndarray | None = None) -> StaticResult:
+        opts = opts or StaticOptions()
+        a = self.asm
+        t0 = time.perf_counter()
+        x = a.x0.copy() if x0 is None else np.asarray(x0, float).copy()
+        if x.shape != (a.n,) or not np.all(np.isfinite(x)):
+            raise SceneError(f"warm start x0 must be {a.n} finite numbers, got shape {np.shape(x0)}")
+        attempts, iters = [], 0
+        ok, status, lam_g = False, "not run", None
+        for line_search in (False, True):
+            ok, status, it, xs, lg = self._run(x, None, 1.0, line_search, opts)
+            iters += it
+            attempts.append({"method": "full steps" if not line_search else "line search", "status": status, "iterations": it})
+            if ok:
+                x, lam_g = xs, lg
+                break
+        if not ok:  # continuation from the last converged load level
+            xk, lgk = x, None
+            for k in range(1, opts.load_steps + 1):
+                okk, status, it, xs, lg = self._run(xk, lgk, k / opts.load_steps, True, opts)
+                iters += it
+                attempts.append({"method": f"load step {k}/{opts.load_steps}", "status": status, "iterations": it})
+                if not okk:
+                    break
+                xk, lgk = xs, lg
+            else:
+                ok, x, lam_g = True, xk, lgk
+        stable = None
+        if ok:
+            stable, direction = self.stability(x)
+            if stable is False and opts.escape_saddle:
+                for scale in (1e-3, 1e-2, 1e-1):
+                    xp = x + scale * self._length_scale() * direction
+                    ok2, status2, it, xs, lg = self._run(xp, lam_g, 1.0, True, opts)
+                    iters += it
+                    attempts.append({"method": f"leave saddle ({scale:g} L)", "status": status2, "iterations": it})
+                    if ok2 and a.energy(xs) < a.energy(x) - 1e-12 * abs(a.energy(x)):
+                        x, lam_g, status = xs, lg, status2
+                        stable, _ = self.stability(x)
+                        break
+        wall = time.perf_counter() - t0
+        return self._result(ok, status, iters, wall, x, lam_g, stable, attempts)
+
+    def _length_scale(self) -> float:
+        return max(mm.member.length for mm in self.asm.mesh.members.values())
+
+    def stability(self, x: np.ndarray, dense_limit: int = 1500) -> tuple[bool | None, np.ndarray | None]:
+        """Is the reduced Hessian (on the tangent space of the exact constraints) positive definite?
+
+        Returns (stable, direction of most negative curvature in full coordinates)."""
+        a = self.asm
+        if a.n > dense_limit:
+            return None, None
+        H = a.evaluate(x).hessian.toarray()
+        if a.exact.m:
+            J = a.exact.jacobian(x).toarray()
+            Z = sla.null_space(J)
+        else:
+            Z = np.eye(a.n)
+        Hr = Z.T @ H @ Z
+        w, V = np.linalg.eigh(0.5 * (Hr + Hr.T))
+        scale = max(abs(w).max(), 1e-300)
+        d = Z @ V[:, 0]
+        return bool(w[0] > -1e-10 * scale), d / np.max(np.abs(d))
+
+    def _result(self, ok, status, iters, wall, x, lam_g, stable, attempts) -> StaticResult:
+        a = self.asm
+        if not ok:  # never hand NaN to the caller: report the start point's energies with the failure
+            x = x if np.all(np.isfinite(x)) else a.x0
+        ev = a.evaluate(x, hessian=False)
+        forces: dict[str, list] = {}
+        if lam_g is not None and a.exact.m:
+            for lbl, v in zip(a.exact.labels, lam_g):
+                forces.setdefault(lbl, []).append(float(v))
+        if a.penalty is not None:
+            c = a.penalty.value(x)
+            for lbl, k, cv in zip(a.penalty.labels, a.penalty.k, c):
+                forces.setdefault(lbl, []).append(float(k * cv))
+        viol = float(np.max(np.abs(a.constraints.value(x)))) if a.constraints.m else 0.0
+        return StaticResult(status, ok, iters, wall, x, ev.energies, forces, viol, stable, attempts, a)
+
+
+def solve_static(scene: Scene | Assembly, options: StaticOptions | None = None,
+                 warm_start: StaticResult | np.ndarray | None = None, **kw) -> StaticResult:
+    """Static equilibrium of a scene. Keyword arguments are StaticOptions fields (tol, max_iter, load_steps,
+    escape_saddle, print_level). warm_start: a previous result (same scene) or a coordinate vector."""
+    if isinstance(scene, Scene):
+        scene.validate_for_statics()
+    opts = options or StaticOptions(**kw)
+    x0 = warm_start.x if isinstance(warm_start, StaticResult) else warm_start
+    return StaticProblem(scene).solve(opts, x0)

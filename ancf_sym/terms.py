@@ -1,0 +1,117 @@
+"""Energy terms of a meshed scene: one (element kind, effect) kernel applied to a set of elements.
+
+Only the effects a member asks for with non-zero stiffness become terms: a scene without bending never loads
+or calls a bending kernel. Each term carries the label of the energy bucket it reports into.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .mesh import Mesh, MemberMesh
+from .scene import SceneError
+
+
+@dataclass
+class Term:
+    label: str  # energy bucket: axial, bending, torsion, continuum, gravity, loads
+    element: str
+    effect: str
+    gauss: int | None
+    idx: list = field(default_factory=list)  # per element: global coordinate indices
+    P: list = field(default_factory=list)  # per element: kernel parameters
+
+    @property
+    def key(self) -> tuple:
+        return (self.label, self.element, self.effect, self.gauss)
+
+
+def _add(terms: dict, label, element, effect, gauss, idx_rows, p_rows):
+    t = terms.setdefault((label, element, effect, gauss), Term(label, element, effect, gauss))
+    t.idx.extend(np.asarray(idx_rows, dtype=np.int64))
+    t.P.extend(np.asarray(p_rows, dtype=float))
+
+
+def member_terms(terms: dict, mm: MemberMesh, gravity: np.ndarray) -> None:
+    m = mm.member
+    idx, L = mm.elem_dofs(), mm.elem_length
+    one = np.ones_like(L)
+    E, A = m.material.E, m.section.area
+    gauss = m.gauss
+    if m.element.startswith("cable"):
+        if m.axial is not None:
+            _add(terms, "axial", m.element, f"axial_{m.axial}", gauss, idx, np.c_[L, E * A * one])
+        if m.bending:
+            _add(terms, "bending", m.element, "bending", gauss, idx, np.c_[L, E * m.section.bending_inertia * one])
+        if m.torsion:
+            raise SceneError(f"member {m.name!r}: torsion needs element 'beam3d' (a cable has no section orientation)")
+    else:
+        b, h, nu = m.section.b, m.section.h, m.material.nu
+        if m.beam_method == "continuum":
+            if m.gauss not in (None, 5):
+                raise SceneError(f"member {m.name!r}: the continuum beam is generated for gauss=5 only, got {m.gauss}")
+            _add(terms, "continuum", "beam3d", "continuum", None, idx, np.c_[L, b * one, h * one, E * one, nu * one])
+        else:
+            _add(terms, "axial", "beam3d", "line_strain", gauss, idx, np.c_[L, b * one, h * one, E * one, nu * one])
+            if m.bending:
+                _add(terms, "bending", "beam3d", "line_bending", gauss, idx,
+                     np.c_[L, E * m.section.Iy * one, E * m.section.Iz * one])
+            if m.torsion:
+                _add(terms, "torsion", "beam3d", "line_torsion", gauss, idx,
+                     np.c_[L, m.material.shear_modulus * m.section.J * one])
+    if m.gravity and np.any(gravity != 0):
+        rhoA = m.material.density * A
+        _add(terms, "gravity", m.element, "gravity", None, idx, np.c_[L, rhoA * one, np.tile(gravity, (len(L), 1))])
+
+
+def distributed_term(terms: dict, mm: MemberMesh, f: np.ndarray) -> None:
+    """A dead distributed load is the gravity kernel with rhoA = 1 and g = f [N/m]."""
+    L = mm.elem_length
+    _add(terms, "loads", mm.member.element, "gravity", None, mm.elem_dofs(), np.c_[L, np.ones_like(L), np.tile(f, (len(L), 1))])
+
+
+def moment_term(terms: dict, mm: MemberMesh, node: int, moment) -> None:
+    """Work-conjugate moment at a node: the element ending (or starting) there, xi = 1 (or 0)."""
+    m = mm.member
+    e, xi = (node - 1, 1.0) if node > 0 else (0, 0.0)
+    idx, L = mm.elem_dofs()[e], mm.elem_length[e]
+    ns = mm.node_size
+    ref = mm.x0[node]
+    if m.element == "cable2d":
+        t0 = ref[2:4]
+        _add(terms, "loads", "cable2d", "moment", None, [idx], [[L, xi, float(moment), t0[0], t0[1]]])
+    elif m.element == "cable3d":
+        M = np.asarray(moment, float)
+        mag = np.linalg.norm(M)
+        if mag == 0:
+            return
+        t0 = ref[3:6]
+        if abs(np.dot(M / mag, t0)) > 1 - 1e-9:
+            raise SceneError(f"moment on cable3d member {m.name!r} is along the cable axis: a cable carries no torsion")
+        _add(terms, "loads", "cable3d", "moment", None, [idx], [[L, xi, mag, *(M / mag), *t0]])
+    else:
+        M = np.asarray(moment, float)
+        ry, rz = ref[6:9], ref[9:12]
+        if M[2] != 0:
+            _add(terms, "loads", "beam3d", "moment_z", None, [idx], [[L, xi, M[2], ry[0], ry[1]]])
+        if M[1] != 0:
+            _add(terms, "loads", "beam3d", "moment_y", None, [idx], [[L, xi, M[1], rz[2], rz[0]]])
+    del ns
+
+
+def scene_terms(mesh: Mesh) -> list[Term]:
+    scene = mesh.scene
+    terms: dict = {}
+    for mm in mesh.members.values():
+        member_terms(terms, mm, scene.gravity)
+    for load in scene.loads:
+        mm = mesh.members[load.member]
+        if load.kind == "distributed":
+            distributed_term(terms, mm, load.value)
+        elif load.kind == "moment":
+            moment_term(terms, mm, mm.node(load.at), load.value)
+    out = list(terms.values())
+    for t in out:
+        t.idx, t.P = np.array(t.idx), np.array(t.P)
+    return out

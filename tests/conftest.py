@@ -1,0 +1,48 @@
+"""Test configuration: the tests exercise the INSTALLED package, because the compiled kernels exist only there.
+
+Test command (from the project root, after `pip install .` of the current tree):
+
+    cd /work/main && /work/venv_a/bin/python -m pytest -p no:cacheprovider tests
+
+(any venv works: `<venv>/bin/pip install . && <venv>/bin/python -m pytest -p no:cacheprovider tests`).
+Re-run `pip install .` after any change under ancf_sym/ or generated/: the tests load the compiled libraries from
+site-packages, not from the working tree. `python -m` puts the current directory (the project root) first on
+sys.path, where the source tree's `ancf_sym/` (without `_kernels/`) would shadow the installed package; this file
+removes the project root from sys.path before anything imports ancf_sym, and stops the run with a clear message if
+ancf_sym still resolves to the source tree. Only tests/test_codegen.py uses the working tree, on purpose, in a
+subprocess.
+"""
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _is_root(entry: str) -> bool:
+    try:
+        return Path(entry or os.getcwd()).resolve() == ROOT
+    except OSError:
+        return False
+
+
+sys.path[:] = [p for p in sys.path if not _is_root(p)]
+if "ancf_sym" in sys.modules and Path(sys.modules["ancf_sym"].__file__).resolve().is_relative_to(ROOT):
+    pytest.exit(f"ancf_sym was imported from the source tree {ROOT} before tests/conftest.py ran; "
+                "run the tests with `python -m pytest -p no:cacheprovider tests` from the project root", returncode=4)
+
+import ancf_sym  # noqa: E402
+
+if Path(ancf_sym.__file__).resolve().is_relative_to(ROOT):
+    pytest.exit(f"ancf_sym resolves to the source tree ({ancf_sym.__file__}), not the installed package", returncode=4)
+if not (Path(ancf_sym.__file__).parent / "_kernels").is_dir():
+    pytest.exit(f"installed ancf_sym at {ancf_sym.__file__} has no compiled kernels: run `pip install .` first",
+                returncode=4)
+
+
+def pytest_report_header(config):
+    return f"ancf_sym under test: {Path(ancf_sym.__file__).parent} (installed, compiled kernels)"

@@ -1,0 +1,147 @@
+"""Shared states, parameters and rotations for the kernel tests (numpy only, nothing symbolic).
+
+States are nodal coordinate vectors in the layout of ancf_sym.registry:
+cable (dim 2 or 3): q = [r(0), r_x(0), r(L), r_x(L)]; beam3d: per node r, r_x, r_y, r_z.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ancf_sym import kernels, registry
+
+L0 = 0.8  # element length used by the generic tests [m]
+
+
+# Rotations ------------------------------------------------------------------------------------------------------
+
+def rotation(axis, angle: float) -> np.ndarray:
+    """3x3 rotation by `angle` [rad] about `axis` (Rodrigues)."""
+    n = np.asarray(axis, float) / np.linalg.norm(axis)
+    K = np.array([[0, -n[2], n[1]], [n[2], 0, -n[0]], [-n[1], n[0], 0]])
+    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+
+
+def rotation2(angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s], [s, c]])
+
+
+def rotate_q(element: str, q: np.ndarray, R: np.ndarray, shift=None) -> np.ndarray:
+    """Rigid motion x -> R x + shift applied to an element state: positions move, gradient vectors only rotate."""
+    dim = registry.ELEMENTS[element].dim
+    blocks = np.asarray(q, float).reshape(-1, dim)
+    out = blocks @ R.T
+    if shift is not None:
+        per_node = 2 if element.startswith("cable") else 4
+        out[::per_node] += np.asarray(shift, float)  # the position block of each node
+    return out.ravel()
+
+
+# Reference states ----------------------------------------------------------------------------------------------
+
+def straight_state(element: str, L: float = L0, stretch: float = 0.0) -> np.ndarray:
+    """Straight element along the x axis from the origin; r_x = (1 + stretch) e_x; beam: r_y = e_y, r_z = e_z."""
+    if element == "beam3d":
+        e = np.eye(3)
+        node = lambda x: np.concatenate([x * e[0], (1 + stretch) * e[0], e[1], e[2]])
+        return np.concatenate([node(0.0), node((1 + stretch) * L)])
+    dim = registry.ELEMENTS[element].dim
+    ex = np.eye(dim)[0]
+    return np.concatenate([0 * ex, (1 + stretch) * ex, (1 + stretch) * L * ex, (1 + stretch) * ex])
+
+
+def bent_state(element: str, theta: float, chord: float, L: float = L0) -> np.ndarray:
+    """Symmetric planar bend by `theta` [rad] in the x-y plane: node tangents at +-theta/2 to the chord (x axis),
+    unit slopes, nodes at 0 and chord*e_x. Beam: each nodal frame is the identity turned by +-theta/2 about z."""
+    if element == "beam3d":
+        RA, RB = rotation([0, 0, 1], theta / 2), rotation([0, 0, 1], -theta / 2)
+        return np.concatenate([np.zeros(3), *RA.T, [chord, 0, 0], *RB.T])
+    dim = registry.ELEMENTS[element].dim
+    t0 = np.zeros(dim)
+    t1 = np.zeros(dim)
+    t0[:2] = np.cos(theta / 2), np.sin(theta / 2)
+    t1[:2] = np.cos(theta / 2), -np.sin(theta / 2)
+    r1 = np.zeros(dim)
+    r1[0] = chord
+    return np.concatenate([np.zeros(dim), t0, r1, t1])
+
+
+def perturbed_state(element: str, rng: np.random.Generator, L: float = L0, amplitude: float = 0.2,
+                    stretch: float = 0.1, angle: float = 0.5) -> np.ndarray:
+    """Curved AND stretched state: straight reference stretched by `stretch`, every nodal coordinate perturbed by
+    a uniform random amount of relative size `amplitude` (positions by amplitude*L, unit vectors by amplitude),
+    then rigidly rotated by `angle` about a skew axis (planar rotation for cable2d), so no coordinate is special."""
+    q = straight_state(element, L, stretch)
+    dim = registry.ELEMENTS[element].dim
+    scale = np.ones_like(q)
+    per_node = 2 if element.startswith("cable") else 4
+    blocks = scale.reshape(-1, dim)
+    blocks[::per_node] = L  # positions
+    q = q + amplitude * scale * rng.uniform(-1, 1, q.size)
+    R = rotation2(angle) if dim == 2 else rotation([1, -2, 3], angle)
+    return rotate_q(element, q, R)
+
+
+# Parameters ----------------------------------------------------------------------------------------------------
+
+# Moderate, distinct magnitudes: a wrong parameter index changes results, and no term drowns the others.
+PARAM_VALUES = {
+    "EA": 3.0e3, "EI": 7.0, "rhoA": 2.5, "gx": 0.3, "gy": -9.81, "gz": 1.7,
+    "b": 0.05, "h": 0.08, "E": 2.1e5, "nu": 0.3, "EIy": 5.0, "EIz": 9.0, "GIp": 4.0,
+    "xi": 0.35, "M": 2.0,
+}
+
+
+def params(element: str, effect: str, q: np.ndarray, L: float = L0, **overrides) -> np.ndarray:
+    """Parameter vector for (element, effect) in registry order. Moment references are taken from the state q
+    itself (the tangent / section vector at xi), so the measured angle is small, away from the +-pi branch cut
+    and from the degenerate directions of the angle (tangent parallel to the axis n)."""
+    names = kernels.parameters(element, effect)
+    vals = dict(PARAM_VALUES, L=L, **overrides)
+    xi = vals["xi"]
+    if effect == "moment":
+        t = cable_slope(q, registry.ELEMENTS[element].dim, L, xi)
+        if element == "cable3d":
+            n = np.cross(t, [0.3, 1.0, -0.2])  # perpendicular to the tangent: the angle is well defined
+            n /= np.linalg.norm(n)
+            t0 = rotation(n, 0.4) @ t  # reference 0.4 rad away from the current tangent, in the plane normal to n
+            vals.update(nx=n[0], ny=n[1], nz=n[2], t0x=t0[0], t0y=t0[1], t0z=t0[2])
+        else:
+            t0 = rotation2(0.4) @ t
+            vals.update(t0x=t0[0], t0y=t0[1])
+    if effect in ("moment_z", "moment_y"):
+        ry = (1 - xi) * q[6:9] + xi * q[18:21]
+        rz = (1 - xi) * q[9:12] + xi * q[21:24]
+        vals.update(ref1=ry[0] + 0.1, ref2=ry[1]) if effect == "moment_z" else vals.update(ref3=rz[2], ref1=rz[0] + 0.1)
+    vals.update(overrides)
+    return np.array([vals[n] for n in names], float)
+
+
+# Evaluation ----------------------------------------------------------------------------------------------------
+
+def evaluate(kernel, q, p):
+    """(energy: float, gradient: (n,), hessian: (n, n)) as numpy."""
+    e, g, H = kernel(q, p)
+    return float(e), np.asarray(g).ravel(), np.asarray(H)
+
+
+def cable_slope(q, dim: int, L: float, xi: float) -> np.ndarray:
+    d = [-6 * xi + 6 * xi**2, 1 - 4 * xi + 3 * xi**2, 6 * xi - 6 * xi**2, -2 * xi + 3 * xi**2]
+    r0, t0, r1, t1 = (np.asarray(q[i * dim:(i + 1) * dim]) for i in range(4))
+    return (d[0] * r0 + d[2] * r1) / L + d[1] * t0 + d[3] * t1
+
+
+def gauss01(n: int):
+    x, w = np.polynomial.legendre.leggauss(n)
+    return (x + 1) / 2, w / 2
+
+
+def quadrature_length(q, dim: int, L: float, n: int = 5) -> float:
+    """Deformed length int |r_x| dx by n-point Gauss, the rule the decoupled strain uses to measure L_D."""
+    xs, ws = gauss01(n)
+    return L * sum(w * np.linalg.norm(cable_slope(q, dim, L, x)) for x, w in zip(xs, ws))
+
+
+def kernels_by_element():
+    """catalogue() entries grouped per element (ids for parametrize)."""
+    return [(k["element"], k["effect"], k["gauss"]) for k in kernels.catalogue()]
