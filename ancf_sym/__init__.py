@@ -1,1 +1,10 @@
-"""ancf_sym"""
+"""ancf_sym: ANCF cables and beams with symbolic energies, exact derivatives and compiled C kernels.
+
+Pipeline (see DESIGN in the README): scene -> mesh -> terms (only the effects asked for) -> assembly over
+mapped compiled kernels -> solvers (statics: IPOPT; dynamics) -> results.
+"""
+from .scene import Material, Scene, SceneError, Section
+from .statics import StaticOptions, StaticResult, solve_static
+
+__all__ = ["Material", "Scene", "SceneError", "Section", "StaticOptions", "StaticResult", "solve_static"]
+__version__ = "0.1.0"

@@ -113,23 +113,27 @@ class StaticProblem:
         self._solvers: dict = {}
 
     def _roundoff_floor(self) -> float:
-        """Gradient round-off floor [N]: machine eps times the largest stiffness times the size of the scene,
-        times sqrt of the number of contributions summed per coordinate."""
+        """Gradient round-off floor [N]: machine eps x largest stiffness entry x size of the coordinates.
+
+        Measured on the 3 m cantilever (60..6000 elements) IPOPT's achievable residual sat at 0.4-0.8 of this."""
         ev = self.asm.evaluate(self.asm.x0)
         kmax = float(abs(ev.hessian).max()) if ev.hessian.nnz else 1.0
         span = float(np.max(np.abs(self.asm.x0))) + 1.0
-        n_el = sum(mk.N for mk in self.asm.mapped)
-        return np.finfo(float).eps * kmax * span * np.sqrt(max(n_el, 1))
+        return float(np.finfo(float).eps * kmax * span)
+
+    def tolerance(self, opts: StaticOptions) -> float:
+        """IPOPT tol [N] (unscaled problem): the user's, else twice the round-off floor."""
+        return float(opts.tol) if opts.tol is not None else max(2.0 * self.floor, 1e-14)
 
     def solver(self, line_search: bool, opts: StaticOptions):
         key = (line_search, opts.tol, opts.max_iter, opts.print_level)
         if key not in self._solvers:
-            tol = opts.tol if opts.tol is not None else max(1e-8, 100 * self.floor)
-            ipopt = {"tol": tol, "acceptable_tol": 10 * tol, "max_iter": int(opts.max_iter),
-                     "print_level": opts.print_level, "constr_viol_tol": 1e-10, "dual_inf_tol": max(1e-6, 100 * self.floor),
-                     "acceptable_iter": 5, "sb": "yes"}
+            tol = self.tolerance(opts)
+            ipopt = {"tol": tol, "dual_inf_tol": tol, "acceptable_tol": 10 * tol, "acceptable_dual_inf_tol": 10 * tol,
+                     "acceptable_iter": 3, "max_iter": int(opts.max_iter), "constr_viol_tol": 1e-10,
+                     "nlp_scaling_method": "none", "print_level": opts.print_level, "sb": "yes"}
             if not line_search:
-                ipopt.update({"accept_every_trial_step": "yes", "acceptable_iter": 1})
+                ipopt["accept_every_trial_step"] = "yes"
             self._solvers[key] = ca.nlpsol("statics", "ipopt", self.nlp, {
                 "ipopt": ipopt, "print_time": False, "grad_f": self.grad_f, "hess_lag": self.hess_lag,
                 "error_on_fail": False})
