@@ -207,8 +207,11 @@ class Assembly:
 
     @staticmethod
     def _casadi_constraint(c: Constraints, x: ca.MX) -> ca.MX:
-        A = ca.DM(ca.Sparsity.triplet(c.m, c.A.shape[1], *[v.tolist() for v in c.A.tocoo().nonzero()]),
-                  c.A.tocoo().data)
+        # CasADi fills a sparsity's non-zeros in column-major order: build it from CSC, never from row-major data
+        Ac = c.A.tocsc()
+        Ac.sum_duplicates()
+        Ac.sort_indices()
+        A = ca.DM(ca.Sparsity(c.m, c.A.shape[1], Ac.indptr.tolist(), Ac.indices.tolist()), Ac.data)
         out = ca.mtimes(A, x) - ca.DM(c.d)
         if len(c.qrow):
             S = ca.DM(ca.Sparsity.triplet(c.m, len(c.qrow), c.qrow.tolist(), list(range(len(c.qrow)))), c.qcoef)
