@@ -1,8 +1,9 @@
 """Test configuration: the tests exercise the INSTALLED package, because the compiled kernels exist only there.
 
-Test command (from the project root, after `pip install .` of the current tree):
+Test command (from the project root, after `pip install .` of the current tree), either of:
 
     cd /work/main && /work/venv_a/bin/python -m pytest -p no:cacheprovider tests
+    cd /work/main && .venv/bin/pytest                  (the README's / CI's form, the venv's pytest script)
 
 (any venv works: `<venv>/bin/pip install . && <venv>/bin/python -m pytest -p no:cacheprovider tests`).
 Re-run `pip install .` after any change under ancf_sym/ or generated/: the tests load the compiled libraries from
@@ -10,7 +11,7 @@ site-packages, not from the working tree. `python -m` puts the current directory
 sys.path, where the source tree's `ancf_sym/` (without `_kernels/`) would shadow the installed package; this file
 removes the project root from sys.path before anything imports ancf_sym, and stops the run with a clear message if
 ancf_sym still resolves to the source tree. Only tests/test_codegen.py uses the working tree, on purpose, in a
-subprocess.
+subprocess. tests/ itself is on sys.path (pytest's default rootdir-relative import), so tests import helpers.py.
 """
 from __future__ import annotations
 
