@@ -95,12 +95,13 @@ def test_small_bends_axial_within_rounding(deg, half_unit):
 @pytest.mark.parametrize("deg", [30, 60, 180])
 def test_axial_energy_is_the_integral_of_the_green_strain(deg):
     """Independent check of what the kernel computes for the table's state: U = 1/2 int EA ((r_x.r_x - 1)/2)^2 dx
-    by 40-point Gauss in numpy, to 1e-12 relative (the same quantity, integrated exactly by both)."""
+    by 40-point Gauss in numpy (the same quantity, integrated exactly by both). Tolerance 1e-9: r_x.r_x - 1 cancels,
+    which amplifies round-off by 1/eps ~ 1e4 at 30 deg (strain ~ 7e-5); measured 4e-12 there."""
     q = table_state("cable2d", deg)
     xs, ws = gauss01(40)
     ref = sum(w * L * EA / 2 * ((cable_slope(q, 2, L, x) @ cable_slope(q, 2, L, x) - 1) / 2) ** 2 for x, w in zip(xs, ws))
     axial, _ = energies("cable2d", deg)
-    assert abs(axial / ref - 1) < 1e-12
+    assert abs(axial / ref - 1) < 1e-9
 
 
 def test_table_conventions():
