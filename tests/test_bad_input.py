@@ -2,8 +2,6 @@
 (element, effect, gauss, q, p, L), never a CasADi RuntimeError from deep inside the call."""
 from __future__ import annotations
 
-import re
-
 import numpy as np
 import pytest
 
