@@ -50,18 +50,19 @@ class Kernel(ca.Function):
         self.element, self.effect, self.params, self.library = element, effect, params, library
 
     def __call__(self, *args, **kwargs):
-        if not kwargs and len(args) == 2:
-            check_inputs(self.element, self.effect, args[0], args[1])
+        named = dict(zip(("q", "p"), args), **kwargs)
+        if set(named) == {"q", "p"} and len(args) + len(kwargs) == 2:
+            check_inputs(self.element, self.effect, named["q"], named["p"])
         return super().__call__(*args, **kwargs)
 
 
-def _as_numeric(x: Any) -> np.ndarray | None:
+def _as_numeric(x: Any, name: str = "input") -> np.ndarray | None:
     if isinstance(x, (ca.MX, ca.SX)):
         return None
     try:
         return np.asarray(ca.DM(x) if isinstance(x, ca.DM) else x, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise KernelError(f"cannot read {x!r} as numbers: {exc}") from None
+        raise KernelError(f"{name}: cannot read {x!r} as numbers: {exc}") from None
 
 
 def check_inputs(element: str, effect: str, q: Any, p: Any) -> None:
@@ -73,7 +74,9 @@ def check_inputs(element: str, effect: str, q: Any, p: Any) -> None:
             if x.numel() != n:
                 raise KernelError(f"{name} of {element}/{effect} must have {n} entries, got shape {x.shape}")
             continue
-        a = _as_numeric(x)
+        a = _as_numeric(x, name)
+        if a.ndim > 2 or (a.ndim == 2 and 1 not in a.shape):
+            raise KernelError(f"{name} of {element}/{effect} must be a vector of {n} entries, got shape {a.shape}")
         if a.size != n:
             raise KernelError(f"{name} of {element}/{effect} must have {n} entries {'(' + ', '.join(eff.params) + ')' if name == 'p' else ''}, "
                               f"got {a.size} (shape {a.shape})")
@@ -127,7 +130,7 @@ def mass_matrix(element: str, p: Any) -> np.ndarray:
     """Constant element mass matrix; p as `mass_parameters(element)` (cable: L, rhoA; beam3d: L, b, h, rho)."""
     names = registry.MASS_PARAMS.get(element)
     f = _mass_function(element)
-    a = _as_numeric(p).ravel()
+    a = _as_numeric(p, "p").ravel()
     if a.size != len(names):
         raise KernelError(f"p of {element} mass must have {len(names)} entries {names}, got {a.size}")
     if not np.all(np.isfinite(a)) or np.any(a <= 0):

@@ -79,29 +79,20 @@ def test_mass_matrix_bad_input():
         kernels.mass_matrix("beam3d", [1.0, 0.05, -0.08, 7800.0])
 
 
-# Input forms the check does not cover yet (kernels.Kernel.__call__ checks only the positional two-argument call on
-# flat vectors). Strict xfail: they turn into failures once kernels.py handles them, so the marker gets removed.
+# Keyword calls, matrix-shaped vectors and non-numeric input are checked too.
 
-@pytest.mark.xfail(strict=True, raises=RuntimeError,
-                   reason="keyword call k(q=..., p=...) bypasses the check: CasADi RuntimeError 'Input 0 (q) has "
-                          "mismatching shape' (kernels.py)")
 def test_keyword_call_wrong_size():
     k = kernels.load("cable3d", "bending")
     with raises_naming(r"\bq\b"):
         k(q=np.zeros(11), p=[1.0, 1.0])
 
 
-@pytest.mark.xfail(strict=True, raises=RuntimeError,
-                   reason="q with the right number of entries but a matrix shape (3x4) passes the size check and "
-                          "fails in CasADi with a RuntimeError (kernels.py checks a.size only)")
 def test_matrix_shaped_q():
     k = kernels.load("cable3d", "bending")
     with raises_naming(r"\bq\b"):
         k(np.zeros((3, 4)), [1.0, 1.0])
 
 
-@pytest.mark.xfail(strict=True, reason="non-numeric q raises KernelError 'cannot read 'abc' as numbers' without "
-                                       "naming the argument q (kernels._as_numeric)")
 def test_non_numeric_q_names_q():
     k = kernels.load("cable3d", "bending")
     with raises_naming(r"\bq\b"):
