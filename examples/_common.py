@@ -1,0 +1,101 @@
+"""Shared plumbing of the statics examples: command line, JSON records, stdout tables, matplotlib figures.
+
+Every example exposes `main(argv=None) -> list[dict]` and takes
+    --json PATH   write the records (a JSON list of flat dicts, one per case)
+    --quick       the small version the test suite runs (a few seconds)
+    --out DIR     PNG figures (default examples/out/<name>/)
+    --no-plots    skip the figures
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+
+
+def parser(name: str, doc: str) -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog=f"{name}.py", description=doc.strip().splitlines()[0])
+    p.add_argument("--json", metavar="PATH", help="write the records as a JSON list")
+    p.add_argument("--quick", action="store_true", help="small version (the test suite's)")
+    p.add_argument("--out", metavar="DIR", default=str(HERE / "out" / name), help="directory for PNG figures")
+    p.add_argument("--no-plots", action="store_true", help="do not draw figures")
+    return p
+
+
+def _plain(v):
+    """JSON-safe scalar: numpy scalars to Python, NaN/inf to None."""
+    if isinstance(v, (np.bool_, bool)):
+        return bool(v)
+    if isinstance(v, (np.integer,)):
+        return int(v)
+    if isinstance(v, (float, np.floating)):
+        v = float(v)
+        return v if math.isfinite(v) else None
+    return v
+
+
+def write_json(records: list[dict], path: str | None) -> None:
+    if not path:
+        return
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w") as f:
+        json.dump([{k: _plain(v) for k, v in r.items()} for r in records], f, indent=1)
+
+
+def table(records: list[dict], columns: list[str], title: str | None = None, fmt: dict | None = None) -> str:
+    """A small fixed-width table of the given record fields (missing fields blank); printed and returned."""
+    fmt = fmt or {}
+
+    def cell(r, c):
+        v = r.get(c, "")
+        if v is None:
+            return "-"
+        if c in fmt:
+            return fmt[c].format(v)
+        if isinstance(v, (float, np.floating)):
+            return f"{v:.6g}"
+        return str(v)
+
+    rows = [[cell(r, c) for c in columns] for r in records]
+    w = [max([len(c)] + [len(row[i]) for row in rows]) for i, c in enumerate(columns)]
+    lines = ([title] if title else []) + ["  ".join(c.rjust(w[i]) for i, c in enumerate(columns)),
+                                          "  ".join("-" * x for x in w)]
+    lines += ["  ".join(row[i].rjust(w[i]) for i in range(len(columns))) for row in rows]
+    text = "\n".join(lines)
+    print(text + "\n", flush=True)
+    return text
+
+
+def pyplot():
+    """matplotlib.pyplot on the Agg backend (no display needed)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def save(fig, out: str, name: str) -> str:
+    os.makedirs(out, exist_ok=True)
+    path = os.path.join(out, name)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    fig.clf()
+    import matplotlib.pyplot as plt
+    plt.close(fig)
+    print(f"figure: {path}")
+    return path
+
+
+def attempts_text(result) -> str:
+    """The solver's attempts in one line: 'full steps:Solve_Succeeded(20); leave saddle (0.001 L):...(98)'."""
+    return "; ".join(f"{a['method']}:{a['status']}({a['iterations']})" for a in result.attempts)
+
+
+def turn_angle(t0: np.ndarray, t1: np.ndarray) -> float:
+    """Signed angle [rad] from planar vector t0 to t1."""
+    return float(math.atan2(t0[0] * t1[1] - t0[1] * t1[0], t0 @ t1))
