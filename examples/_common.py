@@ -8,13 +8,20 @@ Every example exposes `main(argv=None) -> list[dict]` and takes
 """
 from __future__ import annotations
 
-import argparse
-import json
-import math
 import os
-from pathlib import Path
 
-import numpy as np
+# One BLAS thread, set before numpy loads OpenBLAS: casadi's wheel brings its own OpenBLAS, and the two thread pools
+# busy-wait against each other on a small loaded machine. Measured on 2 shared cores: numpy.linalg.eigh of a 256 x 256
+# matrix (StaticProblem.stability's dense eigen-decomposition at 64 elements) took 2.2 s after `import casadi`, 0.018 s
+# with one thread. Import this module before numpy for it to act; an explicit environment setting wins.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import math  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 
