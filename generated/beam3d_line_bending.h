@@ -34,7 +34,7 @@ int beam3d_line_bending_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casad
 #define beam3d_line_bending_SZ_ARG 6
 #define beam3d_line_bending_SZ_RES 6
 #define beam3d_line_bending_SZ_IW 25
-#define beam3d_line_bending_SZ_W 2985
+#define beam3d_line_bending_SZ_W 2955
 int beam3d_line_bending_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int beam3d_line_bending_energy_checkout(void);
 void beam3d_line_bending_energy_release(int mem);
@@ -52,7 +52,7 @@ int beam3d_line_bending_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res
 #define beam3d_line_bending_energy_SZ_ARG 8
 #define beam3d_line_bending_energy_SZ_RES 7
 #define beam3d_line_bending_energy_SZ_IW 25
-#define beam3d_line_bending_energy_SZ_W 3016
+#define beam3d_line_bending_energy_SZ_W 2986
 int adj1_beam3d_line_bending_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int adj1_beam3d_line_bending_energy_checkout(void);
 void adj1_beam3d_line_bending_energy_release(int mem);
@@ -70,7 +70,7 @@ int adj1_beam3d_line_bending_energy_work_bytes(casadi_int *sz_arg, casadi_int* s
 #define adj1_beam3d_line_bending_energy_SZ_ARG 22
 #define adj1_beam3d_line_bending_energy_SZ_RES 8
 #define adj1_beam3d_line_bending_energy_SZ_IW 25
-#define adj1_beam3d_line_bending_energy_SZ_W 3703
+#define adj1_beam3d_line_bending_energy_SZ_W 3958
 void beam3d_line_bending_casadi_version(int* major, int* minor, int* patch);
 int beam3d_line_bending_casadi_int_size(void);
 int beam3d_line_bending_casadi_real_size(void);

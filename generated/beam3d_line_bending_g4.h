@@ -34,7 +34,7 @@ int beam3d_line_bending_g4_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, ca
 #define beam3d_line_bending_g4_SZ_ARG 6
 #define beam3d_line_bending_g4_SZ_RES 6
 #define beam3d_line_bending_g4_SZ_IW 25
-#define beam3d_line_bending_g4_SZ_W 2661
+#define beam3d_line_bending_g4_SZ_W 2631
 int beam3d_line_bending_g4_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int beam3d_line_bending_g4_energy_checkout(void);
 void beam3d_line_bending_g4_energy_release(int mem);
@@ -52,7 +52,7 @@ int beam3d_line_bending_g4_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_
 #define beam3d_line_bending_g4_energy_SZ_ARG 8
 #define beam3d_line_bending_g4_energy_SZ_RES 7
 #define beam3d_line_bending_g4_energy_SZ_IW 25
-#define beam3d_line_bending_g4_energy_SZ_W 2692
+#define beam3d_line_bending_g4_energy_SZ_W 2662
 int adj1_beam3d_line_bending_g4_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int adj1_beam3d_line_bending_g4_energy_checkout(void);
 void adj1_beam3d_line_bending_g4_energy_release(int mem);
@@ -70,7 +70,7 @@ int adj1_beam3d_line_bending_g4_energy_work_bytes(casadi_int *sz_arg, casadi_int
 #define adj1_beam3d_line_bending_g4_energy_SZ_ARG 22
 #define adj1_beam3d_line_bending_g4_energy_SZ_RES 8
 #define adj1_beam3d_line_bending_g4_energy_SZ_IW 25
-#define adj1_beam3d_line_bending_g4_energy_SZ_W 3700
+#define adj1_beam3d_line_bending_g4_energy_SZ_W 3955
 void beam3d_line_bending_g4_casadi_version(int* major, int* minor, int* patch);
 int beam3d_line_bending_g4_casadi_int_size(void);
 int beam3d_line_bending_g4_casadi_real_size(void);

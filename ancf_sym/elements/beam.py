@@ -56,10 +56,18 @@ def svk_density(rx, ry, rz, E, nu):
 
 
 def line_bending_density(rx, ry, rz, rxx, EIy, EIz):
-    """Curvatures that are curvatures (1/m) and smooth when straight, squared so no norm appears in a numerator."""
+    """Section curvatures in an orthonormal frame of the plane normal to r_x, squared so no norm is differentiated.
+
+    e_z = unit(P r_z) with P = I - t t^T the projection normal to the tangent t, e_y = t x e_z; the curvature vector
+    components kappa_y = r_xx.e_z/|r_x|^2 and kappa_z = -r_xx.e_y/|r_x|^2 (paper 001's kappa_0y, kappa_0z made
+    dimensionally curvatures and smooth when straight). Projecting keeps kappa_y^2 + kappa_z^2 = kappa^2 even where
+    the interpolated r_y, r_z are not orthogonal inside the element (error alpha^2 sin^2(2 psi)/12 otherwise).
+    """
     gx = ca.dot(rx, rx)
-    ky2 = ca.dot(rz, rxx)**2 / (ca.dot(rz, rz) * gx**2)
-    kz2 = ca.dot(ry, rxx)**2 / (ca.dot(ry, ry) * gx**2)
+    rz_n = rz - ca.dot(rz, rx) / gx * rx  # P r_z
+    nz = ca.dot(rz_n, rz_n)
+    ky2 = ca.dot(rxx, rz_n)**2 / (nz * gx**2)
+    kz2 = ca.dot(rxx, ca.cross(rx, rz_n))**2 / (nz * gx**3)  # |r_x x P r_z|^2 = gx nz
     return (EIy * ky2 + EIz * kz2) / 2
 
 
