@@ -1,0 +1,248 @@
+"""Command line.
+
+    ancf-sym run SCENE.toml --out DIR [--quiet] [--samples N]   solve the scene's [analysis], write DIR/
+    ancf-sym kernels [--json]                                   the compiled kernel catalogue
+
+`run` writes DIR/result.json, DIR/shape.png, DIR/fields.png, DIR/result.vtu and a copy of the scene as
+DIR/scene.toml. Everything is written into a temporary sibling directory first; DIR is replaced only when the
+solve succeeded, so a failed run never overwrites a previous good DIR: its status goes to DIR.failed/ instead.
+Exit codes: 0 success, 1 the solve failed (or an unexpected error, traceback in DIR.failed/traceback.txt),
+2 bad input (the scene's SceneError message, naming the TOML field; or an --out that is not a result directory).
+Also runnable as `python -m ancf_sym.cli`.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import sys
+import tempfile
+import time
+import traceback
+from pathlib import Path
+
+from .scene import Scene, SceneError
+
+RESULT_FILE = "result.json"
+
+
+class Progress:
+    """A tqdm bar over the stages of a run (stderr); `note` shows what the current stage is doing."""
+
+    def __init__(self, stages: list[str], quiet: bool):
+        from tqdm import tqdm
+        self.bar = tqdm(total=len(stages), disable=True if quiet else None,  # None: only on a terminal
+                        leave=False, dynamic_ncols=True,
+                        bar_format="{desc}{postfix}  [{n_fmt}/{total_fmt} stages done, {elapsed}]")
+        self.started = False
+
+    def stage(self, name: str) -> None:
+        self.bar.set_description_str(name, refresh=False)
+        self.bar.set_postfix_str("", refresh=False)
+        self.bar.update(1 if self.started else 0)
+        self.bar.refresh()
+        self.started = True
+
+    def note(self, text: str) -> None:
+        self.bar.set_postfix_str(text)
+
+    def close(self) -> None:
+        """Idempotent: safe to call again."""
+        if self.started:
+            self.started = False
+            self.bar.update(1)
+        self.bar.close()
+
+
+# -- analyses ----------------------------------------------------------------------------------------------------
+
+STATICS_STAGES = ["read scene", "assemble", "build IPOPT problem", "solve", "write result.json", "plots", "VTK"]
+
+
+def run_statics(scene: Scene, analysis: dict, scene_file: Path, out: Path, progress: Progress, t_start: float,
+                samples: int) -> tuple[bool, str]:
+    """Solve and write the outputs into `out`; (success, one-line summary)."""
+    from .assembly import Assembly
+    from .output_json import static_result_dict, write_json
+    from .statics import StaticOptions, StaticProblem
+
+    class ReportingProblem(StaticProblem):
+        """Shows each IPOPT attempt (full steps, line search, load steps, saddle escape) as it runs."""
+
+        def _run(self, x0, lam_g0, load, line_search, opts):
+            what = ("line search" if line_search else "full steps") + ("" if load == 1.0 else f", load {load:.3g}")
+            progress.note(f"IPOPT {what} ...")
+            ok, status, it, x, lam = super()._run(x0, lam_g0, load, line_search, opts)
+            progress.note(f"IPOPT {what}: {status}, {it} it")
+            return ok, status, it, x, lam
+
+    progress.stage("assemble")
+    asm = Assembly(scene)
+    progress.note(f"{asm.n} coordinates, {len(asm.terms)} kernel terms")
+    progress.stage("build IPOPT problem")
+    problem = ReportingProblem(asm)
+    progress.stage("solve")
+    opts = StaticOptions(**{k: v for k, v in analysis.items() if k != "type"})
+    r = problem.solve(opts)
+    wall_total = time.perf_counter() - t_start
+    progress.stage("write result.json")
+    write_json(out / RESULT_FILE, static_result_dict(r, scene_file, analysis, wall_total))
+    if r.success:
+        from .plots import write_plots
+        from .vtk_out import write_vtu
+        progress.stage("plots")
+        write_plots(r, out, samples)
+        progress.stage("VTK")
+        write_vtu(r, out / "result.vtu", samples)
+    summary = (f"{scene.name}: {r.status}, {r.iterations} IPOPT iterations in {len(r.attempts)} attempt(s), "
+               f"solve {r.wall_s:.3f} s, total {wall_total:.3f} s")
+    if r.success:
+        summary += f"; potential {r.potential:.6g} J, constraint violation {r.constraint_violation:.2g}"
+    return r.success, summary
+
+
+# analysis type -> (runner, its progress stages). A runner gets (scene, analysis dict, scene file, output directory
+# to fill, Progress, start time, samples per element) and returns (success, one-line summary).
+ANALYSES = {"statics": (run_statics, STATICS_STAGES)}
+
+
+# -- output directories ------------------------------------------------------------------------------------------
+
+def _check_out(path: Path) -> None:
+    """Refuse to replace anything that is not a previous result directory of this tool."""
+    if path.exists() and not path.is_dir():
+        raise SceneError(f"--out {path}: exists and is not a directory")
+    if path.is_dir() and any(path.iterdir()) and not (path / RESULT_FILE).is_file():
+        raise SceneError(f"--out {path}: exists, is not empty and holds no {RESULT_FILE}: "
+                         "not replacing it; choose another directory")
+
+
+def _replace_dir(src: Path, dst: Path) -> None:
+    """Put the finished directory src in place of dst (renames on one filesystem: dst is never half-written)."""
+    if not dst.exists():
+        os.rename(src, dst)
+        return
+    old = dst.with_name(f".{dst.name}.old-{os.getpid()}")
+    os.rename(dst, old)
+    try:
+        os.rename(src, dst)
+    except OSError:
+        os.rename(old, dst)
+        raise
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def _fail(msg: str) -> None:
+    print(f"ancf-sym: {msg}", file=sys.stderr)
+
+
+def cmd_run(args) -> int:
+    from .scene_toml import load_scene
+
+    t_start = time.perf_counter()
+    scene_file = Path(args.scene)
+    out = Path(args.out).absolute()
+    failed = out.with_name(out.name + ".failed")
+    try:
+        _check_out(out)
+        _check_out(failed)
+        if args.samples < 1:
+            raise SceneError(f"--samples must be a positive integer, got {args.samples}")
+        scene, analysis = load_scene(scene_file)
+    except SceneError as exc:
+        _fail(str(exc))
+        return 2
+    if analysis["type"] not in ANALYSES:
+        _fail(f"{scene_file}: analysis.type = {analysis['type']!r}: this command runs "
+              f"{' | '.join(ANALYSES)} only in this version")
+        return 2
+    runner, stages = ANALYSES[analysis["type"]]
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
+    umask = os.umask(0)
+    os.umask(umask)
+    tmp.chmod(0o777 & ~umask)  # mkdtemp makes it private; the result directory gets the usual permissions
+    progress = Progress(stages, args.quiet)
+    progress.stage("read scene")
+    try:
+        return _run_in(tmp, out, failed, scene, analysis, scene_file, runner, progress, t_start, args)
+    finally:  # whatever happened (also Ctrl-C), no temporary directory is left behind
+        progress.close()
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _run_in(tmp, out, failed, scene, analysis, scene_file, runner, progress, t_start, args) -> int:
+    """Run the analysis writing into tmp; move tmp to out (success) or to failed; the exit code."""
+    try:
+        shutil.copyfile(scene_file, tmp / "scene.toml")
+        ok, summary = runner(scene, analysis, scene_file, tmp, progress, t_start, args.samples)
+    except SceneError as exc:  # a value only the assembly or solver could refuse
+        progress.close()
+        _fail(str(exc))
+        return 2
+    except Exception as exc:  # noqa: BLE001 - one line to the user, the traceback into DIR.failed
+        progress.close()
+        (tmp / "traceback.txt").write_text(traceback.format_exc())
+        from .output_json import write_json
+        write_json(tmp / RESULT_FILE, {"status": "error", "success": False, "error": f"{type(exc).__name__}: {exc}",
+                                       "scene": {"name": scene.name, "file": str(scene_file.resolve())}})
+        _replace_dir(tmp, failed)
+        _fail(f"{scene.name}: {type(exc).__name__}: {exc} (details in {failed}/traceback.txt)")
+        return 1
+    progress.close()
+    if ok:
+        _replace_dir(tmp, out)
+        if not args.quiet:
+            print(f"{summary} -> {out}")
+        return 0
+    _replace_dir(tmp, failed)
+    kept = f"previous results in {out} kept; " if (out / RESULT_FILE).is_file() else ""
+    _fail(f"{summary} FAILED; {kept}this run's status in {failed}")
+    return 1
+
+
+def cmd_kernels(args) -> int:
+    from . import kernels
+    try:
+        cat = kernels.catalogue()
+    except FileNotFoundError as exc:
+        _fail(str(exc))
+        return 1
+    if args.json:
+        import json
+        print(json.dumps(cat, indent=1))
+        return 0
+    rows = [("name", "element", "effect", "gauss", "q", "p (parameters)")]
+    rows += [(k["name"], k["element"], k["effect"], "-" if k["gauss"] is None else str(k["gauss"]),
+              str(k["inputs"]["q"]), ", ".join(k["inputs"]["p"])) for k in cat]
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    for j, r in enumerate(rows):
+        print("  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip())
+        if j == 0:
+            print("  ".join("-" * w for w in widths))
+    print(f"\n{len(cat)} kernels in {Path(cat[0]['library']).parent if cat else kernels.KERNEL_DIR}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="ancf-sym", description="ANCF cables and beams: scenes, kernels, solvers")
+    sub = parser.add_subparsers(dest="command", required=True)
+    p = sub.add_parser("run", help="solve a TOML scene and write result.json, PNG plots and a .vtu into --out")
+    p.add_argument("scene", help="scene file (TOML; see docs/scenes.md)")
+    p.add_argument("--out", required=True, help="output directory (replaced only when the run succeeds)")
+    p.add_argument("--quiet", action="store_true", help="no progress display, no summary line")
+    p.add_argument("--samples", type=int, default=8, help="samples per element in plots and VTK (default 8)")
+    p.set_defaults(func=cmd_run)
+    k = sub.add_parser("kernels", help="list the compiled kernels")
+    k.add_argument("--json", action="store_true", help="the full catalogue as JSON")
+    k.set_defaults(func=cmd_kernels)
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except BrokenPipeError:  # e.g. `ancf-sym kernels | head`
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
