@@ -160,10 +160,14 @@ class StaticProblem:
             raise SceneError(f"warm start x0 must be {a.n} finite numbers, got shape {np.shape(x0)}")
         attempts, iters = [], 0
         ok, status, lam_g = False, "not run", None
+        ceiling = self._start_ceiling(x)
         for line_search in (False, True):
             ok, status, it, xs, lg = self._run(x, None, 1.0, line_search, opts)
             iters += it
             attempts.append({"method": "full steps" if not line_search else "line search", "status": status, "iterations": it})
+            if ok and a.energy(xs) > ceiling:  # full steps can jump into another basin and converge there
+                ok = False
+                attempts[-1]["rejected"] = "potential above that of the feasible start point"
             if ok:
                 x, lam_g = xs, lg
                 break
@@ -193,6 +197,15 @@ class StaticProblem:
                         break
         wall = time.perf_counter() - t0
         return self._result(ok, status, iters, wall, x, lam_g, stable, attempts)
+
+    def _start_ceiling(self, x: np.ndarray) -> float:
+        """Highest potential an accepted solution may have: that of the start point, if it satisfies the exact
+        constraints (a minimiser started there cannot rightly end higher), plus the energy round-off
+        (gradient floor x length scale); +inf for an infeasible start."""
+        a = self.asm
+        if a.exact.m and np.max(np.abs(a.exact.value(x))) > 1e-9 * self._length_scale():
+            return np.inf
+        return a.energy(x) + 10 * self.floor * self._length_scale()
 
     def _length_scale(self) -> float:
         return max(mm.member.length for mm in self.asm.mesh.members.values())
