@@ -27,6 +27,8 @@ def sample(mm: MemberMesh, xn: np.ndarray, per_element: int = 8) -> dict:
         r_all.append(r[keep]); rx_all.append(rx[keep]); rxx_all.append(rxx[keep])
     r, rx, rxx = np.vstack(r_all), np.vstack(rx_all), np.vstack(rxx_all)
     norm = np.linalg.norm(rx, axis=1)
-    cr = np.cross(rx, rxx)
-    cr = np.abs(cr) if dim == 2 else np.linalg.norm(cr, axis=1)
+    if dim == 2:  # np.cross of 2-vectors is deprecated (NumPy 2)
+        cr = np.abs(rx[:, 0] * rxx[:, 1] - rx[:, 1] * rxx[:, 0])
+    else:
+        cr = np.linalg.norm(np.cross(rx, rxx), axis=1)
     return {"s": np.concatenate(s_all), "r": r, "strain": norm - 1.0, "curvature": cr / norm**3}
