@@ -157,8 +157,12 @@ def cmd_run(args) -> int:
               f"{' | '.join(ANALYSES)} only in this version")
         return 2
     runner, stages = ANALYSES[analysis["type"]]
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
+    except OSError as exc:
+        _fail(f"--out {out}: cannot create a directory beside it: {exc}")
+        return 2
     umask = os.umask(0)
     os.umask(umask)
     tmp.chmod(0o777 & ~umask)  # mkdtemp makes it private; the result directory gets the usual permissions
