@@ -5,6 +5,8 @@ mapped compiled kernels -> solvers (statics: IPOPT; dynamics) -> results.
 """
 from .scene import Material, Scene, SceneError, Section
 from .statics import StaticOptions, StaticResult, solve_static
+from .dynamics import DynamicOptions, DynamicResult, run_dynamics, simulate
 
-__all__ = ["Material", "Scene", "SceneError", "Section", "StaticOptions", "StaticResult", "solve_static"]
+__all__ = ["Material", "Scene", "SceneError", "Section", "StaticOptions", "StaticResult", "solve_static",
+           "DynamicOptions", "DynamicResult", "run_dynamics", "simulate"]
 __version__ = "0.1.0"

@@ -191,6 +191,16 @@ class Load:
 
 
 @dataclass
+class Damping:
+    """Dynamics only. kind "rayleigh": C = alpha M + beta K_el, alpha [1/s] on absolute velocities (one value for
+    the scene), beta [s] on the elastic tangent stiffness (at the start of each step) of `members` (None: all)."""
+    kind: str
+    alpha: float = 0.0
+    beta: float = 0.0
+    members: list | None = None
+
+
+@dataclass
 class Scene:
     dim: int = 2
     gravity: Sequence[float] | None = None
@@ -199,6 +209,7 @@ class Scene:
     joints: list[Joint] = field(default_factory=list)
     loads: list[Load] = field(default_factory=list)
     name: str = "scene"
+    dampings: list[Damping] = field(default_factory=list)
 
     def __post_init__(self):
         if self.dim not in (2, 3):
@@ -340,6 +351,21 @@ class Scene:
         """Prescribed tension [N]: a dead force along the member's outward reference axis at that end."""
         self._check_at(member, at, node_only=True, field_name="tension.at")
         return self._add_load(Load("tension", member, at, _finite("tension.tension", tension)))
+
+    def rayleigh(self, alpha: float = 0.0, beta: float = 0.0, members: Sequence[str] | None = None) -> Damping:
+        """Rayleigh damping for dynamics, C = alpha M + beta K_el: alpha [1/s] damps absolute velocities (whole
+        scene), beta [s] the elastic tangent stiffness of `members` (default all) at the start of each step."""
+        a = _finite("rayleigh.alpha", alpha)
+        b = _finite("rayleigh.beta", beta)
+        if a < 0 or b < 0:
+            raise SceneError(f"rayleigh.alpha and rayleigh.beta must be >= 0, got {alpha!r}, {beta!r}")
+        if members is not None:
+            members = [members] if isinstance(members, str) else list(members)
+            for m in members:
+                self._member(m, "rayleigh.members")
+        d = Damping("rayleigh", a, b, members)
+        self.dampings.append(d)
+        return d
 
     def _add_load(self, load: Load) -> Load:
         self.loads.append(load)

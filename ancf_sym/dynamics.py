@@ -1,0 +1,649 @@
+"""Dynamics of a scene: M q'' + C q' + grad U(q) + J^T lam = Q(t), Phi(q) = 0, by implicit integration.
+
+    res = run_dynamics(scene, {"integrator": "generalized_alpha", "dt": 1e-3, "t_end": 2.0, "rho_inf": 0.9,
+                               "output_dt": 0.01,
+                               "sensors": [{"name": "tip", "kind": "position", "member": "beam", "at": "end"}]})
+    res.t, res.sensors["tip"], res.energies["kinetic"], res.status
+
+Integrators: "newmark" (beta, gamma), "hht" (alpha in [-1/3, 0]), "generalized_alpha" (rho_inf) from
+ancf_sym.integrators; "radau" and "gauss" (collocation, `stages`) from ancf_sym.collocation. Fixed step by
+default; `adaptive` controls the local error estimate against `tol` [m]. A step whose Newton iteration fails is
+rejected and retried with half the step (recorded in `rejected`); the run ends with status "newton_failed" at
+the last good state when the step would fall below dt_min. Results never contain NaN.
+
+Energy bookkeeping at every output time: kinetic 1/2 v.M v, potential by label (strain energies, gravity, dead
+loads, penalty joints), damping_work (work done against the damping forces, trapezoidal in time), external_work
+(of time-dependent loads), and `algorithmic` = E(0) + external_work - damping_work - (kinetic + potential): the
+energy the integrator itself removed (positive) or added (negative).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from .assembly import Assembly
+from .elements import hermite
+from .integrators import (LINEAR_EFFECTS, AlphaIntegrator, Counters, NewtonOptions, RayleighData, Scheme,
+                          StepSystem)
+from .mesh import MemberMesh
+from .scene import Scene, SceneError
+
+INTEGRATORS = {"newmark": "newmark", "hht": "hht", "hht_alpha": "hht", "generalized_alpha": "generalized_alpha",
+               "generalized-alpha": "generalized_alpha", "genalpha": "generalized_alpha",
+               "gen_alpha": "generalized_alpha", "radau": "radau", "radau_iia": "radau", "radauiia": "radau",
+               "gauss": "gauss", "gauss_legendre": "gauss", "gauss-legendre": "gauss"}
+SENSOR_KINDS = ("position", "displacement", "velocity", "strain", "curvature", "coordinates")
+
+
+def _pos(name: str, value: Any, allow_zero: bool = False) -> float:
+    if isinstance(value, bool):
+        raise SceneError(f"{name} must be a number, got {value!r}")
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise SceneError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
+        raise SceneError(f"{name} must be a {'non-negative' if allow_zero else 'positive'} finite number, got {value!r}")
+    return v
+
+
+def _num(name: str, value: Any) -> float:
+    if isinstance(value, bool):
+        raise SceneError(f"{name} must be a number, got {value!r}")
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise SceneError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise SceneError(f"{name} must be finite, got {value!r}")
+    return v
+
+
+# -- sensors -----------------------------------------------------------------------------------------------------
+
+@dataclass
+class Sensor:
+    """What to record at output times.
+
+    kind: "position" | "displacement" (from the reference) | "velocity" of a centreline point;
+    "strain" (|r_x| - 1) | "curvature" (|r_x x r_xx| / |r_x|^3) at a point; "coordinates" (all nodal
+    coordinates of a node). member and at ("start", "end", node index or material coordinate s [m]) name the
+    point. Energies and the constraint violation are always recorded.
+    """
+    name: str
+    kind: str
+    member: str
+    at: Any = "end"
+
+    @classmethod
+    def from_dict(cls, d: dict, index: int) -> "Sensor":
+        if isinstance(d, Sensor):
+            return d
+        if not isinstance(d, dict):
+            raise SceneError(f"sensors[{index}] must be a table with kind, member, at; got {d!r}")
+        unknown = set(d) - {"name", "kind", "member", "at"}
+        if unknown:
+            raise SceneError(f"sensors[{index}]: unknown field(s) {sorted(unknown)}; known: name, kind, member, at")
+        kind = d.get("kind")
+        if kind not in SENSOR_KINDS:
+            raise SceneError(f"sensors[{index}].kind must be one of {SENSOR_KINDS}, got {kind!r}")
+        member = d.get("member")
+        at = d.get("at", "end")
+        name = d.get("name") or f"{kind}_{member}_{at}"
+        return cls(str(name), kind, member, at)
+
+
+class _Probe:
+    """Linear maps from full coordinates to r, r_x, r_xx at a material point (one element's 2 nodes)."""
+
+    def __init__(self, mm: MemberMesh, s: float, dim: int):
+        e, xi = mm.locate(s)
+        L = mm.elem_length[e]
+        n0, n1 = mm.elem_nodes[e]
+        h, dh, ddh = hermite.h(xi), hermite.dh(xi), hermite.ddh(xi)
+        ns = mm.node_size
+        self.dim = dim
+        base0, base1 = mm.offset + n0 * ns, mm.offset + n1 * ns
+        # r = h0 r0 + L h1 rx0 + h2 r1 + L h3 rx1 (per component)
+        self.idx = np.array([[base0 + k, base0 + dim + k, base1 + k, base1 + dim + k] for k in range(dim)])
+        self.w = np.array([h[0], L * h[1], h[2], L * h[3]])
+        self.wx = np.array([dh[0] / L, dh[1], dh[2] / L, dh[3]])
+        self.wxx = np.array([ddh[0] / L**2, ddh[1] / L, ddh[2] / L**2, ddh[3] / L])
+
+    def r(self, x):
+        return x[self.idx] @ self.w
+
+    def rx(self, x):
+        return x[self.idx] @ self.wx
+
+    def rxx(self, x):
+        return x[self.idx] @ self.wxx
+
+
+class _SensorEval:
+    def __init__(self, sensor: Sensor, asm: Assembly, index: int):
+        scene = asm.scene
+        if sensor.member not in asm.mesh.members:
+            raise SceneError(f"sensors[{index}].member={sensor.member!r} names no member; members: "
+                             f"{sorted(asm.mesh.members)}")
+        try:
+            scene._check_at(sensor.member, sensor.at, node_only=sensor.kind == "coordinates",
+                            field_name=f"sensors[{index}].at")
+        except SceneError:
+            raise
+        mm = asm.mesh.members[sensor.member]
+        self.sensor, self.mm, self.dim = sensor, mm, scene.dim
+        if sensor.kind == "coordinates":
+            self.dofs = mm.node_dofs(mm.node(sensor.at))
+            self.probe = None
+        else:
+            s = float(sensor.at) if isinstance(sensor.at, float) else float(mm.s_node[mm.node(sensor.at)])
+            self.probe = _Probe(mm, s, scene.dim)
+            self.r0 = self.probe.r(asm.x0)
+
+    def __call__(self, x: np.ndarray, v: np.ndarray) -> np.ndarray:
+        k, p = self.sensor.kind, self.probe
+        if k == "coordinates":
+            return x[self.dofs].copy()
+        if k == "position":
+            return p.r(x)
+        if k == "displacement":
+            return p.r(x) - self.r0
+        if k == "velocity":
+            return p.r(v)
+        rx = p.rx(x)
+        nrm = float(np.linalg.norm(rx))
+        if k == "strain":
+            return np.array([nrm - 1.0])
+        c = np.cross(rx, p.rxx(x))
+        c = abs(float(c)) if self.dim == 2 else float(np.linalg.norm(c))
+        return np.array([c / max(nrm, 1e-300) ** 3])
+
+
+# -- time-dependent loads ----------------------------------------------------------------------------------------
+
+@dataclass
+class TimeLoad:
+    """A point force F(t) = factor(t) * force at a node or material coordinate, factor piecewise linear in
+    `history` [(t, factor), ...] (zero outside unless the first/last factor says otherwise: held constant)."""
+    member: str
+    at: Any
+    force: Sequence[float]
+    history: Sequence[Sequence[float]]
+
+    @classmethod
+    def from_dict(cls, d: dict, index: int) -> "TimeLoad":
+        if isinstance(d, TimeLoad):
+            return d
+        if not isinstance(d, dict):
+            raise SceneError(f"loads[{index}] must be a table with member, at, force, history; got {d!r}")
+        unknown = set(d) - {"member", "at", "force", "history"}
+        missing = {"member", "force", "history"} - set(d)
+        if unknown or missing:
+            raise SceneError(f"loads[{index}]: unknown {sorted(unknown)} / missing {sorted(missing)} fields; "
+                             "expected member, at, force, history")
+        return cls(d["member"], d.get("at", "end"), d["force"], d["history"])
+
+
+class _LoadSum:
+    def __init__(self, loads: list[TimeLoad], asm: Assembly, free: np.ndarray):
+        from .loads import point_force
+        from .scene import _vector
+        self.vecs, self.hist = [], []
+        for i, ld in enumerate(loads):
+            asm.scene._check_at(ld.member, ld.at, node_only=False, field_name=f"loads[{i}].at")
+            F = _vector(f"loads[{i}].force", ld.force, asm.scene.dim)
+            try:
+                H = np.asarray(ld.history, dtype=float)
+            except (TypeError, ValueError):
+                raise SceneError(f"loads[{i}].history must be a list of [t, factor] pairs, got {ld.history!r}") from None
+            if H.ndim != 2 or H.shape[1] != 2 or len(H) < 1 or not np.all(np.isfinite(H)) or np.any(np.diff(H[:, 0]) <= 0):
+                raise SceneError(f"loads[{i}].history must be [t, factor] pairs with increasing finite times, got "
+                                 f"{ld.history!r}")
+            mm = asm.mesh.members[ld.member]
+            s = float(ld.at) if isinstance(ld.at, float) else float(mm.s_node[mm.node(ld.at)])
+            idx, val = point_force(mm, s, F)
+            q = np.zeros(asm.n)
+            np.add.at(q, idx, val)
+            self.vecs.append(free.T @ q)
+            self.hist.append(H)
+
+    def __call__(self, t: float) -> np.ndarray:
+        out = np.zeros_like(self.vecs[0])
+        for q, H in zip(self.vecs, self.hist):
+            out += np.interp(t, H[:, 0], H[:, 1]) * q
+        return out
+
+
+# -- options and result ------------------------------------------------------------------------------------------
+
+@dataclass
+class DynamicOptions:
+    dt: float
+    t_end: float
+    integrator: str = "generalized_alpha"
+    t_start: float = 0.0
+    rho_inf: float = 0.9  # generalized-alpha spectral radius at infinite frequency
+    alpha: float = -0.05  # HHT
+    beta: float = 0.25  # Newmark
+    gamma: float = 0.5  # Newmark
+    stages: int | None = None  # collocation stages (radau default 3, gauss default 2)
+    adaptive: bool = False
+    tol: float | None = None  # adaptive: local error tolerance [m] (default 1e-6 x length scale)
+    dt_min: float | None = None  # smallest step before giving up (default dt * 2^-12)
+    dt_max: float | None = None  # adaptive: largest step (default 100 dt... but at most the output spacing)
+    output_every: int | None = None  # record every k accepted steps (fixed step)
+    output_dt: float | None = None  # record at t_start + k output_dt
+    output_times: Sequence[float] | None = None  # record at these times
+    newton: NewtonOptions = field(default_factory=NewtonOptions)
+    sensors: list = field(default_factory=list)
+    loads: list = field(default_factory=list)  # TimeLoad (time-dependent point forces)
+    q0: np.ndarray | None = None  # initial coordinates (full, default the reference state)
+    v0: np.ndarray | None = None  # initial velocities (full, default zero)
+
+    def __post_init__(self):
+        self.dt = _pos("dt", self.dt)
+        self.t_start = _num("t_start", self.t_start)
+        self.t_end = _num("t_end", self.t_end)
+        if self.t_end <= self.t_start:
+            raise SceneError(f"t_end must be greater than t_start={self.t_start!r}, got {self.t_end!r}")
+        if self.integrator not in INTEGRATORS:
+            raise SceneError(f"integrator must be one of {sorted(set(INTEGRATORS.values()))} (aliases "
+                             f"{sorted(INTEGRATORS)}), got {self.integrator!r}")
+        self.integrator = INTEGRATORS[self.integrator]
+        self.scheme()  # checks rho_inf / alpha / beta, gamma
+        if self.stages is not None and (isinstance(self.stages, bool) or not isinstance(self.stages, (int, np.integer))
+                                        or not 1 <= self.stages <= 4):
+            raise SceneError(f"stages must be an integer in 1..4, got {self.stages!r}")
+        if not isinstance(self.adaptive, bool):
+            raise SceneError(f"adaptive must be true or false, got {self.adaptive!r}")
+        if self.tol is not None:
+            self.tol = _pos("tol", self.tol)
+        if self.dt_min is not None:
+            self.dt_min = _pos("dt_min", self.dt_min)
+            if self.dt_min > self.dt:
+                raise SceneError(f"dt_min={self.dt_min!r} must not exceed dt={self.dt!r}")
+        if self.dt_max is not None:
+            self.dt_max = _pos("dt_max", self.dt_max)
+            if self.dt_max < self.dt:
+                raise SceneError(f"dt_max={self.dt_max!r} must not be below dt={self.dt!r}")
+        given = [k for k in ("output_every", "output_dt", "output_times") if getattr(self, k) is not None]
+        if len(given) > 1:
+            raise SceneError(f"give one of output_every, output_dt, output_times; got {given}")
+        if self.output_every is not None:
+            if isinstance(self.output_every, bool) or not isinstance(self.output_every, (int, np.integer)) \
+                    or self.output_every < 1:
+                raise SceneError(f"output_every must be a positive integer, got {self.output_every!r}")
+            if self.adaptive:
+                raise SceneError("output_every needs fixed steps; with adaptive=true give output_dt or output_times")
+        if self.output_dt is not None:
+            self.output_dt = _pos("output_dt", self.output_dt)
+        if self.output_times is not None:
+            try:
+                ot = np.asarray(self.output_times, dtype=float).ravel()
+            except (TypeError, ValueError):
+                raise SceneError(f"output_times must be a list of numbers, got {self.output_times!r}") from None
+            eps = 1e-12 * max(1.0, abs(self.t_end))
+            bad = ot[~np.isfinite(ot) | (ot < self.t_start - eps) | (ot > self.t_end + eps)]
+            if len(bad):
+                raise SceneError(f"output_times must lie in [t_start, t_end] = [{self.t_start}, {self.t_end}], got "
+                                 f"{bad.tolist()}")
+            self.output_times = np.unique(np.clip(ot, self.t_start, self.t_end))
+        if isinstance(self.newton, dict):
+            unknown = set(self.newton) - set(NewtonOptions.__dataclass_fields__)
+            if unknown:
+                raise SceneError(f"newton: unknown option(s) {sorted(unknown)}; known: "
+                                 f"{sorted(NewtonOptions.__dataclass_fields__)}")
+            self.newton = NewtonOptions(**self.newton)
+        elif not isinstance(self.newton, NewtonOptions):
+            raise SceneError(f"newton must be a table of Newton options, got {self.newton!r}")
+        if not isinstance(self.sensors, (list, tuple)):
+            raise SceneError(f"sensors must be a list, got {self.sensors!r}")
+        self.sensors = [Sensor.from_dict(s, i) for i, s in enumerate(self.sensors)]
+        names = [s.name for s in self.sensors]
+        if len(set(names)) != len(names):
+            raise SceneError(f"sensor names must be unique, got {names}")
+        if not isinstance(self.loads, (list, tuple)):
+            raise SceneError(f"loads must be a list, got {self.loads!r}")
+        self.loads = [TimeLoad.from_dict(d, i) for i, d in enumerate(self.loads)]
+
+    def scheme(self) -> Scheme | None:
+        if self.integrator == "newmark":
+            return Scheme.newmark(_num("beta", self.beta), _num("gamma", self.gamma))
+        if self.integrator == "hht":
+            return Scheme.hht(_num("alpha", self.alpha))
+        if self.integrator == "generalized_alpha":
+            return Scheme.generalized_alpha(_num("rho_inf", self.rho_inf))
+        return None
+
+
+@dataclass
+class DynamicResult:
+    status: str  # "completed" | "newton_failed"
+    success: bool
+    message: str
+    integrator: str
+    t: np.ndarray  # output times [s]
+    sensors: dict  # name -> (len(t), k) array
+    energies: dict  # name -> (len(t),) array [J]
+    constraint_violation: np.ndarray  # max |Phi| over all supports and joints (exact and penalty) [m]
+    t_reached: float
+    steps: int  # accepted steps
+    rejected: list  # one record per rejected step attempt
+    counters: dict  # newton_iterations, residuals, jacobians, factorizations
+    wall_s: float
+    x: np.ndarray  # final coordinates (full)
+    v: np.ndarray  # final velocities (full)
+    options: DynamicOptions | None = None
+    assembly: Assembly | None = None
+    h_min: float = float("nan")
+    h_max: float = float("nan")
+
+    @property
+    def newton_iterations(self) -> int:
+        return int(self.counters.get("newton_iterations", 0))
+
+    @property
+    def factorizations(self) -> int:
+        return int(self.counters.get("factorizations", 0))
+
+    def energy_error(self) -> float:
+        """max |algorithmic energy| over the run relative to the largest of |E(0)|, max kinetic, max |potential|."""
+        alg = self.energies.get("algorithmic")
+        if alg is None or not len(alg):
+            return 0.0
+        scale = max(float(np.max(np.abs(self.energies["kinetic"]))), float(np.max(np.abs(self.energies["potential"]))),
+                    abs(float(self.energies["total"][0])), 1e-300)
+        return float(np.max(np.abs(alg)) / scale)
+
+    def to_dict(self) -> dict:
+        o = self.options
+        return {
+            "status": self.status, "success": self.success, "message": self.message, "integrator": self.integrator,
+            "dt": o.dt if o else None, "t_end": o.t_end if o else None, "adaptive": o.adaptive if o else None,
+            "t_reached": self.t_reached, "steps": self.steps, "rejected_steps": len(self.rejected),
+            "rejected": self.rejected, **{k: int(v) for k, v in self.counters.items()}, "wall_s": self.wall_s,
+            "h_min": self.h_min, "h_max": self.h_max, "energy_error": self.energy_error(),
+            "t": self.t.tolist(),
+            "sensors": {k: np.asarray(v).tolist() for k, v in self.sensors.items()},
+            "energies": {k: np.asarray(v).tolist() for k, v in self.energies.items()},
+            "constraint_violation": self.constraint_violation.tolist(),
+            "x": self.x.tolist(), "v": self.v.tolist(),
+        }
+
+
+# -- the run -----------------------------------------------------------------------------------------------------
+
+def rayleigh_data(asm: Assembly, terms: list) -> RayleighData | None:
+    """Rayleigh damping requested by the scene (scene.dampings) with per-element weights of each term."""
+    scene = asm.scene
+    ds = [d for d in getattr(scene, "dampings", []) if d.kind == "rayleigh"]
+    if not ds:
+        return None
+    alphas = {d.alpha for d in ds if d.alpha}
+    if len(alphas) > 1 or any(d.members is not None for d in ds if d.alpha):
+        raise SceneError("mass-proportional Rayleigh damping (alpha) must be one value for the whole scene, got "
+                         f"{sorted(alphas)}")
+    alpha = alphas.pop() if alphas else 0.0
+    betas = {}
+    for d in ds:
+        if d.beta:
+            for name in (d.members or list(scene.members)):
+                betas[name] = d.beta
+    beta_ref = max(betas.values()) if betas else 0.0
+    weights = {}
+    if beta_ref:
+        starts = np.array([mm.offset for mm in asm.mesh.members.values()])
+        factor = np.array([betas.get(name, 0.0) / beta_ref for name in asm.mesh.members])
+        for ti, mk in enumerate(terms):
+            member = np.searchsorted(starts, mk.term.idx[:, 0], side="right") - 1
+            weights[ti] = factor[member]
+    return RayleighData(float(alpha), float(beta_ref), weights)
+
+
+def _collect_outputs(opts: DynamicOptions) -> np.ndarray | None:
+    if opts.output_times is not None:
+        return np.asarray(opts.output_times, float)
+    if opts.output_dt is not None:
+        n = int(math.floor((opts.t_end - opts.t_start) / opts.output_dt + 1e-9))
+        ts = opts.t_start + opts.output_dt * np.arange(n + 1)
+        if opts.t_end - ts[-1] > 1e-9 * opts.output_dt:
+            ts = np.r_[ts, opts.t_end]
+        return ts
+    return None
+
+
+def _hermite(t0, t1, q0, v0, q1, v1, tau):
+    h = t1 - t0
+    s = (tau - t0) / h
+    h00, h10, h01, h11 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s, -2 * s**3 + 3 * s**2, s**3 - s**2
+    q = h00 * q0 + h10 * h * v0 + h01 * q1 + h11 * h * v1
+    d00, d10, d01, d11 = 6 * s**2 - 6 * s, 3 * s**2 - 4 * s + 1, -6 * s**2 + 6 * s, 3 * s**2 - 2 * s
+    v = (d00 * q0 + d01 * q1) / h + d10 * v0 + d11 * v1
+    return q, v
+
+
+class _Recorder:
+    def __init__(self, system: StepSystem, sensors: list[_SensorEval], E0_ref: dict):
+        self.S = system
+        self.sensors = sensors
+        self.t: list[float] = []
+        self.data: dict[str, list] = {s.sensor.name: [] for s in sensors}
+        self.energies: dict[str, list] = {}
+        self.viol: list[float] = []
+        self.E0 = None
+
+    def record(self, t, qf, vf, damping_work, external_work):
+        S = self.S
+        x, v = S.full(qf), S.full_v(vf)
+        for s in self.sensors:
+            self.data[s.sensor.name].append(s(x, v))
+        T = 0.5 * float(vf @ (S.M @ vf))
+        pot = S.potential(qf)
+        U = float(sum(pot.values()))
+        E = T + U
+        if self.E0 is None:
+            self.E0 = E
+        row = {"kinetic": T, "potential": U, **{f"potential_{k}": val for k, val in pot.items()},
+               "total": E, "damping_work": damping_work, "external_work": external_work,
+               "algorithmic": self.E0 + external_work - damping_work - E}
+        for k, val in row.items():
+            self.energies.setdefault(k, []).append(val)
+        cons = S.asm.constraints
+        self.viol.append(float(np.max(np.abs(cons.value(x)))) if cons.m else 0.0)
+        self.t.append(float(t))
+
+
+def make_integrator(system: StepSystem, opts: DynamicOptions, counters: Counters, tol_q: float, tol_x: float):
+    if opts.integrator in ("radau", "gauss"):
+        from .collocation import CollocationIntegrator
+        stages = opts.stages or (3 if opts.integrator == "radau" else 2)
+        return CollocationIntegrator(system, opts.integrator, stages, opts.newton, tol_q, tol_x, counters)
+    return AlphaIntegrator(system, opts.scheme(), opts.newton, tol_q, tol_x, counters)
+
+
+def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callable[[float, float], Any] | None = None,
+             system: StepSystem | None = None) -> DynamicResult:
+    """Integrate a scene from options.t_start to options.t_end (see the module docstring)."""
+    opts = options
+    asm = scene if isinstance(scene, Assembly) else Assembly(scene)
+    scene = asm.scene
+    if not scene.members:
+        raise SceneError("scene has no members")
+    sensors = [_SensorEval(s, asm, i) for i, s in enumerate(opts.sensors)]
+    if system is None:
+        system = StepSystem(asm, rayleigh_data(asm, [mk for mk in asm.mapped if mk.term.effect not in LINEAR_EFFECTS]))
+    S = system
+    loads = _LoadSum(opts.loads, asm, S.E) if opts.loads else None
+    # initial state
+    q0 = asm.x0.copy() if opts.q0 is None else np.asarray(opts.q0, dtype=float).ravel()
+    v0 = np.zeros(asm.n) if opts.v0 is None else np.asarray(opts.v0, dtype=float).ravel()
+    for name, arr in (("q0", q0), ("v0", v0)):
+        if arr.shape != (asm.n,):
+            raise SceneError(f"{name} must have {asm.n} entries (the scene's coordinates), got {arr.size}")
+        if not np.all(np.isfinite(arr)):
+            raise SceneError(f"{name} must be finite")
+    L = S.length_scale
+    tol_x = opts.newton.xtol * L
+    cons_tol = max(1e-8 * L, 10 * tol_x)
+    if asm.exact.m:
+        viol = np.abs(asm.exact.value(q0))
+        if viol.max() > cons_tol:
+            k = int(np.argmax(viol))
+            raise SceneError(f"q0 violates constraint {asm.exact.labels[k]!r} by {viol[k]:.3g} m (tolerance "
+                             f"{cons_tol:.3g} m)")
+        vv = np.abs(asm.exact.jacobian(q0) @ v0)
+        if vv.max() > 1e-8 * max(1.0, float(np.abs(v0).max())):
+            k = int(np.argmax(vv))
+            raise SceneError(f"v0 violates the velocity form of constraint {asm.exact.labels[k]!r} by {vv[k]:.3g}")
+    outputs = _collect_outputs(opts)
+    if opts.output_every is None and outputs is None:
+        outputs = None
+        every = 1
+    else:
+        every = opts.output_every
+    dt_min = opts.dt_min or opts.dt * 2.0 ** -12
+    dt_max = opts.dt_max or (opts.dt * 100 if opts.adaptive else opts.dt)
+    err_tol = opts.tol or 1e-6 * L
+
+    t_wall = time.perf_counter()
+    counters = Counters()
+    fscale = float(np.max(np.abs(S.f_lin))) if S.nf else 0.0
+    # force scale: also the static load of a stiff direction (through the mass matrix at the given velocities)
+    integ = make_integrator(S, opts, counters, 1.0, tol_x)
+    qf, vf = S.reduce(q0), S.reduce(v0)
+    Q0 = loads(opts.t_start) if loads else np.zeros(S.nf)
+    integ.initialize(qf, vf, Q0)
+    fscale = max(fscale, float(np.max(np.abs(S.M @ integ.a))) if S.nf else 0.0, float(np.max(np.abs(Q0))) if S.nf else 0.0)
+    integ.tol_q = opts.newton.tol * max(fscale, 1e-300)
+
+    rec = _Recorder(S, sensors, {})
+    W_d = W_ext = 0.0
+    t = opts.t_start
+    rec.record(t, integ.q, integ.v, W_d, W_ext)
+    out_i = 1 if outputs is not None else None
+    if outputs is not None:
+        while out_i < len(outputs) and outputs[out_i] <= t + 1e-12 * max(1.0, abs(t)):
+            out_i += 1
+    steps, rejected = 0, []
+    status, message = "completed", ""
+    h = opts.dt
+    h_used = []
+    Qn = Q0
+    grid_next = opts.t_start + opts.dt  # fixed step: next grid point
+    k_grid = 1
+    eps_t = 1e-9 * opts.dt
+    while t < opts.t_end - eps_t:
+        if opts.adaptive:
+            h_try = min(h, dt_max, opts.t_end - t)
+        else:
+            h_try = min(h, grid_next - t)
+        if opts.t_end - (t + h_try) < eps_t:
+            h_try = opts.t_end - t
+        t_new = t + h_try
+        Qnew = loads(t_new) if loads else None
+        out = integ.attempt(h_try, Qnew)
+        reject_reason = None
+        err_ratio = None
+        if not out.converged:
+            reject_reason = f"newton: {out.reason}"
+        elif opts.adaptive:
+            e = integ.error_estimate(h_try)
+            err_ratio = float(np.max(np.abs(e))) / err_tol if len(e) else 0.0
+            if not math.isfinite(err_ratio) or err_ratio > 1.0:
+                reject_reason = f"error estimate {err_ratio:.3g} x tol"
+        if reject_reason is not None:
+            rejected.append({"t": t, "h": h_try, "reason": reject_reason, "iterations": out.iterations})
+            factor = 0.5 if err_ratio is None or not math.isfinite(err_ratio) else \
+                max(0.2, min(0.9, 0.9 * err_ratio ** (-1.0 / (integ.order + 1))))
+            h = h_try * factor
+            if h < dt_min:
+                status = "newton_failed" if err_ratio is None else "step_size_underflow"
+                message = (f"step at t = {t:.6g} s rejected down to h = {h_try:.3g} s < dt_min = {dt_min:.3g} s: "
+                           f"{reject_reason}")
+                break
+            continue
+        # accepted: energy bookkeeping (damping at the start-of-step matrix), outputs, commit
+        C = integ.damping_matrix()
+        vn1 = integ.new["v"]
+        if C is not None:
+            W_d += 0.5 * h_try * (float(integ.v @ (C @ integ.v)) + float(vn1 @ (C @ vn1)))
+        if loads:
+            W_ext += 0.5 * h_try * (float(Qn @ integ.v) + float(Qnew @ vn1))
+            Qn = Qnew
+        q_old, v_old = integ.q.copy(), integ.v.copy()
+        integ.accept()
+        steps += 1
+        h_used.append(h_try)
+        t_old, t = t, t_new
+        if outputs is None:
+            if steps % every == 0 or t >= opts.t_end - eps_t:
+                rec.record(t, integ.q, integ.v, W_d, W_ext)
+                if progress:
+                    progress(t, opts.t_end)
+        else:
+            while out_i < len(outputs) and outputs[out_i] <= t + eps_t:
+                tau = outputs[out_i]
+                if abs(tau - t) <= eps_t:
+                    rec.record(tau, integ.q, integ.v, W_d, W_ext)
+                else:
+                    qi, vi = _hermite(t_old, t, q_old, v_old, integ.q, integ.v, tau)
+                    rec.record(tau, qi, vi, W_d, W_ext)
+                out_i += 1
+                if progress:
+                    progress(tau, opts.t_end)
+        # next step size
+        if opts.adaptive:
+            grow = 2.0 if not err_ratio else min(2.0, max(1.0, 0.9 * err_ratio ** (-1.0 / (integ.order + 1))))
+            h = min(h_try * grow, dt_max)
+        else:
+            if t >= grid_next - eps_t:
+                k_grid += 1
+                grid_next = opts.t_start + k_grid * opts.dt
+                h = min(opts.dt, 2 * h) if h < opts.dt else opts.dt
+            # after a rejection, climb back towards dt within the grid interval
+    wall = time.perf_counter() - t_wall
+    if status != "completed" and outputs is not None:
+        pass  # outputs after t_reached are simply absent
+    if status == "completed" and rec.t and abs(rec.t[-1] - t) > eps_t and outputs is None:
+        rec.record(t, integ.q, integ.v, W_d, W_ext)
+    sens = {name: np.array(vals) for name, vals in rec.data.items()}
+    ener = {k: np.array(v) for k, v in rec.energies.items()}
+    return DynamicResult(status, status == "completed", message, opts.integrator, np.array(rec.t), sens, ener,
+                         np.array(rec.viol), float(t), steps, rejected, counters.as_dict(), wall,
+                         S.full(integ.q), S.full_v(integ.v), opts, asm,
+                         float(min(h_used)) if h_used else float("nan"), float(max(h_used)) if h_used else float("nan"))
+
+
+ANALYSIS_KEYS = {"type", "integrator", "dt", "t_end", "t_start", "rho_inf", "alpha", "beta", "gamma", "stages",
+                 "adaptive", "tol", "dt_min", "dt_max", "output_every", "output_dt", "output_times", "newton",
+                 "sensors", "loads"}
+
+
+def options_from_dict(analysis: dict) -> DynamicOptions:
+    """DynamicOptions from a TOML [analysis] table of type "dynamics" (keys as the DynamicOptions fields)."""
+    if not isinstance(analysis, dict):
+        raise SceneError(f"analysis must be a table, got {analysis!r}")
+    if analysis.get("type", "dynamics") != "dynamics":
+        raise SceneError(f"analysis.type must be 'dynamics' here, got {analysis.get('type')!r}")
+    unknown = set(analysis) - ANALYSIS_KEYS
+    if unknown:
+        raise SceneError(f"analysis: unknown key(s) {sorted(unknown)}; known: {sorted(ANALYSIS_KEYS)}")
+    for k in ("dt", "t_end"):
+        if k not in analysis:
+            raise SceneError(f"analysis.{k} is required for dynamics")
+    kw = {k: v for k, v in analysis.items() if k != "type"}
+    return DynamicOptions(**kw)
+
+
+def run_dynamics(scene: Scene | Assembly, analysis: dict | DynamicOptions,
+                 progress: Callable[[float, float], Any] | None = None) -> DynamicResult:
+    """Run a dynamic analysis: `analysis` is the [analysis] table (type "dynamics") or DynamicOptions.
+
+    progress(t, t_end) is called at every output time. Bad input raises SceneError before any step."""
+    opts = analysis if isinstance(analysis, DynamicOptions) else options_from_dict(analysis)
+    return simulate(scene, opts, progress)

@@ -1,0 +1,881 @@
+"""Implicit time-step formulas and the Newton solver on the sparse KKT system of a scene.
+
+Equations of motion with exact constraints (index 3):
+
+    M a + C v + grad U(q) + J(q)^T lam = Q(t),    Phi(q) = 0
+
+U is the scene's total potential (strain energies, gravity, dead loads, penalty joints). Supports that fix single
+coordinates (pins, clamps of axis-aligned members) are eliminated: those coordinates never enter the unknowns.
+The remaining exact rows (hinges, rigid joints, skew clamps) carry Lagrange multipliers.
+
+One Newton iteration costs one call of a CasADi Function that evaluates every energy term through the mapped
+compiled kernels and assembles the residual (and, when asked, the KKT matrix values in a fixed CSC pattern) inside
+CasADi: no Python loop over elements and no numpy scatter. The sparse factorisation is scipy's SuperLU; modified
+Newton reuses it across iterations and steps while the iteration contracts.
+
+Newmark, HHT-alpha and generalized-alpha are one family here, in the form of Arnold & Bruels (2007) that Exudyn
+also uses: the equations hold at t_{n+1} exactly and an algorithmic acceleration abar carries the alpha
+weighting,
+
+    (1 - alpha_m) abar_{n+1} + alpha_m abar_n = (1 - alpha_f) a_{n+1} + alpha_f a_n
+    q_{n+1} = q_n + h v_n + h^2 (1/2 - beta) abar_n + h^2 beta abar_{n+1}
+    v_{n+1} = v_n + h (1 - gamma) abar_n + h gamma abar_{n+1}.
+
+Newmark is alpha_m = alpha_f = 0; HHT(alpha) is alpha_m = 0, alpha_f = -alpha, beta = (1 - alpha)^2 / 4,
+gamma = 1/2 - alpha (for linear systems identical to the classical HHT of paper 002; for nonlinear ones the forces
+are evaluated at t_{n+1} instead of averaged); generalized-alpha(rho_inf) is alpha_m = (2 rho - 1)/(rho + 1),
+alpha_f = rho/(rho + 1), gamma = 1/2 + alpha_f - alpha_m, beta = (gamma + 1/2)^2 / 4.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from .assembly import Assembly
+from .scene import SceneError
+
+ELASTIC_LABELS = ("axial", "bending", "torsion", "continuum")
+LINEAR_EFFECTS = ("gravity",)  # energy linear in q: constant force, no Hessian
+
+
+# -- schemes ---------------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Scheme:
+    """Coefficients of the generalized-alpha family (Arnold-Bruels form)."""
+    name: str
+    alpha_m: float
+    alpha_f: float
+    beta: float
+    gamma: float
+
+    @classmethod
+    def newmark(cls, beta: float = 0.25, gamma: float = 0.5) -> "Scheme":
+        if not (0 < beta <= 0.5 and 0 < gamma <= 1):
+            raise SceneError(f"newmark beta, gamma must lie in (0, 1/2] x (0, 1], got {beta!r}, {gamma!r}")
+        return cls("newmark", 0.0, 0.0, float(beta), float(gamma))
+
+    @classmethod
+    def hht(cls, alpha: float = -0.05) -> "Scheme":
+        a = float(alpha)
+        if not (math.isfinite(a) and -1.0 / 3.0 - 1e-12 <= a <= 0.0):
+            raise SceneError(f"hht alpha must lie in [-1/3, 0], got {alpha!r}")
+        return cls("hht", 0.0, -a, (1 - a) ** 2 / 4, 0.5 - a)
+
+    @classmethod
+    def generalized_alpha(cls, rho_inf: float = 0.9) -> "Scheme":
+        r = float(rho_inf)
+        if not (math.isfinite(r) and 0.0 <= r <= 1.0):
+            raise SceneError(f"rho_inf must lie in [0, 1], got {rho_inf!r}")
+        am, af = (2 * r - 1) / (r + 1), r / (r + 1)
+        g = 0.5 + af - am
+        return cls("generalized_alpha", am, af, 0.25 * (g + 0.5) ** 2, g)
+
+    def cm(self, h: float) -> float:
+        """d(M a_{n+1}) / d q_{n+1} = cm M."""
+        return (1 - self.alpha_m) / ((1 - self.alpha_f) * self.beta * h * h)
+
+    def cc(self, h: float) -> float:
+        """d v_{n+1} / d q_{n+1} = cc I."""
+        return self.gamma / (self.beta * h)
+
+    def error_constant(self) -> float:
+        """Local displacement error ~ |beta - 1/6| h^2 |a_{n+1} - a_n| (Zienkiewicz & Xie)."""
+        return abs(self.beta - 1.0 / 6.0)
+
+
+# -- the compiled step system ------------------------------------------------------------------------------------
+
+def _dm(A: sp.spmatrix) -> ca.DM:
+    A = sp.csc_matrix(A)
+    A.sort_indices()
+    return ca.DM(ca.Sparsity(A.shape[0], A.shape[1], A.indptr.tolist(), A.indices.tolist()), A.data.tolist())
+
+
+def _mx_sparse_nz(A: ca.MX) -> ca.MX:
+    """Nonzeros of a sparse MX as a column (no copy of the structure)."""
+    return ca.sparsity_cast(A, ca.Sparsity.dense(A.nnz(), 1))
+
+
+@dataclass
+class Partition:
+    """Unknowns of the dynamics: x_full = E y + c.
+
+    Exact rows 'x_i = d' fix coordinates (eliminated); rows 'x_i - x_j = d' (hinges, coincident joints)
+    identify coordinates (one unknown for the group); the remaining exact rows keep Lagrange multipliers."""
+    E: sp.csc_matrix  # (n, ny) 0/1 map from unknowns to coordinates
+    c: np.ndarray  # (n,) fixed values and identification offsets
+    roots: np.ndarray  # (ny,) the coordinate that represents each unknown
+    pos: np.ndarray  # (n,) unknown of each coordinate, -1 if fixed
+    rows: np.ndarray  # exact rows kept with multipliers (indices into asm.exact)
+    fixed: np.ndarray  # fixed coordinates
+    n_identified: int  # coordinates merged into another one
+
+    @property
+    def ny(self) -> int:
+        return len(self.roots)
+
+
+def partition(asm: Assembly) -> Partition:
+    ex = asm.exact
+    n = asm.n
+    A = ex.A.tocsr()
+    nnz_row = np.diff(A.indptr)
+    has_quad = np.zeros(ex.m, bool)
+    has_quad[ex.qrow] = True
+    parent = np.arange(n)
+    off = np.zeros(n)  # x_k = x_parent + off_k
+
+    def find(k):
+        path = []
+        while parent[k] != k:
+            path.append(k)
+            k = parent[k]
+        root, acc = k, 0.0
+        for node in reversed(path):  # compress, accumulating offsets from the root down
+            acc += off[node]
+            off[node] = acc
+            parent[node] = root
+        return root
+
+    def value(k):
+        r = find(k)
+        return r, (off[k] if k != r else 0.0)
+
+    keep_rows = []
+    tol = lambda v: 1e-12 * (1.0 + abs(v))
+    # identifications x_i - x_j = d first, then fixes
+    ident = [r for r in range(ex.m) if nnz_row[r] == 2 and not has_quad[r]
+             and abs(A.data[A.indptr[r]] + A.data[A.indptr[r] + 1]) <= 1e-14 * abs(A.data[A.indptr[r]])]
+    for r in ident:
+        (i, j), (ai, _) = A.indices[A.indptr[r]:A.indptr[r + 1]], A.data[A.indptr[r]:A.indptr[r + 1]]
+        d = ex.d[r] / ai  # x_i - x_j = d
+        ri, oi = value(int(i))
+        rj, oj = value(int(j))
+        if ri == rj:
+            if abs(oi - oj - d) > tol(d):
+                keep_rows.append(r)  # inconsistent cycle: leave it to a multiplier (the scene is then infeasible)
+            continue
+        parent[rj] = ri
+        off[rj] = oi - d - oj
+    fixed_val: dict[int, float] = {}
+    for r in range(ex.m):
+        if nnz_row[r] == 1 and not has_quad[r]:
+            c = int(A.indices[A.indptr[r]])
+            v = float(ex.d[r] / A.data[A.indptr[r]])
+            root, o = value(c)
+            rv = v - o
+            if root in fixed_val and abs(fixed_val[root] - rv) > tol(rv):
+                raise SceneError(f"constraint {ex.labels[r]!r} fixes coordinate {c} to {v!r}, which other supports "
+                                 f"or joints fix to {fixed_val[root] + o!r}")
+            fixed_val[root] = rv
+        elif r not in ident:
+            keep_rows.append(r)
+    roots_all = np.array([find(k) for k in range(n)])
+    offs = np.array([off[k] if roots_all[k] != k else 0.0 for k in range(n)])
+    is_fixed = np.array([roots_all[k] in fixed_val for k in range(n)])
+    c = offs.copy()
+    for k in np.flatnonzero(is_fixed):
+        c[k] += fixed_val[roots_all[k]]
+    free_roots = np.unique(roots_all[~is_fixed])
+    ymap = -np.ones(n, dtype=np.int64)
+    ymap[free_roots] = np.arange(len(free_roots))
+    pos = np.where(is_fixed, -1, ymap[roots_all])
+    rows_e = np.flatnonzero(pos >= 0)
+    E = sp.csc_matrix((np.ones(len(rows_e)), (rows_e, pos[rows_e])), shape=(n, len(free_roots)))
+    keep = np.array(sorted(set(keep_rows)), dtype=np.int64)
+    # rows whose coordinates are all fixed are redundant once the coordinates are eliminated
+    if len(keep):
+        touch = []
+        for r in keep:
+            cols = A.indices[A.indptr[r]:A.indptr[r + 1]]
+            qc = np.r_[ex.qi[ex.qrow == r], ex.qj[ex.qrow == r]]
+            touch.append(bool(np.any(pos[np.r_[cols, qc].astype(np.int64)] >= 0)))
+        keep = keep[np.array(touch, bool)]
+    return Partition(E, c, free_roots, pos, keep, np.flatnonzero(is_fixed), int(np.sum(~is_fixed) - len(free_roots)))
+
+
+@dataclass
+class RayleighData:
+    alpha: float  # mass-proportional [1/s]
+    beta: float  # stiffness-proportional [s], on the current elastic tangent
+    element_weight: dict  # term index -> per-element factor (members the damping applies to)
+
+
+class StepSystem:
+    """A scene's equations of motion on its free coordinates, as compiled CasADi Functions.
+
+    forces(x) -> (g, K[, kel]): gradient and Hessian of the potential (nonlinear terms and penalty joints; the
+    constant forces of linear terms such as gravity are in f_lin), and the elastic tangent values for Rayleigh
+    stiffness damping. Every term is one mapped compiled kernel call; assembly by constant sparse matrices.
+
+    For a step with unknown x = q_{n+1} (and scaled multipliers lam, lam_true = kc lam):
+        r = [cm M x + cc C x + g(x) + kc J^T lam + p ; kc Phi(x)]
+        KKT = [[cm M + cc C + K(x) + H_Phi(kc lam), kc J^T], [kc J, 0]]
+    p collects what is constant within a step. C = alpha M + beta K_el(q_n) with K_el(q_n) passed as `kel`.
+    `iterate` does a whole full-Newton iteration (residual, KKT, sparse LDL^T factorisation, solve) in one call;
+    `residual` and `jacobian` serve modified Newton with a factorisation kept in Python.
+    """
+
+    def __init__(self, asm: Assembly, rayleigh: RayleighData | None = None, linsol: str = "auto"):
+        self.asm = asm
+        self.linsol_choice = linsol
+        self.part = part = partition(asm)
+        n = asm.n
+        nf = part.ny
+        self.nf = nf
+        self.pos = part.pos
+        self.E = part.E
+        self.cons = asm.exact.subset(part.rows) if len(part.rows) else None
+        self.mc = self.cons.m if self.cons is not None else 0
+        self.rayleigh = rayleigh if (rayleigh is not None and (rayleigh.alpha or rayleigh.beta)) else None
+        # sparse LDL^T without pivoting for the positive definite step matrix; sparse QR when multipliers make
+        # the KKT matrix indefinite (LDL^T meets zero pivots there)
+        self.linsol = linsol if linsol != "auto" else ("qr" if self.mc else "ldl")
+
+        M = asm.mass_matrix().tocsc()
+        self.M_full = M
+        self.M = (part.E.T @ M @ part.E).tocsc()
+        self.M.sort_indices()
+
+        # linear terms: constant generalized force (gravity, distributed dead loads, point loads)
+        lin = [mk for mk in asm.mapped if mk.term.effect in LINEAR_EFFECTS]
+        self.nonlinear = [mk for mk in asm.mapped if mk.term.effect not in LINEAR_EFFECTS]
+        f_lin = asm.Q.copy()
+        self._lin_energy = []
+        for mk in lin:
+            mk(asm.x0)
+            G = mk.G.ravel().copy()
+            f_lin -= np.bincount(mk.term.idx.ravel(), G, minlength=n)
+            # U_lin(x) = c + G.x (gradient constant)
+            self._lin_energy.append((mk.term.idx.ravel().copy(), G, float(mk.E.sum()) - float(G @ asm.x0[mk.term.idx.ravel()]),
+                                     mk.term.label))
+        self.f_lin_full = f_lin
+        self.f_lin = part.E.T @ f_lin
+        self.length_scale = max(float(mm.member.length) for mm in asm.mesh.members.values())
+        self.span = float(np.max(np.abs(asm.x0))) + 1.0
+        self._build_forces()
+        self._build_step()
+
+    # -- symbolic assembly (once per scene) -------------------------------------------------------------------
+    def x_full_mx(self, xf: ca.MX) -> ca.MX:
+        return ca.mtimes(_dm(self.E), xf) + ca.DM(self.part.c)
+
+    def _build_forces(self) -> None:
+        asm, nf, pos = self.asm, self.nf, self.pos
+        xf = ca.MX.sym("x", nf)
+        x = self.x_full_mx(xf)
+        g = ca.MX.zeros(nf)
+        hvals, rows, cols, energies = [], [], [], []
+        kel_vals, kel_rows, kel_cols = [], [], []
+        for ti, mk in enumerate(self.nonlinear):
+            t = mk.term
+            Xe = ca.reshape(x[t.idx.ravel().tolist()], mk.nd, mk.N)
+            e_, G, H = mk.f(Xe, ca.DM(mk.P.T))
+            energies.append((t.label, ca.sum2(e_)))
+            gi = pos[t.idx.ravel()]
+            keep = np.flatnonzero(gi >= 0)
+            Ag = sp.coo_matrix((np.ones(len(keep)), (gi[keep], keep)), shape=(nf, mk.N * mk.nd))
+            g += ca.mtimes(_dm(Ag), ca.vec(G))
+            # H is nd x (nd N); its column-major vec holds entry e nd^2 + a nd + b = (idx[e, b], idx[e, a])
+            ia = np.broadcast_to(t.idx[:, :, None], (mk.N, mk.nd, mk.nd)).ravel()
+            ib = np.broadcast_to(t.idx[:, None, :], (mk.N, mk.nd, mk.nd)).ravel()
+            ra, rb = pos[ia], pos[ib]
+            keep = np.flatnonzero((ra >= 0) & (rb >= 0))
+            hv = ca.vec(H)
+            hv = hv[keep.tolist()] if len(keep) < hv.shape[0] else hv
+            hvals.append(hv)
+            rows.append(rb[keep])
+            cols.append(ra[keep])
+            if self.rayleigh is not None and self.rayleigh.beta and t.label in ELASTIC_LABELS:
+                w = self.rayleigh.element_weight.get(ti)
+                if w is not None and np.any(w):
+                    we = np.repeat(np.asarray(w, float), mk.nd * mk.nd)[keep]
+                    kel_vals.append(hv * ca.DM(we))
+                    kel_rows.append(rb[keep])
+                    kel_cols.append(ra[keep])
+
+        K = ca.MX(nf, nf)
+        if rows:
+            K = self._scatter(hvals, np.concatenate(rows), np.concatenate(cols))
+        self.kel_sparsity = None
+        outs = [g, K]
+        if kel_vals:
+            Kel = self._scatter(kel_vals, np.concatenate(kel_rows), np.concatenate(kel_cols))
+            self.kel_sparsity = Kel.sparsity()
+            outs.append(_mx_sparse_nz(Kel))
+        if asm.penalty is not None:
+            pc = asm.penalty
+            c = asm._casadi_constraint(pc, x)
+            pen = 0.5 * ca.sum1(ca.DM(pc.k) * c * c)
+            outs[0] = outs[0] + ca.gradient(pen, xf)
+            outs[1] = outs[1] + ca.hessian(pen, xf)[0]
+            energies.append(("penalty", pen))
+        self.forces_f = ca.Function("forces", [xf], outs, ["x"], ["g", "K"] + (["kel"] if kel_vals else []))
+        self.energy_labels = [lbl for lbl, _ in energies]
+        self.energy_f = ca.Function("energies", [xf], [ca.vertcat(*[e for _, e in energies]) if energies
+                                                       else ca.MX(0, 1)])
+
+    def _scatter(self, vals: list, r: np.ndarray, c: np.ndarray) -> ca.MX:
+        """Sparse nf x nf MX summing the value vectors `vals` at (r, c)."""
+        nf = self.nf
+        key = c.astype(np.int64) * nf + r
+        uniq, inv = np.unique(key, return_inverse=True)
+        cols, rws = uniq // nf, uniq % nf
+        indptr = np.zeros(nf + 1, dtype=np.int64)
+        np.add.at(indptr, cols + 1, 1)
+        spK = ca.Sparsity(nf, nf, np.cumsum(indptr).tolist(), rws.tolist())
+        A = sp.coo_matrix((np.ones(len(inv)), (inv, np.arange(len(inv)))), shape=(len(uniq), len(inv)))
+        return ca.MX(spK, ca.mtimes(_dm(A), ca.vertcat(*vals)))
+
+    def constraint_mx(self, xf: ca.MX) -> ca.MX:
+        return Assembly._casadi_constraint(self.cons, self.x_full_mx(xf))
+
+    def damping_mx(self, xf_or_v: ca.MX, kel: ca.MX | None) -> tuple[ca.MX, ca.MX]:
+        """(C v, C) as MX for C = alpha M + beta K_el (kel: its values, or None)."""
+        nf = self.nf
+        Cv, C = ca.MX.zeros(nf), ca.MX(nf, nf)
+        if self.rayleigh is None:
+            return Cv, C
+        Mdm = _dm(self.M)
+        if self.rayleigh.alpha:
+            Cv += self.rayleigh.alpha * ca.mtimes(Mdm, xf_or_v)
+            C = C + self.rayleigh.alpha * Mdm
+        if kel is not None:
+            Kel = ca.MX(self.kel_sparsity, kel)
+            Cv += self.rayleigh.beta * ca.mtimes(Kel, xf_or_v)
+            C = C + self.rayleigh.beta * Kel
+        return Cv, C
+
+    def _build_step(self) -> None:
+        nf, mc = self.nf, self.mc
+        xf, lam, p = ca.MX.sym("x", nf), ca.MX.sym("lam", mc), ca.MX.sym("p", nf)
+        cm, cc, kc = ca.MX.sym("cm"), ca.MX.sym("cc"), ca.MX.sym("kc")
+        kel = ca.MX.sym("kel", self.kel_sparsity.nnz()) if self.kel_sparsity is not None else None
+        out = self.forces_f(xf)
+        g, K = out[0], out[1]
+        Mdm = _dm(self.M)
+        Cx, C = self.damping_mx(xf, kel)
+        r_q = cm * ca.mtimes(Mdm, xf) + cc * Cx + g + p
+        S = cm * Mdm + cc * C + K
+        if mc:
+            phi = self.constraint_mx(xf)
+            Jx = ca.jacobian(phi, xf)
+            r_q += kc * ca.mtimes(Jx.T, lam)
+            if len(self.cons.qrow):
+                S = S + ca.hessian(ca.dot(kc * lam, phi), xf)[0]
+            r = ca.vertcat(r_q, kc * phi)
+            KKT = ca.blockcat([[S, kc * Jx.T], [kc * Jx, ca.MX(mc, mc)]])
+            rc = ca.mmax(ca.fabs(phi))
+        else:
+            r, KKT, rc = r_q, S, ca.MX(0)
+        rq = ca.mmax(ca.fabs(r_q))
+        ins = [xf, lam, p, cm, cc, kc] + ([kel] if kel is not None else [])
+        names = ["x", "lam", "p", "cm", "cc", "kc"] + (["kel"] if kel is not None else [])
+        self.kkt_sparsity = KKT.sparsity()
+        kkt_nz = _mx_sparse_nz(KKT)
+        kmax = ca.mmax(ca.fabs(kkt_nz))
+        dz = -ca.solve(KKT, r, self.linsol)
+        dzx = ca.mmax(ca.fabs(dz[:nf]))
+        dzl = ca.mmax(ca.fabs(dz[nf:])) if mc else ca.MX(0)
+        # norms: |r_q|inf [N], |Phi|inf [m], |dx|inf, |dlam|inf (scaled: m), max |KKT|
+        self.iter_f = ca.Function("newton_iteration", ins, [dz, ca.vertcat(rq, rc, dzx, dzl, kmax)], names,
+                                  ["dz", "norms"])
+        self.res_f = ca.Function("step_residual", ins, [r, ca.vertcat(rq, rc)], names, ["r", "norms"])
+        self.jac_f = ca.Function("step_jacobian", ins, [r, ca.vertcat(rq, rc, kmax), kkt_nz], names,
+                                 ["r", "norms", "kkt"])
+        self._setup_buffers(kel is not None)
+
+    def _setup_buffers(self, has_kel: bool) -> None:
+        nf, mc = self.nf, self.mc
+        self.nz = nf + mc
+        self.x, self.lam, self.p = np.zeros(nf), np.zeros(mc), np.zeros(nf)
+        self.cm, self.cc, self.kc = np.zeros(1), np.zeros(1), np.ones(1)
+        self.kel = np.zeros(self.kel_sparsity.nnz()) if has_kel else None
+        self.r, self.dz = np.zeros(self.nz), np.zeros(self.nz)
+        self.norms = np.zeros(5)
+        self._jac_norms = np.zeros(3)
+        self.floor = 0.0
+        spk = self.kkt_sparsity
+        self.kkt = sp.csc_matrix((np.zeros(spk.nnz()), np.array(spk.row(), dtype=np.int32),
+                                  np.array(spk.colind(), dtype=np.int32)), shape=(self.nz, self.nz))
+        args = [self.x, self.lam, self.p, self.cm, self.cc, self.kc] + ([self.kel] if has_kel else [])
+        self._bufs = []
+        for f, outs in ((self.iter_f, (self.dz, self.norms)), (self.res_f, (self.r, self.norms[:2])),
+                        (self.jac_f, (self.r, self._jac_norms, self.kkt.data))):
+            buf, ev = f.buffer()
+            for i, a in enumerate(args):
+                buf.set_arg(i, memoryview(a))
+            for i, a in enumerate(outs):
+                buf.set_res(i, memoryview(a))
+            self._bufs.append((buf, ev, args, outs))  # the buffer object must outlive its evaluations
+        self._iter_eval, self._res_eval, self._jac_eval = (b[1] for b in self._bufs)
+
+    # -- numeric calls ------------------------------------------------------------------------------------------
+    def iterate(self) -> np.ndarray:
+        """One full Newton iteration at the current buffers: self.dz (not applied) and self.norms."""
+        self._iter_eval()
+        self.floor = float(np.finfo(float).eps * self.norms[4] * self.span)
+        return self.dz
+
+    def residual(self) -> np.ndarray:
+        """r at the current buffers, written into self.r; norms[:2]."""
+        self._res_eval()
+        return self.r
+
+    def jacobian(self) -> sp.csc_matrix:
+        """r and the KKT values at the current buffers (self.r, self.kkt in place); updates the round-off floor
+        of the residual, eps x largest matrix entry x coordinate span (as statics._roundoff_floor)."""
+        self._jac_eval()
+        self.norms[:2] = self._jac_norms[:2]
+        self.norms[4] = self._jac_norms[2]
+        self.floor = float(np.finfo(float).eps * self._jac_norms[2] * self.span)
+        return self.kkt
+
+    def full(self, xf: np.ndarray) -> np.ndarray:
+        """Coordinates of the scene from the unknowns."""
+        return self.E @ xf + self.part.c
+
+    def full_v(self, vf: np.ndarray) -> np.ndarray:
+        return self.E @ vf
+
+    def reduce(self, x_full: np.ndarray) -> np.ndarray:
+        """Unknowns from scene coordinates (that satisfy the eliminated constraints)."""
+        return np.asarray(x_full)[self.part.roots].copy()
+
+    def reduce_force(self, f_full: np.ndarray) -> np.ndarray:
+        """Generalized force on the unknowns (E^T f)."""
+        return self.E.T @ f_full
+
+    def forces(self, xf: np.ndarray) -> tuple[np.ndarray, sp.csc_matrix, np.ndarray | None]:
+        """(gradient of the nonlinear potential, its Hessian, K_el values or None) at free coordinates xf."""
+        out = self.forces_f(xf)
+        g = np.asarray(out[0]).ravel()
+        K = out[1].sparse() if hasattr(out[1], "sparse") else sp.csc_matrix(np.asarray(out[1]))
+        kel = np.asarray(out[2]).ravel() if len(out) > 2 else None
+        return g, sp.csc_matrix(K), kel
+
+    def potential(self, xf: np.ndarray) -> dict:
+        """Energies by label at free coordinates xf (nonlinear terms, penalty and linear terms) [J]."""
+        out: dict[str, float] = {}
+        vals = np.asarray(self.energy_f(xf)).ravel()
+        for label, v in zip(self.energy_labels, vals):
+            out[label] = out.get(label, 0.0) + float(v)
+        x = self.full(xf)
+        for idx, G, c, label in self._lin_energy:
+            out[label] = out.get(label, 0.0) + c + float(G @ x[idx])
+        if np.any(self.asm.Q):
+            out["loads"] = out.get("loads", 0.0) - float(self.asm.Q @ x)
+        return out
+
+    def phi(self, xf: np.ndarray) -> np.ndarray:
+        return self.cons.value(self.full(xf)) if self.mc else np.zeros(0)
+
+    def jac_phi(self, xf: np.ndarray) -> sp.csr_matrix:
+        return (self.cons.jacobian(self.full(xf)) @ self.E).tocsr()
+
+    def phi_vv(self, vf: np.ndarray) -> np.ndarray:
+        """v^T Phi_qq v of the bilinear rows: the acceleration-level constraint is J a + phi_vv = 0."""
+        if not self.mc or not len(self.cons.qrow):
+            return np.zeros(self.mc)
+        v = self.full_v(vf)
+        c = self.cons
+        return np.bincount(c.qrow, 2 * c.qcoef * v[c.qi] * v[c.qj], minlength=self.mc)
+
+    def damping_matrix(self, kel: np.ndarray | None) -> sp.csc_matrix | None:
+        if self.rayleigh is None:
+            return None
+        C = self.rayleigh.alpha * self.M
+        if kel is not None and self.kel_sparsity is not None:
+            spk = self.kel_sparsity
+            C = C + self.rayleigh.beta * sp.csc_matrix((kel, np.array(spk.row()), np.array(spk.colind())),
+                                                       shape=(self.nf, self.nf))
+        return sp.csc_matrix(C)
+
+    def stiffness_scale(self) -> float:
+        """Largest diagonal entry of M (for the multiplier scale kc = cm * this)."""
+        return float(self.M.diagonal().max()) if self.nf else 1.0
+
+
+# -- Newton ------------------------------------------------------------------------------------------------------
+
+@dataclass
+class NewtonOptions:
+    """Newton on the exact tangent. A step converges when the residual is below tol x force scale (never below
+    twice the round-off floor) and the constraints below xtol x length scale, or when the estimated error of the
+    last update, theta/(1 - theta) |dz| with theta the contraction of successive updates, is below xtol x length
+    scale (saves the residual evaluation that would only confirm convergence)."""
+    tol: float = 1e-8  # residual, relative to the scene's force scale
+    xtol: float = 1e-10  # updates and constraints, relative to the scene's length scale
+    max_iter: int = 12
+    modified: bool = False  # keep the factorisation while the iteration contracts (scipy SuperLU)
+    contraction: float = 0.5  # modified Newton: refresh when |r_k+1| > contraction |r_k|
+    max_modified: int = 8  # modified Newton: at most this many iterations on one factorisation within a step
+
+    def __post_init__(self):
+        for name in ("tol", "xtol", "contraction"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+                raise SceneError(f"newton.{name} must be a positive finite number, got {v!r}")
+        for name in ("max_iter", "max_modified"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+                raise SceneError(f"newton.{name} must be a positive integer, got {v!r}")
+        if not isinstance(self.modified, bool):
+            raise SceneError(f"newton.modified must be true or false, got {self.modified!r}")
+
+
+@dataclass
+class Counters:
+    newton_iterations: int = 0  # updates applied (linear solves)
+    residuals: int = 0  # residual evaluations (each one mapped kernel call per energy term)
+    jacobians: int = 0  # KKT matrix assemblies
+    factorizations: int = 0
+
+    def as_dict(self) -> dict:
+        return dict(self.__dict__)
+
+
+class Factor:
+    """Modified Newton: a SuperLU factorisation of the KKT matrix, remembered with the step coefficients."""
+
+    def __init__(self):
+        self.lu = None
+        self.key = None
+
+    def factorize(self, A: sp.csc_matrix, key, counters: Counters) -> bool:
+        try:
+            self.lu = spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.1,
+                                options={"SymmetricMode": True})
+        except RuntimeError:  # exactly singular
+            self.lu, self.key = None, None
+            return False
+        self.key = key
+        counters.factorizations += 1
+        return True
+
+
+@dataclass
+class NewtonOutcome:
+    converged: bool
+    iterations: int
+    reason: str = ""
+    residual: float = float("nan")
+
+
+def newton(system: StepSystem, factor: Factor, key, opts: NewtonOptions, counters: Counters,
+           tol_q: float, tol_x: float) -> NewtonOutcome:
+    """Solve r(x, lam) = 0 from the buffers' current x, lam (updated in place).
+
+    tol_q: force tolerance on the free rows [N]; tol_x: tolerance on updates and constraint rows [m].
+    `key` identifies the step coefficients of a modified-Newton factorisation (refreshed when it differs).
+    """
+    if opts.modified:
+        return _newton_modified(system, factor, key, opts, counters, tol_q, tol_x)
+    nf = system.nf
+    norms = system.norms
+    it = 0
+    d_prev = None
+    while True:
+        system.iterate()
+        counters.residuals += 1
+        counters.jacobians += 1
+        counters.factorizations += 1
+        rq, rc, dzx, dzl = norms[0], norms[1], norms[2], norms[3]
+        if not (math.isfinite(rq) and math.isfinite(rc)):
+            return NewtonOutcome(False, it, "residual not finite")
+        tq = max(tol_q, 2.0 * system.floor)
+        if rq <= tq and rc <= tol_x:
+            return NewtonOutcome(True, it, "", rq)
+        d = max(dzx, dzl)
+        if not math.isfinite(d):
+            return NewtonOutcome(False, it, "singular iteration matrix (update not finite)", rq)
+        if it >= opts.max_iter:
+            return NewtonOutcome(False, it, f"no convergence in {opts.max_iter} iterations (residual {rq:.3g} N, "
+                                            f"constraint {rc:.3g} m; tolerances {tq:.3g} N, {tol_x:.3g} m)", rq)
+        system.x += system.dz[:nf]
+        if system.mc:
+            system.lam += system.dz[nf:]
+        it += 1
+        counters.newton_iterations += 1
+        if d <= 0.1 * tol_x and rc <= tol_x:
+            return NewtonOutcome(True, it, "", rq)
+        if d_prev is not None:
+            theta = d / d_prev
+            if theta < 0.5 and theta / (1 - theta) * d <= tol_x:
+                return NewtonOutcome(True, it, "", rq)
+            if d > 1e6 * d_prev:
+                return NewtonOutcome(False, it, f"diverging (update {d:.3g}, residual {rq:.3g} N)", rq)
+        d_prev = d
+
+
+def _newton_modified(system, factor, key, opts, counters, tol_q, tol_x) -> NewtonOutcome:
+    nf, mc = system.nf, system.mc
+    norms = system.norms
+    stale = factor.lu is None or factor.key != key
+    if stale:
+        system.jacobian()
+        counters.jacobians += 1
+    else:
+        system.residual()
+    counters.residuals += 1
+    fresh = stale  # system.kkt holds the Jacobian at the current iterate
+    it, on_factor = 0, 0
+    s_prev, d_prev = None, None
+    r = system.r
+    while True:
+        rq, rc = norms[0], norms[1]
+        if not (math.isfinite(rq) and math.isfinite(rc)):
+            return NewtonOutcome(False, it, "residual not finite")
+        tq = max(tol_q, 2.0 * system.floor)
+        s = max(rq / tq, rc / tol_x)
+        if s <= 1.0:
+            return NewtonOutcome(True, it, "", rq)
+        if it >= opts.max_iter:
+            return NewtonOutcome(False, it, f"no convergence in {opts.max_iter} iterations (residual {rq:.3g} N, "
+                                            f"constraint {rc:.3g} m; tolerances {tq:.3g} N, {tol_x:.3g} m)", rq)
+        refresh = factor.lu is None or factor.key != key
+        if s_prev is not None and (s > opts.contraction * s_prev or on_factor >= opts.max_modified):
+            refresh = True
+        if refresh:
+            if not fresh:
+                system.jacobian()
+                counters.jacobians += 1
+                counters.residuals += 1
+                fresh = True
+            if not factor.factorize(system.kkt, key, counters):
+                return NewtonOutcome(False, it, "singular iteration matrix", rq)
+            on_factor = 0
+            d_prev = None
+        dz = factor.lu.solve(-r)
+        d = float(np.max(np.abs(dz))) if len(dz) else 0.0
+        if not math.isfinite(d):
+            return NewtonOutcome(False, it, "update not finite", rq)
+        it += 1
+        on_factor += 1
+        counters.newton_iterations += 1
+        system.x += dz[:nf]
+        if mc:
+            system.lam += dz[nf:]
+        if d_prev is not None:
+            theta = d / d_prev
+            if theta < 0.5 and theta / (1 - theta) * d <= tol_x and rc <= tol_x:
+                return NewtonOutcome(True, it, "", rq)
+        d_prev = d
+        s_prev = s
+        system.residual()
+        counters.residuals += 1
+        fresh = False
+        r = system.r
+
+
+# -- integrators -------------------------------------------------------------------------------------------------
+
+@dataclass
+class StepOutcome:
+    converged: bool
+    iterations: int
+    reason: str = ""
+    fast: bool = False  # converged within the fused two-iteration call
+
+
+class AlphaIntegrator:
+    """Newmark / HHT / generalized-alpha on a StepSystem (Arnold-Bruels form, index-3 constraints).
+
+    The common step is one compiled call: predictor, two full Newton iterations (each one kernel pass, KKT
+    assembly and sparse LDL^T solve) and corrector. It is accepted when the second update is below the
+    tolerance in the sense of the contraction estimate (or the residual after the first update already is);
+    otherwise Newton continues from there in Python (`newton`). Modified Newton runs entirely in Python with a
+    SuperLU factorisation reused across iterations and steps.
+    State: q, v (true velocity), a (true acceleration), ab (algorithmic acceleration), lam (true multipliers).
+    """
+    order = 2  # of the local displacement error estimate's method (step-size control exponent 1/(order+1))
+
+    def __init__(self, system: StepSystem, scheme: Scheme, newton_opts: NewtonOptions, tol_q: float,
+                 tol_x: float, counters: Counters):
+        self.S, self.scheme, self.opts = system, scheme, newton_opts
+        self.tol_q, self.tol_x = tol_q, tol_x
+        self.counters = counters
+        self.factor = Factor()
+        nf, mc = system.nf, system.mc
+        self.q, self.v, self.a, self.ab = (np.zeros(nf) for _ in range(4))
+        self.lam = np.zeros(mc)
+        self.kel = system.kel if system.kel is not None else None
+        self._kel_f = None
+        if system.kel_sparsity is not None:
+            xf = ca.MX.sym("x", nf)
+            self._kel_f = ca.Function("kel", [xf], [self.S.forces_f(xf)[2]])
+        self._build_fused()
+
+    # -- compiled step ---------------------------------------------------------------------------------------
+    def _build_fused(self) -> None:
+        S, sc = self.S, self.scheme
+        nf, mc = S.nf, S.mc
+        q, v, a, ab = (ca.MX.sym(n, nf) for n in ("q", "v", "a", "ab"))
+        lam = ca.MX.sym("lam", mc)
+        h, kc = ca.MX.sym("h"), ca.MX.sym("kc")
+        pload = ca.MX.sym("pload", nf)  # -(f_lin + Q(t_{n+1}))
+        kel = ca.MX.sym("kel", S.kel.size) if S.kel is not None else None
+        b, g, am, af = sc.beta, sc.gamma, sc.alpha_m, sc.alpha_f
+        qh = q + h * v + h * h * (0.5 - b) * ab
+        vh = v + h * (1 - g) * ab
+        cm = (1 - am) / ((1 - af) * b * h * h)
+        cc = g / (b * h)
+        Mdm = _dm(S.M)
+        Cvh, _ = S.damping_mx(vh - cc * qh, kel)
+        p = ca.mtimes(Mdm, (am * ab - af * a) / (1 - af) - cm * qh) + Cvh + pload
+        x = qh + b * h * h * (a - am * ab) / (1 - am)
+        l = lam
+        norms = []
+        for _ in range(2):
+            args = [x, l, p, cm, cc, kc] + ([kel] if kel is not None else [])
+            dz, nrm = S.iter_f(*args)
+            x = x + dz[:nf]
+            if mc:
+                l = l + dz[nf:]
+            norms.append(nrm)
+        ab1 = (x - qh) / (b * h * h)
+        a1 = ((1 - am) * ab1 + am * ab - af * a) / (1 - af)
+        v1 = vh + h * g * ab1
+        ins = [q, v, a, ab, lam, h, kc, pload] + ([kel] if kel is not None else [])
+        self.fused_f = ca.Function("alpha_step", ins, [x, l, v1, a1, ab1, ca.vertcat(*norms), p])
+        # buffers
+        self._in = dict(q=self.q, v=self.v, a=self.a, ab=self.ab, lam=np.zeros(mc), h=np.zeros(1), kc=np.ones(1),
+                        pload=np.zeros(nf))
+        args = [self._in[k] for k in ("q", "v", "a", "ab", "lam", "h", "kc", "pload")]
+        if kel is not None:
+            args.append(S.kel)
+        self.new = dict(q=np.zeros(nf), lam=np.zeros(mc), v=np.zeros(nf), a=np.zeros(nf), ab=np.zeros(nf))
+        self._fnorms = np.zeros(10)
+        self._p = np.zeros(nf)
+        outs = [self.new[k] for k in ("q", "lam", "v", "a", "ab")] + [self._fnorms, self._p]
+        buf, ev = self.fused_f.buffer()
+        for i, arr in enumerate(args):
+            buf.set_arg(i, memoryview(arr))
+        for i, arr in enumerate(outs):
+            buf.set_res(i, memoryview(arr))
+        self._fused = (buf, ev, args, outs)
+
+    # -- state --------------------------------------------------------------------------------------------------
+    def initialize(self, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray) -> None:
+        """Consistent initial acceleration and multipliers: [M J^T; J 0][a; lam] = [f - C v - g; -phi_vv]."""
+        S = self.S
+        self.q[:] = q0
+        self.v[:] = v0
+        self.update_damping()
+        g = S.forces(q0)[0]
+        f = S.f_lin + Q0 - g
+        C = S.damping_matrix(self.kel)
+        if C is not None:
+            f = f - C @ v0
+        if S.mc:
+            J = S.jac_phi(q0)
+            A = sp.bmat([[S.M, J.T], [J, None]], format="csc")
+            z = spla.spsolve(A, np.r_[f, -S.phi_vv(v0)])
+            self.a[:] = z[:S.nf]
+            self.lam[:] = z[S.nf:]
+        else:
+            self.a[:] = spla.spsolve(S.M, f) if S.nf else 0.0
+        self.ab[:] = self.a
+
+    def update_damping(self) -> None:
+        """Rayleigh stiffness damping uses the elastic tangent at the start of the step."""
+        if self._kel_f is not None:
+            self.S.kel[:] = np.asarray(self._kel_f(self.q)).ravel()
+            self.counters.residuals += 1
+
+    def damping_matrix(self):
+        return self.S.damping_matrix(self.S.kel)
+
+    # -- one step -----------------------------------------------------------------------------------------------
+    def attempt(self, h: float, Q_new: np.ndarray | None) -> StepOutcome:
+        """Try the step of size h (Q_new: time-dependent generalized force at t_{n+1}, free rows, or None).
+        The candidate is in self.new; accept() commits it."""
+        S, sc = self.S, self.scheme
+        kc = sc.cm(h) * S.stiffness_scale()
+        pload = -S.f_lin if Q_new is None else -(S.f_lin + Q_new)
+        if not self.opts.modified:
+            self._in["h"][0] = h
+            self._in["kc"][0] = kc
+            self._in["pload"][:] = pload
+            if S.mc:
+                self._in["lam"][:] = self.lam / kc
+            self._fused[1]()
+            c = self.counters
+            c.residuals += 2
+            c.jacobians += 2
+            c.factorizations += 2
+            c.newton_iterations += 2
+            n0, n1 = self._fnorms[:5], self._fnorms[5:]
+            if np.all(np.isfinite(self._fnorms)):
+                S.floor = float(np.finfo(float).eps * max(n0[4], n1[4]) * S.span)
+                tq = max(self.tol_q, 2.0 * S.floor)
+                d0, d1 = max(n0[2], n0[3]), max(n1[2], n1[3])
+                ok = (n1[0] <= tq and n1[1] <= self.tol_x) or d1 <= 0.1 * self.tol_x
+                if not ok and d0 > 0:
+                    th = d1 / d0
+                    ok = th < 0.5 and th / (1 - th) * d1 <= self.tol_x
+                if ok:
+                    if S.mc:
+                        self.new["lam"] *= kc
+                    return StepOutcome(True, 2, "", True)
+                # continue from the fused call's iterate
+                S.x[:] = self.new["q"]
+                S.lam[:] = self.new["lam"]
+                S.p[:] = self._p
+                it0 = 2
+            else:
+                S.x[:], S.lam[:], S.p[:] = self._predict(h, pload, kc)
+                it0 = 0
+        else:
+            S.x[:], S.lam[:], S.p[:] = self._predict(h, pload, kc)
+            it0 = 0
+        S.cm[0], S.cc[0], S.kc[0] = sc.cm(h), sc.cc(h), kc
+        opts = self.opts
+        if it0:
+            opts = NewtonOptions(**{**opts.__dict__, "max_iter": max(1, opts.max_iter - it0)})
+        out = newton(S, self.factor, (h, kc), opts, self.counters, self.tol_q, self.tol_x)
+        if not out.converged:
+            return StepOutcome(False, out.iterations + it0, out.reason)
+        self._correct(h, S.x, S.lam * kc)
+        return StepOutcome(True, out.iterations + it0)
+
+    def _predict(self, h, pload, kc):
+        sc, S = self.scheme, self.S
+        b, g, am, af = sc.beta, sc.gamma, sc.alpha_m, sc.alpha_f
+        qh = self.q + h * self.v + h * h * (0.5 - b) * self.ab
+        vh = self.v + h * (1 - g) * self.ab
+        cm, cc = sc.cm(h), sc.cc(h)
+        p = S.M @ ((am * self.ab - af * self.a) / (1 - af) - cm * qh) + pload
+        C = self.damping_matrix()
+        if C is not None:
+            p += C @ (vh - cc * qh)
+        x = qh + b * h * h * (self.a - am * self.ab) / (1 - am)
+        self._qh, self._vh = qh, vh
+        return x, self.lam / kc, p
+
+    def _correct(self, h, x, lam_true):
+        sc = self.scheme
+        b, g, am, af = sc.beta, sc.gamma, sc.alpha_m, sc.alpha_f
+        qh = self.q + h * self.v + h * h * (0.5 - b) * self.ab
+        vh = self.v + h * (1 - g) * self.ab
+        ab1 = (x - qh) / (b * h * h)
+        self.new["q"][:] = x
+        self.new["lam"][:] = lam_true
+        self.new["ab"][:] = ab1
+        self.new["a"][:] = ((1 - am) * ab1 + am * self.ab - af * self.a) / (1 - af)
+        self.new["v"][:] = vh + h * g * ab1
+
+    def error_estimate(self, h: float) -> np.ndarray:
+        """Local displacement error of the candidate, |beta - 1/6| h^2 (a_{n+1} - a_n) (Zienkiewicz-Xie)."""
+        return self.scheme.error_constant() * h * h * (self.new["a"] - self.a)
+
+    def accept(self) -> None:
+        for k in ("q", "v", "a", "ab", "lam"):
+            getattr(self, k)[:] = self.new[k]
+        self.update_damping()
