@@ -22,6 +22,7 @@ from .assembly import Assembly
 from .scene import Scene, SceneError
 
 SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+STABILITY_EPS = 100 * np.finfo(float).eps  # negative-curvature threshold, relative to the reduced Hessian's norm
 
 
 @dataclass
@@ -227,7 +228,11 @@ class StaticProblem:
         w, V = np.linalg.eigh(0.5 * (Hr + Hr.T))
         scale = max(abs(w).max(), 1e-300)
         d = Z @ V[:, 0]
-        return bool(w[0] > -1e-10 * scale), d / np.max(np.abs(d))
+        # Negative beyond the eigenvalues' round-off floor eps ||Hr||: an exactly zero mode (a free rotation about a
+        # pin) computed within 0.2 eps ||Hr|| for EA L^2/EI = 1e5..1e10 and 8..300 elements, while a column past its
+        # Euler load has an eigenvalue of only -4e-11 ||Hr|| (EA L^2/EI = 1e5, 32 elements, 1.01 P_cr) down to
+        # -4e-14 ||Hr|| (1e8, 32 elements): the old threshold -1e-10 ||Hr|| called those straight columns stable.
+        return bool(w[0] > -STABILITY_EPS * scale), d / np.max(np.abs(d))
 
     def _result(self, ok, status, iters, wall, x, lam_g, stable, attempts) -> StaticResult:
         a = self.asm
