@@ -20,10 +20,10 @@ from __future__ import annotations
 import os
 import sys
 
-import numpy as np
-
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import _common as C  # noqa: E402
+import _common as C  # noqa: E402  (first: it limits BLAS threads before numpy loads)
+
+import numpy as np  # noqa: E402
 
 from ancf_sym import Material, Scene, Section, solve_static  # noqa: E402
 

@@ -217,3 +217,43 @@ def test_frame_penalty_error_falls_as_one_over_the_factor(t_frame):
     a = [abs(r["angle_error_deg"]) * r["penalty"] for r in pen]
     assert max(a) / min(a) < 1.2, a
     assert pen[-1]["err_vs_exact_m"] < 1e-9
+
+
+# -- buckling -----------------------------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def buckling(tmp_path_factory):
+    return run_example("buckling", tmp_path_factory)
+
+
+def test_buckling_below_pcr_stays_straight(buckling):
+    _, recs, _ = buckling
+    for r in (x for x in recs if x["load_over_pcr"] < 1):
+        assert r["success"] and r["stable"] is True and r["branch"] == "straight"
+        assert r["tip_lateral_m"] < 1e-9
+
+
+def test_buckling_past_pcr_leaves_the_saddle(buckling):
+    """No imperfection, no lateral load: from the straight start the solver lands on the straight state, finds it
+    unstable (negative curvature of the reduced Hessian) and leaves it along that direction to a stable bent state
+    of lower potential."""
+    _, recs, _ = buckling
+    for lam in sorted({r["load_over_pcr"] for r in recs if r["load_over_pcr"] > 1}):
+        bent = pick(recs, load_over_pcr=lam, escape_saddle=True)
+        straight = pick(recs, load_over_pcr=lam, escape_saddle=False)
+        assert straight["success"] and straight["stable"] is False and straight["branch"] == "straight"
+        assert bent["success"] and bent["stable"] is True and bent["branch"] == "bent", bent["attempts"]
+        assert "leave saddle" in bent["attempts"]
+        assert bent["potential"] < straight["potential"]
+
+
+def test_buckling_matches_the_elastica(buckling):
+    """n = 8: measured |lateral - elastica| 1.2e-4 / 1.1e-5 / 3.2e-5 m and |rotation - elastica| 2.2e-4 / 1e-5 /
+    1e-5 rad at P/P_cr = 1.1 / 1.5 / 2. Near P_cr the deflection ~ sqrt(P/P_cr - 1) amplifies the ~1e-4 shift of the
+    critical load by extensibility (P/EA = 2.5e-5) and the mesh: 5e-4 m and 1e-3 rad leave room for that, not for a
+    wrong branch or a wrong load (a 1 % load error moves the deflection at 1.1 P_cr by about 2e-2 m)."""
+    _, recs, _ = buckling
+    for r in (x for x in recs if x["load_over_pcr"] > 1 and x["escape_saddle"]):
+        assert abs(r["tip_lateral_m"] - r["ref_tip_lateral_m"]) < 5e-4, r
+        assert abs(r["tip_rotation_rad"] - r["ref_tip_rotation_rad"]) < 1e-3, r
+        assert abs(r["axial_shortening_m"] - r["ref_axial_shortening_m"]) < 1e-3, r
