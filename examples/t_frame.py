@@ -16,8 +16,9 @@ Steel members as in paper 002's T-pendulum: E = 210 GPa, solid circle d = 20 mm,
   EI/(1 m) for the angle, paper 002): tip error against the exact-constraint solution and the joint's angle error,
   vs the factor.
 
-Records: case, method, penalty, n, load_N, tip_x, tip_y, ref_tip_x, ref_tip_y, angle_error_deg, constraint_violation,
-iterations, status (+ rel_err_x/y against linear theory, err_vs_exact_m for the penalties, bending_J for the truss).
+Records: case, method, penalty, n, load_N, tip_x, tip_y (DISPLACEMENT of the loaded tip / apex [m]), ref_tip_x,
+ref_tip_y (linear theory), angle_error_deg (change of the joint's angle), constraint_violation, iterations, status
+(+ rel_err_x/y against linear theory, err_vs_exact_m and moved for the penalties, bending_J for the truss).
 Run: python examples/t_frame.py [--quick] [--json out.json] [--out DIR]
 """
 from __future__ import annotations
@@ -56,8 +57,8 @@ def frame(kind: str, n: int, P: float, method: str = "exact", penalty: float | N
         s.rigid(("column", "end"), ("beam", "start"), method=method, penalty=penalty)
         s.force("beam", at="end", force=(0.0, -P))
     elif kind == "T":
-        _members(s, [("column", [(0, 0), (0, H)]), ("beam", [(-LB, H), (LB, H)])], n)  # 2n elements on the bar
-        s.members["beam"].elements = 2 * n
+        _members(s, [("column", [(0, 0), (0, H)])], n)
+        _members(s, [("beam", [(-LB, H), (LB, H)])], 2 * n)  # node n is the bar's middle
         s.rigid(("column", "end"), ("beam", n), method=method, penalty=penalty)
         s.force("beam", at="end", force=(0.0, -P))
     else:
