@@ -21,6 +21,7 @@ from .terms import Term, scene_terms
 
 
 LOAD_LABELS = ("gravity", "loads")  # energy buckets scaled by a load factor in load stepping
+LINEAR_EFFECTS = ("gravity",)  # potential linear in q: zero Hessian, never scattered
 
 
 class MappedKernel:
@@ -30,6 +31,7 @@ class MappedKernel:
         self.term = term
         self.kernel = kernels.load(term.element, term.effect, term.gauss)
         self.N, self.nd = term.idx.shape
+        self.linear = term.effect in LINEAR_EFFECTS
         self.f = self.kernel.map(self.N)
         self.P = np.ascontiguousarray(term.P)
         self.X = np.zeros((self.N, self.nd))
@@ -63,6 +65,7 @@ class Assembly:
         self.x0 = self.mesh.x0
         self.terms = scene_terms(self.mesh)
         self.mapped = [MappedKernel(t) for t in self.terms]
+        self.curved = [mk for mk in self.mapped if not mk.linear]  # terms whose Hessian is assembled
         self.Q = load_vector(self.mesh)  # dead point loads: potential -Q.x
         self.constraints: Constraints = build_constraints(self.mesh)
         pen = np.flatnonzero(self.constraints.k > 0)
@@ -73,7 +76,7 @@ class Assembly:
     # -- sparse pattern ------------------------------------------------------------------------------------
     def _pattern(self) -> None:
         rows, cols = [], []
-        for mk in self.mapped:
+        for mk in self.curved:
             idx = mk.term.idx  # H[e, b, a] is d2U/dx_a dx_b
             rows.append(np.broadcast_to(idx[:, None, :], mk.H.shape).ravel())
             cols.append(np.broadcast_to(idx[:, :, None], mk.H.shape).ravel())
@@ -89,7 +92,7 @@ class Assembly:
         key = c.astype(np.int64) * self.n + r
         uniq, inv = np.unique(key, return_inverse=True)
         self._hpos = inv
-        self._n_kernel_entries = sum(mk.H.size for mk in self.mapped)
+        self._n_kernel_entries = sum(mk.H.size for mk in self.curved)
         ucol, urow = uniq // self.n, uniq % self.n
         indptr = np.zeros(self.n + 1, dtype=np.int64)
         np.add.at(indptr, ucol + 1, 1)
@@ -108,7 +111,7 @@ class Assembly:
             mk(x)
             energies[mk.term.label] = energies.get(mk.term.label, 0.0) + float(mk.E.sum())
             g += np.bincount(mk.term.idx.ravel(), mk.G.ravel(), minlength=self.n)
-            if hessian:
+            if hessian and not mk.linear:
                 vals.append(mk.H.ravel())
         if np.any(self.Q):
             energies["loads"] = energies.get("loads", 0.0) - float(self.Q @ x)
@@ -171,7 +174,8 @@ class Assembly:
             G, H = s * G, s * H
             Ag = ca.DM(ca.Sparsity.triplet(self.n, mk.N * mk.nd, t.idx.ravel().tolist(), list(range(mk.N * mk.nd))), 1.0)
             grad += ca.mtimes(Ag, ca.vec(G))
-            hvals.append(ca.vec(H))  # column-major H (nd x nd*N) == our (N, b, a) C-order layout
+            if not mk.linear:
+                hvals.append(ca.vec(H))  # column-major H (nd x nd*N) == our (N, b, a) C-order layout
         if np.any(self.Q):
             Qd = ca.DM(self.Q)
             f -= load_factor * ca.dot(Qd, x)
