@@ -159,8 +159,11 @@ class _SensorEval:
         nrm = float(np.linalg.norm(rx))
         if k == "strain":
             return np.array([nrm - 1.0])
-        c = np.cross(rx, p.rxx(x))
-        c = abs(float(c)) if self.dim == 2 else float(np.linalg.norm(c))
+        rxx = p.rxx(x)
+        if self.dim == 2:
+            c = abs(float(rx[0] * rxx[1] - rx[1] * rxx[0]))
+        else:
+            c = float(np.linalg.norm(np.cross(rx, rxx)))
         return np.array([c / max(nrm, 1e-300) ** 3])
 
 
@@ -545,8 +548,7 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
         if opts.t_end - (t + h_try) < eps_t:
             h_try = opts.t_end - t
         t_new = t + h_try
-        Qnew = loads(t_new) if loads else None
-        out = integ.attempt(h_try, Qnew)
+        out = integ.attempt(t, h_try, loads)
         reject_reason = None
         err_ratio = None
         if not out.converged:
@@ -573,6 +575,7 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
         if C is not None:
             W_d += 0.5 * h_try * (float(integ.v @ (C @ integ.v)) + float(vn1 @ (C @ vn1)))
         if loads:
+            Qnew = loads(t_new)
             W_ext += 0.5 * h_try * (float(Qn @ integ.v) + float(Qnew @ vn1))
             Qn = Qnew
         q_old, v_old = integ.q.copy(), integ.v.copy()

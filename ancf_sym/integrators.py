@@ -618,8 +618,9 @@ def _newton_modified(system, factor, key, opts, counters, tol_q, tol_x) -> Newto
     nf, mc = system.nf, system.mc
     norms = system.norms
     stale = factor.lu is None or factor.key != key
+    A_cur = None
     if stale:
-        system.jacobian()
+        A_cur = system.jacobian()
         counters.jacobians += 1
     else:
         system.residual()
@@ -644,11 +645,11 @@ def _newton_modified(system, factor, key, opts, counters, tol_q, tol_x) -> Newto
             refresh = True
         if refresh:
             if not fresh:
-                system.jacobian()
+                A_cur = system.jacobian()
                 counters.jacobians += 1
                 counters.residuals += 1
                 fresh = True
-            if not factor.factorize(system.kkt, key, counters):
+            if not factor.factorize(A_cur, key, counters):
                 return NewtonOutcome(False, it, "singular iteration matrix", rq)
             on_factor = 0
             d_prev = None
@@ -675,6 +676,22 @@ def _newton_modified(system, factor, key, opts, counters, tol_q, tol_x) -> Newto
 
 
 # -- integrators -------------------------------------------------------------------------------------------------
+
+def initial_acceleration(S: StepSystem, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray, C=None):
+    """Consistent initial acceleration and multipliers: [M J^T; J 0][a; lam] = [f - C v - g; -phi_vv]."""
+    g = S.forces(q0)[0]
+    f = S.f_lin + Q0 - g
+    if C is not None:
+        f = f - C @ v0
+    if not S.nf:
+        return np.zeros(0), np.zeros(S.mc)
+    if S.mc:
+        J = S.jac_phi(q0)
+        A = sp.bmat([[S.M, J.T], [J, None]], format="csc")
+        z = spla.spsolve(A, np.r_[f, -S.phi_vv(v0)])
+        return z[:S.nf], z[S.nf:]
+    return spla.spsolve(S.M.tocsc(), f), np.zeros(0)
+
 
 @dataclass
 class StepOutcome:
@@ -763,24 +780,11 @@ class AlphaIntegrator:
 
     # -- state --------------------------------------------------------------------------------------------------
     def initialize(self, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray) -> None:
-        """Consistent initial acceleration and multipliers: [M J^T; J 0][a; lam] = [f - C v - g; -phi_vv]."""
-        S = self.S
         self.q[:] = q0
         self.v[:] = v0
         self.update_damping()
-        g = S.forces(q0)[0]
-        f = S.f_lin + Q0 - g
-        C = S.damping_matrix(self.kel)
-        if C is not None:
-            f = f - C @ v0
-        if S.mc:
-            J = S.jac_phi(q0)
-            A = sp.bmat([[S.M, J.T], [J, None]], format="csc")
-            z = spla.spsolve(A, np.r_[f, -S.phi_vv(v0)])
-            self.a[:] = z[:S.nf]
-            self.lam[:] = z[S.nf:]
-        else:
-            self.a[:] = spla.spsolve(S.M, f) if S.nf else 0.0
+        a, lam = initial_acceleration(self.S, q0, v0, Q0, self.damping_matrix())
+        self.a[:], self.lam[:] = a, lam
         self.ab[:] = self.a
 
     def update_damping(self) -> None:
@@ -793,10 +797,11 @@ class AlphaIntegrator:
         return self.S.damping_matrix(self.S.kel)
 
     # -- one step -----------------------------------------------------------------------------------------------
-    def attempt(self, h: float, Q_new: np.ndarray | None) -> StepOutcome:
-        """Try the step of size h (Q_new: time-dependent generalized force at t_{n+1}, free rows, or None).
+    def attempt(self, t: float, h: float, loads=None) -> StepOutcome:
+        """Try the step t -> t + h (loads(t): time-dependent generalized force on the unknowns, or None).
         The candidate is in self.new; accept() commits it."""
         S, sc = self.S, self.scheme
+        Q_new = loads(t + h) if loads is not None else None
         kc = sc.cm(h) * S.stiffness_scale()
         pload = -S.f_lin if Q_new is None else -(S.f_lin + Q_new)
         if not self.opts.modified:
