@@ -12,9 +12,10 @@ rejected and retried with half the step (recorded in `rejected`); the run ends w
 the last good state when the step would fall below dt_min. Results never contain NaN.
 
 Energy bookkeeping at every output time: kinetic 1/2 v.M v, potential by label (strain energies, gravity, dead
-loads, penalty joints), damping_work (work done against the damping forces, trapezoidal in time), external_work
-(of time-dependent loads), and `algorithmic` = E(0) + external_work - damping_work - (kinetic + potential): the
-energy the integrator itself removed (positive) or added (negative).
+loads, penalty joints), damping_work (work done against the damping forces) and external_work (of time-dependent
+loads), both as the work of the forces of the discrete equations along each step, dq.(f_n + f_n+1)/2 (exact in the
+energy identity of trapezoidal Newmark), and `algorithmic` = E(0) + external_work - damping_work - (kinetic +
+potential): the energy the integrator itself removed (positive) or added (negative).
 """
 from __future__ import annotations
 
@@ -440,17 +441,18 @@ class _Recorder:
         self.viol: list[float] = []
         self.E0 = None
 
+    def energy(self, qf, vf):
+        T = 0.5 * float(vf @ (self.S.M @ vf))
+        pot = self.S.potential(qf)
+        return T, pot, T + float(sum(pot.values()))
+
     def record(self, t, qf, vf, damping_work, external_work):
         S = self.S
         x, v = S.full(qf), S.full_v(vf)
         for s in self.sensors:
             self.data[s.sensor.name].append(s(x, v))
-        T = 0.5 * float(vf @ (S.M @ vf))
-        pot = S.potential(qf)
-        U = float(sum(pot.values()))
-        E = T + U
-        if self.E0 is None:
-            self.E0 = E
+        T, pot, E = self.energy(qf, vf)
+        U = E - T
         row = {"kinetic": T, "potential": U, **{f"potential_{k}": val for k, val in pot.items()},
                "total": E, "damping_work": damping_work, "external_work": external_work,
                "algorithmic": self.E0 + external_work - damping_work - E}
@@ -525,13 +527,16 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
     integ.tol_q = opts.newton.tol * max(fscale, 1e-300)
 
     rec = _Recorder(S, sensors, {})
+    rec.E0 = rec.energy(integ.q, integ.v)[2]
+    C0 = integ.damping_matrix()
+    fd_prev = C0 @ integ.v if C0 is not None else None
     W_d = W_ext = 0.0
     t = opts.t_start
-    rec.record(t, integ.q, integ.v, W_d, W_ext)
-    out_i = 1 if outputs is not None else None
-    if outputs is not None:
-        while out_i < len(outputs) and outputs[out_i] <= t + 1e-12 * max(1.0, abs(t)):
-            out_i += 1
+    eps_t = 1e-9 * opts.dt
+    out_i = 0
+    if outputs is None or outputs[0] <= t + eps_t:
+        rec.record(t, integ.q, integ.v, W_d, W_ext)
+        out_i = 1
     steps, rejected = 0, []
     status, message = "completed", ""
     h = opts.dt
@@ -539,7 +544,6 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
     Qn = Q0
     grid_next = opts.t_start + opts.dt  # fixed step: next grid point
     k_grid = 1
-    eps_t = 1e-9 * opts.dt
     while t < opts.t_end - eps_t:
         if opts.adaptive:
             h_try = min(h, dt_max, opts.t_end - t)
@@ -548,6 +552,9 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
         if opts.t_end - (t + h_try) < eps_t:
             h_try = opts.t_end - t
         t_new = t + h_try
+        if not opts.adaptive and abs(t_new - grid_next) <= eps_t:
+            t_new = grid_next  # no round-off drift of the fixed-step grid
+            h_try = t_new - t
         out = integ.attempt(t, h_try, loads)
         reject_reason = None
         err_ratio = None
@@ -565,18 +572,22 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
             h = h_try * factor
             if h < dt_min:
                 status = "newton_failed" if err_ratio is None else "step_size_underflow"
-                message = (f"step at t = {t:.6g} s rejected down to h = {h_try:.3g} s < dt_min = {dt_min:.3g} s: "
-                           f"{reject_reason}")
+                message = (f"step at t = {t:.6g} s rejected with h = {h_try:.3g} s ({reject_reason}); a smaller step "
+                           f"would go below dt_min = {dt_min:.3g} s")
                 break
             continue
-        # accepted: energy bookkeeping (damping at the start-of-step matrix), outputs, commit
+        # accepted: energy bookkeeping. Work of the scheme's own forces along the step, dq.(f_n + f_n+1)/2 (the
+        # trapezoidal rule's energy identity: exact for Newmark); f_n is the force of the equation that ended at t_n
+        # (with the damping matrix of that step)
+        dq = integ.new["q"] - integ.q
         C = integ.damping_matrix()
-        vn1 = integ.new["v"]
         if C is not None:
-            W_d += 0.5 * h_try * (float(integ.v @ (C @ integ.v)) + float(vn1 @ (C @ vn1)))
+            fd_new = C @ integ.new["v"]
+            W_d += 0.5 * float(dq @ (fd_prev + fd_new))
+            fd_prev = fd_new
         if loads:
             Qnew = loads(t_new)
-            W_ext += 0.5 * h_try * (float(Qn @ integ.v) + float(Qnew @ vn1))
+            W_ext += 0.5 * float(dq @ (Qn + Qnew))
             Qn = Qnew
         q_old, v_old = integ.q.copy(), integ.v.copy()
         integ.accept()
@@ -624,7 +635,7 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
 
 ANALYSIS_KEYS = {"type", "integrator", "dt", "t_end", "t_start", "rho_inf", "alpha", "beta", "gamma", "stages",
                  "adaptive", "tol", "dt_min", "dt_max", "output_every", "output_dt", "output_times", "newton",
-                 "sensors", "loads"}
+                 "sensors", "loads", "q0", "v0"}
 
 
 def options_from_dict(analysis: dict) -> DynamicOptions:

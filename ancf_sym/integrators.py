@@ -569,17 +569,18 @@ class NewtonOutcome:
 
 
 def newton(system: StepSystem, factor: Factor, key, opts: NewtonOptions, counters: Counters,
-           tol_q: float, tol_x: float) -> NewtonOutcome:
+           tol_q: float, tol_x: float, it0: int = 0) -> NewtonOutcome:
     """Solve r(x, lam) = 0 from the buffers' current x, lam (updated in place).
 
     tol_q: force tolerance on the free rows [N]; tol_x: tolerance on updates and constraint rows [m].
     `key` identifies the step coefficients of a modified-Newton factorisation (refreshed when it differs).
+    it0: iterations already spent on this step (count towards opts.max_iter).
     """
     if opts.modified:
         return _newton_modified(system, factor, key, opts, counters, tol_q, tol_x)
     nf = system.nf
     norms = system.norms
-    it = 0
+    it = it0
     d_prev = None
     while True:
         system.iterate()
@@ -841,14 +842,11 @@ class AlphaIntegrator:
             S.x[:], S.lam[:], S.p[:] = self._predict(h, pload, kc)
             it0 = 0
         S.cm[0], S.cc[0], S.kc[0] = sc.cm(h), sc.cc(h), kc
-        opts = self.opts
-        if it0:
-            opts = NewtonOptions(**{**opts.__dict__, "max_iter": max(1, opts.max_iter - it0)})
-        out = newton(S, self.factor, (h, kc), opts, self.counters, self.tol_q, self.tol_x)
+        out = newton(S, self.factor, (h, kc), self.opts, self.counters, self.tol_q, self.tol_x, it0)
         if not out.converged:
-            return StepOutcome(False, out.iterations + it0, out.reason)
+            return StepOutcome(False, out.iterations, out.reason)
         self._correct(h, S.x, S.lam * kc)
-        return StepOutcome(True, out.iterations + it0)
+        return StepOutcome(True, out.iterations)
 
     def _predict(self, h, pload, kc):
         sc, S = self.scheme, self.S
