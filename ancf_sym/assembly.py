@@ -101,8 +101,10 @@ class Assembly:
         self.h_nnz = len(uniq)
 
     # -- evaluation ------------------------------------------------------------------------------------------
-    def evaluate(self, x: np.ndarray, hessian: bool = True) -> Evaluation:
-        """Total potential Pi(x) = sum of element terms - Q.x + penalties; gradient; sparse Hessian (CSC)."""
+    def evaluate(self, x: np.ndarray, hessian: bool = True, penalty: bool = True) -> Evaluation:
+        """Total potential Pi(x) = sum of element terms - Q.x + penalties; gradient; sparse Hessian (CSC).
+
+        penalty=False leaves the penalty terms out (their stiffness is not a physical one)."""
         x = np.asarray(x, dtype=float)
         energies: dict[str, float] = {}
         g = np.zeros(self.n)
@@ -116,8 +118,8 @@ class Assembly:
         if np.any(self.Q):
             energies["loads"] = energies.get("loads", 0.0) - float(self.Q @ x)
             g -= self.Q
-        H = None
-        if self.penalty is not None:
+        H, pen_vals = None, None
+        if self.penalty is not None and penalty:
             pc = self.penalty
             c = pc.value(x)
             energies["penalty"] = float(0.5 * np.sum(pc.k * c * c))
@@ -126,10 +128,12 @@ class Assembly:
             if hessian:
                 Hp = (J.T @ sp.diags(pc.k) @ J + pc.hessian(pc.k * c)).tocsc()
                 Hp.sum_duplicates()
-                vals.append(self._scatter_dense(Hp))
+                pen_vals = self._scatter_dense(Hp)
         if hessian:
-            data = np.bincount(self._hpos, np.concatenate(vals) if vals else np.zeros(0), minlength=self.h_nnz) \
-                if self.penalty is None else self._combine(vals)
+            kern = np.concatenate(vals) if vals else np.zeros(0)
+            data = np.bincount(self._hpos[:self._n_kernel_entries], kern, minlength=self.h_nnz)
+            if pen_vals is not None:
+                data += pen_vals
             H = sp.csc_matrix((data, self.h_indices, self.h_indptr), shape=(self.n, self.n))
         return Evaluation(float(sum(energies.values())), energies, g, H)
 
@@ -141,11 +145,6 @@ class Assembly:
         out = np.zeros(self.h_nnz)
         np.add.at(out, pos, coo.data)
         return out
-
-    def _combine(self, vals: list) -> np.ndarray:
-        kern = np.concatenate(vals[:-1]) if len(vals) > 1 else np.zeros(0)
-        data = np.bincount(self._hpos[:self._n_kernel_entries], kern, minlength=self.h_nnz)
-        return data + vals[-1]
 
     def energy(self, x: np.ndarray) -> float:
         return self.evaluate(x, hessian=False).energy

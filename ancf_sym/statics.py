@@ -22,6 +22,8 @@ from .assembly import Assembly
 from .scene import Scene, SceneError
 
 SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+LOAD_RTOL = 1e-3  # the tolerance never exceeds this fraction of the largest force at the start point
+RESOLVABLE = 0.1  # a round-off floor above this fraction of that force cannot resolve the loads: refused
 STABILITY_EPS = 100 * np.finfo(float).eps  # negative-curvature threshold, relative to the reduced Hessian's norm
 
 
@@ -117,14 +119,20 @@ class StaticProblem:
         """Gradient round-off floor [N]: machine eps x largest stiffness entry x size of the coordinates.
 
         Measured on the 3 m cantilever (60..6000 elements) IPOPT's achievable residual sat at 0.4-0.8 of this."""
-        ev = self.asm.evaluate(self.asm.x0)
+        ev = self.asm.evaluate(self.asm.x0)  # penalty springs included: their round-off is as real as the kernels'
         kmax = float(abs(ev.hessian).max()) if ev.hessian.nnz else 1.0
+        self.load_scale = float(np.max(np.abs(ev.gradient))) if ev.gradient.size else 0.0
         span = float(np.max(np.abs(self.asm.x0))) + 1.0
         return float(np.finfo(float).eps * kmax * span)
 
     def tolerance(self, opts: StaticOptions) -> float:
-        """IPOPT tol [N] (unscaled problem): the user's, else twice the round-off floor."""
-        return float(opts.tol) if opts.tol is not None else max(2.0 * self.floor, 1e-14)
+        """IPOPT tol [N] (unscaled problem): the user's, else twice the round-off floor, but at most LOAD_RTOL of
+        the largest force at the start (the floor estimate is pessimistic for penalty springs: full Newton steps
+        land well below it; where the floor is real, IPOPT fails and says so)."""
+        if opts.tol is not None:
+            return float(opts.tol)
+        tol = max(2.0 * self.floor, 1e-14)
+        return min(tol, LOAD_RTOL * self.load_scale) if self.load_scale > 0 else tol
 
     def solver(self, line_search: bool, opts: StaticOptions):
         key = (line_search, opts.tol, opts.max_iter, opts.print_level)
@@ -161,6 +169,15 @@ class StaticProblem:
             raise SceneError(f"warm start x0 must be {a.n} finite numbers, got shape {np.shape(x0)}")
         attempts, iters = [], 0
         ok, status, lam_g = False, "not run", None
+        if opts.tol is None and self.floor > RESOLVABLE * self.load_scale > 0:
+            # e.g. a penalty factor so large that eps x its stiffness exceeds the loads: IPOPT would stop at once
+            # (or wander) and call the reference state an equilibrium; refuse to pretend.
+            attempts.append({"method": "none", "status": "Round_Off_Floor_Above_Loads", "iterations": 0,
+                             "detail": f"gradient round-off floor {self.floor:.3g} N exceeds {RESOLVABLE:g} x the "
+                                       f"largest applied force {self.load_scale:.3g} N: stiffness (or penalty factor)"
+                                       f" too large for double precision at these loads"})
+            return self._result(False, "Round_Off_Floor_Above_Loads", 0, time.perf_counter() - t0, x, None, None,
+                                attempts)
         ceiling = self._start_ceiling(x)
         for line_search in (False, True):
             ok, status, it, xs, lg = self._run(x, None, 1.0, line_search, opts)
@@ -185,19 +202,28 @@ class StaticProblem:
                 ok, x, lam_g = True, xk, lgk
         stable = None
         if ok:
-            stable, direction = self.stability(x)
+            stable, direction = self.stability(x, lam_g)
             if stable is False and opts.escape_saddle:
-                for scale in (1e-3, 1e-2, 1e-1):
-                    xp = x + scale * self._length_scale() * direction
-                    ok2, status2, it, xs, lg = self._run(xp, lam_g, 1.0, True, opts)
-                    iters += it
-                    attempts.append({"method": f"leave saddle ({scale:g} L)", "status": status2, "iterations": it})
-                    if ok2 and a.energy(xs) < a.energy(x) - 1e-12 * abs(a.energy(x)):
-                        x, lam_g, status = xs, lg, status2
-                        stable, _ = self.stability(x)
-                        break
+                x, lam_g, status, stable, iters = self._leave_saddle(x, lam_g, status, direction, iters, attempts, opts)
         wall = time.perf_counter() - t0
         return self._result(ok, status, iters, wall, x, lam_g, stable, attempts)
+
+    def _leave_saddle(self, x, lam_g, status, direction, iters, attempts, opts):
+        """Restart from x nudged along the negative-curvature direction (full steps first, then line search);
+        keep the first converged point of lower potential."""
+        a = self.asm
+        e0 = a.energy(x)
+        for scale in (1e-3, 1e-2, 1e-1):
+            xp = x + scale * self._length_scale() * direction
+            for line_search in (False, True):
+                ok, st, it, xs, lg = self._run(xp, lam_g, 1.0, line_search, opts)
+                iters += it
+                attempts.append({"method": f"leave saddle ({scale:g} L, {'line search' if line_search else 'full steps'})",
+                                 "status": st, "iterations": it})
+                if ok and a.energy(xs) < e0 - 1e-12 * abs(e0):
+                    stable, _ = self.stability(xs, lg)
+                    return xs, lg, st, stable, iters
+        return x, lam_g, status, False, iters
 
     def _start_ceiling(self, x: np.ndarray) -> float:
         """Highest potential an accepted solution may have: that of the start point, if it satisfies the exact
@@ -211,14 +237,18 @@ class StaticProblem:
     def _length_scale(self) -> float:
         return max(mm.member.length for mm in self.asm.mesh.members.values())
 
-    def stability(self, x: np.ndarray, dense_limit: int = 1500) -> tuple[bool | None, np.ndarray | None]:
-        """Is the reduced Hessian (on the tangent space of the exact constraints) positive definite?
+    def stability(self, x: np.ndarray, lam_g: np.ndarray | None = None,
+                  dense_limit: int = 1500) -> tuple[bool | None, np.ndarray | None]:
+        """Is the reduced Hessian of the Lagrangian (on the tangent space of the exact constraints) positive definite?
+        lam_g: IPOPT's constraint multipliers, for the curvature of the bilinear (rigid-joint) constraints.
 
         Returns (stable, direction of most negative curvature in full coordinates)."""
         a = self.asm
         if a.n > dense_limit:
             return None, None
         H = a.evaluate(x).hessian.toarray()
+        if lam_g is not None and a.exact.m and len(a.exact.qrow):
+            H += a.exact.hessian(np.asarray(lam_g, float)).toarray()
         if a.exact.m:
             J = a.exact.jacobian(x).toarray()
             Z = sla.null_space(J)

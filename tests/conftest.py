@@ -19,6 +19,8 @@ import os
 import sys
 from pathlib import Path
 
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before anything loads NumPy/CasADi: see ancf_sym/__init__.py
+
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
