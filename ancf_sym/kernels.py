@@ -114,6 +114,17 @@ def load_energy(element: str, effect: str, gauss: int | None = None) -> ca.Funct
     return ca.external(name, str(library_path(name[:-len("_energy")])))
 
 
+def load_hvp(element: str, effect: str) -> ca.Function:
+    """(q, p, v) -> (H v, d(H v)/dq), third derivatives of the energy contracted with v (cable elastic effects,
+    default quadrature): what an exact Lagrangian Hessian needs when grad U sits inside constraints."""
+    _check_names(element, effect)
+    if not registry.has_third_derivatives(element, effect, None):
+        raise KernelError(f"{element}/{effect} has no third-derivative companion; available for cables' "
+                          f"{list(registry.THIRD_DERIVATIVE_EFFECTS)}")
+    name = registry.kernel_name(element, effect)
+    return ca.external(name + "_hvp", str(library_path(name)))
+
+
 def parameters(element: str, effect: str) -> tuple[str, ...]:
     """Names of the entries of p, in order."""
     return _check_names(element, effect).params

@@ -109,6 +109,16 @@ MASS_PARAMS: dict[str, tuple[str, ...]] = {
 }
 
 
+# Effects whose libraries also carry <name>_hvp (third derivatives, for the dynamics constraints of optimal
+# control): the cables' elastic effects at the default quadrature order.
+THIRD_DERIVATIVE_EFFECTS = ("axial_green", "axial_biot", "axial_decoupled", "bending")
+
+
+def has_third_derivatives(element: str, effect: str, gauss: int | None) -> bool:
+    eff = EFFECTS[(element, effect)]
+    return element.startswith("cable") and effect in THIRD_DERIVATIVE_EFFECTS and gauss in (None, eff.default_gauss)
+
+
 def kernel_name(element: str, effect: str, gauss: int | None = None) -> str:
     eff = EFFECTS[(element, effect)]
     if gauss is None or gauss == eff.default_gauss or not eff.gauss:

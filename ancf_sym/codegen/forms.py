@@ -78,3 +78,17 @@ def energy_function(kernel: ca.Function) -> ca.Function:
     """(q, p) -> energy, the function IPOPT differentiates through; its companions give gradient and Hessian."""
     q, p = ca.MX.sym("q", kernel.size1_in(0)), ca.MX.sym("p", kernel.size1_in(1))
     return ca.Function(kernel.name() + "_energy", [q, p], [kernel(q, p)[0]], KERNEL_IN, ["energy"])
+
+
+def hvp_function(kernel: ca.Function) -> ca.Function:
+    """(q, p, v) -> (H v, d(H v)/dq): the Hessian-vector product and its Jacobian (the Hessian of v . grad U).
+
+    Optimal control puts grad U inside the dynamics constraints; the exact Hessian of IPOPT's Lagrangian then needs
+    these third derivatives of the energy contracted with the multipliers v.
+    """
+    nq, n_p = kernel.size1_in(0), kernel.size1_in(1)
+    q, p, v = ca.SX.sym("q", nq), ca.SX.sym("p", n_p), ca.SX.sym("v", nq)
+    sx = kernel.expand() if not kernel.is_a("SXFunction") else kernel
+    g = sx(q, p)[1]
+    d2, hv = ca.hessian(ca.dot(v, g), q)
+    return ca.Function(kernel.name() + "_hvp", [q, p, v], [hv, ca.densify(d2)], ["q", "p", "v"], ["hv", "dhv"])
