@@ -463,6 +463,160 @@ class _Recorder:
         self.t.append(float(t))
 
 
+CHUNK = 64  # steps per compiled call in fixed-step full-Newton runs of the alpha schemes
+
+
+class _Run:
+    """The time loop: fixed or adaptive steps with rejection, or (fixed step, alpha scheme, full Newton) chunks of
+    CHUNK steps in one compiled call; bookkeeping and outputs per accepted step."""
+
+    def __init__(self, S, integ, opts, loads, rec, outputs, every, progress, dt_min, dt_max, err_tol):
+        self.S, self.integ, self.opts, self.loads, self.rec = S, integ, opts, loads, rec
+        self.outputs, self.every, self.progress = outputs, every, progress
+        self.dt_min, self.dt_max, self.err_tol = dt_min, dt_max, err_tol
+        self.t = opts.t_start
+        self.eps_t = 1e-9 * opts.dt
+        self.W_d = self.W_ext = 0.0
+        self.steps, self.rejected = 0, []
+        self.status, self.message = "completed", ""
+        self.h_min, self.h_max = math.inf, 0.0
+        C0 = integ.damping_matrix()
+        self.C_const = C0 is not None and not (S.rayleigh is not None and S.rayleigh.beta)
+        self.fd_prev = C0 @ integ.v if C0 is not None else None
+        self.Qn = loads(opts.t_start) if loads else None
+        self.out_i = 0
+        if outputs is None or outputs[0] <= self.t + self.eps_t:
+            rec.record(self.t, integ.q, integ.v, 0.0, 0.0)
+            self.out_i = 1
+
+    # -- bookkeeping ------------------------------------------------------------------------------------------
+    def _accepted(self, t_old, t_new, q_old, v_old, q_new, v_new, C):
+        """Work of the scheme's own forces along the step, dq.(f_n + f_n+1)/2 (the trapezoidal rule's energy
+        identity, exact for Newmark; f_n is the force of the equation that ended at t_n, with its damping matrix),
+        then the outputs in (t_old, t_new]."""
+        if C is not None or self.loads is not None:
+            dq = q_new - q_old
+            if C is not None:
+                fd = C @ v_new
+                self.W_d += 0.5 * float(dq @ (self.fd_prev + fd))
+                self.fd_prev = fd
+            if self.loads is not None:
+                Qnew = self.loads(t_new)
+                self.W_ext += 0.5 * float(dq @ (self.Qn + Qnew))
+                self.Qn = Qnew
+        self.steps += 1
+        h = t_new - t_old
+        self.h_min, self.h_max = min(self.h_min, h), max(self.h_max, h)
+        self.t = t_new
+        rec, out = self.rec, self.outputs
+        if out is None:
+            if self.steps % self.every == 0 or t_new >= self.opts.t_end - self.eps_t:
+                rec.record(t_new, q_new, v_new, self.W_d, self.W_ext)
+                if self.progress:
+                    self.progress(t_new, self.opts.t_end)
+            return
+        while self.out_i < len(out) and out[self.out_i] <= t_new + self.eps_t:
+            tau = out[self.out_i]
+            if abs(tau - t_new) <= self.eps_t:
+                rec.record(tau, q_new, v_new, self.W_d, self.W_ext)
+            else:
+                qi, vi = _hermite(t_old, t_new, q_old, v_old, q_new, v_new, tau)
+                rec.record(tau, qi, vi, self.W_d, self.W_ext)
+            self.out_i += 1
+            if self.progress:
+                self.progress(tau, self.opts.t_end)
+
+    # -- loops ------------------------------------------------------------------------------------------------
+    def go(self):
+        o = self.opts
+        if o.adaptive:
+            return self.per_step(o.t_end)
+        n_grid = int(math.floor((o.t_end - o.t_start) / o.dt + 1e-9))
+        k = 0
+        if isinstance(self.integ, AlphaIntegrator) and self.integ.chunkable:
+            while k < n_grid and self.status == "completed":
+                n = min(CHUNK, n_grid - k)
+                k += self.chunk(k, n)
+                if k < n_grid and self.t < o.t_start + (k + 1) * o.dt - self.eps_t and self.status == "completed":
+                    # the chunk stopped at step k: the per-step loop takes it (Newton in Python, rejection)
+                    self.per_step(o.t_start + (k + 1) * o.dt, k)
+                    k += 1
+        else:
+            self.per_step(o.t_start + n_grid * o.dt, 0)
+        if self.status == "completed" and self.t < o.t_end - self.eps_t:
+            self.per_step(o.t_end, n_grid)
+
+    def grid(self, k: int) -> float:
+        return self.opts.t_start + k * self.opts.dt
+
+    def chunk(self, k: int, n: int) -> int:
+        """Steps k+1 .. k+n in one call; returns how many were accepted."""
+        integ, S, o = self.integ, self.S, self.opts
+        nf = S.nf
+        if self.loads is None:
+            pl = np.repeat(-S.f_lin[:, None], n, axis=1)
+        else:
+            pl = -np.column_stack([S.f_lin + self.loads(self.grid(k + j + 1)) for j in range(n)])
+        q_old, v_old = integ.q.copy(), integ.v.copy()
+        states, n_ok = integ.run_chunk(o.dt, pl)
+        C = integ.damping_matrix() if self.C_const else None
+        t_old = self.t
+        for j in range(n_ok):
+            t_new = self.grid(k + j + 1)
+            q_new, v_new = states[j, :nf], states[j, nf:2 * nf]
+            self._accepted(t_old, t_new, q_old, v_old, q_new, v_new, C)
+            t_old, q_old, v_old = t_new, q_new, v_new
+        return n_ok
+
+    def per_step(self, t_stop: float, k_grid: int = 0):
+        """Single steps with rejection (halving on Newton failure, error control if adaptive) until t_stop."""
+        o, integ = self.opts, self.integ
+        eps_t = self.eps_t
+        h = o.dt
+        while self.t < t_stop - eps_t:
+            t = self.t
+            if o.adaptive:
+                h_try = min(h, self.dt_max, o.t_end - t)
+            else:
+                h_try = min(h, t_stop - t)
+            if t_stop - (t + h_try) < eps_t:
+                h_try = t_stop - t
+            t_new = t + h_try
+            if abs(t_new - t_stop) <= eps_t:
+                t_new = t_stop  # no round-off drift of the fixed-step grid
+                h_try = t_new - t
+            out = integ.attempt(t, h_try, self.loads)
+            reject_reason, err_ratio = None, None
+            if not out.converged:
+                reject_reason = f"newton: {out.reason}"
+            elif o.adaptive:
+                e = integ.error_estimate(h_try)
+                err_ratio = float(np.max(np.abs(e))) / self.err_tol if len(e) else 0.0
+                if not math.isfinite(err_ratio) or err_ratio > 1.0:
+                    reject_reason = f"error estimate {err_ratio:.3g} x tol"
+            if reject_reason is not None:
+                self.rejected.append({"t": t, "h": h_try, "reason": reject_reason, "iterations": out.iterations})
+                factor = 0.5 if err_ratio is None or not math.isfinite(err_ratio) else \
+                    max(0.2, min(0.9, 0.9 * err_ratio ** (-1.0 / (integ.order + 1))))
+                h = h_try * factor
+                if h < self.dt_min:
+                    self.status = "newton_failed" if err_ratio is None else "step_size_underflow"
+                    self.message = (f"step at t = {t:.6g} s rejected with h = {h_try:.3g} s ({reject_reason}); a "
+                                    f"smaller step would go below dt_min = {self.dt_min:.3g} s")
+                    return
+                continue
+            C = integ.damping_matrix()
+            q_old, v_old = integ.q.copy(), integ.v.copy()
+            q_new, v_new = integ.new["q"].copy(), integ.new["v"].copy()
+            integ.accept()
+            self._accepted(t, t_new, q_old, v_old, q_new, v_new, C)
+            if o.adaptive:
+                grow = 1.5 if not err_ratio else min(1.5, max(1.0, 0.9 * err_ratio ** (-1.0 / (integ.order + 1))))
+                h = min(h_try * grow, self.dt_max)
+            elif h < o.dt:
+                h = min(o.dt, 2 * h)  # after a rejection, climb back towards dt
+
+
 def make_integrator(system: StepSystem, opts: DynamicOptions, counters: Counters, tol_q: float, tol_x: float):
     if opts.integrator in ("radau", "gauss"):
         from .collocation import CollocationIntegrator
@@ -528,103 +682,11 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
 
     rec = _Recorder(S, sensors, {})
     rec.E0 = rec.energy(integ.q, integ.v)[2]
-    C0 = integ.damping_matrix()
-    fd_prev = C0 @ integ.v if C0 is not None else None
-    W_d = W_ext = 0.0
-    t = opts.t_start
-    eps_t = 1e-9 * opts.dt
-    out_i = 0
-    if outputs is None or outputs[0] <= t + eps_t:
-        rec.record(t, integ.q, integ.v, W_d, W_ext)
-        out_i = 1
-    steps, rejected = 0, []
-    status, message = "completed", ""
-    h = opts.dt
-    h_used = []
-    Qn = Q0
-    grid_next = opts.t_start + opts.dt  # fixed step: next grid point
-    k_grid = 1
-    while t < opts.t_end - eps_t:
-        if opts.adaptive:
-            h_try = min(h, dt_max, opts.t_end - t)
-        else:
-            h_try = min(h, grid_next - t)
-        if opts.t_end - (t + h_try) < eps_t:
-            h_try = opts.t_end - t
-        t_new = t + h_try
-        if not opts.adaptive and abs(t_new - grid_next) <= eps_t:
-            t_new = grid_next  # no round-off drift of the fixed-step grid
-            h_try = t_new - t
-        out = integ.attempt(t, h_try, loads)
-        reject_reason = None
-        err_ratio = None
-        if not out.converged:
-            reject_reason = f"newton: {out.reason}"
-        elif opts.adaptive:
-            e = integ.error_estimate(h_try)
-            err_ratio = float(np.max(np.abs(e))) / err_tol if len(e) else 0.0
-            if not math.isfinite(err_ratio) or err_ratio > 1.0:
-                reject_reason = f"error estimate {err_ratio:.3g} x tol"
-        if reject_reason is not None:
-            rejected.append({"t": t, "h": h_try, "reason": reject_reason, "iterations": out.iterations})
-            factor = 0.5 if err_ratio is None or not math.isfinite(err_ratio) else \
-                max(0.2, min(0.9, 0.9 * err_ratio ** (-1.0 / (integ.order + 1))))
-            h = h_try * factor
-            if h < dt_min:
-                status = "newton_failed" if err_ratio is None else "step_size_underflow"
-                message = (f"step at t = {t:.6g} s rejected with h = {h_try:.3g} s ({reject_reason}); a smaller step "
-                           f"would go below dt_min = {dt_min:.3g} s")
-                break
-            continue
-        # accepted: energy bookkeeping. Work of the scheme's own forces along the step, dq.(f_n + f_n+1)/2 (the
-        # trapezoidal rule's energy identity: exact for Newmark); f_n is the force of the equation that ended at t_n
-        # (with the damping matrix of that step)
-        dq = integ.new["q"] - integ.q
-        C = integ.damping_matrix()
-        if C is not None:
-            fd_new = C @ integ.new["v"]
-            W_d += 0.5 * float(dq @ (fd_prev + fd_new))
-            fd_prev = fd_new
-        if loads:
-            Qnew = loads(t_new)
-            W_ext += 0.5 * float(dq @ (Qn + Qnew))
-            Qn = Qnew
-        q_old, v_old = integ.q.copy(), integ.v.copy()
-        integ.accept()
-        steps += 1
-        h_used.append(h_try)
-        t_old, t = t, t_new
-        if outputs is None:
-            if steps % every == 0 or t >= opts.t_end - eps_t:
-                rec.record(t, integ.q, integ.v, W_d, W_ext)
-                if progress:
-                    progress(t, opts.t_end)
-        else:
-            while out_i < len(outputs) and outputs[out_i] <= t + eps_t:
-                tau = outputs[out_i]
-                if abs(tau - t) <= eps_t:
-                    rec.record(tau, integ.q, integ.v, W_d, W_ext)
-                else:
-                    qi, vi = _hermite(t_old, t, q_old, v_old, integ.q, integ.v, tau)
-                    rec.record(tau, qi, vi, W_d, W_ext)
-                out_i += 1
-                if progress:
-                    progress(tau, opts.t_end)
-        # next step size
-        if opts.adaptive:
-            grow = 2.0 if not err_ratio else min(2.0, max(1.0, 0.9 * err_ratio ** (-1.0 / (integ.order + 1))))
-            h = min(h_try * grow, dt_max)
-        else:
-            if t >= grid_next - eps_t:
-                k_grid += 1
-                grid_next = opts.t_start + k_grid * opts.dt
-                h = min(opts.dt, 2 * h) if h < opts.dt else opts.dt
-            # after a rejection, climb back towards dt within the grid interval
+    run = _Run(S, integ, opts, loads, rec, outputs, every, progress, dt_min, dt_max, err_tol)
+    run.go()
     wall = time.perf_counter() - t_wall
-    if status != "completed" and outputs is not None:
-        pass  # outputs after t_reached are simply absent
-    if status == "completed" and rec.t and abs(rec.t[-1] - t) > eps_t and outputs is None:
-        rec.record(t, integ.q, integ.v, W_d, W_ext)
+    t, status, message, steps, rejected = run.t, run.status, run.message, run.steps, run.rejected
+    h_used = [run.h_min, run.h_max] if steps else []
     sens = {name: np.array(vals) for name, vals in rec.data.items()}
     ener = {k: np.array(v) for k, v in rec.energies.items()}
     return DynamicResult(status, status == "completed", message, opts.integrator, np.array(rec.t), sens, ener,

@@ -36,6 +36,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from . import kernels
 from .assembly import Assembly
 from .scene import SceneError
 
@@ -317,8 +318,16 @@ class StepSystem:
             outs[1] = outs[1] + ca.hessian(pen, xf)[0]
             energies.append(("penalty", pen))
         self.forces_f = ca.Function("forces", [xf], outs, ["x"], ["g", "K"] + (["kel"] if kel_vals else []))
-        self.energy_labels = [lbl for lbl, _ in energies]
-        self.energy_f = ca.Function("energies", [xf], [ca.vertcat(*[e for _, e in energies]) if energies
+        # energies for the outputs from the energy-only compiled functions (no gradient, no Hessian)
+        elist = []
+        for mk in self.nonlinear:
+            t = mk.term
+            Xe = ca.reshape(x[t.idx.ravel().tolist()], mk.nd, mk.N)
+            ef = kernels.load_energy(t.element, t.effect, t.gauss).map(mk.N)
+            elist.append((t.label, ca.sum2(ef(Xe, ca.DM(mk.P.T)))))
+        elist += [(lbl, e) for lbl, e in energies if lbl == "penalty"]
+        self.energy_labels = [lbl for lbl, _ in elist]
+        self.energy_f = ca.Function("energies", [xf], [ca.vertcat(*[e for _, e in elist]) if elist
                                                        else ca.MX(0, 1)])
 
     def _scatter(self, vals: list, r: np.ndarray, c: np.ndarray) -> ca.MX:
@@ -463,7 +472,15 @@ class StepSystem:
     def potential(self, xf: np.ndarray) -> dict:
         """Energies by label at free coordinates xf (nonlinear terms, penalty and linear terms) [J]."""
         out: dict[str, float] = {}
-        vals = np.asarray(self.energy_f(xf)).ravel()
+        if not hasattr(self, "_ebuf"):
+            self._e_x, self._e_v = np.zeros(self.nf), np.zeros(self.energy_f.nnz_out(0))
+            buf, ev = self.energy_f.buffer()
+            buf.set_arg(0, memoryview(self._e_x))
+            buf.set_res(0, memoryview(self._e_v))
+            self._ebuf = (buf, ev)
+        self._e_x[:] = xf
+        self._ebuf[1]()
+        vals = self._e_v
         for label, v in zip(self.energy_labels, vals):
             out[label] = out.get(label, 0.0) + float(v)
         x = self.full(xf)
@@ -514,10 +531,15 @@ class NewtonOptions:
     xtol: float = 1e-10  # updates and constraints, relative to the scene's length scale
     max_iter: int = 12
     modified: bool = False  # keep the factorisation while the iteration contracts (scipy SuperLU)
+    single: bool = True  # accept a step after one iteration when Newton's error estimate omega |dz|^2 allows
+    lte_fraction: float = 0.01  # alpha schemes: update tolerance also this fraction of the local truncation error
     contraction: float = 0.5  # modified Newton: refresh when |r_k+1| > contraction |r_k|
     max_modified: int = 8  # modified Newton: at most this many iterations on one factorisation within a step
 
     def __post_init__(self):
+        if isinstance(self.lte_fraction, bool) or not isinstance(self.lte_fraction, (int, float)) or \
+                not math.isfinite(self.lte_fraction) or self.lte_fraction < 0:
+            raise SceneError(f"newton.lte_fraction must be a non-negative finite number, got {self.lte_fraction!r}")
         for name in ("tol", "xtol", "contraction"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
@@ -526,8 +548,9 @@ class NewtonOptions:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
                 raise SceneError(f"newton.{name} must be a positive integer, got {v!r}")
-        if not isinstance(self.modified, bool):
-            raise SceneError(f"newton.modified must be true or false, got {self.modified!r}")
+        for name in ("modified", "single"):
+            if not isinstance(getattr(self, name), bool):
+                raise SceneError(f"newton.{name} must be true or false, got {getattr(self, name)!r}")
 
 
 @dataclass
@@ -705,14 +728,22 @@ class StepOutcome:
 class AlphaIntegrator:
     """Newmark / HHT / generalized-alpha on a StepSystem (Arnold-Bruels form, index-3 constraints).
 
-    The common step is one compiled call: predictor, two full Newton iterations (each one kernel pass, KKT
-    assembly and sparse LDL^T solve) and corrector. It is accepted when the second update is below the
-    tolerance in the sense of the contraction estimate (or the residual after the first update already is);
-    otherwise Newton continues from there in Python (`newton`). Modified Newton runs entirely in Python with a
-    SuperLU factorisation reused across iterations and steps.
-    State: q, v (true velocity), a (true acceleration), ab (algorithmic acceleration), lam (true multipliers).
+    A step is one compiled graph: predictor (acceleration extrapolated linearly from the last two steps), one full
+    Newton iteration (kernels, KKT assembly, sparse factorisation and solve), then, chosen in-graph by a CasADi
+    switch that evaluates only the branch taken, either acceptance or a second iteration, then the corrector.
+    Acceptance after one iteration uses Newton's quadratic convergence: the error left is ~ omega |dz0|^2, with
+    omega = |dz1| / |dz0|^2 measured on the two-iteration steps (re-measured at least every `refresh_every`
+    steps). The tolerance on that error is max(xtol L, lte_fraction x the step's local truncation error
+    |beta - 1/6| h^2 |a_n+1 - a_n|): Newton's error stays a small fraction of the time-discretization error, so
+    the accuracy is the scheme's. Steps the graph flags as unconverged are redone by the Python Newton loop
+    (`newton`, absolute tolerances, max_iter). `run_chunk` maps the graph over many steps (mapaccum) so that a
+    whole stretch of the time loop is one call. Modified Newton runs in Python with a SuperLU factorisation
+    reused across iterations and steps.
+    State: q, v (true velocity), a (true acceleration), ab (algorithmic acceleration), lam (true multipliers),
+    a_prev (acceleration of the previous step), omega.
     """
-    order = 2  # of the local displacement error estimate's method (step-size control exponent 1/(order+1))
+    order = 2  # of the local error estimate (step-size control exponent 1/(order + 1))
+    refresh_every = 8  # one-iteration steps between two-iteration steps that re-measure omega
 
     def __init__(self, system: StepSystem, scheme: Scheme, newton_opts: NewtonOptions, tol_q: float,
                  tol_x: float, counters: Counters):
@@ -721,65 +752,110 @@ class AlphaIntegrator:
         self.counters = counters
         self.factor = Factor()
         nf, mc = system.nf, system.mc
-        self.q, self.v, self.a, self.ab = (np.zeros(nf) for _ in range(4))
+        self.q, self.v, self.a, self.ab, self.a_prev = (np.zeros(nf) for _ in range(5))
         self.lam = np.zeros(mc)
-        self.kel = system.kel if system.kel is not None else None
+        self.omega, self.since = 0.0, 0.0  # omega = 0: not measured yet
+        self.h_prev = None
+        self.new = dict(q=np.zeros(nf), v=np.zeros(nf), a=np.zeros(nf), ab=np.zeros(nf), lam=np.zeros(mc))
         self._kel_f = None
         if system.kel_sparsity is not None:
             xf = ca.MX.sym("x", nf)
-            self._kel_f = ca.Function("kel", [xf], [self.S.forces_f(xf)[2]])
-        self._build_fused()
+            self._kel_f = ca.Function("kel", [xf], [system.forces_f(xf)[2]])
+        self._build()
+        self._chunks: dict = {}
 
-    # -- compiled step ---------------------------------------------------------------------------------------
-    def _build_fused(self) -> None:
-        S, sc = self.S, self.scheme
+    # -- the compiled step ------------------------------------------------------------------------------------
+    @property
+    def state_size(self) -> int:
+        return 5 * self.S.nf + self.S.mc + 2
+
+    def pack(self) -> np.ndarray:
+        return np.concatenate([self.q, self.v, self.a, self.ab, self.a_prev, self.lam, [self.omega, self.since]])
+
+    def unpack(self, s: np.ndarray) -> dict:
+        nf, mc = self.S.nf, self.S.mc
+        out = {k: s[i * nf:(i + 1) * nf] for i, k in enumerate(("q", "v", "a", "ab", "a_prev"))}
+        out["lam"] = s[5 * nf:5 * nf + mc]
+        out["omega"], out["since"] = float(s[5 * nf + mc]), float(s[5 * nf + mc + 1])
+        return out
+
+    def _build(self) -> None:
+        S, sc, o = self.S, self.scheme, self.opts
         nf, mc = S.nf, S.mc
-        q, v, a, ab = (ca.MX.sym(n, nf) for n in ("q", "v", "a", "ab"))
-        lam = ca.MX.sym("lam", mc)
-        h, kc = ca.MX.sym("h"), ca.MX.sym("kc")
-        pload = ca.MX.sym("pload", nf)  # -(f_lin + Q(t_{n+1}))
+        st = ca.MX.sym("state", self.state_size)
+        q, v, a, ab, ap = (st[i * nf:(i + 1) * nf] for i in range(5))
+        lam = st[5 * nf:5 * nf + mc]
+        om, since = st[5 * nf + mc], st[5 * nf + mc + 1]
+        h, hp = ca.MX.sym("h"), ca.MX.sym("h_prev")  # h_prev <= 0: no previous step (constant predictor)
+        pload = ca.MX.sym("pload", nf)  # -(f_lin + Q(t_n+1))
         kel = ca.MX.sym("kel", S.kel.size) if S.kel is not None else None
         b, g, am, af = sc.beta, sc.gamma, sc.alpha_m, sc.alpha_f
         qh = q + h * v + h * h * (0.5 - b) * ab
         vh = v + h * (1 - g) * ab
         cm = (1 - am) / ((1 - af) * b * h * h)
         cc = g / (b * h)
-        Mdm = _dm(S.M)
+        kc = cm * S.stiffness_scale()
         Cvh, _ = S.damping_mx(vh - cc * qh, kel)
-        p = ca.mtimes(Mdm, (am * ab - af * a) / (1 - af) - cm * qh) + Cvh + pload
-        x = qh + b * h * h * (a - am * ab) / (1 - am)
-        l = lam
-        norms = []
-        for _ in range(2):
-            args = [x, l, p, cm, cc, kc] + ([kel] if kel is not None else [])
-            dz, nrm = S.iter_f(*args)
-            x = x + dz[:nf]
-            if mc:
-                l = l + dz[nf:]
-            norms.append(nrm)
-        ab1 = (x - qh) / (b * h * h)
-        a1 = ((1 - am) * ab1 + am * ab - af * a) / (1 - af)
-        v1 = vh + h * g * ab1
-        ins = [q, v, a, ab, lam, h, kc, pload] + ([kel] if kel is not None else [])
-        self.fused_f = ca.Function("alpha_step", ins, [x, l, v1, a1, ab1, ca.vertcat(*norms), p])
-        # buffers
-        self._in = dict(q=self.q, v=self.v, a=self.a, ab=self.ab, lam=np.zeros(mc), h=np.zeros(1), kc=np.ones(1),
-                        pload=np.zeros(nf))
-        args = [self._in[k] for k in ("q", "v", "a", "ab", "lam", "h", "kc", "pload")]
-        if kel is not None:
-            args.append(S.kel)
-        self.new = dict(q=np.zeros(nf), lam=np.zeros(mc), v=np.zeros(nf), a=np.zeros(nf), ab=np.zeros(nf))
-        self._fnorms = np.zeros(10)
-        self._p = np.zeros(nf)
-        outs = [self.new[k] for k in ("q", "lam", "v", "a", "ab")] + [self._fnorms, self._p]
-        buf, ev = self.fused_f.buffer()
+        p = ca.mtimes(_dm(S.M), (am * ab - af * a) / (1 - af) - cm * qh) + Cvh + pload
+        apred = a + ca.if_else(hp > 0, (a - ap) * h / ca.fmax(hp, 1e-300), ca.MX.zeros(nf))
+        x0 = qh + b * h * h * ((1 - af) * apred + af * a - am * ab) / (1 - am)
+        l0 = lam / kc
+        extra = [kel] if kel is not None else []
+
+        def accel(x):
+            ab1 = (x - qh) / (b * h * h)
+            return ab1, ((1 - am) * ab1 + am * ab - af * a) / (1 - af)
+
+        dz, n0 = S.iter_f(x0, l0, p, cm, cc, kc, *extra)
+        x1 = x0 + dz[:nf]
+        l1 = l0 + dz[nf:] if mc else l0
+        d0 = ca.fmax(n0[2], n0[3])
+        lte = sc.error_constant() * h * h * ca.mmax(ca.fabs(accel(x1)[1] - a))
+        tolx = ca.fmax(self.tol_x, o.lte_fraction * lte)
+        span = S.span
+        tq = ca.fmax(self.tol_q, 2 * np.finfo(float).eps * n0[4] * span)
+        conv0 = ca.logic_and(n0[0] <= tq, n0[1] <= self.tol_x)
+        est1 = 2 * om * d0 * d0
+        conv1 = ca.logic_and(ca.logic_and(om > 0, since < self.refresh_every), est1 <= tolx)
+        accept1 = ca.logic_or(conv0, conv1) if o.single else ca.MX(0)
+        # second iteration, evaluated only when needed
+        xb, lb, pb = ca.MX.sym("xb", nf), ca.MX.sym("lb", mc), ca.MX.sym("pb", nf)
+        cb, ccb, kb = ca.MX.sym("cmb"), ca.MX.sym("ccb"), ca.MX.sym("kcb")
+        eb = [ca.MX.sym("kelb", S.kel.size)] if kel is not None else []
+        dzb, nb = S.iter_f(xb, lb, pb, cb, ccb, kb, *eb)
+        f_keep = ca.Function("keep", [xb, lb, pb, cb, ccb, kb] + eb, [xb, lb, ca.DM.zeros(5)])
+        f_iter = ca.Function("second", [xb, lb, pb, cb, ccb, kb] + eb,
+                             [xb + dzb[:nf], (lb + dzb[nf:]) if mc else lb, nb])
+        switch = ca.Function.conditional("second_iteration", [f_keep], f_iter)
+        x2, l2, n1 = switch(ca.if_else(accept1, 0, 1), x1, l1, p, cm, cc, kc, *extra)
+        d1 = ca.fmax(n1[2], n1[3])
+        th = d1 / ca.fmax(d0, 1e-300)
+        conv2 = ca.logic_or(ca.logic_and(n1[0] <= tq, n1[1] <= self.tol_x), d1 <= 0.1 * tolx)
+        conv2 = ca.logic_or(conv2, ca.logic_and(th < 0.5, th / (1 - th) * d1 <= tolx))
+        ok = ca.if_else(accept1, 1, conv2)
+        om_new = ca.if_else(accept1, om, ca.if_else(d0 > 0, ca.fmax(d1 / ca.fmax(d0 * d0, 1e-300), 0.5 * om), om))
+        since_new = ca.if_else(accept1, since + 1, 0)
+        ab2, a2 = accel(x2)
+        v2 = vh + h * g * ab2
+        new_state = ca.vertcat(x2, v2, a2, ab2, a, l2 * kc, om_new, since_new)
+        iters = ca.if_else(accept1, 1, 2)
+        info = ca.vertcat(ok, iters, d0, d1, lte, n0[4])
+        ins = [st, h, hp, pload] + extra
+        self.step_f = ca.Function("alpha_step", ins, [new_state, info], ["state", "h", "h_prev", "pload"] +
+                                  (["kel"] if kel is not None else []), ["next_state", "info"])
+        # per-step buffers
+        self._s_in, self._s_out, self._info = np.zeros(self.state_size), np.zeros(self.state_size), np.zeros(6)
+        self._h, self._hp, self._pload = np.zeros(1), np.zeros(1), np.zeros(nf)
+        args = [self._s_in, self._h, self._hp, self._pload] + ([S.kel] if kel is not None else [])
+        buf, ev = self.step_f.buffer()
         for i, arr in enumerate(args):
             buf.set_arg(i, memoryview(arr))
-        for i, arr in enumerate(outs):
-            buf.set_res(i, memoryview(arr))
-        self._fused = (buf, ev, args, outs)
+        buf.set_res(0, memoryview(self._s_out))
+        buf.set_res(1, memoryview(self._info))
+        self._step = (buf, ev, args)
+        self._qh_p = p  # (symbolic, for reference)
 
-    # -- state --------------------------------------------------------------------------------------------------
+    # -- state ------------------------------------------------------------------------------------------------
     def initialize(self, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray) -> None:
         self.q[:] = q0
         self.v[:] = v0
@@ -787,6 +863,8 @@ class AlphaIntegrator:
         a, lam = initial_acceleration(self.S, q0, v0, Q0, self.damping_matrix())
         self.a[:], self.lam[:] = a, lam
         self.ab[:] = self.a
+        self.a_prev[:] = self.a
+        self.h_prev = None
 
     def update_damping(self) -> None:
         """Rayleigh stiffness damping uses the elastic tangent at the start of the step."""
@@ -797,56 +875,64 @@ class AlphaIntegrator:
     def damping_matrix(self):
         return self.S.damping_matrix(self.S.kel)
 
-    # -- one step -----------------------------------------------------------------------------------------------
+    @property
+    def chunkable(self) -> bool:
+        """The whole step is in the graph (no Python per step): full Newton, no stiffness damping update."""
+        return not self.opts.modified and self._kel_f is None
+
+    # -- one step ---------------------------------------------------------------------------------------------
     def attempt(self, t: float, h: float, loads=None) -> StepOutcome:
         """Try the step t -> t + h (loads(t): time-dependent generalized force on the unknowns, or None).
         The candidate is in self.new; accept() commits it."""
-        S, sc = self.S, self.scheme
-        Q_new = loads(t + h) if loads is not None else None
-        kc = sc.cm(h) * S.stiffness_scale()
-        pload = -S.f_lin if Q_new is None else -(S.f_lin + Q_new)
+        S = self.S
+        pload = -S.f_lin if loads is None else -(S.f_lin + loads(t + h))
+        self._h_try = h
         if not self.opts.modified:
-            self._in["h"][0] = h
-            self._in["kc"][0] = kc
-            self._in["pload"][:] = pload
-            if S.mc:
-                self._in["lam"][:] = self.lam / kc
-            self._fused[1]()
-            c = self.counters
-            c.residuals += 2
-            c.jacobians += 2
-            c.factorizations += 2
-            c.newton_iterations += 2
-            n0, n1 = self._fnorms[:5], self._fnorms[5:]
-            if np.all(np.isfinite(self._fnorms)):
-                S.floor = float(np.finfo(float).eps * max(n0[4], n1[4]) * S.span)
-                tq = max(self.tol_q, 2.0 * S.floor)
-                d0, d1 = max(n0[2], n0[3]), max(n1[2], n1[3])
-                ok = (n1[0] <= tq and n1[1] <= self.tol_x) or d1 <= 0.1 * self.tol_x
-                if not ok and d0 > 0:
-                    th = d1 / d0
-                    ok = th < 0.5 and th / (1 - th) * d1 <= self.tol_x
-                if ok:
-                    if S.mc:
-                        self.new["lam"] *= kc
-                    return StepOutcome(True, 2, "", True)
-                # continue from the fused call's iterate
-                S.x[:] = self.new["q"]
-                S.lam[:] = self.new["lam"]
-                S.p[:] = self._p
-                it0 = 2
+            self._s_in[:] = self.pack()
+            self._h[0] = h
+            self._hp[0] = self.h_prev if self.h_prev else 0.0
+            self._pload[:] = pload
+            self._step[1]()
+            info = self._info
+            k = int(info[1])
+            self._count(k)
+            if info[0] == 1 and np.all(np.isfinite(self._s_out)):
+                u = self.unpack(self._s_out)
+                for key in ("q", "v", "a", "ab", "lam"):
+                    self.new[key][:] = u[key]
+                self._new_omega, self._new_since = u["omega"], u["since"]
+                return StepOutcome(True, k, "", True)
+            if np.all(np.isfinite(self._s_out)):  # continue from the graph's last iterate
+                u = self.unpack(self._s_out)
+                kc = self.scheme.cm(h) * S.stiffness_scale()
+                S.x[:], S.lam[:] = u["q"], u["lam"] / kc
+                S.p[:] = self._predict(h, pload, kc)[2]
+                it0 = k
+                self._new_omega = u["omega"]
             else:
-                S.x[:], S.lam[:], S.p[:] = self._predict(h, pload, kc)
+                S.x[:], S.lam[:], S.p[:] = self._predict(h, pload, self.scheme.cm(h) * S.stiffness_scale())
                 it0 = 0
+                self._new_omega = self.omega
         else:
-            S.x[:], S.lam[:], S.p[:] = self._predict(h, pload, kc)
+            S.x[:], S.lam[:], S.p[:] = self._predict(h, pload, self.scheme.cm(h) * S.stiffness_scale())
             it0 = 0
+            self._new_omega = self.omega
+        sc = self.scheme
+        kc = sc.cm(h) * S.stiffness_scale()
         S.cm[0], S.cc[0], S.kc[0] = sc.cm(h), sc.cc(h), kc
         out = newton(S, self.factor, (h, kc), self.opts, self.counters, self.tol_q, self.tol_x, it0)
         if not out.converged:
             return StepOutcome(False, out.iterations, out.reason)
         self._correct(h, S.x, S.lam * kc)
+        self._new_since = 0.0
         return StepOutcome(True, out.iterations)
+
+    def _count(self, k: int, steps: int = 1) -> None:
+        c = self.counters
+        c.residuals += k
+        c.jacobians += k
+        c.factorizations += k
+        c.newton_iterations += k
 
     def _predict(self, h, pload, kc):
         sc, S = self.scheme, self.S
@@ -858,8 +944,8 @@ class AlphaIntegrator:
         C = self.damping_matrix()
         if C is not None:
             p += C @ (vh - cc * qh)
-        x = qh + b * h * h * (self.a - am * self.ab) / (1 - am)
-        self._qh, self._vh = qh, vh
+        ap = self.a + ((self.a - self.a_prev) * h / self.h_prev if self.h_prev else 0.0)
+        x = qh + b * h * h * ((1 - af) * ap + af * self.a - am * self.ab) / (1 - am)
         return x, self.lam / kc, p
 
     def _correct(self, h, x, lam_true):
@@ -879,6 +965,54 @@ class AlphaIntegrator:
         return self.scheme.error_constant() * h * h * (self.new["a"] - self.a)
 
     def accept(self) -> None:
+        self.a_prev[:] = self.a
         for k in ("q", "v", "a", "ab", "lam"):
             getattr(self, k)[:] = self.new[k]
+        self.omega, self.since = self._new_omega, self._new_since
+        self.h_prev = self._h_try
         self.update_damping()
+
+    # -- many steps in one call -------------------------------------------------------------------------------
+    def chunk_function(self, n: int):
+        if n not in self._chunks:
+            f = self.step_f.mapaccum(f"alpha_steps_{n}", n)
+            buf, ev = f.buffer()
+            nf = self.S.nf
+            bufs = dict(s=np.zeros(self.state_size), h=np.zeros(n), hp=np.zeros(n),
+                        pload=np.zeros(nf * n), out=np.zeros(self.state_size * n), info=np.zeros(6 * n))
+            args = [bufs["s"], bufs["h"], bufs["hp"], bufs["pload"]]
+            for i, arr in enumerate(args):
+                buf.set_arg(i, memoryview(arr))
+            buf.set_res(0, memoryview(bufs["out"]))
+            buf.set_res(1, memoryview(bufs["info"]))
+            self._chunks[n] = (buf, ev, bufs)
+        return self._chunks[n]
+
+    def run_chunk(self, h: float, ploads: np.ndarray) -> tuple[np.ndarray, int]:
+        """Up to n = ploads.shape[1] steps of size h in one call (no time-dependent C). Returns the states after
+        each accepted step (n_ok x state_size) and n_ok: the steps before the first one the graph could not
+        converge (that step is then left to `attempt`). The integrator's state is advanced to the last of them."""
+        n = ploads.shape[1]
+        buf, ev, b = self.chunk_function(n)
+        b["s"][:] = self.pack()
+        b["h"][:] = h  # (mapaccum maps every input but the state over the steps)
+        b["hp"][:] = h
+        b["hp"][0] = self.h_prev if self.h_prev else 0.0
+        b["pload"][:] = ploads.ravel(order="F")
+        ev()
+        info = b["info"].reshape(n, 6)
+        states = b["out"].reshape(n, self.state_size)
+        good = (info[:, 0] == 1) & np.all(np.isfinite(states), axis=1)
+        n_ok = n if good.all() else int(np.argmin(good))
+        its = info[:n_ok, 1].sum() if n_ok else 0
+        self._count(int(its))
+        if n_ok < n:  # the failing step's work was spent too
+            self._count(int(info[n_ok, 1]))
+        if n_ok:
+            self.a_prev[:] = states[n_ok - 2, 2 * self.S.nf:3 * self.S.nf] if n_ok > 1 else self.a
+            u = self.unpack(states[n_ok - 1])
+            for k in ("q", "v", "a", "ab", "lam"):
+                getattr(self, k)[:] = u[k]
+            self.omega, self.since = u["omega"], u["since"]
+            self.h_prev = h
+        return states[:n_ok], n_ok

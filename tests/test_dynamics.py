@@ -65,11 +65,14 @@ def test_newmark_energy_error_is_second_order_and_bounded():
                                                ("generalized_alpha", False), ("radau", False)])
 def test_high_frequency_dissipation(integrator, keeps):
     """omega_max h = 10 on the highest axial modes: Newmark and Gauss keep the energy; HHT (alpha = -1/3) and
-    generalized-alpha (rho_inf = 0.5) remove it as their spectral radius says (0.5 per step), Radau IIA as well."""
+    generalized-alpha (rho_inf = 0.5) remove it as their spectral radius says (0.5 per step), Radau IIA as well.
+    The vibration amplitude is 2.6 nm, below Newton's default update tolerance (1e-10 m x the scene length), so
+    Newton runs here to full convergence (at least two iterations, no truncation-error-relative tolerance): the
+    energy is the scheme's. With the defaults Newmark keeps it to ~6e-6."""
     s, v0 = zigzag_bar()
     h = 10 / 3.868e5  # omega_max of this bar (generalized eigenvalues of K and M at the reference state)
     r = run_dynamics(s, {"integrator": integrator, "dt": h, "t_end": 100 * h, "output_every": 10, "rho_inf": 0.5,
-                         "alpha": -1 / 3, "v0": v0})
+                         "alpha": -1 / 3, "v0": v0, "newton": {"lte_fraction": 0.0, "single": False}})
     assert r.status == "completed"
     ratio = r.energies["total"][-1] / r.energies["total"][0]
     if keeps:
@@ -123,7 +126,7 @@ def test_modified_newton_matches_full_newton():
     opts = {"integrator": "generalized_alpha", "dt": 2e-3, "t_end": 0.4, "output_times": [0.4], "sensors": TIP}
     a = run_dynamics(pendulum(), opts)
     b = run_dynamics(pendulum(), {**opts, "newton": {"modified": True}})
-    assert np.max(np.abs(a.sensors["tip"] - b.sensors["tip"])) < 1e-7
+    assert np.max(np.abs(a.sensors["tip"] - b.sensors["tip"])) < 1e-6  # both within their Newton tolerances
     assert b.counters["factorizations"] < b.counters["newton_iterations"]
 
 
