@@ -787,6 +787,8 @@ class AlphaIntegrator:
         lam = st[5 * nf:5 * nf + mc]
         om, since = st[5 * nf + mc], st[5 * nf + mc + 1]
         h, hp = ca.MX.sym("h"), ca.MX.sym("h_prev")  # h_prev <= 0: no previous step (constant predictor)
+        tols = ca.MX.sym("tols", 2)  # force tolerance [N], update tolerance [m]
+        tol_q, tol_x = tols[0], tols[1]
         pload = ca.MX.sym("pload", nf)  # -(f_lin + Q(t_n+1))
         kel = ca.MX.sym("kel", S.kel.size) if S.kel is not None else None
         b, g, am, af = sc.beta, sc.gamma, sc.alpha_m, sc.alpha_f
@@ -811,10 +813,10 @@ class AlphaIntegrator:
         l1 = l0 + dz[nf:] if mc else l0
         d0 = ca.fmax(n0[2], n0[3])
         lte = sc.error_constant() * h * h * ca.mmax(ca.fabs(accel(x1)[1] - a))
-        tolx = ca.fmax(self.tol_x, o.lte_fraction * lte)
+        tolx = ca.fmax(tol_x, o.lte_fraction * lte)
         span = S.span
-        tq = ca.fmax(self.tol_q, 2 * np.finfo(float).eps * n0[4] * span)
-        conv0 = ca.logic_and(n0[0] <= tq, n0[1] <= self.tol_x)
+        tq = ca.fmax(tol_q, 2 * np.finfo(float).eps * n0[4] * span)
+        conv0 = ca.logic_and(n0[0] <= tq, n0[1] <= tol_x)
         est1 = 2 * om * d0 * d0
         conv1 = ca.logic_and(ca.logic_and(om > 0, since < self.refresh_every), est1 <= tolx)
         accept1 = ca.logic_or(conv0, conv1) if o.single else ca.MX(0)
@@ -830,7 +832,7 @@ class AlphaIntegrator:
         x2, l2, n1 = switch(ca.if_else(accept1, 0, 1), x1, l1, p, cm, cc, kc, *extra)
         d1 = ca.fmax(n1[2], n1[3])
         th = d1 / ca.fmax(d0, 1e-300)
-        conv2 = ca.logic_or(ca.logic_and(n1[0] <= tq, n1[1] <= self.tol_x), d1 <= 0.1 * tolx)
+        conv2 = ca.logic_or(ca.logic_and(n1[0] <= tq, n1[1] <= tol_x), d1 <= 0.1 * tolx)
         conv2 = ca.logic_or(conv2, ca.logic_and(th < 0.5, th / (1 - th) * d1 <= tolx))
         ok = ca.if_else(accept1, 1, conv2)
         om_new = ca.if_else(accept1, om, ca.if_else(d0 > 0, ca.fmax(d1 / ca.fmax(d0 * d0, 1e-300), 0.5 * om), om))
@@ -840,13 +842,13 @@ class AlphaIntegrator:
         new_state = ca.vertcat(x2, v2, a2, ab2, a, l2 * kc, om_new, since_new)
         iters = ca.if_else(accept1, 1, 2)
         info = ca.vertcat(ok, iters, d0, d1, lte, n0[4])
-        ins = [st, h, hp, pload] + extra
-        self.step_f = ca.Function("alpha_step", ins, [new_state, info], ["state", "h", "h_prev", "pload"] +
+        ins = [st, h, hp, pload, tols] + extra
+        self.step_f = ca.Function("alpha_step", ins, [new_state, info], ["state", "h", "h_prev", "pload", "tols"] +
                                   (["kel"] if kel is not None else []), ["next_state", "info"])
         # per-step buffers
         self._s_in, self._s_out, self._info = np.zeros(self.state_size), np.zeros(self.state_size), np.zeros(6)
-        self._h, self._hp, self._pload = np.zeros(1), np.zeros(1), np.zeros(nf)
-        args = [self._s_in, self._h, self._hp, self._pload] + ([S.kel] if kel is not None else [])
+        self._h, self._hp, self._pload, self._tols = np.zeros(1), np.zeros(1), np.zeros(nf), np.zeros(2)
+        args = [self._s_in, self._h, self._hp, self._pload, self._tols] + ([S.kel] if kel is not None else [])
         buf, ev = self.step_f.buffer()
         for i, arr in enumerate(args):
             buf.set_arg(i, memoryview(arr))
@@ -892,6 +894,7 @@ class AlphaIntegrator:
             self._h[0] = h
             self._hp[0] = self.h_prev if self.h_prev else 0.0
             self._pload[:] = pload
+            self._tols[:] = self.tol_q, self.tol_x
             self._step[1]()
             info = self._info
             k = int(info[1])
@@ -978,9 +981,9 @@ class AlphaIntegrator:
             f = self.step_f.mapaccum(f"alpha_steps_{n}", n)
             buf, ev = f.buffer()
             nf = self.S.nf
-            bufs = dict(s=np.zeros(self.state_size), h=np.zeros(n), hp=np.zeros(n),
-                        pload=np.zeros(nf * n), out=np.zeros(self.state_size * n), info=np.zeros(6 * n))
-            args = [bufs["s"], bufs["h"], bufs["hp"], bufs["pload"]]
+            bufs = dict(s=np.zeros(self.state_size), h=np.zeros(n), hp=np.zeros(n), pload=np.zeros(nf * n),
+                        tols=np.zeros(2 * n), out=np.zeros(self.state_size * n), info=np.zeros(6 * n))
+            args = [bufs["s"], bufs["h"], bufs["hp"], bufs["pload"], bufs["tols"]]
             for i, arr in enumerate(args):
                 buf.set_arg(i, memoryview(arr))
             buf.set_res(0, memoryview(bufs["out"]))
@@ -999,6 +1002,7 @@ class AlphaIntegrator:
         b["hp"][:] = h
         b["hp"][0] = self.h_prev if self.h_prev else 0.0
         b["pload"][:] = ploads.ravel(order="F")
+        b["tols"][0::2], b["tols"][1::2] = self.tol_q, self.tol_x
         ev()
         info = b["info"].reshape(n, 6)
         states = b["out"].reshape(n, self.state_size)

@@ -56,13 +56,13 @@ def ancf_scene(c):
     return s
 
 
-def ancf_run(c, dt=None, modified=False):
+def ancf_run(c, dt=None, modified=False, energies=True):
     t0 = time.perf_counter()
     asm = Assembly(ancf_scene(c))
     system = StepSystem(asm, rayleigh_data(asm, [mk for mk in asm.mapped if mk.term.effect not in LINEAR_EFFECTS]))
     setup = time.perf_counter() - t0
     opts = DynamicOptions(dt=dt or c["dt"], t_end=c["T"], integrator="generalized_alpha", rho_inf=0.9,
-                          output_dt=OUT_DT, newton={"modified": modified},
+                          output_dt=OUT_DT, newton={"modified": modified}, energies=energies,
                           sensors=[{"name": "tip", "kind": "position", "member": "m", "at": "end"}])
     c0, w0 = time.process_time(), time.perf_counter()
     res = simulate(asm, opts, system=system)
@@ -138,16 +138,19 @@ def on_grid(run, times):
     return np.column_stack([np.interp(times, run["t"], run["tip"][:, k]) for k in range(2)])
 
 
-def bench_case(name, c, repeats, exudyn_modes):
+def bench_case(name, c, repeats, exudyn_modes, exudyn_tols, ancf_no_energies):
     times = np.round(np.arange(0.0, c["T"] + 1e-9, OUT_DT), 10)
     ref = ancf_run(c, dt=c["dt"] / 8)
     tip_ref = on_grid(ref, times)
-    configs = [("ancf_sym", dict(modified=False))] + [(f"exudyn ({'modified' if m else 'full'} Newton)", dict(modified=m))
-                                                       for m in exudyn_modes]
+    configs = [("ancf_sym", dict(modified=False))]
+    if ancf_no_energies:
+        configs.append(("ancf_sym (no energies)", dict(modified=False, energies=False)))
+    configs += [(f"exudyn ({'modified' if m else 'full'} Newton{'' if tol == 1e-8 else f', relTol {tol:g}'})",
+                 dict(modified=m, rel_tol=tol)) for m in exudyn_modes for tol in exudyn_tols]
     runs = {k: [] for k, _ in configs}
     for _ in range(repeats):
         for label, kw in configs:
-            runs[label].append(ancf_run(c, **kw) if label == "ancf_sym" else exudyn_run(c, **kw))
+            runs[label].append(ancf_run(c, **kw) if label.startswith("ancf_sym") else exudyn_run(c, **kw))
     rows = []
     tip_ancf = on_grid(runs["ancf_sym"][0], times)
     for label, _ in configs:
@@ -170,6 +173,8 @@ def bench_case(name, c, repeats, exudyn_modes):
         })
     base = rows[0]
     for r in rows[1:]:
+        if r["code"].startswith("ancf_sym"):
+            continue
         base[f"ratio_cpu_vs_{r['code']}"] = base["cpu_median_s"] / r["cpu_median_s"]
         base[f"ratio_wall_vs_{r['code']}"] = base["wall_median_s"] / r["wall_median_s"]
     return rows
@@ -182,6 +187,10 @@ def main(argv=None):
     p.add_argument("--cases", nargs="*", default=None, help=f"subset of {sorted(CASES)}")
     p.add_argument("--exudyn-modified", choices=("yes", "no", "both"), default="both",
                    help="Exudyn with modified Newton (its default), full Newton, or both")
+    p.add_argument("--exudyn-tols", type=float, nargs="*", default=[1e-8],
+                   help="Exudyn Newton relative tolerances to try (default its own 1e-8)")
+    p.add_argument("--no-energies", action="store_true",
+                   help="also time ancf_sym without the energy balance at the output times (Exudyn records none)")
     p.add_argument("--json", metavar="PATH")
     a = p.parse_args(argv)
     try:
@@ -192,11 +201,12 @@ def main(argv=None):
     names = a.cases or (["pendulum", "rope"] + (["clamped_beam"] if a.clamp else []))
     rows = []
     for name in names:
-        rows += bench_case(name, CASES[name], a.repeats, modes)
+        rows += bench_case(name, CASES[name], a.repeats, modes, a.exudyn_tols, a.no_energies)
     cols = ["case", "code", "cpu_min_s", "cpu_median_s", "wall_median_s", "setup_s", "steps", "newton_iterations",
             "factorizations", "steps_per_s", "newton_per_s", "factorizations_per_s", "max_err_vs_ref_m",
             "max_diff_vs_ancf_m"]
     w = {c: max(len(c), 12) for c in cols}
+    w["code"] = max(len(r["code"]) for r in rows)
     print("  ".join(c.rjust(w[c]) for c in cols))
     for r in rows:
         cells = []
