@@ -36,6 +36,7 @@ def load_vector(mesh: Mesh) -> np.ndarray:
         elif load.kind == "tension":
             node = mm.node(load.at)
             t = mm.x0[node][mm.node_size // (4 if mm.member.element == "beam3d" else 2):][:mesh.scene.dim]
+            t = t / np.linalg.norm(t)  # reference slopes carry the prestretch
             outward = t if node == mm.n_nodes - 1 else -t
             idx, val = point_force(mm, float(mm.s_node[node]), float(load.value) * outward)
             np.add.at(Q, idx, val)

@@ -81,6 +81,7 @@ def mesh_member(m: Member, offset: int) -> MemberMesh:
     while share.sum() < m.elements:
         share[np.argmax(seg_len / share)] += 1
     ns = node_size(m.element)
+    stretch = 1.0 + m.prestrain  # geometric / reference length
     rows, elem_nodes, elem_len, public, pairs, s_nodes = [], [], [], [], [], []
     s0 = 0.0
     for k in range(nseg):
@@ -92,16 +93,16 @@ def mesh_member(m: Member, offset: int) -> MemberMesh:
             r = pts[k] + t * seg_len[k] * j / share[k]
             if m.element == "beam3d":
                 y, z = _frame(t, m.y_axis)
-                rows.append(np.concatenate([r, t, y, z]))
+                rows.append(np.concatenate([r, stretch * t, y, z]))
             else:
-                rows.append(np.concatenate([r, t]))
-            s_nodes.append(s0 + seg_len[k] * j / share[k])
+                rows.append(np.concatenate([r, stretch * t]))
+            s_nodes.append(s0 + seg_len[k] * j / share[k] / stretch)
             if k == 0 or j > 0:
                 public.append(first + j)
         for j in range(share[k]):
             elem_nodes.append((first + j, first + j + 1))
-            elem_len.append(seg_len[k] / share[k])
-        s0 += seg_len[k]
+            elem_len.append(seg_len[k] / share[k] / stretch)
+        s0 += seg_len[k] / stretch
     return MemberMesh(m, offset, ns, np.array(rows), np.array(elem_nodes), np.array(elem_len), np.array(public),
                       pairs, np.array(s_nodes))
 

@@ -154,10 +154,12 @@ class Member:
     beam_method: str = "continuum"
     gauss: int | None = None
     y_axis: np.ndarray | None = None  # beam3d section axis y (reference); z = x cross y
+    prestrain: float = 0.0  # initial stretch |r_x| - 1: the polyline is the member stretched by 1 + prestrain
 
     @property
     def length(self) -> float:
-        return float(np.sum(np.linalg.norm(np.diff(self.points, axis=0), axis=1)))
+        """Unstretched (reference) length [m]: material coordinates run over [0, length]."""
+        return float(np.sum(np.linalg.norm(np.diff(self.points, axis=0), axis=1))) / (1.0 + self.prestrain)
 
     @property
     def n_nodes(self) -> int:
@@ -193,11 +195,15 @@ class Load:
 @dataclass
 class Damping:
     """Dynamics only. kind "rayleigh": C = alpha M + beta K_el, alpha [1/s] on absolute velocities (one value for
-    the scene), beta [s] on the elastic tangent stiffness (at the start of each step) of `members` (None: all)."""
+    the scene), beta [s] on the elastic tangent stiffness (at the start of each step) of `members` (None: all).
+    kind "strain_rate" (cables): dissipation 1/2 int (axial eps_dot^2 + bending |kappa_dot|^2) dx, axial [N s],
+    bending [N m^2 s]."""
     kind: str
     alpha: float = 0.0
     beta: float = 0.0
     members: list | None = None
+    axial: float = 0.0
+    bending: float = 0.0
 
 
 @dataclass
@@ -221,12 +227,14 @@ class Scene:
     def member(self, name: str, points: Sequence[Sequence[float]], elements: int, material: Material,
                section: Section, axial: str | None = "green", bending: bool = True, torsion: bool = False,
                gravity: bool = True, element: str | None = None, beam_method: str = "continuum",
-               gauss: int | None = None, y_axis: Sequence[float] | None = None) -> Member:
+               gauss: int | None = None, y_axis: Sequence[float] | None = None, prestrain: float = 0.0) -> Member:
         """Add a straight (2 points) or polyline member meshed into `elements` elements of one kind.
 
         axial: strain measure "green" | "biot" | "decoupled" (cables) or None for no axial stiffness.
         element: "cable2d" (default in 2D), "cable3d" (default in 3D) or "beam3d" (beam_method "continuum" or
         "elastic_line"). Polyline vertices become rigid joints between straight segments.
+        prestrain: the points give the member stretched by 1 + prestrain (e.g. a taut string between two pins:
+        prestrain = T/EA); its unstretched length is the polyline's divided by 1 + prestrain.
         """
         if not isinstance(name, str) or not name or name in self.members:
             raise SceneError(f"member name must be a new non-empty string, got {name!r}")
@@ -267,8 +275,11 @@ class Scene:
         ya = None
         if y_axis is not None:
             ya = _vector(f"member {name!r}: y_axis", y_axis, 3)
+        pre = _finite(f"member {name!r}: prestrain", prestrain)
+        if not -0.5 < pre < 1.0:
+            raise SceneError(f"member {name!r}: prestrain must lie in (-0.5, 1), got {prestrain!r}")
         m = Member(name, pts, int(elements), material, section, element, axial, bool(bending), bool(torsion),
-                   bool(gravity), beam_method, gauss, ya)
+                   bool(gravity), beam_method, gauss, ya, pre)
         self.members[name] = m
         return m
 
@@ -364,6 +375,24 @@ class Scene:
             for m in members:
                 self._member(m, "rayleigh.members")
         d = Damping("rayleigh", a, b, members)
+        self.dampings.append(d)
+        return d
+
+    def strain_rate_damping(self, axial: float = 0.0, bending: float = 0.0,
+                            members: Sequence[str] | None = None) -> Damping:
+        """Kelvin-Voigt damping of cable members for dynamics: axial force axial * eps_dot [axial in N s] and
+        bending moment bending * kappa_dot [bending in N m^2 s] (strain rate of the member's axial measure,
+        curvature-vector rate); it vanishes under rigid-body motion."""
+        a = _finite("strain_rate_damping.axial", axial)
+        b = _finite("strain_rate_damping.bending", bending)
+        if a < 0 or b < 0:
+            raise SceneError(f"strain_rate_damping.axial and .bending must be >= 0, got {axial!r}, {bending!r}")
+        names = list(self.members) if members is None else ([members] if isinstance(members, str) else list(members))
+        for m in names:
+            if self._member(m, "strain_rate_damping.members").element == "beam3d":
+                raise SceneError(f"strain_rate_damping: member {m!r} is a beam3d; strain-rate damping is defined for "
+                                 "cable members (use rayleigh for beams)")
+        d = Damping("strain_rate", members=None if members is None else names, axial=a, bending=b)
         self.dampings.append(d)
         return d
 

@@ -35,7 +35,7 @@ SCENE_KEYS = ("name", "dim", "gravity")
 MATERIAL_KEYS = ("E", "density", "G", "poisson")
 SECTION_KEYS = {None: ("area", "I", "Iy", "Iz", "J", "b", "h"), "circle": ("diameter",), "rectangle": ("b", "h")}
 MEMBER_KEYS = ("name", "points", "elements", "material", "section", "element", "axial", "bending", "torsion",
-               "gravity", "beam_method", "gauss", "y_axis")
+               "gravity", "beam_method", "gauss", "y_axis", "prestrain")
 SUPPORT_TYPES = ("clamp", "pin", "slope")
 JOINT_TYPES = ("hinge", "rigid")
 LOAD_TYPES = ("force", "distributed", "moment", "tension")
@@ -208,6 +208,8 @@ def _member(scene: Scene, path: str, d: dict, materials: dict, sections: dict) -
         kw["gauss"] = g
     if "y_axis" in d:
         kw["y_axis"] = _vector(f"{path}.y_axis", d["y_axis"], 3)
+    if "prestrain" in d:
+        kw["prestrain"] = _number(f"{path}.prestrain", d["prestrain"])
     _api(path, scene.member, name, points, **kw)
 
 
