@@ -107,7 +107,7 @@ def stage_function(system: StepSystem, tab: Tableau, linsol: str = "qr") -> dict
     Mv = ca.mtimes(Mdm, vn)
     CdQ = ca.horzcat(*[S.damping_mx(dQ[:, j], kel)[0] for j in range(s)]) if S.rayleigh is not None else None
     _, C = S.damping_mx(qn, kel)
-    rows, blocks_diag = [], []
+    rows, blocks_diag, dfv = [], [], []
     phis = []
     for i in range(s):
         g, K = S.forces_f(Q[:, i])[:2]
@@ -115,6 +115,11 @@ def stage_function(system: StepSystem, tab: Tableau, linsol: str = "qr") -> dict
         if CdQ is not None:
             Ri += ca.mtimes(CdQ, ca.DM(W[i])) / h
         Si = K
+        if S.damp_f is not None:  # strain-rate damping at the stage velocity V_i = sum_j W_ij (Q_j - q_n) / h
+            fd, dfx, dfv_i = S.damp_f(Q[:, i], ca.mtimes(dQ, ca.DM(W[i])) / h)
+            Ri += fd
+            Si = Si + dfx
+            dfv.append(dfv_i)
         if mc:
             phi = S.constraint_mx(Q[:, i])
             Jx = ca.jacobian(phi, Q[:, i])
@@ -134,6 +139,8 @@ def stage_function(system: StepSystem, tab: Tableau, linsol: str = "qr") -> dict
         row = []
         for j in range(s):
             Bij = W2[i, j] / h**2 * Mdm + (W[i, j] / h * C if S.rayleigh is not None else 0)
+            if dfv:
+                Bij = Bij + W[i, j] / h * dfv[i]
             Si, Jx = blocks_diag[i]
             if i == j:
                 Bij = Bij + Si

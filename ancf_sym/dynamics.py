@@ -25,11 +25,12 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
 import numpy as np
+import scipy.sparse as sp
 
 from .assembly import Assembly
 from .elements import hermite
 from .integrators import (LINEAR_EFFECTS, AlphaIntegrator, Counters, NewtonOptions, RayleighData, Scheme,
-                          StepSystem)
+                          StepSystem, StrainRateData)
 from .mesh import MemberMesh
 from .scene import Scene, SceneError
 
@@ -414,6 +415,53 @@ def rayleigh_data(asm: Assembly, terms: list) -> RayleighData | None:
     return RayleighData(float(alpha), float(beta_ref), weights)
 
 
+def strain_rate_data(asm: Assembly) -> StrainRateData | None:
+    """Gauss points (5 per element) of the members with strain-rate damping: r_x and r_xx as sparse maps."""
+    ds = [d for d in getattr(asm.scene, "dampings", []) if d.kind == "strain_rate"]
+    if not ds:
+        return None
+    coef: dict[str, list] = {}
+    for d in ds:
+        for name in (d.members or list(asm.scene.members)):
+            c = coef.setdefault(name, [0.0, 0.0])
+            c[0], c[1] = c[0] + d.axial, c[1] + d.bending
+    dim = asm.scene.dim
+    xg, wg = np.polynomial.legendre.leggauss(5)
+    xi, wq = (xg + 1) / 2, wg / 2
+    h1, h2 = np.array(hermite.dh(xi)), np.array(hermite.ddh(xi))  # (4, 5)
+    rows_x, rows_xx, wl, ca_, cb_, green = [], [], [], [], [], []
+    for name, (c_ax, c_be) in coef.items():
+        mm = asm.mesh.members[name]
+        if mm.member.element == "beam3d":
+            raise SceneError(f"strain_rate_damping: member {name!r} is a beam3d (cables only)")
+        for e, (na, nb) in enumerate(mm.elem_nodes):
+            L = mm.elem_length[e]
+            da, db = mm.node_dofs(na), mm.node_dofs(nb)
+            for k in range(5):
+                wx = [h1[0, k] / L, h1[1, k], h1[2, k] / L, h1[3, k]]
+                wxx = [h2[0, k] / L**2, h2[1, k] / L, h2[2, k] / L**2, h2[3, k] / L]
+                rows_x.append((da, db, wx))
+                rows_xx.append((da, db, wxx))
+                wl.append(wq[k] * L)
+                ca_.append(c_ax)
+                cb_.append(c_be)
+                green.append(mm.member.axial == "green")
+    P = len(wl)
+
+    def matrix(rows):
+        r, c, v = [], [], []
+        for p, (da, db, w) in enumerate(rows):
+            for comp in range(dim):
+                for dofs, w_r, w_t in ((da, w[0], w[1]), (db, w[2], w[3])):
+                    r += [comp * P + p, comp * P + p]
+                    c += [dofs[comp], dofs[dim + comp]]
+                    v += [w_r, w_t]
+        return sp.csr_matrix((v, (r, c)), shape=(dim * P, asm.n))
+
+    return StrainRateData(dim, matrix(rows_x), matrix(rows_xx), np.array(wl), np.array(ca_), np.array(cb_),
+                          np.array(green))
+
+
 def _collect_outputs(opts: DynamicOptions) -> np.ndarray | None:
     if opts.output_times is not None:
         return np.asarray(opts.output_times, float)
@@ -486,9 +534,7 @@ class _Run:
         self.steps, self.rejected = 0, []
         self.status, self.message = "completed", ""
         self.h_min, self.h_max = math.inf, 0.0
-        C0 = integ.damping_matrix()
-        self.C_const = C0 is not None and not (S.rayleigh is not None and S.rayleigh.beta)
-        self.fd_prev = C0 @ integ.v if C0 is not None else None
+        self.fd_prev = S.damping_force(integ.q, integ.v) if S.damped else None
         self.Qn = loads(opts.t_start) if loads else None
         self.out_i = 0
         if outputs is None or outputs[0] <= self.t + self.eps_t:
@@ -496,14 +542,13 @@ class _Run:
             self.out_i = 1
 
     # -- bookkeeping ------------------------------------------------------------------------------------------
-    def _accepted(self, t_old, t_new, q_old, v_old, q_new, v_new, C):
+    def _accepted(self, t_old, t_new, q_old, v_old, q_new, v_new, fd):
         """Work of the scheme's own forces along the step, dq.(f_n + f_n+1)/2 (the trapezoidal rule's energy
         identity, exact for Newmark; f_n is the force of the equation that ended at t_n, with its damping matrix),
         then the outputs in (t_old, t_new]."""
-        if C is not None or self.loads is not None:
+        if fd is not None or self.loads is not None:
             dq = q_new - q_old
-            if C is not None:
-                fd = C @ v_new
+            if fd is not None:
                 self.W_d += 0.5 * float(dq @ (self.fd_prev + fd))
                 self.fd_prev = fd
             if self.loads is not None:
@@ -565,12 +610,12 @@ class _Run:
             pl = -np.column_stack([S.f_lin + self.loads(self.grid(k + j + 1)) for j in range(n)])
         q_old, v_old = integ.q.copy(), integ.v.copy()
         states, n_ok = integ.run_chunk(o.dt, pl)
-        C = integ.damping_matrix() if self.C_const else None
         t_old = self.t
         for j in range(n_ok):
             t_new = self.grid(k + j + 1)
             q_new, v_new = states[j, :nf], states[j, nf:2 * nf]
-            self._accepted(t_old, t_new, q_old, v_old, q_new, v_new, C)
+            fd = S.damping_force(q_new, v_new) if S.damped else None
+            self._accepted(t_old, t_new, q_old, v_old, q_new, v_new, fd)
             t_old, q_old, v_old = t_new, q_new, v_new
         return n_ok
 
@@ -611,11 +656,11 @@ class _Run:
                                     f"smaller step would go below dt_min = {self.dt_min:.3g} s")
                     return
                 continue
-            C = integ.damping_matrix()
             q_old, v_old = integ.q.copy(), integ.v.copy()
             q_new, v_new = integ.new["q"].copy(), integ.new["v"].copy()
+            fd = self.S.damping_force(q_new, v_new) if self.S.damped else None  # (K_el of this step)
             integ.accept()
-            self._accepted(t, t_new, q_old, v_old, q_new, v_new, C)
+            self._accepted(t, t_new, q_old, v_old, q_new, v_new, fd)
             if o.adaptive:  # grow only with a clear margin (the estimate is noisy on stiff, slender members)
                 f = 0.8 * max(err_ratio, 1e-10) ** (-1.0 / (integ.order + 1))
                 h = min(h_try * min(1.25, max(1.0, f)), self.dt_max) if err_ratio < 0.5 else h_try
@@ -641,7 +686,8 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
         raise SceneError("scene has no members")
     sensors = [_SensorEval(s, asm, i) for i, s in enumerate(opts.sensors)]
     if system is None:
-        system = StepSystem(asm, rayleigh_data(asm, [mk for mk in asm.mapped if mk.term.effect not in LINEAR_EFFECTS]))
+        system = StepSystem(asm, rayleigh_data(asm, [mk for mk in asm.mapped if mk.term.effect not in LINEAR_EFFECTS]),
+                            strain_rate=strain_rate_data(asm))
     S = system
     loads = _LoadSum(opts.loads, asm, S.E) if opts.loads else None
     # initial state

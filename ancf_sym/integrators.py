@@ -202,6 +202,19 @@ def partition(asm: Assembly) -> Partition:
 
 
 @dataclass
+class StrainRateData:
+    """Kelvin-Voigt damping of cables at Gauss points of the damped members: r_x = Bx x, r_xx = Bxx x (rows
+    component-major: d * P + point), weights w L, coefficients, and which points use the Green strain rate."""
+    dim: int
+    Bx: sp.csr_matrix
+    Bxx: sp.csr_matrix
+    wL: np.ndarray
+    c_axial: np.ndarray
+    c_bending: np.ndarray
+    green: np.ndarray
+
+
+@dataclass
 class RayleighData:
     alpha: float  # mass-proportional [1/s]
     beta: float  # stiffness-proportional [s], on the current elastic tangent
@@ -223,8 +236,10 @@ class StepSystem:
     `residual` and `jacobian` serve modified Newton with a factorisation kept in Python.
     """
 
-    def __init__(self, asm: Assembly, rayleigh: RayleighData | None = None, linsol: str = "auto"):
+    def __init__(self, asm: Assembly, rayleigh: RayleighData | None = None, linsol: str = "auto",
+                 strain_rate: StrainRateData | None = None):
         self.asm = asm
+        self.strain_rate = strain_rate
         self.linsol_choice = linsol
         self.part = part = partition(asm)
         n = asm.n
@@ -235,9 +250,10 @@ class StepSystem:
         self.cons = asm.exact.subset(part.rows) if len(part.rows) else None
         self.mc = self.cons.m if self.cons is not None else 0
         self.rayleigh = rayleigh if (rayleigh is not None and (rayleigh.alpha or rayleigh.beta)) else None
-        # sparse LDL^T without pivoting for the positive definite step matrix; sparse QR when multipliers make
-        # the KKT matrix indefinite (LDL^T meets zero pivots there)
-        self.linsol = linsol if linsol != "auto" else ("qr" if self.mc else "ldl")
+        # sparse LDL^T without pivoting for the symmetric positive definite step matrix; sparse QR when multipliers
+        # make the KKT matrix indefinite (LDL^T meets zero pivots) or strain-rate damping makes it unsymmetric
+        # (d f_d / dq; LDL^T reads one triangle)
+        self.linsol = linsol if linsol != "auto" else ("qr" if (self.mc or strain_rate is not None) else "ldl")
 
         M = asm.mass_matrix().tocsc()
         self.M_full = M
@@ -261,6 +277,7 @@ class StepSystem:
         self.length_scale = max(float(mm.member.length) for mm in asm.mesh.members.values())
         self.span = float(np.max(np.abs(asm.x0))) + 1.0
         self._build_forces()
+        self._build_damping()
         self._build_step()
 
     # -- symbolic assembly (once per scene) -------------------------------------------------------------------
@@ -330,6 +347,55 @@ class StepSystem:
         self.energy_f = ca.Function("energies", [xf], [ca.vertcat(*[e for _, e in elist]) if elist
                                                        else ca.MX(0, 1)])
 
+    def _build_damping(self) -> None:
+        """damp_f(x, v) -> (f_d, df_d/dx, df_d/dv) of the strain-rate dissipation D = 1/2 sum_points w L
+        (c_axial eps_dot^2 + c_bending |kappa_dot|^2): exact derivatives by AD of one vectorized graph."""
+        self.damp_f = None
+        sr = self.strain_rate
+        if sr is None:
+            return
+        nf, d = self.nf, sr.dim
+        xf, vf = ca.MX.sym("x", nf), ca.MX.sym("v", nf)
+        X, V = self.x_full_mx(xf), ca.mtimes(_dm(self.E), vf)
+        P = len(sr.wL)
+        R, Rd, RR = ca.mtimes(_dm(sr.Bx), X), ca.mtimes(_dm(sr.Bx), V), ca.mtimes(_dm(sr.Bxx), X)
+        rx = [R[k * P:(k + 1) * P] for k in range(d)]
+        rd = [Rd[k * P:(k + 1) * P] for k in range(d)]
+        rxx = [RR[k * P:(k + 1) * P] for k in range(d)]
+        n2 = sum(c * c for c in rx)
+        dot = sum(a * b for a, b in zip(rx, rd))
+        g = ca.DM(sr.green.astype(float))
+        eps_dot = g * dot + (1 - g) * dot / ca.sqrt(n2)
+        if d == 2:
+            kap = [(rx[0] * rxx[1] - rx[1] * rxx[0]) / n2 ** 1.5]
+        else:
+            kap = [(rx[1] * rxx[2] - rx[2] * rxx[1]) / n2 ** 1.5, (rx[2] * rxx[0] - rx[0] * rxx[2]) / n2 ** 1.5,
+                   (rx[0] * rxx[1] - rx[1] * rxx[0]) / n2 ** 1.5]
+        wl = ca.DM(sr.wL)
+        D = 0.5 * ca.dot(ca.DM(sr.c_axial) * wl, eps_dot * eps_dot)
+        if np.any(sr.c_bending):
+            kdot = ca.jtimes(ca.vertcat(*kap), xf, vf)
+            cb = ca.repmat(ca.DM(sr.c_bending) * wl, d if d == 3 else 1, 1)
+            D += 0.5 * ca.dot(cb, kdot * kdot)
+        fd = ca.gradient(D, vf)
+        self.damp_f = ca.Function("strain_rate_damping", [xf, vf], [fd, ca.jacobian(fd, xf), ca.jacobian(fd, vf)],
+                                  ["x", "v"], ["f", "df_dx", "df_dv"])
+
+    def damping_force(self, xf: np.ndarray, vf: np.ndarray) -> np.ndarray | None:
+        """Damping force on the unknowns at (x, v): Rayleigh C v (with the current K_el values) + strain rate."""
+        f = None
+        C = self.damping_matrix(self.kel)
+        if C is not None:
+            f = C @ vf
+        if self.damp_f is not None:
+            fd = np.asarray(self.damp_f(xf, vf)[0]).ravel()
+            f = fd if f is None else f + fd
+        return f
+
+    @property
+    def damped(self) -> bool:
+        return self.rayleigh is not None or self.damp_f is not None
+
     def _scatter(self, vals: list, r: np.ndarray, c: np.ndarray) -> ca.MX:
         """Sparse nf x nf MX summing the value vectors `vals` at (r, c)."""
         nf = self.nf
@@ -366,12 +432,17 @@ class StepSystem:
         xf, lam, p = ca.MX.sym("x", nf), ca.MX.sym("lam", mc), ca.MX.sym("p", nf)
         cm, cc, kc = ca.MX.sym("cm"), ca.MX.sym("cc"), ca.MX.sym("kc")
         kel = ca.MX.sym("kel", self.kel_sparsity.nnz()) if self.kel_sparsity is not None else None
+        vc = ca.MX.sym("vc", nf)  # v_n+1 = vc + cc x (used by the strain-rate damping)
         out = self.forces_f(xf)
         g, K = out[0], out[1]
         Mdm = _dm(self.M)
         Cx, C = self.damping_mx(xf, kel)
         r_q = cm * ca.mtimes(Mdm, xf) + cc * Cx + g + p
         S = cm * Mdm + cc * C + K
+        if self.damp_f is not None:
+            fd, dfx, dfv = self.damp_f(xf, vc + cc * xf)
+            r_q += fd
+            S = S + dfx + cc * dfv
         if mc:
             phi = self.constraint_mx(xf)
             Jx = ca.jacobian(phi, xf)
@@ -384,8 +455,8 @@ class StepSystem:
         else:
             r, KKT, rc = r_q, S, ca.MX(0)
         rq = ca.mmax(ca.fabs(r_q))
-        ins = [xf, lam, p, cm, cc, kc] + ([kel] if kel is not None else [])
-        names = ["x", "lam", "p", "cm", "cc", "kc"] + (["kel"] if kel is not None else [])
+        ins = [xf, lam, p, cm, cc, kc, vc] + ([kel] if kel is not None else [])
+        names = ["x", "lam", "p", "cm", "cc", "kc", "vc"] + (["kel"] if kel is not None else [])
         self.kkt_sparsity = KKT.sparsity()
         kkt_nz = _mx_sparse_nz(KKT)
         kmax = ca.mmax(ca.fabs(kkt_nz))
@@ -403,7 +474,7 @@ class StepSystem:
     def _setup_buffers(self, has_kel: bool) -> None:
         nf, mc = self.nf, self.mc
         self.nz = nf + mc
-        self.x, self.lam, self.p = np.zeros(nf), np.zeros(mc), np.zeros(nf)
+        self.x, self.lam, self.p, self.vc = np.zeros(nf), np.zeros(mc), np.zeros(nf), np.zeros(nf)
         self.cm, self.cc, self.kc = np.zeros(1), np.zeros(1), np.ones(1)
         self.kel = np.zeros(self.kel_sparsity.nnz()) if has_kel else None
         self.r, self.dz = np.zeros(self.nz), np.zeros(self.nz)
@@ -413,7 +484,7 @@ class StepSystem:
         spk = self.kkt_sparsity
         self.kkt = sp.csc_matrix((np.zeros(spk.nnz()), np.array(spk.row(), dtype=np.int32),
                                   np.array(spk.colind(), dtype=np.int32)), shape=(self.nz, self.nz))
-        args = [self.x, self.lam, self.p, self.cm, self.cc, self.kc] + ([self.kel] if has_kel else [])
+        args = [self.x, self.lam, self.p, self.cm, self.cc, self.kc, self.vc] + ([self.kel] if has_kel else [])
         self._bufs = []
         for f, outs in ((self.iter_f, (self.dz, self.norms)), (self.res_f, (self.r, self.norms[:2])),
                         (self.jac_f, (self.r, self._jac_norms, self.kkt.data))):
@@ -707,6 +778,8 @@ def initial_acceleration(S: StepSystem, q0: np.ndarray, v0: np.ndarray, Q0: np.n
     f = S.f_lin + Q0 - g
     if C is not None:
         f = f - C @ v0
+    if S.damp_f is not None:
+        f = f - np.asarray(S.damp_f(q0, v0)[0]).ravel()
     if not S.nf:
         return np.zeros(0), np.zeros(S.mc)
     if S.mc:
@@ -808,7 +881,8 @@ class AlphaIntegrator:
             ab1 = (x - qh) / (b * h * h)
             return ab1, ((1 - am) * ab1 + am * ab - af * a) / (1 - af)
 
-        dz, n0 = S.iter_f(x0, l0, p, cm, cc, kc, *extra)
+        vc = vh - cc * qh
+        dz, n0 = S.iter_f(x0, l0, p, cm, cc, kc, vc, *extra)
         x1 = x0 + dz[:nf]
         l1 = l0 + dz[nf:] if mc else l0
         d0 = ca.fmax(n0[2], n0[3])
@@ -822,14 +896,14 @@ class AlphaIntegrator:
         accept1 = ca.logic_or(conv0, conv1) if o.single else ca.MX(0)
         # second iteration, evaluated only when needed
         xb, lb, pb = ca.MX.sym("xb", nf), ca.MX.sym("lb", mc), ca.MX.sym("pb", nf)
-        cb, ccb, kb = ca.MX.sym("cmb"), ca.MX.sym("ccb"), ca.MX.sym("kcb")
+        cb, ccb, kb, vb = ca.MX.sym("cmb"), ca.MX.sym("ccb"), ca.MX.sym("kcb"), ca.MX.sym("vcb", nf)
         eb = [ca.MX.sym("kelb", S.kel.size)] if kel is not None else []
-        dzb, nb = S.iter_f(xb, lb, pb, cb, ccb, kb, *eb)
-        f_keep = ca.Function("keep", [xb, lb, pb, cb, ccb, kb] + eb, [xb, lb, ca.DM.zeros(5)])
-        f_iter = ca.Function("second", [xb, lb, pb, cb, ccb, kb] + eb,
+        dzb, nb = S.iter_f(xb, lb, pb, cb, ccb, kb, vb, *eb)
+        f_keep = ca.Function("keep", [xb, lb, pb, cb, ccb, kb, vb] + eb, [xb, lb, ca.DM.zeros(5)])
+        f_iter = ca.Function("second", [xb, lb, pb, cb, ccb, kb, vb] + eb,
                              [xb + dzb[:nf], (lb + dzb[nf:]) if mc else lb, nb])
         switch = ca.Function.conditional("second_iteration", [f_keep], f_iter)
-        x2, l2, n1 = switch(ca.if_else(accept1, 0, 1), x1, l1, p, cm, cc, kc, *extra)
+        x2, l2, n1 = switch(ca.if_else(accept1, 0, 1), x1, l1, p, cm, cc, kc, vc, *extra)
         d1 = ca.fmax(n1[2], n1[3])
         th = d1 / ca.fmax(d0, 1e-300)
         conv2 = ca.logic_or(ca.logic_and(n1[0] <= tq, n1[1] <= tol_x), d1 <= 0.1 * tolx)
@@ -949,6 +1023,7 @@ class AlphaIntegrator:
             p += C @ (vh - cc * qh)
         ap = self.a + ((self.a - self.a_prev) * h / self.h_prev if self.h_prev else 0.0)
         x = qh + b * h * h * ((1 - af) * ap + af * self.a - am * self.ab) / (1 - am)
+        S.vc[:] = vh - cc * qh
         return x, self.lam / kc, p
 
     def _correct(self, h, x, lam_true):
