@@ -18,7 +18,6 @@ the stage residual and its sparse Jacobian, for the optimal-control transcriptio
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import casadi as ca
@@ -94,7 +93,7 @@ def stage_function(system: StepSystem, tab: Tableau, linsol: str = "qr") -> dict
     nf, mc, s = S.nf, S.mc, tab.s
     W = np.linalg.inv(tab.A)
     W2 = W @ W
-    w1, w21 = W.sum(axis=1), W2.sum(axis=1)
+    w1 = W.sum(axis=1)
     Q = ca.MX.sym("Q", nf, s)
     lam = ca.MX.sym("lam", mc, s)
     qn, vn = ca.MX.sym("qn", nf), ca.MX.sym("vn", nf)
@@ -151,7 +150,6 @@ def stage_function(system: StepSystem, tab: Tableau, linsol: str = "qr") -> dict
             row.append(Bij)
         blocks.append(row)
     Jac = ca.blockcat(blocks)
-    nfull = s * (nf + mc)
     Rq = ca.vertcat(*[R[i * (nf + mc):i * (nf + mc) + nf] for i in range(s)])
     rq = ca.mmax(ca.fabs(Rq))
     rc = ca.mmax(ca.fabs(ca.vertcat(*phis))) if mc else ca.MX(0)
@@ -162,7 +160,6 @@ def stage_function(system: StepSystem, tab: Tableau, linsol: str = "qr") -> dict
     zl = ca.vertcat(*[dz[i * (nf + mc) + nf:(i + 1) * (nf + mc)] for i in range(s)]) if mc else ca.MX(0)
     ins = [Q, lam, qn, vn, h, F, kc] + ([kel] if kel is not None else [])
     names = ["Q", "lam", "qn", "vn", "h", "F", "kc"] + (["kel"] if kel is not None else [])
-    del nfull
     return {
         "residual": ca.Function("collocation_residual", ins, [R, ca.vertcat(rq, rc)], names, ["R", "norms"]),
         "iteration": ca.Function("collocation_iteration", ins,
@@ -342,10 +339,4 @@ class CollocationIntegrator:
         self.update_damping()
 
 
-def check_integrator_name(name: str) -> None:
-    if name not in ("radau", "gauss"):
-        raise SceneError(f"collocation integrator must be 'radau' or 'gauss', got {name!r}")
-
-
 __all__ = ["Tableau", "tableau", "stage_function", "CollocationIntegrator"]
-_ = math

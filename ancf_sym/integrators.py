@@ -4,14 +4,18 @@ Equations of motion with exact constraints (index 3):
 
     M a + C v + grad U(q) + J(q)^T lam = Q(t),    Phi(q) = 0
 
-U is the scene's total potential (strain energies, gravity, dead loads, penalty joints). Supports that fix single
-coordinates (pins, clamps of axis-aligned members) are eliminated: those coordinates never enter the unknowns.
-The remaining exact rows (hinges, rigid joints, skew clamps) carry Lagrange multipliers.
+U is the scene's total potential (strain energies, gravity, dead loads, penalty joints); C is Rayleigh damping
+and/or the strain-rate damping force f_d(q, v). Supports that fix single coordinates (pins, clamps of
+axis-aligned members) are eliminated; rows x_i - x_j = d (hinges) identify coordinates; the remaining exact rows
+(rigid joints, skew clamps) carry Lagrange multipliers.
 
-One Newton iteration costs one call of a CasADi Function that evaluates every energy term through the mapped
-compiled kernels and assembles the residual (and, when asked, the KKT matrix values in a fixed CSC pattern) inside
-CasADi: no Python loop over elements and no numpy scatter. The sparse factorisation is scipy's SuperLU; modified
-Newton reuses it across iterations and steps while the iteration contracts.
+One full Newton iteration is one call of a CasADi Function: every energy term through its mapped compiled kernel,
+residual and KKT matrix assembled by constant sparse maps, sparse LDL^T (symmetric positive definite case) or QR
+(multipliers, strain-rate damping) factorisation and solve, all inside CasADi: no Python loop over elements, no
+numpy scatter. The alpha schemes put a whole step (predictor, one or two iterations, corrector) into one graph and
+map it over many steps (see AlphaIntegrator). Modified Newton (scipy SuperLU kept across iterations and steps)
+is selectable; on these problems it is slower, because a kernel pass computes energy, gradient and Hessian
+together, so a residual costs as much as a Jacobian.
 
 Newmark, HHT-alpha and generalized-alpha are one family here, in the form of Arnold & Bruels (2007) that Exudyn
 also uses: the equations hold at t_{n+1} exactly and an algorithmic acceleration abar carries the alpha
@@ -29,7 +33,7 @@ alpha_f = rho/(rho + 1), gamma = 1/2 + alpha_f - alpha_m, beta = (gamma + 1/2)^2
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
@@ -240,7 +244,6 @@ class StepSystem:
                  strain_rate: StrainRateData | None = None):
         self.asm = asm
         self.strain_rate = strain_rate
-        self.linsol_choice = linsol
         self.part = part = partition(asm)
         n = asm.n
         nf = part.ny
@@ -596,8 +599,10 @@ class StepSystem:
 class NewtonOptions:
     """Newton on the exact tangent. A step converges when the residual is below tol x force scale (never below
     twice the round-off floor) and the constraints below xtol x length scale, or when the estimated error of the
-    last update, theta/(1 - theta) |dz| with theta the contraction of successive updates, is below xtol x length
-    scale (saves the residual evaluation that would only confirm convergence)."""
+    last update, theta/(1 - theta) |dz| with theta the contraction of successive updates, is below the update
+    tolerance (saves the residual evaluation that would only confirm convergence). Alpha schemes: the update
+    tolerance is max(xtol x length scale, lte_fraction x the step's local truncation error), and with `single`
+    a step is accepted after one iteration when Newton's own estimate omega |dz0|^2 is below it."""
     tol: float = 1e-8  # residual, relative to the scene's force scale
     xtol: float = 1e-10  # updates and constraints, relative to the scene's length scale
     max_iter: int = 12
@@ -929,7 +934,6 @@ class AlphaIntegrator:
         buf.set_res(0, memoryview(self._s_out))
         buf.set_res(1, memoryview(self._info))
         self._step = (buf, ev, args)
-        self._qh_p = p  # (symbolic, for reference)
 
     # -- state ------------------------------------------------------------------------------------------------
     def initialize(self, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray) -> None:
@@ -1004,7 +1008,7 @@ class AlphaIntegrator:
         self._new_since = 0.0
         return StepOutcome(True, out.iterations)
 
-    def _count(self, k: int, steps: int = 1) -> None:
+    def _count(self, k: int) -> None:
         c = self.counters
         c.residuals += k
         c.jacobians += k

@@ -194,7 +194,7 @@ def main(argv=None):
     p.add_argument("--json", metavar="PATH")
     a = p.parse_args(argv)
     try:
-        import exudyn  # noqa: F401
+        import exudyn  # noqa: F401  (only to check it is installed)
     except ImportError:
         sys.exit("exudyn is not installed: pip install exudyn (a bench extra, never needed by ancf_sym)")
     modes = {"yes": [True], "no": [False], "both": [True, False]}[a.exudyn_modified]
