@@ -31,10 +31,10 @@ const casadi_int* cable3d_bending_sparsity_in(casadi_int i);
 const casadi_int* cable3d_bending_sparsity_out(casadi_int i);
 int cable3d_bending_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
 int cable3d_bending_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-#define cable3d_bending_SZ_ARG 6
-#define cable3d_bending_SZ_RES 6
-#define cable3d_bending_SZ_IW 13
-#define cable3d_bending_SZ_W 815
+#define cable3d_bending_SZ_ARG 2
+#define cable3d_bending_SZ_RES 3
+#define cable3d_bending_SZ_IW 0
+#define cable3d_bending_SZ_W 0
 int cable3d_bending_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int cable3d_bending_energy_checkout(void);
 void cable3d_bending_energy_release(int mem);
@@ -49,10 +49,10 @@ const casadi_int* cable3d_bending_energy_sparsity_in(casadi_int i);
 const casadi_int* cable3d_bending_energy_sparsity_out(casadi_int i);
 int cable3d_bending_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
 int cable3d_bending_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-#define cable3d_bending_energy_SZ_ARG 8
-#define cable3d_bending_energy_SZ_RES 7
-#define cable3d_bending_energy_SZ_IW 13
-#define cable3d_bending_energy_SZ_W 833
+#define cable3d_bending_energy_SZ_ARG 4
+#define cable3d_bending_energy_SZ_RES 4
+#define cable3d_bending_energy_SZ_IW 0
+#define cable3d_bending_energy_SZ_W 367
 int adj1_cable3d_bending_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int adj1_cable3d_bending_energy_checkout(void);
 void adj1_cable3d_bending_energy_release(int mem);
@@ -67,10 +67,10 @@ const casadi_int* adj1_cable3d_bending_energy_sparsity_in(casadi_int i);
 const casadi_int* adj1_cable3d_bending_energy_sparsity_out(casadi_int i);
 int adj1_cable3d_bending_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
 int adj1_cable3d_bending_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-#define adj1_cable3d_bending_energy_SZ_ARG 22
-#define adj1_cable3d_bending_energy_SZ_RES 8
-#define adj1_cable3d_bending_energy_SZ_IW 13
-#define adj1_cable3d_bending_energy_SZ_W 1148
+#define adj1_cable3d_bending_energy_SZ_ARG 12
+#define adj1_cable3d_bending_energy_SZ_RES 4
+#define adj1_cable3d_bending_energy_SZ_IW 0
+#define adj1_cable3d_bending_energy_SZ_W 1544
 int cable3d_bending_hvp(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int cable3d_bending_hvp_checkout(void);
 void cable3d_bending_hvp_release(int mem);

@@ -93,7 +93,11 @@ def kernel(element: str, effect: str, gauss: int | None = None) -> ca.Function:
     gauss = gauss or eff.default_gauss
     name = registry.kernel_name(element, effect, gauss)
     if effect in _QUADRATURE:
-        return forms.quadrature_kernel(name, point_function(element, effect), gauss)
+        k = forms.quadrature_kernel(name, point_function(element, effect), gauss)
+        # Small kernels run 1.6-3x faster as one straight-line SX function (no per-point calls, the Hessian mirror
+        # is free); the big beam kernels keep the calls: expanded they compile 4-7x longer for no gain
+        # (bench/kernel_forms.py, bench/RESULTS.md).
+        return k.expand(name, {}) if element.startswith("cable") or effect == "line_torsion" else k
     return forms.direct_kernel(name, el.ndof, len(eff.params), _direct_energy(element, effect, gauss))
 
 
