@@ -241,7 +241,7 @@ class DynamicOptions:
     tol: float | None = None  # adaptive: local error tolerance [m] (default 1e-6 x length scale)
     dt_min: float | None = None  # smallest step before giving up (default dt * 2^-12)
     dt_max: float | None = None  # adaptive: largest step (default 100 dt... but at most the output spacing)
-    output_every: int | None = None  # record every k accepted steps (fixed step)
+    output_every: int | None = None  # record every k accepted steps (fixed step); default: ~200 outputs
     output_dt: float | None = None  # record at t_start + k output_dt
     output_times: Sequence[float] | None = None  # record at these times
     newton: NewtonOptions = field(default_factory=NewtonOptions)
@@ -518,6 +518,7 @@ class _Recorder:
 
 
 CHUNK = 64  # steps per compiled call in fixed-step full-Newton runs of the alpha schemes
+DEFAULT_OUTPUTS = 200  # output intervals when none of output_every, output_dt, output_times is given
 
 
 class _Run:
@@ -712,11 +713,13 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
             k = int(np.argmax(vv))
             raise SceneError(f"v0 violates the velocity form of constraint {asm.exact.labels[k]!r} by {vv[k]:.3g}")
     outputs = _collect_outputs(opts)
-    if opts.output_every is None and outputs is None:
-        outputs = None
-        every = 1
-    else:
-        every = opts.output_every
+    every = opts.output_every
+    if every is None and outputs is None:  # default: about DEFAULT_OUTPUTS intervals
+        if opts.adaptive:
+            n_out = DEFAULT_OUTPUTS
+            outputs = opts.t_start + (opts.t_end - opts.t_start) * np.arange(n_out + 1) / n_out
+        else:
+            every = max(1, int(round((opts.t_end - opts.t_start) / opts.dt / DEFAULT_OUTPUTS)))
     dt_min = opts.dt_min or opts.dt * 2.0 ** -12
     dt_max = opts.dt_max or (opts.dt * 100 if opts.adaptive else opts.dt)
     err_tol = opts.tol or 1e-6 * L
