@@ -224,7 +224,7 @@ def test_newton_failure_ends_with_last_good_state():
     assert np.all(np.isfinite(r.x)) and np.all(np.isfinite(r.v))
     assert np.all(np.isfinite(r.sensors["tip"])) and r.t[-1] == pytest.approx(r.t_reached)
     assert len(r.rejected) == 1
-    json.dumps(r.to_dict())
+    json.dumps(r.to_dict(), allow_nan=False)
 
 
 @pytest.mark.parametrize("analysis,match", [
