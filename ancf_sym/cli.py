@@ -101,9 +101,39 @@ def run_statics(scene: Scene, analysis: dict, scene_file: Path, out: Path, progr
     return r.success, summary
 
 
+DYNAMICS_STAGES = ["read scene", "assemble", "integrate", "write result.json, plots, VTK series"]
+
+
+def run_dynamics_cli(scene: Scene, analysis: dict, scene_file: Path, out: Path, progress: Progress, t_start: float,
+                     samples: int) -> tuple[bool, str]:
+    """Integrate the scene (progress: simulated time) and write result.json, history.png, series.pvd + frames."""
+    from .assembly import Assembly
+    from .dynamics import options_from_dict, simulate
+    from .dynamics_output import frame_sensors, write_outputs
+
+    progress.stage("assemble")
+    table = dict(analysis)
+    table["sensors"] = list(table.get("sensors", [])) + frame_sensors(scene)
+    opts = options_from_dict(table)  # bad input refused here, before any step
+    asm = Assembly(scene)
+    progress.stage("integrate")
+
+    def report(t: float, t_end: float) -> None:
+        progress.note(f"t = {t:.4g} / {t_end:.4g} s")
+
+    r = simulate(asm, opts, report)
+    wall_total = time.perf_counter() - t_start
+    progress.stage("write result.json, plots, VTK series")
+    write_outputs(r, scene_file, analysis, out, wall_total, samples)
+    summary = (f"{scene.name}: {r.status} at t = {r.t_reached:.6g} s, {r.steps} steps, "
+               f"{r.newton_iterations} Newton iterations, {len(r.rejected)} rejected; integrate {r.wall_s:.3f} s, "
+               f"total {wall_total:.3f} s")
+    return r.success, summary
+
+
 # analysis type -> (runner, its progress stages). A runner gets (scene, analysis dict, scene file, output directory
 # to fill, Progress, start time, samples per element) and returns (success, one-line summary).
-ANALYSES = {"statics": (run_statics, STATICS_STAGES)}
+ANALYSES = {"statics": (run_statics, STATICS_STAGES), "dynamics": (run_dynamics_cli, DYNAMICS_STAGES)}
 
 
 # -- output directories ------------------------------------------------------------------------------------------

@@ -1,0 +1,115 @@
+"""Outputs of a dynamic run for the CLI: result.json, PNG time histories, a VTK time series (.pvd + one .vtu per
+output time) for ParaView.
+
+The frames need every node's coordinates at the output times: the CLI adds one "coordinates" sensor per public
+node (named with a leading "__", left out of result.json and the plots). A polyline vertex's hidden duplicate
+node takes its public twin's coordinates (same position; the slope of the segment before the vertex).
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from xml.sax.saxutils import quoteattr
+
+import meshio
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from . import fields
+from .output_json import _clean, write_json
+
+FRAME_PREFIX = "__node"
+
+
+def frame_sensors(scene) -> list[dict]:
+    """One coordinates sensor per public node of every member."""
+    from .mesh import build_mesh
+
+    out = []
+    for name, mm in build_mesh(scene).members.items():
+        out += [{"name": f"{FRAME_PREFIX}:{name}:{j}", "kind": "coordinates", "member": name, "at": j}
+                for j in range(len(mm.public_nodes))]
+    return out
+
+
+def _member_states(result, name: str) -> np.ndarray:
+    """(n_times, n_internal_nodes, node_size) coordinates of a member at the output times."""
+    mm = result.assembly.mesh.members[name]
+    public = {int(i): j for j, i in enumerate(mm.public_nodes)}
+    rows = []
+    for i in range(mm.n_nodes):
+        j = public.get(i, public.get(i - 1))
+        rows.append(np.asarray(result.sensors[f"{FRAME_PREFIX}:{name}:{j}"]))
+    return np.stack(rows, axis=1)
+
+
+def result_dict(result, scene_file, analysis: dict, wall_total: float) -> dict:
+    d = result.to_dict()
+    d["sensors"] = {k: v for k, v in d["sensors"].items() if not k.startswith(FRAME_PREFIX)}
+    scene = result.assembly.scene
+    return _clean({"format": "ancf_sym.dynamics/1", "scene": {"name": scene.name, "file": str(Path(scene_file).resolve()),
+                                                               "dim": scene.dim},
+                   "analysis": analysis, "wall_total_s": wall_total, **d})
+
+
+def plot_histories(result, path: Path) -> Path:
+    user = {k: np.asarray(v) for k, v in result.sensors.items() if not k.startswith(FRAME_PREFIX)}
+    n = len(user) + 1
+    fig = Figure(figsize=(8, 2.6 * n), layout="constrained")
+    axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
+    for ax, (name, v) in zip(axes, user.items()):
+        v = v.reshape(len(result.t), -1)
+        for k in range(v.shape[1]):
+            ax.plot(result.t, v[:, k], label=f"{name}[{k}]" if v.shape[1] > 1 else name)
+        ax.set_ylabel(name)
+        ax.legend(loc="best", fontsize=8)
+        ax.grid(alpha=0.3)
+    ax = axes[-1]
+    for name, e in result.energies.items():
+        ax.plot(result.t, e, label=name)
+    ax.set_ylabel("energy [J]")
+    ax.set_xlabel("t [s]")
+    ax.legend(loc="best", fontsize=8, ncol=3)
+    ax.grid(alpha=0.3)
+    FigureCanvasAgg(fig)
+    fig.savefig(path, dpi=110)
+    return path
+
+
+def write_series(result, directory: Path, per_element: int = 8) -> Path:
+    """frames/frame_XXXX.vtu per output time and series.pvd listing them with their times."""
+    frames = directory / "frames"
+    frames.mkdir()
+    states = {name: _member_states(result, name) for name in result.assembly.mesh.members}
+    entries = []
+    for k, t in enumerate(result.t):
+        pts, cells, s_all, strain, curv, member = [], [], [], [], [], []
+        n0 = 0
+        for m, (name, X) in enumerate(states.items()):
+            f = fields.sample(result.assembly.mesh.members[name], X[k], per_element)
+            r = np.zeros((len(f["s"]), 3))
+            r[:, :f["r"].shape[1]] = f["r"]
+            pts.append(r)
+            idx = n0 + np.arange(len(r))
+            cells.append(("line", np.c_[idx[:-1], idx[1:]]))
+            s_all.append(f["s"]); strain.append(f["strain"]); curv.append(f["curvature"])
+            member.append(np.full(len(r), m, dtype=np.int32))
+            n0 += len(r)
+        mesh = meshio.Mesh(np.vstack(pts), cells, point_data={
+            "s": np.concatenate(s_all), "strain": np.concatenate(strain), "curvature": np.concatenate(curv),
+            "member": np.concatenate(member)})
+        fn = frames / f"frame_{k:05d}.vtu"
+        meshio.write(fn, mesh, file_format="vtu")
+        entries.append(f'    <DataSet timestep={quoteattr(repr(float(t)))} part="0" file="frames/{fn.name}"/>')
+    pvd = directory / "series.pvd"
+    pvd.write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n  <Collection>\n'
+                   + "\n".join(entries) + "\n  </Collection>\n</VTKFile>\n")
+    return pvd
+
+
+def write_outputs(result, scene_file, analysis: dict, out: Path, wall_total: float, per_element: int = 8) -> None:
+    write_json(out / "result.json", result_dict(result, scene_file, analysis, wall_total))
+    if len(result.t):
+        plot_histories(result, out / "history.png")
+        write_series(result, out, per_element)
