@@ -114,6 +114,13 @@ def load_energy(element: str, effect: str, gauss: int | None = None) -> ca.Funct
     return ca.external(name, str(library_path(name[:-len("_energy")])))
 
 
+def load_grad(element: str, effect: str, gauss: int | None = None) -> ca.Function:
+    """(q, p) -> (energy, gradient) without the Hessian's work: the residual of modified Newton iterations."""
+    _check_names(element, effect)
+    name = registry.kernel_name(element, effect, gauss)
+    return ca.external(name + "_grad", str(library_path(name)))
+
+
 def load_hvp(element: str, effect: str) -> ca.Function:
     """(q, p, v) -> (H v, d(H v)/dq), third derivatives of the energy contracted with v (cable elastic effects,
     default quadrature): what an exact Lagrangian Hessian needs when grad U sits inside constraints."""

@@ -49,10 +49,10 @@ const casadi_int* beam3d_line_strain_g3_energy_sparsity_in(casadi_int i);
 const casadi_int* beam3d_line_strain_g3_energy_sparsity_out(casadi_int i);
 int beam3d_line_strain_g3_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
 int beam3d_line_strain_g3_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-#define beam3d_line_strain_g3_energy_SZ_ARG 8
-#define beam3d_line_strain_g3_energy_SZ_RES 7
-#define beam3d_line_strain_g3_energy_SZ_IW 25
-#define beam3d_line_strain_g3_energy_SZ_W 2283
+#define beam3d_line_strain_g3_energy_SZ_ARG 6
+#define beam3d_line_strain_g3_energy_SZ_RES 2
+#define beam3d_line_strain_g3_energy_SZ_IW 0
+#define beam3d_line_strain_g3_energy_SZ_W 26
 int adj1_beam3d_line_strain_g3_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int adj1_beam3d_line_strain_g3_energy_checkout(void);
 void adj1_beam3d_line_strain_g3_energy_release(int mem);
@@ -67,10 +67,28 @@ const casadi_int* adj1_beam3d_line_strain_g3_energy_sparsity_in(casadi_int i);
 const casadi_int* adj1_beam3d_line_strain_g3_energy_sparsity_out(casadi_int i);
 int adj1_beam3d_line_strain_g3_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
 int adj1_beam3d_line_strain_g3_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-#define adj1_beam3d_line_strain_g3_energy_SZ_ARG 22
-#define adj1_beam3d_line_strain_g3_energy_SZ_RES 8
-#define adj1_beam3d_line_strain_g3_energy_SZ_IW 25
-#define adj1_beam3d_line_strain_g3_energy_SZ_W 3594
+#define adj1_beam3d_line_strain_g3_energy_SZ_ARG 10
+#define adj1_beam3d_line_strain_g3_energy_SZ_RES 6
+#define adj1_beam3d_line_strain_g3_energy_SZ_IW 0
+#define adj1_beam3d_line_strain_g3_energy_SZ_W 163
+int beam3d_line_strain_g3_grad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int beam3d_line_strain_g3_grad_checkout(void);
+void beam3d_line_strain_g3_grad_release(int mem);
+void beam3d_line_strain_g3_grad_incref(void);
+void beam3d_line_strain_g3_grad_decref(void);
+casadi_int beam3d_line_strain_g3_grad_n_in(void);
+casadi_int beam3d_line_strain_g3_grad_n_out(void);
+casadi_real beam3d_line_strain_g3_grad_default_in(casadi_int i);
+const char* beam3d_line_strain_g3_grad_name_in(casadi_int i);
+const char* beam3d_line_strain_g3_grad_name_out(casadi_int i);
+const casadi_int* beam3d_line_strain_g3_grad_sparsity_in(casadi_int i);
+const casadi_int* beam3d_line_strain_g3_grad_sparsity_out(casadi_int i);
+int beam3d_line_strain_g3_grad_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int beam3d_line_strain_g3_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define beam3d_line_strain_g3_grad_SZ_ARG 6
+#define beam3d_line_strain_g3_grad_SZ_RES 4
+#define beam3d_line_strain_g3_grad_SZ_IW 0
+#define beam3d_line_strain_g3_grad_SZ_W 112
 void beam3d_line_strain_g3_casadi_version(int* major, int* minor, int* patch);
 int beam3d_line_strain_g3_casadi_int_size(void);
 int beam3d_line_strain_g3_casadi_real_size(void);

@@ -29,8 +29,6 @@ extern "C" {
 #endif
 
 /* Add prefix to internal symbols */
-#define casadi_clear CASADI_PREFIX(clear)
-#define casadi_copy CASADI_PREFIX(copy)
 #define casadi_f0 CASADI_PREFIX(f0)
 #define casadi_f1 CASADI_PREFIX(f1)
 #define casadi_f2 CASADI_PREFIX(f2)
@@ -41,7 +39,6 @@ extern "C" {
 #define casadi_s3 CASADI_PREFIX(s3)
 #define casadi_s4 CASADI_PREFIX(s4)
 #define casadi_sq CASADI_PREFIX(sq)
-#define casadi_zeros CASADI_PREFIX(zeros)
 
 /* Symbol visibility in DLLs */
 #ifndef CASADI_SYMBOL_EXPORT
@@ -60,24 +57,6 @@ extern "C" {
 
 casadi_real casadi_sq(casadi_real x) { return x*x;}
 
-void casadi_copy(const casadi_real* x, casadi_int n, casadi_real* y) {
-  casadi_int i;
-  if (y) {
-    if (x) {
-      for (i=0; i<n; ++i) *y++ = *x++;
-    } else {
-      for (i=0; i<n; ++i) *y++ = 0.;
-    }
-  }
-}
-
-void casadi_clear(casadi_real* x, casadi_int n) {
-  casadi_int i;
-  if (x) {
-    for (i=0; i<n; ++i) *x++ = 0;
-  }
-}
-
 /* Configuration this file was compiled with */
 CASADI_SYMBOL_EXPORT void beam3d_moment_y_casadi_version(int* major, int* minor, int* patch) {
   *major = 3;
@@ -92,9 +71,6 @@ static const casadi_int casadi_s1[3] = {5, 1, 1};
 static const casadi_int casadi_s2[3] = {1, 1, 1};
 static const casadi_int casadi_s3[3] = {24, 24, 1};
 static const casadi_int casadi_s4[4] = {1, 1, 0, 0};
-
-static const casadi_real casadi_zeros[24] = 
-  {0.};
 
 /* beam3d_moment_y:(q[24],p[5])->(energy,gradient[24],hessian[24x24]) */
 static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
@@ -916,21 +892,33 @@ CASADI_SYMBOL_EXPORT int beam3d_moment_y_work_bytes(casadi_int *sz_arg, casadi_i
 
 /* beam3d_moment_y_energy:(q[24],p[5])->(energy) */
 static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real **res1=res+1, *w1=w+21, w2;
-  const casadi_real **arg1=arg+2, *wr0;
-  /* #0: @0 = input[0][0] */
-  wr0 = arg[0] ? arg[0] : casadi_zeros;
-  /* #1: @1 = input[1][0] */
-  casadi_copy(arg[1], 5, w1);
-  /* #2: {@2, NULL, NULL} = beam3d_moment_y(@0, @1) */
-  arg1[0]=wr0;
-  arg1[1]=w1;
-  res1[0]=(&w2);
-  res1[1]=0;
-  res1[2]=0;
-  if (casadi_f0(arg1, res1, iw, w, 0)) return 1;
-  /* #3: output[0][0] = @2 */
-  if (res[0]) res[0][0] = w2;
+  casadi_real a0, a1, a2, a3, a4, a5, a6, a7;
+  a0=arg[1]? arg[1][2] : 0;
+  a1=arg[1]? arg[1][3] : 0;
+  a2=1.;
+  a3=arg[1]? arg[1][1] : 0;
+  a2=(a2-a3);
+  a4=arg[0]? arg[0][9] : 0;
+  a4=(a2*a4);
+  a5=arg[0]? arg[0][21] : 0;
+  a5=(a3*a5);
+  a4=(a4+a5);
+  a5=(a1*a4);
+  a6=arg[1]? arg[1][4] : 0;
+  a7=arg[0]? arg[0][11] : 0;
+  a2=(a2*a7);
+  a7=arg[0]? arg[0][23] : 0;
+  a3=(a3*a7);
+  a2=(a2+a3);
+  a3=(a6*a2);
+  a5=(a5-a3);
+  a1=(a1*a2);
+  a6=(a6*a4);
+  a1=(a1+a6);
+  a5=atan2(a5,a1);
+  a0=(a0*a5);
+  a0=(-a0);
+  if (res[0]!=0) res[0][0]=a0;
   return 0;
 }
 
@@ -992,31 +980,25 @@ CASADI_SYMBOL_EXPORT const casadi_int* beam3d_moment_y_energy_sparsity_out(casad
 }
 
 CASADI_SYMBOL_EXPORT int beam3d_moment_y_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-  if (sz_arg) *sz_arg = 4;
-  if (sz_res) *sz_res = 4;
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
   if (sz_iw) *sz_iw = 0;
-  if (sz_w) *sz_w = 26;
+  if (sz_w) *sz_w = 0;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int beam3d_moment_y_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-  if (sz_arg) *sz_arg = 4*sizeof(const casadi_real*);
-  if (sz_res) *sz_res = 4*sizeof(casadi_real*);
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
   if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
-  if (sz_w) *sz_w = 26*sizeof(casadi_real);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
   return 0;
 }
 
-/* adj1_beam3d_moment_y:(q[24],p[5],out_energy[1x1,0nz],out_gradient[24x1,0nz],out_hessian[24x24,0nz],adj_energy,adj_gradient[24],adj_hessian[24x24])->(adj_q[24],adj_p[5]) */
-static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* adj1_beam3d_moment_y_energy:(q[24],p[5],out_energy[1x1,0nz],adj_energy)->(adj_q[24],adj_p[5]) */
+static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
-  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
-  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
-  casadi_real a36, a37, a38, a39, a40, a41, a42, a43, a44, a45, a46, a47;
-  casadi_real a48, a49, a50, a51, a52, a53, a54, a55, a56, a57, a58, a59;
-  casadi_real a60, a61, a62, a63, a64, a65, a66, a67, a68, a69, a70, a71;
-  casadi_real a72, a73, a74, a75, a76, a77, a78, a79, a80, a81, a82, a83;
-  casadi_real a84, a85, a86, a87, a88;
+  casadi_real a12, a13, a14, a15, a16, a17;
   a00=0.;
   if (res[0]!=0) res[0][0]=a00;
   if (res[0]!=0) res[0][1]=a00;
@@ -1031,255 +1013,44 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   a02=arg[1]? arg[1][1] : 0;
   a01=(a01-a02);
   a03=arg[1]? arg[1][4] : 0;
-  a04=(a03*a01);
-  a05=arg[1]? arg[1][3] : 0;
-  a06=arg[0]? arg[0][11] : 0;
-  a07=(a01*a06);
-  a08=arg[0]? arg[0][23] : 0;
-  a09=(a02*a08);
-  a07=(a07+a09);
-  a09=(a05*a07);
-  a10=arg[0]? arg[0][9] : 0;
-  a11=(a01*a10);
-  a12=arg[0]? arg[0][21] : 0;
-  a13=(a02*a12);
-  a11=(a11+a13);
-  a13=(a03*a11);
-  a09=(a09+a13);
-  a13=(a05*a11);
-  a14=(a03*a07);
-  a13=(a13-a14);
+  a04=arg[1]? arg[1][3] : 0;
+  a05=arg[0]? arg[0][9] : 0;
+  a06=(a01*a05);
+  a07=arg[0]? arg[0][21] : 0;
+  a08=(a02*a07);
+  a06=(a06+a08);
+  a08=(a04*a06);
+  a09=arg[0]? arg[0][11] : 0;
+  a10=(a01*a09);
+  a11=arg[0]? arg[0][23] : 0;
+  a12=(a02*a11);
+  a10=(a10+a12);
+  a12=(a03*a10);
+  a08=(a08-a12);
+  a12=casadi_sq(a08);
+  a13=(a04*a10);
+  a14=(a03*a06);
+  a13=(a13+a14);
   a14=casadi_sq(a13);
-  a15=casadi_sq(a09);
-  a14=(a14+a15);
-  a15=(a09/a14);
-  a16=(a15/a14);
-  a17=arg[1]? arg[1][2] : 0;
-  a18=arg[7]? arg[7][225] : 0;
-  a19=(a01*a18);
-  a20=(a05*a19);
-  a21=(a17*a20);
-  a22=(a16*a21);
-  a23=(a13/a14);
-  a24=(a23/a14);
-  a25=(a03*a19);
-  a26=(a17*a25);
-  a27=(a24*a26);
-  a22=(a22-a27);
-  a27=(a04*a22);
-  a28=(a05*a02);
-  a29=arg[7]? arg[7][575] : 0;
-  a30=(a02*a29);
-  a31=arg[7]? arg[7][563] : 0;
-  a32=arg[7]? arg[7][287] : 0;
-  a31=(a31+a32);
-  a32=(a01*a31);
-  a30=(a30+a32);
-  a32=(a03*a30);
-  a33=arg[7]? arg[7][573] : 0;
-  a34=arg[7]? arg[7][527] : 0;
-  a33=(a33+a34);
-  a34=(a02*a33);
-  a35=arg[7]? arg[7][561] : 0;
-  a36=arg[7]? arg[7][239] : 0;
-  a35=(a35+a36);
-  a36=(a01*a35);
-  a34=(a34+a36);
-  a36=(a05*a34);
-  a32=(a32-a36);
-  a36=(a17*a32);
-  a37=(a16*a36);
-  a38=(a05*a30);
-  a39=(a03*a34);
-  a38=(a38+a39);
-  a39=(a17*a38);
-  a40=(a24*a39);
-  a37=(a37+a40);
-  a40=(a28*a37);
-  a41=(a03*a02);
-  a42=arg[7]? arg[7][515] : 0;
-  a43=arg[7]? arg[7][285] : 0;
-  a42=(a42+a43);
-  a43=(a01*a42);
-  a44=(a03*a43);
-  a45=arg[7]? arg[7][525] : 0;
-  a46=(a02*a45);
-  a47=arg[7]? arg[7][513] : 0;
-  a48=arg[7]? arg[7][237] : 0;
-  a47=(a47+a48);
-  a48=(a01*a47);
-  a46=(a46+a48);
-  a48=(a05*a46);
-  a44=(a44-a48);
-  a48=(a17*a44);
-  a49=(a16*a48);
-  a50=(a05*a43);
-  a51=(a03*a46);
-  a50=(a50+a51);
-  a51=(a17*a50);
-  a52=(a24*a51);
-  a49=(a49+a52);
-  a52=(a41*a49);
-  a40=(a40+a52);
-  a52=(a05*a01);
-  a53=arg[7]? arg[7][275] : 0;
-  a54=(a01*a53);
-  a55=(a03*a54);
-  a56=arg[7]? arg[7][273] : 0;
-  a57=arg[7]? arg[7][227] : 0;
-  a56=(a56+a57);
-  a57=(a01*a56);
-  a58=(a05*a57);
-  a55=(a55-a58);
-  a58=(a17*a55);
-  a59=(a16*a58);
-  a60=(a05*a54);
-  a61=(a03*a57);
-  a60=(a60+a61);
-  a61=(a17*a60);
-  a62=(a24*a61);
-  a59=(a59+a62);
-  a62=(a52*a59);
-  a40=(a40+a62);
-  a27=(a27-a40);
-  a27=(2.*a27);
-  a40=(2.*a13);
-  a62=(a05*a01);
-  a63=(a40*a62);
-  a64=(2.*a09);
-  a65=(a64*a04);
-  a63=(a63+a65);
-  a65=(a63*a21);
-  a66=(a64*a28);
-  a67=(a03*a02);
-  a68=(a40*a67);
-  a66=(a66-a68);
-  a68=(a66*a36);
-  a69=(a05*a02);
-  a70=(a40*a69);
-  a71=(a64*a41);
-  a70=(a70+a71);
-  a71=(a70*a48);
-  a68=(a68+a71);
-  a71=(a64*a52);
-  a72=(a03*a01);
-  a73=(a40*a72);
-  a71=(a71-a73);
-  a73=(a71*a58);
-  a68=(a68+a73);
-  a65=(a65-a68);
-  a68=(a65/a14);
-  a73=arg[6]? arg[6][23] : 0;
-  a74=(a02*a73);
-  a75=arg[6]? arg[6][11] : 0;
-  a76=(a01*a75);
-  a74=(a74+a76);
-  a76=(a03*a74);
-  a77=arg[6]? arg[6][21] : 0;
-  a78=(a02*a77);
-  a79=arg[6]? arg[6][9] : 0;
-  a80=(a01*a79);
-  a78=(a78+a80);
-  a80=(a05*a78);
-  a76=(a76-a80);
-  a80=(a17*a76);
-  a68=(a68+a80);
-  a80=(a68/a14);
-  a27=(a27+a80);
-  a80=(2.*a09);
-  a81=(a67/a14);
-  a82=(a81/a14);
-  a82=(a82*a39);
-  a28=(a28/a14);
-  a83=(a28/a14);
-  a83=(a83*a36);
-  a82=(a82-a83);
-  a41=(a41/a14);
-  a83=(a41/a14);
-  a83=(a83*a48);
-  a82=(a82-a83);
-  a83=(a69/a14);
-  a84=(a83/a14);
-  a84=(a84*a51);
-  a82=(a82-a84);
-  a52=(a52/a14);
-  a84=(a52/a14);
-  a84=(a84*a58);
-  a82=(a82-a84);
-  a84=(a72/a14);
-  a85=(a84/a14);
-  a85=(a85*a61);
-  a82=(a82+a85);
-  a85=(a16/a14);
-  a85=(a85*a65);
-  a82=(a82-a85);
-  a04=(a04/a14);
-  a85=(a04/a14);
-  a85=(a85*a21);
-  a82=(a82+a85);
-  a85=(a24/a14);
-  a65=(a66*a39);
-  a86=(a70*a51);
-  a65=(a65+a86);
-  a86=(a71*a61);
-  a65=(a65+a86);
-  a86=(a63*a26);
-  a65=(a65+a86);
-  a85=(a85*a65);
-  a82=(a82+a85);
-  a85=(a62/a14);
-  a86=(a85/a14);
-  a86=(a86*a26);
-  a82=(a82-a86);
-  a86=(a15/a14);
-  a86=(a86*a68);
-  a82=(a82-a86);
-  a86=(a23/a14);
-  a68=(a05*a74);
-  a87=(a03*a78);
-  a68=(a68+a87);
-  a87=(a17*a68);
-  a65=(a65/a14);
-  a87=(a87-a65);
-  a86=(a86*a87);
-  a82=(a82-a86);
-  a80=(a80*a82);
-  a27=(a27+a80);
-  a80=casadi_sq(a13);
-  a86=casadi_sq(a09);
-  a80=(a80+a86);
-  a86=(a13/a80);
-  a65=arg[5]? arg[5][0] : 0;
-  a88=(a17*a65);
-  a86=(a86*a88);
-  a27=(a27+a86);
-  a86=(a03*a27);
-  a67=(a67*a37);
-  a69=(a69*a49);
-  a67=(a67-a69);
-  a72=(a72*a59);
-  a67=(a67+a72);
-  a62=(a62*a22);
-  a67=(a67+a62);
-  a67=(2.*a67);
-  a87=(a87/a14);
-  a67=(a67+a87);
-  a87=(2.*a13);
-  a87=(a87*a82);
-  a67=(a67+a87);
-  a80=(a09/a80);
-  a80=(a80*a88);
-  a67=(a67-a80);
-  a80=(a05*a67);
-  a86=(a86+a80);
-  a80=(a01*a86);
-  if (res[0]!=0) res[0][9]=a80;
+  a12=(a12+a14);
+  a14=(a08/a12);
+  a15=arg[1]? arg[1][2] : 0;
+  a16=arg[3]? arg[3][0] : 0;
+  a15=(a15*a16);
+  a14=(a14*a15);
+  a17=(a03*a14);
+  a12=(a13/a12);
+  a12=(a12*a15);
+  a15=(a04*a12);
+  a17=(a17-a15);
+  a15=(a01*a17);
+  if (res[0]!=0) res[0][9]=a15;
   if (res[0]!=0) res[0][10]=a00;
-  a80=(a05*a27);
-  a88=(a03*a67);
-  a80=(a80-a88);
-  a88=(a01*a80);
-  if (res[0]!=0) res[0][11]=a88;
+  a04=(a04*a14);
+  a03=(a03*a12);
+  a04=(a04+a03);
+  a01=(a01*a04);
+  if (res[0]!=0) res[0][11]=a01;
   if (res[0]!=0) res[0][12]=a00;
   if (res[0]!=0) res[0][13]=a00;
   if (res[0]!=0) res[0][14]=a00;
@@ -1289,260 +1060,32 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   if (res[0]!=0) res[0][18]=a00;
   if (res[0]!=0) res[0][19]=a00;
   if (res[0]!=0) res[0][20]=a00;
-  a88=(a02*a86);
-  if (res[0]!=0) res[0][21]=a88;
+  a01=(a02*a17);
+  if (res[0]!=0) res[0][21]=a01;
   if (res[0]!=0) res[0][22]=a00;
-  a88=(a02*a80);
-  if (res[0]!=0) res[0][23]=a88;
+  a02=(a02*a04);
+  if (res[0]!=0) res[0][23]=a02;
   if (res[1]!=0) res[1][0]=a00;
-  a00=(a16*a66);
-  a28=(a28-a00);
-  a00=(a17*a28);
-  a88=(a03*a00);
-  a66=(a24*a66);
-  a81=(a81+a66);
-  a66=(a17*a81);
-  a87=(a05*a66);
-  a88=(a88-a87);
-  a29=(a88*a29);
-  a87=(a03*a66);
-  a82=(a05*a00);
-  a87=(a87+a82);
-  a33=(a87*a33);
-  a29=(a29-a33);
-  a33=(a24*a70);
-  a83=(a83-a33);
-  a33=(a17*a83);
-  a82=(a03*a33);
-  a70=(a16*a70);
-  a41=(a41-a70);
-  a70=(a17*a41);
-  a62=(a05*a70);
-  a82=(a82-a62);
-  a45=(a82*a45);
-  a29=(a29+a45);
-  a36=(a36/a14);
-  a45=(a64*a37);
-  a36=(a36-a45);
-  a45=(a05*a36);
-  a29=(a29+a45);
-  a37=(a40*a37);
-  a39=(a39/a14);
-  a37=(a37-a39);
-  a39=(a03*a37);
-  a29=(a29+a39);
-  a48=(a48/a14);
-  a39=(a64*a49);
-  a48=(a48-a39);
-  a39=(a03*a48);
-  a29=(a29+a39);
-  a51=(a51/a14);
-  a49=(a40*a49);
-  a51=(a51-a49);
-  a49=(a05*a51);
-  a29=(a29+a49);
-  a49=(a23*a17);
-  a39=(a05*a49);
-  a45=(a15*a17);
-  a62=(a03*a45);
-  a39=(a39+a62);
-  a73=(a39*a73);
-  a29=(a29+a73);
-  a73=(a03*a49);
-  a62=(a05*a45);
-  a73=(a73-a62);
-  a77=(a73*a77);
-  a29=(a29+a77);
-  a08=(a08*a80);
-  a29=(a29+a08);
-  a12=(a12*a86);
-  a29=(a29+a12);
-  a88=(a88*a31);
-  a31=(a05*a33);
-  a12=(a03*a70);
-  a31=(a31+a12);
-  a31=(a31*a42);
-  a88=(a88+a31);
-  a31=(a16*a71);
-  a52=(a52-a31);
-  a31=(a17*a52);
-  a42=(a03*a31);
-  a71=(a24*a71);
-  a84=(a84+a71);
-  a71=(a17*a84);
-  a12=(a05*a71);
-  a42=(a42-a12);
-  a42=(a42*a53);
-  a88=(a88+a42);
-  a87=(a87*a35);
-  a88=(a88-a87);
-  a82=(a82*a47);
-  a88=(a88+a82);
-  a82=(a03*a71);
-  a47=(a05*a31);
-  a82=(a82+a47);
-  a82=(a82*a56);
-  a88=(a88-a82);
-  a58=(a58/a14);
-  a82=(a64*a59);
-  a58=(a58-a82);
-  a82=(a05*a58);
-  a88=(a88+a82);
-  a59=(a40*a59);
-  a61=(a61/a14);
-  a59=(a59-a61);
-  a61=(a03*a59);
-  a88=(a88+a61);
-  a24=(a24*a63);
-  a85=(a85-a24);
-  a24=(a17*a85);
-  a61=(a03*a24);
-  a16=(a16*a63);
-  a04=(a04-a16);
-  a17=(a17*a04);
-  a16=(a05*a17);
-  a61=(a61-a16);
-  a61=(a61*a18);
-  a88=(a88+a61);
-  a64=(a64*a22);
-  a21=(a21/a14);
-  a64=(a64-a21);
-  a03=(a03*a64);
-  a88=(a88+a03);
-  a40=(a40*a22);
-  a26=(a26/a14);
-  a40=(a40+a26);
-  a05=(a05*a40);
-  a88=(a88+a05);
-  a39=(a39*a75);
-  a88=(a88+a39);
-  a73=(a73*a79);
-  a88=(a88+a73);
-  a06=(a06*a80);
-  a88=(a88+a06);
-  a10=(a10*a86);
-  a88=(a88+a10);
-  a29=(a29-a88);
-  if (res[1]!=0) res[1][1]=a29;
-  a28=(a28*a32);
-  a81=(a81*a38);
-  a28=(a28-a81);
-  a41=(a41*a44);
-  a28=(a28+a41);
-  a83=(a83*a50);
-  a28=(a28+a83);
-  a52=(a52*a55);
-  a28=(a28+a52);
-  a84=(a84*a60);
-  a28=(a28-a84);
-  a04=(a04*a20);
-  a28=(a28-a04);
-  a85=(a85*a25);
-  a28=(a28+a85);
-  a15=(a15*a76);
-  a28=(a28+a15);
-  a23=(a23*a68);
-  a28=(a28+a23);
-  a13=atan2(a13,a09);
-  a13=(a13*a65);
-  a28=(a28-a13);
-  if (res[1]!=0) res[1][2]=a28;
-  a28=(a33*a43);
-  a13=(a66*a30);
-  a28=(a28-a13);
-  a13=(a71*a54);
-  a28=(a28-a13);
-  a13=(a00*a34);
-  a28=(a28-a13);
-  a36=(a02*a36);
-  a28=(a28+a36);
-  a36=(a70*a46);
-  a28=(a28-a36);
-  a51=(a02*a51);
-  a28=(a28+a51);
-  a51=(a31*a57);
-  a28=(a28-a51);
-  a58=(a01*a58);
-  a28=(a28+a58);
-  a17=(a17*a19);
-  a28=(a28-a17);
-  a40=(a01*a40);
-  a28=(a28+a40);
-  a40=(a49*a74);
-  a28=(a28+a40);
-  a40=(a45*a78);
-  a28=(a28-a40);
-  a40=(a07*a27);
-  a28=(a28+a40);
-  a40=(a11*a67);
-  a28=(a28+a40);
-  if (res[1]!=0) res[1][3]=a28;
-  a00=(a00*a30);
-  a70=(a70*a43);
-  a00=(a00+a70);
-  a31=(a31*a54);
-  a00=(a00+a31);
-  a66=(a66*a34);
-  a00=(a00-a66);
-  a37=(a02*a37);
-  a00=(a00+a37);
-  a33=(a33*a46);
-  a00=(a00+a33);
-  a02=(a02*a48);
-  a00=(a00+a02);
-  a71=(a71*a57);
-  a00=(a00-a71);
-  a59=(a01*a59);
-  a00=(a00+a59);
-  a24=(a24*a19);
-  a00=(a00+a24);
-  a01=(a01*a64);
-  a00=(a00+a01);
-  a45=(a45*a74);
-  a00=(a00+a45);
-  a49=(a49*a78);
-  a00=(a00+a49);
-  a11=(a11*a27);
-  a00=(a00+a11);
-  a07=(a07*a67);
-  a00=(a00-a07);
-  if (res[1]!=0) res[1][4]=a00;
-  return 0;
-}
-
-/* adj1_beam3d_moment_y_energy:(q[24],p[5],out_energy[1x1,0nz],adj_energy)->(adj_q[24],adj_p[5]) */
-static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real **res1=res+2, *w1=w+89, w5, *w6=w+94, *w7=w+118, *w8=w+694, *w9=w+718;
-  const casadi_real **arg1=arg+4, *wr0;
-  /* #0: @0 = input[0][0] */
-  wr0 = arg[0] ? arg[0] : casadi_zeros;
-  /* #1: @1 = input[1][0] */
-  casadi_copy(arg[1], 5, w1);
-  /* #2: @2 = 00 */
-  /* #3: @3 = zeros(24x1,0nz) */
-  /* #4: @4 = zeros(24x24,0nz) */
-  /* #5: @5 = input[3][0] */
-  w5 = arg[3] ? arg[3][0] : 0;
-  /* #6: @6 = zeros(24x1) */
-  casadi_clear(w6, 24);
-  /* #7: @7 = zeros(24x24) */
-  casadi_clear(w7, 576);
-  /* #8: {@8, @9} = adj1_beam3d_moment_y(@0, @1, @2, @3, @4, @5, @6, @7) */
-  arg1[0]=wr0;
-  arg1[1]=w1;
-  arg1[2]=0;
-  arg1[3]=0;
-  arg1[4]=0;
-  arg1[5]=(&w5);
-  arg1[6]=w6;
-  arg1[7]=w7;
-  res1[0]=w8;
-  res1[1]=w9;
-  if (casadi_f3(arg1, res1, iw, w, 0)) return 1;
-  /* #9: output[0][0] = @8 */
-  casadi_copy(w8, 24, res[0]);
-  /* #10: output[1][0] = @9 */
-  casadi_copy(w9, 5, res[1]);
+  a11=(a11*a04);
+  a07=(a07*a17);
+  a11=(a11+a07);
+  a09=(a09*a04);
+  a05=(a05*a17);
+  a09=(a09+a05);
+  a11=(a11-a09);
+  if (res[1]!=0) res[1][1]=a11;
+  a08=atan2(a08,a13);
+  a08=(a08*a16);
+  a08=(-a08);
+  if (res[1]!=0) res[1][2]=a08;
+  a08=(a10*a14);
+  a16=(a06*a12);
+  a08=(a08-a16);
+  if (res[1]!=0) res[1][3]=a08;
+  a06=(a06*a14);
+  a10=(a10*a12);
+  a06=(a06+a10);
+  if (res[1]!=0) res[1][4]=a06;
   return 0;
 }
 
@@ -1610,18 +1153,167 @@ CASADI_SYMBOL_EXPORT const casadi_int* adj1_beam3d_moment_y_energy_sparsity_out(
 }
 
 CASADI_SYMBOL_EXPORT int adj1_beam3d_moment_y_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-  if (sz_arg) *sz_arg = 12;
-  if (sz_res) *sz_res = 4;
+  if (sz_arg) *sz_arg = 4;
+  if (sz_res) *sz_res = 2;
   if (sz_iw) *sz_iw = 0;
-  if (sz_w) *sz_w = 723;
+  if (sz_w) *sz_w = 0;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int adj1_beam3d_moment_y_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-  if (sz_arg) *sz_arg = 12*sizeof(const casadi_real*);
-  if (sz_res) *sz_res = 4*sizeof(casadi_real*);
+  if (sz_arg) *sz_arg = 4*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 2*sizeof(casadi_real*);
   if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
-  if (sz_w) *sz_w = 723*sizeof(casadi_real);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* beam3d_moment_y_grad:(q[24],p[5])->(energy,gradient[24]) */
+static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2, a3, a4, a5, a6, a7, a8, a9;
+  a0=arg[1]? arg[1][2] : 0;
+  a1=arg[1]? arg[1][3] : 0;
+  a2=1.;
+  a3=arg[1]? arg[1][1] : 0;
+  a2=(a2-a3);
+  a4=arg[0]? arg[0][9] : 0;
+  a4=(a2*a4);
+  a5=arg[0]? arg[0][21] : 0;
+  a5=(a3*a5);
+  a4=(a4+a5);
+  a5=(a1*a4);
+  a6=arg[1]? arg[1][4] : 0;
+  a7=arg[0]? arg[0][11] : 0;
+  a7=(a2*a7);
+  a8=arg[0]? arg[0][23] : 0;
+  a8=(a3*a8);
+  a7=(a7+a8);
+  a8=(a6*a7);
+  a5=(a5-a8);
+  a7=(a1*a7);
+  a4=(a6*a4);
+  a7=(a7+a4);
+  a4=atan2(a5,a7);
+  a4=(a0*a4);
+  a4=(-a4);
+  if (res[0]!=0) res[0][0]=a4;
+  a4=0.;
+  if (res[1]!=0) res[1][0]=a4;
+  if (res[1]!=0) res[1][1]=a4;
+  if (res[1]!=0) res[1][2]=a4;
+  if (res[1]!=0) res[1][3]=a4;
+  if (res[1]!=0) res[1][4]=a4;
+  if (res[1]!=0) res[1][5]=a4;
+  if (res[1]!=0) res[1][6]=a4;
+  if (res[1]!=0) res[1][7]=a4;
+  if (res[1]!=0) res[1][8]=a4;
+  a8=casadi_sq(a5);
+  a9=casadi_sq(a7);
+  a8=(a8+a9);
+  a5=(a5/a8);
+  a5=(a5*a0);
+  a9=(a6*a5);
+  a7=(a7/a8);
+  a7=(a7*a0);
+  a0=(a1*a7);
+  a9=(a9-a0);
+  a0=(a2*a9);
+  if (res[1]!=0) res[1][9]=a0;
+  if (res[1]!=0) res[1][10]=a4;
+  a1=(a1*a5);
+  a6=(a6*a7);
+  a1=(a1+a6);
+  a2=(a2*a1);
+  if (res[1]!=0) res[1][11]=a2;
+  if (res[1]!=0) res[1][12]=a4;
+  if (res[1]!=0) res[1][13]=a4;
+  if (res[1]!=0) res[1][14]=a4;
+  if (res[1]!=0) res[1][15]=a4;
+  if (res[1]!=0) res[1][16]=a4;
+  if (res[1]!=0) res[1][17]=a4;
+  if (res[1]!=0) res[1][18]=a4;
+  if (res[1]!=0) res[1][19]=a4;
+  if (res[1]!=0) res[1][20]=a4;
+  a9=(a3*a9);
+  if (res[1]!=0) res[1][21]=a9;
+  if (res[1]!=0) res[1][22]=a4;
+  a3=(a3*a1);
+  if (res[1]!=0) res[1][23]=a3;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_moment_y_grad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f3(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_moment_y_grad_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_moment_y_grad_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_moment_y_grad_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_moment_y_grad_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int beam3d_moment_y_grad_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int beam3d_moment_y_grad_n_out(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_real beam3d_moment_y_grad_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* beam3d_moment_y_grad_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* beam3d_moment_y_grad_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    case 1: return "gradient";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* beam3d_moment_y_grad_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* beam3d_moment_y_grad_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s2;
+    case 1: return casadi_s0;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_moment_y_grad_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 2;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_moment_y_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 2*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
   return 0;
 }
 

@@ -29,8 +29,6 @@ extern "C" {
 #endif
 
 /* Add prefix to internal symbols */
-#define casadi_clear CASADI_PREFIX(clear)
-#define casadi_copy CASADI_PREFIX(copy)
 #define casadi_f0 CASADI_PREFIX(f0)
 #define casadi_f1 CASADI_PREFIX(f1)
 #define casadi_f2 CASADI_PREFIX(f2)
@@ -41,7 +39,6 @@ extern "C" {
 #define casadi_s3 CASADI_PREFIX(s3)
 #define casadi_s4 CASADI_PREFIX(s4)
 #define casadi_sq CASADI_PREFIX(sq)
-#define casadi_zeros CASADI_PREFIX(zeros)
 
 /* Symbol visibility in DLLs */
 #ifndef CASADI_SYMBOL_EXPORT
@@ -60,24 +57,6 @@ extern "C" {
 
 casadi_real casadi_sq(casadi_real x) { return x*x;}
 
-void casadi_copy(const casadi_real* x, casadi_int n, casadi_real* y) {
-  casadi_int i;
-  if (y) {
-    if (x) {
-      for (i=0; i<n; ++i) *y++ = *x++;
-    } else {
-      for (i=0; i<n; ++i) *y++ = 0.;
-    }
-  }
-}
-
-void casadi_clear(casadi_real* x, casadi_int n) {
-  casadi_int i;
-  if (x) {
-    for (i=0; i<n; ++i) *x++ = 0;
-  }
-}
-
 /* Configuration this file was compiled with */
 CASADI_SYMBOL_EXPORT void beam3d_moment_z_casadi_version(int* major, int* minor, int* patch) {
   *major = 3;
@@ -92,9 +71,6 @@ static const casadi_int casadi_s1[3] = {5, 1, 1};
 static const casadi_int casadi_s2[3] = {1, 1, 1};
 static const casadi_int casadi_s3[3] = {24, 24, 1};
 static const casadi_int casadi_s4[4] = {1, 1, 0, 0};
-
-static const casadi_real casadi_zeros[24] = 
-  {0.};
 
 /* beam3d_moment_z:(q[24],p[5])->(energy,gradient[24],hessian[24x24]) */
 static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
@@ -914,21 +890,33 @@ CASADI_SYMBOL_EXPORT int beam3d_moment_z_work_bytes(casadi_int *sz_arg, casadi_i
 
 /* beam3d_moment_z_energy:(q[24],p[5])->(energy) */
 static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real **res1=res+1, *w1=w+20, w2;
-  const casadi_real **arg1=arg+2, *wr0;
-  /* #0: @0 = input[0][0] */
-  wr0 = arg[0] ? arg[0] : casadi_zeros;
-  /* #1: @1 = input[1][0] */
-  casadi_copy(arg[1], 5, w1);
-  /* #2: {@2, NULL, NULL} = beam3d_moment_z(@0, @1) */
-  arg1[0]=wr0;
-  arg1[1]=w1;
-  res1[0]=(&w2);
-  res1[1]=0;
-  res1[2]=0;
-  if (casadi_f0(arg1, res1, iw, w, 0)) return 1;
-  /* #3: output[0][0] = @2 */
-  if (res[0]) res[0][0] = w2;
+  casadi_real a0, a1, a2, a3, a4, a5, a6, a7;
+  a0=arg[1]? arg[1][2] : 0;
+  a1=arg[1]? arg[1][3] : 0;
+  a2=1.;
+  a3=arg[1]? arg[1][1] : 0;
+  a2=(a2-a3);
+  a4=arg[0]? arg[0][7] : 0;
+  a4=(a2*a4);
+  a5=arg[0]? arg[0][19] : 0;
+  a5=(a3*a5);
+  a4=(a4+a5);
+  a5=(a1*a4);
+  a6=arg[1]? arg[1][4] : 0;
+  a7=arg[0]? arg[0][6] : 0;
+  a2=(a2*a7);
+  a7=arg[0]? arg[0][18] : 0;
+  a3=(a3*a7);
+  a2=(a2+a3);
+  a3=(a6*a2);
+  a5=(a5-a3);
+  a6=(a6*a4);
+  a1=(a1*a2);
+  a6=(a6+a1);
+  a5=atan2(a5,a6);
+  a0=(a0*a5);
+  a0=(-a0);
+  if (res[0]!=0) res[0][0]=a0;
   return 0;
 }
 
@@ -990,31 +978,25 @@ CASADI_SYMBOL_EXPORT const casadi_int* beam3d_moment_z_energy_sparsity_out(casad
 }
 
 CASADI_SYMBOL_EXPORT int beam3d_moment_z_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-  if (sz_arg) *sz_arg = 4;
-  if (sz_res) *sz_res = 4;
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
   if (sz_iw) *sz_iw = 0;
-  if (sz_w) *sz_w = 25;
+  if (sz_w) *sz_w = 0;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int beam3d_moment_z_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-  if (sz_arg) *sz_arg = 4*sizeof(const casadi_real*);
-  if (sz_res) *sz_res = 4*sizeof(casadi_real*);
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
   if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
-  if (sz_w) *sz_w = 25*sizeof(casadi_real);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
   return 0;
 }
 
-/* adj1_beam3d_moment_z:(q[24],p[5],out_energy[1x1,0nz],out_gradient[24x1,0nz],out_hessian[24x24,0nz],adj_energy,adj_gradient[24],adj_hessian[24x24])->(adj_q[24],adj_p[5]) */
-static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* adj1_beam3d_moment_z_energy:(q[24],p[5],out_energy[1x1,0nz],adj_energy)->(adj_q[24],adj_p[5]) */
+static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
-  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
-  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
-  casadi_real a36, a37, a38, a39, a40, a41, a42, a43, a44, a45, a46, a47;
-  casadi_real a48, a49, a50, a51, a52, a53, a54, a55, a56, a57, a58, a59;
-  casadi_real a60, a61, a62, a63, a64, a65, a66, a67, a68, a69, a70, a71;
-  casadi_real a72, a73, a74, a75, a76, a77, a78, a79, a80, a81, a82, a83;
-  casadi_real a84, a85, a86, a87, a88;
+  casadi_real a12, a13, a14, a15, a16, a17;
   a00=0.;
   if (res[0]!=0) res[0][0]=a00;
   if (res[0]!=0) res[0][1]=a00;
@@ -1026,255 +1008,43 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   a02=arg[1]? arg[1][1] : 0;
   a01=(a01-a02);
   a03=arg[1]? arg[1][3] : 0;
-  a04=arg[1]? arg[1][4] : 0;
-  a05=(a04*a02);
-  a06=arg[0]? arg[0][7] : 0;
-  a07=(a01*a06);
-  a08=arg[0]? arg[0][19] : 0;
-  a09=(a02*a08);
-  a07=(a07+a09);
-  a09=(a04*a07);
-  a10=arg[0]? arg[0][6] : 0;
-  a11=(a01*a10);
-  a12=arg[0]? arg[0][18] : 0;
-  a13=(a02*a12);
-  a11=(a11+a13);
-  a13=(a03*a11);
-  a09=(a09+a13);
-  a13=(a03*a07);
-  a14=(a04*a11);
-  a13=(a13-a14);
+  a04=arg[0]? arg[0][7] : 0;
+  a05=(a01*a04);
+  a06=arg[0]? arg[0][19] : 0;
+  a07=(a02*a06);
+  a05=(a05+a07);
+  a07=(a03*a05);
+  a08=arg[1]? arg[1][4] : 0;
+  a09=arg[0]? arg[0][6] : 0;
+  a10=(a01*a09);
+  a11=arg[0]? arg[0][18] : 0;
+  a12=(a02*a11);
+  a10=(a10+a12);
+  a12=(a08*a10);
+  a07=(a07-a12);
+  a12=casadi_sq(a07);
+  a13=(a08*a05);
+  a14=(a03*a10);
+  a13=(a13+a14);
   a14=casadi_sq(a13);
-  a15=casadi_sq(a09);
-  a14=(a14+a15);
-  a15=(a09/a14);
-  a16=(a15/a14);
-  a17=arg[1]? arg[1][2] : 0;
-  a18=arg[7]? arg[7][474] : 0;
-  a19=arg[7]? arg[7][451] : 0;
-  a18=(a18+a19);
-  a19=(a02*a18);
-  a20=arg[7]? arg[7][462] : 0;
-  a21=arg[7]? arg[7][163] : 0;
-  a20=(a20+a21);
-  a21=(a01*a20);
-  a19=(a19+a21);
-  a21=(a04*a19);
-  a22=arg[7]? arg[7][475] : 0;
-  a23=(a02*a22);
-  a24=arg[7]? arg[7][463] : 0;
-  a25=arg[7]? arg[7][187] : 0;
-  a24=(a24+a25);
-  a25=(a01*a24);
-  a23=(a23+a25);
-  a25=(a03*a23);
-  a21=(a21-a25);
-  a25=(a17*a21);
-  a26=(a16*a25);
-  a27=(a13/a14);
-  a28=(a27/a14);
-  a29=(a04*a23);
-  a30=(a03*a19);
-  a29=(a29+a30);
-  a30=(a17*a29);
-  a31=(a28*a30);
-  a26=(a26+a31);
-  a31=(a05*a26);
-  a32=(a03*a02);
-  a33=arg[7]? arg[7][439] : 0;
-  a34=arg[7]? arg[7][186] : 0;
-  a33=(a33+a34);
-  a34=(a01*a33);
-  a35=(a04*a34);
-  a36=arg[7]? arg[7][450] : 0;
-  a37=(a02*a36);
-  a38=arg[7]? arg[7][438] : 0;
-  a39=arg[7]? arg[7][162] : 0;
-  a38=(a38+a39);
-  a39=(a01*a38);
-  a37=(a37+a39);
-  a39=(a03*a37);
-  a35=(a35+a39);
-  a39=(a17*a35);
-  a40=(a28*a39);
-  a41=(a04*a37);
-  a42=(a03*a34);
-  a41=(a41-a42);
-  a42=(a17*a41);
-  a43=(a16*a42);
-  a40=(a40+a43);
-  a43=(a32*a40);
-  a31=(a31+a43);
-  a43=(a04*a01);
-  a44=arg[7]? arg[7][174] : 0;
-  a45=arg[7]? arg[7][151] : 0;
-  a44=(a44+a45);
-  a45=(a01*a44);
-  a46=(a04*a45);
-  a47=arg[7]? arg[7][175] : 0;
-  a48=(a01*a47);
-  a49=(a03*a48);
-  a46=(a46-a49);
-  a49=(a17*a46);
-  a50=(a16*a49);
-  a51=(a04*a48);
-  a52=(a03*a45);
-  a51=(a51+a52);
-  a52=(a17*a51);
-  a53=(a28*a52);
-  a50=(a50+a53);
-  a53=(a43*a50);
-  a31=(a31+a53);
-  a53=(a03*a01);
-  a54=arg[7]? arg[7][150] : 0;
-  a55=(a01*a54);
-  a56=(a03*a55);
-  a57=(a17*a56);
-  a58=(a28*a57);
-  a59=(a04*a55);
-  a60=(a17*a59);
-  a61=(a16*a60);
-  a58=(a58+a61);
-  a61=(a53*a58);
-  a31=(a31+a61);
-  a31=(-a31);
-  a31=(2.*a31);
-  a61=arg[6]? arg[6][18] : 0;
-  a62=(a02*a61);
-  a63=arg[6]? arg[6][6] : 0;
-  a64=(a01*a63);
-  a62=(a62+a64);
-  a64=(a04*a62);
-  a65=arg[6]? arg[6][19] : 0;
-  a66=(a02*a65);
-  a67=arg[6]? arg[6][7] : 0;
-  a68=(a01*a67);
-  a66=(a66+a68);
-  a68=(a03*a66);
-  a64=(a64-a68);
-  a68=(a17*a64);
-  a69=(2.*a13);
-  a70=(a03*a02);
-  a71=(a69*a70);
-  a72=(2.*a09);
-  a73=(a72*a05);
-  a71=(a71+a73);
-  a73=(a71*a25);
-  a74=(a72*a32);
-  a75=(a04*a02);
-  a76=(a69*a75);
-  a74=(a74-a76);
-  a76=(a74*a42);
-  a73=(a73+a76);
-  a76=(a03*a01);
-  a77=(a69*a76);
-  a78=(a72*a43);
-  a77=(a77+a78);
-  a78=(a77*a49);
-  a73=(a73+a78);
-  a78=(a72*a53);
-  a79=(a04*a01);
-  a80=(a69*a79);
-  a78=(a78-a80);
-  a80=(a78*a60);
-  a73=(a73+a80);
-  a80=(a73/a14);
-  a68=(a68-a80);
-  a80=(a68/a14);
-  a31=(a31+a80);
-  a80=(2.*a09);
-  a81=(a75/a14);
-  a82=(a81/a14);
-  a82=(a82*a39);
-  a05=(a05/a14);
-  a83=(a05/a14);
-  a83=(a83*a25);
-  a84=(a70/a14);
-  a85=(a84/a14);
-  a85=(a85*a30);
-  a83=(a83+a85);
-  a82=(a82-a83);
-  a32=(a32/a14);
-  a83=(a32/a14);
-  a83=(a83*a42);
-  a82=(a82-a83);
-  a43=(a43/a14);
-  a83=(a43/a14);
-  a83=(a83*a49);
-  a82=(a82-a83);
-  a83=(a76/a14);
-  a85=(a83/a14);
-  a85=(a85*a52);
-  a82=(a82-a85);
-  a85=(a28/a14);
-  a86=(a71*a30);
-  a87=(a74*a39);
-  a86=(a86+a87);
-  a87=(a77*a52);
-  a86=(a86+a87);
-  a87=(a78*a57);
-  a86=(a86+a87);
-  a85=(a85*a86);
-  a82=(a82+a85);
-  a85=(a79/a14);
-  a87=(a85/a14);
-  a87=(a87*a57);
-  a82=(a82+a87);
-  a87=(a16/a14);
-  a87=(a87*a73);
-  a82=(a82+a87);
-  a53=(a53/a14);
-  a87=(a53/a14);
-  a87=(a87*a60);
-  a82=(a82-a87);
-  a87=(a15/a14);
-  a87=(a87*a68);
-  a82=(a82-a87);
-  a87=(a27/a14);
-  a68=(a04*a66);
-  a73=(a03*a62);
-  a68=(a68+a73);
-  a73=(a17*a68);
-  a86=(a86/a14);
-  a73=(a73-a86);
-  a87=(a87*a73);
-  a82=(a82-a87);
-  a80=(a80*a82);
-  a31=(a31+a80);
-  a80=casadi_sq(a13);
-  a87=casadi_sq(a09);
-  a80=(a80+a87);
-  a87=(a13/a80);
-  a86=arg[5]? arg[5][0] : 0;
-  a88=(a17*a86);
-  a87=(a87*a88);
-  a31=(a31+a87);
-  a87=(a03*a31);
-  a75=(a75*a40);
-  a70=(a70*a26);
-  a75=(a75-a70);
-  a76=(a76*a50);
-  a75=(a75-a76);
-  a79=(a79*a58);
-  a75=(a75+a79);
-  a75=(2.*a75);
-  a73=(a73/a14);
-  a75=(a75+a73);
-  a73=(2.*a13);
-  a73=(a73*a82);
-  a75=(a75+a73);
-  a80=(a09/a80);
-  a80=(a80*a88);
-  a75=(a75-a80);
-  a80=(a04*a75);
-  a87=(a87-a80);
-  a80=(a01*a87);
-  if (res[0]!=0) res[0][6]=a80;
-  a80=(a04*a31);
-  a88=(a03*a75);
-  a80=(a80+a88);
-  a88=(a01*a80);
-  if (res[0]!=0) res[0][7]=a88;
+  a12=(a12+a14);
+  a14=(a07/a12);
+  a15=arg[1]? arg[1][2] : 0;
+  a16=arg[3]? arg[3][0] : 0;
+  a15=(a15*a16);
+  a14=(a14*a15);
+  a17=(a03*a14);
+  a12=(a13/a12);
+  a12=(a12*a15);
+  a15=(a08*a12);
+  a17=(a17+a15);
+  a15=(a01*a17);
+  if (res[0]!=0) res[0][6]=a15;
+  a08=(a08*a14);
+  a03=(a03*a12);
+  a08=(a08-a03);
+  a01=(a01*a08);
+  if (res[0]!=0) res[0][7]=a01;
   if (res[0]!=0) res[0][8]=a00;
   if (res[0]!=0) res[0][9]=a00;
   if (res[0]!=0) res[0][10]=a00;
@@ -1285,263 +1055,35 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   if (res[0]!=0) res[0][15]=a00;
   if (res[0]!=0) res[0][16]=a00;
   if (res[0]!=0) res[0][17]=a00;
-  a88=(a02*a87);
-  if (res[0]!=0) res[0][18]=a88;
-  a88=(a02*a80);
-  if (res[0]!=0) res[0][19]=a88;
+  a01=(a02*a17);
+  if (res[0]!=0) res[0][18]=a01;
+  a02=(a02*a08);
+  if (res[0]!=0) res[0][19]=a02;
   if (res[0]!=0) res[0][20]=a00;
   if (res[0]!=0) res[0][21]=a00;
   if (res[0]!=0) res[0][22]=a00;
   if (res[0]!=0) res[0][23]=a00;
   if (res[1]!=0) res[1][0]=a00;
-  a00=(a28*a71);
-  a84=(a84-a00);
-  a00=(a17*a84);
-  a88=(a04*a00);
-  a71=(a16*a71);
-  a05=(a05-a71);
-  a71=(a17*a05);
-  a73=(a03*a71);
-  a88=(a88-a73);
-  a22=(a88*a22);
-  a73=(a03*a00);
-  a82=(a04*a71);
-  a73=(a73+a82);
-  a18=(a73*a18);
-  a22=(a22+a18);
-  a18=(a16*a74);
-  a32=(a32-a18);
-  a18=(a17*a32);
-  a82=(a04*a18);
-  a74=(a28*a74);
-  a81=(a81+a74);
-  a74=(a17*a81);
-  a79=(a03*a74);
-  a82=(a82-a79);
-  a36=(a82*a36);
-  a22=(a22+a36);
-  a25=(a25/a14);
-  a36=(a72*a26);
-  a25=(a25-a36);
-  a36=(a04*a25);
-  a22=(a22+a36);
-  a30=(a30/a14);
-  a26=(a69*a26);
-  a30=(a30-a26);
-  a26=(a03*a30);
-  a22=(a22+a26);
-  a26=(a69*a40);
-  a39=(a39/a14);
-  a26=(a26-a39);
-  a39=(a04*a26);
-  a22=(a22+a39);
-  a42=(a42/a14);
-  a40=(a72*a40);
-  a42=(a42-a40);
-  a40=(a03*a42);
-  a22=(a22+a40);
-  a40=(a27*a17);
-  a39=(a04*a40);
-  a36=(a15*a17);
-  a79=(a03*a36);
-  a39=(a39-a79);
-  a65=(a39*a65);
-  a22=(a22+a65);
-  a65=(a03*a40);
-  a79=(a04*a36);
-  a65=(a65+a79);
-  a61=(a65*a61);
-  a22=(a22+a61);
-  a12=(a12*a87);
-  a22=(a22+a12);
-  a08=(a08*a80);
-  a22=(a22+a08);
-  a88=(a88*a24);
-  a24=(a04*a74);
-  a08=(a03*a18);
-  a24=(a24+a08);
-  a24=(a24*a33);
-  a88=(a88-a24);
-  a24=(a28*a77);
-  a83=(a83-a24);
-  a24=(a17*a83);
-  a33=(a04*a24);
-  a77=(a16*a77);
-  a43=(a43-a77);
-  a77=(a17*a43);
-  a08=(a03*a77);
-  a33=(a33-a08);
-  a33=(a33*a47);
-  a88=(a88+a33);
-  a73=(a73*a20);
-  a88=(a88+a73);
-  a82=(a82*a38);
-  a88=(a88+a82);
-  a82=(a03*a24);
-  a38=(a04*a77);
-  a82=(a82+a38);
-  a82=(a82*a44);
-  a88=(a88+a82);
-  a49=(a49/a14);
-  a82=(a72*a50);
-  a49=(a49-a82);
-  a82=(a04*a49);
-  a88=(a88+a82);
-  a52=(a52/a14);
-  a50=(a69*a50);
-  a52=(a52-a50);
-  a50=(a03*a52);
-  a88=(a88+a50);
-  a16=(a16*a78);
-  a53=(a53-a16);
-  a16=(a17*a53);
-  a50=(a04*a16);
-  a28=(a28*a78);
-  a85=(a85+a28);
-  a17=(a17*a85);
-  a28=(a03*a17);
-  a50=(a50-a28);
-  a50=(a50*a54);
-  a88=(a88+a50);
-  a69=(a69*a58);
-  a57=(a57/a14);
-  a69=(a69-a57);
-  a04=(a04*a69);
-  a88=(a88+a04);
-  a60=(a60/a14);
-  a72=(a72*a58);
-  a60=(a60-a72);
-  a03=(a03*a60);
-  a88=(a88+a03);
-  a39=(a39*a67);
-  a88=(a88+a39);
-  a65=(a65*a63);
-  a88=(a88+a65);
-  a10=(a10*a87);
-  a88=(a88+a10);
-  a06=(a06*a80);
-  a88=(a88+a06);
-  a22=(a22-a88);
-  if (res[1]!=0) res[1][1]=a22;
-  a05=(a05*a21);
-  a84=(a84*a29);
-  a05=(a05+a84);
-  a81=(a81*a35);
-  a05=(a05-a81);
-  a32=(a32*a41);
-  a05=(a05+a32);
-  a43=(a43*a46);
-  a05=(a05+a43);
-  a83=(a83*a51);
-  a05=(a05+a83);
-  a85=(a85*a56);
-  a05=(a05-a85);
-  a53=(a53*a59);
-  a05=(a05+a53);
-  a15=(a15*a64);
-  a05=(a05+a15);
-  a27=(a27*a68);
-  a05=(a05+a27);
-  a13=atan2(a13,a09);
-  a13=(a13*a86);
-  a05=(a05-a13);
-  if (res[1]!=0) res[1][2]=a05;
-  a05=(a00*a19);
-  a13=(a71*a23);
-  a86=(a18*a34);
-  a13=(a13+a86);
-  a86=(a77*a48);
-  a13=(a13+a86);
-  a05=(a05-a13);
-  a30=(a02*a30);
-  a05=(a05+a30);
-  a30=(a74*a37);
-  a05=(a05-a30);
-  a42=(a02*a42);
-  a05=(a05+a42);
-  a42=(a24*a45);
-  a05=(a05+a42);
-  a52=(a01*a52);
-  a05=(a05+a52);
-  a17=(a17*a55);
-  a05=(a05-a17);
-  a60=(a01*a60);
-  a05=(a05+a60);
-  a60=(a36*a66);
-  a05=(a05-a60);
-  a60=(a40*a62);
-  a05=(a05+a60);
-  a60=(a11*a31);
-  a05=(a05+a60);
-  a60=(a07*a75);
-  a05=(a05+a60);
-  if (res[1]!=0) res[1][3]=a05;
-  a00=(a00*a23);
-  a74=(a74*a34);
-  a00=(a00-a74);
-  a24=(a24*a48);
-  a00=(a00+a24);
-  a71=(a71*a19);
-  a00=(a00+a71);
-  a25=(a02*a25);
-  a00=(a00+a25);
-  a18=(a18*a37);
-  a00=(a00+a18);
-  a02=(a02*a26);
-  a00=(a00+a02);
-  a77=(a77*a45);
-  a00=(a00+a77);
-  a49=(a01*a49);
-  a00=(a00+a49);
-  a16=(a16*a55);
-  a00=(a00+a16);
-  a01=(a01*a69);
-  a00=(a00+a01);
-  a40=(a40*a66);
-  a00=(a00+a40);
-  a36=(a36*a62);
-  a00=(a00+a36);
-  a07=(a07*a31);
-  a00=(a00+a07);
-  a11=(a11*a75);
-  a00=(a00-a11);
-  if (res[1]!=0) res[1][4]=a00;
-  return 0;
-}
-
-/* adj1_beam3d_moment_z_energy:(q[24],p[5],out_energy[1x1,0nz],adj_energy)->(adj_q[24],adj_p[5]) */
-static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real **res1=res+2, *w1=w+89, w5, *w6=w+94, *w7=w+118, *w8=w+694, *w9=w+718;
-  const casadi_real **arg1=arg+4, *wr0;
-  /* #0: @0 = input[0][0] */
-  wr0 = arg[0] ? arg[0] : casadi_zeros;
-  /* #1: @1 = input[1][0] */
-  casadi_copy(arg[1], 5, w1);
-  /* #2: @2 = 00 */
-  /* #3: @3 = zeros(24x1,0nz) */
-  /* #4: @4 = zeros(24x24,0nz) */
-  /* #5: @5 = input[3][0] */
-  w5 = arg[3] ? arg[3][0] : 0;
-  /* #6: @6 = zeros(24x1) */
-  casadi_clear(w6, 24);
-  /* #7: @7 = zeros(24x24) */
-  casadi_clear(w7, 576);
-  /* #8: {@8, @9} = adj1_beam3d_moment_z(@0, @1, @2, @3, @4, @5, @6, @7) */
-  arg1[0]=wr0;
-  arg1[1]=w1;
-  arg1[2]=0;
-  arg1[3]=0;
-  arg1[4]=0;
-  arg1[5]=(&w5);
-  arg1[6]=w6;
-  arg1[7]=w7;
-  res1[0]=w8;
-  res1[1]=w9;
-  if (casadi_f3(arg1, res1, iw, w, 0)) return 1;
-  /* #9: output[0][0] = @8 */
-  casadi_copy(w8, 24, res[0]);
-  /* #10: output[1][0] = @9 */
-  casadi_copy(w9, 5, res[1]);
+  a11=(a11*a17);
+  a06=(a06*a08);
+  a11=(a11+a06);
+  a09=(a09*a17);
+  a04=(a04*a08);
+  a09=(a09+a04);
+  a11=(a11-a09);
+  if (res[1]!=0) res[1][1]=a11;
+  a07=atan2(a07,a13);
+  a07=(a07*a16);
+  a07=(-a07);
+  if (res[1]!=0) res[1][2]=a07;
+  a07=(a10*a14);
+  a16=(a05*a12);
+  a07=(a07-a16);
+  if (res[1]!=0) res[1][3]=a07;
+  a05=(a05*a14);
+  a10=(a10*a12);
+  a05=(a05+a10);
+  if (res[1]!=0) res[1][4]=a05;
   return 0;
 }
 
@@ -1609,18 +1151,167 @@ CASADI_SYMBOL_EXPORT const casadi_int* adj1_beam3d_moment_z_energy_sparsity_out(
 }
 
 CASADI_SYMBOL_EXPORT int adj1_beam3d_moment_z_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-  if (sz_arg) *sz_arg = 12;
-  if (sz_res) *sz_res = 4;
+  if (sz_arg) *sz_arg = 4;
+  if (sz_res) *sz_res = 2;
   if (sz_iw) *sz_iw = 0;
-  if (sz_w) *sz_w = 723;
+  if (sz_w) *sz_w = 0;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int adj1_beam3d_moment_z_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-  if (sz_arg) *sz_arg = 12*sizeof(const casadi_real*);
-  if (sz_res) *sz_res = 4*sizeof(casadi_real*);
+  if (sz_arg) *sz_arg = 4*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 2*sizeof(casadi_real*);
   if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
-  if (sz_w) *sz_w = 723*sizeof(casadi_real);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* beam3d_moment_z_grad:(q[24],p[5])->(energy,gradient[24]) */
+static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a0, a1, a2, a3, a4, a5, a6, a7, a8, a9;
+  a0=arg[1]? arg[1][2] : 0;
+  a1=arg[1]? arg[1][3] : 0;
+  a2=1.;
+  a3=arg[1]? arg[1][1] : 0;
+  a2=(a2-a3);
+  a4=arg[0]? arg[0][7] : 0;
+  a4=(a2*a4);
+  a5=arg[0]? arg[0][19] : 0;
+  a5=(a3*a5);
+  a4=(a4+a5);
+  a5=(a1*a4);
+  a6=arg[1]? arg[1][4] : 0;
+  a7=arg[0]? arg[0][6] : 0;
+  a7=(a2*a7);
+  a8=arg[0]? arg[0][18] : 0;
+  a8=(a3*a8);
+  a7=(a7+a8);
+  a8=(a6*a7);
+  a5=(a5-a8);
+  a4=(a6*a4);
+  a7=(a1*a7);
+  a4=(a4+a7);
+  a7=atan2(a5,a4);
+  a7=(a0*a7);
+  a7=(-a7);
+  if (res[0]!=0) res[0][0]=a7;
+  a7=0.;
+  if (res[1]!=0) res[1][0]=a7;
+  if (res[1]!=0) res[1][1]=a7;
+  if (res[1]!=0) res[1][2]=a7;
+  if (res[1]!=0) res[1][3]=a7;
+  if (res[1]!=0) res[1][4]=a7;
+  if (res[1]!=0) res[1][5]=a7;
+  a8=casadi_sq(a5);
+  a9=casadi_sq(a4);
+  a8=(a8+a9);
+  a5=(a5/a8);
+  a5=(a5*a0);
+  a9=(a1*a5);
+  a4=(a4/a8);
+  a4=(a4*a0);
+  a0=(a6*a4);
+  a9=(a9+a0);
+  a0=(a2*a9);
+  if (res[1]!=0) res[1][6]=a0;
+  a6=(a6*a5);
+  a1=(a1*a4);
+  a6=(a6-a1);
+  a2=(a2*a6);
+  if (res[1]!=0) res[1][7]=a2;
+  if (res[1]!=0) res[1][8]=a7;
+  if (res[1]!=0) res[1][9]=a7;
+  if (res[1]!=0) res[1][10]=a7;
+  if (res[1]!=0) res[1][11]=a7;
+  if (res[1]!=0) res[1][12]=a7;
+  if (res[1]!=0) res[1][13]=a7;
+  if (res[1]!=0) res[1][14]=a7;
+  if (res[1]!=0) res[1][15]=a7;
+  if (res[1]!=0) res[1][16]=a7;
+  if (res[1]!=0) res[1][17]=a7;
+  a9=(a3*a9);
+  if (res[1]!=0) res[1][18]=a9;
+  a3=(a3*a6);
+  if (res[1]!=0) res[1][19]=a3;
+  if (res[1]!=0) res[1][20]=a7;
+  if (res[1]!=0) res[1][21]=a7;
+  if (res[1]!=0) res[1][22]=a7;
+  if (res[1]!=0) res[1][23]=a7;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_moment_z_grad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f3(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_moment_z_grad_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_moment_z_grad_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_moment_z_grad_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_moment_z_grad_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int beam3d_moment_z_grad_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int beam3d_moment_z_grad_n_out(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_real beam3d_moment_z_grad_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* beam3d_moment_z_grad_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* beam3d_moment_z_grad_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    case 1: return "gradient";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* beam3d_moment_z_grad_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* beam3d_moment_z_grad_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s2;
+    case 1: return casadi_s0;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_moment_z_grad_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 2;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_moment_z_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 2*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
   return 0;
 }
 

@@ -49,10 +49,10 @@ const casadi_int* cable2d_axial_biot_g7_energy_sparsity_in(casadi_int i);
 const casadi_int* cable2d_axial_biot_g7_energy_sparsity_out(casadi_int i);
 int cable2d_axial_biot_g7_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
 int cable2d_axial_biot_g7_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-#define cable2d_axial_biot_g7_energy_SZ_ARG 4
-#define cable2d_axial_biot_g7_energy_SZ_RES 4
+#define cable2d_axial_biot_g7_energy_SZ_ARG 2
+#define cable2d_axial_biot_g7_energy_SZ_RES 1
 #define cable2d_axial_biot_g7_energy_SZ_IW 0
-#define cable2d_axial_biot_g7_energy_SZ_W 129
+#define cable2d_axial_biot_g7_energy_SZ_W 0
 int adj1_cable2d_axial_biot_g7_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int adj1_cable2d_axial_biot_g7_energy_checkout(void);
 void adj1_cable2d_axial_biot_g7_energy_release(int mem);
@@ -67,10 +67,28 @@ const casadi_int* adj1_cable2d_axial_biot_g7_energy_sparsity_in(casadi_int i);
 const casadi_int* adj1_cable2d_axial_biot_g7_energy_sparsity_out(casadi_int i);
 int adj1_cable2d_axial_biot_g7_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
 int adj1_cable2d_axial_biot_g7_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-#define adj1_cable2d_axial_biot_g7_energy_SZ_ARG 12
-#define adj1_cable2d_axial_biot_g7_energy_SZ_RES 4
+#define adj1_cable2d_axial_biot_g7_energy_SZ_ARG 4
+#define adj1_cable2d_axial_biot_g7_energy_SZ_RES 2
 #define adj1_cable2d_axial_biot_g7_energy_SZ_IW 0
-#define adj1_cable2d_axial_biot_g7_energy_SZ_W 444
+#define adj1_cable2d_axial_biot_g7_energy_SZ_W 0
+int cable2d_axial_biot_g7_grad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int cable2d_axial_biot_g7_grad_checkout(void);
+void cable2d_axial_biot_g7_grad_release(int mem);
+void cable2d_axial_biot_g7_grad_incref(void);
+void cable2d_axial_biot_g7_grad_decref(void);
+casadi_int cable2d_axial_biot_g7_grad_n_in(void);
+casadi_int cable2d_axial_biot_g7_grad_n_out(void);
+casadi_real cable2d_axial_biot_g7_grad_default_in(casadi_int i);
+const char* cable2d_axial_biot_g7_grad_name_in(casadi_int i);
+const char* cable2d_axial_biot_g7_grad_name_out(casadi_int i);
+const casadi_int* cable2d_axial_biot_g7_grad_sparsity_in(casadi_int i);
+const casadi_int* cable2d_axial_biot_g7_grad_sparsity_out(casadi_int i);
+int cable2d_axial_biot_g7_grad_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int cable2d_axial_biot_g7_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define cable2d_axial_biot_g7_grad_SZ_ARG 2
+#define cable2d_axial_biot_g7_grad_SZ_RES 2
+#define cable2d_axial_biot_g7_grad_SZ_IW 0
+#define cable2d_axial_biot_g7_grad_SZ_W 0
 void cable2d_axial_biot_g7_casadi_version(int* major, int* minor, int* patch);
 int cable2d_axial_biot_g7_casadi_int_size(void);
 int cable2d_axial_biot_g7_casadi_real_size(void);

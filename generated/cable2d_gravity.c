@@ -29,8 +29,6 @@ extern "C" {
 #endif
 
 /* Add prefix to internal symbols */
-#define casadi_clear CASADI_PREFIX(clear)
-#define casadi_copy CASADI_PREFIX(copy)
 #define casadi_f0 CASADI_PREFIX(f0)
 #define casadi_f1 CASADI_PREFIX(f1)
 #define casadi_f2 CASADI_PREFIX(f2)
@@ -40,7 +38,6 @@ extern "C" {
 #define casadi_s2 CASADI_PREFIX(s2)
 #define casadi_s3 CASADI_PREFIX(s3)
 #define casadi_s4 CASADI_PREFIX(s4)
-#define casadi_zeros CASADI_PREFIX(zeros)
 
 /* Symbol visibility in DLLs */
 #ifndef CASADI_SYMBOL_EXPORT
@@ -57,24 +54,6 @@ extern "C" {
   #endif
 #endif
 
-void casadi_copy(const casadi_real* x, casadi_int n, casadi_real* y) {
-  casadi_int i;
-  if (y) {
-    if (x) {
-      for (i=0; i<n; ++i) *y++ = *x++;
-    } else {
-      for (i=0; i<n; ++i) *y++ = 0.;
-    }
-  }
-}
-
-void casadi_clear(casadi_real* x, casadi_int n) {
-  casadi_int i;
-  if (x) {
-    for (i=0; i<n; ++i) *x++ = 0;
-  }
-}
-
 /* Configuration this file was compiled with */
 CASADI_SYMBOL_EXPORT void cable2d_gravity_casadi_version(int* major, int* minor, int* patch) {
   *major = 3;
@@ -89,8 +68,6 @@ static const casadi_int casadi_s1[3] = {4, 1, 1};
 static const casadi_int casadi_s2[3] = {1, 1, 1};
 static const casadi_int casadi_s3[3] = {8, 8, 1};
 static const casadi_int casadi_s4[4] = {1, 1, 0, 0};
-
-static const casadi_real casadi_zeros[8] = {0.};
 
 /* cable2d_gravity:(q[8],p[4])->(energy,gradient[8],hessian[8x8]) */
 static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
@@ -446,21 +423,130 @@ CASADI_SYMBOL_EXPORT int cable2d_gravity_work_bytes(casadi_int *sz_arg, casadi_i
 
 /* cable2d_gravity_energy:(q[8],p[4])->(energy) */
 static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real **res1=res+1, *w1=w+31, w2;
-  const casadi_real **arg1=arg+2, *wr0;
-  /* #0: @0 = input[0][0] */
-  wr0 = arg[0] ? arg[0] : casadi_zeros;
-  /* #1: @1 = input[1][0] */
-  casadi_copy(arg[1], 4, w1);
-  /* #2: {@2, NULL, NULL} = cable2d_gravity(@0, @1) */
-  arg1[0]=wr0;
-  arg1[1]=w1;
-  res1[0]=(&w2);
-  res1[1]=0;
-  res1[2]=0;
-  if (casadi_f0(arg1, res1, iw, w, 0)) return 1;
-  /* #3: output[0][0] = @2 */
-  if (res[0]) res[0][0] = w2;
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21;
+  a00=1.7392742256872679e-01;
+  a01=arg[1]? arg[1][0] : 0;
+  a02=(a00*a01);
+  a03=arg[1]? arg[1][1] : 0;
+  a02=(a02*a03);
+  a04=arg[1]? arg[1][2] : 0;
+  a05=9.8620708846091087e-01;
+  a06=arg[0]? arg[0][0] : 0;
+  a07=(a05*a06);
+  a08=6.0124997938716174e-02;
+  a08=(a08*a01);
+  a09=arg[0]? arg[0][2] : 0;
+  a10=(a08*a09);
+  a07=(a07+a10);
+  a10=1.3792911539089075e-02;
+  a11=arg[0]? arg[0][4] : 0;
+  a12=(a10*a11);
+  a07=(a07+a12);
+  a12=-4.4860652748315299e-03;
+  a12=(a12*a01);
+  a13=arg[0]? arg[0][6] : 0;
+  a14=(a12*a13);
+  a07=(a07+a14);
+  a07=(a04*a07);
+  a14=arg[1]? arg[1][3] : 0;
+  a15=arg[0]? arg[0][1] : 0;
+  a05=(a05*a15);
+  a16=arg[0]? arg[0][3] : 0;
+  a08=(a08*a16);
+  a05=(a05+a08);
+  a08=arg[0]? arg[0][5] : 0;
+  a10=(a10*a08);
+  a05=(a05+a10);
+  a10=arg[0]? arg[0][7] : 0;
+  a12=(a12*a10);
+  a05=(a05+a12);
+  a05=(a14*a05);
+  a07=(a07+a05);
+  a02=(a02*a07);
+  a07=3.2607257743127321e-01;
+  a05=(a07*a01);
+  a05=(a05*a03);
+  a12=7.4516142611820380e-01;
+  a17=(a12*a06);
+  a18=1.4813706341325680e-01;
+  a18=(a18*a01);
+  a19=(a18*a09);
+  a17=(a17+a19);
+  a19=2.5483857388179626e-01;
+  a20=(a19*a11);
+  a17=(a17+a20);
+  a20=-7.2966159087481219e-02;
+  a20=(a20*a01);
+  a21=(a20*a13);
+  a17=(a17+a21);
+  a17=(a04*a17);
+  a21=(a12*a15);
+  a18=(a18*a16);
+  a21=(a21+a18);
+  a19=(a19*a08);
+  a21=(a21+a19);
+  a20=(a20*a10);
+  a21=(a21+a20);
+  a21=(a14*a21);
+  a17=(a17+a21);
+  a05=(a05*a17);
+  a02=(a02+a05);
+  a07=(a07*a01);
+  a07=(a07*a03);
+  a05=2.5483857388179620e-01;
+  a17=(a05*a06);
+  a21=7.2966159087481164e-02;
+  a21=(a21*a01);
+  a20=(a21*a09);
+  a17=(a17+a20);
+  a20=(a12*a11);
+  a17=(a17+a20);
+  a20=-1.4813706341325683e-01;
+  a20=(a20*a01);
+  a19=(a20*a13);
+  a17=(a17+a19);
+  a17=(a04*a17);
+  a05=(a05*a15);
+  a21=(a21*a16);
+  a05=(a05+a21);
+  a12=(a12*a08);
+  a05=(a05+a12);
+  a20=(a20*a10);
+  a05=(a05+a20);
+  a05=(a14*a05);
+  a17=(a17+a05);
+  a07=(a07*a17);
+  a02=(a02+a07);
+  a00=(a00*a01);
+  a00=(a00*a03);
+  a03=1.3792911539088903e-02;
+  a06=(a03*a06);
+  a07=4.4860652748314189e-03;
+  a07=(a07*a01);
+  a09=(a07*a09);
+  a06=(a06+a09);
+  a09=9.8620708846091110e-01;
+  a11=(a09*a11);
+  a06=(a06+a11);
+  a11=-6.0124997938716285e-02;
+  a11=(a11*a01);
+  a13=(a11*a13);
+  a06=(a06+a13);
+  a04=(a04*a06);
+  a03=(a03*a15);
+  a07=(a07*a16);
+  a03=(a03+a07);
+  a09=(a09*a08);
+  a03=(a03+a09);
+  a11=(a11*a10);
+  a03=(a03+a11);
+  a14=(a14*a03);
+  a04=(a04+a14);
+  a00=(a00*a04);
+  a02=(a02+a00);
+  a02=(-a02);
+  if (res[0]!=0) res[0][0]=a02;
   return 0;
 }
 
@@ -522,29 +608,28 @@ CASADI_SYMBOL_EXPORT const casadi_int* cable2d_gravity_energy_sparsity_out(casad
 }
 
 CASADI_SYMBOL_EXPORT int cable2d_gravity_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-  if (sz_arg) *sz_arg = 4;
-  if (sz_res) *sz_res = 4;
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
   if (sz_iw) *sz_iw = 0;
-  if (sz_w) *sz_w = 35;
+  if (sz_w) *sz_w = 0;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int cable2d_gravity_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-  if (sz_arg) *sz_arg = 4*sizeof(const casadi_real*);
-  if (sz_res) *sz_res = 4*sizeof(casadi_real*);
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
   if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
-  if (sz_w) *sz_w = 35*sizeof(casadi_real);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
   return 0;
 }
 
-/* adj1_cable2d_gravity:(q[8],p[4],out_energy[1x1,0nz],out_gradient[8x1,0nz],out_hessian[8x8,0nz],adj_energy,adj_gradient[8],adj_hessian[8x8])->(adj_q[8],adj_p[4]) */
-static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+/* adj1_cable2d_gravity_energy:(q[8],p[4],out_energy[1x1,0nz],adj_energy)->(adj_q[8],adj_p[4]) */
+static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
   casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
   casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
   casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
   casadi_real a36, a37, a38, a39, a40, a41, a42, a43, a44, a45, a46, a47;
-  casadi_real a48, a49, a50, a51, a52, a53, a54, a55, a56, a57, a58, a59;
-  casadi_real a60, a61, a62, a63, a64, a65, a66;
+  casadi_real a48, a49, a50;
   a00=1.3792911539088903e-02;
   a01=arg[1]? arg[1][2] : 0;
   a02=1.7392742256872679e-01;
@@ -552,453 +637,281 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   a04=(a02*a03);
   a05=arg[1]? arg[1][1] : 0;
   a06=(a04*a05);
-  a07=arg[5]? arg[5][0] : 0;
-  a08=(a06*a07);
-  a09=(a01*a08);
-  a10=(a00*a09);
-  a11=2.5483857388179620e-01;
-  a12=3.2607257743127321e-01;
-  a13=(a12*a03);
-  a14=(a13*a05);
-  a15=(a14*a07);
-  a16=(a01*a15);
-  a17=(a11*a16);
-  a10=(a10+a17);
-  a17=7.4516142611820380e-01;
-  a18=(a12*a03);
-  a19=(a18*a05);
-  a20=(a19*a07);
-  a21=(a01*a20);
-  a22=(a17*a21);
-  a10=(a10+a22);
-  a22=9.8620708846091087e-01;
-  a23=(a02*a03);
-  a24=(a23*a05);
-  a25=(a24*a07);
-  a26=(a01*a25);
-  a27=(a22*a26);
-  a10=(a10+a27);
-  a10=(-a10);
-  if (res[0]!=0) res[0][0]=a10;
-  a10=arg[1]? arg[1][3] : 0;
-  a27=(a10*a08);
-  a28=(a00*a27);
-  a29=(a10*a15);
-  a30=(a11*a29);
-  a28=(a28+a30);
-  a30=(a10*a20);
-  a31=(a17*a30);
-  a28=(a28+a31);
-  a31=(a10*a25);
-  a32=(a22*a31);
-  a28=(a28+a32);
-  a28=(-a28);
-  if (res[0]!=0) res[0][1]=a28;
-  a28=4.4860652748314189e-03;
-  a32=(a28*a03);
-  a33=(a32*a09);
-  a34=7.2966159087481164e-02;
+  a07=arg[3]? arg[3][0] : 0;
+  a06=(a06*a07);
+  a08=(a01*a06);
+  a09=(a00*a08);
+  a10=2.5483857388179620e-01;
+  a11=3.2607257743127321e-01;
+  a12=(a11*a03);
+  a13=(a12*a05);
+  a13=(a13*a07);
+  a14=(a01*a13);
+  a15=(a10*a14);
+  a09=(a09+a15);
+  a15=7.4516142611820380e-01;
+  a16=(a11*a03);
+  a17=(a16*a05);
+  a17=(a17*a07);
+  a18=(a01*a17);
+  a19=(a15*a18);
+  a09=(a09+a19);
+  a19=9.8620708846091087e-01;
+  a20=(a02*a03);
+  a21=(a20*a05);
+  a21=(a21*a07);
+  a22=(a01*a21);
+  a23=(a19*a22);
+  a09=(a09+a23);
+  a09=(-a09);
+  if (res[0]!=0) res[0][0]=a09;
+  a09=arg[1]? arg[1][3] : 0;
+  a23=(a09*a06);
+  a24=(a00*a23);
+  a25=(a09*a13);
+  a26=(a10*a25);
+  a24=(a24+a26);
+  a26=(a09*a17);
+  a27=(a15*a26);
+  a24=(a24+a27);
+  a27=(a09*a21);
+  a28=(a19*a27);
+  a24=(a24+a28);
+  a24=(-a24);
+  if (res[0]!=0) res[0][1]=a24;
+  a24=4.4860652748314189e-03;
+  a28=(a24*a03);
+  a29=(a28*a08);
+  a30=7.2966159087481164e-02;
+  a31=(a30*a03);
+  a32=(a31*a14);
+  a29=(a29+a32);
+  a32=1.4813706341325680e-01;
+  a33=(a32*a03);
+  a34=(a33*a18);
+  a29=(a29+a34);
+  a34=6.0124997938716174e-02;
   a35=(a34*a03);
-  a36=(a35*a16);
-  a33=(a33+a36);
-  a36=1.4813706341325680e-01;
-  a37=(a36*a03);
-  a38=(a37*a21);
-  a33=(a33+a38);
-  a38=6.0124997938716174e-02;
-  a39=(a38*a03);
-  a40=(a39*a26);
-  a33=(a33+a40);
-  a33=(-a33);
-  if (res[0]!=0) res[0][2]=a33;
-  a33=(a32*a27);
-  a40=(a35*a29);
-  a33=(a33+a40);
-  a40=(a37*a30);
-  a33=(a33+a40);
-  a40=(a39*a31);
-  a33=(a33+a40);
-  a33=(-a33);
-  if (res[0]!=0) res[0][3]=a33;
-  a33=9.8620708846091110e-01;
-  a40=(a33*a09);
-  a41=(a17*a16);
-  a40=(a40+a41);
-  a41=2.5483857388179626e-01;
-  a42=(a41*a21);
-  a40=(a40+a42);
-  a42=1.3792911539089075e-02;
-  a43=(a42*a26);
+  a36=(a35*a22);
+  a29=(a29+a36);
+  a29=(-a29);
+  if (res[0]!=0) res[0][2]=a29;
+  a29=(a28*a23);
+  a36=(a31*a25);
+  a29=(a29+a36);
+  a36=(a33*a26);
+  a29=(a29+a36);
+  a36=(a35*a27);
+  a29=(a29+a36);
+  a29=(-a29);
+  if (res[0]!=0) res[0][3]=a29;
+  a29=9.8620708846091110e-01;
+  a36=(a29*a08);
+  a37=(a15*a14);
+  a36=(a36+a37);
+  a37=2.5483857388179626e-01;
+  a38=(a37*a18);
+  a36=(a36+a38);
+  a38=1.3792911539089075e-02;
+  a39=(a38*a22);
+  a36=(a36+a39);
+  a36=(-a36);
+  if (res[0]!=0) res[0][4]=a36;
+  a36=(a29*a23);
+  a39=(a15*a25);
+  a36=(a36+a39);
+  a39=(a37*a26);
+  a36=(a36+a39);
+  a39=(a38*a27);
+  a36=(a36+a39);
+  a36=(-a36);
+  if (res[0]!=0) res[0][5]=a36;
+  a36=-6.0124997938716285e-02;
+  a39=(a36*a03);
+  a40=(a39*a08);
+  a41=-1.4813706341325683e-01;
+  a42=(a41*a03);
+  a43=(a42*a14);
   a40=(a40+a43);
-  a40=(-a40);
-  if (res[0]!=0) res[0][4]=a40;
-  a40=(a33*a27);
-  a43=(a17*a29);
-  a40=(a40+a43);
-  a43=(a41*a30);
-  a40=(a40+a43);
-  a43=(a42*a31);
-  a40=(a40+a43);
-  a40=(-a40);
-  if (res[0]!=0) res[0][5]=a40;
-  a40=-6.0124997938716285e-02;
-  a43=(a40*a03);
-  a44=(a43*a09);
-  a45=-1.4813706341325683e-01;
-  a46=(a45*a03);
-  a47=(a46*a16);
-  a44=(a44+a47);
-  a47=-7.2966159087481219e-02;
-  a48=(a47*a03);
-  a49=(a48*a21);
-  a44=(a44+a49);
-  a49=-4.4860652748315299e-03;
-  a03=(a49*a03);
-  a50=(a03*a26);
-  a44=(a44+a50);
-  a44=(-a44);
-  if (res[0]!=0) res[0][6]=a44;
-  a44=(a43*a27);
-  a50=(a46*a29);
-  a44=(a44+a50);
-  a50=(a48*a30);
-  a44=(a44+a50);
-  a50=(a03*a31);
-  a44=(a44+a50);
-  a44=(-a44);
-  if (res[0]!=0) res[0][7]=a44;
-  a44=(a10*a06);
-  a50=arg[6]? arg[6][7] : 0;
-  a51=(a44*a50);
-  a52=(a01*a06);
-  a53=arg[6]? arg[6][6] : 0;
-  a54=(a52*a53);
-  a51=(a51+a54);
-  a54=arg[0]? arg[0][7] : 0;
-  a55=(a54*a27);
-  a51=(a51+a55);
-  a55=arg[0]? arg[0][6] : 0;
-  a56=(a55*a09);
-  a51=(a51+a56);
-  a40=(a40*a51);
-  a51=arg[6]? arg[6][3] : 0;
-  a44=(a44*a51);
-  a56=arg[6]? arg[6][2] : 0;
-  a52=(a52*a56);
-  a44=(a44+a52);
-  a52=arg[0]? arg[0][3] : 0;
-  a27=(a52*a27);
-  a44=(a44+a27);
-  a27=arg[0]? arg[0][2] : 0;
-  a09=(a27*a09);
-  a44=(a44+a09);
-  a28=(a28*a44);
-  a40=(a40+a28);
-  a28=(a43*a50);
-  a44=arg[6]? arg[6][5] : 0;
-  a09=(a33*a44);
-  a28=(a28+a09);
-  a09=(a32*a51);
-  a28=(a28+a09);
-  a09=arg[6]? arg[6][1] : 0;
-  a57=(a00*a09);
-  a28=(a28+a57);
-  a57=(a10*a28);
-  a58=(a43*a53);
-  a59=arg[6]? arg[6][4] : 0;
-  a60=(a33*a59);
-  a58=(a58+a60);
-  a60=(a32*a56);
-  a58=(a58+a60);
-  a60=arg[6]? arg[6][0] : 0;
-  a61=(a00*a60);
-  a58=(a58+a61);
-  a61=(a01*a58);
-  a57=(a57+a61);
-  a61=arg[0]? arg[0][0] : 0;
-  a62=(a00*a61);
-  a63=(a32*a27);
-  a62=(a62+a63);
-  a63=arg[0]? arg[0][4] : 0;
-  a64=(a33*a63);
-  a62=(a62+a64);
-  a64=(a43*a55);
-  a62=(a62+a64);
-  a64=(a01*a62);
-  a65=arg[0]? arg[0][1] : 0;
-  a00=(a00*a65);
-  a32=(a32*a52);
-  a00=(a00+a32);
-  a32=arg[0]? arg[0][5] : 0;
-  a33=(a33*a32);
-  a00=(a00+a33);
-  a43=(a43*a54);
-  a00=(a00+a43);
-  a43=(a10*a00);
-  a64=(a64+a43);
-  a64=(a64*a07);
-  a57=(a57+a64);
-  a64=(a05*a57);
-  a64=(a02*a64);
-  a40=(a40+a64);
-  a64=(a10*a14);
-  a43=(a64*a50);
-  a33=(a01*a14);
-  a66=(a33*a53);
-  a43=(a43+a66);
-  a66=(a54*a29);
-  a43=(a43+a66);
-  a66=(a55*a16);
-  a43=(a43+a66);
-  a45=(a45*a43);
+  a43=-7.2966159087481219e-02;
+  a44=(a43*a03);
+  a45=(a44*a18);
   a40=(a40+a45);
-  a64=(a64*a51);
-  a33=(a33*a56);
-  a64=(a64+a33);
-  a29=(a52*a29);
-  a64=(a64+a29);
-  a16=(a27*a16);
-  a64=(a64+a16);
-  a34=(a34*a64);
-  a40=(a40+a34);
-  a34=(a46*a50);
-  a64=(a17*a44);
-  a34=(a34+a64);
-  a64=(a35*a51);
-  a34=(a34+a64);
-  a64=(a11*a09);
-  a34=(a34+a64);
-  a64=(a10*a34);
-  a16=(a46*a53);
-  a29=(a17*a59);
-  a16=(a16+a29);
-  a29=(a35*a56);
-  a16=(a16+a29);
-  a29=(a11*a60);
-  a16=(a16+a29);
-  a29=(a01*a16);
-  a64=(a64+a29);
-  a29=(a11*a61);
-  a33=(a35*a27);
-  a29=(a29+a33);
-  a33=(a17*a63);
-  a29=(a29+a33);
-  a33=(a46*a55);
-  a29=(a29+a33);
-  a33=(a01*a29);
-  a11=(a11*a65);
-  a35=(a35*a52);
-  a11=(a11+a35);
-  a35=(a17*a32);
-  a11=(a11+a35);
-  a46=(a46*a54);
-  a11=(a11+a46);
-  a46=(a10*a11);
-  a33=(a33+a46);
-  a33=(a33*a07);
-  a64=(a64+a33);
-  a33=(a05*a64);
-  a33=(a12*a33);
-  a40=(a40+a33);
-  a33=(a10*a19);
-  a46=(a33*a50);
-  a35=(a01*a19);
-  a45=(a35*a53);
-  a46=(a46+a45);
-  a45=(a54*a30);
-  a46=(a46+a45);
-  a45=(a55*a21);
-  a46=(a46+a45);
-  a47=(a47*a46);
-  a40=(a40+a47);
-  a33=(a33*a51);
-  a35=(a35*a56);
-  a33=(a33+a35);
-  a30=(a52*a30);
-  a33=(a33+a30);
-  a21=(a27*a21);
-  a33=(a33+a21);
-  a36=(a36*a33);
-  a40=(a40+a36);
-  a36=(a48*a50);
-  a33=(a41*a44);
-  a36=(a36+a33);
-  a33=(a37*a51);
-  a36=(a36+a33);
-  a33=(a17*a09);
-  a36=(a36+a33);
-  a33=(a10*a36);
-  a21=(a48*a53);
-  a30=(a41*a59);
-  a21=(a21+a30);
-  a30=(a37*a56);
-  a21=(a21+a30);
-  a30=(a17*a60);
-  a21=(a21+a30);
-  a30=(a01*a21);
-  a33=(a33+a30);
-  a30=(a17*a61);
-  a35=(a37*a27);
-  a30=(a30+a35);
-  a35=(a41*a63);
-  a30=(a30+a35);
-  a35=(a48*a55);
-  a30=(a30+a35);
-  a35=(a01*a30);
-  a17=(a17*a65);
-  a37=(a37*a52);
-  a17=(a17+a37);
-  a41=(a41*a32);
-  a17=(a17+a41);
-  a48=(a48*a54);
-  a17=(a17+a48);
-  a48=(a10*a17);
-  a35=(a35+a48);
-  a35=(a35*a07);
-  a33=(a33+a35);
-  a35=(a05*a33);
-  a12=(a12*a35);
-  a40=(a40+a12);
-  a12=(a10*a24);
-  a35=(a12*a50);
-  a48=(a01*a24);
-  a41=(a48*a53);
-  a35=(a35+a41);
-  a41=(a54*a31);
-  a35=(a35+a41);
-  a41=(a55*a26);
-  a35=(a35+a41);
-  a49=(a49*a35);
-  a40=(a40+a49);
-  a12=(a12*a51);
-  a48=(a48*a56);
-  a12=(a12+a48);
-  a31=(a52*a31);
-  a12=(a12+a31);
-  a26=(a27*a26);
-  a12=(a12+a26);
-  a38=(a38*a12);
-  a40=(a40+a38);
-  a50=(a03*a50);
-  a44=(a42*a44);
-  a50=(a50+a44);
-  a51=(a39*a51);
-  a50=(a50+a51);
-  a09=(a22*a09);
-  a50=(a50+a09);
-  a09=(a10*a50);
-  a53=(a03*a53);
-  a59=(a42*a59);
-  a53=(a53+a59);
-  a56=(a39*a56);
-  a53=(a53+a56);
-  a60=(a22*a60);
-  a53=(a53+a60);
-  a60=(a01*a53);
-  a09=(a09+a60);
-  a61=(a22*a61);
-  a27=(a39*a27);
-  a61=(a61+a27);
-  a63=(a42*a63);
-  a61=(a61+a63);
-  a55=(a03*a55);
-  a61=(a61+a55);
-  a01=(a01*a61);
-  a22=(a22*a65);
-  a39=(a39*a52);
-  a22=(a22+a39);
-  a42=(a42*a32);
-  a22=(a22+a42);
-  a03=(a03*a54);
-  a22=(a22+a03);
-  a10=(a10*a22);
-  a01=(a01+a10);
-  a01=(a01*a07);
-  a09=(a09+a01);
-  a05=(a05*a09);
-  a02=(a02*a05);
-  a40=(a40+a02);
+  a45=-4.4860652748315299e-03;
+  a03=(a45*a03);
+  a46=(a03*a22);
+  a40=(a40+a46);
   a40=(-a40);
-  if (res[1]!=0) res[1][0]=a40;
-  a04=(a04*a57);
-  a13=(a13*a64);
-  a04=(a04+a13);
-  a18=(a18*a33);
-  a04=(a04+a18);
-  a23=(a23*a09);
-  a04=(a04+a23);
+  if (res[0]!=0) res[0][6]=a40;
+  a40=(a39*a23);
+  a46=(a42*a25);
+  a40=(a40+a46);
+  a46=(a44*a26);
+  a40=(a40+a46);
+  a46=(a03*a27);
+  a40=(a40+a46);
+  a40=(-a40);
+  if (res[0]!=0) res[0][7]=a40;
+  a40=arg[0]? arg[0][7] : 0;
+  a46=(a40*a23);
+  a47=arg[0]? arg[0][6] : 0;
+  a48=(a47*a08);
+  a46=(a46+a48);
+  a36=(a36*a46);
+  a46=arg[0]? arg[0][3] : 0;
+  a23=(a46*a23);
+  a48=arg[0]? arg[0][2] : 0;
+  a08=(a48*a08);
+  a23=(a23+a08);
+  a24=(a24*a23);
+  a36=(a36+a24);
+  a24=arg[0]? arg[0][0] : 0;
+  a23=(a00*a24);
+  a08=(a28*a48);
+  a23=(a23+a08);
+  a08=arg[0]? arg[0][4] : 0;
+  a49=(a29*a08);
+  a23=(a23+a49);
+  a49=(a39*a47);
+  a23=(a23+a49);
+  a49=(a01*a23);
+  a50=arg[0]? arg[0][1] : 0;
+  a00=(a00*a50);
+  a28=(a28*a46);
+  a00=(a00+a28);
+  a28=arg[0]? arg[0][5] : 0;
+  a29=(a29*a28);
+  a00=(a00+a29);
+  a39=(a39*a40);
+  a00=(a00+a39);
+  a39=(a09*a00);
+  a49=(a49+a39);
+  a49=(a49*a07);
+  a39=(a05*a49);
+  a39=(a02*a39);
+  a36=(a36+a39);
+  a39=(a40*a25);
+  a29=(a47*a14);
+  a39=(a39+a29);
+  a41=(a41*a39);
+  a36=(a36+a41);
+  a25=(a46*a25);
+  a14=(a48*a14);
+  a25=(a25+a14);
+  a30=(a30*a25);
+  a36=(a36+a30);
+  a30=(a10*a24);
+  a25=(a31*a48);
+  a30=(a30+a25);
+  a25=(a15*a08);
+  a30=(a30+a25);
+  a25=(a42*a47);
+  a30=(a30+a25);
+  a25=(a01*a30);
+  a10=(a10*a50);
+  a31=(a31*a46);
+  a10=(a10+a31);
+  a31=(a15*a28);
+  a10=(a10+a31);
+  a42=(a42*a40);
+  a10=(a10+a42);
+  a42=(a09*a10);
+  a25=(a25+a42);
+  a25=(a25*a07);
+  a42=(a05*a25);
+  a42=(a11*a42);
+  a36=(a36+a42);
+  a42=(a40*a26);
+  a31=(a47*a18);
+  a42=(a42+a31);
+  a43=(a43*a42);
+  a36=(a36+a43);
+  a26=(a46*a26);
+  a18=(a48*a18);
+  a26=(a26+a18);
+  a32=(a32*a26);
+  a36=(a36+a32);
+  a32=(a15*a24);
+  a26=(a33*a48);
+  a32=(a32+a26);
+  a26=(a37*a08);
+  a32=(a32+a26);
+  a26=(a44*a47);
+  a32=(a32+a26);
+  a26=(a01*a32);
+  a15=(a15*a50);
+  a33=(a33*a46);
+  a15=(a15+a33);
+  a37=(a37*a28);
+  a15=(a15+a37);
+  a44=(a44*a40);
+  a15=(a15+a44);
+  a44=(a09*a15);
+  a26=(a26+a44);
+  a26=(a26*a07);
+  a44=(a05*a26);
+  a11=(a11*a44);
+  a36=(a36+a11);
+  a11=(a40*a27);
+  a44=(a47*a22);
+  a11=(a11+a44);
+  a45=(a45*a11);
+  a36=(a36+a45);
+  a27=(a46*a27);
+  a22=(a48*a22);
+  a27=(a27+a22);
+  a34=(a34*a27);
+  a36=(a36+a34);
+  a24=(a19*a24);
+  a48=(a35*a48);
+  a24=(a24+a48);
+  a08=(a38*a08);
+  a24=(a24+a08);
+  a47=(a03*a47);
+  a24=(a24+a47);
+  a01=(a01*a24);
+  a19=(a19*a50);
+  a35=(a35*a46);
+  a19=(a19+a35);
+  a38=(a38*a28);
+  a19=(a19+a38);
+  a03=(a03*a40);
+  a19=(a19+a03);
+  a09=(a09*a19);
+  a01=(a01+a09);
+  a01=(a01*a07);
+  a05=(a05*a01);
+  a02=(a02*a05);
+  a36=(a36+a02);
+  a36=(-a36);
+  if (res[1]!=0) res[1][0]=a36;
+  a04=(a04*a49);
+  a12=(a12*a25);
+  a04=(a04+a12);
+  a16=(a16*a26);
+  a04=(a04+a16);
+  a20=(a20*a01);
+  a04=(a04+a20);
   a04=(-a04);
   if (res[1]!=0) res[1][1]=a04;
-  a53=(a24*a53);
-  a21=(a19*a21);
-  a53=(a53+a21);
-  a16=(a14*a16);
-  a53=(a53+a16);
-  a58=(a06*a58);
-  a53=(a53+a58);
-  a62=(a62*a08);
-  a53=(a53+a62);
-  a29=(a29*a15);
-  a53=(a53+a29);
-  a30=(a30*a20);
-  a53=(a53+a30);
-  a61=(a61*a25);
-  a53=(a53+a61);
-  a53=(-a53);
-  if (res[1]!=0) res[1][2]=a53;
-  a24=(a24*a50);
-  a19=(a19*a36);
-  a24=(a24+a19);
-  a14=(a14*a34);
-  a24=(a24+a14);
-  a06=(a06*a28);
-  a24=(a24+a06);
-  a00=(a00*a08);
-  a24=(a24+a00);
-  a11=(a11*a15);
-  a24=(a24+a11);
-  a17=(a17*a20);
-  a24=(a24+a17);
-  a22=(a22*a25);
-  a24=(a24+a22);
-  a24=(-a24);
-  if (res[1]!=0) res[1][3]=a24;
-  return 0;
-}
-
-/* adj1_cable2d_gravity_energy:(q[8],p[4],out_energy[1x1,0nz],adj_energy)->(adj_q[8],adj_p[4]) */
-static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
-  casadi_real **res1=res+2, *w1=w+67, w5, *w6=w+71, *w7=w+79, *w8=w+143, *w9=w+151;
-  const casadi_real **arg1=arg+4, *wr0;
-  /* #0: @0 = input[0][0] */
-  wr0 = arg[0] ? arg[0] : casadi_zeros;
-  /* #1: @1 = input[1][0] */
-  casadi_copy(arg[1], 4, w1);
-  /* #2: @2 = 00 */
-  /* #3: @3 = zeros(8x1,0nz) */
-  /* #4: @4 = zeros(8x8,0nz) */
-  /* #5: @5 = input[3][0] */
-  w5 = arg[3] ? arg[3][0] : 0;
-  /* #6: @6 = zeros(8x1) */
-  casadi_clear(w6, 8);
-  /* #7: @7 = zeros(8x8) */
-  casadi_clear(w7, 64);
-  /* #8: {@8, @9} = adj1_cable2d_gravity(@0, @1, @2, @3, @4, @5, @6, @7) */
-  arg1[0]=wr0;
-  arg1[1]=w1;
-  arg1[2]=0;
-  arg1[3]=0;
-  arg1[4]=0;
-  arg1[5]=(&w5);
-  arg1[6]=w6;
-  arg1[7]=w7;
-  res1[0]=w8;
-  res1[1]=w9;
-  if (casadi_f3(arg1, res1, iw, w, 0)) return 1;
-  /* #9: output[0][0] = @8 */
-  casadi_copy(w8, 8, res[0]);
-  /* #10: output[1][0] = @9 */
-  casadi_copy(w9, 4, res[1]);
+  a23=(a23*a06);
+  a30=(a30*a13);
+  a23=(a23+a30);
+  a32=(a32*a17);
+  a23=(a23+a32);
+  a24=(a24*a21);
+  a23=(a23+a24);
+  a23=(-a23);
+  if (res[1]!=0) res[1][2]=a23;
+  a00=(a00*a06);
+  a10=(a10*a13);
+  a00=(a00+a10);
+  a15=(a15*a17);
+  a00=(a00+a15);
+  a19=(a19*a21);
+  a00=(a00+a19);
+  a00=(-a00);
+  if (res[1]!=0) res[1][3]=a00;
   return 0;
 }
 
@@ -1066,18 +979,303 @@ CASADI_SYMBOL_EXPORT const casadi_int* adj1_cable2d_gravity_energy_sparsity_out(
 }
 
 CASADI_SYMBOL_EXPORT int adj1_cable2d_gravity_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-  if (sz_arg) *sz_arg = 12;
-  if (sz_res) *sz_res = 4;
+  if (sz_arg) *sz_arg = 4;
+  if (sz_res) *sz_res = 2;
   if (sz_iw) *sz_iw = 0;
-  if (sz_w) *sz_w = 155;
+  if (sz_w) *sz_w = 0;
   return 0;
 }
 
 CASADI_SYMBOL_EXPORT int adj1_cable2d_gravity_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
-  if (sz_arg) *sz_arg = 12*sizeof(const casadi_real*);
-  if (sz_res) *sz_res = 4*sizeof(casadi_real*);
+  if (sz_arg) *sz_arg = 4*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 2*sizeof(casadi_real*);
   if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
-  if (sz_w) *sz_w = 155*sizeof(casadi_real);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* cable2d_gravity_grad:(q[8],p[4])->(energy,gradient[8]) */
+static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30;
+  a00=1.7392742256872679e-01;
+  a01=arg[1]? arg[1][0] : 0;
+  a02=(a00*a01);
+  a03=arg[1]? arg[1][1] : 0;
+  a02=(a02*a03);
+  a04=arg[1]? arg[1][2] : 0;
+  a05=9.8620708846091087e-01;
+  a06=arg[0]? arg[0][0] : 0;
+  a07=(a05*a06);
+  a08=6.0124997938716174e-02;
+  a08=(a08*a01);
+  a09=arg[0]? arg[0][2] : 0;
+  a10=(a08*a09);
+  a07=(a07+a10);
+  a10=1.3792911539089075e-02;
+  a11=arg[0]? arg[0][4] : 0;
+  a12=(a10*a11);
+  a07=(a07+a12);
+  a12=-4.4860652748315299e-03;
+  a12=(a12*a01);
+  a13=arg[0]? arg[0][6] : 0;
+  a14=(a12*a13);
+  a07=(a07+a14);
+  a07=(a04*a07);
+  a14=arg[1]? arg[1][3] : 0;
+  a15=arg[0]? arg[0][1] : 0;
+  a16=(a05*a15);
+  a17=arg[0]? arg[0][3] : 0;
+  a18=(a08*a17);
+  a16=(a16+a18);
+  a18=arg[0]? arg[0][5] : 0;
+  a19=(a10*a18);
+  a16=(a16+a19);
+  a19=arg[0]? arg[0][7] : 0;
+  a20=(a12*a19);
+  a16=(a16+a20);
+  a16=(a14*a16);
+  a07=(a07+a16);
+  a07=(a02*a07);
+  a16=3.2607257743127321e-01;
+  a20=(a16*a01);
+  a20=(a20*a03);
+  a21=7.4516142611820380e-01;
+  a22=(a21*a06);
+  a23=1.4813706341325680e-01;
+  a23=(a23*a01);
+  a24=(a23*a09);
+  a22=(a22+a24);
+  a24=2.5483857388179626e-01;
+  a25=(a24*a11);
+  a22=(a22+a25);
+  a25=-7.2966159087481219e-02;
+  a25=(a25*a01);
+  a26=(a25*a13);
+  a22=(a22+a26);
+  a22=(a04*a22);
+  a26=(a21*a15);
+  a27=(a23*a17);
+  a26=(a26+a27);
+  a27=(a24*a18);
+  a26=(a26+a27);
+  a27=(a25*a19);
+  a26=(a26+a27);
+  a26=(a14*a26);
+  a22=(a22+a26);
+  a22=(a20*a22);
+  a07=(a07+a22);
+  a16=(a16*a01);
+  a16=(a16*a03);
+  a22=2.5483857388179620e-01;
+  a26=(a22*a06);
+  a27=7.2966159087481164e-02;
+  a27=(a27*a01);
+  a28=(a27*a09);
+  a26=(a26+a28);
+  a28=(a21*a11);
+  a26=(a26+a28);
+  a28=-1.4813706341325683e-01;
+  a28=(a28*a01);
+  a29=(a28*a13);
+  a26=(a26+a29);
+  a26=(a04*a26);
+  a29=(a22*a15);
+  a30=(a27*a17);
+  a29=(a29+a30);
+  a30=(a21*a18);
+  a29=(a29+a30);
+  a30=(a28*a19);
+  a29=(a29+a30);
+  a29=(a14*a29);
+  a26=(a26+a29);
+  a26=(a16*a26);
+  a07=(a07+a26);
+  a00=(a00*a01);
+  a00=(a00*a03);
+  a03=1.3792911539088903e-02;
+  a06=(a03*a06);
+  a26=4.4860652748314189e-03;
+  a26=(a26*a01);
+  a09=(a26*a09);
+  a06=(a06+a09);
+  a09=9.8620708846091110e-01;
+  a11=(a09*a11);
+  a06=(a06+a11);
+  a11=-6.0124997938716285e-02;
+  a11=(a11*a01);
+  a13=(a11*a13);
+  a06=(a06+a13);
+  a06=(a04*a06);
+  a15=(a03*a15);
+  a17=(a26*a17);
+  a15=(a15+a17);
+  a18=(a09*a18);
+  a15=(a15+a18);
+  a19=(a11*a19);
+  a15=(a15+a19);
+  a15=(a14*a15);
+  a06=(a06+a15);
+  a06=(a00*a06);
+  a07=(a07+a06);
+  a07=(-a07);
+  if (res[0]!=0) res[0][0]=a07;
+  a07=(a04*a00);
+  a06=(a03*a07);
+  a15=(a04*a16);
+  a19=(a22*a15);
+  a06=(a06+a19);
+  a19=(a04*a20);
+  a18=(a21*a19);
+  a06=(a06+a18);
+  a04=(a04*a02);
+  a18=(a05*a04);
+  a06=(a06+a18);
+  a06=(-a06);
+  if (res[1]!=0) res[1][0]=a06;
+  a00=(a14*a00);
+  a03=(a03*a00);
+  a16=(a14*a16);
+  a22=(a22*a16);
+  a03=(a03+a22);
+  a20=(a14*a20);
+  a22=(a21*a20);
+  a03=(a03+a22);
+  a14=(a14*a02);
+  a05=(a05*a14);
+  a03=(a03+a05);
+  a03=(-a03);
+  if (res[1]!=0) res[1][1]=a03;
+  a03=(a26*a07);
+  a05=(a27*a15);
+  a03=(a03+a05);
+  a05=(a23*a19);
+  a03=(a03+a05);
+  a05=(a08*a04);
+  a03=(a03+a05);
+  a03=(-a03);
+  if (res[1]!=0) res[1][2]=a03;
+  a26=(a26*a00);
+  a27=(a27*a16);
+  a26=(a26+a27);
+  a23=(a23*a20);
+  a26=(a26+a23);
+  a08=(a08*a14);
+  a26=(a26+a08);
+  a26=(-a26);
+  if (res[1]!=0) res[1][3]=a26;
+  a26=(a09*a07);
+  a08=(a21*a15);
+  a26=(a26+a08);
+  a08=(a24*a19);
+  a26=(a26+a08);
+  a08=(a10*a04);
+  a26=(a26+a08);
+  a26=(-a26);
+  if (res[1]!=0) res[1][4]=a26;
+  a09=(a09*a00);
+  a21=(a21*a16);
+  a09=(a09+a21);
+  a24=(a24*a20);
+  a09=(a09+a24);
+  a10=(a10*a14);
+  a09=(a09+a10);
+  a09=(-a09);
+  if (res[1]!=0) res[1][5]=a09;
+  a07=(a11*a07);
+  a15=(a28*a15);
+  a07=(a07+a15);
+  a19=(a25*a19);
+  a07=(a07+a19);
+  a04=(a12*a04);
+  a07=(a07+a04);
+  a07=(-a07);
+  if (res[1]!=0) res[1][6]=a07;
+  a11=(a11*a00);
+  a28=(a28*a16);
+  a11=(a11+a28);
+  a25=(a25*a20);
+  a11=(a11+a25);
+  a12=(a12*a14);
+  a11=(a11+a12);
+  a11=(-a11);
+  if (res[1]!=0) res[1][7]=a11;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_gravity_grad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f3(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_gravity_grad_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_gravity_grad_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_gravity_grad_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_gravity_grad_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_gravity_grad_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_gravity_grad_n_out(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_real cable2d_gravity_grad_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_gravity_grad_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_gravity_grad_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    case 1: return "gradient";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_gravity_grad_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_gravity_grad_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s2;
+    case 1: return casadi_s0;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_gravity_grad_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 2;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_gravity_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 2*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
   return 0;
 }
 

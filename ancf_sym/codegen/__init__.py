@@ -47,12 +47,14 @@ def generate(out_dir: Path = GENERATED, verbose: bool = False) -> dict:
         k = definitions.kernel(element, effect, gauss)
         name = k.name()
         third = registry.has_third_derivatives(element, effect, gauss)
-        files = writer.write_c(name, writer.companions(k, third), out_dir)
+        energy, grad = definitions.lower_orders(element, effect, gauss, k)
+        files = writer.write_c(name, writer.companions(k, energy, grad, third), out_dir)
         entries.append({
             "name": name, "element": element, "effect": effect, "gauss": gauss,
             "params": list(registry.EFFECTS[(element, effect)].params),
             "c_file": name + ".c", "cflags": CFLAGS.get(name, DEFAULT_CFLAGS),
-            "functions": [name, name + "_energy", "adj1_" + name + "_energy"] + ([name + "_hvp"] if third else []),
+            "functions": [name, name + "_energy", "adj1_" + name + "_energy", name + "_grad"]
+            + ([name + "_hvp"] if third else []),
             "sha256": hashlib.sha256(files[name + ".c"].encode()).hexdigest(),
         })
         if verbose:

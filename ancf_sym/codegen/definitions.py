@@ -106,3 +106,10 @@ def mass(element: str) -> ca.Function:
     p = ca.SX.sym("p", len(registry.MASS_PARAMS[element]))
     M = cable.mass_matrix(p, el.dim) if element.startswith("cable") else beam.mass_matrix(p)
     return ca.Function(f"{element}_mass", [p], [ca.densify(M)], ["p"], ["mass"])
+
+
+def lower_orders(element: str, effect: str, gauss: int | None, k: ca.Function) -> tuple[ca.Function, ca.Function]:
+    """The kernel's energy-only and energy+gradient functions (see forms.lower_orders)."""
+    eff = registry.EFFECTS[(element, effect)]
+    point = point_function(element, effect) if effect in _QUADRATURE else None
+    return forms.lower_orders(k, point, gauss or eff.default_gauss)

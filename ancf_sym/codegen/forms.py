@@ -57,14 +57,24 @@ def point_function(name: str, nq: int, n_p: int, station: Callable) -> ca.Functi
 
 
 def quadrature_kernel(name: str, point: ca.Function, gauss: int) -> ca.Function:
+    """Sum of the point function over the Gauss points; a 3-output point function's lower-triangular Hessian is
+    mirrored once at the end."""
     nq, n_p = point.size1_in(0), point.size1_in(1)
     q, p = ca.MX.sym("q", nq), ca.MX.sym("p", n_p)
     xs, ws = gauss01(gauss)
-    e, g, H = 0, 0, 0
+    outs = [0] * point.n_out()
     for x, w in zip(xs, ws):
-        de, dg, dH = point(q, p, float(x), float(w))
-        e, g, H = e + de, g + dg, H + dH
-    return ca.Function(name, [q, p], [e, g, ca.densify(ca.tril2symm(H))], KERNEL_IN, KERNEL_OUT)
+        outs = [a + b for a, b in zip(outs, point.call([q, p, float(x), float(w)]))]
+    if len(outs) == 3:
+        outs[2] = ca.densify(ca.tril2symm(outs[2]))
+    return ca.Function(name, [q, p], outs, KERNEL_IN, KERNEL_OUT[:len(outs)])
+
+
+def pruned(f: ca.Function, n_out: int, name: str) -> ca.Function:
+    """An SX function restricted to its first n_out outputs: the operations only the others need are dropped."""
+    args = [ca.SX.sym(f.name_in(i), f.sparsity_in(i)) for i in range(f.n_in())]
+    outs = f.call(args)[:n_out]
+    return ca.Function(name, args, outs, f.name_in(), f.name_out()[:n_out])
 
 
 def direct_kernel(name: str, nq: int, n_p: int, energy: Callable[[ca.SX, ca.SX], ca.SX]) -> ca.Function:
@@ -74,10 +84,16 @@ def direct_kernel(name: str, nq: int, n_p: int, energy: Callable[[ca.SX, ca.SX],
     return ca.Function(name, [q, p], [U, g, ca.densify(H)], KERNEL_IN, KERNEL_OUT)
 
 
-def energy_function(kernel: ca.Function) -> ca.Function:
-    """(q, p) -> energy, the function IPOPT differentiates through; its companions give gradient and Hessian."""
-    q, p = ca.MX.sym("q", kernel.size1_in(0)), ca.MX.sym("p", kernel.size1_in(1))
-    return ca.Function(kernel.name() + "_energy", [q, p], [kernel(q, p)[0]], KERNEL_IN, ["energy"])
+def lower_orders(kernel: ca.Function, point: ca.Function | None, gauss: int | None) -> tuple[ca.Function, ca.Function]:
+    """(<name>_energy: (q, p) -> energy, <name>_grad: (q, p) -> (energy, gradient)) without the Hessian's work.
+
+    The energy is what IPOPT differentiates through (with its reverse companion); energy + gradient is the
+    residual of modified Newton iterations, which reuse a factorised tangent."""
+    name = kernel.name()
+    if kernel.is_a("SXFunction"):
+        return pruned(kernel, 1, name + "_energy"), pruned(kernel, 2, name + "_grad")
+    return (quadrature_kernel(name + "_energy", pruned(point, 1, point.name() + "_e"), gauss),
+            quadrature_kernel(name + "_grad", pruned(point, 2, point.name() + "_eg"), gauss))
 
 
 def hvp_function(kernel: ca.Function) -> ca.Function:

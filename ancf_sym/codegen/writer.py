@@ -10,17 +10,16 @@ import casadi as ca
 CODEGEN_OPTIONS = {"with_header": True, "casadi_real": "double", "casadi_int": "long long int"}
 
 
-def companions(kernel: ca.Function, third: bool = False) -> list[ca.Function]:
-    """The kernel, its energy alone and that energy's reverse-mode companion adj1_<name>_energy; with third=True
-    also <name>_hvp (Hessian-vector product and its Jacobian, for optimal control).
+def companions(kernel: ca.Function, energy: ca.Function, grad: ca.Function, third: bool = False) -> list[ca.Function]:
+    """The kernel, its energy alone, that energy's reverse-mode companion adj1_<name>_energy, energy + gradient
+    (<name>_grad); with third=True also <name>_hvp (Hessian-vector product and its Jacobian, for optimal control).
 
     casadi.external(<name>_energy) finds adj1_<name>_energy in the same library, so an MX objective built from it
     (e.g. an IPOPT problem) gets its gradient from compiled code; the Hessian comes from the kernel itself.
     """
-    from .forms import energy_function, hvp_function
+    from .forms import hvp_function
 
-    energy = energy_function(kernel)
-    return [kernel, energy, energy.reverse(1)] + ([hvp_function(kernel)] if third else [])
+    return [kernel, energy, energy.reverse(1), grad] + ([hvp_function(kernel)] if third else [])
 
 
 def write_c(name: str, functions: list[ca.Function], out_dir: Path) -> dict[str, str]:
