@@ -60,7 +60,9 @@ def table(records: list[dict], columns: list[str], title: str | None = None, fmt
     fmt = fmt or {}
 
     def cell(r, c):
-        v = r.get(c, "")
+        if c not in r:
+            return ""
+        v = r[c]
         if v is None:
             return "-"
         if c in fmt:
