@@ -122,7 +122,7 @@ def run(quick: bool):
         te = t_imp if shape == "triangle" else 0.05
         res, t, w = simulate(te, Q, shape, dt)
         records.append(base(f"impulse_{Q:g}N", shape, dt, te, res, w))
-        curves[(Q, shape, dt)] = (t, w)
+        curves[(Q, shape, dt)] = (t, w, res.status)
     return records, curves
 
 
@@ -143,9 +143,10 @@ def plots(curves, out):
     for key, val in curves.items():
         if key == "gravity":
             continue
-        (Q, shape, dt), (tt, ww) = key, val
+        (Q, shape, dt), (tt, ww, status) = key, val
         ls = "-" if shape == "triangle" else "--"
-        ax.plot(tt, 1e3 * ww, ls, lw=1, label=f"Q = {Q:g} N, {shape}, dt = {dt:g} s")
+        ax.plot(tt, 1e3 * ww, ls, lw=1, label=f"Q = {Q:g} N, {shape}, dt = {dt:g} s"
+                + ("" if status == "completed" else f" ({status}: energy blow-up)"))
     ax.set_ylim(-120, 60)
     ax.set_xlabel("t [s]"), ax.set_ylabel("midpoint displacement [mm]"), ax.grid(alpha=0.3), ax.legend(fontsize=8)
     ax.set_title("Taut string, triangular impulse at midspan over 0-0.02 s (paper 002 fig. 5)")
