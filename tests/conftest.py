@@ -33,14 +33,21 @@ def _is_root(entry: str) -> bool:
         return False
 
 
+SOURCE = ROOT / "ancf_sym"  # the source package; a venv inside the project (.venv/) is fine
+
+
+def _is_source(module_file: str) -> bool:
+    return Path(module_file).resolve().parent == SOURCE
+
+
 sys.path[:] = [p for p in sys.path if not _is_root(p)]
-if "ancf_sym" in sys.modules and Path(sys.modules["ancf_sym"].__file__).resolve().is_relative_to(ROOT):
+if "ancf_sym" in sys.modules and _is_source(sys.modules["ancf_sym"].__file__):
     pytest.exit(f"ancf_sym was imported from the source tree {ROOT} before tests/conftest.py ran; "
                 "run the tests with `python -m pytest -p no:cacheprovider tests` from the project root", returncode=4)
 
 import ancf_sym  # noqa: E402
 
-if Path(ancf_sym.__file__).resolve().is_relative_to(ROOT):
+if _is_source(ancf_sym.__file__):
     pytest.exit(f"ancf_sym resolves to the source tree ({ancf_sym.__file__}), not the installed package", returncode=4)
 if not (Path(ancf_sym.__file__).parent / "_kernels").is_dir():
     pytest.exit(f"installed ancf_sym at {ancf_sym.__file__} has no compiled kernels: run `pip install .` first",
