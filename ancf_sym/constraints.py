@@ -157,9 +157,11 @@ def build_constraints(mesh: Mesh) -> Constraints:
     rows = Rows(mesh.n)
     scene, dim = mesh.scene, mesh.scene.dim
 
-    def close(start: int, method: str, factor: float | None, mm: MemberMesh):
+    def close(start: int, method: str, factor, mm: MemberMesh):
+        pos, slope = (factor, factor) if not isinstance(factor, (list, tuple, np.ndarray)) else factor
         for r in range(start, len(rows.d)):
-            rows.k.append((factor or 1.0) * _penalty_scale(mm, rows.kind[r]) if method == "penalty" else 0.0)
+            f = pos if rows.kind[r] == "position" else slope
+            rows.k.append((f or 1.0) * _penalty_scale(mm, rows.kind[r]) if method == "penalty" else 0.0)
 
     for s in scene.supports:
         start = len(rows.d)

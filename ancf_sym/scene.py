@@ -172,7 +172,8 @@ class Support:
     member: str
     at: Any
     method: str = "exact"  # "exact" (equality constraints) | "penalty"
-    penalty: float | None = None  # factor on EA/(1 m) for positions and EI/(1 m) for slopes (paper 002), default 1
+    penalty: Any = None  # factor on EA/(1 m) for positions and EI/(1 m) for slopes (paper 002), default 1;
+    # or (position factor, slope factor)
 
 
 @dataclass
@@ -328,9 +329,17 @@ class Scene:
 
     @staticmethod
     def _check_method(kind, method, penalty):
+        """penalty: one factor, or (position factor, slope factor) as paper 002's C1 (x EA/1 m), C2 (x EI/1 m)."""
         if method not in ("exact", "penalty"):
             raise SceneError(f"{kind}.method must be 'exact' or 'penalty', got {method!r}")
-        if penalty is not None:
+        if penalty is None:
+            return
+        if isinstance(penalty, (list, tuple, np.ndarray)):
+            if len(penalty) != 2:
+                raise SceneError(f"{kind}.penalty must be a factor or [position factor, slope factor], got {penalty!r}")
+            for v in penalty:
+                _positive(f"{kind}.penalty", v)
+        else:
             _positive(f"{kind}.penalty", penalty)
 
     # -- loads -------------------------------------------------------------------------------------------------

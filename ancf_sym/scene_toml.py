@@ -222,7 +222,13 @@ def _method(path: str, d: dict) -> dict:
     if "method" in d:
         kw["method"] = _str(f"{path}.method", d["method"], METHODS)
     if "penalty" in d:
-        kw["penalty"] = _number(f"{path}.penalty", d["penalty"], positive=True)
+        v = d["penalty"]
+        if isinstance(v, list):
+            if len(v) != 2:
+                raise _fail(f"{path}.penalty", "must be a factor or [position factor, slope factor]", v)
+            kw["penalty"] = tuple(_number(f"{path}.penalty[{i}]", x, positive=True) for i, x in enumerate(v))
+        else:
+            kw["penalty"] = _number(f"{path}.penalty", v, positive=True)
     return kw
 
 

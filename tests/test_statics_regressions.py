@@ -70,3 +70,22 @@ def test_round_off_floor_above_the_loads_is_refused_not_reported_as_equilibrium(
     assert "round-off floor" in r.attempts[-1]["detail"]
     ok = cantilever(3000)
     assert ok.success and abs(ok.tip("beam")[1] + 2.366986) < 1e-5
+
+
+def test_joint_penalty_takes_separate_position_and_slope_factors():
+    """A rigid joint with penalty = (C1, C2): position rows get C1 EA/1 m, slope rows C2 EI/1 m (paper 002 sets
+    them apart: 1e3 EA/L and 0.1..100 EI/L)."""
+    from ancf_sym import Material, Scene, Section
+    from ancf_sym.assembly import Assembly
+
+    s = Scene(dim=2)
+    mat, sec = Material(E=200e9, density=7800), Section.circle(0.02)
+    s.member("a", [(0, 0), (0.5, 0)], 2, mat, sec)
+    s.member("b", [(0.5, 0), (0.5, -0.5)], 2, mat, sec)
+    s.pin("a", "start")
+    s.rigid(("a", "end"), ("b", "start"), method="penalty", penalty=(1e3, 0.1))
+    pen = Assembly(s).penalty
+    EA, EI = 200e9 * sec.area, 200e9 * sec.I
+    kinds = ["position" if abs(k - 1e3 * EA) < 1e-6 * EA else "slope" if abs(k - 0.1 * EI) < 1e-9 * EI else "?"
+             for k in pen.k]
+    assert kinds == ["position", "position", "slope"]
