@@ -1,4 +1,4 @@
-"""Shared plumbing of the statics examples: command line, JSON records, stdout tables, matplotlib figures.
+"""Shared plumbing of the examples: command line, JSON records, stdout tables, matplotlib figures, small helpers.
 
 Every example exposes `main(argv=None) -> list[dict]` and takes
     --json PATH   write the records (a JSON list of flat dicts, one per case)
@@ -55,6 +55,22 @@ def write_json(records: list[dict], path: str | None) -> None:
         json.dump([{k: _plain(v) for k, v in r.items()} for r in records], f, indent=1)
 
 
+def finish(records: list[dict], args, plots, *data) -> list[dict]:
+    """The end of a main(): write the records to --json and, unless --no-plots, draw plots(*data, args.out)."""
+    write_json(records, args.json)
+    if not args.no_plots:
+        plots(*data, args.out)
+    return records
+
+
+def find(records: list[dict], **kw) -> dict:
+    """The first record whose fields equal kw (KeyError if none)."""
+    for r in records:
+        if all(r.get(k) == v for k, v in kw.items()):
+            return r
+    raise KeyError(kw)
+
+
 def table(records: list[dict], columns: list[str], title: str | None = None, fmt: dict | None = None) -> str:
     """A small fixed-width table of the given record fields (missing fields blank); printed and returned."""
     fmt = fmt or {}
@@ -108,3 +124,17 @@ def attempts_text(result) -> str:
 def turn_angle(t0: np.ndarray, t1: np.ndarray) -> float:
     """Signed angle [rad] from planar vector t0 to t1."""
     return float(math.atan2(t0[0] * t1[1] - t0[1] * t1[0], t0 @ t1))
+
+
+def first_minimum(t: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    """(time, value) of the first local minimum of the sampled y(t), refined by a parabola through the sample and its
+    neighbours; (nan, nan) if y has none."""
+    d = np.diff(y)
+    k = np.flatnonzero((d[:-1] < 0) & (d[1:] >= 0))
+    if not len(k):
+        return float("nan"), float("nan")
+    i = int(k[0]) + 1
+    y0, y1, y2 = y[i - 1], y[i], y[i + 1]
+    den = y0 - 2 * y1 + y2
+    s = 0.5 * (y0 - y2) / den if den else 0.0
+    return float(t[i] + s * (t[i + 1] - t[i])), float(y1 - 0.25 * (y0 - y2) * s)

@@ -167,8 +167,7 @@ def plots(curves, out):
 
 
 def main(argv=None):
-    p = C.parser("fan_pendulum", __doc__)
-    a = p.parse_args(argv)
+    a = C.parser("fan_pendulum", __doc__).parse_args(argv)
     records, curves = run(a.quick)
     summ = [r for r in records if r["quantity"] == "summary"]
     C.table([r for r in records if r["quantity"] == "tip(t)" and abs(r["t"] * 2 - round(r["t"] * 2)) < 1e-9],
@@ -184,10 +183,7 @@ def main(argv=None):
           f"elements): {fe['continuum']['kernel_us_per_element']:.1f} / {fe['elastic_line']['kernel_us_per_element']:.1f}"
           f" us per element = {fe['continuum']['kernel_ratio_cmm_elm']:.2f} (paper 001: ELM about 9x faster on its "
           "large model)")
-    C.write_json(records, a.json)
-    if not a.no_plots:
-        plots(curves, a.out)
-    return records
+    return C.finish(records, a, plots, curves)
 
 
 if __name__ == "__main__":

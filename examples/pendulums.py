@@ -122,19 +122,6 @@ def run_case(case: str, method: str, factor: float | None, t_end: float):
     return rec, curve
 
 
-def first_minimum(t, phi):
-    """(time, value) of the first local minimum of phi(t), refined by a parabola through three samples."""
-    d = np.diff(phi)
-    k = np.flatnonzero((d[:-1] < 0) & (d[1:] >= 0))
-    if not len(k):
-        return float("nan"), float("nan")
-    i = int(k[0]) + 1
-    y0, y1, y2 = phi[i - 1], phi[i], phi[i + 1]
-    den = y0 - 2 * y1 + y2
-    s = 0.5 * (y0 - y2) / den if den else 0.0
-    return float(t[i] + s * (t[i + 1] - t[i])), float(y1 - 0.25 * (y0 - y2) * s)
-
-
 def run(quick: bool):
     t_end = 1.0 if quick else 2.0  # quick: the T's first swing ends at 0.81 s
     hinge_factors = [0.01, 1.0, 1e3] if quick else [0.01, 0.1, 1.0, 10.0, 100.0, 1e3, 1e5, 1e7, 1e9, 1e11, 1e13,
@@ -157,7 +144,7 @@ def run(quick: bool):
         t, phi = cur["t"], cur["phi"]
         first = t <= t_far
         rec["t_swing_rigid_s"] = t_far
-        rec["t_swing_s"], phi_min = first_minimum(t, phi)
+        rec["t_swing_s"], phi_min = C.first_minimum(t, phi)
         rec["phi_min_deg"] = math.degrees(phi_min)
         rec["max_swing_dev_vs_rigid_deg"] = float(np.degrees(np.max(np.abs(phi[first] - sol(t[first])[0]))))
     curves["rigid"] = sol
@@ -205,8 +192,7 @@ def plots(curves, out):
 
 
 def main(argv=None):
-    p = C.parser("pendulums", __doc__)
-    a = p.parse_args(argv)
+    a = C.parser("pendulums", __doc__).parse_args(argv)
     records, curves = run(a.quick)
     C.table(records, ["case", "method", "penalty", "max_hinge_gap_m", "max_angle_error_deg", "max_tip_dev_vs_exact_m",
                       "max_swing_dev_vs_rigid_deg", "steps", "newton_iterations", "rejected", "wall_s", "status"],
@@ -215,10 +201,7 @@ def main(argv=None):
                                                       "max_swing_dev_vs_rigid_deg": "{:.4f}", "wall_s": "{:.2f}"})
     bad = [r for r in records if r["status"] != "completed"]
     print("penalty runs that did not complete: " + (", ".join(f"{r['case']} {r['penalty']:g}" for r in bad) or "none"))
-    C.write_json(records, a.json)
-    if not a.no_plots:
-        plots(curves, a.out)
-    return records
+    return C.finish(records, a, plots, curves)
 
 
 if __name__ == "__main__":

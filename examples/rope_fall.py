@@ -82,15 +82,11 @@ def plots(curves, out):
 
 
 def main(argv=None):
-    p = C.parser("rope_fall", __doc__)
-    a = p.parse_args(argv)
+    a = C.parser("rope_fall", __doc__).parse_args(argv)
     records, curves = run(a.quick)
     C.table(records, ["strain", "n", "t", "tip_y", "tip_x", "steps", "newton_iterations", "wall_s", "status"],
             "Soft rope (paper 002): free-end position [m]", {"tip_y": "{:.4f}", "tip_x": "{:.4f}", "wall_s": "{:.2f}"})
-    C.write_json(records, a.json)
-    if not a.no_plots:
-        plots(curves, a.out)
-    return records
+    return C.finish(records, a, plots, curves)
 
 
 if __name__ == "__main__":

@@ -154,8 +154,7 @@ def plots(curves, out):
 
 
 def main(argv=None):
-    p = C.parser("string_vibration", __doc__)
-    a = p.parse_args(argv)
+    a = C.parser("string_vibration", __doc__).parse_args(argv)
     records, curves = run(a.quick)
     C.table(records, ["case", "load_shape", "dt", "mid_amplitude_mm", "t_peak_s", "paper_amplitude_mm",
                       "max_error_vs_analytic_mm", "max_error_vs_beam_series_mm", "steps", "newton_iterations",
@@ -166,10 +165,7 @@ def main(argv=None):
     print(f"gravity: midpoint amplitude {g['mid_amplitude_mm']:.4f} mm (analytic {g['analytic_amplitude_mm']:.4f} "
           f"mm, paper 0.1201 mm); largest deviation from the series {g['max_error_vs_analytic_mm']:.2e} mm "
           f"({g['max_error_vs_analytic_mm'] / g['analytic_amplitude_mm']:.2%} of the amplitude)")
-    C.write_json(records, a.json)
-    if not a.no_plots:
-        plots(curves, a.out)
-    return records
+    return C.finish(records, a, plots, curves)
 
 
 if __name__ == "__main__":

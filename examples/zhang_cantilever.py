@@ -78,16 +78,9 @@ def run(quick: bool, moment_sign: float = 1.0):
     return records, shapes
 
 
-def find(records, **kw):
-    for r in records:
-        if all(r.get(k) == v for k, v in kw.items()):
-            return r
-    raise KeyError(kw)
-
-
 def summary(records) -> dict:
     """The key figures (E = 20 GPa) and the paper's statements, as numbers."""
-    g = lambda s, n, E=20e9, case="gravity": find(records, case=case, strain=s, n=n, E=E)  # noqa: E731
+    g = lambda s, n, E=20e9, case="gravity": C.find(records, case=case, strain=s, n=n, E=E)  # noqa: E731
     ref = g("decoupled", 60)["potential"]
     out = {"potential_decoupled3": g("decoupled", 3)["potential"], "potential_green18": g("green", 18)["potential"],
            "potential_ref60_decoupled": ref, "potential_ref60_green": g("green", 60)["potential"]}
@@ -179,15 +172,12 @@ def main(argv=None):
     for E in sorted({r["E"] for r in records}):
         if E == 20e9:
             continue
-        g6, d60 = find(records, case="gravity", strain="green", n=6, E=E), find(records, case="gravity",
-                                                                                 strain="decoupled", n=60, E=E)
-        d6 = find(records, case="gravity", strain="decoupled", n=6, E=E)
+        g6 = C.find(records, case="gravity", strain="green", n=6, E=E)
+        d60 = C.find(records, case="gravity", strain="decoupled", n=60, E=E)
+        d6 = C.find(records, case="gravity", strain="decoupled", n=6, E=E)
         print(f"E={E / 1e9:g} GPa: coupled-6 tip x vs decoupled-60 {100 * (g6['tip_x'] / d60['tip_x'] - 1):+.1f}%,"
               f" vs decoupled-6 {100 * (g6['tip_x'] / d6['tip_x'] - 1):+.1f}% (paper, 'same n': 10.2/22.4/38.5% for E=4/2/1)")
-    C.write_json(records, a.json)
-    if not a.no_plots:
-        plots(records, shapes, a.out)
-    return records
+    return C.finish(records, a, plots, records, shapes)
 
 
 if __name__ == "__main__":

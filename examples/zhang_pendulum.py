@@ -42,21 +42,6 @@ def scene(strain: str, n: int, support: str = "clamp") -> Scene:
     return s
 
 
-def first_extremum(t: np.ndarray, u: np.ndarray) -> tuple[float, float]:
-    """First local minimum of u(t) (the tip's x-displacement swings negative first), refined by a parabola
-    through the sample and its neighbours."""
-    du = np.diff(u)
-    idx = np.flatnonzero((du[:-1] < 0) & (du[1:] >= 0))
-    if not len(idx):
-        return float("nan"), float("nan")
-    i = int(idx[0]) + 1
-    y0, y1, y2 = u[i - 1], u[i], u[i + 1]
-    den = y0 - 2 * y1 + y2
-    s = 0.5 * (y0 - y2) / den if den else 0.0
-    h = t[i + 1] - t[i]
-    return float(t[i] + s * h), float(y1 - 0.25 * (y0 - y2) * s)
-
-
 def simulate(strain: str, n: int, dt: float, support: str, t_end: float = 2.0):
     res = run_dynamics(scene(strain, n, support), {
         "integrator": "generalized_alpha", "rho_inf": 0.9, "dt": dt, "t_end": t_end, "output_every": 1,
@@ -71,7 +56,7 @@ def simulate(strain: str, n: int, dt: float, support: str, t_end: float = 2.0):
         ok = abs(t[k] - tt) < 1e-9
         recs.append({**base, "quantity": "u_x(t)", "t": tt, "tip_ux": float(u[k]) if ok else None,
                      "tip_vx": float(v[k]) if ok else None})
-    te, ue = first_extremum(t, u)
+    te, ue = C.first_minimum(t, u)  # the tip's x-displacement swings negative first
     recs.append({**base, "quantity": "first_extremum", "t": te, "tip_ux": ue, "tip_vx": None})
     return recs, (t, u, v)
 
@@ -87,13 +72,6 @@ def run(quick: bool, supports: list[str]):
                 records += recs
                 curves[(support, strain, n)] = curve
     return records, curves
-
-
-def find(records, **kw):
-    for r in records:
-        if all(r.get(k) == v for k, v in kw.items()):
-            return r
-    raise KeyError(kw)
 
 
 def summary(records) -> dict:
@@ -145,10 +123,7 @@ def main(argv=None):
               f"(u = {s['u_peak_clamp_green3']:.3f} m; paper ~1.0 s), decoupled {s['t_peak_clamp_decoupled3']:.3f} s "
               f"(u = {s['u_peak_clamp_decoupled3']:.3f} m; paper ~1.2 s); peaks {s['peak_gap3']:.2f} m apart "
               f"(paper 0.7 m)")
-    C.write_json(records, a.json)
-    if not a.no_plots:
-        plots(curves, a.out)
-    return records
+    return C.finish(records, a, plots, curves)
 
 
 if __name__ == "__main__":
