@@ -1,15 +1,21 @@
-"""Shared states, parameters and rotations for the kernel tests (numpy only, nothing symbolic).
+"""Shared states, parameters and rotations for the kernel tests (numpy only, nothing symbolic), and the runner of
+the examples for tests/test_examples_*.py.
 
 States are nodal coordinate vectors in the layout of ancf_sym.registry:
 cable (dim 2 or 3): q = [r(0), r_x(0), r(L), r_x(L)]; beam3d: per node r, r_x, r_y, r_z.
 """
 from __future__ import annotations
 
+import importlib.util
+import json
+from pathlib import Path
+
 import numpy as np
 
 from ancf_sym import kernels, registry
 
 L0 = 0.8  # element length used by the generic tests [m]
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
 # Rotations ------------------------------------------------------------------------------------------------------
@@ -145,3 +151,30 @@ def quadrature_length(q, dim: int, L: float, n: int = 5) -> float:
 def kernels_by_element():
     """catalogue() entries grouped per element (ids for parametrize)."""
     return [(k["element"], k["effect"], k["gauss"]) for k in kernels.catalogue()]
+
+
+# Examples ------------------------------------------------------------------------------------------------------
+
+def run_example(name: str, tmp_path_factory) -> tuple[object, list[dict]]:
+    """Import examples/<name>.py, run its main(["--quick", "--json", ..., "--out", ...]) in a fresh temporary
+    directory and check what every example promises: the JSON on disk holds the returned records, flat, and at least
+    one figure was drawn. Returns (module, records)."""
+    spec = importlib.util.spec_from_file_location(f"example_{name}", EXAMPLES / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    tmp = tmp_path_factory.mktemp(name)
+    js, out = tmp / f"{name}.json", tmp / "figures"
+    records = mod.main(["--quick", "--json", str(js), "--out", str(out)])
+    on_disk = json.loads(js.read_text())
+    assert len(on_disk) == len(records) > 0
+    assert all(isinstance(r, dict) and all(not isinstance(v, (dict, list)) for v in r.values()) for r in on_disk), \
+        "records must be flat"
+    assert sorted(out.glob("*.png")), f"{name} drew no figure"
+    return mod, records
+
+
+def pick(records: list[dict], **kw) -> dict:
+    """The one record whose fields equal kw (asserts there is exactly one)."""
+    hits = [r for r in records if all(r.get(k) == v for k, v in kw.items())]
+    assert len(hits) == 1, f"{len(hits)} records match {kw}"
+    return hits[0]

@@ -6,34 +6,11 @@ records, the JSON on disk (flat records) and the figures. Regression values were
 """
 from __future__ import annotations
 
-import importlib.util
-import json
-from pathlib import Path
-
 import pytest
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+from helpers import pick, run_example
+
 G = 9.81
-
-
-def run_example(name, tmp_path_factory):
-    spec = importlib.util.spec_from_file_location(f"example_{name}", EXAMPLES / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    tmp = tmp_path_factory.mktemp(name)
-    js, out = tmp / f"{name}.json", tmp / "figures"
-    records = mod.main(["--quick", "--json", str(js), "--out", str(out)])
-    on_disk = json.loads(js.read_text())
-    assert len(on_disk) == len(records) > 0
-    assert all(all(not isinstance(v, (dict, list)) for v in r.values()) for r in on_disk), "records must be flat"
-    assert sorted(out.glob("*.png")), f"{name} drew no figure"
-    return mod, records
-
-
-def pick(records, **kw):
-    hits = [r for r in records if all(r.get(k) == v for k, v in kw.items())]
-    assert len(hits) == 1, f"{len(hits)} records match {kw}"
-    return hits[0]
 
 
 # -- paper 000, beam released horizontal --------------------------------------------------------------------------

@@ -6,36 +6,12 @@ Tolerances are justified next to each assertion.
 """
 from __future__ import annotations
 
-import importlib.util
-import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
-
-
-def run_example(name: str, tmp_path_factory) -> tuple[object, list[dict], Path]:
-    spec = importlib.util.spec_from_file_location(f"example_{name}", EXAMPLES / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    tmp = tmp_path_factory.mktemp(name)
-    js, out = tmp / f"{name}.json", tmp / "figures"
-    records = mod.main(["--quick", "--json", str(js), "--out", str(out)])
-    on_disk = json.loads(js.read_text())
-    assert len(on_disk) == len(records) > 0
-    assert all(isinstance(r, dict) and all(not isinstance(v, (dict, list)) for v in r.values()) for r in on_disk), \
-        "records must be flat"
-    assert sorted(out.glob("*.png")), f"{name} drew no figure"
-    return mod, records, tmp
-
-
-def pick(records, **kw):
-    hits = [r for r in records if all(r.get(k) == v for k, v in kw.items())]
-    assert len(hits) == 1, f"{len(hits)} records match {kw}"
-    return hits[0]
+from helpers import pick, run_example
 
 
 # -- paper 000 cantilever ---------------------------------------------------------------------------------------
@@ -46,7 +22,7 @@ def zhang(tmp_path_factory):
 
 
 def test_zhang_all_solved(zhang):
-    _, recs, _ = zhang
+    _, recs = zhang
     assert all(r["success"] and r["stable"] for r in recs), [(r["strain"], r["n"], r["status"]) for r in recs]
     for key in ("strain", "n", "E", "tip_x", "tip_y", "potential", "wall_s", "status"):
         assert all(key in r for r in recs)
@@ -57,14 +33,14 @@ def test_zhang_paper_potentials(zhang):
     -11.425 / -11.488 J (+0.13 % / +0.16 %): 0.5 % admits that reading and the paper's solver tolerance, while
     still failing for a wrong gravity zero level (|gravity| ~ 17 J) or a wrong strain measure (n=3 coupled is
     -10.66 J, 6.6 % off)."""
-    mod, recs, _ = zhang
+    mod, recs = zhang
     s = mod.summary(recs)
     assert s["potential_decoupled3"] == pytest.approx(-11.41, rel=5e-3)
     assert s["potential_green18"] == pytest.approx(-11.47, rel=5e-3)
 
 
 def test_zhang_decoupled_converges_faster_to_the_same_limit(zhang):
-    mod, recs, _ = zhang
+    mod, recs = zhang
     s = mod.summary(recs)
     # the paper's claim (figs 7, 9): at equal n the decoupled model is far closer to the converged potential
     assert s["err_decoupled3"] < s["err_green3"] and s["err_decoupled6"] < s["err_green6"]
@@ -79,7 +55,7 @@ def test_zhang_decoupled_converges_faster_to_the_same_limit(zhang):
 def test_zhang_fig13(zhang):
     """Fig. 13 (tension 300 N, moment 30 N m, 200 N/m): 6 decoupled elements are closer to the converged shape than 6
     coupled ones (paper: 6 decoupled ~ 12 coupled). Measured tip distances to n=60: 0.015 / 0.077 / 0.022 m."""
-    mod, recs, _ = zhang
+    mod, recs = zhang
     s = mod.summary(recs)
     assert s["fig13_tip_err_decoupled6"] < 0.5 * s["fig13_tip_err_green6"]
     assert s["fig13_tip_err_decoupled6"] < s["fig13_tip_err_green12"] < s["fig13_tip_err_green6"]
@@ -95,7 +71,7 @@ def catenary(tmp_path_factory):
 def test_catenary_solved_from_the_reference(catenary):
     """The taut cases start from the straight reference, where a cable without bending has no transverse stiffness
     (singular tangent): IPOPT's inertia correction handles it; the example would fall back to a parabola and say so."""
-    _, recs, _ = catenary
+    _, recs = catenary
     assert all(r["success"] and r["stable"] for r in recs), [(r["case"], r["n"], r["status"]) for r in recs]
     assert all(r["start"].startswith("reference") for r in recs), [r["start"] for r in recs]
     assert max(r["constraint_violation"] for r in recs) < 1e-10
@@ -107,7 +83,7 @@ def test_catenary_converges_to_the_elastic_catenary(catenary):
     about 10 (rounding and IPOPT's stopping tolerance are far below them) but fail for any modelling error: the
     slack cable differs from the inextensible catenary by only 0.02 mm yet a wrong weight per length (per deformed
     instead of unstretched length) would move the taut cable by ~1 mm."""
-    _, recs, _ = catenary
+    _, recs = catenary
     for case, bound in (("taut_level", 1e-7), ("taut_inclined", 1e-7), ("slack_level", 1e-4),
                         ("slack_inclined", 1e-4)):
         rs = sorted((r for r in recs if r["case"] == case), key=lambda r: r["n"])
@@ -132,7 +108,7 @@ def test_elastica_reference(elastica):
     4-digit table values: PL^2/EI = 1: w/L 0.3017, u/L 0.0564; = 10: w/L 0.8106, u/L 0.5550 (0.5e-4 = rounding).
     The brief quoted u/L 0.0566 and 0.5507: our reference is 0.05643 and 0.55500, off those by 1.7e-4 and 4.3e-3,
     well beyond the tables' rounding; both references agree, so we take those two quotes for typos."""
-    mod, recs, _ = elastica
+    mod, recs = elastica
     assert max(r["reference_gap"] for r in recs) < 1e-12
     for alpha, (w, u) in mod.TABLE.items():
         r = pick(recs, load=alpha, n=16, axial="decoupled")
@@ -140,7 +116,7 @@ def test_elastica_reference(elastica):
 
 
 def test_elastica_ancf_converges(elastica):
-    _, recs, _ = elastica
+    _, recs = elastica
     assert all(r["success"] and r["stable"] for r in recs), [(r["load"], r["n"], r["status"]) for r in recs]
     for alpha in (1.0, 10.0):
         by_n = {r["n"]: r for r in recs if r["load"] == alpha}
@@ -158,7 +134,7 @@ def test_elastica_ancf_converges(elastica):
 def test_elastica_small_load_is_linear(elastica):
     """PL^2/EI = 0.01: the cubic Hermite element is exact for linear beam theory, so the tip matches PL^3/3EI up to the
     elastica's own nonlinearity (-1.14e-5 relative) and the elastica to 1e-9 L (measured 2e-11)."""
-    _, recs, _ = elastica
+    _, recs = elastica
     r = pick(recs, load=0.01, n=4, axial="decoupled")
     assert abs(r["w_over_L"] / r["linear_w_over_L"] - 1) < 2e-5
     assert abs(r["err_w"]) < 1e-9
@@ -172,7 +148,7 @@ def t_frame(tmp_path_factory):
 
 
 def test_frame_exact_rigid_joint_matches_linear_theory(t_frame):
-    mod, recs, _ = t_frame
+    mod, recs = t_frame
     exact = [r for r in recs if r["method"] == "exact"]
     assert all(r["success"] and r["stable"] for r in exact)
     # the right angle is kept exactly: the planar rigid joint is one bilinear equation on the two tangents
@@ -196,7 +172,7 @@ def test_frame_exact_rigid_joint_matches_linear_theory(t_frame):
 def test_frame_hinged_pair_is_a_truss(t_frame):
     """Two bars pinned at their feet and hinged together: pure axial force, apex drop P L/(2 EA sin^2 beta); the
     geometric nonlinearity at P = 1 kN is 6e-5 relative."""
-    _, recs, _ = t_frame
+    _, recs = t_frame
     r = pick(recs, case="hinged_pair", n=2)
     assert r["success"] and r["constraint_violation"] < 1e-10
     assert abs(r["rel_err_y"]) < 2e-4
@@ -209,7 +185,7 @@ def test_frame_penalty_error_falls_as_one_over_the_factor(t_frame):
     penalty spring), angle error ~ 1.7e-2 deg / factor. Factors at which IPOPT did not move (see the example's
     warning: its tolerance, relative to the largest stiffness, exceeded the load) are left out here; the example
     flags them with moved = False."""
-    _, recs, _ = t_frame
+    _, recs = t_frame
     pen = sorted((r for r in recs if r["method"] == "penalty" and r["moved"]), key=lambda r: r["penalty"])
     assert len(pen) >= 4
     c = [r["err_vs_exact_m"] * r["penalty"] for r in pen]
@@ -227,7 +203,7 @@ def buckling(tmp_path_factory):
 
 
 def test_buckling_below_pcr_stays_straight(buckling):
-    _, recs, _ = buckling
+    _, recs = buckling
     for r in (x for x in recs if x["load_over_pcr"] < 1):
         assert r["success"] and r["stable"] is True and r["branch"] == "straight"
         assert r["tip_lateral_m"] < 1e-9
@@ -237,7 +213,7 @@ def test_buckling_past_pcr_leaves_the_saddle(buckling):
     """No imperfection, no lateral load: from the straight start the solver lands on the straight state, finds it
     unstable (negative curvature of the reduced Hessian) and leaves it along that direction to a stable bent state
     of lower potential."""
-    _, recs, _ = buckling
+    _, recs = buckling
     for lam in sorted({r["load_over_pcr"] for r in recs if r["load_over_pcr"] > 1}):
         bent = pick(recs, load_over_pcr=lam, escape_saddle=True)
         straight = pick(recs, load_over_pcr=lam, escape_saddle=False)
@@ -252,7 +228,7 @@ def test_buckling_matches_the_elastica(buckling):
     1e-5 rad at P/P_cr = 1.1 / 1.5 / 2. Near P_cr the deflection ~ sqrt(P/P_cr - 1) amplifies the ~1e-4 shift of the
     critical load by extensibility (P/EA = 2.5e-5) and the mesh: 5e-4 m and 1e-3 rad leave room for that, not for a
     wrong branch or a wrong load (a 1 % load error moves the deflection at 1.1 P_cr by about 2e-2 m)."""
-    _, recs, _ = buckling
+    _, recs = buckling
     for r in (x for x in recs if x["load_over_pcr"] > 1 and x["escape_saddle"]):
         assert abs(r["tip_lateral_m"] - r["ref_tip_lateral_m"]) < 5e-4, r
         assert abs(r["tip_rotation_rad"] - r["ref_tip_rotation_rad"]) < 1e-3, r
