@@ -224,6 +224,7 @@ class Assembly:
     def mass_matrix(self) -> sp.csc_matrix:
         """Constant global mass matrix (sparse)."""
         rows, cols, vals = [], [], []
+        known: dict = {}  # element mass matrices by (element, parameters): equal elements computed once
         for mm in self.mesh.members.values():
             m = mm.member
             idx = mm.elem_dofs()
@@ -231,7 +232,10 @@ class Assembly:
                 L = mm.elem_length[e]
                 p = [L, m.material.density * m.section.area] if m.element != "beam3d" else \
                     [L, m.section.b, m.section.h, m.material.density]
-                Me = kernels.mass_matrix(m.element, p)
+                key = (m.element, *map(float, p))
+                if key not in known:
+                    known[key] = kernels.mass_matrix(m.element, p)
+                Me = known[key]
                 rows.append(np.repeat(idx[e], len(idx[e])))
                 cols.append(np.tile(idx[e], len(idx[e])))
                 vals.append(Me.ravel())

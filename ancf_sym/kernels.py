@@ -33,6 +33,7 @@ def _check_names(element: str, effect: str) -> registry.Effect:
     return eff
 
 
+@functools.lru_cache(maxsize=None)
 def library_path(name: str) -> Path:
     hits = sorted(KERNEL_DIR.glob(f"{name}.*so")) + sorted(KERNEL_DIR.glob(f"{name}.so"))
     if not hits:
