@@ -10,12 +10,14 @@ axis-aligned members) are eliminated; rows x_i - x_j = d (hinges) identify coord
 (rigid joints, skew clamps) carry Lagrange multipliers.
 
 One full Newton iteration is one call of a CasADi Function: every energy term through its mapped compiled kernel,
-residual and KKT matrix assembled by constant sparse maps, sparse LDL^T (symmetric positive definite case) or QR
-(multipliers, strain-rate damping) factorisation and solve, all inside CasADi: no Python loop over elements, no
-numpy scatter. The alpha schemes put a whole step (predictor, one or two iterations, corrector) into one graph and
-map it over many steps (see AlphaIntegrator). Modified Newton (scipy SuperLU kept across iterations and steps)
-is selectable; on these problems it is slower, because a kernel pass computes energy, gradient and Hessian
-together, so a residual costs as much as a Jacobian.
+residual and KKT matrix assembled by constant index maps (gathers), sparse LDL^T (symmetric positive definite
+case) or QR (multipliers, strain-rate damping) factorisation and solve, all inside CasADi: no Python loop over
+elements, no numpy scatter. Residuals alone use the kernels' (energy, gradient) companions (no Hessian work). The
+alpha schemes put a whole step (predictor, iterations, corrector) into one graph and map it over many steps (see
+AlphaIntegrator). Modified Newton is selectable (newton.modified): in the alpha schemes' step graph with the LDL^T
+factor carried in the state, else in Python with a SuperLU factorisation. Full Newton is the default: on the
+cable scenes measured (bench/DYNAMICS_RESULTS.md) it converges in one iteration on ~98 % of the steps, while a
+modified step needs a second residual to measure its contraction, and a residual costs ~0.4 of a full iteration.
 
 Newmark, HHT-alpha and generalized-alpha are one family here, in the form of Arnold & Bruels (2007) that Exudyn
 also uses: the equations hold at t_{n+1} exactly and an algorithmic acceleration abar carries the alpha
@@ -100,6 +102,31 @@ def _dm(A: sp.spmatrix) -> ca.DM:
     A = sp.csc_matrix(A)
     A.sort_indices()
     return ca.DM(ca.Sparsity(A.shape[0], A.shape[1], A.indptr.tolist(), A.indices.tolist()), A.data.tolist())
+
+
+def _gather_sum(vals: list, target: np.ndarray, n_out: int) -> ca.MX:
+    """out[t] = sum of the entries k of vertcat(vals) with target[k] = t (target -1: dropped), as a few gathers
+    (one per multiplicity) and additions: cheaper in the MX virtual machine than a product with a 0/1 matrix."""
+    src = ca.vertcat(*vals, ca.MX.zeros(1))
+    n_src = src.shape[0] - 1
+    valid = np.flatnonzero(target >= 0)
+    t = target[valid]
+    order = valid[np.argsort(t, kind="stable")]
+    cnt = np.bincount(t, minlength=n_out)
+    if not len(order):
+        return ca.MX.zeros(n_out)
+    start = np.r_[0, np.cumsum(cnt)[:-1]]
+    out = None
+    for j in range(int(cnt.max())):
+        idx = np.where(cnt > j, order[np.minimum(start + j, len(order) - 1)], n_src)
+        term = src[idx.tolist()]
+        out = term if out is None else out + term
+    return out
+
+
+def _sx_nz(A: ca.SX) -> ca.SX:
+    """Nonzeros of a sparse SX as a column."""
+    return ca.vertcat(*A.nonzeros()) if A.nnz() else ca.SX(0, 1)
 
 
 def _mx_sparse_nz(A: ca.MX) -> ca.MX:
@@ -237,7 +264,8 @@ class StepSystem:
         KKT = [[cm M + cc C + K(x) + H_Phi(kc lam), kc J^T], [kc J, 0]]
     p collects what is constant within a step. C = alpha M + beta K_el(q_n) with K_el(q_n) passed as `kel`.
     `iterate` does a whole full-Newton iteration (residual, KKT, sparse LDL^T factorisation, solve) in one call;
-    `residual` and `jacobian` serve modified Newton with a factorisation kept in Python.
+    `residual` (gradient-only kernels) and `jacobian` serve modified Newton with a factorisation kept in Python;
+    `ensure_factor` builds the in-graph LDL^T factorisation (fact_f, ldl_solve_mx) of the compiled modified step.
     """
 
     def __init__(self, asm: Assembly, rayleigh: RayleighData | None = None, linsol: str = "auto",
@@ -291,39 +319,44 @@ class StepSystem:
         asm, nf, pos = self.asm, self.nf, self.pos
         xf = ca.MX.sym("x", nf)
         x = self.x_full_mx(xf)
-        g = ca.MX.zeros(nf)
-        hvals, rows, cols, energies = [], [], [], []
+        energies = []
         kel_vals, kel_rows, kel_cols = [], [], []
+        groups: dict = {}  # terms on the same element coordinates: gradients and Hessians summed before the scatter
         for ti, mk in enumerate(self.nonlinear):
             t = mk.term
             Xe = ca.reshape(x[t.idx.ravel().tolist()], mk.nd, mk.N)
             e_, G, H = mk.f(Xe, ca.DM(mk.P.T))
             energies.append((t.label, ca.sum2(e_)))
-            gi = pos[t.idx.ravel()]
-            keep = np.flatnonzero(gi >= 0)
-            Ag = sp.coo_matrix((np.ones(len(keep)), (gi[keep], keep)), shape=(nf, mk.N * mk.nd))
-            g += ca.mtimes(_dm(Ag), ca.vec(G))
-            # H is nd x (nd N); its column-major vec holds entry e nd^2 + a nd + b = (idx[e, b], idx[e, a])
-            ia = np.broadcast_to(t.idx[:, :, None], (mk.N, mk.nd, mk.nd)).ravel()
-            ib = np.broadcast_to(t.idx[:, None, :], (mk.N, mk.nd, mk.nd)).ravel()
-            ra, rb = pos[ia], pos[ib]
-            keep = np.flatnonzero((ra >= 0) & (rb >= 0))
-            hv = ca.vec(H)
-            hv = hv[keep.tolist()] if len(keep) < hv.shape[0] else hv
-            hvals.append(hv)
-            rows.append(rb[keep])
-            cols.append(ra[keep])
+            key = (t.idx.shape, t.idx.tobytes())
+            if key in groups:
+                grp = groups[key]
+                grp[1], grp[2] = grp[1] + G, grp[2] + H
+            else:
+                groups[key] = [t.idx, G, H]
             if self.rayleigh is not None and self.rayleigh.beta and t.label in ELASTIC_LABELS:
                 w = self.rayleigh.element_weight.get(ti)
                 if w is not None and np.any(w):
+                    ia, ib, keep = self._hessian_entries(t.idx)
                     we = np.repeat(np.asarray(w, float), mk.nd * mk.nd)[keep]
-                    kel_vals.append(hv * ca.DM(we))
-                    kel_rows.append(rb[keep])
-                    kel_cols.append(ra[keep])
-
+                    hv = ca.vec(H)
+                    kel_vals.append((hv[keep.tolist()] if len(keep) < hv.shape[0] else hv) * ca.DM(we))
+                    kel_rows.append(ib[keep])
+                    kel_cols.append(ia[keep])
+        gvals, gtarget, hvals, rows, cols, hpos = [], [], [], [], [], []
+        n_h = 0
+        for idx, G, H in groups.values():
+            gvals.append(ca.vec(G))
+            gtarget.append(pos[idx.ravel()])
+            ia, ib, keep = self._hessian_entries(idx)
+            hvals.append(ca.vec(H))
+            rows.append(ib[keep])
+            cols.append(ia[keep])
+            hpos.append(n_h + keep)
+            n_h += ia.size
+        g = _gather_sum(gvals, np.concatenate(gtarget), nf) if gvals else ca.MX.zeros(nf)
         K = ca.MX(nf, nf)
         if rows:
-            K = self._scatter(hvals, np.concatenate(rows), np.concatenate(cols))
+            K = self._scatter(hvals, np.concatenate(rows), np.concatenate(cols), np.concatenate(hpos), n_h)
         self.kel_sparsity = None
         outs = [g, K]
         if kel_vals:
@@ -338,6 +371,20 @@ class StepSystem:
             outs[1] = outs[1] + ca.hessian(pen, xf)[0]
             energies.append(("penalty", pen))
         self.forces_f = ca.Function("forces", [xf], outs, ["x"], ["g", "K"] + (["kel"] if kel_vals else []))
+        # the gradient alone from the (energy, gradient) companions: no Hessian work (residuals of modified Newton)
+        ggroups: dict = {}
+        for mk in self.nonlinear:
+            t = mk.term
+            Xe = ca.reshape(x[t.idx.ravel().tolist()], mk.nd, mk.N)
+            G = kernels.load_grad(t.element, t.effect, t.gauss).map(mk.N)(Xe, ca.DM(mk.P.T))[1]
+            key = (t.idx.shape, t.idx.tobytes())
+            ggroups[key] = (t.idx, ggroups[key][1] + G) if key in ggroups else (t.idx, G)
+        gg = _gather_sum([ca.vec(G) for _, G in ggroups.values()],
+                         np.concatenate([pos[idx.ravel()] for idx, _ in ggroups.values()]), nf) \
+            if ggroups else ca.MX.zeros(nf)
+        if asm.penalty is not None:
+            gg += ca.gradient(pen, xf)
+        self.grad_f = ca.Function("gradient", [xf], [gg], ["x"], ["g"])
         # energies for the outputs from the energy-only compiled functions (no gradient, no Hessian)
         elist = []
         for mk in self.nonlinear:
@@ -383,6 +430,7 @@ class StepSystem:
         fd = ca.gradient(D, vf)
         self.damp_f = ca.Function("strain_rate_damping", [xf, vf], [fd, ca.jacobian(fd, xf), ca.jacobian(fd, vf)],
                                   ["x", "v"], ["f", "df_dx", "df_dv"])
+        self.damp_force_f = ca.Function("strain_rate_force", [xf, vf], [fd], ["x", "v"], ["f"])
 
     def damping_force(self, xf: np.ndarray, vf: np.ndarray) -> np.ndarray | None:
         """Damping force on the unknowns at (x, v): Rayleigh C v (with the current K_el values) + strain rate."""
@@ -399,8 +447,17 @@ class StepSystem:
     def damped(self) -> bool:
         return self.rayleigh is not None or self.damp_f is not None
 
-    def _scatter(self, vals: list, r: np.ndarray, c: np.ndarray) -> ca.MX:
-        """Sparse nf x nf MX summing the value vectors `vals` at (r, c)."""
+    def _hessian_entries(self, idx: np.ndarray):
+        """Unknowns (a, b) of the entries of the column-major vec of a mapped kernel's Hessian output (nd x nd N:
+        entry e nd^2 + a nd + b is d2U / dx_idx[e, a] dx_idx[e, b]) and the entries on two unknowns."""
+        N, nd = idx.shape
+        ia = self.pos[np.broadcast_to(idx[:, :, None], (N, nd, nd)).ravel()]
+        ib = self.pos[np.broadcast_to(idx[:, None, :], (N, nd, nd)).ravel()]
+        return ia, ib, np.flatnonzero((ia >= 0) & (ib >= 0))
+
+    def _scatter(self, vals: list, r: np.ndarray, c: np.ndarray, src: np.ndarray | None = None,
+                 n_src: int | None = None) -> ca.MX:
+        """Sparse nf x nf MX summing the values at (r, c): entry k is vertcat(vals)[src[k]] (default: k)."""
         nf = self.nf
         key = c.astype(np.int64) * nf + r
         uniq, inv = np.unique(key, return_inverse=True)
@@ -408,8 +465,11 @@ class StepSystem:
         indptr = np.zeros(nf + 1, dtype=np.int64)
         np.add.at(indptr, cols + 1, 1)
         spK = ca.Sparsity(nf, nf, np.cumsum(indptr).tolist(), rws.tolist())
-        A = sp.coo_matrix((np.ones(len(inv)), (inv, np.arange(len(inv)))), shape=(len(uniq), len(inv)))
-        return ca.MX(spK, ca.mtimes(_dm(A), ca.vertcat(*vals)))
+        if src is None:
+            src, n_src = np.arange(len(inv)), len(inv)
+        target = -np.ones(n_src, dtype=np.int64)
+        target[src] = inv
+        return ca.MX(spK, _gather_sum(vals, target, len(uniq)))
 
     def constraint_mx(self, xf: ca.MX) -> ca.MX:
         return Assembly._casadi_constraint(self.cons, self.x_full_mx(xf))
@@ -446,17 +506,23 @@ class StepSystem:
             fd, dfx, dfv = self.damp_f(xf, vc + cc * xf)
             r_q += fd
             S = S + dfx + cc * dfv
+        # the same residual from the gradient-only kernels (modified Newton: no Hessian work)
+        r_g = cm * ca.mtimes(Mdm, xf) + cc * Cx + self.grad_f(xf) + p
+        if self.damp_f is not None:
+            r_g += self.damp_force_f(xf, vc + cc * xf)
         if mc:
             phi = self.constraint_mx(xf)
             Jx = ca.jacobian(phi, xf)
             r_q += kc * ca.mtimes(Jx.T, lam)
+            r_g += kc * ca.mtimes(Jx.T, lam)
             if len(self.cons.qrow):
                 S = S + ca.hessian(ca.dot(kc * lam, phi), xf)[0]
             r = ca.vertcat(r_q, kc * phi)
+            rg = ca.vertcat(r_g, kc * phi)
             KKT = ca.blockcat([[S, kc * Jx.T], [kc * Jx, ca.MX(mc, mc)]])
             rc = ca.mmax(ca.fabs(phi))
         else:
-            r, KKT, rc = r_q, S, ca.MX(0)
+            r, rg, KKT, rc = r_q, r_g, S, ca.MX(0)
         rq = ca.mmax(ca.fabs(r_q))
         ins = [xf, lam, p, cm, cc, kc, vc] + ([kel] if kel is not None else [])
         names = ["x", "lam", "p", "cm", "cc", "kc", "vc"] + (["kel"] if kel is not None else [])
@@ -469,10 +535,55 @@ class StepSystem:
         # norms: |r_q|inf [N], |Phi|inf [m], |dx|inf, |dlam|inf (scaled: m), max |KKT|
         self.iter_f = ca.Function("newton_iteration", ins, [dz, ca.vertcat(rq, rc, dzx, dzl, kmax)], names,
                                   ["dz", "norms"])
-        self.res_f = ca.Function("step_residual", ins, [r, ca.vertcat(rq, rc)], names, ["r", "norms"])
+        self.res_f = ca.Function("step_residual", ins, [rg, ca.vertcat(ca.mmax(ca.fabs(r_g)), rc)], names,
+                                 ["r", "norms"])
         self.jac_f = ca.Function("step_jacobian", ins, [r, ca.vertcat(rq, rc, kmax), kkt_nz], names,
                                  ["r", "norms", "kkt"])
+        self.fact_f, self._factor_built = None, False  # built on demand (modified Newton): ensure_factor
         self._setup_buffers(kel is not None)
+
+    # largest LDL^T factorisation (operations of its SX graph) built for in-graph modified Newton
+    MAX_FACTOR_OPS = 2_000_000
+
+    def ensure_factor(self):
+        """fact_f, built on first use (None where the in-graph factor does not apply)."""
+        if not self._factor_built:
+            self._build_factor()
+            self._factor_built = True
+        return self.fact_f
+
+    def _build_factor(self) -> None:
+        """In-graph sparse LDL^T of the symmetric positive definite step matrix whose factor is a value (so a
+        compiled step can keep it across iterations and steps): fact_f(KKT nonzeros) -> (D, U, U^T nonzeros) with
+        P A P^T = U^T diag(D) U, U unit upper triangular (fill-reducing AMD ordering P); `ldl_solve_mx` applies it
+        with two sparse triangular solves. Only without multipliers and strain-rate damping (self.linsol "ldl"),
+        and when the factorisation graph stays small; else self.fact_f is None."""
+        self.fact_f = None
+        nf = self.nf
+        if self.linsol != "ldl" or self.mc or not nf:
+            return
+        spK = self.kkt_sparsity
+        spLT, perm = spK.ldl(True)
+        counts = np.diff(np.array(spLT.colind()))  # entries above the diagonal per column of U
+        if float(np.sum((counts + 1.0) ** 2)) > self.MAX_FACTOR_OPS:
+            return
+        a = ca.SX.sym("a", spK.nnz())
+        D, LT, p = ca.ldl(ca.SX(spK, a), True)
+        U = LT + ca.SX.eye(nf)
+        UT = U.T
+        self.ldl_perm = np.array(p, dtype=np.int64)
+        self.ldl_sparsity = (U.sparsity(), UT.sparsity())
+        self.fact_f = ca.Function("ldl_factor", [a], [D, _sx_nz(U), _sx_nz(UT)], ["kkt"], ["D", "U", "UT"])
+        self.factor_size = (nf, U.nnz(), UT.nnz())
+
+    def ldl_solve_mx(self, D: ca.MX, U: ca.MX, UT: ca.MX, b: ca.MX) -> ca.MX:
+        """A^-1 b from the values of fact_f (MX: two sparse triangular solves and a scaling)."""
+        spU, spUT = self.ldl_sparsity
+        p = self.ldl_perm
+        y = b[p.tolist()] if np.any(p != np.arange(len(p))) else b
+        y = ca.solve(ca.MX(spUT, UT), y) / D
+        y = ca.solve(ca.MX(spU, U), y)
+        return y[np.argsort(p).tolist()] if np.any(p != np.arange(len(p))) else y
 
     def _setup_buffers(self, has_kel: bool) -> None:
         nf, mc = self.nf, self.mc
@@ -602,14 +713,18 @@ class NewtonOptions:
     last update, theta/(1 - theta) |dz| with theta the contraction of successive updates, is below the update
     tolerance (saves the residual evaluation that would only confirm convergence). Alpha schemes: the update
     tolerance is max(xtol x length scale, lte_fraction x the step's local truncation error), and with `single`
-    a step is accepted after one iteration when Newton's own estimate omega |dz0|^2 is below it."""
+    a step is accepted after one full Newton iteration when Newton's own estimate 2 omega |dz0|^2 is below it
+    (an iteration on a kept factor is never accepted before the next one measured the contraction)."""
     tol: float = 1e-8  # residual, relative to the scene's force scale
     xtol: float = 1e-10  # updates and constraints, relative to the scene's length scale
     max_iter: int = 12
-    modified: bool = False  # keep the factorisation while the iteration contracts (scipy SuperLU)
-    single: bool = True  # accept a step after one iteration when Newton's error estimate omega |dz|^2 allows
+    # keep the factorisation across iterations and steps while the iteration contracts: alpha schemes in their
+    # compiled step where the step matrix is symmetric positive definite (LDL^T factor in the state), else in
+    # Python (SuperLU); residuals from the gradient-only kernels
+    modified: bool = False
+    single: bool = True  # accept a step after one iteration when Newton's error estimate allows
     lte_fraction: float = 0.01  # alpha schemes: update tolerance also this fraction of the local truncation error
-    contraction: float = 0.5  # modified Newton: refresh when |r_k+1| > contraction |r_k|
+    contraction: float = 0.5  # modified Newton: refactorise when the contraction |dz_k+1| / |dz_k| exceeds this
     max_modified: int = 8  # modified Newton: at most this many iterations on one factorisation within a step
 
     def __post_init__(self):
@@ -624,6 +739,8 @@ class NewtonOptions:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
                 raise SceneError(f"newton.{name} must be a positive integer, got {v!r}")
+        if self.contraction >= 1:
+            raise SceneError(f"newton.contraction must be below 1, got {self.contraction!r}")
         for name in ("modified", "single"):
             if not isinstance(getattr(self, name), bool):
                 raise SceneError(f"newton.{name} must be true or false, got {getattr(self, name)!r}")
@@ -806,22 +923,47 @@ class StepOutcome:
 class AlphaIntegrator:
     """Newmark / HHT / generalized-alpha on a StepSystem (Arnold-Bruels form, index-3 constraints).
 
-    A step is one compiled graph: predictor (acceleration extrapolated linearly from the last two steps), one full
-    Newton iteration (kernels, KKT assembly, sparse factorisation and solve), then, chosen in-graph by a CasADi
-    switch that evaluates only the branch taken, either acceptance or a second iteration, then the corrector.
-    Acceptance after one iteration uses Newton's quadratic convergence: the error left is ~ omega |dz0|^2, with
-    omega = |dz1| / |dz0|^2 measured on the two-iteration steps (re-measured at least every `refresh_every`
-    steps). The tolerance on that error is max(xtol L, lte_fraction x the step's local truncation error
-    |beta - 1/6| h^2 |a_n+1 - a_n|): Newton's error stays a small fraction of the time-discretization error, so
-    the accuracy is the scheme's. Steps the graph flags as unconverged are redone by the Python Newton loop
-    (`newton`, absolute tolerances, max_iter). `run_chunk` maps the graph over many steps (mapaccum) so that a
-    whole stretch of the time loop is one call. Modified Newton runs in Python with a SuperLU factorisation
-    reused across iterations and steps.
-    State: q, v (true velocity), a (true acceleration), ab (algorithmic acceleration), lam (true multipliers),
-    a_prev (acceleration of the previous step), omega.
+    A step is one compiled graph (predictor with the acceleration extrapolated linearly from the last two steps,
+    Newton iterations chosen in-graph by CasADi switches that evaluate only the branch taken, corrector), and
+    `run_chunk` maps it over many steps (mapaccum) so that a whole stretch of the time loop is one call. Steps
+    the graph flags as unconverged are redone by the Python full-Newton loop (`newton`, absolute tolerances,
+    max_iter) from the graph's last iterate. Two step graphs:
+
+    - full Newton (default): every iteration is a full Newton iteration with CasADi's sparse LDL^T (or QR:
+      multipliers, strain-rate damping); one or two iterations in the graph, accepted after one when Newton's own
+      estimate 2 omega |dz0|^2 (omega = |dz1| / |dz0|^2 measured on two-iteration steps) is below the update
+      tolerance. omega is re-measured at least every `refresh_every` steps, up to 8x less often when the
+      estimate is below a tenth of the tolerance.
+    - modified Newton (newton.modified true, symmetric step matrix: no multipliers, no strain-rate damping). The
+      LDL^T factor of the step matrix (values D, U, U^T) is carried from step to step as accumulated inputs of
+      the step function and kept across iterations and steps while the iteration contracts. An iteration on the
+      kept factor costs the gradient-only kernels and two triangular solves; a refactorisation is a full Newton
+      iteration (energy, gradient, Hessian kernels, assembly, LDL^T) that stores its factor. An iteration on the
+      kept factor is accepted only after the next one measured its contraction theta = |dz_k+1| / |dz_k| (error
+      theta / (1 - theta) |dz_k+1|); predicting theta from earlier steps to accept after one iteration was tried
+      and let errors far above the tolerance through (a chaotic double pendulum ended 9 mm off). After a
+      refactorisation the step may end after one iteration on omega as above. The contraction per step of factor
+      age (rate = theta / age, rising at once, decaying slowly) predicts how many iterations the kept factor
+      will need; a step starts with a refactorisation when the step size changed, when rate x age reaches
+      newton.contraction, or when those iterations cost more than a refactorisation's cycle costs per step so
+      far (renewal rule, a refactorisation counted as `refactor_cost` iterations); within a step it
+      refactorises when a measured theta exceeds newton.contraction. The step's scalar logic is a few SX
+      functions between the iterations (hundreds of scalar MX nodes cost more than the logic itself).
+
+    The update tolerance is max(xtol L, lte_fraction x the step's local truncation error |beta - 1/6| h^2
+    |a_n+1 - a_n|): Newton's error stays a small fraction of the time-discretization error, so the accuracy is
+    the scheme's. newton.modified true without the in-graph factor (multipliers, strain-rate damping) runs
+    modified Newton in Python with a SuperLU factorisation reused across iterations and steps.
+    State: q, v (true velocity), a (true acceleration), ab (algorithmic acceleration), a_prev (acceleration of the
+    previous step), lam (true multipliers) and the controls (omega, steps since a measurement; modified:
+    contraction rate, factor age, step size of the factor, largest step-matrix entry, the last |dz0|, update
+    tolerance and truncation error, the cost of the factor's cycle); modified: the factor.
     """
     order = 2  # of the local error estimate (step-size control exponent 1/(order + 1))
-    refresh_every = 8  # one-iteration steps between two-iteration steps that re-measure omega
+    refresh_every = 8  # one-iteration steps between two-iteration steps that re-measure omega / the contraction
+    max_slots = 5  # modified Newton: iterations (refactorisations included) the step graph tries per step
+    refactor_cost = 3.5  # modified Newton: a refactorisation's cost in iterations on a kept factor
+    info_size = 7  # ok, iterations, factorisations, |dz0|, |dz1|, truncation error, max |KKT|
 
     def __init__(self, system: StepSystem, scheme: Scheme, newton_opts: NewtonOptions, tol_q: float,
                  tol_x: float, counters: Counters):
@@ -830,45 +972,68 @@ class AlphaIntegrator:
         self.counters = counters
         self.factor = Factor()
         nf, mc = system.nf, system.mc
+        # in-graph modified Newton where the step graph can hold the factor; full Newton on request
+        self.modified_graph = newton_opts.modified and system.ensure_factor() is not None
+        self.nctl = 10 if self.modified_graph else 2
+        self.fac_sizes = system.factor_size if self.modified_graph else ()
         self.q, self.v, self.a, self.ab, self.a_prev = (np.zeros(nf) for _ in range(5))
         self.lam = np.zeros(mc)
-        self.omega, self.since = 0.0, 0.0  # omega = 0: not measured yet
+        self.ctl = np.zeros(self.nctl)
+        self.fac = [np.zeros(k) for k in self.fac_sizes]  # D, U, U^T of the kept factor (modified)
+        self._reset_controls()
         self.h_prev = None
         self.new = dict(q=np.zeros(nf), v=np.zeros(nf), a=np.zeros(nf), ab=np.zeros(nf), lam=np.zeros(mc))
+        self._new_ctl = self.ctl.copy()
+        self._new_fac = [f.copy() for f in self.fac]
         self._kel_f = None
         if system.kel_sparsity is not None:
             xf = ca.MX.sym("x", nf)
             self._kel_f = ca.Function("kel", [xf], [system.forces_f(xf)[2]])
-        self._build()
+        self.step_f = self._build_modified() if self.modified_graph else self._build_full()
+        self._setup_step_buffers()
         self._chunks: dict = {}
 
     # -- the compiled step ------------------------------------------------------------------------------------
     @property
     def state_size(self) -> int:
-        return 5 * self.S.nf + self.S.mc + 2
+        return 5 * self.S.nf + self.S.mc + self.nctl
+
+    @property
+    def n_accum(self) -> int:
+        """Accumulated inputs of the step function: the state, and the factor's D, U, U^T (modified)."""
+        return 1 + len(self.fac_sizes)
+
+    def _reset_controls(self) -> None:
+        self.ctl[:] = 0.0
+        if self.modified_graph:
+            self.ctl[2] = -1.0  # contraction rate unknown; ctl[4] = 0: no factor
 
     def pack(self) -> np.ndarray:
-        return np.concatenate([self.q, self.v, self.a, self.ab, self.a_prev, self.lam, [self.omega, self.since]])
+        return np.concatenate([self.q, self.v, self.a, self.ab, self.a_prev, self.lam, self.ctl])
 
     def unpack(self, s: np.ndarray) -> dict:
         nf, mc = self.S.nf, self.S.mc
         out = {k: s[i * nf:(i + 1) * nf] for i, k in enumerate(("q", "v", "a", "ab", "a_prev"))}
         out["lam"] = s[5 * nf:5 * nf + mc]
-        out["omega"], out["since"] = float(s[5 * nf + mc]), float(s[5 * nf + mc + 1])
+        out["ctl"] = s[5 * nf + mc:]
         return out
 
-    def _build(self) -> None:
-        S, sc, o = self.S, self.scheme, self.opts
-        nf, mc = S.nf, S.mc
+    def _step_inputs(self):
+        S, nf, mc = self.S, self.S.nf, self.S.mc
         st = ca.MX.sym("state", self.state_size)
         q, v, a, ab, ap = (st[i * nf:(i + 1) * nf] for i in range(5))
         lam = st[5 * nf:5 * nf + mc]
-        om, since = st[5 * nf + mc], st[5 * nf + mc + 1]
+        ctl = st[5 * nf + mc:]
         h, hp = ca.MX.sym("h"), ca.MX.sym("h_prev")  # h_prev <= 0: no previous step (constant predictor)
         tols = ca.MX.sym("tols", 2)  # force tolerance [N], update tolerance [m]
-        tol_q, tol_x = tols[0], tols[1]
         pload = ca.MX.sym("pload", nf)  # -(f_lin + Q(t_n+1))
         kel = ca.MX.sym("kel", S.kel.size) if S.kel is not None else None
+        return st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel
+
+    def _step_common(self, q, v, a, ab, ap, h, hp, pload, kel):
+        """Predictor, constant part of the residual and the corrector of a step (MX)."""
+        S, sc = self.S, self.scheme
+        nf = S.nf
         b, g, am, af = sc.beta, sc.gamma, sc.alpha_m, sc.alpha_f
         qh = q + h * v + h * h * (0.5 - b) * ab
         vh = v + h * (1 - g) * ab
@@ -879,25 +1044,42 @@ class AlphaIntegrator:
         p = ca.mtimes(_dm(S.M), (am * ab - af * a) / (1 - af) - cm * qh) + Cvh + pload
         apred = a + ca.if_else(hp > 0, (a - ap) * h / ca.fmax(hp, 1e-300), ca.MX.zeros(nf))
         x0 = qh + b * h * h * ((1 - af) * apred + af * a - am * ab) / (1 - am)
+        # x = qh + (b h^2) ab_n+1;  a_n+1 = ((1 - am) ab_n+1 + am ab - af a) / (1 - af)
+        ka, k0 = (1 - am) / ((1 - af) * b * h * h), (am * ab - af * a) / (1 - af)
+
+        def lte(x):
+            return sc.error_constant() * h * h * ca.mmax(ca.fabs(ka * (x - qh) + k0 - a))
+
+        def block(x):  # q, v, a, ab of the new state and a_prev
+            ab1 = (x - qh) / (b * h * h)
+            return ca.vertcat(x, vh + h * g * ab1, ((1 - am) * ab1 + am * ab - af * a) / (1 - af), ab1, a)
+
+        return dict(x0=x0, p=p, cm=cm, cc=cc, kc=kc, vc=vh - cc * qh, lte=lte, block=block)
+
+    def _build_full(self) -> ca.Function:
+        """Full Newton: one iteration, then (in-graph switch) either acceptance or a second iteration."""
+        S, o = self.S, self.opts
+        nf, mc = S.nf, S.mc
+        st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel = self._step_inputs()
+        tol_q, tol_x = tols[0], tols[1]
+        om, since = ctl[0], ctl[1]
+        c = self._step_common(q, v, a, ab, ap, h, hp, pload, kel)
+        x0, p, cm, cc, kc, vc = c["x0"], c["p"], c["cm"], c["cc"], c["kc"], c["vc"]
         l0 = lam / kc
         extra = [kel] if kel is not None else []
-
-        def accel(x):
-            ab1 = (x - qh) / (b * h * h)
-            return ab1, ((1 - am) * ab1 + am * ab - af * a) / (1 - af)
-
-        vc = vh - cc * qh
         dz, n0 = S.iter_f(x0, l0, p, cm, cc, kc, vc, *extra)
         x1 = x0 + dz[:nf]
         l1 = l0 + dz[nf:] if mc else l0
         d0 = ca.fmax(n0[2], n0[3])
-        lte = sc.error_constant() * h * h * ca.mmax(ca.fabs(accel(x1)[1] - a))
+        lte = c["lte"](x1)
         tolx = ca.fmax(tol_x, o.lte_fraction * lte)
-        span = S.span
-        tq = ca.fmax(tol_q, 2 * np.finfo(float).eps * n0[4] * span)
+        tq = ca.fmax(tol_q, 2 * np.finfo(float).eps * n0[4] * S.span)
         conv0 = ca.logic_and(n0[0] <= tq, n0[1] <= tol_x)
         est1 = 2 * om * d0 * d0
-        conv1 = ca.logic_and(ca.logic_and(om > 0, since < self.refresh_every), est1 <= tolx)
+        # omega is re-measured (second iteration) at least every refresh_every steps, up to 8x less often when the
+        # estimate has a wide margin
+        fresh = since < self.refresh_every * ca.fmin(8, ca.fmax(1, 0.1 * tolx / ca.fmax(est1, 1e-300)))
+        conv1 = ca.logic_and(ca.logic_and(om > 0, fresh), est1 <= tolx)
         accept1 = ca.logic_or(conv0, conv1) if o.single else ca.MX(0)
         # second iteration, evaluated only when needed
         xb, lb, pb = ca.MX.sym("xb", nf), ca.MX.sym("lb", mc), ca.MX.sym("pb", nf)
@@ -916,24 +1098,152 @@ class AlphaIntegrator:
         ok = ca.if_else(accept1, 1, conv2)
         om_new = ca.if_else(accept1, om, ca.if_else(d0 > 0, ca.fmax(d1 / ca.fmax(d0 * d0, 1e-300), 0.5 * om), om))
         since_new = ca.if_else(accept1, since + 1, 0)
-        ab2, a2 = accel(x2)
-        v2 = vh + h * g * ab2
-        new_state = ca.vertcat(x2, v2, a2, ab2, a, l2 * kc, om_new, since_new)
+        new_state = ca.vertcat(c["block"](x2), l2 * kc, om_new, since_new)
         iters = ca.if_else(accept1, 1, 2)
-        info = ca.vertcat(ok, iters, d0, d1, lte, n0[4])
-        ins = [st, h, hp, pload, tols] + extra
-        self.step_f = ca.Function("alpha_step", ins, [new_state, info], ["state", "h", "h_prev", "pload", "tols"] +
-                                  (["kel"] if kel is not None else []), ["next_state", "info"])
-        # per-step buffers
-        self._s_in, self._s_out, self._info = np.zeros(self.state_size), np.zeros(self.state_size), np.zeros(6)
+        info = ca.vertcat(ok, iters, iters, d0, d1, lte, n0[4])
+        return self._make_step_f([st], [h, hp, pload, tols] + extra, [new_state], info)
+
+    # carried control vector of the modified step (SX functions between the iterations)
+    _CV = ("conv", "tolx", "tq", "kmax", "iters", "nfull", "since_full", "d_prev", "last_full", "th", "mode",
+           "d1", "th1", "conv0", "refac0", "d0", "th0", "lte1")
+
+    def _control_functions(self) -> dict:
+        """The modified step's scalar logic as SX functions (a few calls instead of hundreds of MX nodes)."""
+        o = self.opts
+        KEEP, MOD, FULL = 0, 1, 2
+        cmax, R, tiny = o.contraction, self.refactor_cost, 1e-300
+        sx = ca.SX.sym
+        C, hs, T = sx("ctl", self.nctl), sx("h"), sx("tols", 2)
+        om, since, rate, age, fh, kmax, d0p, tolxp, ltep, cyc = (C[k] for k in range(self.nctl))
+        fresh = since < self.refresh_every
+        known = rate >= 0
+        idx = {k: i for i, k in enumerate(self._CV)}
+        # before the first iteration: on the kept factor, or refactorise (no factor for this step size, contraction
+        # too slow, or the iterations predicted on the kept factor cost more than a refactorisation's cycle does
+        # per step: renewal rule, m0 > cyc / age)
+        th0 = ca.fmax(rate, 0) * age
+        # (an iteration on the kept factor is accepted only after the next one measured its contraction)
+        m0 = 1 + ca.fmax(1, ca.ceil(ca.log(ca.fmax(tolxp * (1 - th0), tiny) / ca.fmax(d0p, tiny)) /
+                                    ca.log(ca.fmin(ca.fmax(th0, tiny), 0.999))))
+        costly = ca.logic_and(ca.logic_and(known, d0p > 0), m0 * age > cyc)
+        refac0 = ca.logic_or(ca.logic_not(ca.logic_and(fh > 0, ca.fabs(fh - hs) <= 1e-9 * hs)),
+                             ca.logic_and(known, ca.logic_or(th0 >= cmax, costly)))
+        decide = ca.Function("decide", [C, hs], [ca.vertcat(ca.if_else(refac0, FULL, MOD), th0)])
+        # after the first iteration
+        N, L1, M0, TH0 = sx("n", 3), sx("lte1"), sx("mode0"), sx("th0")
+        rq0, d0 = N[0], N[1]
+        ref0 = M0 == FULL
+        kmax1 = ca.if_else(ref0, N[2], kmax)
+        lte_use = ca.if_else(ltep > 0, ca.fmin(L1, 2 * ltep), L1)  # x1 may be off by the tolerance
+        tolx = ca.fmax(T[1], o.lte_fraction * lte_use)
+        tq = ca.fmax(T[0], 2 * np.finfo(float).eps * kmax1 * self.S.span)
+        ok_full = ca.logic_and(ref0, ca.logic_or(d0 <= 0.1 * tolx, ca.logic_and(ca.logic_and(om > 0, fresh),
+                                                                                2 * om * d0 * d0 <= tolx)))
+        conv = ca.logic_or(rq0 <= tq, ok_full) if o.single else ca.SX(0)
+        vals = dict(conv=conv, tolx=tolx, tq=tq, kmax=kmax1, iters=1, nfull=ref0, since_full=0, d_prev=d0,
+                    last_full=ref0, th=0, mode=ca.if_else(conv, KEEP, MOD), d1=0, th1=0, conv0=conv, refac0=ref0,
+                    d0=d0, th0=TH0, lte1=L1)
+        first = ca.Function("after_first", [C, N, L1, T, M0, TH0], [ca.vertcat(*[vals[k] for k in self._CV])])
+        # after a further iteration: keep when converged; after a refactorisation the new factor; else refactorise
+        # when the kept factor contracted too slowly (theta measured in this step)
+        CV, Nk = sx("cv", len(self._CV)), sx("n", 3)
+        cv = {k: CV[i] for k, i in idx.items()}
+        ran, is_full = cv["mode"] != KEEP, cv["mode"] == FULL
+        rq, d = Nk[0], Nk[1]
+        th = ca.if_else(ran, d / ca.fmax(cv["d_prev"], tiny), 0)
+        conv_k = ca.logic_or(ca.logic_or(rq <= cv["tq"], d <= 0.1 * cv["tolx"]),
+                             ca.logic_and(th < 0.5, th / (1 - th) * d <= cv["tolx"]))
+        new = dict(cv)
+        new["conv"] = ca.logic_or(cv["conv"], ca.logic_and(ran, conv_k))
+        new["iters"] = cv["iters"] + ran
+        new["nfull"] = cv["nfull"] + is_full
+        new["since_full"] = ca.if_else(is_full, 0, cv["since_full"] + ran)
+        new["kmax"] = ca.if_else(is_full, Nk[2], cv["kmax"])
+        new["d_prev"] = ca.if_else(ran, d, cv["d_prev"])
+        new["last_full"] = ca.if_else(ran, is_full, cv["last_full"])
+        new["th"] = th
+        bad = ca.logic_and(ca.logic_not(new["last_full"]), th > cmax)
+        new["mode"] = ca.if_else(new["conv"], KEEP, ca.if_else(bad, FULL, MOD))
+        later = ca.Function("after_later", [CV, Nk], [ca.vertcat(*[new[k] for k in self._CV])])
+        new1 = dict(new, d1=d, th1=th)
+        second = ca.Function("after_second", [CV, Nk], [ca.vertcat(*[new1[k] for k in self._CV])])
+        # controls for the next step
+        L2 = sx("lte")
+        two = ca.logic_not(cv["conv0"])  # a second iteration ran: the estimates were measured
+        # contraction per step of factor age, measured when the step started on the kept factor (age >= 1);
+        # it rises at once and decays slowly (one lucky measurement must not make the next steps optimistic)
+        meas = cv["th1"] / ca.fmax(age, 1)
+        rate_new = ca.if_else(ca.logic_and(two, ca.logic_not(cv["refac0"])),
+                              ca.if_else(known, ca.fmax(meas, 0.7 * rate), meas), rate)
+        om_new = ca.if_else(ca.logic_and(two, cv["refac0"]),
+                            ca.if_else(cv["d0"] > 0, ca.fmax(cv["d1"] / ca.fmax(cv["d0"] ** 2, tiny), 0.5 * om), om),
+                            om)
+        any_full = cv["nfull"] > 0
+        ctl_new = ca.vertcat(om_new, ca.if_else(two, 0, since + 1), rate_new, ca.if_else(any_full, 1, age + 1),
+                             ca.if_else(any_full, hs, fh), cv["kmax"], cv["d0"], cv["tolx"], L2,
+                             ca.if_else(any_full, R + cv["since_full"], cyc + cv["iters"]))
+        info = ca.vertcat(cv["conv"], cv["iters"], cv["nfull"], cv["d0"], cv["d1"], cv["lte1"], cv["kmax"])
+        final = ca.Function("controls", [C, CV, L2, hs], [ctl_new, info])
+        return dict(decide=decide, first=first, second=second, later=later, final=final, mode=idx["mode"])
+
+    def _build_modified(self) -> ca.Function:
+        """Modified Newton with the LDL^T factor as accumulated inputs (see the class docstring)."""
+        S = self.S
+        nf = S.nf
+        nD, nU, nUT = S.factor_size
+        st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel = self._step_inputs()
+        D0, U0, UT0 = ca.MX.sym("D", nD), ca.MX.sym("U", nU), ca.MX.sym("UT", nUT)
+        c = self._step_common(q, v, a, ab, ap, h, hp, pload, kel)
+        x0, p, cm, cc, vc = c["x0"], c["p"], c["cm"], c["cc"], c["vc"]
+        extra = [kel] if kel is not None else []
+        # one Newton iteration of each kind, with the same signature: keep (converged), kept factor, refactorise
+        xs, Ds, Us, UTs = ca.MX.sym("x", nf), ca.MX.sym("D", nD), ca.MX.sym("U", nU), ca.MX.sym("UT", nUT)
+        ps, cms, ccs, vcs = ca.MX.sym("p", nf), ca.MX.sym("cm"), ca.MX.sym("cc"), ca.MX.sym("vc", nf)
+        ks = [ca.MX.sym("kel", S.kel.size)] if kel is not None else []
+        args = [xs, Ds, Us, UTs, ps, cms, ccs, vcs] + ks
+        none = ca.MX(0, 1)
+        r, nr = S.res_f(xs, none, ps, cms, ccs, 1.0, vcs, *ks)
+        dz = -S.ldl_solve_mx(Ds, Us, UTs, r)
+        f_mod = ca.Function("kept_factor", args, [xs + dz, Ds, Us, UTs, ca.vertcat(nr[0], ca.mmax(ca.fabs(dz)), 0)])
+        r, nj, knz = S.jac_f(xs, none, ps, cms, ccs, 1.0, vcs, *ks)
+        D2, U2, UT2 = S.fact_f(knz)
+        dz = -S.ldl_solve_mx(D2, U2, UT2, r)
+        f_full = ca.Function("refactorise", args,
+                             [xs + dz, D2, U2, UT2, ca.vertcat(nj[0], ca.mmax(ca.fabs(dz)), nj[2])])
+        f_keep = ca.Function("keep", args, [xs, Ds, Us, UTs, ca.DM.zeros(3)])
+        slot = ca.Function.conditional("newton_iteration", [f_keep, f_mod], f_full)  # 0 keep, 1 kept, 2 refactorise
+        cf = self._control_functions()
+        dm = cf["decide"](ctl, h)
+        mode0, th0 = dm[0], dm[1]
+        x, Dk, Uk, UTk, n = slot(mode0, x0, D0, U0, UT0, p, cm, cc, vc, *extra)
+        cv = cf["first"](ctl, n, c["lte"](x), tols, mode0, th0)
+        for k in range(1, self.max_slots):
+            x, Dk, Uk, UTk, n = slot(cv[cf["mode"]], x, Dk, Uk, UTk, p, cm, cc, vc, *extra)
+            cv = (cf["second"] if k == 1 else cf["later"])(cv, n)
+        ctl_new, info = cf["final"](ctl, cv, c["lte"](x), h)
+        new_state = ca.vertcat(c["block"](x), lam, ctl_new)
+        return self._make_step_f([st, D0, U0, UT0], [h, hp, pload, tols] + extra, [new_state, Dk, Uk, UTk], info)
+
+    def _make_step_f(self, accum_in, other_in, accum_out, info) -> ca.Function:
+        names = ["state", "D", "U", "UT"][:len(accum_in)] + ["h", "h_prev", "pload", "tols", "kel"][:len(other_in)]
+        return ca.Function("alpha_step", accum_in + other_in, accum_out + [info], names,
+                           ["next_" + nm for nm in names[:len(accum_out)]] + ["info"])
+
+    def _setup_step_buffers(self) -> None:
+        S, nf = self.S, self.S.nf
+        self._s_in, self._s_out, self._info = np.zeros(self.state_size), np.zeros(self.state_size), \
+            np.zeros(self.info_size)
+        self._f_out = [np.zeros(k) for k in self.fac_sizes]
         self._h, self._hp, self._pload, self._tols = np.zeros(1), np.zeros(1), np.zeros(nf), np.zeros(2)
-        args = [self._s_in, self._h, self._hp, self._pload, self._tols] + ([S.kel] if kel is not None else [])
+        args = [self._s_in] + self.fac + [self._h, self._hp, self._pload, self._tols] + \
+            ([S.kel] if S.kel is not None else [])
+        outs = [self._s_out] + self._f_out + [self._info]
         buf, ev = self.step_f.buffer()
         for i, arr in enumerate(args):
             buf.set_arg(i, memoryview(arr))
-        buf.set_res(0, memoryview(self._s_out))
-        buf.set_res(1, memoryview(self._info))
-        self._step = (buf, ev, args)
+        for i, arr in enumerate(outs):
+            buf.set_res(i, memoryview(arr))
+        self._step = (buf, ev, args, outs)
 
     # -- state ------------------------------------------------------------------------------------------------
     def initialize(self, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray) -> None:
@@ -945,6 +1255,7 @@ class AlphaIntegrator:
         self.ab[:] = self.a
         self.a_prev[:] = self.a
         self.h_prev = None
+        self._reset_controls()
 
     def update_damping(self) -> None:
         """Rayleigh stiffness damping uses the elastic tangent at the start of the step."""
@@ -957,8 +1268,9 @@ class AlphaIntegrator:
 
     @property
     def chunkable(self) -> bool:
-        """The whole step is in the graph (no Python per step): full Newton, no stiffness damping update."""
-        return not self.opts.modified and self._kel_f is None
+        """The whole step is in the graph (no Python per step): no stiffness damping update, and not the Python
+        modified-Newton loop."""
+        return (self.modified_graph or not self.opts.modified) and self._kel_f is None
 
     # -- one step ---------------------------------------------------------------------------------------------
     def attempt(self, t: float, h: float, loads=None) -> StepOutcome:
@@ -967,7 +1279,8 @@ class AlphaIntegrator:
         S = self.S
         pload = -S.f_lin if loads is None else -(S.f_lin + loads(t + h))
         self._h_try = h
-        if not self.opts.modified:
+        python_newton = self.opts
+        if self.modified_graph or not self.opts.modified:
             self._s_in[:] = self.pack()
             self._h[0] = h
             self._hp[0] = self.h_prev if self.h_prev else 0.0
@@ -975,45 +1288,55 @@ class AlphaIntegrator:
             self._tols[:] = self.tol_q, self.tol_x
             self._step[1]()
             info = self._info
-            k = int(info[1])
-            self._count(k)
-            if info[0] == 1 and np.all(np.isfinite(self._s_out)):
+            k = self._count(info)
+            finite = np.all(np.isfinite(self._s_out))
+            if info[0] == 1 and finite and all(np.all(np.isfinite(f)) for f in self._f_out):
                 u = self.unpack(self._s_out)
                 for key in ("q", "v", "a", "ab", "lam"):
                     self.new[key][:] = u[key]
-                self._new_omega, self._new_since = u["omega"], u["since"]
+                self._new_ctl[:] = u["ctl"]
+                for dst, src in zip(self._new_fac, self._f_out):
+                    dst[:] = src
                 return StepOutcome(True, k, "", True)
-            if np.all(np.isfinite(self._s_out)):  # continue from the graph's last iterate
+            # the graph did not converge: full Newton in Python, from the graph's last iterate if finite
+            python_newton = NewtonOptions(**{**self.opts.__dict__, "modified": False})
+            kc = self.scheme.cm(h) * S.stiffness_scale()
+            if finite:
                 u = self.unpack(self._s_out)
-                kc = self.scheme.cm(h) * S.stiffness_scale()
                 S.x[:], S.lam[:] = u["q"], u["lam"] / kc
                 S.p[:] = self._predict(h, pload, kc)[2]
                 it0 = k
-                self._new_omega = u["omega"]
             else:
-                S.x[:], S.lam[:], S.p[:] = self._predict(h, pload, self.scheme.cm(h) * S.stiffness_scale())
+                S.x[:], S.lam[:], S.p[:] = self._predict(h, pload, kc)
                 it0 = 0
-                self._new_omega = self.omega
         else:
             S.x[:], S.lam[:], S.p[:] = self._predict(h, pload, self.scheme.cm(h) * S.stiffness_scale())
             it0 = 0
-            self._new_omega = self.omega
         sc = self.scheme
         kc = sc.cm(h) * S.stiffness_scale()
         S.cm[0], S.cc[0], S.kc[0] = sc.cm(h), sc.cc(h), kc
-        out = newton(S, self.factor, (h, kc), self.opts, self.counters, self.tol_q, self.tol_x, it0)
+        out = newton(S, self.factor, (h, kc), python_newton, self.counters, self.tol_q, self.tol_x, it0)
         if not out.converged:
             return StepOutcome(False, out.iterations, out.reason)
         self._correct(h, S.x, S.lam * kc)
-        self._new_since = 0.0
+        # controls after a Python step: estimates to be re-measured; the kept factor (modified) one step older
+        self._new_ctl[:] = self.ctl
+        self._new_ctl[1] = 0.0
+        if self.modified_graph:
+            self._new_ctl[3] += 1  # factor age
+            self._new_ctl[6] = 0.0  # |dz0| of this step unknown: no one-iteration acceptance next
+        for dst, src in zip(self._new_fac, self.fac):
+            dst[:] = src
         return StepOutcome(True, out.iterations)
 
-    def _count(self, k: int) -> None:
+    def _count(self, info: np.ndarray) -> int:
         c = self.counters
+        k, f = int(info[1]), int(info[2])
         c.residuals += k
-        c.jacobians += k
-        c.factorizations += k
+        c.jacobians += f
+        c.factorizations += f
         c.newton_iterations += k
+        return k
 
     def _predict(self, h, pload, kc):
         sc, S = self.scheme, self.S
@@ -1050,23 +1373,27 @@ class AlphaIntegrator:
         self.a_prev[:] = self.a
         for k in ("q", "v", "a", "ab", "lam"):
             getattr(self, k)[:] = self.new[k]
-        self.omega, self.since = self._new_omega, self._new_since
+        self.ctl[:] = self._new_ctl
+        for dst, src in zip(self.fac, self._new_fac):
+            dst[:] = src
         self.h_prev = self._h_try
         self.update_damping()
 
     # -- many steps in one call -------------------------------------------------------------------------------
     def chunk_function(self, n: int):
         if n not in self._chunks:
-            f = self.step_f.mapaccum(f"alpha_steps_{n}", n)
+            f = self.step_f.mapaccum(f"alpha_steps_{n}", n, self.n_accum)
             buf, ev = f.buffer()
             nf = self.S.nf
             bufs = dict(s=np.zeros(self.state_size), h=np.zeros(n), hp=np.zeros(n), pload=np.zeros(nf * n),
-                        tols=np.zeros(2 * n), out=np.zeros(self.state_size * n), info=np.zeros(6 * n))
-            args = [bufs["s"], bufs["h"], bufs["hp"], bufs["pload"], bufs["tols"]]
+                        tols=np.zeros(2 * n), out=np.zeros(self.state_size * n), info=np.zeros(self.info_size * n),
+                        fac_out=[np.zeros(k * n) for k in self.fac_sizes])
+            args = [bufs["s"]] + self.fac + [bufs["h"], bufs["hp"], bufs["pload"], bufs["tols"]]
+            outs = [bufs["out"]] + bufs["fac_out"] + [bufs["info"]]
             for i, arr in enumerate(args):
                 buf.set_arg(i, memoryview(arr))
-            buf.set_res(0, memoryview(bufs["out"]))
-            buf.set_res(1, memoryview(bufs["info"]))
+            for i, arr in enumerate(outs):
+                buf.set_res(i, memoryview(arr))
             self._chunks[n] = (buf, ev, bufs)
         return self._chunks[n]
 
@@ -1083,19 +1410,18 @@ class AlphaIntegrator:
         b["pload"][:] = ploads.ravel(order="F")
         b["tols"][0::2], b["tols"][1::2] = self.tol_q, self.tol_x
         ev()
-        info = b["info"].reshape(n, 6)
+        info = b["info"].reshape(n, self.info_size)
         states = b["out"].reshape(n, self.state_size)
         good = (info[:, 0] == 1) & np.all(np.isfinite(states), axis=1)
         n_ok = n if good.all() else int(np.argmin(good))
-        its = info[:n_ok, 1].sum() if n_ok else 0
-        self._count(int(its))
-        if n_ok < n:  # the failing step's work was spent too
-            self._count(int(info[n_ok, 1]))
+        self._count(info[:min(n_ok + 1, n)].sum(axis=0))  # the failing step's work was spent too
         if n_ok:
             self.a_prev[:] = states[n_ok - 2, 2 * self.S.nf:3 * self.S.nf] if n_ok > 1 else self.a
             u = self.unpack(states[n_ok - 1])
             for k in ("q", "v", "a", "ab", "lam"):
                 getattr(self, k)[:] = u[k]
-            self.omega, self.since = u["omega"], u["since"]
+            self.ctl[:] = u["ctl"]
+            for dst, src, k in zip(self.fac, b["fac_out"], self.fac_sizes):
+                dst[:] = src[(n_ok - 1) * k:n_ok * k]
             self.h_prev = h
         return states[:n_ok], n_ok
