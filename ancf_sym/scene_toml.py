@@ -10,6 +10,7 @@ The file mirrors the Python API (docs/scenes.md has the full schema and an annot
     [[supports]]         type = "clamp" | "pin" | "slope", member, at, method, penalty
     [[joints]]           type = "hinge" | "rigid", a = [member, at], b = [member, at], method, penalty
     [[loads]]            type = "force" | "distributed" | "moment" | "tension", member, at, value
+    [[dampings]]         type = "rayleigh" (alpha, beta, members) | "strain_rate" (axial, bending, members)
     [analysis]           type = "statics" (tol, max_iter, load_steps, escape_saddle) | "dynamics" (passed through)
 
 Everything is checked before any solving. Every error is a SceneError whose message starts with the TOML path of
@@ -30,7 +31,7 @@ try:
 except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
-TOP_KEYS = ("scene", "materials", "sections", "members", "supports", "joints", "loads", "analysis")
+TOP_KEYS = ("scene", "materials", "sections", "members", "supports", "joints", "loads", "dampings", "analysis")
 SCENE_KEYS = ("name", "dim", "gravity")
 MATERIAL_KEYS = ("E", "density", "G", "poisson")
 SECTION_KEYS = {None: ("area", "I", "Iy", "Iz", "J", "b", "h"), "circle": ("diameter",), "rectangle": ("b", "h")}
@@ -39,6 +40,7 @@ MEMBER_KEYS = ("name", "points", "elements", "material", "section", "element", "
 SUPPORT_TYPES = ("clamp", "pin", "slope")
 JOINT_TYPES = ("hinge", "rigid")
 LOAD_TYPES = ("force", "distributed", "moment", "tension")
+DAMPING_FIELDS = {"rayleigh": ("alpha", "beta"), "strain_rate": ("axial", "bending")}
 METHODS = ("exact", "penalty")
 ANALYSIS_TYPES = ("statics", "dynamics")
 STATICS_OPTIONS = ("tol", "max_iter", "load_steps", "escape_saddle")
@@ -278,6 +280,39 @@ def _load(scene: Scene, path: str, d: dict) -> None:
     _api(path if kind == "moment" else f"{path}.at", call, member, at, value)
 
 
+def _damping(scene: Scene, path: str, d: dict) -> None:
+    """Dynamics only: Scene.rayleigh (alpha [1/s], beta [s]) or Scene.strain_rate_damping (axial [N s],
+    bending [N m^2 s]); members (default all) is a list of member names."""
+    if "type" not in d:
+        raise _fail(f"{path}.type", "missing (required: rayleigh | strain_rate)", show=False)
+    kind = _str(f"{path}.type", d["type"], tuple(DAMPING_FIELDS))
+    fields = DAMPING_FIELDS[kind]
+    _keys(path, d, ("type", "members") + fields, ("type",))
+    if not any(f in d for f in fields):
+        raise _fail(path, f"give {' and/or '.join(fields)} (a {kind} damping without coefficients)", show=False)
+    kw: dict[str, Any] = {}
+    for f in fields:
+        if f in d:
+            v = _number(f"{path}.{f}", d[f])
+            if v < 0:
+                raise _fail(f"{path}.{f}", "must be >= 0", d[f])
+            kw[f] = v
+    if "members" in d:
+        m = d["members"]
+        if not isinstance(m, list) or not m:
+            raise _fail(f"{path}.members", "must be a non-empty array of member names", m)
+        kw["members"] = [_member_name(scene, f"{path}.members[{i}]", v) for i, v in enumerate(m)]
+    if kind == "rayleigh" and kw.get("alpha"):  # (what the dynamics would refuse, refused now)
+        if "members" in kw:
+            raise _fail(f"{path}.members", "alpha (mass-proportional) acts on the whole scene: give members only "
+                        "with beta", d["members"])
+        other = {dd.alpha for dd in scene.dampings if dd.kind == "rayleigh" and dd.alpha} - {kw["alpha"]}
+        if other:
+            raise _fail(f"{path}.alpha", f"the scene has one mass-proportional alpha; an earlier damping gives "
+                        f"{other.pop()!r}", d["alpha"])
+    _api(path, scene.rayleigh if kind == "rayleigh" else scene.strain_rate_damping, **kw)
+
+
 def _analysis(d: Any) -> dict:
     d = _table("analysis", d)
     kind = _str("analysis.type", d.get("type", "statics"), ANALYSIS_TYPES)
@@ -321,6 +356,8 @@ def scene_from_dict(doc: dict, default_name: str = "scene") -> tuple[Scene, dict
         _joint(scene, f"joints[{i}]", d)
     for i, d in enumerate(_array_of_tables("loads", doc.get("loads", []))):
         _load(scene, f"loads[{i}]", d)
+    for i, d in enumerate(_array_of_tables("dampings", doc.get("dampings", []))):
+        _damping(scene, f"dampings[{i}]", d)
 
     # dry run of the mesh and the energy terms (numpy only, no kernels): what they refuse, refuse now
     _api("members", lambda: scene_terms(build_mesh(scene)))

@@ -225,3 +225,71 @@ def test_nan_inf_literals_and_bad_files(tmp_path):
         load_scene(p)
     with pytest.raises(SceneError, match="not found"):
         load_scene(tmp_path / "missing.toml")
+
+
+# -- dampings (dynamics) -----------------------------------------------------------------------------------------
+
+def test_dampings_match_python_api():
+    doc = tomllib.loads((SCENES / "t_frame.toml").read_text())
+    doc["dampings"] = [{"type": "rayleigh", "alpha": 0.5}, {"type": "rayleigh", "beta": 1e-3, "members": ["post"]},
+                       {"type": "strain_rate", "axial": 100.0, "bending": 0.5, "members": ["crossbar"]},
+                       {"type": "strain_rate", "bending": 2}]
+    scene, _ = scene_from_dict(doc)
+    api = api_t_frame()
+    api.rayleigh(alpha=0.5)
+    api.rayleigh(beta=1e-3, members=["post"])
+    api.strain_rate_damping(axial=100.0, bending=0.5, members=["crossbar"])
+    api.strain_rate_damping(bending=2.0)
+    assert scene.dampings == api.dampings
+
+
+def test_dampings_run_in_dynamics():
+    """A TOML Rayleigh damping reaches the dynamics: the released cantilever books damping work."""
+    from ancf_sym.dynamics import run_dynamics
+    doc = tomllib.loads((SCENES / "cantilever.toml").read_text())
+    doc["dampings"] = [{"type": "rayleigh", "alpha": 2.0}, {"type": "strain_rate", "axial": 50.0}]
+    doc["analysis"] = {"type": "dynamics", "dt": 1e-3, "t_end": 0.05, "output_every": 10}
+    scene, analysis = scene_from_dict(doc)
+    r = run_dynamics(scene, analysis)
+    assert r.status == "completed" and r.energies["damping_work"][-1] > 0
+
+
+DAMPING_BAD = [  # (dampings array, field path expected at the start of the message, words expected after)
+    ([{"type": "viscous", "alpha": 1.0}], "dampings[0].type", "rayleigh | strain_rate"),
+    ([{"alpha": 1.0}], "dampings[0].type", "missing"),
+    ([{"type": "rayleigh", "axial": 1.0}], "dampings[0].axial", "unknown key"),
+    ([{"type": "rayleigh"}], "dampings[0]", "alpha and/or beta"),
+    ([{"type": "strain_rate", "members": ["post"]}], "dampings[0]", "axial and/or bending"),
+    ([{"type": "rayleigh", "beta": -1e-3}], "dampings[0].beta", ">= 0, got -0.001"),
+    ([{"type": "rayleigh", "alpha": math.inf}], "dampings[0].alpha", "finite"),
+    ([{"type": "strain_rate", "axial": "much"}], "dampings[0].axial", "number, got 'much'"),
+    ([{"type": "strain_rate", "axial": True}], "dampings[0].axial", "number, got True"),
+    ([{"type": "strain_rate", "axial": 1.0, "members": ["mast"]}], "dampings[0].members[0]", "names no member"),
+    ([{"type": "strain_rate", "axial": 1.0, "members": "post"}], "dampings[0].members", "array of member names"),
+    ([{"type": "strain_rate", "axial": 1.0, "members": []}], "dampings[0].members", "non-empty"),
+    ([{"type": "rayleigh", "alpha": 1.0, "members": ["post"]}], "dampings[0].members", "whole scene"),
+    ([{"type": "rayleigh", "alpha": 1.0}, {"type": "rayleigh", "alpha": 2.0}], "dampings[1].alpha", "1.0"),
+    ({"type": "rayleigh", "alpha": 1.0}, "dampings", "array of tables"),
+]
+
+
+@pytest.mark.parametrize("dampings,field,words", DAMPING_BAD, ids=[f"{f}:{w}" for _, f, w in DAMPING_BAD])
+def test_bad_dampings_name_the_field(dampings, field, words):
+    doc = tomllib.loads((SCENES / "t_frame.toml").read_text())
+    doc["dampings"] = dampings
+    with pytest.raises(SceneError) as exc:
+        scene_from_dict(doc)
+    msg = str(exc.value)
+    assert msg.startswith(f"{field}:"), msg
+    assert words in msg, msg
+
+
+def test_strain_rate_damping_of_a_beam3d_is_refused():
+    doc = {"scene": {"dim": 3}, "materials": {"steel": {"E": 200e9, "density": 7800}},
+           "sections": {"bar": {"shape": "rectangle", "b": 0.02, "h": 0.03}},
+           "members": [{"name": "beam", "points": [[0, 0, 0], [1, 0, 0]], "elements": 2, "material": "steel",
+                        "section": "bar", "element": "beam3d"}],
+           "supports": [{"type": "clamp", "member": "beam"}],
+           "dampings": [{"type": "strain_rate", "axial": 1.0}]}
+    with pytest.raises(SceneError, match=r"^dampings\[0\]: .*beam3d"):
+        scene_from_dict(doc)
