@@ -277,6 +277,7 @@ class StepSystem:
         nf = part.ny
         self.nf = nf
         self.pos = part.pos
+        self._gather = np.where(part.pos >= 0, part.pos, nf)  # full coordinate k = ext[_gather[k]], ext[nf] = 0
         self.E = part.E
         self.cons = asm.exact.subset(part.rows) if len(part.rows) else None
         self.mc = self.cons.m if self.cons is not None else 0
@@ -501,7 +502,11 @@ class StepSystem:
         Mdm = _dm(self.M)
         Cx, C = self.damping_mx(xf, kel)
         r_q = cm * ca.mtimes(Mdm, xf) + cc * Cx + g + p
-        S = cm * Mdm + cc * C + K
+        spS = K.sparsity().unite(Mdm.sparsity())
+        if spS == K.sparsity():  # M placed in K's pattern once: no projection of M at every evaluation
+            S = cm * ca.project(Mdm, spS) + cc * C + K
+        else:
+            S = cm * Mdm + cc * C + K
         if self.damp_f is not None:
             fd, dfx, dfv = self.damp_f(xf, vc + cc * xf)
             r_q += fd
@@ -528,7 +533,8 @@ class StepSystem:
         names = ["x", "lam", "p", "cm", "cc", "kc", "vc"] + (["kel"] if kel is not None else [])
         self.kkt_sparsity = KKT.sparsity()
         kkt_nz = _mx_sparse_nz(KKT)
-        kmax = ca.mmax(ca.fabs(kkt_nz))
+        # largest entry (round-off floor): on the diagonal when the step matrix is positive definite
+        kmax = ca.mmax(ca.fabs(ca.diag(KKT))) if self.linsol == "ldl" and not mc else ca.mmax(ca.fabs(kkt_nz))
         dz = -ca.solve(KKT, r, self.linsol)
         dzx = ca.mmax(ca.fabs(dz[:nf]))
         dzl = ca.mmax(ca.fabs(dz[nf:])) if mc else ca.MX(0)
@@ -633,10 +639,16 @@ class StepSystem:
 
     def full(self, xf: np.ndarray) -> np.ndarray:
         """Coordinates of the scene from the unknowns."""
-        return self.E @ xf + self.part.c
+        return self.full_v(xf) + self.part.c
 
     def full_v(self, vf: np.ndarray) -> np.ndarray:
-        return self.E @ vf
+        """E vf: every coordinate is one unknown or fixed (a gather, cheaper than the sparse product)."""
+        vf = np.asarray(vf, dtype=float)
+        if vf.ndim != 1:
+            return self.E @ vf
+        ext = np.empty(self.nf + 1)
+        ext[:-1], ext[-1] = vf, 0.0
+        return ext[self._gather]
 
     def reduce(self, x_full: np.ndarray) -> np.ndarray:
         """Unknowns from scene coordinates (that satisfy the eliminated constraints)."""
@@ -1056,13 +1068,43 @@ class AlphaIntegrator:
 
         return dict(x0=x0, p=p, cm=cm, cc=cc, kc=kc, vc=vh - cc * qh, lte=lte, block=block)
 
+    def _full_control_functions(self) -> tuple[ca.Function, ca.Function]:
+        """The full-Newton step's scalar logic as two SX functions (before and after the second iteration)."""
+        o, tiny = self.opts, 1e-300
+        sx = ca.SX.sym
+        C, N0, L, T = sx("ctl", 2), sx("n0", 5), sx("lte"), sx("tols", 2)
+        om, since = C[0], C[1]
+        d0 = ca.fmax(N0[2], N0[3])
+        tolx = ca.fmax(T[1], o.lte_fraction * L)
+        tq = ca.fmax(T[0], 2 * np.finfo(float).eps * N0[4] * self.S.span)
+        conv0 = ca.logic_and(N0[0] <= tq, N0[1] <= T[1])
+        est1 = 2 * om * d0 * d0
+        # omega is re-measured (second iteration) at least every refresh_every steps, up to 8x less often when the
+        # estimate has a wide margin
+        fresh = since < self.refresh_every * ca.fmin(8, ca.fmax(1, 0.1 * tolx / ca.fmax(est1, tiny)))
+        conv1 = ca.logic_and(ca.logic_and(om > 0, fresh), est1 <= tolx)
+        accept1 = ca.logic_or(conv0, conv1) if o.single else ca.SX(0)
+        first = ca.Function("after_first", [C, N0, L, T], [ca.vertcat(ca.if_else(accept1, 0, 1), tq, tolx, d0)])
+        A, N1 = sx("a", 4), sx("n1", 5)
+        second, tq, tolx, d0 = A[0], A[1], A[2], A[3]
+        accept1 = second == 0
+        d1 = ca.fmax(N1[2], N1[3])
+        th = d1 / ca.fmax(d0, tiny)
+        conv2 = ca.logic_or(ca.logic_and(N1[0] <= tq, N1[1] <= T[1]), d1 <= 0.1 * tolx)
+        conv2 = ca.logic_or(conv2, ca.logic_and(th < 0.5, th / (1 - th) * d1 <= tolx))
+        ok = ca.if_else(accept1, 1, conv2)
+        om_new = ca.if_else(accept1, om, ca.if_else(d0 > 0, ca.fmax(d1 / ca.fmax(d0 * d0, tiny), 0.5 * om), om))
+        since_new = ca.if_else(accept1, since + 1, 0)
+        iters = ca.if_else(accept1, 1, 2)
+        final = ca.Function("controls", [C, N0, A, N1, L, T],
+                            [ca.vertcat(om_new, since_new), ca.vertcat(ok, iters, iters, d0, d1, L, N0[4])])
+        return first, final
+
     def _build_full(self) -> ca.Function:
         """Full Newton: one iteration, then (in-graph switch) either acceptance or a second iteration."""
-        S, o = self.S, self.opts
+        S = self.S
         nf, mc = S.nf, S.mc
         st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel = self._step_inputs()
-        tol_q, tol_x = tols[0], tols[1]
-        om, since = ctl[0], ctl[1]
         c = self._step_common(q, v, a, ab, ap, h, hp, pload, kel)
         x0, p, cm, cc, kc, vc = c["x0"], c["p"], c["cm"], c["cc"], c["kc"], c["vc"]
         l0 = lam / kc
@@ -1070,17 +1112,9 @@ class AlphaIntegrator:
         dz, n0 = S.iter_f(x0, l0, p, cm, cc, kc, vc, *extra)
         x1 = x0 + dz[:nf]
         l1 = l0 + dz[nf:] if mc else l0
-        d0 = ca.fmax(n0[2], n0[3])
         lte = c["lte"](x1)
-        tolx = ca.fmax(tol_x, o.lte_fraction * lte)
-        tq = ca.fmax(tol_q, 2 * np.finfo(float).eps * n0[4] * S.span)
-        conv0 = ca.logic_and(n0[0] <= tq, n0[1] <= tol_x)
-        est1 = 2 * om * d0 * d0
-        # omega is re-measured (second iteration) at least every refresh_every steps, up to 8x less often when the
-        # estimate has a wide margin
-        fresh = since < self.refresh_every * ca.fmin(8, ca.fmax(1, 0.1 * tolx / ca.fmax(est1, 1e-300)))
-        conv1 = ca.logic_and(ca.logic_and(om > 0, fresh), est1 <= tolx)
-        accept1 = ca.logic_or(conv0, conv1) if o.single else ca.MX(0)
+        first, final = self._full_control_functions()
+        a1 = first(ctl, n0, lte, tols)
         # second iteration, evaluated only when needed
         xb, lb, pb = ca.MX.sym("xb", nf), ca.MX.sym("lb", mc), ca.MX.sym("pb", nf)
         cb, ccb, kb, vb = ca.MX.sym("cmb"), ca.MX.sym("ccb"), ca.MX.sym("kcb"), ca.MX.sym("vcb", nf)
@@ -1090,17 +1124,9 @@ class AlphaIntegrator:
         f_iter = ca.Function("second", [xb, lb, pb, cb, ccb, kb, vb] + eb,
                              [xb + dzb[:nf], (lb + dzb[nf:]) if mc else lb, nb])
         switch = ca.Function.conditional("second_iteration", [f_keep], f_iter)
-        x2, l2, n1 = switch(ca.if_else(accept1, 0, 1), x1, l1, p, cm, cc, kc, vc, *extra)
-        d1 = ca.fmax(n1[2], n1[3])
-        th = d1 / ca.fmax(d0, 1e-300)
-        conv2 = ca.logic_or(ca.logic_and(n1[0] <= tq, n1[1] <= tol_x), d1 <= 0.1 * tolx)
-        conv2 = ca.logic_or(conv2, ca.logic_and(th < 0.5, th / (1 - th) * d1 <= tolx))
-        ok = ca.if_else(accept1, 1, conv2)
-        om_new = ca.if_else(accept1, om, ca.if_else(d0 > 0, ca.fmax(d1 / ca.fmax(d0 * d0, 1e-300), 0.5 * om), om))
-        since_new = ca.if_else(accept1, since + 1, 0)
-        new_state = ca.vertcat(c["block"](x2), l2 * kc, om_new, since_new)
-        iters = ca.if_else(accept1, 1, 2)
-        info = ca.vertcat(ok, iters, iters, d0, d1, lte, n0[4])
+        x2, l2, n1 = switch(a1[0], x1, l1, p, cm, cc, kc, vc, *extra)
+        ctl_new, info = final(ctl, n0, a1, n1, lte, tols)
+        new_state = ca.vertcat(c["block"](x2), l2 * kc, ctl_new)
         return self._make_step_f([st], [h, hp, pload, tols] + extra, [new_state], info)
 
     # carried control vector of the modified step (SX functions between the iterations)
