@@ -221,7 +221,8 @@ def main(argv=None):
     rows = []
     for name in names:
         rows += bench_case(name, CASES[name], a.repeats, modes, a.exudyn_tols, a.no_energies, a.ancf_modified)
-    cols = ["case", "code", "cpu_min_s", "cpu_median_s", "wall_median_s", "setup_s", "cpu_total_median_s", "steps",
+    cols = ["case", "code", "cpu_min_s", "cpu_median_s", "wall_median_s", "setup_s", "cpu_sim_median_s",
+            "cpu_total_median_s", "steps",
             "newton_iterations", "factorizations", "steps_per_s", "newton_per_s", "factorizations_per_s",
             "max_err_vs_ref_m", "max_diff_vs_ancf_m"]
     w = {c: max(len(c), 12) for c in cols}
