@@ -498,8 +498,7 @@ class _Recorder:
         self.E0 = None
 
     def energy(self, qf, vf):
-        T = 0.5 * float(vf @ (self.S.M @ vf))
-        pot = self.S.potential(qf)
+        T, pot = self.S.energies(qf, vf)
         return T, pot, T + float(sum(pot.values()))
 
     def record(self, t, qf, vf, damping_work, external_work):

@@ -397,6 +397,10 @@ class StepSystem:
         self.energy_labels = [lbl for lbl, _ in elist]
         self.energy_f = ca.Function("energies", [xf], [ca.vertcat(*[e for _, e in elist]) if elist
                                                        else ca.MX(0, 1)])
+        vf = ca.MX.sym("v", nf)  # the outputs' energies in one call: the potentials and the kinetic energy
+        self._energy_kin_f = ca.Function("energies_kinetic", [xf, vf], [
+            ca.vertcat(*[e for _, e in elist], 0.5 * ca.dot(vf, ca.mtimes(_dm(self.M), vf)))])
+        self._has_loads = bool(np.any(asm.Q))
 
     def _build_damping(self) -> None:
         """damp_f(x, v) -> (f_d, df_d/dx, df_d/dv) of the strain-rate dissipation D = 1/2 sum_points w L
@@ -668,24 +672,31 @@ class StepSystem:
 
     def potential(self, xf: np.ndarray) -> dict:
         """Energies by label at free coordinates xf (nonlinear terms, penalty and linear terms) [J]."""
+        return self.energies(xf, None)[1]
+
+    def energies(self, xf: np.ndarray, vf: np.ndarray | None) -> tuple[float, dict]:
+        """(kinetic energy 1/2 v.M v (0 without vf), potential energies by label) in one compiled call [J]."""
         out: dict[str, float] = {}
         if not hasattr(self, "_ebuf"):
-            self._e_x, self._e_v = np.zeros(self.nf), np.zeros(self.energy_f.nnz_out(0))
-            buf, ev = self.energy_f.buffer()
+            self._e_x, self._e_vel = np.zeros(self.nf), np.zeros(self.nf)
+            self._e_v = np.zeros(self._energy_kin_f.nnz_out(0))
+            buf, ev = self._energy_kin_f.buffer()
             buf.set_arg(0, memoryview(self._e_x))
+            buf.set_arg(1, memoryview(self._e_vel))
             buf.set_res(0, memoryview(self._e_v))
             self._ebuf = (buf, ev)
         self._e_x[:] = xf
+        self._e_vel[:] = 0.0 if vf is None else vf
         self._ebuf[1]()
         vals = self._e_v
-        for label, v in zip(self.energy_labels, vals):
+        for label, v in zip(self.energy_labels, vals[:-1]):
             out[label] = out.get(label, 0.0) + float(v)
         x = self.full(xf)
         for idx, G, c, label in self._lin_energy:
             out[label] = out.get(label, 0.0) + c + float(G @ x[idx])
-        if np.any(self.asm.Q):
+        if self._has_loads:
             out["loads"] = out.get("loads", 0.0) - float(self.asm.Q @ x)
-        return out
+        return float(vals[-1]), out
 
     def phi(self, xf: np.ndarray) -> np.ndarray:
         return self.cons.value(self.full(xf)) if self.mc else np.zeros(0)
