@@ -244,15 +244,17 @@ class ControlProblem:
     ".acceleration"|"<force>.force": (lower, upper)}. start / end: values of support channels
     ({"trolley.position": 2.0}); both start and end at rest (zero support velocity, the scene at static equilibrium
     with zero velocity: at the end on its `end_modes` lowest vibration modes, default all below `end_frequency`
-    [Hz], else all modes). path: PathConstraint items. point_masses: PointMass items.
+    [Hz], default K / (4 T): the modes the grid resolves). path: PathConstraint items. point_masses: PointMass items.
+    control_form: "polynomial" (a control value per collocation point: the Lagrange polynomial in each interval) or
+    "constant" (one value per interval: bounds then hold at every instant, suited to bang-bang optima).
     """
 
     def __init__(self, scene: Scene, controls: Sequence, horizon: Any, point_masses: Sequence[PointMass] = (),
                  cost: Sequence = (Effort(),), bounds: dict | None = None, start: dict | None = None,
                  end: dict | None = None, path: Sequence[PathConstraint] = (), intervals: int = 20,
                  stages: int = 3, scheme: str = "radau", end_rest: bool = True, end_modes: int | None = None,
-                 end_frequency: float | None = None, tol: float = 1e-8, max_iter: int = 1000,
-                 print_level: int = 0, ipopt: dict | None = None):
+                 end_frequency: float | None = None, control_form: str = "polynomial", tol: float = 1e-8,
+                 max_iter: int = 1000, print_level: int = 0, ipopt: dict | None = None):
         t0 = time.perf_counter()
         if not isinstance(scene, Scene):
             raise SceneError(f"scene must be a Scene, got {scene!r}")
@@ -265,6 +267,10 @@ class ControlProblem:
         if scheme not in SCHEMES:
             raise SceneError(f"scheme must be one of {SCHEMES}, got {scheme!r}")
         self.K, self.scheme = int(intervals), scheme
+        if control_form not in ("polynomial", "constant"):
+            raise SceneError(f"control_form must be 'polynomial' (a value per collocation point) or 'constant' (one "
+                             f"per interval), got {control_form!r}")
+        self.control_form = control_form
         self.tab = tableau(scheme, stages)
         self.s = self.tab.s
         self.tol, self.max_iter, self.print_level = _num("tol", tol, positive=True), int(max_iter), int(print_level)
@@ -648,7 +654,8 @@ class ControlProblem:
         iq[0] = take(nf)
         for k in range(K):
             iv[k], isb[k], isvb[k] = take(nf), take(nc), take(nc)
-            iQ[k], iSP[k], iSV[k], iU[k] = take(s, nf), take(s, nc), take(s, nc), take(s, nu)
+            iQ[k], iSP[k], iSV[k] = take(s, nf), take(s, nc), take(s, nc)
+            iU[k] = take(s, nu) if self.control_form == "polynomial" else np.broadcast_to(take(1, nu), (s, nu))
             iq[k + 1] = iQ[k, s - 1] if radau else take(nf)
         iv[K], isb[K], isvb[K] = take(nf), take(nc), take(nc)
         self.iT = int(take(1)[0]) if self.free_time else None
@@ -1141,6 +1148,23 @@ class ControlProblem:
         return ControlResult(self, w, lam, status, ok, st, sum(a["wall_s"] for a in attempts), warm_s, warm,
                              attempts)
 
+    def violations(self, w: np.ndarray) -> dict:
+        """Largest violation per group: dynamics rows [N], the other collocation and continuity rows [m, m/s],
+        end rows (modal amplitudes [sqrt(kg) m, sqrt(kg) m/s]), path constraints (their units), variable bounds."""
+        g = np.asarray(self.g_function(w)).ravel()
+        v = np.maximum(self.lbg - g, 0) + np.maximum(g - self.ubg, 0)
+        out = {}
+        a, b = self._g_rows["dynamics"]
+        out["dynamics"] = float(v[a:b].max()) if b > a else 0.0
+        a2, b2 = self._g_rows["collocation"]
+        out["kinematics"] = float(v[b:b2].max()) if b2 > b else 0.0
+        for key in ("end", "path"):
+            a, b = self._g_rows[key]
+            out[key] = float(v[a:b].max()) if b > a else 0.0
+        vb = np.maximum(self._lbx - w, 0) + np.maximum(w - self._ubx, 0)
+        out["bounds"] = float(vb.max()) if vb.size else 0.0
+        return out
+
     def violation(self, w: np.ndarray) -> float:
         """Largest violation of the constraints (rows and variable bounds) at w, in their units (N, m, m/s)."""
         g = np.asarray(self.g_function(w)).ravel()
@@ -1200,6 +1224,7 @@ class ControlResult:
         self.Z, self.U, self.T = Z, U, T
         self.cost = float(prob.f_function(w))
         self.constraint_violation = prob.violation(w)
+        self.violations = prob.violations(w)
         self.t_nodes = prob.node_times(T)
         self.t_points = prob.point_times(T)
         nf, nc = prob.nf, prob.nc
