@@ -665,7 +665,10 @@ class _Run:
             if abs(tau - T[j]) <= self.eps_t:
                 rec.record(tau, q1, v1, self.W_d, self.W_ext)
             else:
-                t0, q0, v0 = (t_first, q_old, v_old) if j == 0 else (T[j - 1], states[j - 1, :nf], states[j - 1, nf:2 * nf])
+                if j == 0:
+                    t0, q0, v0 = t_first, q_old, v_old
+                else:
+                    t0, q0, v0 = T[j - 1], states[j - 1, :nf], states[j - 1, nf:2 * nf]
                 qi, vi = _hermite(t0, T[j], q0, v0, q1, v1, tau)
                 rec.record(tau, qi, vi, self.W_d, self.W_ext)
             self.out_i += 1

@@ -16,7 +16,7 @@ elements, no numpy scatter. Residuals alone use the kernels' (energy, gradient) 
 alpha schemes put a whole step (predictor, iterations, corrector) into one graph and map it over many steps (see
 AlphaIntegrator). Modified Newton is selectable (newton.modified): in the alpha schemes' step graph with the LDL^T
 factor carried in the state, else in Python with a SuperLU factorisation. Full Newton is the default: on the
-cable scenes measured (bench/DYNAMICS_RESULTS.md) it converges in one iteration on ~98 % of the steps, while a
+cable scenes measured (bench/DYNAMICS_RESULTS.md) it converges in one iteration on 96-98 % of the steps, while a
 modified step needs a second residual to measure its contraction, and a residual costs ~0.4 of a full iteration.
 
 Newmark, HHT-alpha and generalized-alpha are one family here, in the form of Arnold & Bruels (2007) that Exudyn
