@@ -9,7 +9,10 @@ scene at rest on its slow modes at T; IPOPT with the kernels' exact Jacobian and
 collocation simulation of a quintic rest-to-rest motion. Each optimum is re-simulated by the dynamics integrator
 (Radau IIA, steps dividing the collocation intervals) through T and 3 swing periods of rest; the residual swing is
 the largest horizontal offset of the payload from below the trolley after T. The quintic motion itself, simulated
-the same way, shows what the optimisation removes.
+the same way, shows what the optimisation removes. The re-simulation step is T/400 (--quick) or T/1600; the measured
+residual swing converged (0.05 mm at n = 4, K = 20) from T/800 on, while at T/400 the integrator's own error still
+shows (0.10 mm). Only the modes the grid resolves (below K/(4T) Hz: here the pendulum) are held at rest at T; the
+rope's 4 Hz mode is left free (constraining it too at K = 20 costs 4 % more effort and halves the residual).
 
 Run: python examples/crane_ocp.py [--quick] [--json PATH] [--out DIR] [--no-plots]
 Records (flat): n (elements), intervals, stages, scheme, cost [m^2/s^3], residual_swing_m (re-simulated),
@@ -48,10 +51,10 @@ def crane_problem(n: int, intervals: int, stages: int = 3, scheme: str = "radau"
                           end={"trolley.position": DISTANCE}, intervals=intervals, stages=stages, scheme=scheme, **kw)
 
 
-def solve_case(n: int, K: int, stages: int = 3, scheme: str = "radau"):
+def solve_case(n: int, K: int, stages: int = 3, scheme: str = "radau", resim_dt: float | None = None):
     prob = crane_problem(n, K, stages, scheme)
     res = prob.solve()
-    rep = res.resimulate() if res.success else None
+    rep = res.resimulate(dt=resim_dt) if res.success else None
     kt = res.kernel_time()
     rec = {"n": n, "intervals": K, "stages": stages, "scheme": scheme, "cost": res.cost,
            "residual_swing_m": rep.residual_swing_m if rep else None,
@@ -67,8 +70,9 @@ def run(quick: bool):
     cases = [(2, 8), (4, 8), (4, 16)] if quick else [(2, 10), (4, 10), (8, 10), (2, 20), (4, 20), (8, 20), (4, 40),
                                                       (8, 40)]
     records, curves = [], {}
+    resim_dt = None if quick else T_MOVE / 1600  # default T / 400; the residual swing converges below T / 800
     for n, K in cases:
-        rec, prob, res, rep = solve_case(n, K)
+        rec, prob, res, rep = solve_case(n, K, resim_dt=resim_dt)
         records.append(rec)
         curves[(n, K)] = (prob, res, rep)
         print(f"n = {n}, K = {K}: {rec['ipopt_status']} in {rec['iterations']} iterations, {rec['wall_s']:.2f} s; "
