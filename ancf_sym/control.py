@@ -5,7 +5,7 @@
                          horizon=4.0, point_masses=[PointMass("cable", "end", 100.0)], cost=[Effort()],
                          end={"trolley.position": 2.0}, bounds={"trolley.acceleration": (-2, 2)},
                          intervals=20, stages=3, scheme="radau")
-    res = ocp.solve()                 # warm start: a simulation of a smooth rest-to-rest motion
+    res = ocp.solve()                 # warm start: the collocation simulation of a quintic rest-to-rest motion
     res.status, res.cost, res.iterations, res.wall_s
     check = res.resimulate()          # the dynamics integrator on the optimal controls
     check.mismatch_m, check.residual_swing_m
@@ -18,10 +18,17 @@ where s are the displacements of controlled supports (states s, s'; control s'' 
 of controlled point forces, M the mass matrix with the point masses added and f_lin the constant forces (gravity of
 the cables and of the point masses, dead loads). Only grad U is nonlinear.
 
-Transcription. K intervals of length h = T/K, each with the collocation polynomial through tau = 0 and the s points
-c_j of Radau IIA or Gauss-Legendre (ancf_sym.collocation.tableau); states at every polynomial node, controls at the
-collocation points. Per collocation point: kinematics sum_r C_rj Q_r = h V_j (likewise for s, s'), the dynamics
-residual above with the acceleration from the velocity polynomial; continuity of the states between intervals.
+Transcription. K intervals of length h = T/K, each an implicit Runge-Kutta step of Radau IIA or Gauss-Legendre
+with s stages (ancf_sym.collocation.tableau; equivalent to collocation with the polynomial through tau = 0 and the
+points c_j). Variables per interval: the start velocity v_k, the stage positions Q_kj (Radau: the last stage is the
+next interval's start position), the support states at the start and the stages, the controls at the stages (or
+one per interval, control_form="constant"). With W = A^-1 the stage velocities and accelerations are linear,
+V = W (Q - q_k) / h, a = W (V - v_k) / h, and per stage the dynamics residual above is a constraint; continuity of
+v (and, for Gauss, of q) by the quadrature weights b. This condensed form has about half the variables of the
+state-per-node form, and its KKT matrix factorises ~4x faster (measured fill 1.8M vs 6.8M at n = 8, K = 40).
+
+Warm start: the same collocation equations integrated interval by interval (Newton on their exact sparse Jacobian)
+for a quintic rest-to-rest support motion, so IPOPT starts with every dynamics row satisfied.
 
 Derivatives. grad U at all collocation points is one mapped call per energy term. IPOPT gets its Jacobian from the
 kernel Hessians and the Lagrangian Hessian from the kernels' third-derivative companions (load_hvp: d(H v)/dq with
@@ -211,19 +218,6 @@ def _scatter(n_rows: int, n_cols: int, rows: np.ndarray, cols: np.ndarray, n_ent
     return ca.MX(spy, ca.mtimes(_dm(A), values))
 
 
-def _lagrange(nodes: np.ndarray):
-    """(values at 1, derivative matrix C[r, j] = l_r'(nodes[j]) for j >= 1) of the Lagrange basis on nodes."""
-    m = len(nodes)
-    D = np.zeros(m)
-    C = np.zeros((m, m - 1))
-    for r in range(m):
-        others = np.delete(nodes, r)
-        poly = np.poly1d(others, r=True) / np.prod(nodes[r] - others)
-        D[r] = poly(1.0)
-        C[r] = poly.deriv()(nodes[1:])
-    return D, C
-
-
 def _basis(nodes: np.ndarray, tau: np.ndarray) -> np.ndarray:
     """Lagrange basis values l_r(tau) (len(tau) x len(nodes))."""
     out = np.ones((len(tau), len(nodes)))
@@ -244,14 +238,16 @@ class ControlProblem:
     ".acceleration"|"<force>.force": (lower, upper)}. start / end: values of support channels
     ({"trolley.position": 2.0}); both start and end at rest (zero support velocity, the scene at static equilibrium
     with zero velocity: at the end on its `end_modes` lowest vibration modes, default all below `end_frequency`
-    [Hz], default K / (4 T): the modes the grid resolves). path: PathConstraint items. point_masses: PointMass items.
+    [Hz], default K / (4 T): the modes the grid resolves; end_rest=False drops these rows). path: PathConstraint
+    items, at every collocation point; terminal: PathConstraint items at T. point_masses: PointMass items.
     control_form: "polynomial" (a control value per collocation point: the Lagrange polynomial in each interval) or
     "constant" (one value per interval: bounds then hold at every instant, suited to bang-bang optima).
     """
 
     def __init__(self, scene: Scene, controls: Sequence, horizon: Any, point_masses: Sequence[PointMass] = (),
                  cost: Sequence = (Effort(),), bounds: dict | None = None, start: dict | None = None,
-                 end: dict | None = None, path: Sequence[PathConstraint] = (), intervals: int = 20,
+                 end: dict | None = None, path: Sequence[PathConstraint] = (),
+                 terminal: Sequence[PathConstraint] = (), intervals: int = 20,
                  stages: int = 3, scheme: str = "radau", end_rest: bool = True, end_modes: int | None = None,
                  end_frequency: float | None = None, control_form: str = "polynomial", tol: float = 1e-8,
                  max_iter: int = 1000, print_level: int = 0, ipopt: dict | None = None):
@@ -273,6 +269,8 @@ class ControlProblem:
         self.control_form = control_form
         self.tab = tableau(scheme, stages)
         self.s = self.tab.s
+        if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
+            raise SceneError(f"max_iter must be a positive integer, got {max_iter!r}")
         self.tol, self.max_iter, self.print_level = _num("tol", tol, positive=True), int(max_iter), int(print_level)
         self.ipopt_extra = dict(ipopt or {})
         # -- costs and horizon -----------------------------------------------------------------------------
@@ -309,10 +307,11 @@ class ControlProblem:
         self.start_values = self._check_targets(start or {}, "start")
         self.end_values = self._check_targets(end or {}, "end")
         self._check_feasible()
-        self.path = list(path)
-        for i, pc in enumerate(self.path):
-            if not isinstance(pc, PathConstraint) or not callable(pc.fn):
-                raise SceneError(f"path[{i}] must be a PathConstraint with a callable fn, got {pc!r}")
+        self.path, self.terminal = list(path), list(terminal)
+        for label, items in (("path", self.path), ("terminal", self.terminal)):
+            for i, pc in enumerate(items):
+                if not isinstance(pc, PathConstraint) or not callable(pc.fn):
+                    raise SceneError(f"{label}[{i}] must be a PathConstraint with a callable fn, got {pc!r}")
         self.end_rest = bool(end_rest)
         self.end_modes, self.end_frequency = end_modes, end_frequency
         if end_modes is not None and (isinstance(end_modes, bool) or not isinstance(end_modes, (int, np.integer))
@@ -728,38 +727,52 @@ class ControlProblem:
         if nc:
             Xp += ca.mtimes(ca.DM(self.B), SP)
             Vp += ca.mtimes(ca.DM(self.B), SV)
-        # path constraints at the collocation points
+        # path constraints at the collocation points, terminal constraints at T
         lb_path, ub_path = [], []
-        if self.path:
+        items = [("path", i, pc) for i, pc in enumerate(self.path)] + \
+            [("terminal", i, pc) for i, pc in enumerate(self.terminal)]
+        if items:
             xs, vs = ca.MX.sym("x", n), ca.MX.sym("v", n)
             ps_, vs_, us_ = ca.MX.sym("sp", nc), ca.MX.sym("sv", nc), ca.MX.sym("u", nu)
             view = StateView(self, xs, vs, ps_, vs_, us_)
-            for i, pc in enumerate(self.path):
+            xT = ca.mtimes(Ed, w[I["q"][K].tolist()]) + ca.DM(self.part.c)
+            vT = ca.mtimes(Ed, w[I["v"][K].tolist()])
+            if nc:
+                xT += ca.mtimes(ca.DM(self.B), w[I["s"][K].tolist()])
+                vT += ca.mtimes(ca.DM(self.B), w[I["sv"][K].tolist()])
+            for kind, i, pc in items:
+                label = f"{kind}[{i}] ({pc.name!r})"
                 try:
                     expr = ca.vec(ca.MX(pc.fn(view)))
                 except SceneError:
                     raise
                 except Exception as exc:  # noqa: BLE001
-                    raise SceneError(f"path[{i}] ({pc.name!r}): fn(view) failed: {exc}") from None
+                    raise SceneError(f"{label}: fn(view) failed: {exc}") from None
                 if not ca.depends_on(expr, ca.vertcat(xs, vs, ps_, vs_, us_)):
-                    raise SceneError(f"path[{i}] ({pc.name!r}): fn(view) does not depend on the state")
-                fpt = ca.Function(f"path_{i}", [xs, vs, ps_, vs_, us_], [expr]).map(Pp)
+                    raise SceneError(f"{label}: fn(view) does not depend on the state")
                 m = expr.shape[0]
                 lo = np.broadcast_to(np.asarray(pc.lower, float), (m,))
                 hi = np.broadcast_to(np.asarray(pc.upper, float), (m,))
                 if np.any(np.isnan(lo)) or np.any(np.isnan(hi)) or np.any(lo > hi):
-                    raise SceneError(f"path[{i}] ({pc.name!r}): bounds ({pc.lower}, {pc.upper}) are infeasible "
-                                     "(lower > upper)")
-                rows.append(ca.vec(fpt(Xp, Vp, SP, SV, U)))
-                lb_path.append(np.tile(lo, Pp))
-                ub_path.append(np.tile(hi, Pp))
+                    raise SceneError(f"{label}: bounds ({pc.lower}, {pc.upper}) are infeasible (lower > upper)")
+                fn = ca.Function(f"{kind}_{i}", [xs, vs, ps_, vs_, us_], [expr])
+                if kind == "path":
+                    rows.append(ca.vec(fn.map(Pp)(Xp, Vp, SP, SV, U)))
+                    reps = Pp
+                else:  # the controls of the last collocation point
+                    rows.append(fn(xT, vT, w[I["s"][K].tolist()] if nc else ca.MX(0, 1),
+                                   w[I["sv"][K].tolist()] if nc else ca.MX(0, 1), U[:, Pp - 1]))
+                    reps = 1
+                lb_path.append(np.tile(lo, reps))
+                ub_path.append(np.tile(hi, reps))
         g_poly = ca.vertcat(*rows)
         ng = g_poly.shape[0]
         self.ng = ng
         n_eq = n_dyn + self._end_rows
         self.lbg = np.r_[np.zeros(n_eq), *(lb_path or [np.zeros(0)])]
         self.ubg = np.r_[np.zeros(n_eq), *(ub_path or [np.zeros(0)])]
-        self._g_rows = {"dynamics": (0, nf * Pp), "collocation": (0, n_dyn), "end": (n_dyn, n_eq), "path": (n_eq, ng)}
+        self._g_rows = {"dynamics": (0, nf * Pp), "collocation": (0, n_dyn), "end": (n_dyn, n_eq),
+                        "path": (n_eq, ng)}  # path: path and terminal constraints
         # -- cost ------------------------------------------------------------------------------------------------
         bw = ca.DM(np.tile(tab.b, K))  # quadrature weights of the points (times h)
         f = 0

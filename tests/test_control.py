@@ -54,7 +54,7 @@ CASES = {
     "radau free time, swing cost, path": lambda: ControlProblem(
         rope(2), controls=[trolley()], horizon=(2.0, 4.0, 6.0), point_masses=[PointMass("rope", "end", 100.0)],
         cost=[Effort(), MinimumTime(), Swing(0.1)], end={"trolley.position": 2.0}, intervals=3, stages=2,
-        path=[PathConstraint(_offset, 0.0, 0.1)]),
+        path=[PathConstraint(_offset, 0.0, 0.1)], terminal=[PathConstraint(_offset, 0.0, 0.0)]),
     "gauss, force control, biot without bending": lambda: ControlProblem(
         rope(2, axial="biot", bending=False), controls=[trolley(), PointForce("rope", "end", (1.0, 0.0), "push")],
         horizon=3.0, point_masses=[PointMass("rope", "end", 50.0)], cost=[Effort(weights={"push": 1e-4})],
@@ -194,6 +194,19 @@ def test_force_control_helps():
     assert both.cost < 0.9 * base.cost
 
 
+def test_terminal_constraints_instead_of_modal_rest():
+    """end_rest=False with terminal constraints of our own (payload below the trolley and moving with it): the same
+    optimum as the modal rest condition to 1e-3, and no residual swing in the re-simulation."""
+    def below_and_along(v):
+        return ca.vertcat(v.point("rope", "end")[0] - v["trolley.position"],
+                          v.velocity("rope", "end")[0] - v["trolley.velocity"])
+    ref = crane(K=10).solve()
+    own = crane(K=10, end_rest=False, terminal=[PathConstraint(below_and_along, 0.0, 0.0, "no swing")]).solve()
+    assert own.success and own.prob.n_end_modes == 0
+    assert own.cost == pytest.approx(ref.cost, rel=1e-3)
+    assert own.resimulate(after=5.0).residual_swing_m < 1e-3
+
+
 def test_result_and_resimulation_api():
     res = crane(K=6).solve()
     assert res.success and res.iterations > 0 and res.wall_s > 0
@@ -236,6 +249,8 @@ def test_result_and_resimulation_api():
     ({"point_masses": [PointMass("rope", "end", -1.0)]}, "mass must be positive"),
     ({"path": [PathConstraint(_offset, 1.0, 0.0)]}, "infeasible"),
     ({"control_form": "spline"}, "control_form must be"),
+    ({"terminal": [PathConstraint(lambda v: 1.0, 0.0, 0.0)]}, "does not depend on the state"),
+    ({"max_iter": 0}, "max_iter must be a positive integer"),
 ])
 def test_bad_input_is_refused_before_solving(kw, match):
     with pytest.raises(SceneError, match=match):
