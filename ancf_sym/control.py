@@ -344,8 +344,9 @@ class ControlProblem:
             if ld.kind == "moment":
                 raise SceneError("moment loads are not supported by the control module (their kernels have no "
                                  "third-derivative companion)")
-        if sc.dampings:
-            raise SceneError("Rayleigh damping is not supported by the control module yet")
+        if getattr(sc, "dampings", None):
+            kinds = sorted({d.kind for d in sc.dampings})
+            raise SceneError(f"damping ({', '.join(kinds)}) is not supported by the control module yet")
         for j in sc.joints:
             if j.kind == "rigid":
                 raise SceneError(f"rigid joints are not supported by the control module (multipliers), got {j}")
