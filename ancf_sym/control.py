@@ -51,6 +51,7 @@ import scipy.sparse as sp
 from . import kernels, registry
 from .assembly import Assembly
 from .collocation import tableau
+from .checks import number
 from .elements import hermite
 from .integrators import LINEAR_EFFECTS, partition
 from .scene import Scene, SceneError
@@ -62,20 +63,7 @@ SCHEMES = ("radau", "gauss")
 
 # -- problem ingredients ----------------------------------------------------------------------------------------
 
-def _num(name: str, v: Any, positive: bool = False, nonneg: bool = False) -> float:
-    if isinstance(v, bool):
-        raise SceneError(f"{name} must be a number, got {v!r}")
-    try:
-        x = float(v)
-    except (TypeError, ValueError):
-        raise SceneError(f"{name} must be a number, got {v!r}") from None
-    if not math.isfinite(x):
-        raise SceneError(f"{name} must be finite, got {v!r}")
-    if positive and x <= 0:
-        raise SceneError(f"{name} must be positive, got {v!r}")
-    if nonneg and x < 0:
-        raise SceneError(f"{name} must be non-negative, got {v!r}")
-    return x
+_num = number  # (name, value, positive=False, nonneg=False)
 
 
 @dataclass(frozen=True)

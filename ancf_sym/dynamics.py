@@ -32,6 +32,7 @@ from .elements import hermite
 from .integrators import (LINEAR_EFFECTS, AlphaIntegrator, Counters, NewtonOptions, RayleighData, Scheme,
                           StepSystem, StrainRateData)
 from .mesh import MemberMesh
+from .checks import number
 from .scene import Scene, SceneError
 
 INTEGRATORS = {"newmark": "newmark", "hht": "hht", "hht_alpha": "hht", "generalized_alpha": "generalized_alpha",
@@ -42,27 +43,10 @@ SENSOR_KINDS = ("position", "displacement", "velocity", "strain", "curvature", "
 
 
 def _pos(name: str, value: Any, allow_zero: bool = False) -> float:
-    if isinstance(value, bool):
-        raise SceneError(f"{name} must be a number, got {value!r}")
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise SceneError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
-        raise SceneError(f"{name} must be a {'non-negative' if allow_zero else 'positive'} finite number, got {value!r}")
-    return v
+    return number(name, value, positive=not allow_zero, nonneg=allow_zero)
 
 
-def _num(name: str, value: Any) -> float:
-    if isinstance(value, bool):
-        raise SceneError(f"{name} must be a number, got {value!r}")
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise SceneError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise SceneError(f"{name} must be finite, got {value!r}")
-    return v
+_num = number
 
 
 # -- sensors -----------------------------------------------------------------------------------------------------

@@ -19,33 +19,18 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from .checks import SceneError, number
+
 AXIAL = ("green", "biot", "decoupled")
 BEAM_METHODS = ("continuum", "elastic_line")
 ELEMENT_KINDS = ("cable2d", "cable3d", "beam3d")
 
 
-class SceneError(ValueError):
-    """A scene value that cannot be simulated; the message names the field and the value."""
-
-
 def _positive(field_name: str, value: Any) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise SceneError(f"{field_name} must be a positive number, got {value!r}") from None
-    if not math.isfinite(v) or v <= 0:
-        raise SceneError(f"{field_name} must be a positive finite number, got {value!r}")
-    return v
+    return number(field_name, value, positive=True)
 
 
-def _finite(field_name: str, value: Any) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise SceneError(f"{field_name} must be a number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise SceneError(f"{field_name} must be finite, got {value!r}")
-    return v
+_finite = number
 
 
 def _vector(field_name: str, value: Any, dim: int) -> np.ndarray:
