@@ -76,7 +76,6 @@ def moment_term(terms: dict, mm: MemberMesh, node: int, moment) -> None:
     m = mm.member
     e, xi = (node - 1, 1.0) if node > 0 else (0, 0.0)
     idx, L = mm.elem_dofs()[e], mm.elem_length[e]
-    ns = mm.node_size
     ref = mm.x0[node]
     if m.element == "cable2d":
         t0 = ref[2:4]
@@ -87,8 +86,12 @@ def moment_term(terms: dict, mm: MemberMesh, node: int, moment) -> None:
         if mag == 0:
             return
         t0 = ref[3:6]
-        if abs(np.dot(M / mag, t0)) > 1 - 1e-9:
-            raise SceneError(f"moment on cable3d member {m.name!r} is along the cable axis: a cable carries no torsion")
+        along = float(np.dot(M, t0 / np.linalg.norm(t0)))
+        if abs(along) > 1e-9 * mag:
+            # the potential -|M| phi turns the tangent about n = M/|M|; only a moment normal to the tangent is
+            # work-conjugate to that rotation (a cable has no torsion to take the rest)
+            raise SceneError(f"moment on cable3d member {m.name!r}: component {along:.6g} N m along the cable axis; "
+                             "a cable carries no torsion: give a moment normal to the cable")
         _add(terms, "loads", "cable3d", "moment", None, [idx], [[L, xi, mag, *(M / mag), *t0]])
     else:
         M = np.asarray(moment, float)
@@ -97,7 +100,6 @@ def moment_term(terms: dict, mm: MemberMesh, node: int, moment) -> None:
             _add(terms, "loads", "beam3d", "moment_z", None, [idx], [[L, xi, M[2], ry[0], ry[1]]])
         if M[1] != 0:
             _add(terms, "loads", "beam3d", "moment_y", None, [idx], [[L, xi, M[1], rz[2], rz[0]]])
-    del ns
 
 
 def scene_terms(mesh: Mesh) -> list[Term]:
