@@ -33,14 +33,16 @@ class BuildPyWithManifest(build_py):
         dst.mkdir(parents=True, exist_ok=True)
         shutil.copy(GENERATED / "manifest.json", dst / "manifest.json")
         shutil.copy(GENERATED / "ancf_kernels.h", dst / "ancf_kernels.h")
-        for k in MANIFEST["kernels"]:
-            shutil.copy(GENERATED / k["c_file"].replace(".c", ".h"), dst)
+        for lib in LIBRARIES:
+            shutil.copy(GENERATED / f"{lib}.h", dst)
 
 
+# one shared library per generated C file (all quadrature orders of an (element, effect) share one)
+LIBRARIES = {k["library"]: k for k in MANIFEST["kernels"]}
 extensions = [
-    Extension(f"ancf_sym._kernels.{k['name']}", sources=[f"generated/{k['c_file']}"],
+    Extension(f"ancf_sym._kernels.{lib}", sources=[f"generated/{k['c_file']}"],
               extra_compile_args=k["cflags"], libraries=["m"])
-    for k in MANIFEST["kernels"]
+    for lib, k in LIBRARIES.items()
 ]
 
 setup(ext_modules=extensions, cmdclass={"build_ext": ParallelBuildExt, "build_py": BuildPyWithManifest})

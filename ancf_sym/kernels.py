@@ -95,7 +95,7 @@ def _load(element: str, effect: str, gauss: int | None) -> Kernel:
     if gauss is not None and gauss not in eff.gauss:
         raise KernelError(f"gauss={gauss!r}: {element}/{effect} is generated for orders {list(eff.gauss) or 'none (exact)'}")
     name = registry.kernel_name(element, effect, gauss)
-    lib = library_path(name)
+    lib = library_path(registry.library_name(element, effect))
     return Kernel(ca.external(name, str(lib)), element, effect, eff.params, lib)
 
 
@@ -112,14 +112,14 @@ def load_energy(element: str, effect: str, gauss: int | None = None) -> ca.Funct
     """(q, p) -> energy alone, with its compiled reverse-mode companion (for CasADi/IPOPT graphs that need it)."""
     _check_names(element, effect)
     name = registry.kernel_name(element, effect, gauss) + "_energy"
-    return ca.external(name, str(library_path(name[:-len("_energy")])))
+    return ca.external(name, str(library_path(registry.library_name(element, effect))))
 
 
 def load_grad(element: str, effect: str, gauss: int | None = None) -> ca.Function:
     """(q, p) -> (energy, gradient) without the Hessian's work: the residual of modified Newton iterations."""
     _check_names(element, effect)
     name = registry.kernel_name(element, effect, gauss)
-    return ca.external(name + "_grad", str(library_path(name)))
+    return ca.external(name + "_grad", str(library_path(registry.library_name(element, effect))))
 
 
 def load_hvp(element: str, effect: str) -> ca.Function:
@@ -130,7 +130,7 @@ def load_hvp(element: str, effect: str) -> ca.Function:
         raise KernelError(f"{element}/{effect} has no third-derivative companion; available for cables' "
                           f"{list(registry.THIRD_DERIVATIVE_EFFECTS)}")
     name = registry.kernel_name(element, effect)
-    return ca.external(name + "_hvp", str(library_path(name)))
+    return ca.external(name + "_hvp", str(library_path(registry.library_name(element, effect))))
 
 
 def parameters(element: str, effect: str) -> tuple[str, ...]:
@@ -176,6 +176,6 @@ def catalogue() -> list[dict]:
             "name": k["name"], "element": k["element"], "effect": k["effect"], "gauss": k["gauss"],
             "inputs": {"q": registry.ELEMENTS[k["element"]].ndof, "p": k["params"]},
             "outputs": ["energy", "gradient", "hessian"], "description": registry.EFFECTS[(k["element"], k["effect"])].description,
-            "library": str(library_path(k["name"])), "cflags": k["cflags"], "functions": k["functions"],
+            "library": str(library_path(k["library"])), "cflags": k["cflags"], "functions": k["functions"],
         })
     return out

@@ -126,6 +126,12 @@ def kernel_name(element: str, effect: str, gauss: int | None = None) -> str:
     return f"{element}_{effect}_g{gauss}"
 
 
+def library_name(element: str, effect: str) -> str:
+    """The shared library (and C file) holding every quadrature order of one (element, effect): the orders share
+    their point function, which CasADi then emits once."""
+    return f"{element}_{effect}"
+
+
 def all_kernels() -> list[tuple[str, str, int | None]]:
     """(element, effect, gauss) for every kernel the generator emits, in a fixed order."""
     out = []

@@ -37,7 +37,8 @@ def compile_one(src: Path, flags: list[str], out_dir: Path, cc: str = "gcc") -> 
 
 def compile_all(root: Path, extra: list[str], jobs: int) -> tuple[dict[str, float], float, float]:
     manifest = json.loads((root / "generated" / "manifest.json").read_text())
-    entries = [(root / "generated" / k["c_file"], extra + k["cflags"]) for k in manifest["kernels"]]
+    files = {k["c_file"]: k["cflags"] for k in manifest["kernels"]}  # several kernels share one file
+    entries = [(root / "generated" / f, extra + flags) for f, flags in files.items()]
     with tempfile.TemporaryDirectory() as tmp:
         times = {}
         for src, flags in entries:

@@ -34,12 +34,24 @@ extern "C" {
 #define casadi_densify CASADI_PREFIX(densify)
 #define casadi_f0 CASADI_PREFIX(f0)
 #define casadi_f1 CASADI_PREFIX(f1)
+#define casadi_f10 CASADI_PREFIX(f10)
+#define casadi_f11 CASADI_PREFIX(f11)
+#define casadi_f12 CASADI_PREFIX(f12)
+#define casadi_f13 CASADI_PREFIX(f13)
+#define casadi_f14 CASADI_PREFIX(f14)
+#define casadi_f15 CASADI_PREFIX(f15)
+#define casadi_f16 CASADI_PREFIX(f16)
+#define casadi_f17 CASADI_PREFIX(f17)
+#define casadi_f18 CASADI_PREFIX(f18)
+#define casadi_f19 CASADI_PREFIX(f19)
 #define casadi_f2 CASADI_PREFIX(f2)
 #define casadi_f3 CASADI_PREFIX(f3)
 #define casadi_f4 CASADI_PREFIX(f4)
 #define casadi_f5 CASADI_PREFIX(f5)
 #define casadi_f6 CASADI_PREFIX(f6)
 #define casadi_f7 CASADI_PREFIX(f7)
+#define casadi_f8 CASADI_PREFIX(f8)
+#define casadi_f9 CASADI_PREFIX(f9)
 #define casadi_s0 CASADI_PREFIX(s0)
 #define casadi_s1 CASADI_PREFIX(s1)
 #define casadi_s2 CASADI_PREFIX(s2)
@@ -4873,6 +4885,2081 @@ CASADI_SYMBOL_EXPORT int beam3d_line_bending_grad_work_bytes(casadi_int *sz_arg,
   if (sz_res) *sz_res = 4*sizeof(casadi_real*);
   if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
   if (sz_w) *sz_w = 171*sizeof(casadi_real);
+  return 0;
+}
+
+/* beam3d_line_bending_g3:(q[24],p[3])->(energy,gradient[24],hessian[24x24]) */
+static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_int i;
+  casadi_real **res1=res+3, *rr, *w01=w+180, w02, w03, w04, *w05=w+183, *w06=w+207, w07, *w08=w+507, *w09=w+531, *w10=w+831;
+  casadi_real *w11=w+855, *w12=w+1155, *w13=w+1731;
+  const casadi_int *cii;
+  const casadi_real **arg1=arg+2, *cs, *wr00;
+  /* #0: @0 = input[0][0] */
+  wr00 = arg[0] ? arg[0] : casadi_zeros;
+  /* #1: @1 = input[1][0] */
+  casadi_copy(arg[1], 3, w01);
+  /* #2: @2 = 0.112702 */
+  w02 = 1.1270166537925830e-01;
+  /* #3: @3 = 0.277778 */
+  w03 = 2.7777777777777785e-01;
+  /* #4: {@4, @5, @6} = beam3d_line_bending_point(@0, @1, @2, @3) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  res1[0]=(&w04);
+  res1[1]=w05;
+  res1[2]=w06;
+  if (casadi_f1(arg1, res1, iw, w, 0)) return 1;
+  /* #5: @2 = 0.5 */
+  w02 = 5.0000000000000000e-01;
+  /* #6: @3 = 0.444444 */
+  w03 = 4.4444444444444442e-01;
+  /* #7: {@7, @8, @9} = beam3d_line_bending_point(@0, @1, @2, @3) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  res1[0]=(&w07);
+  res1[1]=w08;
+  res1[2]=w09;
+  if (casadi_f1(arg1, res1, iw, w, 0)) return 1;
+  /* #8: @4 = (@4+@7) */
+  w04 += w07;
+  /* #9: @7 = 0.887298 */
+  w07 = 8.8729833462074170e-01;
+  /* #10: @2 = 0.277778 */
+  w02 = 2.7777777777777785e-01;
+  /* #11: {@3, @10, @11} = beam3d_line_bending_point(@0, @1, @7, @2) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w07);
+  arg1[3]=(&w02);
+  res1[0]=(&w03);
+  res1[1]=w10;
+  res1[2]=w11;
+  if (casadi_f1(arg1, res1, iw, w, 0)) return 1;
+  /* #12: @4 = (@4+@3) */
+  w04 += w03;
+  /* #13: output[0][0] = @4 */
+  if (res[0]) res[0][0] = w04;
+  /* #14: @5 = (@5+@8) */
+  for (i=0, rr=w05, cs=w08; i<24; ++i) (*rr++) += (*cs++);
+  /* #15: @5 = (@5+@10) */
+  for (i=0, rr=w05, cs=w10; i<24; ++i) (*rr++) += (*cs++);
+  /* #16: output[1][0] = @5 */
+  casadi_copy(w05, 24, res[1]);
+  /* #17: @6 = (@6+@9) */
+  for (i=0, rr=w06, cs=w09; i<300; ++i) (*rr++) += (*cs++);
+  /* #18: @6 = (@6+@11) */
+  for (i=0, rr=w06, cs=w11; i<300; ++i) (*rr++) += (*cs++);
+  /* #19: @12 = dense(@6) */
+  casadi_densify(w06, casadi_s0, w12, 0);
+  /* #20: @11 = @6' */
+  casadi_trans(w06,casadi_s0, w11, casadi_s1, iw);
+  /* #21: @13 = dense(@11) */
+  casadi_densify(w11, casadi_s1, w13, 0);
+  /* #22: @12 = (@12+@13) */
+  for (i=0, rr=w12, cs=w13; i<576; ++i) (*rr++) += (*cs++);
+  /* #23: @5 = @6[0, 24, 47, 69, 90, 110, 129, 147, 164, 180, 195, 209, 222, 234, 245, 255, 264, 272, 279, 285, 290, 294, 297, 299] */
+  for (cii=casadi_s2, rr=w05, cs=w06; cii!=casadi_s2+24; ++cii) *rr++ = cs[*cii];
+  /* #24: @13 = dense(@5) */
+  casadi_densify(w05, casadi_s3, w13, 0);
+  /* #25: @12 = (@12-@13) */
+  for (i=0, rr=w12, cs=w13; i<576; ++i) (*rr++) -= (*cs++);
+  /* #26: output[2][0] = @12 */
+  casadi_copy(w12, 576, res[2]);
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f8(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g3_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g3_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g3_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g3_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int beam3d_line_bending_g3_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int beam3d_line_bending_g3_n_out(void) { return 3;}
+
+CASADI_SYMBOL_EXPORT casadi_real beam3d_line_bending_g3_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* beam3d_line_bending_g3_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* beam3d_line_bending_g3_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    case 1: return "gradient";
+    case 2: return "hessian";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* beam3d_line_bending_g3_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    case 1: return casadi_s5;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* beam3d_line_bending_g3_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s6;
+    case 1: return casadi_s4;
+    case 2: return casadi_s7;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g3_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 6;
+  if (sz_res) *sz_res = 6;
+  if (sz_iw) *sz_iw = 25;
+  if (sz_w) *sz_w = 2307;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g3_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 6*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 6*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 25*sizeof(casadi_int);
+  if (sz_w) *sz_w = 2307*sizeof(casadi_real);
+  return 0;
+}
+
+/* beam3d_line_bending_g3_energy:(q[24],p[3])->(energy) */
+static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real **res1=res+1, *w1=w+26, w2, w3, w4, w5;
+  const casadi_real **arg1=arg+2, *wr0;
+  /* #0: @0 = input[0][0] */
+  wr0 = arg[0] ? arg[0] : casadi_zeros;
+  /* #1: @1 = input[1][0] */
+  casadi_copy(arg[1], 3, w1);
+  /* #2: @2 = 0.112702 */
+  w2 = 1.1270166537925830e-01;
+  /* #3: @3 = 0.277778 */
+  w3 = 2.7777777777777785e-01;
+  /* #4: @4 = beam3d_line_bending_point_e(@0, @1, @2, @3) */
+  arg1[0]=wr0;
+  arg1[1]=w1;
+  arg1[2]=(&w2);
+  arg1[3]=(&w3);
+  res1[0]=(&w4);
+  if (casadi_f3(arg1, res1, iw, w, 0)) return 1;
+  /* #5: @2 = 0.5 */
+  w2 = 5.0000000000000000e-01;
+  /* #6: @3 = 0.444444 */
+  w3 = 4.4444444444444442e-01;
+  /* #7: @5 = beam3d_line_bending_point_e(@0, @1, @2, @3) */
+  arg1[0]=wr0;
+  arg1[1]=w1;
+  arg1[2]=(&w2);
+  arg1[3]=(&w3);
+  res1[0]=(&w5);
+  if (casadi_f3(arg1, res1, iw, w, 0)) return 1;
+  /* #8: @4 = (@4+@5) */
+  w4 += w5;
+  /* #9: @5 = 0.887298 */
+  w5 = 8.8729833462074170e-01;
+  /* #10: @2 = 0.277778 */
+  w2 = 2.7777777777777785e-01;
+  /* #11: @3 = beam3d_line_bending_point_e(@0, @1, @5, @2) */
+  arg1[0]=wr0;
+  arg1[1]=w1;
+  arg1[2]=(&w5);
+  arg1[3]=(&w2);
+  res1[0]=(&w3);
+  if (casadi_f3(arg1, res1, iw, w, 0)) return 1;
+  /* #12: @4 = (@4+@3) */
+  w4 += w3;
+  /* #13: output[0][0] = @4 */
+  if (res[0]) res[0][0] = w4;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g3_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f9(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g3_energy_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g3_energy_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g3_energy_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g3_energy_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int beam3d_line_bending_g3_energy_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int beam3d_line_bending_g3_energy_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real beam3d_line_bending_g3_energy_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* beam3d_line_bending_g3_energy_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* beam3d_line_bending_g3_energy_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* beam3d_line_bending_g3_energy_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    case 1: return casadi_s5;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* beam3d_line_bending_g3_energy_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s6;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g3_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 6;
+  if (sz_res) *sz_res = 2;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 29;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g3_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 6*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 2*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 29*sizeof(casadi_real);
+  return 0;
+}
+
+/* adj1_beam3d_line_bending_g3_energy:(q[24],p[3],out_energy[1x1,0nz],adj_energy)->(adj_q[24],adj_p[3]) */
+static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_int i;
+  casadi_real **res1=res+2, *rr, *w01=w+85, w02, w03, w05, *w06=w+88, *w07=w+112, *w08=w+115, *w09=w+139, *w10=w+142;
+  const casadi_real **arg1=arg+4, *cs, *wr00;
+  /* #0: @0 = input[0][0] */
+  wr00 = arg[0] ? arg[0] : casadi_zeros;
+  /* #1: @1 = input[1][0] */
+  casadi_copy(arg[1], 3, w01);
+  /* #2: @2 = 0.887298 */
+  w02 = 8.8729833462074170e-01;
+  /* #3: @3 = 0.277778 */
+  w03 = 2.7777777777777785e-01;
+  /* #4: @4 = 00 */
+  /* #5: @5 = input[3][0] */
+  w05 = arg[3] ? arg[3][0] : 0;
+  /* #6: {@6, @7, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  arg1[4]=0;
+  arg1[5]=(&w05);
+  res1[0]=w06;
+  res1[1]=w07;
+  res1[2]=0;
+  res1[3]=0;
+  if (casadi_f5(arg1, res1, iw, w, 0)) return 1;
+  /* #7: @2 = 0.5 */
+  w02 = 5.0000000000000000e-01;
+  /* #8: @3 = 0.444444 */
+  w03 = 4.4444444444444442e-01;
+  /* #9: @4 = 00 */
+  /* #10: {@8, @9, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  arg1[4]=0;
+  arg1[5]=(&w05);
+  res1[0]=w08;
+  res1[1]=w09;
+  res1[2]=0;
+  res1[3]=0;
+  if (casadi_f5(arg1, res1, iw, w, 0)) return 1;
+  /* #11: @6 = (@6+@8) */
+  for (i=0, rr=w06, cs=w08; i<24; ++i) (*rr++) += (*cs++);
+  /* #12: @2 = 0.112702 */
+  w02 = 1.1270166537925830e-01;
+  /* #13: @3 = 0.277778 */
+  w03 = 2.7777777777777785e-01;
+  /* #14: @4 = 00 */
+  /* #15: {@8, @10, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  arg1[4]=0;
+  arg1[5]=(&w05);
+  res1[0]=w08;
+  res1[1]=w10;
+  res1[2]=0;
+  res1[3]=0;
+  if (casadi_f5(arg1, res1, iw, w, 0)) return 1;
+  /* #16: @6 = (@6+@8) */
+  for (i=0, rr=w06, cs=w08; i<24; ++i) (*rr++) += (*cs++);
+  /* #17: output[0][0] = @6 */
+  casadi_copy(w06, 24, res[0]);
+  /* #18: @7 = (@7+@9) */
+  for (i=0, rr=w07, cs=w09; i<3; ++i) (*rr++) += (*cs++);
+  /* #19: @7 = (@7+@10) */
+  for (i=0, rr=w07, cs=w10; i<3; ++i) (*rr++) += (*cs++);
+  /* #20: output[1][0] = @7 */
+  casadi_copy(w07, 3, res[1]);
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int adj1_beam3d_line_bending_g3_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f10(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int adj1_beam3d_line_bending_g3_energy_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void adj1_beam3d_line_bending_g3_energy_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void adj1_beam3d_line_bending_g3_energy_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void adj1_beam3d_line_bending_g3_energy_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int adj1_beam3d_line_bending_g3_energy_n_in(void) { return 4;}
+
+CASADI_SYMBOL_EXPORT casadi_int adj1_beam3d_line_bending_g3_energy_n_out(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_real adj1_beam3d_line_bending_g3_energy_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* adj1_beam3d_line_bending_g3_energy_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    case 2: return "out_energy";
+    case 3: return "adj_energy";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* adj1_beam3d_line_bending_g3_energy_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "adj_q";
+    case 1: return "adj_p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* adj1_beam3d_line_bending_g3_energy_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    case 1: return casadi_s5;
+    case 2: return casadi_s8;
+    case 3: return casadi_s6;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* adj1_beam3d_line_bending_g3_energy_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    case 1: return casadi_s5;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int adj1_beam3d_line_bending_g3_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 10;
+  if (sz_res) *sz_res = 6;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 145;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int adj1_beam3d_line_bending_g3_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 10*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 6*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 145*sizeof(casadi_real);
+  return 0;
+}
+
+/* beam3d_line_bending_g3_grad:(q[24],p[3])->(energy,gradient[24]) */
+static int casadi_f11(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_int i;
+  casadi_real **res1=res+2, *rr, *w1=w+48, w2, w3, w4, *w5=w+51, w6, *w7=w+75, *w8=w+99;
+  const casadi_real **arg1=arg+2, *cs, *wr0;
+  /* #0: @0 = input[0][0] */
+  wr0 = arg[0] ? arg[0] : casadi_zeros;
+  /* #1: @1 = input[1][0] */
+  casadi_copy(arg[1], 3, w1);
+  /* #2: @2 = 0.112702 */
+  w2 = 1.1270166537925830e-01;
+  /* #3: @3 = 0.277778 */
+  w3 = 2.7777777777777785e-01;
+  /* #4: {@4, @5} = beam3d_line_bending_point_eg(@0, @1, @2, @3) */
+  arg1[0]=wr0;
+  arg1[1]=w1;
+  arg1[2]=(&w2);
+  arg1[3]=(&w3);
+  res1[0]=(&w4);
+  res1[1]=w5;
+  if (casadi_f7(arg1, res1, iw, w, 0)) return 1;
+  /* #5: @2 = 0.5 */
+  w2 = 5.0000000000000000e-01;
+  /* #6: @3 = 0.444444 */
+  w3 = 4.4444444444444442e-01;
+  /* #7: {@6, @7} = beam3d_line_bending_point_eg(@0, @1, @2, @3) */
+  arg1[0]=wr0;
+  arg1[1]=w1;
+  arg1[2]=(&w2);
+  arg1[3]=(&w3);
+  res1[0]=(&w6);
+  res1[1]=w7;
+  if (casadi_f7(arg1, res1, iw, w, 0)) return 1;
+  /* #8: @4 = (@4+@6) */
+  w4 += w6;
+  /* #9: @6 = 0.887298 */
+  w6 = 8.8729833462074170e-01;
+  /* #10: @2 = 0.277778 */
+  w2 = 2.7777777777777785e-01;
+  /* #11: {@3, @8} = beam3d_line_bending_point_eg(@0, @1, @6, @2) */
+  arg1[0]=wr0;
+  arg1[1]=w1;
+  arg1[2]=(&w6);
+  arg1[3]=(&w2);
+  res1[0]=(&w3);
+  res1[1]=w8;
+  if (casadi_f7(arg1, res1, iw, w, 0)) return 1;
+  /* #12: @4 = (@4+@3) */
+  w4 += w3;
+  /* #13: output[0][0] = @4 */
+  if (res[0]) res[0][0] = w4;
+  /* #14: @5 = (@5+@7) */
+  for (i=0, rr=w5, cs=w7; i<24; ++i) (*rr++) += (*cs++);
+  /* #15: @5 = (@5+@8) */
+  for (i=0, rr=w5, cs=w8; i<24; ++i) (*rr++) += (*cs++);
+  /* #16: output[1][0] = @5 */
+  casadi_copy(w5, 24, res[1]);
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g3_grad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f11(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g3_grad_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g3_grad_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g3_grad_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g3_grad_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int beam3d_line_bending_g3_grad_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int beam3d_line_bending_g3_grad_n_out(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_real beam3d_line_bending_g3_grad_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* beam3d_line_bending_g3_grad_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* beam3d_line_bending_g3_grad_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    case 1: return "gradient";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* beam3d_line_bending_g3_grad_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    case 1: return casadi_s5;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* beam3d_line_bending_g3_grad_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s6;
+    case 1: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g3_grad_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 6;
+  if (sz_res) *sz_res = 4;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 123;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g3_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 6*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 4*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 123*sizeof(casadi_real);
+  return 0;
+}
+
+/* beam3d_line_bending_g4:(q[24],p[3])->(energy,gradient[24],hessian[24x24]) */
+static int casadi_f12(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_int i;
+  casadi_real **res1=res+3, *rr, *w01=w+180, w02, w03, w04, *w05=w+183, *w06=w+207, w07, *w08=w+507, *w09=w+531, *w10=w+831;
+  casadi_real *w11=w+855, *w12=w+1155, *w13=w+1179, *w14=w+1479, *w15=w+2055;
+  const casadi_int *cii;
+  const casadi_real **arg1=arg+2, *cs, *wr00;
+  /* #0: @0 = input[0][0] */
+  wr00 = arg[0] ? arg[0] : casadi_zeros;
+  /* #1: @1 = input[1][0] */
+  casadi_copy(arg[1], 3, w01);
+  /* #2: @2 = 0.0694318 */
+  w02 = 6.9431844202973714e-02;
+  /* #3: @3 = 0.173927 */
+  w03 = 1.7392742256872679e-01;
+  /* #4: {@4, @5, @6} = beam3d_line_bending_point(@0, @1, @2, @3) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  res1[0]=(&w04);
+  res1[1]=w05;
+  res1[2]=w06;
+  if (casadi_f1(arg1, res1, iw, w, 0)) return 1;
+  /* #5: @2 = 0.330009 */
+  w02 = 3.3000947820757187e-01;
+  /* #6: @3 = 0.326073 */
+  w03 = 3.2607257743127321e-01;
+  /* #7: {@7, @8, @9} = beam3d_line_bending_point(@0, @1, @2, @3) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  res1[0]=(&w07);
+  res1[1]=w08;
+  res1[2]=w09;
+  if (casadi_f1(arg1, res1, iw, w, 0)) return 1;
+  /* #8: @4 = (@4+@7) */
+  w04 += w07;
+  /* #9: @7 = 0.669991 */
+  w07 = 6.6999052179242813e-01;
+  /* #10: @2 = 0.326073 */
+  w02 = 3.2607257743127321e-01;
+  /* #11: {@3, @10, @11} = beam3d_line_bending_point(@0, @1, @7, @2) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w07);
+  arg1[3]=(&w02);
+  res1[0]=(&w03);
+  res1[1]=w10;
+  res1[2]=w11;
+  if (casadi_f1(arg1, res1, iw, w, 0)) return 1;
+  /* #12: @4 = (@4+@3) */
+  w04 += w03;
+  /* #13: @3 = 0.930568 */
+  w03 = 9.3056815579702623e-01;
+  /* #14: @7 = 0.173927 */
+  w07 = 1.7392742256872679e-01;
+  /* #15: {@2, @12, @13} = beam3d_line_bending_point(@0, @1, @3, @7) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w03);
+  arg1[3]=(&w07);
+  res1[0]=(&w02);
+  res1[1]=w12;
+  res1[2]=w13;
+  if (casadi_f1(arg1, res1, iw, w, 0)) return 1;
+  /* #16: @4 = (@4+@2) */
+  w04 += w02;
+  /* #17: output[0][0] = @4 */
+  if (res[0]) res[0][0] = w04;
+  /* #18: @5 = (@5+@8) */
+  for (i=0, rr=w05, cs=w08; i<24; ++i) (*rr++) += (*cs++);
+  /* #19: @5 = (@5+@10) */
+  for (i=0, rr=w05, cs=w10; i<24; ++i) (*rr++) += (*cs++);
+  /* #20: @5 = (@5+@12) */
+  for (i=0, rr=w05, cs=w12; i<24; ++i) (*rr++) += (*cs++);
+  /* #21: output[1][0] = @5 */
+  casadi_copy(w05, 24, res[1]);
+  /* #22: @6 = (@6+@9) */
+  for (i=0, rr=w06, cs=w09; i<300; ++i) (*rr++) += (*cs++);
+  /* #23: @6 = (@6+@11) */
+  for (i=0, rr=w06, cs=w11; i<300; ++i) (*rr++) += (*cs++);
+  /* #24: @6 = (@6+@13) */
+  for (i=0, rr=w06, cs=w13; i<300; ++i) (*rr++) += (*cs++);
+  /* #25: @14 = dense(@6) */
+  casadi_densify(w06, casadi_s0, w14, 0);
+  /* #26: @13 = @6' */
+  casadi_trans(w06,casadi_s0, w13, casadi_s1, iw);
+  /* #27: @15 = dense(@13) */
+  casadi_densify(w13, casadi_s1, w15, 0);
+  /* #28: @14 = (@14+@15) */
+  for (i=0, rr=w14, cs=w15; i<576; ++i) (*rr++) += (*cs++);
+  /* #29: @5 = @6[0, 24, 47, 69, 90, 110, 129, 147, 164, 180, 195, 209, 222, 234, 245, 255, 264, 272, 279, 285, 290, 294, 297, 299] */
+  for (cii=casadi_s2, rr=w05, cs=w06; cii!=casadi_s2+24; ++cii) *rr++ = cs[*cii];
+  /* #30: @15 = dense(@5) */
+  casadi_densify(w05, casadi_s3, w15, 0);
+  /* #31: @14 = (@14-@15) */
+  for (i=0, rr=w14, cs=w15; i<576; ++i) (*rr++) -= (*cs++);
+  /* #32: output[2][0] = @14 */
+  casadi_copy(w14, 576, res[2]);
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f12(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g4_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g4_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g4_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g4_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int beam3d_line_bending_g4_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int beam3d_line_bending_g4_n_out(void) { return 3;}
+
+CASADI_SYMBOL_EXPORT casadi_real beam3d_line_bending_g4_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* beam3d_line_bending_g4_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* beam3d_line_bending_g4_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    case 1: return "gradient";
+    case 2: return "hessian";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* beam3d_line_bending_g4_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    case 1: return casadi_s5;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* beam3d_line_bending_g4_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s6;
+    case 1: return casadi_s4;
+    case 2: return casadi_s7;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g4_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 6;
+  if (sz_res) *sz_res = 6;
+  if (sz_iw) *sz_iw = 25;
+  if (sz_w) *sz_w = 2631;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g4_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 6*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 6*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 25*sizeof(casadi_int);
+  if (sz_w) *sz_w = 2631*sizeof(casadi_real);
+  return 0;
+}
+
+/* beam3d_line_bending_g4_energy:(q[24],p[3])->(energy) */
+static int casadi_f13(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real **res1=res+1, *w1=w+26, w2, w3, w4, w5;
+  const casadi_real **arg1=arg+2, *wr0;
+  /* #0: @0 = input[0][0] */
+  wr0 = arg[0] ? arg[0] : casadi_zeros;
+  /* #1: @1 = input[1][0] */
+  casadi_copy(arg[1], 3, w1);
+  /* #2: @2 = 0.0694318 */
+  w2 = 6.9431844202973714e-02;
+  /* #3: @3 = 0.173927 */
+  w3 = 1.7392742256872679e-01;
+  /* #4: @4 = beam3d_line_bending_point_e(@0, @1, @2, @3) */
+  arg1[0]=wr0;
+  arg1[1]=w1;
+  arg1[2]=(&w2);
+  arg1[3]=(&w3);
+  res1[0]=(&w4);
+  if (casadi_f3(arg1, res1, iw, w, 0)) return 1;
+  /* #5: @2 = 0.330009 */
+  w2 = 3.3000947820757187e-01;
+  /* #6: @3 = 0.326073 */
+  w3 = 3.2607257743127321e-01;
+  /* #7: @5 = beam3d_line_bending_point_e(@0, @1, @2, @3) */
+  arg1[0]=wr0;
+  arg1[1]=w1;
+  arg1[2]=(&w2);
+  arg1[3]=(&w3);
+  res1[0]=(&w5);
+  if (casadi_f3(arg1, res1, iw, w, 0)) return 1;
+  /* #8: @4 = (@4+@5) */
+  w4 += w5;
+  /* #9: @5 = 0.669991 */
+  w5 = 6.6999052179242813e-01;
+  /* #10: @2 = 0.326073 */
+  w2 = 3.2607257743127321e-01;
+  /* #11: @3 = beam3d_line_bending_point_e(@0, @1, @5, @2) */
+  arg1[0]=wr0;
+  arg1[1]=w1;
+  arg1[2]=(&w5);
+  arg1[3]=(&w2);
+  res1[0]=(&w3);
+  if (casadi_f3(arg1, res1, iw, w, 0)) return 1;
+  /* #12: @4 = (@4+@3) */
+  w4 += w3;
+  /* #13: @3 = 0.930568 */
+  w3 = 9.3056815579702623e-01;
+  /* #14: @5 = 0.173927 */
+  w5 = 1.7392742256872679e-01;
+  /* #15: @2 = beam3d_line_bending_point_e(@0, @1, @3, @5) */
+  arg1[0]=wr0;
+  arg1[1]=w1;
+  arg1[2]=(&w3);
+  arg1[3]=(&w5);
+  res1[0]=(&w2);
+  if (casadi_f3(arg1, res1, iw, w, 0)) return 1;
+  /* #16: @4 = (@4+@2) */
+  w4 += w2;
+  /* #17: output[0][0] = @4 */
+  if (res[0]) res[0][0] = w4;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g4_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f13(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g4_energy_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g4_energy_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g4_energy_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g4_energy_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int beam3d_line_bending_g4_energy_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int beam3d_line_bending_g4_energy_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real beam3d_line_bending_g4_energy_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* beam3d_line_bending_g4_energy_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* beam3d_line_bending_g4_energy_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* beam3d_line_bending_g4_energy_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    case 1: return casadi_s5;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* beam3d_line_bending_g4_energy_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s6;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g4_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 6;
+  if (sz_res) *sz_res = 2;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 29;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g4_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 6*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 2*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 29*sizeof(casadi_real);
+  return 0;
+}
+
+/* adj1_beam3d_line_bending_g4_energy:(q[24],p[3],out_energy[1x1,0nz],adj_energy)->(adj_q[24],adj_p[3]) */
+static int casadi_f14(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_int i;
+  casadi_real **res1=res+2, *rr, *w01=w+85, w02, w03, w05, *w06=w+88, *w07=w+112, *w08=w+115, *w09=w+139, *w10=w+142, *w11=w+145;
+  const casadi_real **arg1=arg+4, *cs, *wr00;
+  /* #0: @0 = input[0][0] */
+  wr00 = arg[0] ? arg[0] : casadi_zeros;
+  /* #1: @1 = input[1][0] */
+  casadi_copy(arg[1], 3, w01);
+  /* #2: @2 = 0.930568 */
+  w02 = 9.3056815579702623e-01;
+  /* #3: @3 = 0.173927 */
+  w03 = 1.7392742256872679e-01;
+  /* #4: @4 = 00 */
+  /* #5: @5 = input[3][0] */
+  w05 = arg[3] ? arg[3][0] : 0;
+  /* #6: {@6, @7, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  arg1[4]=0;
+  arg1[5]=(&w05);
+  res1[0]=w06;
+  res1[1]=w07;
+  res1[2]=0;
+  res1[3]=0;
+  if (casadi_f5(arg1, res1, iw, w, 0)) return 1;
+  /* #7: @2 = 0.669991 */
+  w02 = 6.6999052179242813e-01;
+  /* #8: @3 = 0.326073 */
+  w03 = 3.2607257743127321e-01;
+  /* #9: @4 = 00 */
+  /* #10: {@8, @9, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  arg1[4]=0;
+  arg1[5]=(&w05);
+  res1[0]=w08;
+  res1[1]=w09;
+  res1[2]=0;
+  res1[3]=0;
+  if (casadi_f5(arg1, res1, iw, w, 0)) return 1;
+  /* #11: @6 = (@6+@8) */
+  for (i=0, rr=w06, cs=w08; i<24; ++i) (*rr++) += (*cs++);
+  /* #12: @2 = 0.330009 */
+  w02 = 3.3000947820757187e-01;
+  /* #13: @3 = 0.326073 */
+  w03 = 3.2607257743127321e-01;
+  /* #14: @4 = 00 */
+  /* #15: {@8, @10, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  arg1[4]=0;
+  arg1[5]=(&w05);
+  res1[0]=w08;
+  res1[1]=w10;
+  res1[2]=0;
+  res1[3]=0;
+  if (casadi_f5(arg1, res1, iw, w, 0)) return 1;
+  /* #16: @6 = (@6+@8) */
+  for (i=0, rr=w06, cs=w08; i<24; ++i) (*rr++) += (*cs++);
+  /* #17: @2 = 0.0694318 */
+  w02 = 6.9431844202973714e-02;
+  /* #18: @3 = 0.173927 */
+  w03 = 1.7392742256872679e-01;
+  /* #19: @4 = 00 */
+  /* #20: {@8, @11, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  arg1[4]=0;
+  arg1[5]=(&w05);
+  res1[0]=w08;
+  res1[1]=w11;
+  res1[2]=0;
+  res1[3]=0;
+  if (casadi_f5(arg1, res1, iw, w, 0)) return 1;
+  /* #21: @6 = (@6+@8) */
+  for (i=0, rr=w06, cs=w08; i<24; ++i) (*rr++) += (*cs++);
+  /* #22: output[0][0] = @6 */
+  casadi_copy(w06, 24, res[0]);
+  /* #23: @7 = (@7+@9) */
+  for (i=0, rr=w07, cs=w09; i<3; ++i) (*rr++) += (*cs++);
+  /* #24: @7 = (@7+@10) */
+  for (i=0, rr=w07, cs=w10; i<3; ++i) (*rr++) += (*cs++);
+  /* #25: @7 = (@7+@11) */
+  for (i=0, rr=w07, cs=w11; i<3; ++i) (*rr++) += (*cs++);
+  /* #26: output[1][0] = @7 */
+  casadi_copy(w07, 3, res[1]);
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int adj1_beam3d_line_bending_g4_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f14(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int adj1_beam3d_line_bending_g4_energy_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void adj1_beam3d_line_bending_g4_energy_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void adj1_beam3d_line_bending_g4_energy_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void adj1_beam3d_line_bending_g4_energy_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int adj1_beam3d_line_bending_g4_energy_n_in(void) { return 4;}
+
+CASADI_SYMBOL_EXPORT casadi_int adj1_beam3d_line_bending_g4_energy_n_out(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_real adj1_beam3d_line_bending_g4_energy_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* adj1_beam3d_line_bending_g4_energy_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    case 2: return "out_energy";
+    case 3: return "adj_energy";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* adj1_beam3d_line_bending_g4_energy_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "adj_q";
+    case 1: return "adj_p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* adj1_beam3d_line_bending_g4_energy_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    case 1: return casadi_s5;
+    case 2: return casadi_s8;
+    case 3: return casadi_s6;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* adj1_beam3d_line_bending_g4_energy_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    case 1: return casadi_s5;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int adj1_beam3d_line_bending_g4_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 10;
+  if (sz_res) *sz_res = 6;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 148;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int adj1_beam3d_line_bending_g4_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 10*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 6*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 148*sizeof(casadi_real);
+  return 0;
+}
+
+/* beam3d_line_bending_g4_grad:(q[24],p[3])->(energy,gradient[24]) */
+static int casadi_f15(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_int i;
+  casadi_real **res1=res+2, *rr, *w1=w+48, w2, w3, w4, *w5=w+51, w6, *w7=w+75, *w8=w+99, *w9=w+123;
+  const casadi_real **arg1=arg+2, *cs, *wr0;
+  /* #0: @0 = input[0][0] */
+  wr0 = arg[0] ? arg[0] : casadi_zeros;
+  /* #1: @1 = input[1][0] */
+  casadi_copy(arg[1], 3, w1);
+  /* #2: @2 = 0.0694318 */
+  w2 = 6.9431844202973714e-02;
+  /* #3: @3 = 0.173927 */
+  w3 = 1.7392742256872679e-01;
+  /* #4: {@4, @5} = beam3d_line_bending_point_eg(@0, @1, @2, @3) */
+  arg1[0]=wr0;
+  arg1[1]=w1;
+  arg1[2]=(&w2);
+  arg1[3]=(&w3);
+  res1[0]=(&w4);
+  res1[1]=w5;
+  if (casadi_f7(arg1, res1, iw, w, 0)) return 1;
+  /* #5: @2 = 0.330009 */
+  w2 = 3.3000947820757187e-01;
+  /* #6: @3 = 0.326073 */
+  w3 = 3.2607257743127321e-01;
+  /* #7: {@6, @7} = beam3d_line_bending_point_eg(@0, @1, @2, @3) */
+  arg1[0]=wr0;
+  arg1[1]=w1;
+  arg1[2]=(&w2);
+  arg1[3]=(&w3);
+  res1[0]=(&w6);
+  res1[1]=w7;
+  if (casadi_f7(arg1, res1, iw, w, 0)) return 1;
+  /* #8: @4 = (@4+@6) */
+  w4 += w6;
+  /* #9: @6 = 0.669991 */
+  w6 = 6.6999052179242813e-01;
+  /* #10: @2 = 0.326073 */
+  w2 = 3.2607257743127321e-01;
+  /* #11: {@3, @8} = beam3d_line_bending_point_eg(@0, @1, @6, @2) */
+  arg1[0]=wr0;
+  arg1[1]=w1;
+  arg1[2]=(&w6);
+  arg1[3]=(&w2);
+  res1[0]=(&w3);
+  res1[1]=w8;
+  if (casadi_f7(arg1, res1, iw, w, 0)) return 1;
+  /* #12: @4 = (@4+@3) */
+  w4 += w3;
+  /* #13: @3 = 0.930568 */
+  w3 = 9.3056815579702623e-01;
+  /* #14: @6 = 0.173927 */
+  w6 = 1.7392742256872679e-01;
+  /* #15: {@2, @9} = beam3d_line_bending_point_eg(@0, @1, @3, @6) */
+  arg1[0]=wr0;
+  arg1[1]=w1;
+  arg1[2]=(&w3);
+  arg1[3]=(&w6);
+  res1[0]=(&w2);
+  res1[1]=w9;
+  if (casadi_f7(arg1, res1, iw, w, 0)) return 1;
+  /* #16: @4 = (@4+@2) */
+  w4 += w2;
+  /* #17: output[0][0] = @4 */
+  if (res[0]) res[0][0] = w4;
+  /* #18: @5 = (@5+@7) */
+  for (i=0, rr=w5, cs=w7; i<24; ++i) (*rr++) += (*cs++);
+  /* #19: @5 = (@5+@8) */
+  for (i=0, rr=w5, cs=w8; i<24; ++i) (*rr++) += (*cs++);
+  /* #20: @5 = (@5+@9) */
+  for (i=0, rr=w5, cs=w9; i<24; ++i) (*rr++) += (*cs++);
+  /* #21: output[1][0] = @5 */
+  casadi_copy(w5, 24, res[1]);
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g4_grad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f15(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g4_grad_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g4_grad_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g4_grad_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g4_grad_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int beam3d_line_bending_g4_grad_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int beam3d_line_bending_g4_grad_n_out(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_real beam3d_line_bending_g4_grad_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* beam3d_line_bending_g4_grad_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* beam3d_line_bending_g4_grad_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    case 1: return "gradient";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* beam3d_line_bending_g4_grad_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    case 1: return casadi_s5;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* beam3d_line_bending_g4_grad_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s6;
+    case 1: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g4_grad_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 6;
+  if (sz_res) *sz_res = 4;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 147;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g4_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 6*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 4*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 147*sizeof(casadi_real);
+  return 0;
+}
+
+/* beam3d_line_bending_g7:(q[24],p[3])->(energy,gradient[24],hessian[24x24]) */
+static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_int i;
+  casadi_real **res1=res+3, *rr, *w01=w+180, w02, w03, w04, *w05=w+183, *w06=w+207, w07, *w08=w+507, *w09=w+531, *w10=w+831;
+  casadi_real *w11=w+855, *w12=w+1155, *w13=w+1179, *w14=w+1479, *w15=w+1503, *w16=w+1803, *w17=w+1827, *w18=w+2127, *w19=w+2151, *w20=w+2451, *w21=w+3027;
+  const casadi_int *cii;
+  const casadi_real **arg1=arg+2, *cs, *wr00;
+  /* #0: @0 = input[0][0] */
+  wr00 = arg[0] ? arg[0] : casadi_zeros;
+  /* #1: @1 = input[1][0] */
+  casadi_copy(arg[1], 3, w01);
+  /* #2: @2 = 0.025446 */
+  w02 = 2.5446043828620701e-02;
+  /* #3: @3 = 0.0647425 */
+  w03 = 6.4742483084434865e-02;
+  /* #4: {@4, @5, @6} = beam3d_line_bending_point(@0, @1, @2, @3) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  res1[0]=(&w04);
+  res1[1]=w05;
+  res1[2]=w06;
+  if (casadi_f1(arg1, res1, iw, w, 0)) return 1;
+  /* #5: @2 = 0.129234 */
+  w02 = 1.2923440720030277e-01;
+  /* #6: @3 = 0.139853 */
+  w03 = 1.3985269574463843e-01;
+  /* #7: {@7, @8, @9} = beam3d_line_bending_point(@0, @1, @2, @3) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  res1[0]=(&w07);
+  res1[1]=w08;
+  res1[2]=w09;
+  if (casadi_f1(arg1, res1, iw, w, 0)) return 1;
+  /* #8: @4 = (@4+@7) */
+  w04 += w07;
+  /* #9: @7 = 0.297077 */
+  w07 = 2.9707742431130141e-01;
+  /* #10: @2 = 0.190915 */
+  w02 = 1.9091502525255935e-01;
+  /* #11: {@3, @10, @11} = beam3d_line_bending_point(@0, @1, @7, @2) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w07);
+  arg1[3]=(&w02);
+  res1[0]=(&w03);
+  res1[1]=w10;
+  res1[2]=w11;
+  if (casadi_f1(arg1, res1, iw, w, 0)) return 1;
+  /* #12: @4 = (@4+@3) */
+  w04 += w03;
+  /* #13: @3 = 0.5 */
+  w03 = 5.0000000000000000e-01;
+  /* #14: @7 = 0.20898 */
+  w07 = 2.0897959183673465e-01;
+  /* #15: {@2, @12, @13} = beam3d_line_bending_point(@0, @1, @3, @7) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w03);
+  arg1[3]=(&w07);
+  res1[0]=(&w02);
+  res1[1]=w12;
+  res1[2]=w13;
+  if (casadi_f1(arg1, res1, iw, w, 0)) return 1;
+  /* #16: @4 = (@4+@2) */
+  w04 += w02;
+  /* #17: @2 = 0.702923 */
+  w02 = 7.0292257568869854e-01;
+  /* #18: @3 = 0.190915 */
+  w03 = 1.9091502525255935e-01;
+  /* #19: {@7, @14, @15} = beam3d_line_bending_point(@0, @1, @2, @3) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  res1[0]=(&w07);
+  res1[1]=w14;
+  res1[2]=w15;
+  if (casadi_f1(arg1, res1, iw, w, 0)) return 1;
+  /* #20: @4 = (@4+@7) */
+  w04 += w07;
+  /* #21: @7 = 0.870766 */
+  w07 = 8.7076559279969723e-01;
+  /* #22: @2 = 0.139853 */
+  w02 = 1.3985269574463843e-01;
+  /* #23: {@3, @16, @17} = beam3d_line_bending_point(@0, @1, @7, @2) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w07);
+  arg1[3]=(&w02);
+  res1[0]=(&w03);
+  res1[1]=w16;
+  res1[2]=w17;
+  if (casadi_f1(arg1, res1, iw, w, 0)) return 1;
+  /* #24: @4 = (@4+@3) */
+  w04 += w03;
+  /* #25: @3 = 0.974554 */
+  w03 = 9.7455395617137930e-01;
+  /* #26: @7 = 0.0647425 */
+  w07 = 6.4742483084434865e-02;
+  /* #27: {@2, @18, @19} = beam3d_line_bending_point(@0, @1, @3, @7) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w03);
+  arg1[3]=(&w07);
+  res1[0]=(&w02);
+  res1[1]=w18;
+  res1[2]=w19;
+  if (casadi_f1(arg1, res1, iw, w, 0)) return 1;
+  /* #28: @4 = (@4+@2) */
+  w04 += w02;
+  /* #29: output[0][0] = @4 */
+  if (res[0]) res[0][0] = w04;
+  /* #30: @5 = (@5+@8) */
+  for (i=0, rr=w05, cs=w08; i<24; ++i) (*rr++) += (*cs++);
+  /* #31: @5 = (@5+@10) */
+  for (i=0, rr=w05, cs=w10; i<24; ++i) (*rr++) += (*cs++);
+  /* #32: @5 = (@5+@12) */
+  for (i=0, rr=w05, cs=w12; i<24; ++i) (*rr++) += (*cs++);
+  /* #33: @5 = (@5+@14) */
+  for (i=0, rr=w05, cs=w14; i<24; ++i) (*rr++) += (*cs++);
+  /* #34: @5 = (@5+@16) */
+  for (i=0, rr=w05, cs=w16; i<24; ++i) (*rr++) += (*cs++);
+  /* #35: @5 = (@5+@18) */
+  for (i=0, rr=w05, cs=w18; i<24; ++i) (*rr++) += (*cs++);
+  /* #36: output[1][0] = @5 */
+  casadi_copy(w05, 24, res[1]);
+  /* #37: @6 = (@6+@9) */
+  for (i=0, rr=w06, cs=w09; i<300; ++i) (*rr++) += (*cs++);
+  /* #38: @6 = (@6+@11) */
+  for (i=0, rr=w06, cs=w11; i<300; ++i) (*rr++) += (*cs++);
+  /* #39: @6 = (@6+@13) */
+  for (i=0, rr=w06, cs=w13; i<300; ++i) (*rr++) += (*cs++);
+  /* #40: @6 = (@6+@15) */
+  for (i=0, rr=w06, cs=w15; i<300; ++i) (*rr++) += (*cs++);
+  /* #41: @6 = (@6+@17) */
+  for (i=0, rr=w06, cs=w17; i<300; ++i) (*rr++) += (*cs++);
+  /* #42: @6 = (@6+@19) */
+  for (i=0, rr=w06, cs=w19; i<300; ++i) (*rr++) += (*cs++);
+  /* #43: @20 = dense(@6) */
+  casadi_densify(w06, casadi_s0, w20, 0);
+  /* #44: @19 = @6' */
+  casadi_trans(w06,casadi_s0, w19, casadi_s1, iw);
+  /* #45: @21 = dense(@19) */
+  casadi_densify(w19, casadi_s1, w21, 0);
+  /* #46: @20 = (@20+@21) */
+  for (i=0, rr=w20, cs=w21; i<576; ++i) (*rr++) += (*cs++);
+  /* #47: @5 = @6[0, 24, 47, 69, 90, 110, 129, 147, 164, 180, 195, 209, 222, 234, 245, 255, 264, 272, 279, 285, 290, 294, 297, 299] */
+  for (cii=casadi_s2, rr=w05, cs=w06; cii!=casadi_s2+24; ++cii) *rr++ = cs[*cii];
+  /* #48: @21 = dense(@5) */
+  casadi_densify(w05, casadi_s3, w21, 0);
+  /* #49: @20 = (@20-@21) */
+  for (i=0, rr=w20, cs=w21; i<576; ++i) (*rr++) -= (*cs++);
+  /* #50: output[2][0] = @20 */
+  casadi_copy(w20, 576, res[2]);
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f16(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g7_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g7_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g7_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g7_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int beam3d_line_bending_g7_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int beam3d_line_bending_g7_n_out(void) { return 3;}
+
+CASADI_SYMBOL_EXPORT casadi_real beam3d_line_bending_g7_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* beam3d_line_bending_g7_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* beam3d_line_bending_g7_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    case 1: return "gradient";
+    case 2: return "hessian";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* beam3d_line_bending_g7_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    case 1: return casadi_s5;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* beam3d_line_bending_g7_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s6;
+    case 1: return casadi_s4;
+    case 2: return casadi_s7;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g7_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 6;
+  if (sz_res) *sz_res = 6;
+  if (sz_iw) *sz_iw = 25;
+  if (sz_w) *sz_w = 3603;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g7_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 6*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 6*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 25*sizeof(casadi_int);
+  if (sz_w) *sz_w = 3603*sizeof(casadi_real);
+  return 0;
+}
+
+/* beam3d_line_bending_g7_energy:(q[24],p[3])->(energy) */
+static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real **res1=res+1, *w1=w+26, w2, w3, w4, w5;
+  const casadi_real **arg1=arg+2, *wr0;
+  /* #0: @0 = input[0][0] */
+  wr0 = arg[0] ? arg[0] : casadi_zeros;
+  /* #1: @1 = input[1][0] */
+  casadi_copy(arg[1], 3, w1);
+  /* #2: @2 = 0.025446 */
+  w2 = 2.5446043828620701e-02;
+  /* #3: @3 = 0.0647425 */
+  w3 = 6.4742483084434865e-02;
+  /* #4: @4 = beam3d_line_bending_point_e(@0, @1, @2, @3) */
+  arg1[0]=wr0;
+  arg1[1]=w1;
+  arg1[2]=(&w2);
+  arg1[3]=(&w3);
+  res1[0]=(&w4);
+  if (casadi_f3(arg1, res1, iw, w, 0)) return 1;
+  /* #5: @2 = 0.129234 */
+  w2 = 1.2923440720030277e-01;
+  /* #6: @3 = 0.139853 */
+  w3 = 1.3985269574463843e-01;
+  /* #7: @5 = beam3d_line_bending_point_e(@0, @1, @2, @3) */
+  arg1[0]=wr0;
+  arg1[1]=w1;
+  arg1[2]=(&w2);
+  arg1[3]=(&w3);
+  res1[0]=(&w5);
+  if (casadi_f3(arg1, res1, iw, w, 0)) return 1;
+  /* #8: @4 = (@4+@5) */
+  w4 += w5;
+  /* #9: @5 = 0.297077 */
+  w5 = 2.9707742431130141e-01;
+  /* #10: @2 = 0.190915 */
+  w2 = 1.9091502525255935e-01;
+  /* #11: @3 = beam3d_line_bending_point_e(@0, @1, @5, @2) */
+  arg1[0]=wr0;
+  arg1[1]=w1;
+  arg1[2]=(&w5);
+  arg1[3]=(&w2);
+  res1[0]=(&w3);
+  if (casadi_f3(arg1, res1, iw, w, 0)) return 1;
+  /* #12: @4 = (@4+@3) */
+  w4 += w3;
+  /* #13: @3 = 0.5 */
+  w3 = 5.0000000000000000e-01;
+  /* #14: @5 = 0.20898 */
+  w5 = 2.0897959183673465e-01;
+  /* #15: @2 = beam3d_line_bending_point_e(@0, @1, @3, @5) */
+  arg1[0]=wr0;
+  arg1[1]=w1;
+  arg1[2]=(&w3);
+  arg1[3]=(&w5);
+  res1[0]=(&w2);
+  if (casadi_f3(arg1, res1, iw, w, 0)) return 1;
+  /* #16: @4 = (@4+@2) */
+  w4 += w2;
+  /* #17: @2 = 0.702923 */
+  w2 = 7.0292257568869854e-01;
+  /* #18: @3 = 0.190915 */
+  w3 = 1.9091502525255935e-01;
+  /* #19: @5 = beam3d_line_bending_point_e(@0, @1, @2, @3) */
+  arg1[0]=wr0;
+  arg1[1]=w1;
+  arg1[2]=(&w2);
+  arg1[3]=(&w3);
+  res1[0]=(&w5);
+  if (casadi_f3(arg1, res1, iw, w, 0)) return 1;
+  /* #20: @4 = (@4+@5) */
+  w4 += w5;
+  /* #21: @5 = 0.870766 */
+  w5 = 8.7076559279969723e-01;
+  /* #22: @2 = 0.139853 */
+  w2 = 1.3985269574463843e-01;
+  /* #23: @3 = beam3d_line_bending_point_e(@0, @1, @5, @2) */
+  arg1[0]=wr0;
+  arg1[1]=w1;
+  arg1[2]=(&w5);
+  arg1[3]=(&w2);
+  res1[0]=(&w3);
+  if (casadi_f3(arg1, res1, iw, w, 0)) return 1;
+  /* #24: @4 = (@4+@3) */
+  w4 += w3;
+  /* #25: @3 = 0.974554 */
+  w3 = 9.7455395617137930e-01;
+  /* #26: @5 = 0.0647425 */
+  w5 = 6.4742483084434865e-02;
+  /* #27: @2 = beam3d_line_bending_point_e(@0, @1, @3, @5) */
+  arg1[0]=wr0;
+  arg1[1]=w1;
+  arg1[2]=(&w3);
+  arg1[3]=(&w5);
+  res1[0]=(&w2);
+  if (casadi_f3(arg1, res1, iw, w, 0)) return 1;
+  /* #28: @4 = (@4+@2) */
+  w4 += w2;
+  /* #29: output[0][0] = @4 */
+  if (res[0]) res[0][0] = w4;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g7_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f17(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g7_energy_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g7_energy_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g7_energy_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g7_energy_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int beam3d_line_bending_g7_energy_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int beam3d_line_bending_g7_energy_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real beam3d_line_bending_g7_energy_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* beam3d_line_bending_g7_energy_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* beam3d_line_bending_g7_energy_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* beam3d_line_bending_g7_energy_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    case 1: return casadi_s5;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* beam3d_line_bending_g7_energy_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s6;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g7_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 6;
+  if (sz_res) *sz_res = 2;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 29;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g7_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 6*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 2*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 29*sizeof(casadi_real);
+  return 0;
+}
+
+/* adj1_beam3d_line_bending_g7_energy:(q[24],p[3],out_energy[1x1,0nz],adj_energy)->(adj_q[24],adj_p[3]) */
+static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_int i;
+  casadi_real **res1=res+2, *rr, *w01=w+85, w02, w03, w05, *w06=w+88, *w07=w+112, *w08=w+115, *w09=w+139, *w10=w+142, *w11=w+145;
+  casadi_real *w12=w+148, *w13=w+151, *w14=w+154;
+  const casadi_real **arg1=arg+4, *cs, *wr00;
+  /* #0: @0 = input[0][0] */
+  wr00 = arg[0] ? arg[0] : casadi_zeros;
+  /* #1: @1 = input[1][0] */
+  casadi_copy(arg[1], 3, w01);
+  /* #2: @2 = 0.974554 */
+  w02 = 9.7455395617137930e-01;
+  /* #3: @3 = 0.0647425 */
+  w03 = 6.4742483084434865e-02;
+  /* #4: @4 = 00 */
+  /* #5: @5 = input[3][0] */
+  w05 = arg[3] ? arg[3][0] : 0;
+  /* #6: {@6, @7, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  arg1[4]=0;
+  arg1[5]=(&w05);
+  res1[0]=w06;
+  res1[1]=w07;
+  res1[2]=0;
+  res1[3]=0;
+  if (casadi_f5(arg1, res1, iw, w, 0)) return 1;
+  /* #7: @2 = 0.870766 */
+  w02 = 8.7076559279969723e-01;
+  /* #8: @3 = 0.139853 */
+  w03 = 1.3985269574463843e-01;
+  /* #9: @4 = 00 */
+  /* #10: {@8, @9, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  arg1[4]=0;
+  arg1[5]=(&w05);
+  res1[0]=w08;
+  res1[1]=w09;
+  res1[2]=0;
+  res1[3]=0;
+  if (casadi_f5(arg1, res1, iw, w, 0)) return 1;
+  /* #11: @6 = (@6+@8) */
+  for (i=0, rr=w06, cs=w08; i<24; ++i) (*rr++) += (*cs++);
+  /* #12: @2 = 0.702923 */
+  w02 = 7.0292257568869854e-01;
+  /* #13: @3 = 0.190915 */
+  w03 = 1.9091502525255935e-01;
+  /* #14: @4 = 00 */
+  /* #15: {@8, @10, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  arg1[4]=0;
+  arg1[5]=(&w05);
+  res1[0]=w08;
+  res1[1]=w10;
+  res1[2]=0;
+  res1[3]=0;
+  if (casadi_f5(arg1, res1, iw, w, 0)) return 1;
+  /* #16: @6 = (@6+@8) */
+  for (i=0, rr=w06, cs=w08; i<24; ++i) (*rr++) += (*cs++);
+  /* #17: @2 = 0.5 */
+  w02 = 5.0000000000000000e-01;
+  /* #18: @3 = 0.20898 */
+  w03 = 2.0897959183673465e-01;
+  /* #19: @4 = 00 */
+  /* #20: {@8, @11, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  arg1[4]=0;
+  arg1[5]=(&w05);
+  res1[0]=w08;
+  res1[1]=w11;
+  res1[2]=0;
+  res1[3]=0;
+  if (casadi_f5(arg1, res1, iw, w, 0)) return 1;
+  /* #21: @6 = (@6+@8) */
+  for (i=0, rr=w06, cs=w08; i<24; ++i) (*rr++) += (*cs++);
+  /* #22: @2 = 0.297077 */
+  w02 = 2.9707742431130141e-01;
+  /* #23: @3 = 0.190915 */
+  w03 = 1.9091502525255935e-01;
+  /* #24: @4 = 00 */
+  /* #25: {@8, @12, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  arg1[4]=0;
+  arg1[5]=(&w05);
+  res1[0]=w08;
+  res1[1]=w12;
+  res1[2]=0;
+  res1[3]=0;
+  if (casadi_f5(arg1, res1, iw, w, 0)) return 1;
+  /* #26: @6 = (@6+@8) */
+  for (i=0, rr=w06, cs=w08; i<24; ++i) (*rr++) += (*cs++);
+  /* #27: @2 = 0.129234 */
+  w02 = 1.2923440720030277e-01;
+  /* #28: @3 = 0.139853 */
+  w03 = 1.3985269574463843e-01;
+  /* #29: @4 = 00 */
+  /* #30: {@8, @13, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  arg1[4]=0;
+  arg1[5]=(&w05);
+  res1[0]=w08;
+  res1[1]=w13;
+  res1[2]=0;
+  res1[3]=0;
+  if (casadi_f5(arg1, res1, iw, w, 0)) return 1;
+  /* #31: @6 = (@6+@8) */
+  for (i=0, rr=w06, cs=w08; i<24; ++i) (*rr++) += (*cs++);
+  /* #32: @2 = 0.025446 */
+  w02 = 2.5446043828620701e-02;
+  /* #33: @3 = 0.0647425 */
+  w03 = 6.4742483084434865e-02;
+  /* #34: @4 = 00 */
+  /* #35: {@8, @14, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  arg1[4]=0;
+  arg1[5]=(&w05);
+  res1[0]=w08;
+  res1[1]=w14;
+  res1[2]=0;
+  res1[3]=0;
+  if (casadi_f5(arg1, res1, iw, w, 0)) return 1;
+  /* #36: @6 = (@6+@8) */
+  for (i=0, rr=w06, cs=w08; i<24; ++i) (*rr++) += (*cs++);
+  /* #37: output[0][0] = @6 */
+  casadi_copy(w06, 24, res[0]);
+  /* #38: @7 = (@7+@9) */
+  for (i=0, rr=w07, cs=w09; i<3; ++i) (*rr++) += (*cs++);
+  /* #39: @7 = (@7+@10) */
+  for (i=0, rr=w07, cs=w10; i<3; ++i) (*rr++) += (*cs++);
+  /* #40: @7 = (@7+@11) */
+  for (i=0, rr=w07, cs=w11; i<3; ++i) (*rr++) += (*cs++);
+  /* #41: @7 = (@7+@12) */
+  for (i=0, rr=w07, cs=w12; i<3; ++i) (*rr++) += (*cs++);
+  /* #42: @7 = (@7+@13) */
+  for (i=0, rr=w07, cs=w13; i<3; ++i) (*rr++) += (*cs++);
+  /* #43: @7 = (@7+@14) */
+  for (i=0, rr=w07, cs=w14; i<3; ++i) (*rr++) += (*cs++);
+  /* #44: output[1][0] = @7 */
+  casadi_copy(w07, 3, res[1]);
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int adj1_beam3d_line_bending_g7_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f18(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int adj1_beam3d_line_bending_g7_energy_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void adj1_beam3d_line_bending_g7_energy_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void adj1_beam3d_line_bending_g7_energy_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void adj1_beam3d_line_bending_g7_energy_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int adj1_beam3d_line_bending_g7_energy_n_in(void) { return 4;}
+
+CASADI_SYMBOL_EXPORT casadi_int adj1_beam3d_line_bending_g7_energy_n_out(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_real adj1_beam3d_line_bending_g7_energy_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* adj1_beam3d_line_bending_g7_energy_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    case 2: return "out_energy";
+    case 3: return "adj_energy";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* adj1_beam3d_line_bending_g7_energy_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "adj_q";
+    case 1: return "adj_p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* adj1_beam3d_line_bending_g7_energy_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    case 1: return casadi_s5;
+    case 2: return casadi_s8;
+    case 3: return casadi_s6;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* adj1_beam3d_line_bending_g7_energy_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    case 1: return casadi_s5;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int adj1_beam3d_line_bending_g7_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 10;
+  if (sz_res) *sz_res = 6;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 157;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int adj1_beam3d_line_bending_g7_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 10*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 6*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 157*sizeof(casadi_real);
+  return 0;
+}
+
+/* beam3d_line_bending_g7_grad:(q[24],p[3])->(energy,gradient[24]) */
+static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_int i;
+  casadi_real **res1=res+2, *rr, *w01=w+48, w02, w03, w04, *w05=w+51, w06, *w07=w+75, *w08=w+99, *w09=w+123, *w10=w+147;
+  casadi_real *w11=w+171, *w12=w+195;
+  const casadi_real **arg1=arg+2, *cs, *wr00;
+  /* #0: @0 = input[0][0] */
+  wr00 = arg[0] ? arg[0] : casadi_zeros;
+  /* #1: @1 = input[1][0] */
+  casadi_copy(arg[1], 3, w01);
+  /* #2: @2 = 0.025446 */
+  w02 = 2.5446043828620701e-02;
+  /* #3: @3 = 0.0647425 */
+  w03 = 6.4742483084434865e-02;
+  /* #4: {@4, @5} = beam3d_line_bending_point_eg(@0, @1, @2, @3) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  res1[0]=(&w04);
+  res1[1]=w05;
+  if (casadi_f7(arg1, res1, iw, w, 0)) return 1;
+  /* #5: @2 = 0.129234 */
+  w02 = 1.2923440720030277e-01;
+  /* #6: @3 = 0.139853 */
+  w03 = 1.3985269574463843e-01;
+  /* #7: {@6, @7} = beam3d_line_bending_point_eg(@0, @1, @2, @3) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  res1[0]=(&w06);
+  res1[1]=w07;
+  if (casadi_f7(arg1, res1, iw, w, 0)) return 1;
+  /* #8: @4 = (@4+@6) */
+  w04 += w06;
+  /* #9: @6 = 0.297077 */
+  w06 = 2.9707742431130141e-01;
+  /* #10: @2 = 0.190915 */
+  w02 = 1.9091502525255935e-01;
+  /* #11: {@3, @8} = beam3d_line_bending_point_eg(@0, @1, @6, @2) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w06);
+  arg1[3]=(&w02);
+  res1[0]=(&w03);
+  res1[1]=w08;
+  if (casadi_f7(arg1, res1, iw, w, 0)) return 1;
+  /* #12: @4 = (@4+@3) */
+  w04 += w03;
+  /* #13: @3 = 0.5 */
+  w03 = 5.0000000000000000e-01;
+  /* #14: @6 = 0.20898 */
+  w06 = 2.0897959183673465e-01;
+  /* #15: {@2, @9} = beam3d_line_bending_point_eg(@0, @1, @3, @6) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w03);
+  arg1[3]=(&w06);
+  res1[0]=(&w02);
+  res1[1]=w09;
+  if (casadi_f7(arg1, res1, iw, w, 0)) return 1;
+  /* #16: @4 = (@4+@2) */
+  w04 += w02;
+  /* #17: @2 = 0.702923 */
+  w02 = 7.0292257568869854e-01;
+  /* #18: @3 = 0.190915 */
+  w03 = 1.9091502525255935e-01;
+  /* #19: {@6, @10} = beam3d_line_bending_point_eg(@0, @1, @2, @3) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w02);
+  arg1[3]=(&w03);
+  res1[0]=(&w06);
+  res1[1]=w10;
+  if (casadi_f7(arg1, res1, iw, w, 0)) return 1;
+  /* #20: @4 = (@4+@6) */
+  w04 += w06;
+  /* #21: @6 = 0.870766 */
+  w06 = 8.7076559279969723e-01;
+  /* #22: @2 = 0.139853 */
+  w02 = 1.3985269574463843e-01;
+  /* #23: {@3, @11} = beam3d_line_bending_point_eg(@0, @1, @6, @2) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w06);
+  arg1[3]=(&w02);
+  res1[0]=(&w03);
+  res1[1]=w11;
+  if (casadi_f7(arg1, res1, iw, w, 0)) return 1;
+  /* #24: @4 = (@4+@3) */
+  w04 += w03;
+  /* #25: @3 = 0.974554 */
+  w03 = 9.7455395617137930e-01;
+  /* #26: @6 = 0.0647425 */
+  w06 = 6.4742483084434865e-02;
+  /* #27: {@2, @12} = beam3d_line_bending_point_eg(@0, @1, @3, @6) */
+  arg1[0]=wr00;
+  arg1[1]=w01;
+  arg1[2]=(&w03);
+  arg1[3]=(&w06);
+  res1[0]=(&w02);
+  res1[1]=w12;
+  if (casadi_f7(arg1, res1, iw, w, 0)) return 1;
+  /* #28: @4 = (@4+@2) */
+  w04 += w02;
+  /* #29: output[0][0] = @4 */
+  if (res[0]) res[0][0] = w04;
+  /* #30: @5 = (@5+@7) */
+  for (i=0, rr=w05, cs=w07; i<24; ++i) (*rr++) += (*cs++);
+  /* #31: @5 = (@5+@8) */
+  for (i=0, rr=w05, cs=w08; i<24; ++i) (*rr++) += (*cs++);
+  /* #32: @5 = (@5+@9) */
+  for (i=0, rr=w05, cs=w09; i<24; ++i) (*rr++) += (*cs++);
+  /* #33: @5 = (@5+@10) */
+  for (i=0, rr=w05, cs=w10; i<24; ++i) (*rr++) += (*cs++);
+  /* #34: @5 = (@5+@11) */
+  for (i=0, rr=w05, cs=w11; i<24; ++i) (*rr++) += (*cs++);
+  /* #35: @5 = (@5+@12) */
+  for (i=0, rr=w05, cs=w12; i<24; ++i) (*rr++) += (*cs++);
+  /* #36: output[1][0] = @5 */
+  casadi_copy(w05, 24, res[1]);
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g7_grad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f19(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g7_grad_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g7_grad_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g7_grad_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void beam3d_line_bending_g7_grad_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int beam3d_line_bending_g7_grad_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int beam3d_line_bending_g7_grad_n_out(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_real beam3d_line_bending_g7_grad_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* beam3d_line_bending_g7_grad_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* beam3d_line_bending_g7_grad_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    case 1: return "gradient";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* beam3d_line_bending_g7_grad_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s4;
+    case 1: return casadi_s5;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* beam3d_line_bending_g7_grad_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s6;
+    case 1: return casadi_s4;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g7_grad_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 6;
+  if (sz_res) *sz_res = 4;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 219;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int beam3d_line_bending_g7_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 6*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 4*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 219*sizeof(casadi_real);
   return 0;
 }
 

@@ -31,9 +31,21 @@ extern "C" {
 /* Add prefix to internal symbols */
 #define casadi_f0 CASADI_PREFIX(f0)
 #define casadi_f1 CASADI_PREFIX(f1)
+#define casadi_f10 CASADI_PREFIX(f10)
+#define casadi_f11 CASADI_PREFIX(f11)
+#define casadi_f12 CASADI_PREFIX(f12)
+#define casadi_f13 CASADI_PREFIX(f13)
+#define casadi_f14 CASADI_PREFIX(f14)
+#define casadi_f15 CASADI_PREFIX(f15)
+#define casadi_f16 CASADI_PREFIX(f16)
 #define casadi_f2 CASADI_PREFIX(f2)
 #define casadi_f3 CASADI_PREFIX(f3)
 #define casadi_f4 CASADI_PREFIX(f4)
+#define casadi_f5 CASADI_PREFIX(f5)
+#define casadi_f6 CASADI_PREFIX(f6)
+#define casadi_f7 CASADI_PREFIX(f7)
+#define casadi_f8 CASADI_PREFIX(f8)
+#define casadi_f9 CASADI_PREFIX(f9)
 #define casadi_s0 CASADI_PREFIX(s0)
 #define casadi_s1 CASADI_PREFIX(s1)
 #define casadi_s2 CASADI_PREFIX(s2)
@@ -4805,6 +4817,6031 @@ CASADI_SYMBOL_EXPORT int cable2d_axial_biot_hvp_work(casadi_int *sz_arg, casadi_
 
 CASADI_SYMBOL_EXPORT int cable2d_axial_biot_hvp_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
   if (sz_arg) *sz_arg = 3*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 2*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* cable2d_axial_biot_g3:(q[8],p[2])->(energy,gradient[8],hessian[8x8]) */
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
+  casadi_real a36, a37, a38, a39, a40, a41, a42, a43, a44, a45, a46, a47;
+  casadi_real a48, a49, a50, a51, a52, a53, a54, a55, a56, a57, a58, a59;
+  casadi_real a60, a61, a62;
+  a00=2.7777777777777785e-01;
+  a01=arg[1]? arg[1][0] : 0;
+  a02=(a00*a01);
+  a03=arg[1]? arg[1][1] : 0;
+  a04=2.;
+  a05=(a03/a04);
+  a06=-5.9999999999999998e-01;
+  a07=arg[0]? arg[0][0] : 0;
+  a08=(a06*a07);
+  a09=5.9999999999999998e-01;
+  a10=arg[0]? arg[0][4] : 0;
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a08=(a08/a01);
+  a11=5.8729833462074177e-01;
+  a12=arg[0]? arg[0][2] : 0;
+  a13=(a11*a12);
+  a08=(a08+a13);
+  a13=-1.8729833462074166e-01;
+  a14=arg[0]? arg[0][6] : 0;
+  a15=(a13*a14);
+  a08=(a08+a15);
+  a15=casadi_sq(a08);
+  a16=arg[0]? arg[0][1] : 0;
+  a17=(a06*a16);
+  a18=arg[0]? arg[0][5] : 0;
+  a19=(a09*a18);
+  a17=(a17+a19);
+  a17=(a17/a01);
+  a19=arg[0]? arg[0][3] : 0;
+  a20=(a11*a19);
+  a17=(a17+a20);
+  a20=arg[0]? arg[0][7] : 0;
+  a21=(a13*a20);
+  a17=(a17+a21);
+  a21=casadi_sq(a17);
+  a15=(a15+a21);
+  a15=sqrt(a15);
+  a21=1.;
+  a22=(a15-a21);
+  a23=casadi_sq(a22);
+  a23=(a05*a23);
+  a23=(a02*a23);
+  a24=4.4444444444444442e-01;
+  a24=(a24*a01);
+  a25=(a03/a04);
+  a26=-1.5000000000000000e+00;
+  a27=(a26*a07);
+  a28=1.5000000000000000e+00;
+  a29=(a28*a10);
+  a27=(a27+a29);
+  a27=(a27/a01);
+  a29=-2.5000000000000000e-01;
+  a30=(a29*a12);
+  a27=(a27+a30);
+  a30=(a29*a14);
+  a27=(a27+a30);
+  a30=casadi_sq(a27);
+  a31=(a26*a16);
+  a32=(a28*a18);
+  a31=(a31+a32);
+  a31=(a31/a01);
+  a32=(a29*a19);
+  a31=(a31+a32);
+  a32=(a29*a20);
+  a31=(a31+a32);
+  a32=casadi_sq(a31);
+  a30=(a30+a32);
+  a30=sqrt(a30);
+  a32=(a30-a21);
+  a33=casadi_sq(a32);
+  a33=(a25*a33);
+  a33=(a24*a33);
+  a23=(a23+a33);
+  a00=(a00*a01);
+  a03=(a03/a04);
+  a04=-5.9999999999999964e-01;
+  a07=(a04*a07);
+  a33=5.9999999999999964e-01;
+  a10=(a33*a10);
+  a07=(a07+a10);
+  a07=(a07/a01);
+  a10=-1.8729833462074152e-01;
+  a12=(a10*a12);
+  a07=(a07+a12);
+  a12=5.8729833462074188e-01;
+  a14=(a12*a14);
+  a07=(a07+a14);
+  a14=casadi_sq(a07);
+  a16=(a04*a16);
+  a18=(a33*a18);
+  a16=(a16+a18);
+  a16=(a16/a01);
+  a19=(a10*a19);
+  a16=(a16+a19);
+  a20=(a12*a20);
+  a16=(a16+a20);
+  a20=casadi_sq(a16);
+  a14=(a14+a20);
+  a14=sqrt(a14);
+  a21=(a14-a21);
+  a20=casadi_sq(a21);
+  a20=(a03*a20);
+  a20=(a00*a20);
+  a23=(a23+a20);
+  if (res[0]!=0) res[0][0]=a23;
+  a23=(a06/a01);
+  a20=(2.*a08);
+  a19=(2.*a22);
+  a18=(a05*a02);
+  a19=(a19*a18);
+  a18=(2.*a15);
+  a19=(a19/a18);
+  a20=(a20*a19);
+  a18=(a23*a20);
+  a34=(a26/a01);
+  a35=(2.*a27);
+  a36=(2.*a32);
+  a37=(a25*a24);
+  a36=(a36*a37);
+  a37=(2.*a30);
+  a36=(a36/a37);
+  a35=(a35*a36);
+  a37=(a34*a35);
+  a18=(a18+a37);
+  a37=(a04/a01);
+  a38=(2.*a07);
+  a39=(2.*a21);
+  a40=(a03*a00);
+  a39=(a39*a40);
+  a40=(2.*a14);
+  a39=(a39/a40);
+  a38=(a38*a39);
+  a40=(a37*a38);
+  a18=(a18+a40);
+  if (res[1]!=0) res[1][0]=a18;
+  a06=(a06/a01);
+  a18=(2.*a17);
+  a18=(a18*a19);
+  a19=(a06*a18);
+  a26=(a26/a01);
+  a40=(2.*a31);
+  a40=(a40*a36);
+  a36=(a26*a40);
+  a19=(a19+a36);
+  a04=(a04/a01);
+  a36=(2.*a16);
+  a36=(a36*a39);
+  a39=(a04*a36);
+  a19=(a19+a39);
+  if (res[1]!=0) res[1][1]=a19;
+  a19=(a11*a20);
+  a39=(a29*a35);
+  a19=(a19+a39);
+  a39=(a10*a38);
+  a19=(a19+a39);
+  if (res[1]!=0) res[1][2]=a19;
+  a19=(a11*a18);
+  a39=(a29*a40);
+  a19=(a19+a39);
+  a39=(a10*a36);
+  a19=(a19+a39);
+  if (res[1]!=0) res[1][3]=a19;
+  a19=(a09/a01);
+  a39=(a19*a20);
+  a41=(a28/a01);
+  a42=(a41*a35);
+  a39=(a39+a42);
+  a42=(a33/a01);
+  a43=(a42*a38);
+  a39=(a39+a43);
+  if (res[1]!=0) res[1][4]=a39;
+  a09=(a09/a01);
+  a39=(a09*a18);
+  a28=(a28/a01);
+  a43=(a28*a40);
+  a39=(a39+a43);
+  a33=(a33/a01);
+  a01=(a33*a36);
+  a39=(a39+a01);
+  if (res[1]!=0) res[1][5]=a39;
+  a20=(a13*a20);
+  a35=(a29*a35);
+  a20=(a20+a35);
+  a38=(a12*a38);
+  a20=(a20+a38);
+  if (res[1]!=0) res[1][6]=a20;
+  a18=(a13*a18);
+  a40=(a29*a40);
+  a18=(a18+a40);
+  a36=(a12*a36);
+  a18=(a18+a36);
+  if (res[1]!=0) res[1][7]=a18;
+  a22=(2.*a22);
+  a05=(a05*a02);
+  a22=(a22*a05);
+  a02=(2.*a15);
+  a22=(a22/a02);
+  a18=(2.*a22);
+  a36=(2.*a08);
+  a08=(a08/a15);
+  a40=(2.*a08);
+  a40=(a05*a40);
+  a40=(a40/a02);
+  a20=(a22/a02);
+  a08=(2.*a08);
+  a08=(a20*a08);
+  a40=(a40-a08);
+  a40=(a36*a40);
+  a18=(a18+a40);
+  a40=(a23*a18);
+  a40=(a40*a23);
+  a32=(2.*a32);
+  a25=(a25*a24);
+  a32=(a32*a25);
+  a24=(2.*a30);
+  a32=(a32/a24);
+  a08=(2.*a32);
+  a38=(2.*a27);
+  a27=(a27/a30);
+  a35=(2.*a27);
+  a35=(a25*a35);
+  a35=(a35/a24);
+  a39=(a32/a24);
+  a27=(2.*a27);
+  a27=(a39*a27);
+  a35=(a35-a27);
+  a35=(a38*a35);
+  a08=(a08+a35);
+  a35=(a34*a08);
+  a35=(a35*a34);
+  a40=(a40+a35);
+  a21=(2.*a21);
+  a03=(a03*a00);
+  a21=(a21*a03);
+  a00=(2.*a14);
+  a21=(a21/a00);
+  a35=(2.*a21);
+  a27=(2.*a07);
+  a07=(a07/a14);
+  a01=(2.*a07);
+  a01=(a03*a01);
+  a01=(a01/a00);
+  a43=(a21/a00);
+  a07=(2.*a07);
+  a07=(a43*a07);
+  a01=(a01-a07);
+  a01=(a27*a01);
+  a35=(a35+a01);
+  a01=(a37*a35);
+  a01=(a01*a37);
+  a40=(a40+a01);
+  if (res[2]!=0) res[2][0]=a40;
+  a15=(a17/a15);
+  a40=(2.*a15);
+  a05=(a05*a40);
+  a05=(a05/a02);
+  a15=(2.*a15);
+  a20=(a20*a15);
+  a05=(a05-a20);
+  a36=(a36*a05);
+  a20=(a06*a36);
+  a20=(a20*a23);
+  a30=(a31/a30);
+  a15=(2.*a30);
+  a25=(a25*a15);
+  a25=(a25/a24);
+  a30=(2.*a30);
+  a39=(a39*a30);
+  a25=(a25-a39);
+  a38=(a38*a25);
+  a39=(a26*a38);
+  a39=(a39*a34);
+  a20=(a20+a39);
+  a14=(a16/a14);
+  a39=(2.*a14);
+  a03=(a03*a39);
+  a03=(a03/a00);
+  a14=(2.*a14);
+  a43=(a43*a14);
+  a03=(a03-a43);
+  a27=(a27*a03);
+  a43=(a04*a27);
+  a43=(a43*a37);
+  a20=(a20+a43);
+  if (res[2]!=0) res[2][1]=a20;
+  a43=(a11*a18);
+  a43=(a43*a23);
+  a14=(a29*a08);
+  a14=(a14*a34);
+  a43=(a43+a14);
+  a14=(a10*a35);
+  a14=(a14*a37);
+  a43=(a43+a14);
+  if (res[2]!=0) res[2][2]=a43;
+  a14=(a11*a36);
+  a14=(a14*a23);
+  a00=(a29*a38);
+  a00=(a00*a34);
+  a14=(a14+a00);
+  a00=(a10*a27);
+  a00=(a00*a37);
+  a14=(a14+a00);
+  if (res[2]!=0) res[2][3]=a14;
+  a00=(a19*a18);
+  a39=(a00*a23);
+  a30=(a41*a08);
+  a24=(a30*a34);
+  a39=(a39+a24);
+  a24=(a42*a35);
+  a15=(a24*a37);
+  a39=(a39+a15);
+  if (res[2]!=0) res[2][4]=a39;
+  a15=(a09*a36);
+  a02=(a15*a23);
+  a40=(a28*a38);
+  a01=(a40*a34);
+  a02=(a02+a01);
+  a01=(a33*a27);
+  a07=(a01*a37);
+  a02=(a02+a07);
+  if (res[2]!=0) res[2][5]=a02;
+  a07=(a13*a18);
+  a44=(a07*a23);
+  a45=(a29*a08);
+  a46=(a45*a34);
+  a44=(a44+a46);
+  a46=(a12*a35);
+  a47=(a46*a37);
+  a44=(a44+a47);
+  if (res[2]!=0) res[2][6]=a44;
+  a47=(a13*a36);
+  a23=(a47*a23);
+  a48=(a29*a38);
+  a34=(a48*a34);
+  a23=(a23+a34);
+  a34=(a12*a27);
+  a37=(a34*a37);
+  a23=(a23+a37);
+  if (res[2]!=0) res[2][7]=a23;
+  if (res[2]!=0) res[2][8]=a20;
+  a22=(2.*a22);
+  a17=(2.*a17);
+  a17=(a17*a05);
+  a22=(a22+a17);
+  a17=(a06*a22);
+  a17=(a17*a06);
+  a32=(2.*a32);
+  a31=(2.*a31);
+  a31=(a31*a25);
+  a32=(a32+a31);
+  a31=(a26*a32);
+  a31=(a31*a26);
+  a17=(a17+a31);
+  a21=(2.*a21);
+  a16=(2.*a16);
+  a16=(a16*a03);
+  a21=(a21+a16);
+  a16=(a04*a21);
+  a16=(a16*a04);
+  a17=(a17+a16);
+  if (res[2]!=0) res[2][9]=a17;
+  a17=(a11*a36);
+  a17=(a17*a06);
+  a16=(a29*a38);
+  a16=(a16*a26);
+  a17=(a17+a16);
+  a16=(a10*a27);
+  a16=(a16*a04);
+  a17=(a17+a16);
+  if (res[2]!=0) res[2][10]=a17;
+  a16=(a11*a22);
+  a16=(a16*a06);
+  a03=(a29*a32);
+  a03=(a03*a26);
+  a16=(a16+a03);
+  a03=(a10*a21);
+  a03=(a03*a04);
+  a16=(a16+a03);
+  if (res[2]!=0) res[2][11]=a16;
+  a03=(a19*a36);
+  a31=(a03*a06);
+  a25=(a41*a38);
+  a05=(a25*a26);
+  a31=(a31+a05);
+  a05=(a42*a27);
+  a20=(a05*a04);
+  a31=(a31+a20);
+  if (res[2]!=0) res[2][12]=a31;
+  a20=(a09*a22);
+  a37=(a20*a06);
+  a49=(a28*a32);
+  a50=(a49*a26);
+  a37=(a37+a50);
+  a50=(a33*a21);
+  a51=(a50*a04);
+  a37=(a37+a51);
+  if (res[2]!=0) res[2][13]=a37;
+  a51=(a13*a36);
+  a52=(a51*a06);
+  a53=(a29*a38);
+  a54=(a53*a26);
+  a52=(a52+a54);
+  a54=(a12*a27);
+  a55=(a54*a04);
+  a52=(a52+a55);
+  if (res[2]!=0) res[2][14]=a52;
+  a13=(a13*a22);
+  a06=(a13*a06);
+  a55=(a29*a32);
+  a26=(a55*a26);
+  a06=(a06+a26);
+  a12=(a12*a21);
+  a04=(a12*a04);
+  a06=(a06+a04);
+  if (res[2]!=0) res[2][15]=a06;
+  if (res[2]!=0) res[2][16]=a43;
+  if (res[2]!=0) res[2][17]=a17;
+  a17=3.4491933384829676e-01;
+  a43=(a17*a18);
+  a04=6.2500000000000000e-02;
+  a26=(a04*a08);
+  a43=(a43+a26);
+  a26=3.5080666151703264e-02;
+  a56=(a26*a35);
+  a43=(a43+a56);
+  if (res[2]!=0) res[2][18]=a43;
+  a43=(a17*a36);
+  a56=(a04*a38);
+  a43=(a43+a56);
+  a56=(a26*a27);
+  a43=(a43+a56);
+  if (res[2]!=0) res[2][19]=a43;
+  a56=(a11*a00);
+  a57=(a29*a30);
+  a56=(a56+a57);
+  a57=(a10*a24);
+  a56=(a56+a57);
+  if (res[2]!=0) res[2][20]=a56;
+  a57=(a11*a15);
+  a58=(a29*a40);
+  a57=(a57+a58);
+  a58=(a10*a01);
+  a57=(a57+a58);
+  if (res[2]!=0) res[2][21]=a57;
+  a58=-1.1000000000000000e-01;
+  a59=(a58*a18);
+  a60=(a04*a08);
+  a59=(a59+a60);
+  a60=-1.0999999999999995e-01;
+  a61=(a60*a35);
+  a59=(a59+a61);
+  if (res[2]!=0) res[2][22]=a59;
+  a61=(a58*a36);
+  a62=(a04*a38);
+  a61=(a61+a62);
+  a62=(a60*a27);
+  a61=(a61+a62);
+  if (res[2]!=0) res[2][23]=a61;
+  if (res[2]!=0) res[2][24]=a14;
+  if (res[2]!=0) res[2][25]=a16;
+  if (res[2]!=0) res[2][26]=a43;
+  a17=(a17*a22);
+  a43=(a04*a32);
+  a17=(a17+a43);
+  a26=(a26*a21);
+  a17=(a17+a26);
+  if (res[2]!=0) res[2][27]=a17;
+  a03=(a11*a03);
+  a25=(a29*a25);
+  a03=(a03+a25);
+  a05=(a10*a05);
+  a03=(a03+a05);
+  if (res[2]!=0) res[2][28]=a03;
+  a11=(a11*a20);
+  a29=(a29*a49);
+  a11=(a11+a29);
+  a10=(a10*a50);
+  a11=(a11+a10);
+  if (res[2]!=0) res[2][29]=a11;
+  a10=(a58*a36);
+  a29=(a04*a38);
+  a10=(a10+a29);
+  a29=(a60*a27);
+  a10=(a10+a29);
+  if (res[2]!=0) res[2][30]=a10;
+  a58=(a58*a22);
+  a29=(a04*a32);
+  a58=(a58+a29);
+  a60=(a60*a21);
+  a58=(a58+a60);
+  if (res[2]!=0) res[2][31]=a58;
+  if (res[2]!=0) res[2][32]=a39;
+  if (res[2]!=0) res[2][33]=a31;
+  if (res[2]!=0) res[2][34]=a56;
+  if (res[2]!=0) res[2][35]=a03;
+  a00=(a00*a19);
+  a30=(a30*a41);
+  a00=(a00+a30);
+  a24=(a24*a42);
+  a00=(a00+a24);
+  if (res[2]!=0) res[2][36]=a00;
+  a15=(a15*a19);
+  a40=(a40*a41);
+  a15=(a15+a40);
+  a01=(a01*a42);
+  a15=(a15+a01);
+  if (res[2]!=0) res[2][37]=a15;
+  a07=(a07*a19);
+  a45=(a45*a41);
+  a07=(a07+a45);
+  a46=(a46*a42);
+  a07=(a07+a46);
+  if (res[2]!=0) res[2][38]=a07;
+  a47=(a47*a19);
+  a48=(a48*a41);
+  a47=(a47+a48);
+  a34=(a34*a42);
+  a47=(a47+a34);
+  if (res[2]!=0) res[2][39]=a47;
+  if (res[2]!=0) res[2][40]=a02;
+  if (res[2]!=0) res[2][41]=a37;
+  if (res[2]!=0) res[2][42]=a57;
+  if (res[2]!=0) res[2][43]=a11;
+  if (res[2]!=0) res[2][44]=a15;
+  a20=(a20*a09);
+  a49=(a49*a28);
+  a20=(a20+a49);
+  a50=(a50*a33);
+  a20=(a20+a50);
+  if (res[2]!=0) res[2][45]=a20;
+  a51=(a51*a09);
+  a53=(a53*a28);
+  a51=(a51+a53);
+  a54=(a54*a33);
+  a51=(a51+a54);
+  if (res[2]!=0) res[2][46]=a51;
+  a13=(a13*a09);
+  a55=(a55*a28);
+  a13=(a13+a55);
+  a12=(a12*a33);
+  a13=(a13+a12);
+  if (res[2]!=0) res[2][47]=a13;
+  if (res[2]!=0) res[2][48]=a44;
+  if (res[2]!=0) res[2][49]=a52;
+  if (res[2]!=0) res[2][50]=a59;
+  if (res[2]!=0) res[2][51]=a10;
+  if (res[2]!=0) res[2][52]=a07;
+  if (res[2]!=0) res[2][53]=a51;
+  a51=3.5080666151703313e-02;
+  a18=(a51*a18);
+  a08=(a04*a08);
+  a18=(a18+a08);
+  a08=3.4491933384829693e-01;
+  a35=(a08*a35);
+  a18=(a18+a35);
+  if (res[2]!=0) res[2][54]=a18;
+  a36=(a51*a36);
+  a38=(a04*a38);
+  a36=(a36+a38);
+  a27=(a08*a27);
+  a36=(a36+a27);
+  if (res[2]!=0) res[2][55]=a36;
+  if (res[2]!=0) res[2][56]=a23;
+  if (res[2]!=0) res[2][57]=a06;
+  if (res[2]!=0) res[2][58]=a61;
+  if (res[2]!=0) res[2][59]=a58;
+  if (res[2]!=0) res[2][60]=a47;
+  if (res[2]!=0) res[2][61]=a13;
+  if (res[2]!=0) res[2][62]=a36;
+  a51=(a51*a22);
+  a04=(a04*a32);
+  a51=(a51+a04);
+  a08=(a08*a21);
+  a51=(a51+a08);
+  if (res[2]!=0) res[2][63]=a51;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f5(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g3_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g3_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g3_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g3_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_biot_g3_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_biot_g3_n_out(void) { return 3;}
+
+CASADI_SYMBOL_EXPORT casadi_real cable2d_axial_biot_g3_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_biot_g3_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_biot_g3_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    case 1: return "gradient";
+    case 2: return "hessian";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_biot_g3_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_biot_g3_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s2;
+    case 1: return casadi_s0;
+    case 2: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g3_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 3;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g3_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 3*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* cable2d_axial_biot_g3_energy:(q[8],p[2])->(energy) */
+static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20;
+  a00=2.7777777777777785e-01;
+  a01=arg[1]? arg[1][0] : 0;
+  a02=(a00*a01);
+  a03=arg[1]? arg[1][1] : 0;
+  a04=2.;
+  a05=(a03/a04);
+  a06=-5.9999999999999998e-01;
+  a07=arg[0]? arg[0][0] : 0;
+  a08=(a06*a07);
+  a09=5.9999999999999998e-01;
+  a10=arg[0]? arg[0][4] : 0;
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a08=(a08/a01);
+  a11=5.8729833462074177e-01;
+  a12=arg[0]? arg[0][2] : 0;
+  a13=(a11*a12);
+  a08=(a08+a13);
+  a13=-1.8729833462074166e-01;
+  a14=arg[0]? arg[0][6] : 0;
+  a15=(a13*a14);
+  a08=(a08+a15);
+  a08=casadi_sq(a08);
+  a15=arg[0]? arg[0][1] : 0;
+  a06=(a06*a15);
+  a16=arg[0]? arg[0][5] : 0;
+  a09=(a09*a16);
+  a06=(a06+a09);
+  a06=(a06/a01);
+  a09=arg[0]? arg[0][3] : 0;
+  a11=(a11*a09);
+  a06=(a06+a11);
+  a11=arg[0]? arg[0][7] : 0;
+  a13=(a13*a11);
+  a06=(a06+a13);
+  a06=casadi_sq(a06);
+  a08=(a08+a06);
+  a08=sqrt(a08);
+  a06=1.;
+  a08=(a08-a06);
+  a08=casadi_sq(a08);
+  a05=(a05*a08);
+  a02=(a02*a05);
+  a05=4.4444444444444442e-01;
+  a05=(a05*a01);
+  a08=(a03/a04);
+  a13=-1.5000000000000000e+00;
+  a17=(a13*a07);
+  a18=1.5000000000000000e+00;
+  a19=(a18*a10);
+  a17=(a17+a19);
+  a17=(a17/a01);
+  a19=-2.5000000000000000e-01;
+  a20=(a19*a12);
+  a17=(a17+a20);
+  a20=(a19*a14);
+  a17=(a17+a20);
+  a17=casadi_sq(a17);
+  a13=(a13*a15);
+  a18=(a18*a16);
+  a13=(a13+a18);
+  a13=(a13/a01);
+  a18=(a19*a09);
+  a13=(a13+a18);
+  a19=(a19*a11);
+  a13=(a13+a19);
+  a13=casadi_sq(a13);
+  a17=(a17+a13);
+  a17=sqrt(a17);
+  a17=(a17-a06);
+  a17=casadi_sq(a17);
+  a08=(a08*a17);
+  a05=(a05*a08);
+  a02=(a02+a05);
+  a00=(a00*a01);
+  a03=(a03/a04);
+  a04=-5.9999999999999964e-01;
+  a07=(a04*a07);
+  a05=5.9999999999999964e-01;
+  a10=(a05*a10);
+  a07=(a07+a10);
+  a07=(a07/a01);
+  a10=-1.8729833462074152e-01;
+  a12=(a10*a12);
+  a07=(a07+a12);
+  a12=5.8729833462074188e-01;
+  a14=(a12*a14);
+  a07=(a07+a14);
+  a07=casadi_sq(a07);
+  a04=(a04*a15);
+  a05=(a05*a16);
+  a04=(a04+a05);
+  a04=(a04/a01);
+  a10=(a10*a09);
+  a04=(a04+a10);
+  a12=(a12*a11);
+  a04=(a04+a12);
+  a04=casadi_sq(a04);
+  a07=(a07+a04);
+  a07=sqrt(a07);
+  a07=(a07-a06);
+  a07=casadi_sq(a07);
+  a03=(a03*a07);
+  a00=(a00*a03);
+  a02=(a02+a00);
+  if (res[0]!=0) res[0][0]=a02;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g3_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f6(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g3_energy_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g3_energy_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g3_energy_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g3_energy_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_biot_g3_energy_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_biot_g3_energy_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real cable2d_axial_biot_g3_energy_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_biot_g3_energy_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_biot_g3_energy_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_biot_g3_energy_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_biot_g3_energy_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g3_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g3_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* adj1_cable2d_axial_biot_g3_energy:(q[8],p[2],out_energy[1x1,0nz],adj_energy)->(adj_q[8],adj_p[2]) */
+static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
+  casadi_real a36, a37, a38, a39, a40, a41, a42, a43;
+  a00=-5.9999999999999964e-01;
+  a01=arg[0]? arg[0][0] : 0;
+  a02=(a00*a01);
+  a03=5.9999999999999964e-01;
+  a04=arg[0]? arg[0][4] : 0;
+  a05=(a03*a04);
+  a02=(a02+a05);
+  a05=arg[1]? arg[1][0] : 0;
+  a02=(a02/a05);
+  a06=-1.8729833462074152e-01;
+  a07=arg[0]? arg[0][2] : 0;
+  a08=(a06*a07);
+  a08=(a02+a08);
+  a09=5.8729833462074188e-01;
+  a10=arg[0]? arg[0][6] : 0;
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a11=(2.*a08);
+  a08=casadi_sq(a08);
+  a12=arg[0]? arg[0][1] : 0;
+  a13=(a00*a12);
+  a14=arg[0]? arg[0][5] : 0;
+  a15=(a03*a14);
+  a13=(a13+a15);
+  a13=(a13/a05);
+  a15=arg[0]? arg[0][3] : 0;
+  a16=(a06*a15);
+  a16=(a13+a16);
+  a17=arg[0]? arg[0][7] : 0;
+  a18=(a09*a17);
+  a16=(a16+a18);
+  a18=casadi_sq(a16);
+  a08=(a08+a18);
+  a08=sqrt(a08);
+  a18=1.;
+  a19=(a08-a18);
+  a20=(2.*a19);
+  a21=arg[1]? arg[1][1] : 0;
+  a22=2.;
+  a23=(a21/a22);
+  a24=2.7777777777777785e-01;
+  a25=(a24*a05);
+  a26=arg[3]? arg[3][0] : 0;
+  a25=(a25*a26);
+  a27=(a23*a25);
+  a20=(a20*a27);
+  a08=(2.*a08);
+  a20=(a20/a08);
+  a11=(a11*a20);
+  a08=(a11/a05);
+  a27=(a00*a08);
+  a28=-1.5000000000000000e+00;
+  a29=(a28*a01);
+  a30=1.5000000000000000e+00;
+  a31=(a30*a04);
+  a29=(a29+a31);
+  a29=(a29/a05);
+  a31=-2.5000000000000000e-01;
+  a32=(a31*a07);
+  a32=(a29+a32);
+  a33=(a31*a10);
+  a32=(a32+a33);
+  a33=(2.*a32);
+  a32=casadi_sq(a32);
+  a34=(a28*a12);
+  a35=(a30*a14);
+  a34=(a34+a35);
+  a34=(a34/a05);
+  a35=(a31*a15);
+  a35=(a34+a35);
+  a36=(a31*a17);
+  a35=(a35+a36);
+  a36=casadi_sq(a35);
+  a32=(a32+a36);
+  a32=sqrt(a32);
+  a36=(a32-a18);
+  a37=(2.*a36);
+  a38=(a21/a22);
+  a39=4.4444444444444442e-01;
+  a40=(a39*a05);
+  a40=(a40*a26);
+  a41=(a38*a40);
+  a37=(a37*a41);
+  a32=(2.*a32);
+  a37=(a37/a32);
+  a33=(a33*a37);
+  a32=(a33/a05);
+  a41=(a28*a32);
+  a27=(a27+a41);
+  a41=-5.9999999999999998e-01;
+  a01=(a41*a01);
+  a42=5.9999999999999998e-01;
+  a04=(a42*a04);
+  a01=(a01+a04);
+  a01=(a01/a05);
+  a04=5.8729833462074177e-01;
+  a07=(a04*a07);
+  a07=(a01+a07);
+  a43=-1.8729833462074166e-01;
+  a10=(a43*a10);
+  a07=(a07+a10);
+  a10=(2.*a07);
+  a07=casadi_sq(a07);
+  a12=(a41*a12);
+  a14=(a42*a14);
+  a12=(a12+a14);
+  a12=(a12/a05);
+  a15=(a04*a15);
+  a15=(a12+a15);
+  a17=(a43*a17);
+  a15=(a15+a17);
+  a17=casadi_sq(a15);
+  a07=(a07+a17);
+  a07=sqrt(a07);
+  a18=(a07-a18);
+  a17=(2.*a18);
+  a21=(a21/a22);
+  a22=(a24*a05);
+  a22=(a22*a26);
+  a14=(a21*a22);
+  a17=(a17*a14);
+  a07=(2.*a07);
+  a17=(a17/a07);
+  a10=(a10*a17);
+  a07=(a10/a05);
+  a14=(a41*a07);
+  a27=(a27+a14);
+  if (res[0]!=0) res[0][0]=a27;
+  a16=(2.*a16);
+  a16=(a16*a20);
+  a20=(a16/a05);
+  a00=(a00*a20);
+  a35=(2.*a35);
+  a35=(a35*a37);
+  a37=(a35/a05);
+  a28=(a28*a37);
+  a00=(a00+a28);
+  a15=(2.*a15);
+  a15=(a15*a17);
+  a17=(a15/a05);
+  a41=(a41*a17);
+  a00=(a00+a41);
+  if (res[0]!=0) res[0][1]=a00;
+  a00=(a06*a11);
+  a41=(a31*a33);
+  a00=(a00+a41);
+  a41=(a04*a10);
+  a00=(a00+a41);
+  if (res[0]!=0) res[0][2]=a00;
+  a06=(a06*a16);
+  a00=(a31*a35);
+  a06=(a06+a00);
+  a04=(a04*a15);
+  a06=(a06+a04);
+  if (res[0]!=0) res[0][3]=a06;
+  a08=(a03*a08);
+  a32=(a30*a32);
+  a08=(a08+a32);
+  a07=(a42*a07);
+  a08=(a08+a07);
+  if (res[0]!=0) res[0][4]=a08;
+  a03=(a03*a20);
+  a30=(a30*a37);
+  a03=(a03+a30);
+  a42=(a42*a17);
+  a03=(a03+a42);
+  if (res[0]!=0) res[0][5]=a03;
+  a03=(a09*a11);
+  a42=(a31*a33);
+  a03=(a03+a42);
+  a42=(a43*a10);
+  a03=(a03+a42);
+  if (res[0]!=0) res[0][6]=a03;
+  a09=(a09*a16);
+  a31=(a31*a35);
+  a09=(a09+a31);
+  a43=(a43*a15);
+  a09=(a09+a43);
+  if (res[0]!=0) res[0][7]=a09;
+  a19=casadi_sq(a19);
+  a23=(a23*a19);
+  a23=(a23*a26);
+  a23=(a24*a23);
+  a13=(a13/a05);
+  a13=(a13*a16);
+  a02=(a02/a05);
+  a02=(a02*a11);
+  a13=(a13+a02);
+  a23=(a23-a13);
+  a34=(a34/a05);
+  a34=(a34*a35);
+  a23=(a23-a34);
+  a29=(a29/a05);
+  a29=(a29*a33);
+  a23=(a23-a29);
+  a36=casadi_sq(a36);
+  a38=(a38*a36);
+  a38=(a38*a26);
+  a39=(a39*a38);
+  a23=(a23+a39);
+  a12=(a12/a05);
+  a12=(a12*a15);
+  a23=(a23-a12);
+  a01=(a01/a05);
+  a01=(a01*a10);
+  a23=(a23-a01);
+  a18=casadi_sq(a18);
+  a21=(a21*a18);
+  a21=(a21*a26);
+  a24=(a24*a21);
+  a23=(a23+a24);
+  if (res[1]!=0) res[1][0]=a23;
+  a23=5.0000000000000000e-01;
+  a19=(a19*a25);
+  a19=(a23*a19);
+  a36=(a36*a40);
+  a36=(a23*a36);
+  a19=(a19+a36);
+  a18=(a18*a22);
+  a23=(a23*a18);
+  a19=(a19+a23);
+  if (res[1]!=0) res[1][1]=a19;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_biot_g3_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f7(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_biot_g3_energy_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void adj1_cable2d_axial_biot_g3_energy_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void adj1_cable2d_axial_biot_g3_energy_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void adj1_cable2d_axial_biot_g3_energy_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int adj1_cable2d_axial_biot_g3_energy_n_in(void) { return 4;}
+
+CASADI_SYMBOL_EXPORT casadi_int adj1_cable2d_axial_biot_g3_energy_n_out(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_real adj1_cable2d_axial_biot_g3_energy_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* adj1_cable2d_axial_biot_g3_energy_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    case 2: return "out_energy";
+    case 3: return "adj_energy";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* adj1_cable2d_axial_biot_g3_energy_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "adj_q";
+    case 1: return "adj_p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* adj1_cable2d_axial_biot_g3_energy_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    case 2: return casadi_s4;
+    case 3: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* adj1_cable2d_axial_biot_g3_energy_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_biot_g3_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 4;
+  if (sz_res) *sz_res = 2;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_biot_g3_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 4*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 2*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* cable2d_axial_biot_g3_grad:(q[8],p[2])->(energy,gradient[8]) */
+static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33;
+  a00=2.7777777777777785e-01;
+  a01=arg[1]? arg[1][0] : 0;
+  a02=(a00*a01);
+  a03=arg[1]? arg[1][1] : 0;
+  a04=2.;
+  a05=(a03/a04);
+  a06=-5.9999999999999998e-01;
+  a07=arg[0]? arg[0][0] : 0;
+  a08=(a06*a07);
+  a09=5.9999999999999998e-01;
+  a10=arg[0]? arg[0][4] : 0;
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a08=(a08/a01);
+  a11=5.8729833462074177e-01;
+  a12=arg[0]? arg[0][2] : 0;
+  a13=(a11*a12);
+  a08=(a08+a13);
+  a13=-1.8729833462074166e-01;
+  a14=arg[0]? arg[0][6] : 0;
+  a15=(a13*a14);
+  a08=(a08+a15);
+  a15=casadi_sq(a08);
+  a16=arg[0]? arg[0][1] : 0;
+  a17=(a06*a16);
+  a18=arg[0]? arg[0][5] : 0;
+  a19=(a09*a18);
+  a17=(a17+a19);
+  a17=(a17/a01);
+  a19=arg[0]? arg[0][3] : 0;
+  a20=(a11*a19);
+  a17=(a17+a20);
+  a20=arg[0]? arg[0][7] : 0;
+  a21=(a13*a20);
+  a17=(a17+a21);
+  a21=casadi_sq(a17);
+  a15=(a15+a21);
+  a15=sqrt(a15);
+  a21=1.;
+  a22=(a15-a21);
+  a23=casadi_sq(a22);
+  a23=(a05*a23);
+  a23=(a02*a23);
+  a24=4.4444444444444442e-01;
+  a24=(a24*a01);
+  a25=(a03/a04);
+  a26=-1.5000000000000000e+00;
+  a27=(a26*a07);
+  a28=1.5000000000000000e+00;
+  a29=(a28*a10);
+  a27=(a27+a29);
+  a27=(a27/a01);
+  a29=-2.5000000000000000e-01;
+  a30=(a29*a12);
+  a27=(a27+a30);
+  a30=(a29*a14);
+  a27=(a27+a30);
+  a30=casadi_sq(a27);
+  a31=(a26*a16);
+  a32=(a28*a18);
+  a31=(a31+a32);
+  a31=(a31/a01);
+  a32=(a29*a19);
+  a31=(a31+a32);
+  a32=(a29*a20);
+  a31=(a31+a32);
+  a32=casadi_sq(a31);
+  a30=(a30+a32);
+  a30=sqrt(a30);
+  a32=(a30-a21);
+  a33=casadi_sq(a32);
+  a33=(a25*a33);
+  a33=(a24*a33);
+  a23=(a23+a33);
+  a00=(a00*a01);
+  a03=(a03/a04);
+  a04=-5.9999999999999964e-01;
+  a07=(a04*a07);
+  a33=5.9999999999999964e-01;
+  a10=(a33*a10);
+  a07=(a07+a10);
+  a07=(a07/a01);
+  a10=-1.8729833462074152e-01;
+  a12=(a10*a12);
+  a07=(a07+a12);
+  a12=5.8729833462074188e-01;
+  a14=(a12*a14);
+  a07=(a07+a14);
+  a14=casadi_sq(a07);
+  a16=(a04*a16);
+  a18=(a33*a18);
+  a16=(a16+a18);
+  a16=(a16/a01);
+  a19=(a10*a19);
+  a16=(a16+a19);
+  a20=(a12*a20);
+  a16=(a16+a20);
+  a20=casadi_sq(a16);
+  a14=(a14+a20);
+  a14=sqrt(a14);
+  a21=(a14-a21);
+  a20=casadi_sq(a21);
+  a20=(a03*a20);
+  a20=(a00*a20);
+  a23=(a23+a20);
+  if (res[0]!=0) res[0][0]=a23;
+  a23=(a06/a01);
+  a08=(2.*a08);
+  a22=(2.*a22);
+  a05=(a05*a02);
+  a22=(a22*a05);
+  a15=(2.*a15);
+  a22=(a22/a15);
+  a08=(a08*a22);
+  a23=(a23*a08);
+  a15=(a26/a01);
+  a27=(2.*a27);
+  a32=(2.*a32);
+  a25=(a25*a24);
+  a32=(a32*a25);
+  a30=(2.*a30);
+  a32=(a32/a30);
+  a27=(a27*a32);
+  a15=(a15*a27);
+  a23=(a23+a15);
+  a15=(a04/a01);
+  a07=(2.*a07);
+  a21=(2.*a21);
+  a03=(a03*a00);
+  a21=(a21*a03);
+  a14=(2.*a14);
+  a21=(a21/a14);
+  a07=(a07*a21);
+  a15=(a15*a07);
+  a23=(a23+a15);
+  if (res[1]!=0) res[1][0]=a23;
+  a06=(a06/a01);
+  a17=(2.*a17);
+  a17=(a17*a22);
+  a06=(a06*a17);
+  a26=(a26/a01);
+  a31=(2.*a31);
+  a31=(a31*a32);
+  a26=(a26*a31);
+  a06=(a06+a26);
+  a04=(a04/a01);
+  a16=(2.*a16);
+  a16=(a16*a21);
+  a04=(a04*a16);
+  a06=(a06+a04);
+  if (res[1]!=0) res[1][1]=a06;
+  a06=(a11*a08);
+  a04=(a29*a27);
+  a06=(a06+a04);
+  a04=(a10*a07);
+  a06=(a06+a04);
+  if (res[1]!=0) res[1][2]=a06;
+  a11=(a11*a17);
+  a06=(a29*a31);
+  a11=(a11+a06);
+  a10=(a10*a16);
+  a11=(a11+a10);
+  if (res[1]!=0) res[1][3]=a11;
+  a11=(a09/a01);
+  a11=(a11*a08);
+  a10=(a28/a01);
+  a10=(a10*a27);
+  a11=(a11+a10);
+  a10=(a33/a01);
+  a10=(a10*a07);
+  a11=(a11+a10);
+  if (res[1]!=0) res[1][4]=a11;
+  a09=(a09/a01);
+  a09=(a09*a17);
+  a28=(a28/a01);
+  a28=(a28*a31);
+  a09=(a09+a28);
+  a33=(a33/a01);
+  a33=(a33*a16);
+  a09=(a09+a33);
+  if (res[1]!=0) res[1][5]=a09;
+  a08=(a13*a08);
+  a27=(a29*a27);
+  a08=(a08+a27);
+  a07=(a12*a07);
+  a08=(a08+a07);
+  if (res[1]!=0) res[1][6]=a08;
+  a13=(a13*a17);
+  a29=(a29*a31);
+  a13=(a13+a29);
+  a12=(a12*a16);
+  a13=(a13+a12);
+  if (res[1]!=0) res[1][7]=a13;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g3_grad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f8(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g3_grad_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g3_grad_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g3_grad_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g3_grad_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_biot_g3_grad_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_biot_g3_grad_n_out(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_real cable2d_axial_biot_g3_grad_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_biot_g3_grad_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_biot_g3_grad_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    case 1: return "gradient";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_biot_g3_grad_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_biot_g3_grad_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s2;
+    case 1: return casadi_s0;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g3_grad_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 2;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g3_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 2*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* cable2d_axial_biot_g4:(q[8],p[2])->(energy,gradient[8],hessian[8x8]) */
+static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
+  casadi_real a36, a37, a38, a39, a40, a41, a42, a43, a44, a45, a46, a47;
+  casadi_real a48, a49, a50, a51, a52, a53, a54, a55, a56, a57, a58, a59;
+  casadi_real a60, a61, a62, a63, a64, a65, a66, a67, a68, a69, a70, a71;
+  casadi_real a72, a73, a74, a75, a76, a77, a78, a79;
+  a00=1.7392742256872679e-01;
+  a01=arg[1]? arg[1][0] : 0;
+  a02=(a00*a01);
+  a03=arg[1]? arg[1][1] : 0;
+  a04=2.;
+  a05=(a03/a04);
+  a06=-3.8766637928128622e-01;
+  a07=arg[0]? arg[0][0] : 0;
+  a08=(a06*a07);
+  a09=3.8766637928128622e-01;
+  a10=arg[0]? arg[0][4] : 0;
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a08=(a08/a01);
+  a11=7.3673496615638323e-01;
+  a12=arg[0]? arg[0][2] : 0;
+  a13=(a11*a12);
+  a08=(a08+a13);
+  a13=-1.2440134543766938e-01;
+  a14=arg[0]? arg[0][6] : 0;
+  a15=(a13*a14);
+  a08=(a08+a15);
+  a15=casadi_sq(a08);
+  a16=arg[0]? arg[0][1] : 0;
+  a17=(a06*a16);
+  a18=arg[0]? arg[0][5] : 0;
+  a19=(a09*a18);
+  a17=(a17+a19);
+  a17=(a17/a01);
+  a19=arg[0]? arg[0][3] : 0;
+  a20=(a11*a19);
+  a17=(a17+a20);
+  a20=arg[0]? arg[0][7] : 0;
+  a21=(a13*a20);
+  a17=(a17+a21);
+  a21=casadi_sq(a17);
+  a15=(a15+a21);
+  a15=sqrt(a15);
+  a21=1.;
+  a22=(a15-a21);
+  a23=casadi_sq(a22);
+  a23=(a05*a23);
+  a23=(a02*a23);
+  a24=3.2607257743127321e-01;
+  a25=(a24*a01);
+  a26=(a03/a04);
+  a27=-1.3266193350044282e+00;
+  a28=(a27*a07);
+  a29=1.3266193350044282e+00;
+  a30=(a29*a10);
+  a28=(a28+a30);
+  a28=(a28/a01);
+  a30=6.6808542902140333e-03;
+  a31=(a30*a12);
+  a28=(a28+a31);
+  a31=-3.3330018929464222e-01;
+  a32=(a31*a14);
+  a28=(a28+a32);
+  a32=casadi_sq(a28);
+  a33=(a27*a16);
+  a34=(a29*a18);
+  a33=(a33+a34);
+  a33=(a33/a01);
+  a34=(a30*a19);
+  a33=(a33+a34);
+  a34=(a31*a20);
+  a33=(a33+a34);
+  a34=casadi_sq(a33);
+  a32=(a32+a34);
+  a32=sqrt(a32);
+  a34=(a32-a21);
+  a35=casadi_sq(a34);
+  a35=(a26*a35);
+  a35=(a25*a35);
+  a23=(a23+a35);
+  a24=(a24*a01);
+  a35=(a03/a04);
+  a36=-1.3266193350044277e+00;
+  a37=(a36*a07);
+  a38=1.3266193350044277e+00;
+  a39=(a38*a10);
+  a37=(a37+a39);
+  a37=(a37/a01);
+  a39=-3.3330018929464211e-01;
+  a40=(a39*a12);
+  a37=(a37+a40);
+  a40=6.6808542902141443e-03;
+  a41=(a40*a14);
+  a37=(a37+a41);
+  a41=casadi_sq(a37);
+  a42=(a36*a16);
+  a43=(a38*a18);
+  a42=(a42+a43);
+  a42=(a42/a01);
+  a43=(a39*a19);
+  a42=(a42+a43);
+  a43=(a40*a20);
+  a42=(a42+a43);
+  a43=casadi_sq(a42);
+  a41=(a41+a43);
+  a41=sqrt(a41);
+  a43=(a41-a21);
+  a44=casadi_sq(a43);
+  a44=(a35*a44);
+  a44=(a24*a44);
+  a23=(a23+a44);
+  a00=(a00*a01);
+  a03=(a03/a04);
+  a04=-3.8766637928128667e-01;
+  a07=(a04*a07);
+  a44=3.8766637928128667e-01;
+  a10=(a44*a10);
+  a07=(a07+a10);
+  a07=(a07/a01);
+  a10=-1.2440134543766934e-01;
+  a12=(a10*a12);
+  a07=(a07+a12);
+  a12=7.3673496615638312e-01;
+  a14=(a12*a14);
+  a07=(a07+a14);
+  a14=casadi_sq(a07);
+  a16=(a04*a16);
+  a18=(a44*a18);
+  a16=(a16+a18);
+  a16=(a16/a01);
+  a19=(a10*a19);
+  a16=(a16+a19);
+  a20=(a12*a20);
+  a16=(a16+a20);
+  a20=casadi_sq(a16);
+  a14=(a14+a20);
+  a14=sqrt(a14);
+  a21=(a14-a21);
+  a20=casadi_sq(a21);
+  a20=(a03*a20);
+  a20=(a00*a20);
+  a23=(a23+a20);
+  if (res[0]!=0) res[0][0]=a23;
+  a23=(a06/a01);
+  a20=(2.*a08);
+  a19=(2.*a22);
+  a18=(a05*a02);
+  a19=(a19*a18);
+  a18=(2.*a15);
+  a19=(a19/a18);
+  a20=(a20*a19);
+  a18=(a23*a20);
+  a45=(a27/a01);
+  a46=(2.*a28);
+  a47=(2.*a34);
+  a48=(a26*a25);
+  a47=(a47*a48);
+  a48=(2.*a32);
+  a47=(a47/a48);
+  a46=(a46*a47);
+  a48=(a45*a46);
+  a18=(a18+a48);
+  a48=(a36/a01);
+  a49=(2.*a37);
+  a50=(2.*a43);
+  a51=(a35*a24);
+  a50=(a50*a51);
+  a51=(2.*a41);
+  a50=(a50/a51);
+  a49=(a49*a50);
+  a51=(a48*a49);
+  a18=(a18+a51);
+  a51=(a04/a01);
+  a52=(2.*a07);
+  a53=(2.*a21);
+  a54=(a03*a00);
+  a53=(a53*a54);
+  a54=(2.*a14);
+  a53=(a53/a54);
+  a52=(a52*a53);
+  a54=(a51*a52);
+  a18=(a18+a54);
+  if (res[1]!=0) res[1][0]=a18;
+  a06=(a06/a01);
+  a18=(2.*a17);
+  a18=(a18*a19);
+  a19=(a06*a18);
+  a27=(a27/a01);
+  a54=(2.*a33);
+  a54=(a54*a47);
+  a47=(a27*a54);
+  a19=(a19+a47);
+  a36=(a36/a01);
+  a47=(2.*a42);
+  a47=(a47*a50);
+  a50=(a36*a47);
+  a19=(a19+a50);
+  a04=(a04/a01);
+  a50=(2.*a16);
+  a50=(a50*a53);
+  a53=(a04*a50);
+  a19=(a19+a53);
+  if (res[1]!=0) res[1][1]=a19;
+  a19=(a11*a20);
+  a53=(a30*a46);
+  a19=(a19+a53);
+  a53=(a39*a49);
+  a19=(a19+a53);
+  a53=(a10*a52);
+  a19=(a19+a53);
+  if (res[1]!=0) res[1][2]=a19;
+  a19=(a11*a18);
+  a53=(a30*a54);
+  a19=(a19+a53);
+  a53=(a39*a47);
+  a19=(a19+a53);
+  a53=(a10*a50);
+  a19=(a19+a53);
+  if (res[1]!=0) res[1][3]=a19;
+  a19=(a09/a01);
+  a53=(a19*a20);
+  a55=(a29/a01);
+  a56=(a55*a46);
+  a53=(a53+a56);
+  a56=(a38/a01);
+  a57=(a56*a49);
+  a53=(a53+a57);
+  a57=(a44/a01);
+  a58=(a57*a52);
+  a53=(a53+a58);
+  if (res[1]!=0) res[1][4]=a53;
+  a09=(a09/a01);
+  a53=(a09*a18);
+  a29=(a29/a01);
+  a58=(a29*a54);
+  a53=(a53+a58);
+  a38=(a38/a01);
+  a58=(a38*a47);
+  a53=(a53+a58);
+  a44=(a44/a01);
+  a01=(a44*a50);
+  a53=(a53+a01);
+  if (res[1]!=0) res[1][5]=a53;
+  a20=(a13*a20);
+  a46=(a31*a46);
+  a20=(a20+a46);
+  a49=(a40*a49);
+  a20=(a20+a49);
+  a52=(a12*a52);
+  a20=(a20+a52);
+  if (res[1]!=0) res[1][6]=a20;
+  a18=(a13*a18);
+  a54=(a31*a54);
+  a18=(a18+a54);
+  a47=(a40*a47);
+  a18=(a18+a47);
+  a50=(a12*a50);
+  a18=(a18+a50);
+  if (res[1]!=0) res[1][7]=a18;
+  a22=(2.*a22);
+  a05=(a05*a02);
+  a22=(a22*a05);
+  a02=(2.*a15);
+  a22=(a22/a02);
+  a18=(2.*a22);
+  a50=(2.*a08);
+  a08=(a08/a15);
+  a47=(2.*a08);
+  a47=(a05*a47);
+  a47=(a47/a02);
+  a54=(a22/a02);
+  a08=(2.*a08);
+  a08=(a54*a08);
+  a47=(a47-a08);
+  a47=(a50*a47);
+  a18=(a18+a47);
+  a47=(a23*a18);
+  a47=(a47*a23);
+  a34=(2.*a34);
+  a26=(a26*a25);
+  a34=(a34*a26);
+  a25=(2.*a32);
+  a34=(a34/a25);
+  a08=(2.*a34);
+  a20=(2.*a28);
+  a28=(a28/a32);
+  a52=(2.*a28);
+  a52=(a26*a52);
+  a52=(a52/a25);
+  a49=(a34/a25);
+  a28=(2.*a28);
+  a28=(a49*a28);
+  a52=(a52-a28);
+  a52=(a20*a52);
+  a08=(a08+a52);
+  a52=(a45*a08);
+  a52=(a52*a45);
+  a47=(a47+a52);
+  a43=(2.*a43);
+  a35=(a35*a24);
+  a43=(a43*a35);
+  a24=(2.*a41);
+  a43=(a43/a24);
+  a52=(2.*a43);
+  a28=(2.*a37);
+  a37=(a37/a41);
+  a46=(2.*a37);
+  a46=(a35*a46);
+  a46=(a46/a24);
+  a53=(a43/a24);
+  a37=(2.*a37);
+  a37=(a53*a37);
+  a46=(a46-a37);
+  a46=(a28*a46);
+  a52=(a52+a46);
+  a46=(a48*a52);
+  a46=(a46*a48);
+  a47=(a47+a46);
+  a21=(2.*a21);
+  a03=(a03*a00);
+  a21=(a21*a03);
+  a00=(2.*a14);
+  a21=(a21/a00);
+  a46=(2.*a21);
+  a37=(2.*a07);
+  a07=(a07/a14);
+  a01=(2.*a07);
+  a01=(a03*a01);
+  a01=(a01/a00);
+  a58=(a21/a00);
+  a07=(2.*a07);
+  a07=(a58*a07);
+  a01=(a01-a07);
+  a01=(a37*a01);
+  a46=(a46+a01);
+  a01=(a51*a46);
+  a01=(a01*a51);
+  a47=(a47+a01);
+  if (res[2]!=0) res[2][0]=a47;
+  a15=(a17/a15);
+  a47=(2.*a15);
+  a05=(a05*a47);
+  a05=(a05/a02);
+  a15=(2.*a15);
+  a54=(a54*a15);
+  a05=(a05-a54);
+  a50=(a50*a05);
+  a54=(a06*a50);
+  a54=(a54*a23);
+  a32=(a33/a32);
+  a15=(2.*a32);
+  a26=(a26*a15);
+  a26=(a26/a25);
+  a32=(2.*a32);
+  a49=(a49*a32);
+  a26=(a26-a49);
+  a20=(a20*a26);
+  a49=(a27*a20);
+  a49=(a49*a45);
+  a54=(a54+a49);
+  a41=(a42/a41);
+  a49=(2.*a41);
+  a35=(a35*a49);
+  a35=(a35/a24);
+  a41=(2.*a41);
+  a53=(a53*a41);
+  a35=(a35-a53);
+  a28=(a28*a35);
+  a53=(a36*a28);
+  a53=(a53*a48);
+  a54=(a54+a53);
+  a14=(a16/a14);
+  a53=(2.*a14);
+  a03=(a03*a53);
+  a03=(a03/a00);
+  a14=(2.*a14);
+  a58=(a58*a14);
+  a03=(a03-a58);
+  a37=(a37*a03);
+  a58=(a04*a37);
+  a58=(a58*a51);
+  a54=(a54+a58);
+  if (res[2]!=0) res[2][1]=a54;
+  a58=(a11*a18);
+  a58=(a58*a23);
+  a14=(a30*a08);
+  a14=(a14*a45);
+  a58=(a58+a14);
+  a14=(a39*a52);
+  a14=(a14*a48);
+  a58=(a58+a14);
+  a14=(a10*a46);
+  a14=(a14*a51);
+  a58=(a58+a14);
+  if (res[2]!=0) res[2][2]=a58;
+  a14=(a11*a50);
+  a14=(a14*a23);
+  a00=(a30*a20);
+  a00=(a00*a45);
+  a14=(a14+a00);
+  a00=(a39*a28);
+  a00=(a00*a48);
+  a14=(a14+a00);
+  a00=(a10*a37);
+  a00=(a00*a51);
+  a14=(a14+a00);
+  if (res[2]!=0) res[2][3]=a14;
+  a00=(a19*a18);
+  a53=(a00*a23);
+  a41=(a55*a08);
+  a24=(a41*a45);
+  a53=(a53+a24);
+  a24=(a56*a52);
+  a49=(a24*a48);
+  a53=(a53+a49);
+  a49=(a57*a46);
+  a32=(a49*a51);
+  a53=(a53+a32);
+  if (res[2]!=0) res[2][4]=a53;
+  a32=(a09*a50);
+  a25=(a32*a23);
+  a15=(a29*a20);
+  a02=(a15*a45);
+  a25=(a25+a02);
+  a02=(a38*a28);
+  a47=(a02*a48);
+  a25=(a25+a47);
+  a47=(a44*a37);
+  a01=(a47*a51);
+  a25=(a25+a01);
+  if (res[2]!=0) res[2][5]=a25;
+  a01=(a13*a18);
+  a07=(a01*a23);
+  a59=(a31*a08);
+  a60=(a59*a45);
+  a07=(a07+a60);
+  a60=(a40*a52);
+  a61=(a60*a48);
+  a07=(a07+a61);
+  a61=(a12*a46);
+  a62=(a61*a51);
+  a07=(a07+a62);
+  if (res[2]!=0) res[2][6]=a07;
+  a62=(a13*a50);
+  a23=(a62*a23);
+  a63=(a31*a20);
+  a45=(a63*a45);
+  a23=(a23+a45);
+  a45=(a40*a28);
+  a48=(a45*a48);
+  a23=(a23+a48);
+  a48=(a12*a37);
+  a51=(a48*a51);
+  a23=(a23+a51);
+  if (res[2]!=0) res[2][7]=a23;
+  if (res[2]!=0) res[2][8]=a54;
+  a22=(2.*a22);
+  a17=(2.*a17);
+  a17=(a17*a05);
+  a22=(a22+a17);
+  a17=(a06*a22);
+  a17=(a17*a06);
+  a34=(2.*a34);
+  a33=(2.*a33);
+  a33=(a33*a26);
+  a34=(a34+a33);
+  a33=(a27*a34);
+  a33=(a33*a27);
+  a17=(a17+a33);
+  a43=(2.*a43);
+  a42=(2.*a42);
+  a42=(a42*a35);
+  a43=(a43+a42);
+  a42=(a36*a43);
+  a42=(a42*a36);
+  a17=(a17+a42);
+  a21=(2.*a21);
+  a16=(2.*a16);
+  a16=(a16*a03);
+  a21=(a21+a16);
+  a16=(a04*a21);
+  a16=(a16*a04);
+  a17=(a17+a16);
+  if (res[2]!=0) res[2][9]=a17;
+  a17=(a11*a50);
+  a17=(a17*a06);
+  a16=(a30*a20);
+  a16=(a16*a27);
+  a17=(a17+a16);
+  a16=(a39*a28);
+  a16=(a16*a36);
+  a17=(a17+a16);
+  a16=(a10*a37);
+  a16=(a16*a04);
+  a17=(a17+a16);
+  if (res[2]!=0) res[2][10]=a17;
+  a16=(a11*a22);
+  a16=(a16*a06);
+  a03=(a30*a34);
+  a03=(a03*a27);
+  a16=(a16+a03);
+  a03=(a39*a43);
+  a03=(a03*a36);
+  a16=(a16+a03);
+  a03=(a10*a21);
+  a03=(a03*a04);
+  a16=(a16+a03);
+  if (res[2]!=0) res[2][11]=a16;
+  a03=(a19*a50);
+  a42=(a03*a06);
+  a35=(a55*a20);
+  a33=(a35*a27);
+  a42=(a42+a33);
+  a33=(a56*a28);
+  a26=(a33*a36);
+  a42=(a42+a26);
+  a26=(a57*a37);
+  a05=(a26*a04);
+  a42=(a42+a05);
+  if (res[2]!=0) res[2][12]=a42;
+  a05=(a09*a22);
+  a54=(a05*a06);
+  a51=(a29*a34);
+  a64=(a51*a27);
+  a54=(a54+a64);
+  a64=(a38*a43);
+  a65=(a64*a36);
+  a54=(a54+a65);
+  a65=(a44*a21);
+  a66=(a65*a04);
+  a54=(a54+a66);
+  if (res[2]!=0) res[2][13]=a54;
+  a66=(a13*a50);
+  a67=(a66*a06);
+  a68=(a31*a20);
+  a69=(a68*a27);
+  a67=(a67+a69);
+  a69=(a40*a28);
+  a70=(a69*a36);
+  a67=(a67+a70);
+  a70=(a12*a37);
+  a71=(a70*a04);
+  a67=(a67+a71);
+  if (res[2]!=0) res[2][14]=a67;
+  a13=(a13*a22);
+  a06=(a13*a06);
+  a31=(a31*a34);
+  a27=(a31*a27);
+  a06=(a06+a27);
+  a40=(a40*a43);
+  a36=(a40*a36);
+  a06=(a06+a36);
+  a12=(a12*a21);
+  a04=(a12*a04);
+  a06=(a06+a04);
+  if (res[2]!=0) res[2][15]=a06;
+  if (res[2]!=0) res[2][16]=a58;
+  if (res[2]!=0) res[2][17]=a17;
+  a17=5.4277841035744712e-01;
+  a58=(a17*a18);
+  a04=4.4633814047071252e-05;
+  a36=(a04*a08);
+  a58=(a58+a36);
+  a36=1.1108901618384427e-01;
+  a27=(a36*a52);
+  a58=(a58+a27);
+  a27=1.5475694746702335e-02;
+  a71=(a27*a46);
+  a58=(a58+a71);
+  if (res[2]!=0) res[2][18]=a58;
+  a58=(a17*a50);
+  a71=(a04*a20);
+  a58=(a58+a71);
+  a71=(a36*a28);
+  a58=(a58+a71);
+  a71=(a27*a37);
+  a58=(a58+a71);
+  if (res[2]!=0) res[2][19]=a58;
+  a71=(a11*a00);
+  a72=(a30*a41);
+  a71=(a71+a72);
+  a72=(a39*a24);
+  a71=(a71+a72);
+  a72=(a10*a49);
+  a71=(a71+a72);
+  if (res[2]!=0) res[2][20]=a71;
+  a72=(a11*a32);
+  a73=(a30*a15);
+  a72=(a72+a73);
+  a73=(a39*a02);
+  a72=(a72+a73);
+  a73=(a10*a47);
+  a72=(a72+a73);
+  if (res[2]!=0) res[2][21]=a72;
+  a73=-9.1650821020829887e-02;
+  a74=(a73*a18);
+  a75=-2.2267299995782598e-03;
+  a76=(a75*a08);
+  a74=(a74+a76);
+  a76=-2.2267299995782962e-03;
+  a77=(a76*a52);
+  a74=(a74+a77);
+  a77=-9.1650821020829845e-02;
+  a78=(a77*a46);
+  a74=(a74+a78);
+  if (res[2]!=0) res[2][22]=a74;
+  a78=(a73*a50);
+  a79=(a75*a20);
+  a78=(a78+a79);
+  a79=(a76*a28);
+  a78=(a78+a79);
+  a79=(a77*a37);
+  a78=(a78+a79);
+  if (res[2]!=0) res[2][23]=a78;
+  if (res[2]!=0) res[2][24]=a14;
+  if (res[2]!=0) res[2][25]=a16;
+  if (res[2]!=0) res[2][26]=a58;
+  a17=(a17*a22);
+  a04=(a04*a34);
+  a17=(a17+a04);
+  a36=(a36*a43);
+  a17=(a17+a36);
+  a27=(a27*a21);
+  a17=(a17+a27);
+  if (res[2]!=0) res[2][27]=a17;
+  a03=(a11*a03);
+  a35=(a30*a35);
+  a03=(a03+a35);
+  a33=(a39*a33);
+  a03=(a03+a33);
+  a26=(a10*a26);
+  a03=(a03+a26);
+  if (res[2]!=0) res[2][28]=a03;
+  a11=(a11*a05);
+  a30=(a30*a51);
+  a11=(a11+a30);
+  a39=(a39*a64);
+  a11=(a11+a39);
+  a10=(a10*a65);
+  a11=(a11+a10);
+  if (res[2]!=0) res[2][29]=a11;
+  a10=(a73*a50);
+  a39=(a75*a20);
+  a10=(a10+a39);
+  a39=(a76*a28);
+  a10=(a10+a39);
+  a39=(a77*a37);
+  a10=(a10+a39);
+  if (res[2]!=0) res[2][30]=a10;
+  a73=(a73*a22);
+  a75=(a75*a34);
+  a73=(a73+a75);
+  a76=(a76*a43);
+  a73=(a73+a76);
+  a77=(a77*a21);
+  a73=(a73+a77);
+  if (res[2]!=0) res[2][31]=a73;
+  if (res[2]!=0) res[2][32]=a53;
+  if (res[2]!=0) res[2][33]=a42;
+  if (res[2]!=0) res[2][34]=a71;
+  if (res[2]!=0) res[2][35]=a03;
+  a00=(a00*a19);
+  a41=(a41*a55);
+  a00=(a00+a41);
+  a24=(a24*a56);
+  a00=(a00+a24);
+  a49=(a49*a57);
+  a00=(a00+a49);
+  if (res[2]!=0) res[2][36]=a00;
+  a32=(a32*a19);
+  a15=(a15*a55);
+  a32=(a32+a15);
+  a02=(a02*a56);
+  a32=(a32+a02);
+  a47=(a47*a57);
+  a32=(a32+a47);
+  if (res[2]!=0) res[2][37]=a32;
+  a01=(a01*a19);
+  a59=(a59*a55);
+  a01=(a01+a59);
+  a60=(a60*a56);
+  a01=(a01+a60);
+  a61=(a61*a57);
+  a01=(a01+a61);
+  if (res[2]!=0) res[2][38]=a01;
+  a62=(a62*a19);
+  a63=(a63*a55);
+  a62=(a62+a63);
+  a45=(a45*a56);
+  a62=(a62+a45);
+  a48=(a48*a57);
+  a62=(a62+a48);
+  if (res[2]!=0) res[2][39]=a62;
+  if (res[2]!=0) res[2][40]=a25;
+  if (res[2]!=0) res[2][41]=a54;
+  if (res[2]!=0) res[2][42]=a72;
+  if (res[2]!=0) res[2][43]=a11;
+  if (res[2]!=0) res[2][44]=a32;
+  a05=(a05*a09);
+  a51=(a51*a29);
+  a05=(a05+a51);
+  a64=(a64*a38);
+  a05=(a05+a64);
+  a65=(a65*a44);
+  a05=(a05+a65);
+  if (res[2]!=0) res[2][45]=a05;
+  a66=(a66*a09);
+  a68=(a68*a29);
+  a66=(a66+a68);
+  a69=(a69*a38);
+  a66=(a66+a69);
+  a70=(a70*a44);
+  a66=(a66+a70);
+  if (res[2]!=0) res[2][46]=a66;
+  a13=(a13*a09);
+  a31=(a31*a29);
+  a13=(a13+a31);
+  a40=(a40*a38);
+  a13=(a13+a40);
+  a12=(a12*a44);
+  a13=(a13+a12);
+  if (res[2]!=0) res[2][47]=a13;
+  if (res[2]!=0) res[2][48]=a07;
+  if (res[2]!=0) res[2][49]=a67;
+  if (res[2]!=0) res[2][50]=a74;
+  if (res[2]!=0) res[2][51]=a10;
+  if (res[2]!=0) res[2][52]=a01;
+  if (res[2]!=0) res[2][53]=a66;
+  a66=1.5475694746702346e-02;
+  a18=(a66*a18);
+  a01=1.1108901618384434e-01;
+  a08=(a01*a08);
+  a18=(a18+a08);
+  a08=4.4633814047072736e-05;
+  a52=(a08*a52);
+  a18=(a18+a52);
+  a52=5.4277841035744701e-01;
+  a46=(a52*a46);
+  a18=(a18+a46);
+  if (res[2]!=0) res[2][54]=a18;
+  a50=(a66*a50);
+  a20=(a01*a20);
+  a50=(a50+a20);
+  a28=(a08*a28);
+  a50=(a50+a28);
+  a37=(a52*a37);
+  a50=(a50+a37);
+  if (res[2]!=0) res[2][55]=a50;
+  if (res[2]!=0) res[2][56]=a23;
+  if (res[2]!=0) res[2][57]=a06;
+  if (res[2]!=0) res[2][58]=a78;
+  if (res[2]!=0) res[2][59]=a73;
+  if (res[2]!=0) res[2][60]=a62;
+  if (res[2]!=0) res[2][61]=a13;
+  if (res[2]!=0) res[2][62]=a50;
+  a66=(a66*a22);
+  a01=(a01*a34);
+  a66=(a66+a01);
+  a08=(a08*a43);
+  a66=(a66+a08);
+  a52=(a52*a21);
+  a66=(a66+a52);
+  if (res[2]!=0) res[2][63]=a66;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f9(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g4_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g4_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g4_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g4_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_biot_g4_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_biot_g4_n_out(void) { return 3;}
+
+CASADI_SYMBOL_EXPORT casadi_real cable2d_axial_biot_g4_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_biot_g4_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_biot_g4_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    case 1: return "gradient";
+    case 2: return "hessian";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_biot_g4_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_biot_g4_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s2;
+    case 1: return casadi_s0;
+    case 2: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g4_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 3;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g4_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 3*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* cable2d_axial_biot_g4_energy:(q[8],p[2])->(energy) */
+static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22;
+  a00=1.7392742256872679e-01;
+  a01=arg[1]? arg[1][0] : 0;
+  a02=(a00*a01);
+  a03=arg[1]? arg[1][1] : 0;
+  a04=2.;
+  a05=(a03/a04);
+  a06=-3.8766637928128622e-01;
+  a07=arg[0]? arg[0][0] : 0;
+  a08=(a06*a07);
+  a09=3.8766637928128622e-01;
+  a10=arg[0]? arg[0][4] : 0;
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a08=(a08/a01);
+  a11=7.3673496615638323e-01;
+  a12=arg[0]? arg[0][2] : 0;
+  a13=(a11*a12);
+  a08=(a08+a13);
+  a13=-1.2440134543766938e-01;
+  a14=arg[0]? arg[0][6] : 0;
+  a15=(a13*a14);
+  a08=(a08+a15);
+  a08=casadi_sq(a08);
+  a15=arg[0]? arg[0][1] : 0;
+  a06=(a06*a15);
+  a16=arg[0]? arg[0][5] : 0;
+  a09=(a09*a16);
+  a06=(a06+a09);
+  a06=(a06/a01);
+  a09=arg[0]? arg[0][3] : 0;
+  a11=(a11*a09);
+  a06=(a06+a11);
+  a11=arg[0]? arg[0][7] : 0;
+  a13=(a13*a11);
+  a06=(a06+a13);
+  a06=casadi_sq(a06);
+  a08=(a08+a06);
+  a08=sqrt(a08);
+  a06=1.;
+  a08=(a08-a06);
+  a08=casadi_sq(a08);
+  a05=(a05*a08);
+  a02=(a02*a05);
+  a05=3.2607257743127321e-01;
+  a08=(a05*a01);
+  a13=(a03/a04);
+  a17=-1.3266193350044282e+00;
+  a18=(a17*a07);
+  a19=1.3266193350044282e+00;
+  a20=(a19*a10);
+  a18=(a18+a20);
+  a18=(a18/a01);
+  a20=6.6808542902140333e-03;
+  a21=(a20*a12);
+  a18=(a18+a21);
+  a21=-3.3330018929464222e-01;
+  a22=(a21*a14);
+  a18=(a18+a22);
+  a18=casadi_sq(a18);
+  a17=(a17*a15);
+  a19=(a19*a16);
+  a17=(a17+a19);
+  a17=(a17/a01);
+  a20=(a20*a09);
+  a17=(a17+a20);
+  a21=(a21*a11);
+  a17=(a17+a21);
+  a17=casadi_sq(a17);
+  a18=(a18+a17);
+  a18=sqrt(a18);
+  a18=(a18-a06);
+  a18=casadi_sq(a18);
+  a13=(a13*a18);
+  a08=(a08*a13);
+  a02=(a02+a08);
+  a05=(a05*a01);
+  a08=(a03/a04);
+  a13=-1.3266193350044277e+00;
+  a18=(a13*a07);
+  a17=1.3266193350044277e+00;
+  a21=(a17*a10);
+  a18=(a18+a21);
+  a18=(a18/a01);
+  a21=-3.3330018929464211e-01;
+  a20=(a21*a12);
+  a18=(a18+a20);
+  a20=6.6808542902141443e-03;
+  a19=(a20*a14);
+  a18=(a18+a19);
+  a18=casadi_sq(a18);
+  a13=(a13*a15);
+  a17=(a17*a16);
+  a13=(a13+a17);
+  a13=(a13/a01);
+  a21=(a21*a09);
+  a13=(a13+a21);
+  a20=(a20*a11);
+  a13=(a13+a20);
+  a13=casadi_sq(a13);
+  a18=(a18+a13);
+  a18=sqrt(a18);
+  a18=(a18-a06);
+  a18=casadi_sq(a18);
+  a08=(a08*a18);
+  a05=(a05*a08);
+  a02=(a02+a05);
+  a00=(a00*a01);
+  a03=(a03/a04);
+  a04=-3.8766637928128667e-01;
+  a07=(a04*a07);
+  a05=3.8766637928128667e-01;
+  a10=(a05*a10);
+  a07=(a07+a10);
+  a07=(a07/a01);
+  a10=-1.2440134543766934e-01;
+  a12=(a10*a12);
+  a07=(a07+a12);
+  a12=7.3673496615638312e-01;
+  a14=(a12*a14);
+  a07=(a07+a14);
+  a07=casadi_sq(a07);
+  a04=(a04*a15);
+  a05=(a05*a16);
+  a04=(a04+a05);
+  a04=(a04/a01);
+  a10=(a10*a09);
+  a04=(a04+a10);
+  a12=(a12*a11);
+  a04=(a04+a12);
+  a04=casadi_sq(a04);
+  a07=(a07+a04);
+  a07=sqrt(a07);
+  a07=(a07-a06);
+  a07=casadi_sq(a07);
+  a03=(a03*a07);
+  a00=(a00*a03);
+  a02=(a02+a00);
+  if (res[0]!=0) res[0][0]=a02;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g4_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f10(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g4_energy_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g4_energy_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g4_energy_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g4_energy_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_biot_g4_energy_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_biot_g4_energy_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real cable2d_axial_biot_g4_energy_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_biot_g4_energy_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_biot_g4_energy_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_biot_g4_energy_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_biot_g4_energy_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g4_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g4_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* adj1_cable2d_axial_biot_g4_energy:(q[8],p[2],out_energy[1x1,0nz],adj_energy)->(adj_q[8],adj_p[2]) */
+static int casadi_f11(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
+  casadi_real a36, a37, a38, a39, a40, a41, a42, a43, a44, a45, a46, a47;
+  casadi_real a48, a49, a50, a51, a52, a53, a54, a55, a56, a57;
+  a00=-3.8766637928128667e-01;
+  a01=arg[0]? arg[0][0] : 0;
+  a02=(a00*a01);
+  a03=3.8766637928128667e-01;
+  a04=arg[0]? arg[0][4] : 0;
+  a05=(a03*a04);
+  a02=(a02+a05);
+  a05=arg[1]? arg[1][0] : 0;
+  a02=(a02/a05);
+  a06=-1.2440134543766934e-01;
+  a07=arg[0]? arg[0][2] : 0;
+  a08=(a06*a07);
+  a08=(a02+a08);
+  a09=7.3673496615638312e-01;
+  a10=arg[0]? arg[0][6] : 0;
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a11=(2.*a08);
+  a08=casadi_sq(a08);
+  a12=arg[0]? arg[0][1] : 0;
+  a13=(a00*a12);
+  a14=arg[0]? arg[0][5] : 0;
+  a15=(a03*a14);
+  a13=(a13+a15);
+  a13=(a13/a05);
+  a15=arg[0]? arg[0][3] : 0;
+  a16=(a06*a15);
+  a16=(a13+a16);
+  a17=arg[0]? arg[0][7] : 0;
+  a18=(a09*a17);
+  a16=(a16+a18);
+  a18=casadi_sq(a16);
+  a08=(a08+a18);
+  a08=sqrt(a08);
+  a18=1.;
+  a19=(a08-a18);
+  a20=(2.*a19);
+  a21=arg[1]? arg[1][1] : 0;
+  a22=2.;
+  a23=(a21/a22);
+  a24=1.7392742256872679e-01;
+  a25=(a24*a05);
+  a26=arg[3]? arg[3][0] : 0;
+  a25=(a25*a26);
+  a27=(a23*a25);
+  a20=(a20*a27);
+  a08=(2.*a08);
+  a20=(a20/a08);
+  a11=(a11*a20);
+  a08=(a11/a05);
+  a27=(a00*a08);
+  a28=-1.3266193350044277e+00;
+  a29=(a28*a01);
+  a30=1.3266193350044277e+00;
+  a31=(a30*a04);
+  a29=(a29+a31);
+  a29=(a29/a05);
+  a31=-3.3330018929464211e-01;
+  a32=(a31*a07);
+  a32=(a29+a32);
+  a33=6.6808542902141443e-03;
+  a34=(a33*a10);
+  a32=(a32+a34);
+  a34=(2.*a32);
+  a32=casadi_sq(a32);
+  a35=(a28*a12);
+  a36=(a30*a14);
+  a35=(a35+a36);
+  a35=(a35/a05);
+  a36=(a31*a15);
+  a36=(a35+a36);
+  a37=(a33*a17);
+  a36=(a36+a37);
+  a37=casadi_sq(a36);
+  a32=(a32+a37);
+  a32=sqrt(a32);
+  a37=(a32-a18);
+  a38=(2.*a37);
+  a39=(a21/a22);
+  a40=3.2607257743127321e-01;
+  a41=(a40*a05);
+  a41=(a41*a26);
+  a42=(a39*a41);
+  a38=(a38*a42);
+  a32=(2.*a32);
+  a38=(a38/a32);
+  a34=(a34*a38);
+  a32=(a34/a05);
+  a42=(a28*a32);
+  a27=(a27+a42);
+  a42=-1.3266193350044282e+00;
+  a43=(a42*a01);
+  a44=1.3266193350044282e+00;
+  a45=(a44*a04);
+  a43=(a43+a45);
+  a43=(a43/a05);
+  a45=6.6808542902140333e-03;
+  a46=(a45*a07);
+  a46=(a43+a46);
+  a47=-3.3330018929464222e-01;
+  a48=(a47*a10);
+  a46=(a46+a48);
+  a48=(2.*a46);
+  a46=casadi_sq(a46);
+  a49=(a42*a12);
+  a50=(a44*a14);
+  a49=(a49+a50);
+  a49=(a49/a05);
+  a50=(a45*a15);
+  a50=(a49+a50);
+  a51=(a47*a17);
+  a50=(a50+a51);
+  a51=casadi_sq(a50);
+  a46=(a46+a51);
+  a46=sqrt(a46);
+  a51=(a46-a18);
+  a52=(2.*a51);
+  a53=(a21/a22);
+  a54=(a40*a05);
+  a54=(a54*a26);
+  a55=(a53*a54);
+  a52=(a52*a55);
+  a46=(2.*a46);
+  a52=(a52/a46);
+  a48=(a48*a52);
+  a46=(a48/a05);
+  a55=(a42*a46);
+  a27=(a27+a55);
+  a55=-3.8766637928128622e-01;
+  a01=(a55*a01);
+  a56=3.8766637928128622e-01;
+  a04=(a56*a04);
+  a01=(a01+a04);
+  a01=(a01/a05);
+  a04=7.3673496615638323e-01;
+  a07=(a04*a07);
+  a07=(a01+a07);
+  a57=-1.2440134543766938e-01;
+  a10=(a57*a10);
+  a07=(a07+a10);
+  a10=(2.*a07);
+  a07=casadi_sq(a07);
+  a12=(a55*a12);
+  a14=(a56*a14);
+  a12=(a12+a14);
+  a12=(a12/a05);
+  a15=(a04*a15);
+  a15=(a12+a15);
+  a17=(a57*a17);
+  a15=(a15+a17);
+  a17=casadi_sq(a15);
+  a07=(a07+a17);
+  a07=sqrt(a07);
+  a18=(a07-a18);
+  a17=(2.*a18);
+  a21=(a21/a22);
+  a22=(a24*a05);
+  a22=(a22*a26);
+  a14=(a21*a22);
+  a17=(a17*a14);
+  a07=(2.*a07);
+  a17=(a17/a07);
+  a10=(a10*a17);
+  a07=(a10/a05);
+  a14=(a55*a07);
+  a27=(a27+a14);
+  if (res[0]!=0) res[0][0]=a27;
+  a16=(2.*a16);
+  a16=(a16*a20);
+  a20=(a16/a05);
+  a00=(a00*a20);
+  a36=(2.*a36);
+  a36=(a36*a38);
+  a38=(a36/a05);
+  a28=(a28*a38);
+  a00=(a00+a28);
+  a50=(2.*a50);
+  a50=(a50*a52);
+  a52=(a50/a05);
+  a42=(a42*a52);
+  a00=(a00+a42);
+  a15=(2.*a15);
+  a15=(a15*a17);
+  a17=(a15/a05);
+  a55=(a55*a17);
+  a00=(a00+a55);
+  if (res[0]!=0) res[0][1]=a00;
+  a00=(a06*a11);
+  a55=(a31*a34);
+  a00=(a00+a55);
+  a55=(a45*a48);
+  a00=(a00+a55);
+  a55=(a04*a10);
+  a00=(a00+a55);
+  if (res[0]!=0) res[0][2]=a00;
+  a06=(a06*a16);
+  a31=(a31*a36);
+  a06=(a06+a31);
+  a45=(a45*a50);
+  a06=(a06+a45);
+  a04=(a04*a15);
+  a06=(a06+a04);
+  if (res[0]!=0) res[0][3]=a06;
+  a08=(a03*a08);
+  a32=(a30*a32);
+  a08=(a08+a32);
+  a46=(a44*a46);
+  a08=(a08+a46);
+  a07=(a56*a07);
+  a08=(a08+a07);
+  if (res[0]!=0) res[0][4]=a08;
+  a03=(a03*a20);
+  a30=(a30*a38);
+  a03=(a03+a30);
+  a44=(a44*a52);
+  a03=(a03+a44);
+  a56=(a56*a17);
+  a03=(a03+a56);
+  if (res[0]!=0) res[0][5]=a03;
+  a03=(a09*a11);
+  a56=(a33*a34);
+  a03=(a03+a56);
+  a56=(a47*a48);
+  a03=(a03+a56);
+  a56=(a57*a10);
+  a03=(a03+a56);
+  if (res[0]!=0) res[0][6]=a03;
+  a09=(a09*a16);
+  a33=(a33*a36);
+  a09=(a09+a33);
+  a47=(a47*a50);
+  a09=(a09+a47);
+  a57=(a57*a15);
+  a09=(a09+a57);
+  if (res[0]!=0) res[0][7]=a09;
+  a19=casadi_sq(a19);
+  a23=(a23*a19);
+  a23=(a23*a26);
+  a23=(a24*a23);
+  a13=(a13/a05);
+  a13=(a13*a16);
+  a02=(a02/a05);
+  a02=(a02*a11);
+  a13=(a13+a02);
+  a23=(a23-a13);
+  a35=(a35/a05);
+  a35=(a35*a36);
+  a23=(a23-a35);
+  a29=(a29/a05);
+  a29=(a29*a34);
+  a23=(a23-a29);
+  a37=casadi_sq(a37);
+  a39=(a39*a37);
+  a39=(a39*a26);
+  a39=(a40*a39);
+  a23=(a23+a39);
+  a49=(a49/a05);
+  a49=(a49*a50);
+  a23=(a23-a49);
+  a43=(a43/a05);
+  a43=(a43*a48);
+  a23=(a23-a43);
+  a51=casadi_sq(a51);
+  a53=(a53*a51);
+  a53=(a53*a26);
+  a40=(a40*a53);
+  a23=(a23+a40);
+  a12=(a12/a05);
+  a12=(a12*a15);
+  a23=(a23-a12);
+  a01=(a01/a05);
+  a01=(a01*a10);
+  a23=(a23-a01);
+  a18=casadi_sq(a18);
+  a21=(a21*a18);
+  a21=(a21*a26);
+  a24=(a24*a21);
+  a23=(a23+a24);
+  if (res[1]!=0) res[1][0]=a23;
+  a23=5.0000000000000000e-01;
+  a19=(a19*a25);
+  a19=(a23*a19);
+  a37=(a37*a41);
+  a37=(a23*a37);
+  a19=(a19+a37);
+  a51=(a51*a54);
+  a51=(a23*a51);
+  a19=(a19+a51);
+  a18=(a18*a22);
+  a23=(a23*a18);
+  a19=(a19+a23);
+  if (res[1]!=0) res[1][1]=a19;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_biot_g4_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f11(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_biot_g4_energy_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void adj1_cable2d_axial_biot_g4_energy_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void adj1_cable2d_axial_biot_g4_energy_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void adj1_cable2d_axial_biot_g4_energy_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int adj1_cable2d_axial_biot_g4_energy_n_in(void) { return 4;}
+
+CASADI_SYMBOL_EXPORT casadi_int adj1_cable2d_axial_biot_g4_energy_n_out(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_real adj1_cable2d_axial_biot_g4_energy_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* adj1_cable2d_axial_biot_g4_energy_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    case 2: return "out_energy";
+    case 3: return "adj_energy";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* adj1_cable2d_axial_biot_g4_energy_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "adj_q";
+    case 1: return "adj_p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* adj1_cable2d_axial_biot_g4_energy_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    case 2: return casadi_s4;
+    case 3: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* adj1_cable2d_axial_biot_g4_energy_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_biot_g4_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 4;
+  if (sz_res) *sz_res = 2;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_biot_g4_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 4*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 2*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* cable2d_axial_biot_g4_grad:(q[8],p[2])->(energy,gradient[8]) */
+static int casadi_f12(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
+  casadi_real a36, a37, a38, a39, a40, a41, a42, a43, a44;
+  a00=1.7392742256872679e-01;
+  a01=arg[1]? arg[1][0] : 0;
+  a02=(a00*a01);
+  a03=arg[1]? arg[1][1] : 0;
+  a04=2.;
+  a05=(a03/a04);
+  a06=-3.8766637928128622e-01;
+  a07=arg[0]? arg[0][0] : 0;
+  a08=(a06*a07);
+  a09=3.8766637928128622e-01;
+  a10=arg[0]? arg[0][4] : 0;
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a08=(a08/a01);
+  a11=7.3673496615638323e-01;
+  a12=arg[0]? arg[0][2] : 0;
+  a13=(a11*a12);
+  a08=(a08+a13);
+  a13=-1.2440134543766938e-01;
+  a14=arg[0]? arg[0][6] : 0;
+  a15=(a13*a14);
+  a08=(a08+a15);
+  a15=casadi_sq(a08);
+  a16=arg[0]? arg[0][1] : 0;
+  a17=(a06*a16);
+  a18=arg[0]? arg[0][5] : 0;
+  a19=(a09*a18);
+  a17=(a17+a19);
+  a17=(a17/a01);
+  a19=arg[0]? arg[0][3] : 0;
+  a20=(a11*a19);
+  a17=(a17+a20);
+  a20=arg[0]? arg[0][7] : 0;
+  a21=(a13*a20);
+  a17=(a17+a21);
+  a21=casadi_sq(a17);
+  a15=(a15+a21);
+  a15=sqrt(a15);
+  a21=1.;
+  a22=(a15-a21);
+  a23=casadi_sq(a22);
+  a23=(a05*a23);
+  a23=(a02*a23);
+  a24=3.2607257743127321e-01;
+  a25=(a24*a01);
+  a26=(a03/a04);
+  a27=-1.3266193350044282e+00;
+  a28=(a27*a07);
+  a29=1.3266193350044282e+00;
+  a30=(a29*a10);
+  a28=(a28+a30);
+  a28=(a28/a01);
+  a30=6.6808542902140333e-03;
+  a31=(a30*a12);
+  a28=(a28+a31);
+  a31=-3.3330018929464222e-01;
+  a32=(a31*a14);
+  a28=(a28+a32);
+  a32=casadi_sq(a28);
+  a33=(a27*a16);
+  a34=(a29*a18);
+  a33=(a33+a34);
+  a33=(a33/a01);
+  a34=(a30*a19);
+  a33=(a33+a34);
+  a34=(a31*a20);
+  a33=(a33+a34);
+  a34=casadi_sq(a33);
+  a32=(a32+a34);
+  a32=sqrt(a32);
+  a34=(a32-a21);
+  a35=casadi_sq(a34);
+  a35=(a26*a35);
+  a35=(a25*a35);
+  a23=(a23+a35);
+  a24=(a24*a01);
+  a35=(a03/a04);
+  a36=-1.3266193350044277e+00;
+  a37=(a36*a07);
+  a38=1.3266193350044277e+00;
+  a39=(a38*a10);
+  a37=(a37+a39);
+  a37=(a37/a01);
+  a39=-3.3330018929464211e-01;
+  a40=(a39*a12);
+  a37=(a37+a40);
+  a40=6.6808542902141443e-03;
+  a41=(a40*a14);
+  a37=(a37+a41);
+  a41=casadi_sq(a37);
+  a42=(a36*a16);
+  a43=(a38*a18);
+  a42=(a42+a43);
+  a42=(a42/a01);
+  a43=(a39*a19);
+  a42=(a42+a43);
+  a43=(a40*a20);
+  a42=(a42+a43);
+  a43=casadi_sq(a42);
+  a41=(a41+a43);
+  a41=sqrt(a41);
+  a43=(a41-a21);
+  a44=casadi_sq(a43);
+  a44=(a35*a44);
+  a44=(a24*a44);
+  a23=(a23+a44);
+  a00=(a00*a01);
+  a03=(a03/a04);
+  a04=-3.8766637928128667e-01;
+  a07=(a04*a07);
+  a44=3.8766637928128667e-01;
+  a10=(a44*a10);
+  a07=(a07+a10);
+  a07=(a07/a01);
+  a10=-1.2440134543766934e-01;
+  a12=(a10*a12);
+  a07=(a07+a12);
+  a12=7.3673496615638312e-01;
+  a14=(a12*a14);
+  a07=(a07+a14);
+  a14=casadi_sq(a07);
+  a16=(a04*a16);
+  a18=(a44*a18);
+  a16=(a16+a18);
+  a16=(a16/a01);
+  a19=(a10*a19);
+  a16=(a16+a19);
+  a20=(a12*a20);
+  a16=(a16+a20);
+  a20=casadi_sq(a16);
+  a14=(a14+a20);
+  a14=sqrt(a14);
+  a21=(a14-a21);
+  a20=casadi_sq(a21);
+  a20=(a03*a20);
+  a20=(a00*a20);
+  a23=(a23+a20);
+  if (res[0]!=0) res[0][0]=a23;
+  a23=(a06/a01);
+  a08=(2.*a08);
+  a22=(2.*a22);
+  a05=(a05*a02);
+  a22=(a22*a05);
+  a15=(2.*a15);
+  a22=(a22/a15);
+  a08=(a08*a22);
+  a23=(a23*a08);
+  a15=(a27/a01);
+  a28=(2.*a28);
+  a34=(2.*a34);
+  a26=(a26*a25);
+  a34=(a34*a26);
+  a32=(2.*a32);
+  a34=(a34/a32);
+  a28=(a28*a34);
+  a15=(a15*a28);
+  a23=(a23+a15);
+  a15=(a36/a01);
+  a37=(2.*a37);
+  a43=(2.*a43);
+  a35=(a35*a24);
+  a43=(a43*a35);
+  a41=(2.*a41);
+  a43=(a43/a41);
+  a37=(a37*a43);
+  a15=(a15*a37);
+  a23=(a23+a15);
+  a15=(a04/a01);
+  a07=(2.*a07);
+  a21=(2.*a21);
+  a03=(a03*a00);
+  a21=(a21*a03);
+  a14=(2.*a14);
+  a21=(a21/a14);
+  a07=(a07*a21);
+  a15=(a15*a07);
+  a23=(a23+a15);
+  if (res[1]!=0) res[1][0]=a23;
+  a06=(a06/a01);
+  a17=(2.*a17);
+  a17=(a17*a22);
+  a06=(a06*a17);
+  a27=(a27/a01);
+  a33=(2.*a33);
+  a33=(a33*a34);
+  a27=(a27*a33);
+  a06=(a06+a27);
+  a36=(a36/a01);
+  a42=(2.*a42);
+  a42=(a42*a43);
+  a36=(a36*a42);
+  a06=(a06+a36);
+  a04=(a04/a01);
+  a16=(2.*a16);
+  a16=(a16*a21);
+  a04=(a04*a16);
+  a06=(a06+a04);
+  if (res[1]!=0) res[1][1]=a06;
+  a06=(a11*a08);
+  a04=(a30*a28);
+  a06=(a06+a04);
+  a04=(a39*a37);
+  a06=(a06+a04);
+  a04=(a10*a07);
+  a06=(a06+a04);
+  if (res[1]!=0) res[1][2]=a06;
+  a11=(a11*a17);
+  a30=(a30*a33);
+  a11=(a11+a30);
+  a39=(a39*a42);
+  a11=(a11+a39);
+  a10=(a10*a16);
+  a11=(a11+a10);
+  if (res[1]!=0) res[1][3]=a11;
+  a11=(a09/a01);
+  a11=(a11*a08);
+  a10=(a29/a01);
+  a10=(a10*a28);
+  a11=(a11+a10);
+  a10=(a38/a01);
+  a10=(a10*a37);
+  a11=(a11+a10);
+  a10=(a44/a01);
+  a10=(a10*a07);
+  a11=(a11+a10);
+  if (res[1]!=0) res[1][4]=a11;
+  a09=(a09/a01);
+  a09=(a09*a17);
+  a29=(a29/a01);
+  a29=(a29*a33);
+  a09=(a09+a29);
+  a38=(a38/a01);
+  a38=(a38*a42);
+  a09=(a09+a38);
+  a44=(a44/a01);
+  a44=(a44*a16);
+  a09=(a09+a44);
+  if (res[1]!=0) res[1][5]=a09;
+  a08=(a13*a08);
+  a28=(a31*a28);
+  a08=(a08+a28);
+  a37=(a40*a37);
+  a08=(a08+a37);
+  a07=(a12*a07);
+  a08=(a08+a07);
+  if (res[1]!=0) res[1][6]=a08;
+  a13=(a13*a17);
+  a31=(a31*a33);
+  a13=(a13+a31);
+  a40=(a40*a42);
+  a13=(a13+a40);
+  a12=(a12*a16);
+  a13=(a13+a12);
+  if (res[1]!=0) res[1][7]=a13;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g4_grad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f12(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g4_grad_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g4_grad_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g4_grad_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g4_grad_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_biot_g4_grad_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_biot_g4_grad_n_out(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_real cable2d_axial_biot_g4_grad_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_biot_g4_grad_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_biot_g4_grad_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    case 1: return "gradient";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_biot_g4_grad_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_biot_g4_grad_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s2;
+    case 1: return casadi_s0;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g4_grad_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 2;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g4_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 2*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* cable2d_axial_biot_g7:(q[8],p[2])->(energy,gradient[8],hessian[8x8]) */
+static int casadi_f13(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a000, a001, a002, a003, a004, a005, a006, a007, a008, a009, a010, a011;
+  casadi_real a012, a013, a014, a015, a016, a017, a018, a019, a020, a021, a022, a023;
+  casadi_real a024, a025, a026, a027, a028, a029, a030, a031, a032, a033, a034, a035;
+  casadi_real a036, a037, a038, a039, a040, a041, a042, a043, a044, a045, a046, a047;
+  casadi_real a048, a049, a050, a051, a052, a053, a054, a055, a056, a057, a058, a059;
+  casadi_real a060, a061, a062, a063, a064, a065, a066, a067, a068, a069, a070, a071;
+  casadi_real a072, a073, a074, a075, a076, a077, a078, a079, a080, a081, a082, a083;
+  casadi_real a084, a085, a086, a087, a088, a089, a090, a091, a092, a093, a094, a095;
+  casadi_real a096, a097, a098, a099, a100, a101, a102, a103, a104, a105, a106, a107;
+  casadi_real a108, a109, a110, a111, a112, a113, a114, a115, a116, a117, a118, a119;
+  casadi_real a120, a121, a122, a123, a124, a125, a126;
+  a000=6.4742483084434865e-02;
+  a001=arg[1]? arg[1][0] : 0;
+  a002=(a000*a001);
+  a003=arg[1]? arg[1][1] : 0;
+  a004=2.;
+  a005=(a003/a004);
+  a006=-1.4879125609255570e-01;
+  a007=arg[0]? arg[0][0] : 0;
+  a008=(a006*a007);
+  a009=1.4879125609255570e-01;
+  a010=arg[0]? arg[0][4] : 0;
+  a011=(a009*a010);
+  a008=(a008+a011);
+  a008=(a008/a001);
+  a011=9.0015832812510144e-01;
+  a012=arg[0]? arg[0][2] : 0;
+  a013=(a011*a012);
+  a008=(a008+a013);
+  a013=-4.8949584217657147e-02;
+  a014=arg[0]? arg[0][6] : 0;
+  a015=(a013*a014);
+  a008=(a008+a015);
+  a015=casadi_sq(a008);
+  a016=arg[0]? arg[0][1] : 0;
+  a017=(a006*a016);
+  a018=arg[0]? arg[0][5] : 0;
+  a019=(a009*a018);
+  a017=(a017+a019);
+  a017=(a017/a001);
+  a019=arg[0]? arg[0][3] : 0;
+  a020=(a011*a019);
+  a017=(a017+a020);
+  a020=arg[0]? arg[0][7] : 0;
+  a021=(a013*a020);
+  a017=(a017+a021);
+  a021=casadi_sq(a017);
+  a015=(a015+a021);
+  a015=sqrt(a015);
+  a021=1.;
+  a022=(a015-a021);
+  a023=casadi_sq(a022);
+  a023=(a005*a023);
+  a023=(a002*a023);
+  a024=1.3985269574463843e-01;
+  a025=(a024*a001);
+  a026=(a003/a004);
+  a027=-6.7519725117533458e-01;
+  a028=(a027*a007);
+  a029=6.7519725117533458e-01;
+  a030=(a029*a010);
+  a028=(a028+a030);
+  a028=(a028/a001);
+  a030=5.3316696721202994e-01;
+  a031=(a030*a012);
+  a028=(a028+a031);
+  a031=-2.0836421838736452e-01;
+  a032=(a031*a014);
+  a028=(a028+a032);
+  a032=casadi_sq(a028);
+  a033=(a027*a016);
+  a034=(a029*a018);
+  a033=(a033+a034);
+  a033=(a033/a001);
+  a034=(a030*a019);
+  a033=(a033+a034);
+  a034=(a031*a020);
+  a033=(a033+a034);
+  a034=casadi_sq(a033);
+  a032=(a032+a034);
+  a032=sqrt(a032);
+  a034=(a032-a021);
+  a035=casadi_sq(a034);
+  a035=(a026*a035);
+  a035=(a025*a035);
+  a023=(a023+a035);
+  a035=1.9091502525255935e-01;
+  a036=(a035*a001);
+  a037=(a003/a004);
+  a038=-1.2529345696551863e+00;
+  a039=(a038*a007);
+  a040=1.2529345696551863e+00;
+  a041=(a040*a010);
+  a039=(a039+a041);
+  a039=(a039/a001);
+  a041=7.6455290861105418e-02;
+  a042=(a041*a012);
+  a039=(a039+a042);
+  a042=-3.2938986051629177e-01;
+  a043=(a042*a014);
+  a039=(a039+a043);
+  a043=casadi_sq(a039);
+  a044=(a038*a016);
+  a045=(a040*a018);
+  a044=(a044+a045);
+  a044=(a044/a001);
+  a045=(a041*a019);
+  a044=(a044+a045);
+  a045=(a042*a020);
+  a044=(a044+a045);
+  a045=casadi_sq(a044);
+  a043=(a043+a045);
+  a043=sqrt(a043);
+  a045=(a043-a021);
+  a046=casadi_sq(a045);
+  a046=(a037*a046);
+  a046=(a036*a046);
+  a023=(a023+a046);
+  a046=2.0897959183673465e-01;
+  a046=(a046*a001);
+  a047=(a003/a004);
+  a048=-1.5000000000000000e+00;
+  a049=(a048*a007);
+  a050=1.5000000000000000e+00;
+  a051=(a050*a010);
+  a049=(a049+a051);
+  a049=(a049/a001);
+  a051=-2.5000000000000000e-01;
+  a052=(a051*a012);
+  a049=(a049+a052);
+  a052=(a051*a014);
+  a049=(a049+a052);
+  a052=casadi_sq(a049);
+  a053=(a048*a016);
+  a054=(a050*a018);
+  a053=(a053+a054);
+  a053=(a053/a001);
+  a054=(a051*a019);
+  a053=(a053+a054);
+  a054=(a051*a020);
+  a053=(a053+a054);
+  a054=casadi_sq(a053);
+  a052=(a052+a054);
+  a052=sqrt(a052);
+  a054=(a052-a021);
+  a055=casadi_sq(a054);
+  a055=(a047*a055);
+  a055=(a046*a055);
+  a023=(a023+a055);
+  a035=(a035*a001);
+  a055=(a003/a004);
+  a056=(a038*a007);
+  a057=(a040*a010);
+  a056=(a056+a057);
+  a056=(a056/a001);
+  a057=-3.2938986051629171e-01;
+  a058=(a057*a012);
+  a056=(a056+a058);
+  a058=7.6455290861105363e-02;
+  a059=(a058*a014);
+  a056=(a056+a059);
+  a059=casadi_sq(a056);
+  a060=(a038*a016);
+  a061=(a040*a018);
+  a060=(a060+a061);
+  a060=(a060/a001);
+  a061=(a057*a019);
+  a060=(a060+a061);
+  a061=(a058*a020);
+  a060=(a060+a061);
+  a061=casadi_sq(a060);
+  a059=(a059+a061);
+  a059=sqrt(a059);
+  a061=(a059-a021);
+  a062=casadi_sq(a061);
+  a062=(a055*a062);
+  a062=(a035*a062);
+  a023=(a023+a062);
+  a024=(a024*a001);
+  a062=(a003/a004);
+  a063=-6.7519725117533369e-01;
+  a064=(a063*a007);
+  a065=6.7519725117533369e-01;
+  a066=(a065*a010);
+  a064=(a064+a066);
+  a064=(a064/a001);
+  a066=-2.0836421838736419e-01;
+  a067=(a066*a012);
+  a064=(a064+a067);
+  a067=5.3316696721203027e-01;
+  a068=(a067*a014);
+  a064=(a064+a068);
+  a068=casadi_sq(a064);
+  a069=(a063*a016);
+  a070=(a065*a018);
+  a069=(a069+a070);
+  a069=(a069/a001);
+  a070=(a066*a019);
+  a069=(a069+a070);
+  a070=(a067*a020);
+  a069=(a069+a070);
+  a070=casadi_sq(a069);
+  a068=(a068+a070);
+  a068=sqrt(a068);
+  a070=(a068-a021);
+  a071=casadi_sq(a070);
+  a071=(a062*a071);
+  a071=(a024*a071);
+  a023=(a023+a071);
+  a000=(a000*a001);
+  a003=(a003/a004);
+  a004=-1.4879125609255617e-01;
+  a007=(a004*a007);
+  a071=1.4879125609255617e-01;
+  a010=(a071*a010);
+  a007=(a007+a010);
+  a007=(a007/a001);
+  a010=-4.8949584217657272e-02;
+  a012=(a010*a012);
+  a007=(a007+a012);
+  a012=9.0015832812510133e-01;
+  a014=(a012*a014);
+  a007=(a007+a014);
+  a014=casadi_sq(a007);
+  a016=(a004*a016);
+  a018=(a071*a018);
+  a016=(a016+a018);
+  a016=(a016/a001);
+  a019=(a010*a019);
+  a016=(a016+a019);
+  a020=(a012*a020);
+  a016=(a016+a020);
+  a020=casadi_sq(a016);
+  a014=(a014+a020);
+  a014=sqrt(a014);
+  a021=(a014-a021);
+  a020=casadi_sq(a021);
+  a020=(a003*a020);
+  a020=(a000*a020);
+  a023=(a023+a020);
+  if (res[0]!=0) res[0][0]=a023;
+  a023=(a006/a001);
+  a020=(2.*a008);
+  a019=(2.*a022);
+  a018=(a005*a002);
+  a019=(a019*a018);
+  a018=(2.*a015);
+  a019=(a019/a018);
+  a020=(a020*a019);
+  a018=(a023*a020);
+  a072=(a027/a001);
+  a073=(2.*a028);
+  a074=(2.*a034);
+  a075=(a026*a025);
+  a074=(a074*a075);
+  a075=(2.*a032);
+  a074=(a074/a075);
+  a073=(a073*a074);
+  a075=(a072*a073);
+  a018=(a018+a075);
+  a075=(a038/a001);
+  a076=(2.*a039);
+  a077=(2.*a045);
+  a078=(a037*a036);
+  a077=(a077*a078);
+  a078=(2.*a043);
+  a077=(a077/a078);
+  a076=(a076*a077);
+  a078=(a075*a076);
+  a018=(a018+a078);
+  a078=(a048/a001);
+  a079=(2.*a049);
+  a080=(2.*a054);
+  a081=(a047*a046);
+  a080=(a080*a081);
+  a081=(2.*a052);
+  a080=(a080/a081);
+  a079=(a079*a080);
+  a081=(a078*a079);
+  a018=(a018+a081);
+  a081=(a038/a001);
+  a082=(2.*a056);
+  a083=(2.*a061);
+  a084=(a055*a035);
+  a083=(a083*a084);
+  a084=(2.*a059);
+  a083=(a083/a084);
+  a082=(a082*a083);
+  a084=(a081*a082);
+  a018=(a018+a084);
+  a084=(a063/a001);
+  a085=(2.*a064);
+  a086=(2.*a070);
+  a087=(a062*a024);
+  a086=(a086*a087);
+  a087=(2.*a068);
+  a086=(a086/a087);
+  a085=(a085*a086);
+  a087=(a084*a085);
+  a018=(a018+a087);
+  a087=(a004/a001);
+  a088=(2.*a007);
+  a089=(2.*a021);
+  a090=(a003*a000);
+  a089=(a089*a090);
+  a090=(2.*a014);
+  a089=(a089/a090);
+  a088=(a088*a089);
+  a090=(a087*a088);
+  a018=(a018+a090);
+  if (res[1]!=0) res[1][0]=a018;
+  a006=(a006/a001);
+  a018=(2.*a017);
+  a018=(a018*a019);
+  a019=(a006*a018);
+  a027=(a027/a001);
+  a090=(2.*a033);
+  a090=(a090*a074);
+  a074=(a027*a090);
+  a019=(a019+a074);
+  a074=(a038/a001);
+  a091=(2.*a044);
+  a091=(a091*a077);
+  a077=(a074*a091);
+  a019=(a019+a077);
+  a048=(a048/a001);
+  a077=(2.*a053);
+  a077=(a077*a080);
+  a080=(a048*a077);
+  a019=(a019+a080);
+  a038=(a038/a001);
+  a080=(2.*a060);
+  a080=(a080*a083);
+  a083=(a038*a080);
+  a019=(a019+a083);
+  a063=(a063/a001);
+  a083=(2.*a069);
+  a083=(a083*a086);
+  a086=(a063*a083);
+  a019=(a019+a086);
+  a004=(a004/a001);
+  a086=(2.*a016);
+  a086=(a086*a089);
+  a089=(a004*a086);
+  a019=(a019+a089);
+  if (res[1]!=0) res[1][1]=a019;
+  a019=(a011*a020);
+  a089=(a030*a073);
+  a019=(a019+a089);
+  a089=(a041*a076);
+  a019=(a019+a089);
+  a089=(a051*a079);
+  a019=(a019+a089);
+  a089=(a057*a082);
+  a019=(a019+a089);
+  a089=(a066*a085);
+  a019=(a019+a089);
+  a089=(a010*a088);
+  a019=(a019+a089);
+  if (res[1]!=0) res[1][2]=a019;
+  a019=(a011*a018);
+  a089=(a030*a090);
+  a019=(a019+a089);
+  a089=(a041*a091);
+  a019=(a019+a089);
+  a089=(a051*a077);
+  a019=(a019+a089);
+  a089=(a057*a080);
+  a019=(a019+a089);
+  a089=(a066*a083);
+  a019=(a019+a089);
+  a089=(a010*a086);
+  a019=(a019+a089);
+  if (res[1]!=0) res[1][3]=a019;
+  a019=(a009/a001);
+  a089=(a019*a020);
+  a092=(a029/a001);
+  a093=(a092*a073);
+  a089=(a089+a093);
+  a093=(a040/a001);
+  a094=(a093*a076);
+  a089=(a089+a094);
+  a094=(a050/a001);
+  a095=(a094*a079);
+  a089=(a089+a095);
+  a095=(a040/a001);
+  a096=(a095*a082);
+  a089=(a089+a096);
+  a096=(a065/a001);
+  a097=(a096*a085);
+  a089=(a089+a097);
+  a097=(a071/a001);
+  a098=(a097*a088);
+  a089=(a089+a098);
+  if (res[1]!=0) res[1][4]=a089;
+  a009=(a009/a001);
+  a089=(a009*a018);
+  a029=(a029/a001);
+  a098=(a029*a090);
+  a089=(a089+a098);
+  a098=(a040/a001);
+  a099=(a098*a091);
+  a089=(a089+a099);
+  a050=(a050/a001);
+  a099=(a050*a077);
+  a089=(a089+a099);
+  a040=(a040/a001);
+  a099=(a040*a080);
+  a089=(a089+a099);
+  a065=(a065/a001);
+  a099=(a065*a083);
+  a089=(a089+a099);
+  a071=(a071/a001);
+  a001=(a071*a086);
+  a089=(a089+a001);
+  if (res[1]!=0) res[1][5]=a089;
+  a020=(a013*a020);
+  a073=(a031*a073);
+  a020=(a020+a073);
+  a076=(a042*a076);
+  a020=(a020+a076);
+  a079=(a051*a079);
+  a020=(a020+a079);
+  a082=(a058*a082);
+  a020=(a020+a082);
+  a085=(a067*a085);
+  a020=(a020+a085);
+  a088=(a012*a088);
+  a020=(a020+a088);
+  if (res[1]!=0) res[1][6]=a020;
+  a018=(a013*a018);
+  a090=(a031*a090);
+  a018=(a018+a090);
+  a091=(a042*a091);
+  a018=(a018+a091);
+  a077=(a051*a077);
+  a018=(a018+a077);
+  a080=(a058*a080);
+  a018=(a018+a080);
+  a083=(a067*a083);
+  a018=(a018+a083);
+  a086=(a012*a086);
+  a018=(a018+a086);
+  if (res[1]!=0) res[1][7]=a018;
+  a022=(2.*a022);
+  a005=(a005*a002);
+  a022=(a022*a005);
+  a002=(2.*a015);
+  a022=(a022/a002);
+  a018=(2.*a022);
+  a086=(2.*a008);
+  a008=(a008/a015);
+  a083=(2.*a008);
+  a083=(a005*a083);
+  a083=(a083/a002);
+  a080=(a022/a002);
+  a008=(2.*a008);
+  a008=(a080*a008);
+  a083=(a083-a008);
+  a083=(a086*a083);
+  a018=(a018+a083);
+  a083=(a023*a018);
+  a083=(a083*a023);
+  a034=(2.*a034);
+  a026=(a026*a025);
+  a034=(a034*a026);
+  a025=(2.*a032);
+  a034=(a034/a025);
+  a008=(2.*a034);
+  a077=(2.*a028);
+  a028=(a028/a032);
+  a091=(2.*a028);
+  a091=(a026*a091);
+  a091=(a091/a025);
+  a090=(a034/a025);
+  a028=(2.*a028);
+  a028=(a090*a028);
+  a091=(a091-a028);
+  a091=(a077*a091);
+  a008=(a008+a091);
+  a091=(a072*a008);
+  a091=(a091*a072);
+  a083=(a083+a091);
+  a045=(2.*a045);
+  a037=(a037*a036);
+  a045=(a045*a037);
+  a036=(2.*a043);
+  a045=(a045/a036);
+  a091=(2.*a045);
+  a028=(2.*a039);
+  a039=(a039/a043);
+  a020=(2.*a039);
+  a020=(a037*a020);
+  a020=(a020/a036);
+  a088=(a045/a036);
+  a039=(2.*a039);
+  a039=(a088*a039);
+  a020=(a020-a039);
+  a020=(a028*a020);
+  a091=(a091+a020);
+  a020=(a075*a091);
+  a020=(a020*a075);
+  a083=(a083+a020);
+  a054=(2.*a054);
+  a047=(a047*a046);
+  a054=(a054*a047);
+  a046=(2.*a052);
+  a054=(a054/a046);
+  a020=(2.*a054);
+  a039=(2.*a049);
+  a049=(a049/a052);
+  a085=(2.*a049);
+  a085=(a047*a085);
+  a085=(a085/a046);
+  a082=(a054/a046);
+  a049=(2.*a049);
+  a049=(a082*a049);
+  a085=(a085-a049);
+  a085=(a039*a085);
+  a020=(a020+a085);
+  a085=(a078*a020);
+  a085=(a085*a078);
+  a083=(a083+a085);
+  a061=(2.*a061);
+  a055=(a055*a035);
+  a061=(a061*a055);
+  a035=(2.*a059);
+  a061=(a061/a035);
+  a085=(2.*a061);
+  a049=(2.*a056);
+  a056=(a056/a059);
+  a079=(2.*a056);
+  a079=(a055*a079);
+  a079=(a079/a035);
+  a076=(a061/a035);
+  a056=(2.*a056);
+  a056=(a076*a056);
+  a079=(a079-a056);
+  a079=(a049*a079);
+  a085=(a085+a079);
+  a079=(a081*a085);
+  a079=(a079*a081);
+  a083=(a083+a079);
+  a070=(2.*a070);
+  a062=(a062*a024);
+  a070=(a070*a062);
+  a024=(2.*a068);
+  a070=(a070/a024);
+  a079=(2.*a070);
+  a056=(2.*a064);
+  a064=(a064/a068);
+  a073=(2.*a064);
+  a073=(a062*a073);
+  a073=(a073/a024);
+  a089=(a070/a024);
+  a064=(2.*a064);
+  a064=(a089*a064);
+  a073=(a073-a064);
+  a073=(a056*a073);
+  a079=(a079+a073);
+  a073=(a084*a079);
+  a073=(a073*a084);
+  a083=(a083+a073);
+  a021=(2.*a021);
+  a003=(a003*a000);
+  a021=(a021*a003);
+  a000=(2.*a014);
+  a021=(a021/a000);
+  a073=(2.*a021);
+  a064=(2.*a007);
+  a007=(a007/a014);
+  a001=(2.*a007);
+  a001=(a003*a001);
+  a001=(a001/a000);
+  a099=(a021/a000);
+  a007=(2.*a007);
+  a007=(a099*a007);
+  a001=(a001-a007);
+  a001=(a064*a001);
+  a073=(a073+a001);
+  a001=(a087*a073);
+  a001=(a001*a087);
+  a083=(a083+a001);
+  if (res[2]!=0) res[2][0]=a083;
+  a015=(a017/a015);
+  a083=(2.*a015);
+  a005=(a005*a083);
+  a005=(a005/a002);
+  a015=(2.*a015);
+  a080=(a080*a015);
+  a005=(a005-a080);
+  a086=(a086*a005);
+  a080=(a006*a086);
+  a080=(a080*a023);
+  a032=(a033/a032);
+  a015=(2.*a032);
+  a026=(a026*a015);
+  a026=(a026/a025);
+  a032=(2.*a032);
+  a090=(a090*a032);
+  a026=(a026-a090);
+  a077=(a077*a026);
+  a090=(a027*a077);
+  a090=(a090*a072);
+  a080=(a080+a090);
+  a043=(a044/a043);
+  a090=(2.*a043);
+  a037=(a037*a090);
+  a037=(a037/a036);
+  a043=(2.*a043);
+  a088=(a088*a043);
+  a037=(a037-a088);
+  a028=(a028*a037);
+  a088=(a074*a028);
+  a088=(a088*a075);
+  a080=(a080+a088);
+  a052=(a053/a052);
+  a088=(2.*a052);
+  a047=(a047*a088);
+  a047=(a047/a046);
+  a052=(2.*a052);
+  a082=(a082*a052);
+  a047=(a047-a082);
+  a039=(a039*a047);
+  a082=(a048*a039);
+  a082=(a082*a078);
+  a080=(a080+a082);
+  a059=(a060/a059);
+  a082=(2.*a059);
+  a055=(a055*a082);
+  a055=(a055/a035);
+  a059=(2.*a059);
+  a076=(a076*a059);
+  a055=(a055-a076);
+  a049=(a049*a055);
+  a076=(a038*a049);
+  a076=(a076*a081);
+  a080=(a080+a076);
+  a068=(a069/a068);
+  a076=(2.*a068);
+  a062=(a062*a076);
+  a062=(a062/a024);
+  a068=(2.*a068);
+  a089=(a089*a068);
+  a062=(a062-a089);
+  a056=(a056*a062);
+  a089=(a063*a056);
+  a089=(a089*a084);
+  a080=(a080+a089);
+  a014=(a016/a014);
+  a089=(2.*a014);
+  a003=(a003*a089);
+  a003=(a003/a000);
+  a014=(2.*a014);
+  a099=(a099*a014);
+  a003=(a003-a099);
+  a064=(a064*a003);
+  a099=(a004*a064);
+  a099=(a099*a087);
+  a080=(a080+a099);
+  if (res[2]!=0) res[2][1]=a080;
+  a099=(a011*a018);
+  a099=(a099*a023);
+  a014=(a030*a008);
+  a014=(a014*a072);
+  a099=(a099+a014);
+  a014=(a041*a091);
+  a014=(a014*a075);
+  a099=(a099+a014);
+  a014=(a051*a020);
+  a014=(a014*a078);
+  a099=(a099+a014);
+  a014=(a057*a085);
+  a014=(a014*a081);
+  a099=(a099+a014);
+  a014=(a066*a079);
+  a014=(a014*a084);
+  a099=(a099+a014);
+  a014=(a010*a073);
+  a014=(a014*a087);
+  a099=(a099+a014);
+  if (res[2]!=0) res[2][2]=a099;
+  a014=(a011*a086);
+  a014=(a014*a023);
+  a000=(a030*a077);
+  a000=(a000*a072);
+  a014=(a014+a000);
+  a000=(a041*a028);
+  a000=(a000*a075);
+  a014=(a014+a000);
+  a000=(a051*a039);
+  a000=(a000*a078);
+  a014=(a014+a000);
+  a000=(a057*a049);
+  a000=(a000*a081);
+  a014=(a014+a000);
+  a000=(a066*a056);
+  a000=(a000*a084);
+  a014=(a014+a000);
+  a000=(a010*a064);
+  a000=(a000*a087);
+  a014=(a014+a000);
+  if (res[2]!=0) res[2][3]=a014;
+  a000=(a019*a018);
+  a089=(a000*a023);
+  a068=(a092*a008);
+  a024=(a068*a072);
+  a089=(a089+a024);
+  a024=(a093*a091);
+  a076=(a024*a075);
+  a089=(a089+a076);
+  a076=(a094*a020);
+  a059=(a076*a078);
+  a089=(a089+a059);
+  a059=(a095*a085);
+  a035=(a059*a081);
+  a089=(a089+a035);
+  a035=(a096*a079);
+  a082=(a035*a084);
+  a089=(a089+a082);
+  a082=(a097*a073);
+  a052=(a082*a087);
+  a089=(a089+a052);
+  if (res[2]!=0) res[2][4]=a089;
+  a052=(a009*a086);
+  a046=(a052*a023);
+  a088=(a029*a077);
+  a043=(a088*a072);
+  a046=(a046+a043);
+  a043=(a098*a028);
+  a036=(a043*a075);
+  a046=(a046+a036);
+  a036=(a050*a039);
+  a090=(a036*a078);
+  a046=(a046+a090);
+  a090=(a040*a049);
+  a032=(a090*a081);
+  a046=(a046+a032);
+  a032=(a065*a056);
+  a025=(a032*a084);
+  a046=(a046+a025);
+  a025=(a071*a064);
+  a015=(a025*a087);
+  a046=(a046+a015);
+  if (res[2]!=0) res[2][5]=a046;
+  a015=(a013*a018);
+  a002=(a015*a023);
+  a083=(a031*a008);
+  a001=(a083*a072);
+  a002=(a002+a001);
+  a001=(a042*a091);
+  a007=(a001*a075);
+  a002=(a002+a007);
+  a007=(a051*a020);
+  a100=(a007*a078);
+  a002=(a002+a100);
+  a100=(a058*a085);
+  a101=(a100*a081);
+  a002=(a002+a101);
+  a101=(a067*a079);
+  a102=(a101*a084);
+  a002=(a002+a102);
+  a102=(a012*a073);
+  a103=(a102*a087);
+  a002=(a002+a103);
+  if (res[2]!=0) res[2][6]=a002;
+  a103=(a013*a086);
+  a023=(a103*a023);
+  a104=(a031*a077);
+  a072=(a104*a072);
+  a023=(a023+a072);
+  a072=(a042*a028);
+  a075=(a072*a075);
+  a023=(a023+a075);
+  a075=(a051*a039);
+  a078=(a075*a078);
+  a023=(a023+a078);
+  a078=(a058*a049);
+  a081=(a078*a081);
+  a023=(a023+a081);
+  a081=(a067*a056);
+  a084=(a081*a084);
+  a023=(a023+a084);
+  a084=(a012*a064);
+  a087=(a084*a087);
+  a023=(a023+a087);
+  if (res[2]!=0) res[2][7]=a023;
+  if (res[2]!=0) res[2][8]=a080;
+  a022=(2.*a022);
+  a017=(2.*a017);
+  a017=(a017*a005);
+  a022=(a022+a017);
+  a017=(a006*a022);
+  a017=(a017*a006);
+  a034=(2.*a034);
+  a033=(2.*a033);
+  a033=(a033*a026);
+  a034=(a034+a033);
+  a033=(a027*a034);
+  a033=(a033*a027);
+  a017=(a017+a033);
+  a045=(2.*a045);
+  a044=(2.*a044);
+  a044=(a044*a037);
+  a045=(a045+a044);
+  a044=(a074*a045);
+  a044=(a044*a074);
+  a017=(a017+a044);
+  a054=(2.*a054);
+  a053=(2.*a053);
+  a053=(a053*a047);
+  a054=(a054+a053);
+  a053=(a048*a054);
+  a053=(a053*a048);
+  a017=(a017+a053);
+  a061=(2.*a061);
+  a060=(2.*a060);
+  a060=(a060*a055);
+  a061=(a061+a060);
+  a060=(a038*a061);
+  a060=(a060*a038);
+  a017=(a017+a060);
+  a070=(2.*a070);
+  a069=(2.*a069);
+  a069=(a069*a062);
+  a070=(a070+a069);
+  a069=(a063*a070);
+  a069=(a069*a063);
+  a017=(a017+a069);
+  a021=(2.*a021);
+  a016=(2.*a016);
+  a016=(a016*a003);
+  a021=(a021+a016);
+  a016=(a004*a021);
+  a016=(a016*a004);
+  a017=(a017+a016);
+  if (res[2]!=0) res[2][9]=a017;
+  a017=(a011*a086);
+  a017=(a017*a006);
+  a016=(a030*a077);
+  a016=(a016*a027);
+  a017=(a017+a016);
+  a016=(a041*a028);
+  a016=(a016*a074);
+  a017=(a017+a016);
+  a016=(a051*a039);
+  a016=(a016*a048);
+  a017=(a017+a016);
+  a016=(a057*a049);
+  a016=(a016*a038);
+  a017=(a017+a016);
+  a016=(a066*a056);
+  a016=(a016*a063);
+  a017=(a017+a016);
+  a016=(a010*a064);
+  a016=(a016*a004);
+  a017=(a017+a016);
+  if (res[2]!=0) res[2][10]=a017;
+  a016=(a011*a022);
+  a016=(a016*a006);
+  a003=(a030*a034);
+  a003=(a003*a027);
+  a016=(a016+a003);
+  a003=(a041*a045);
+  a003=(a003*a074);
+  a016=(a016+a003);
+  a003=(a051*a054);
+  a003=(a003*a048);
+  a016=(a016+a003);
+  a003=(a057*a061);
+  a003=(a003*a038);
+  a016=(a016+a003);
+  a003=(a066*a070);
+  a003=(a003*a063);
+  a016=(a016+a003);
+  a003=(a010*a021);
+  a003=(a003*a004);
+  a016=(a016+a003);
+  if (res[2]!=0) res[2][11]=a016;
+  a003=(a019*a086);
+  a069=(a003*a006);
+  a062=(a092*a077);
+  a060=(a062*a027);
+  a069=(a069+a060);
+  a060=(a093*a028);
+  a055=(a060*a074);
+  a069=(a069+a055);
+  a055=(a094*a039);
+  a053=(a055*a048);
+  a069=(a069+a053);
+  a053=(a095*a049);
+  a047=(a053*a038);
+  a069=(a069+a047);
+  a047=(a096*a056);
+  a044=(a047*a063);
+  a069=(a069+a044);
+  a044=(a097*a064);
+  a037=(a044*a004);
+  a069=(a069+a037);
+  if (res[2]!=0) res[2][12]=a069;
+  a037=(a009*a022);
+  a033=(a037*a006);
+  a026=(a029*a034);
+  a005=(a026*a027);
+  a033=(a033+a005);
+  a005=(a098*a045);
+  a080=(a005*a074);
+  a033=(a033+a080);
+  a080=(a050*a054);
+  a087=(a080*a048);
+  a033=(a033+a087);
+  a087=(a040*a061);
+  a105=(a087*a038);
+  a033=(a033+a105);
+  a105=(a065*a070);
+  a106=(a105*a063);
+  a033=(a033+a106);
+  a106=(a071*a021);
+  a107=(a106*a004);
+  a033=(a033+a107);
+  if (res[2]!=0) res[2][13]=a033;
+  a107=(a013*a086);
+  a108=(a107*a006);
+  a109=(a031*a077);
+  a110=(a109*a027);
+  a108=(a108+a110);
+  a110=(a042*a028);
+  a111=(a110*a074);
+  a108=(a108+a111);
+  a111=(a051*a039);
+  a112=(a111*a048);
+  a108=(a108+a112);
+  a112=(a058*a049);
+  a113=(a112*a038);
+  a108=(a108+a113);
+  a113=(a067*a056);
+  a114=(a113*a063);
+  a108=(a108+a114);
+  a114=(a012*a064);
+  a115=(a114*a004);
+  a108=(a108+a115);
+  if (res[2]!=0) res[2][14]=a108;
+  a013=(a013*a022);
+  a006=(a013*a006);
+  a031=(a031*a034);
+  a027=(a031*a027);
+  a006=(a006+a027);
+  a042=(a042*a045);
+  a074=(a042*a074);
+  a006=(a006+a074);
+  a074=(a051*a054);
+  a048=(a074*a048);
+  a006=(a006+a048);
+  a058=(a058*a061);
+  a038=(a058*a038);
+  a006=(a006+a038);
+  a067=(a067*a070);
+  a063=(a067*a063);
+  a006=(a006+a063);
+  a012=(a012*a021);
+  a004=(a012*a004);
+  a006=(a006+a004);
+  if (res[2]!=0) res[2][15]=a006;
+  if (res[2]!=0) res[2][16]=a099;
+  if (res[2]!=0) res[2][17]=a017;
+  a017=8.1028501569297784e-01;
+  a099=(a017*a018);
+  a004=2.8426701492607381e-01;
+  a063=(a004*a008);
+  a099=(a099+a063);
+  a063=5.8454115006562300e-03;
+  a038=(a063*a091);
+  a099=(a099+a038);
+  a038=6.2500000000000000e-02;
+  a048=(a038*a020);
+  a099=(a099+a048);
+  a048=1.0849768021094211e-01;
+  a027=(a048*a085);
+  a099=(a099+a027);
+  a027=4.3415647504177195e-02;
+  a115=(a027*a079);
+  a099=(a099+a115);
+  a115=2.3960617950815220e-03;
+  a116=(a115*a073);
+  a099=(a099+a116);
+  if (res[2]!=0) res[2][18]=a099;
+  a099=(a017*a086);
+  a116=(a004*a077);
+  a099=(a099+a116);
+  a116=(a063*a028);
+  a099=(a099+a116);
+  a116=(a038*a039);
+  a099=(a099+a116);
+  a116=(a048*a049);
+  a099=(a099+a116);
+  a116=(a027*a056);
+  a099=(a099+a116);
+  a116=(a115*a064);
+  a099=(a099+a116);
+  if (res[2]!=0) res[2][19]=a099;
+  a116=(a011*a000);
+  a117=(a030*a068);
+  a116=(a116+a117);
+  a117=(a041*a024);
+  a116=(a116+a117);
+  a117=(a051*a076);
+  a116=(a116+a117);
+  a117=(a057*a059);
+  a116=(a116+a117);
+  a117=(a066*a035);
+  a116=(a116+a117);
+  a117=(a010*a082);
+  a116=(a116+a117);
+  if (res[2]!=0) res[2][20]=a116;
+  a117=(a011*a052);
+  a118=(a030*a088);
+  a117=(a117+a118);
+  a118=(a041*a043);
+  a117=(a117+a118);
+  a118=(a051*a036);
+  a117=(a117+a118);
+  a118=(a057*a090);
+  a117=(a117+a118);
+  a118=(a066*a032);
+  a117=(a117+a118);
+  a118=(a010*a025);
+  a117=(a117+a118);
+  if (res[2]!=0) res[2][21]=a117;
+  a118=-4.4062375891785112e-02;
+  a119=(a118*a018);
+  a120=-1.1109291839309622e-01;
+  a121=(a120*a008);
+  a119=(a119+a121);
+  a121=-2.5183597592472032e-02;
+  a122=(a121*a091);
+  a119=(a119+a122);
+  a122=(a038*a020);
+  a119=(a119+a122);
+  a122=-2.5183597592472007e-02;
+  a123=(a122*a085);
+  a119=(a119+a123);
+  a123=-1.1109291839309611e-01;
+  a124=(a123*a079);
+  a119=(a119+a124);
+  a124=-4.4062375891785216e-02;
+  a125=(a124*a073);
+  a119=(a119+a125);
+  if (res[2]!=0) res[2][22]=a119;
+  a125=(a118*a086);
+  a126=(a120*a077);
+  a125=(a125+a126);
+  a126=(a121*a028);
+  a125=(a125+a126);
+  a126=(a038*a039);
+  a125=(a125+a126);
+  a126=(a122*a049);
+  a125=(a125+a126);
+  a126=(a123*a056);
+  a125=(a125+a126);
+  a126=(a124*a064);
+  a125=(a125+a126);
+  if (res[2]!=0) res[2][23]=a125;
+  if (res[2]!=0) res[2][24]=a014;
+  if (res[2]!=0) res[2][25]=a016;
+  if (res[2]!=0) res[2][26]=a099;
+  a017=(a017*a022);
+  a004=(a004*a034);
+  a017=(a017+a004);
+  a063=(a063*a045);
+  a017=(a017+a063);
+  a063=(a038*a054);
+  a017=(a017+a063);
+  a048=(a048*a061);
+  a017=(a017+a048);
+  a027=(a027*a070);
+  a017=(a017+a027);
+  a115=(a115*a021);
+  a017=(a017+a115);
+  if (res[2]!=0) res[2][27]=a017;
+  a003=(a011*a003);
+  a062=(a030*a062);
+  a003=(a003+a062);
+  a060=(a041*a060);
+  a003=(a003+a060);
+  a055=(a051*a055);
+  a003=(a003+a055);
+  a053=(a057*a053);
+  a003=(a003+a053);
+  a047=(a066*a047);
+  a003=(a003+a047);
+  a044=(a010*a044);
+  a003=(a003+a044);
+  if (res[2]!=0) res[2][28]=a003;
+  a011=(a011*a037);
+  a030=(a030*a026);
+  a011=(a011+a030);
+  a041=(a041*a005);
+  a011=(a011+a041);
+  a051=(a051*a080);
+  a011=(a011+a051);
+  a057=(a057*a087);
+  a011=(a011+a057);
+  a066=(a066*a105);
+  a011=(a011+a066);
+  a010=(a010*a106);
+  a011=(a011+a010);
+  if (res[2]!=0) res[2][29]=a011;
+  a010=(a118*a086);
+  a066=(a120*a077);
+  a010=(a010+a066);
+  a066=(a121*a028);
+  a010=(a010+a066);
+  a066=(a038*a039);
+  a010=(a010+a066);
+  a066=(a122*a049);
+  a010=(a010+a066);
+  a066=(a123*a056);
+  a010=(a010+a066);
+  a066=(a124*a064);
+  a010=(a010+a066);
+  if (res[2]!=0) res[2][30]=a010;
+  a118=(a118*a022);
+  a120=(a120*a034);
+  a118=(a118+a120);
+  a121=(a121*a045);
+  a118=(a118+a121);
+  a121=(a038*a054);
+  a118=(a118+a121);
+  a122=(a122*a061);
+  a118=(a118+a122);
+  a123=(a123*a070);
+  a118=(a118+a123);
+  a124=(a124*a021);
+  a118=(a118+a124);
+  if (res[2]!=0) res[2][31]=a118;
+  if (res[2]!=0) res[2][32]=a089;
+  if (res[2]!=0) res[2][33]=a069;
+  if (res[2]!=0) res[2][34]=a116;
+  if (res[2]!=0) res[2][35]=a003;
+  a000=(a000*a019);
+  a068=(a068*a092);
+  a000=(a000+a068);
+  a024=(a024*a093);
+  a000=(a000+a024);
+  a076=(a076*a094);
+  a000=(a000+a076);
+  a059=(a059*a095);
+  a000=(a000+a059);
+  a035=(a035*a096);
+  a000=(a000+a035);
+  a082=(a082*a097);
+  a000=(a000+a082);
+  if (res[2]!=0) res[2][36]=a000;
+  a052=(a052*a019);
+  a088=(a088*a092);
+  a052=(a052+a088);
+  a043=(a043*a093);
+  a052=(a052+a043);
+  a036=(a036*a094);
+  a052=(a052+a036);
+  a090=(a090*a095);
+  a052=(a052+a090);
+  a032=(a032*a096);
+  a052=(a052+a032);
+  a025=(a025*a097);
+  a052=(a052+a025);
+  if (res[2]!=0) res[2][37]=a052;
+  a015=(a015*a019);
+  a083=(a083*a092);
+  a015=(a015+a083);
+  a001=(a001*a093);
+  a015=(a015+a001);
+  a007=(a007*a094);
+  a015=(a015+a007);
+  a100=(a100*a095);
+  a015=(a015+a100);
+  a101=(a101*a096);
+  a015=(a015+a101);
+  a102=(a102*a097);
+  a015=(a015+a102);
+  if (res[2]!=0) res[2][38]=a015;
+  a103=(a103*a019);
+  a104=(a104*a092);
+  a103=(a103+a104);
+  a072=(a072*a093);
+  a103=(a103+a072);
+  a075=(a075*a094);
+  a103=(a103+a075);
+  a078=(a078*a095);
+  a103=(a103+a078);
+  a081=(a081*a096);
+  a103=(a103+a081);
+  a084=(a084*a097);
+  a103=(a103+a084);
+  if (res[2]!=0) res[2][39]=a103;
+  if (res[2]!=0) res[2][40]=a046;
+  if (res[2]!=0) res[2][41]=a033;
+  if (res[2]!=0) res[2][42]=a117;
+  if (res[2]!=0) res[2][43]=a011;
+  if (res[2]!=0) res[2][44]=a052;
+  a037=(a037*a009);
+  a026=(a026*a029);
+  a037=(a037+a026);
+  a005=(a005*a098);
+  a037=(a037+a005);
+  a080=(a080*a050);
+  a037=(a037+a080);
+  a087=(a087*a040);
+  a037=(a037+a087);
+  a105=(a105*a065);
+  a037=(a037+a105);
+  a106=(a106*a071);
+  a037=(a037+a106);
+  if (res[2]!=0) res[2][45]=a037;
+  a107=(a107*a009);
+  a109=(a109*a029);
+  a107=(a107+a109);
+  a110=(a110*a098);
+  a107=(a107+a110);
+  a111=(a111*a050);
+  a107=(a107+a111);
+  a112=(a112*a040);
+  a107=(a107+a112);
+  a113=(a113*a065);
+  a107=(a107+a113);
+  a114=(a114*a071);
+  a107=(a107+a114);
+  if (res[2]!=0) res[2][46]=a107;
+  a013=(a013*a009);
+  a031=(a031*a029);
+  a013=(a013+a031);
+  a042=(a042*a098);
+  a013=(a013+a042);
+  a074=(a074*a050);
+  a013=(a013+a074);
+  a058=(a058*a040);
+  a013=(a013+a058);
+  a067=(a067*a065);
+  a013=(a013+a067);
+  a012=(a012*a071);
+  a013=(a013+a012);
+  if (res[2]!=0) res[2][47]=a013;
+  if (res[2]!=0) res[2][48]=a002;
+  if (res[2]!=0) res[2][49]=a108;
+  if (res[2]!=0) res[2][50]=a119;
+  if (res[2]!=0) res[2][51]=a010;
+  if (res[2]!=0) res[2][52]=a015;
+  if (res[2]!=0) res[2][53]=a107;
+  a107=2.3960617950815094e-03;
+  a018=(a107*a018);
+  a015=4.3415647504177333e-02;
+  a008=(a015*a008);
+  a018=(a018+a008);
+  a008=1.0849768021094215e-01;
+  a091=(a008*a091);
+  a018=(a018+a091);
+  a020=(a038*a020);
+  a018=(a018+a020);
+  a020=5.8454115006562214e-03;
+  a085=(a020*a085);
+  a018=(a018+a085);
+  a085=2.8426701492607415e-01;
+  a079=(a085*a079);
+  a018=(a018+a079);
+  a079=8.1028501569297762e-01;
+  a073=(a079*a073);
+  a018=(a018+a073);
+  if (res[2]!=0) res[2][54]=a018;
+  a086=(a107*a086);
+  a077=(a015*a077);
+  a086=(a086+a077);
+  a028=(a008*a028);
+  a086=(a086+a028);
+  a039=(a038*a039);
+  a086=(a086+a039);
+  a049=(a020*a049);
+  a086=(a086+a049);
+  a056=(a085*a056);
+  a086=(a086+a056);
+  a064=(a079*a064);
+  a086=(a086+a064);
+  if (res[2]!=0) res[2][55]=a086;
+  if (res[2]!=0) res[2][56]=a023;
+  if (res[2]!=0) res[2][57]=a006;
+  if (res[2]!=0) res[2][58]=a125;
+  if (res[2]!=0) res[2][59]=a118;
+  if (res[2]!=0) res[2][60]=a103;
+  if (res[2]!=0) res[2][61]=a013;
+  if (res[2]!=0) res[2][62]=a086;
+  a107=(a107*a022);
+  a015=(a015*a034);
+  a107=(a107+a015);
+  a008=(a008*a045);
+  a107=(a107+a008);
+  a038=(a038*a054);
+  a107=(a107+a038);
+  a020=(a020*a061);
+  a107=(a107+a020);
+  a085=(a085*a070);
+  a107=(a107+a085);
+  a079=(a079*a021);
+  a107=(a107+a079);
+  if (res[2]!=0) res[2][63]=a107;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f13(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g7_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g7_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g7_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g7_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_biot_g7_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_biot_g7_n_out(void) { return 3;}
+
+CASADI_SYMBOL_EXPORT casadi_real cable2d_axial_biot_g7_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_biot_g7_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_biot_g7_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    case 1: return "gradient";
+    case 2: return "hessian";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_biot_g7_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_biot_g7_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s2;
+    case 1: return casadi_s0;
+    case 2: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g7_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 3;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g7_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 3*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* cable2d_axial_biot_g7_energy:(q[8],p[2])->(energy) */
+static int casadi_f14(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24;
+  a00=6.4742483084434865e-02;
+  a01=arg[1]? arg[1][0] : 0;
+  a02=(a00*a01);
+  a03=arg[1]? arg[1][1] : 0;
+  a04=2.;
+  a05=(a03/a04);
+  a06=-1.4879125609255570e-01;
+  a07=arg[0]? arg[0][0] : 0;
+  a08=(a06*a07);
+  a09=1.4879125609255570e-01;
+  a10=arg[0]? arg[0][4] : 0;
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a08=(a08/a01);
+  a11=9.0015832812510144e-01;
+  a12=arg[0]? arg[0][2] : 0;
+  a13=(a11*a12);
+  a08=(a08+a13);
+  a13=-4.8949584217657147e-02;
+  a14=arg[0]? arg[0][6] : 0;
+  a15=(a13*a14);
+  a08=(a08+a15);
+  a08=casadi_sq(a08);
+  a15=arg[0]? arg[0][1] : 0;
+  a06=(a06*a15);
+  a16=arg[0]? arg[0][5] : 0;
+  a09=(a09*a16);
+  a06=(a06+a09);
+  a06=(a06/a01);
+  a09=arg[0]? arg[0][3] : 0;
+  a11=(a11*a09);
+  a06=(a06+a11);
+  a11=arg[0]? arg[0][7] : 0;
+  a13=(a13*a11);
+  a06=(a06+a13);
+  a06=casadi_sq(a06);
+  a08=(a08+a06);
+  a08=sqrt(a08);
+  a06=1.;
+  a08=(a08-a06);
+  a08=casadi_sq(a08);
+  a05=(a05*a08);
+  a02=(a02*a05);
+  a05=1.3985269574463843e-01;
+  a08=(a05*a01);
+  a13=(a03/a04);
+  a17=-6.7519725117533458e-01;
+  a18=(a17*a07);
+  a19=6.7519725117533458e-01;
+  a20=(a19*a10);
+  a18=(a18+a20);
+  a18=(a18/a01);
+  a20=5.3316696721202994e-01;
+  a21=(a20*a12);
+  a18=(a18+a21);
+  a21=-2.0836421838736452e-01;
+  a22=(a21*a14);
+  a18=(a18+a22);
+  a18=casadi_sq(a18);
+  a17=(a17*a15);
+  a19=(a19*a16);
+  a17=(a17+a19);
+  a17=(a17/a01);
+  a20=(a20*a09);
+  a17=(a17+a20);
+  a21=(a21*a11);
+  a17=(a17+a21);
+  a17=casadi_sq(a17);
+  a18=(a18+a17);
+  a18=sqrt(a18);
+  a18=(a18-a06);
+  a18=casadi_sq(a18);
+  a13=(a13*a18);
+  a08=(a08*a13);
+  a02=(a02+a08);
+  a08=1.9091502525255935e-01;
+  a13=(a08*a01);
+  a18=(a03/a04);
+  a17=-1.2529345696551863e+00;
+  a21=(a17*a07);
+  a20=1.2529345696551863e+00;
+  a19=(a20*a10);
+  a21=(a21+a19);
+  a21=(a21/a01);
+  a19=7.6455290861105418e-02;
+  a22=(a19*a12);
+  a21=(a21+a22);
+  a22=-3.2938986051629177e-01;
+  a23=(a22*a14);
+  a21=(a21+a23);
+  a21=casadi_sq(a21);
+  a23=(a17*a15);
+  a24=(a20*a16);
+  a23=(a23+a24);
+  a23=(a23/a01);
+  a19=(a19*a09);
+  a23=(a23+a19);
+  a22=(a22*a11);
+  a23=(a23+a22);
+  a23=casadi_sq(a23);
+  a21=(a21+a23);
+  a21=sqrt(a21);
+  a21=(a21-a06);
+  a21=casadi_sq(a21);
+  a18=(a18*a21);
+  a13=(a13*a18);
+  a02=(a02+a13);
+  a13=2.0897959183673465e-01;
+  a13=(a13*a01);
+  a18=(a03/a04);
+  a21=-1.5000000000000000e+00;
+  a23=(a21*a07);
+  a22=1.5000000000000000e+00;
+  a19=(a22*a10);
+  a23=(a23+a19);
+  a23=(a23/a01);
+  a19=-2.5000000000000000e-01;
+  a24=(a19*a12);
+  a23=(a23+a24);
+  a24=(a19*a14);
+  a23=(a23+a24);
+  a23=casadi_sq(a23);
+  a21=(a21*a15);
+  a22=(a22*a16);
+  a21=(a21+a22);
+  a21=(a21/a01);
+  a22=(a19*a09);
+  a21=(a21+a22);
+  a19=(a19*a11);
+  a21=(a21+a19);
+  a21=casadi_sq(a21);
+  a23=(a23+a21);
+  a23=sqrt(a23);
+  a23=(a23-a06);
+  a23=casadi_sq(a23);
+  a18=(a18*a23);
+  a13=(a13*a18);
+  a02=(a02+a13);
+  a08=(a08*a01);
+  a13=(a03/a04);
+  a18=(a17*a07);
+  a23=(a20*a10);
+  a18=(a18+a23);
+  a18=(a18/a01);
+  a23=-3.2938986051629171e-01;
+  a21=(a23*a12);
+  a18=(a18+a21);
+  a21=7.6455290861105363e-02;
+  a19=(a21*a14);
+  a18=(a18+a19);
+  a18=casadi_sq(a18);
+  a17=(a17*a15);
+  a20=(a20*a16);
+  a17=(a17+a20);
+  a17=(a17/a01);
+  a23=(a23*a09);
+  a17=(a17+a23);
+  a21=(a21*a11);
+  a17=(a17+a21);
+  a17=casadi_sq(a17);
+  a18=(a18+a17);
+  a18=sqrt(a18);
+  a18=(a18-a06);
+  a18=casadi_sq(a18);
+  a13=(a13*a18);
+  a08=(a08*a13);
+  a02=(a02+a08);
+  a05=(a05*a01);
+  a08=(a03/a04);
+  a13=-6.7519725117533369e-01;
+  a18=(a13*a07);
+  a17=6.7519725117533369e-01;
+  a21=(a17*a10);
+  a18=(a18+a21);
+  a18=(a18/a01);
+  a21=-2.0836421838736419e-01;
+  a23=(a21*a12);
+  a18=(a18+a23);
+  a23=5.3316696721203027e-01;
+  a20=(a23*a14);
+  a18=(a18+a20);
+  a18=casadi_sq(a18);
+  a13=(a13*a15);
+  a17=(a17*a16);
+  a13=(a13+a17);
+  a13=(a13/a01);
+  a21=(a21*a09);
+  a13=(a13+a21);
+  a23=(a23*a11);
+  a13=(a13+a23);
+  a13=casadi_sq(a13);
+  a18=(a18+a13);
+  a18=sqrt(a18);
+  a18=(a18-a06);
+  a18=casadi_sq(a18);
+  a08=(a08*a18);
+  a05=(a05*a08);
+  a02=(a02+a05);
+  a00=(a00*a01);
+  a03=(a03/a04);
+  a04=-1.4879125609255617e-01;
+  a07=(a04*a07);
+  a05=1.4879125609255617e-01;
+  a10=(a05*a10);
+  a07=(a07+a10);
+  a07=(a07/a01);
+  a10=-4.8949584217657272e-02;
+  a12=(a10*a12);
+  a07=(a07+a12);
+  a12=9.0015832812510133e-01;
+  a14=(a12*a14);
+  a07=(a07+a14);
+  a07=casadi_sq(a07);
+  a04=(a04*a15);
+  a05=(a05*a16);
+  a04=(a04+a05);
+  a04=(a04/a01);
+  a10=(a10*a09);
+  a04=(a04+a10);
+  a12=(a12*a11);
+  a04=(a04+a12);
+  a04=casadi_sq(a04);
+  a07=(a07+a04);
+  a07=sqrt(a07);
+  a07=(a07-a06);
+  a07=casadi_sq(a07);
+  a03=(a03*a07);
+  a00=(a00*a03);
+  a02=(a02+a00);
+  if (res[0]!=0) res[0][0]=a02;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g7_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f14(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g7_energy_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g7_energy_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g7_energy_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g7_energy_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_biot_g7_energy_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_biot_g7_energy_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real cable2d_axial_biot_g7_energy_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_biot_g7_energy_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_biot_g7_energy_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_biot_g7_energy_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_biot_g7_energy_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g7_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g7_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* adj1_cable2d_axial_biot_g7_energy:(q[8],p[2],out_energy[1x1,0nz],adj_energy)->(adj_q[8],adj_p[2]) */
+static int casadi_f15(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
+  casadi_real a36, a37, a38, a39, a40, a41, a42, a43, a44, a45, a46, a47;
+  casadi_real a48, a49, a50, a51, a52, a53, a54, a55, a56, a57, a58, a59;
+  casadi_real a60, a61, a62, a63, a64, a65, a66, a67, a68, a69, a70, a71;
+  casadi_real a72, a73, a74, a75, a76, a77, a78, a79, a80, a81, a82, a83;
+  casadi_real a84, a85, a86, a87, a88, a89, a90, a91, a92, a93, a94, a95;
+  a00=-1.4879125609255617e-01;
+  a01=arg[0]? arg[0][0] : 0;
+  a02=(a00*a01);
+  a03=1.4879125609255617e-01;
+  a04=arg[0]? arg[0][4] : 0;
+  a05=(a03*a04);
+  a02=(a02+a05);
+  a05=arg[1]? arg[1][0] : 0;
+  a02=(a02/a05);
+  a06=-4.8949584217657272e-02;
+  a07=arg[0]? arg[0][2] : 0;
+  a08=(a06*a07);
+  a08=(a02+a08);
+  a09=9.0015832812510133e-01;
+  a10=arg[0]? arg[0][6] : 0;
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a11=(2.*a08);
+  a08=casadi_sq(a08);
+  a12=arg[0]? arg[0][1] : 0;
+  a13=(a00*a12);
+  a14=arg[0]? arg[0][5] : 0;
+  a15=(a03*a14);
+  a13=(a13+a15);
+  a13=(a13/a05);
+  a15=arg[0]? arg[0][3] : 0;
+  a16=(a06*a15);
+  a16=(a13+a16);
+  a17=arg[0]? arg[0][7] : 0;
+  a18=(a09*a17);
+  a16=(a16+a18);
+  a18=casadi_sq(a16);
+  a08=(a08+a18);
+  a08=sqrt(a08);
+  a18=1.;
+  a19=(a08-a18);
+  a20=(2.*a19);
+  a21=arg[1]? arg[1][1] : 0;
+  a22=2.;
+  a23=(a21/a22);
+  a24=6.4742483084434865e-02;
+  a25=(a24*a05);
+  a26=arg[3]? arg[3][0] : 0;
+  a25=(a25*a26);
+  a27=(a23*a25);
+  a20=(a20*a27);
+  a08=(2.*a08);
+  a20=(a20/a08);
+  a11=(a11*a20);
+  a08=(a11/a05);
+  a27=(a00*a08);
+  a28=-6.7519725117533369e-01;
+  a29=(a28*a01);
+  a30=6.7519725117533369e-01;
+  a31=(a30*a04);
+  a29=(a29+a31);
+  a29=(a29/a05);
+  a31=-2.0836421838736419e-01;
+  a32=(a31*a07);
+  a32=(a29+a32);
+  a33=5.3316696721203027e-01;
+  a34=(a33*a10);
+  a32=(a32+a34);
+  a34=(2.*a32);
+  a32=casadi_sq(a32);
+  a35=(a28*a12);
+  a36=(a30*a14);
+  a35=(a35+a36);
+  a35=(a35/a05);
+  a36=(a31*a15);
+  a36=(a35+a36);
+  a37=(a33*a17);
+  a36=(a36+a37);
+  a37=casadi_sq(a36);
+  a32=(a32+a37);
+  a32=sqrt(a32);
+  a37=(a32-a18);
+  a38=(2.*a37);
+  a39=(a21/a22);
+  a40=1.3985269574463843e-01;
+  a41=(a40*a05);
+  a41=(a41*a26);
+  a42=(a39*a41);
+  a38=(a38*a42);
+  a32=(2.*a32);
+  a38=(a38/a32);
+  a34=(a34*a38);
+  a32=(a34/a05);
+  a42=(a28*a32);
+  a27=(a27+a42);
+  a42=-1.2529345696551863e+00;
+  a43=(a42*a01);
+  a44=1.2529345696551863e+00;
+  a45=(a44*a04);
+  a43=(a43+a45);
+  a43=(a43/a05);
+  a45=-3.2938986051629171e-01;
+  a46=(a45*a07);
+  a46=(a43+a46);
+  a47=7.6455290861105363e-02;
+  a48=(a47*a10);
+  a46=(a46+a48);
+  a48=(2.*a46);
+  a46=casadi_sq(a46);
+  a49=(a42*a12);
+  a50=(a44*a14);
+  a49=(a49+a50);
+  a49=(a49/a05);
+  a50=(a45*a15);
+  a50=(a49+a50);
+  a51=(a47*a17);
+  a50=(a50+a51);
+  a51=casadi_sq(a50);
+  a46=(a46+a51);
+  a46=sqrt(a46);
+  a51=(a46-a18);
+  a52=(2.*a51);
+  a53=(a21/a22);
+  a54=1.9091502525255935e-01;
+  a55=(a54*a05);
+  a55=(a55*a26);
+  a56=(a53*a55);
+  a52=(a52*a56);
+  a46=(2.*a46);
+  a52=(a52/a46);
+  a48=(a48*a52);
+  a46=(a48/a05);
+  a56=(a42*a46);
+  a27=(a27+a56);
+  a56=-1.5000000000000000e+00;
+  a57=(a56*a01);
+  a58=1.5000000000000000e+00;
+  a59=(a58*a04);
+  a57=(a57+a59);
+  a57=(a57/a05);
+  a59=-2.5000000000000000e-01;
+  a60=(a59*a07);
+  a60=(a57+a60);
+  a61=(a59*a10);
+  a60=(a60+a61);
+  a61=(2.*a60);
+  a60=casadi_sq(a60);
+  a62=(a56*a12);
+  a63=(a58*a14);
+  a62=(a62+a63);
+  a62=(a62/a05);
+  a63=(a59*a15);
+  a63=(a62+a63);
+  a64=(a59*a17);
+  a63=(a63+a64);
+  a64=casadi_sq(a63);
+  a60=(a60+a64);
+  a60=sqrt(a60);
+  a64=(a60-a18);
+  a65=(2.*a64);
+  a66=(a21/a22);
+  a67=2.0897959183673465e-01;
+  a68=(a67*a05);
+  a68=(a68*a26);
+  a69=(a66*a68);
+  a65=(a65*a69);
+  a60=(2.*a60);
+  a65=(a65/a60);
+  a61=(a61*a65);
+  a60=(a61/a05);
+  a69=(a56*a60);
+  a27=(a27+a69);
+  a69=(a42*a01);
+  a70=(a44*a04);
+  a69=(a69+a70);
+  a69=(a69/a05);
+  a70=7.6455290861105418e-02;
+  a71=(a70*a07);
+  a71=(a69+a71);
+  a72=-3.2938986051629177e-01;
+  a73=(a72*a10);
+  a71=(a71+a73);
+  a73=(2.*a71);
+  a71=casadi_sq(a71);
+  a74=(a42*a12);
+  a75=(a44*a14);
+  a74=(a74+a75);
+  a74=(a74/a05);
+  a75=(a70*a15);
+  a75=(a74+a75);
+  a76=(a72*a17);
+  a75=(a75+a76);
+  a76=casadi_sq(a75);
+  a71=(a71+a76);
+  a71=sqrt(a71);
+  a76=(a71-a18);
+  a77=(2.*a76);
+  a78=(a21/a22);
+  a79=(a54*a05);
+  a79=(a79*a26);
+  a80=(a78*a79);
+  a77=(a77*a80);
+  a71=(2.*a71);
+  a77=(a77/a71);
+  a73=(a73*a77);
+  a71=(a73/a05);
+  a80=(a42*a71);
+  a27=(a27+a80);
+  a80=-6.7519725117533458e-01;
+  a81=(a80*a01);
+  a82=6.7519725117533458e-01;
+  a83=(a82*a04);
+  a81=(a81+a83);
+  a81=(a81/a05);
+  a83=5.3316696721202994e-01;
+  a84=(a83*a07);
+  a84=(a81+a84);
+  a85=-2.0836421838736452e-01;
+  a86=(a85*a10);
+  a84=(a84+a86);
+  a86=(2.*a84);
+  a84=casadi_sq(a84);
+  a87=(a80*a12);
+  a88=(a82*a14);
+  a87=(a87+a88);
+  a87=(a87/a05);
+  a88=(a83*a15);
+  a88=(a87+a88);
+  a89=(a85*a17);
+  a88=(a88+a89);
+  a89=casadi_sq(a88);
+  a84=(a84+a89);
+  a84=sqrt(a84);
+  a89=(a84-a18);
+  a90=(2.*a89);
+  a91=(a21/a22);
+  a92=(a40*a05);
+  a92=(a92*a26);
+  a93=(a91*a92);
+  a90=(a90*a93);
+  a84=(2.*a84);
+  a90=(a90/a84);
+  a86=(a86*a90);
+  a84=(a86/a05);
+  a93=(a80*a84);
+  a27=(a27+a93);
+  a93=-1.4879125609255570e-01;
+  a01=(a93*a01);
+  a94=1.4879125609255570e-01;
+  a04=(a94*a04);
+  a01=(a01+a04);
+  a01=(a01/a05);
+  a04=9.0015832812510144e-01;
+  a07=(a04*a07);
+  a07=(a01+a07);
+  a95=-4.8949584217657147e-02;
+  a10=(a95*a10);
+  a07=(a07+a10);
+  a10=(2.*a07);
+  a07=casadi_sq(a07);
+  a12=(a93*a12);
+  a14=(a94*a14);
+  a12=(a12+a14);
+  a12=(a12/a05);
+  a15=(a04*a15);
+  a15=(a12+a15);
+  a17=(a95*a17);
+  a15=(a15+a17);
+  a17=casadi_sq(a15);
+  a07=(a07+a17);
+  a07=sqrt(a07);
+  a18=(a07-a18);
+  a17=(2.*a18);
+  a21=(a21/a22);
+  a22=(a24*a05);
+  a22=(a22*a26);
+  a14=(a21*a22);
+  a17=(a17*a14);
+  a07=(2.*a07);
+  a17=(a17/a07);
+  a10=(a10*a17);
+  a07=(a10/a05);
+  a14=(a93*a07);
+  a27=(a27+a14);
+  if (res[0]!=0) res[0][0]=a27;
+  a16=(2.*a16);
+  a16=(a16*a20);
+  a20=(a16/a05);
+  a00=(a00*a20);
+  a36=(2.*a36);
+  a36=(a36*a38);
+  a38=(a36/a05);
+  a28=(a28*a38);
+  a00=(a00+a28);
+  a50=(2.*a50);
+  a50=(a50*a52);
+  a52=(a50/a05);
+  a28=(a42*a52);
+  a00=(a00+a28);
+  a63=(2.*a63);
+  a63=(a63*a65);
+  a65=(a63/a05);
+  a56=(a56*a65);
+  a00=(a00+a56);
+  a75=(2.*a75);
+  a75=(a75*a77);
+  a77=(a75/a05);
+  a42=(a42*a77);
+  a00=(a00+a42);
+  a88=(2.*a88);
+  a88=(a88*a90);
+  a90=(a88/a05);
+  a80=(a80*a90);
+  a00=(a00+a80);
+  a15=(2.*a15);
+  a15=(a15*a17);
+  a17=(a15/a05);
+  a93=(a93*a17);
+  a00=(a00+a93);
+  if (res[0]!=0) res[0][1]=a00;
+  a00=(a06*a11);
+  a93=(a31*a34);
+  a00=(a00+a93);
+  a93=(a45*a48);
+  a00=(a00+a93);
+  a93=(a59*a61);
+  a00=(a00+a93);
+  a93=(a70*a73);
+  a00=(a00+a93);
+  a93=(a83*a86);
+  a00=(a00+a93);
+  a93=(a04*a10);
+  a00=(a00+a93);
+  if (res[0]!=0) res[0][2]=a00;
+  a06=(a06*a16);
+  a31=(a31*a36);
+  a06=(a06+a31);
+  a45=(a45*a50);
+  a06=(a06+a45);
+  a45=(a59*a63);
+  a06=(a06+a45);
+  a70=(a70*a75);
+  a06=(a06+a70);
+  a83=(a83*a88);
+  a06=(a06+a83);
+  a04=(a04*a15);
+  a06=(a06+a04);
+  if (res[0]!=0) res[0][3]=a06;
+  a08=(a03*a08);
+  a32=(a30*a32);
+  a08=(a08+a32);
+  a46=(a44*a46);
+  a08=(a08+a46);
+  a60=(a58*a60);
+  a08=(a08+a60);
+  a71=(a44*a71);
+  a08=(a08+a71);
+  a84=(a82*a84);
+  a08=(a08+a84);
+  a07=(a94*a07);
+  a08=(a08+a07);
+  if (res[0]!=0) res[0][4]=a08;
+  a03=(a03*a20);
+  a30=(a30*a38);
+  a03=(a03+a30);
+  a52=(a44*a52);
+  a03=(a03+a52);
+  a58=(a58*a65);
+  a03=(a03+a58);
+  a44=(a44*a77);
+  a03=(a03+a44);
+  a82=(a82*a90);
+  a03=(a03+a82);
+  a94=(a94*a17);
+  a03=(a03+a94);
+  if (res[0]!=0) res[0][5]=a03;
+  a03=(a09*a11);
+  a94=(a33*a34);
+  a03=(a03+a94);
+  a94=(a47*a48);
+  a03=(a03+a94);
+  a94=(a59*a61);
+  a03=(a03+a94);
+  a94=(a72*a73);
+  a03=(a03+a94);
+  a94=(a85*a86);
+  a03=(a03+a94);
+  a94=(a95*a10);
+  a03=(a03+a94);
+  if (res[0]!=0) res[0][6]=a03;
+  a09=(a09*a16);
+  a33=(a33*a36);
+  a09=(a09+a33);
+  a47=(a47*a50);
+  a09=(a09+a47);
+  a59=(a59*a63);
+  a09=(a09+a59);
+  a72=(a72*a75);
+  a09=(a09+a72);
+  a85=(a85*a88);
+  a09=(a09+a85);
+  a95=(a95*a15);
+  a09=(a09+a95);
+  if (res[0]!=0) res[0][7]=a09;
+  a19=casadi_sq(a19);
+  a23=(a23*a19);
+  a23=(a23*a26);
+  a23=(a24*a23);
+  a13=(a13/a05);
+  a13=(a13*a16);
+  a02=(a02/a05);
+  a02=(a02*a11);
+  a13=(a13+a02);
+  a23=(a23-a13);
+  a35=(a35/a05);
+  a35=(a35*a36);
+  a23=(a23-a35);
+  a29=(a29/a05);
+  a29=(a29*a34);
+  a23=(a23-a29);
+  a37=casadi_sq(a37);
+  a39=(a39*a37);
+  a39=(a39*a26);
+  a39=(a40*a39);
+  a23=(a23+a39);
+  a49=(a49/a05);
+  a49=(a49*a50);
+  a23=(a23-a49);
+  a43=(a43/a05);
+  a43=(a43*a48);
+  a23=(a23-a43);
+  a51=casadi_sq(a51);
+  a53=(a53*a51);
+  a53=(a53*a26);
+  a53=(a54*a53);
+  a23=(a23+a53);
+  a62=(a62/a05);
+  a62=(a62*a63);
+  a23=(a23-a62);
+  a57=(a57/a05);
+  a57=(a57*a61);
+  a23=(a23-a57);
+  a64=casadi_sq(a64);
+  a66=(a66*a64);
+  a66=(a66*a26);
+  a67=(a67*a66);
+  a23=(a23+a67);
+  a74=(a74/a05);
+  a74=(a74*a75);
+  a23=(a23-a74);
+  a69=(a69/a05);
+  a69=(a69*a73);
+  a23=(a23-a69);
+  a76=casadi_sq(a76);
+  a78=(a78*a76);
+  a78=(a78*a26);
+  a54=(a54*a78);
+  a23=(a23+a54);
+  a87=(a87/a05);
+  a87=(a87*a88);
+  a23=(a23-a87);
+  a81=(a81/a05);
+  a81=(a81*a86);
+  a23=(a23-a81);
+  a89=casadi_sq(a89);
+  a91=(a91*a89);
+  a91=(a91*a26);
+  a40=(a40*a91);
+  a23=(a23+a40);
+  a12=(a12/a05);
+  a12=(a12*a15);
+  a23=(a23-a12);
+  a01=(a01/a05);
+  a01=(a01*a10);
+  a23=(a23-a01);
+  a18=casadi_sq(a18);
+  a21=(a21*a18);
+  a21=(a21*a26);
+  a24=(a24*a21);
+  a23=(a23+a24);
+  if (res[1]!=0) res[1][0]=a23;
+  a23=5.0000000000000000e-01;
+  a19=(a19*a25);
+  a19=(a23*a19);
+  a37=(a37*a41);
+  a37=(a23*a37);
+  a19=(a19+a37);
+  a51=(a51*a55);
+  a51=(a23*a51);
+  a19=(a19+a51);
+  a64=(a64*a68);
+  a64=(a23*a64);
+  a19=(a19+a64);
+  a76=(a76*a79);
+  a76=(a23*a76);
+  a19=(a19+a76);
+  a89=(a89*a92);
+  a89=(a23*a89);
+  a19=(a19+a89);
+  a18=(a18*a22);
+  a23=(a23*a18);
+  a19=(a19+a23);
+  if (res[1]!=0) res[1][1]=a19;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_biot_g7_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f15(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_biot_g7_energy_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void adj1_cable2d_axial_biot_g7_energy_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void adj1_cable2d_axial_biot_g7_energy_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void adj1_cable2d_axial_biot_g7_energy_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int adj1_cable2d_axial_biot_g7_energy_n_in(void) { return 4;}
+
+CASADI_SYMBOL_EXPORT casadi_int adj1_cable2d_axial_biot_g7_energy_n_out(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_real adj1_cable2d_axial_biot_g7_energy_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* adj1_cable2d_axial_biot_g7_energy_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    case 2: return "out_energy";
+    case 3: return "adj_energy";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* adj1_cable2d_axial_biot_g7_energy_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "adj_q";
+    case 1: return "adj_p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* adj1_cable2d_axial_biot_g7_energy_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    case 2: return casadi_s4;
+    case 3: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* adj1_cable2d_axial_biot_g7_energy_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_biot_g7_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 4;
+  if (sz_res) *sz_res = 2;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_biot_g7_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 4*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 2*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* cable2d_axial_biot_g7_grad:(q[8],p[2])->(energy,gradient[8]) */
+static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
+  casadi_real a36, a37, a38, a39, a40, a41, a42, a43, a44, a45, a46, a47;
+  casadi_real a48, a49, a50, a51, a52, a53, a54, a55, a56, a57, a58, a59;
+  casadi_real a60, a61, a62, a63, a64, a65, a66, a67, a68, a69, a70, a71;
+  a00=6.4742483084434865e-02;
+  a01=arg[1]? arg[1][0] : 0;
+  a02=(a00*a01);
+  a03=arg[1]? arg[1][1] : 0;
+  a04=2.;
+  a05=(a03/a04);
+  a06=-1.4879125609255570e-01;
+  a07=arg[0]? arg[0][0] : 0;
+  a08=(a06*a07);
+  a09=1.4879125609255570e-01;
+  a10=arg[0]? arg[0][4] : 0;
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a08=(a08/a01);
+  a11=9.0015832812510144e-01;
+  a12=arg[0]? arg[0][2] : 0;
+  a13=(a11*a12);
+  a08=(a08+a13);
+  a13=-4.8949584217657147e-02;
+  a14=arg[0]? arg[0][6] : 0;
+  a15=(a13*a14);
+  a08=(a08+a15);
+  a15=casadi_sq(a08);
+  a16=arg[0]? arg[0][1] : 0;
+  a17=(a06*a16);
+  a18=arg[0]? arg[0][5] : 0;
+  a19=(a09*a18);
+  a17=(a17+a19);
+  a17=(a17/a01);
+  a19=arg[0]? arg[0][3] : 0;
+  a20=(a11*a19);
+  a17=(a17+a20);
+  a20=arg[0]? arg[0][7] : 0;
+  a21=(a13*a20);
+  a17=(a17+a21);
+  a21=casadi_sq(a17);
+  a15=(a15+a21);
+  a15=sqrt(a15);
+  a21=1.;
+  a22=(a15-a21);
+  a23=casadi_sq(a22);
+  a23=(a05*a23);
+  a23=(a02*a23);
+  a24=1.3985269574463843e-01;
+  a25=(a24*a01);
+  a26=(a03/a04);
+  a27=-6.7519725117533458e-01;
+  a28=(a27*a07);
+  a29=6.7519725117533458e-01;
+  a30=(a29*a10);
+  a28=(a28+a30);
+  a28=(a28/a01);
+  a30=5.3316696721202994e-01;
+  a31=(a30*a12);
+  a28=(a28+a31);
+  a31=-2.0836421838736452e-01;
+  a32=(a31*a14);
+  a28=(a28+a32);
+  a32=casadi_sq(a28);
+  a33=(a27*a16);
+  a34=(a29*a18);
+  a33=(a33+a34);
+  a33=(a33/a01);
+  a34=(a30*a19);
+  a33=(a33+a34);
+  a34=(a31*a20);
+  a33=(a33+a34);
+  a34=casadi_sq(a33);
+  a32=(a32+a34);
+  a32=sqrt(a32);
+  a34=(a32-a21);
+  a35=casadi_sq(a34);
+  a35=(a26*a35);
+  a35=(a25*a35);
+  a23=(a23+a35);
+  a35=1.9091502525255935e-01;
+  a36=(a35*a01);
+  a37=(a03/a04);
+  a38=-1.2529345696551863e+00;
+  a39=(a38*a07);
+  a40=1.2529345696551863e+00;
+  a41=(a40*a10);
+  a39=(a39+a41);
+  a39=(a39/a01);
+  a41=7.6455290861105418e-02;
+  a42=(a41*a12);
+  a39=(a39+a42);
+  a42=-3.2938986051629177e-01;
+  a43=(a42*a14);
+  a39=(a39+a43);
+  a43=casadi_sq(a39);
+  a44=(a38*a16);
+  a45=(a40*a18);
+  a44=(a44+a45);
+  a44=(a44/a01);
+  a45=(a41*a19);
+  a44=(a44+a45);
+  a45=(a42*a20);
+  a44=(a44+a45);
+  a45=casadi_sq(a44);
+  a43=(a43+a45);
+  a43=sqrt(a43);
+  a45=(a43-a21);
+  a46=casadi_sq(a45);
+  a46=(a37*a46);
+  a46=(a36*a46);
+  a23=(a23+a46);
+  a46=2.0897959183673465e-01;
+  a46=(a46*a01);
+  a47=(a03/a04);
+  a48=-1.5000000000000000e+00;
+  a49=(a48*a07);
+  a50=1.5000000000000000e+00;
+  a51=(a50*a10);
+  a49=(a49+a51);
+  a49=(a49/a01);
+  a51=-2.5000000000000000e-01;
+  a52=(a51*a12);
+  a49=(a49+a52);
+  a52=(a51*a14);
+  a49=(a49+a52);
+  a52=casadi_sq(a49);
+  a53=(a48*a16);
+  a54=(a50*a18);
+  a53=(a53+a54);
+  a53=(a53/a01);
+  a54=(a51*a19);
+  a53=(a53+a54);
+  a54=(a51*a20);
+  a53=(a53+a54);
+  a54=casadi_sq(a53);
+  a52=(a52+a54);
+  a52=sqrt(a52);
+  a54=(a52-a21);
+  a55=casadi_sq(a54);
+  a55=(a47*a55);
+  a55=(a46*a55);
+  a23=(a23+a55);
+  a35=(a35*a01);
+  a55=(a03/a04);
+  a56=(a38*a07);
+  a57=(a40*a10);
+  a56=(a56+a57);
+  a56=(a56/a01);
+  a57=-3.2938986051629171e-01;
+  a58=(a57*a12);
+  a56=(a56+a58);
+  a58=7.6455290861105363e-02;
+  a59=(a58*a14);
+  a56=(a56+a59);
+  a59=casadi_sq(a56);
+  a60=(a38*a16);
+  a61=(a40*a18);
+  a60=(a60+a61);
+  a60=(a60/a01);
+  a61=(a57*a19);
+  a60=(a60+a61);
+  a61=(a58*a20);
+  a60=(a60+a61);
+  a61=casadi_sq(a60);
+  a59=(a59+a61);
+  a59=sqrt(a59);
+  a61=(a59-a21);
+  a62=casadi_sq(a61);
+  a62=(a55*a62);
+  a62=(a35*a62);
+  a23=(a23+a62);
+  a24=(a24*a01);
+  a62=(a03/a04);
+  a63=-6.7519725117533369e-01;
+  a64=(a63*a07);
+  a65=6.7519725117533369e-01;
+  a66=(a65*a10);
+  a64=(a64+a66);
+  a64=(a64/a01);
+  a66=-2.0836421838736419e-01;
+  a67=(a66*a12);
+  a64=(a64+a67);
+  a67=5.3316696721203027e-01;
+  a68=(a67*a14);
+  a64=(a64+a68);
+  a68=casadi_sq(a64);
+  a69=(a63*a16);
+  a70=(a65*a18);
+  a69=(a69+a70);
+  a69=(a69/a01);
+  a70=(a66*a19);
+  a69=(a69+a70);
+  a70=(a67*a20);
+  a69=(a69+a70);
+  a70=casadi_sq(a69);
+  a68=(a68+a70);
+  a68=sqrt(a68);
+  a70=(a68-a21);
+  a71=casadi_sq(a70);
+  a71=(a62*a71);
+  a71=(a24*a71);
+  a23=(a23+a71);
+  a00=(a00*a01);
+  a03=(a03/a04);
+  a04=-1.4879125609255617e-01;
+  a07=(a04*a07);
+  a71=1.4879125609255617e-01;
+  a10=(a71*a10);
+  a07=(a07+a10);
+  a07=(a07/a01);
+  a10=-4.8949584217657272e-02;
+  a12=(a10*a12);
+  a07=(a07+a12);
+  a12=9.0015832812510133e-01;
+  a14=(a12*a14);
+  a07=(a07+a14);
+  a14=casadi_sq(a07);
+  a16=(a04*a16);
+  a18=(a71*a18);
+  a16=(a16+a18);
+  a16=(a16/a01);
+  a19=(a10*a19);
+  a16=(a16+a19);
+  a20=(a12*a20);
+  a16=(a16+a20);
+  a20=casadi_sq(a16);
+  a14=(a14+a20);
+  a14=sqrt(a14);
+  a21=(a14-a21);
+  a20=casadi_sq(a21);
+  a20=(a03*a20);
+  a20=(a00*a20);
+  a23=(a23+a20);
+  if (res[0]!=0) res[0][0]=a23;
+  a23=(a06/a01);
+  a08=(2.*a08);
+  a22=(2.*a22);
+  a05=(a05*a02);
+  a22=(a22*a05);
+  a15=(2.*a15);
+  a22=(a22/a15);
+  a08=(a08*a22);
+  a23=(a23*a08);
+  a15=(a27/a01);
+  a28=(2.*a28);
+  a34=(2.*a34);
+  a26=(a26*a25);
+  a34=(a34*a26);
+  a32=(2.*a32);
+  a34=(a34/a32);
+  a28=(a28*a34);
+  a15=(a15*a28);
+  a23=(a23+a15);
+  a15=(a38/a01);
+  a39=(2.*a39);
+  a45=(2.*a45);
+  a37=(a37*a36);
+  a45=(a45*a37);
+  a43=(2.*a43);
+  a45=(a45/a43);
+  a39=(a39*a45);
+  a15=(a15*a39);
+  a23=(a23+a15);
+  a15=(a48/a01);
+  a49=(2.*a49);
+  a54=(2.*a54);
+  a47=(a47*a46);
+  a54=(a54*a47);
+  a52=(2.*a52);
+  a54=(a54/a52);
+  a49=(a49*a54);
+  a15=(a15*a49);
+  a23=(a23+a15);
+  a15=(a38/a01);
+  a56=(2.*a56);
+  a61=(2.*a61);
+  a55=(a55*a35);
+  a61=(a61*a55);
+  a59=(2.*a59);
+  a61=(a61/a59);
+  a56=(a56*a61);
+  a15=(a15*a56);
+  a23=(a23+a15);
+  a15=(a63/a01);
+  a64=(2.*a64);
+  a70=(2.*a70);
+  a62=(a62*a24);
+  a70=(a70*a62);
+  a68=(2.*a68);
+  a70=(a70/a68);
+  a64=(a64*a70);
+  a15=(a15*a64);
+  a23=(a23+a15);
+  a15=(a04/a01);
+  a07=(2.*a07);
+  a21=(2.*a21);
+  a03=(a03*a00);
+  a21=(a21*a03);
+  a14=(2.*a14);
+  a21=(a21/a14);
+  a07=(a07*a21);
+  a15=(a15*a07);
+  a23=(a23+a15);
+  if (res[1]!=0) res[1][0]=a23;
+  a06=(a06/a01);
+  a17=(2.*a17);
+  a17=(a17*a22);
+  a06=(a06*a17);
+  a27=(a27/a01);
+  a33=(2.*a33);
+  a33=(a33*a34);
+  a27=(a27*a33);
+  a06=(a06+a27);
+  a27=(a38/a01);
+  a44=(2.*a44);
+  a44=(a44*a45);
+  a27=(a27*a44);
+  a06=(a06+a27);
+  a48=(a48/a01);
+  a53=(2.*a53);
+  a53=(a53*a54);
+  a48=(a48*a53);
+  a06=(a06+a48);
+  a38=(a38/a01);
+  a60=(2.*a60);
+  a60=(a60*a61);
+  a38=(a38*a60);
+  a06=(a06+a38);
+  a63=(a63/a01);
+  a69=(2.*a69);
+  a69=(a69*a70);
+  a63=(a63*a69);
+  a06=(a06+a63);
+  a04=(a04/a01);
+  a16=(2.*a16);
+  a16=(a16*a21);
+  a04=(a04*a16);
+  a06=(a06+a04);
+  if (res[1]!=0) res[1][1]=a06;
+  a06=(a11*a08);
+  a04=(a30*a28);
+  a06=(a06+a04);
+  a04=(a41*a39);
+  a06=(a06+a04);
+  a04=(a51*a49);
+  a06=(a06+a04);
+  a04=(a57*a56);
+  a06=(a06+a04);
+  a04=(a66*a64);
+  a06=(a06+a04);
+  a04=(a10*a07);
+  a06=(a06+a04);
+  if (res[1]!=0) res[1][2]=a06;
+  a11=(a11*a17);
+  a30=(a30*a33);
+  a11=(a11+a30);
+  a41=(a41*a44);
+  a11=(a11+a41);
+  a41=(a51*a53);
+  a11=(a11+a41);
+  a57=(a57*a60);
+  a11=(a11+a57);
+  a66=(a66*a69);
+  a11=(a11+a66);
+  a10=(a10*a16);
+  a11=(a11+a10);
+  if (res[1]!=0) res[1][3]=a11;
+  a11=(a09/a01);
+  a11=(a11*a08);
+  a10=(a29/a01);
+  a10=(a10*a28);
+  a11=(a11+a10);
+  a10=(a40/a01);
+  a10=(a10*a39);
+  a11=(a11+a10);
+  a10=(a50/a01);
+  a10=(a10*a49);
+  a11=(a11+a10);
+  a10=(a40/a01);
+  a10=(a10*a56);
+  a11=(a11+a10);
+  a10=(a65/a01);
+  a10=(a10*a64);
+  a11=(a11+a10);
+  a10=(a71/a01);
+  a10=(a10*a07);
+  a11=(a11+a10);
+  if (res[1]!=0) res[1][4]=a11;
+  a09=(a09/a01);
+  a09=(a09*a17);
+  a29=(a29/a01);
+  a29=(a29*a33);
+  a09=(a09+a29);
+  a29=(a40/a01);
+  a29=(a29*a44);
+  a09=(a09+a29);
+  a50=(a50/a01);
+  a50=(a50*a53);
+  a09=(a09+a50);
+  a40=(a40/a01);
+  a40=(a40*a60);
+  a09=(a09+a40);
+  a65=(a65/a01);
+  a65=(a65*a69);
+  a09=(a09+a65);
+  a71=(a71/a01);
+  a71=(a71*a16);
+  a09=(a09+a71);
+  if (res[1]!=0) res[1][5]=a09;
+  a08=(a13*a08);
+  a28=(a31*a28);
+  a08=(a08+a28);
+  a39=(a42*a39);
+  a08=(a08+a39);
+  a49=(a51*a49);
+  a08=(a08+a49);
+  a56=(a58*a56);
+  a08=(a08+a56);
+  a64=(a67*a64);
+  a08=(a08+a64);
+  a07=(a12*a07);
+  a08=(a08+a07);
+  if (res[1]!=0) res[1][6]=a08;
+  a13=(a13*a17);
+  a31=(a31*a33);
+  a13=(a13+a31);
+  a42=(a42*a44);
+  a13=(a13+a42);
+  a51=(a51*a53);
+  a13=(a13+a51);
+  a58=(a58*a60);
+  a13=(a13+a58);
+  a67=(a67*a69);
+  a13=(a13+a67);
+  a12=(a12*a16);
+  a13=(a13+a12);
+  if (res[1]!=0) res[1][7]=a13;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g7_grad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f16(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g7_grad_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g7_grad_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g7_grad_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_biot_g7_grad_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_biot_g7_grad_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_biot_g7_grad_n_out(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_real cable2d_axial_biot_g7_grad_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_biot_g7_grad_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_biot_g7_grad_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    case 1: return "gradient";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_biot_g7_grad_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_biot_g7_grad_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s2;
+    case 1: return casadi_s0;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g7_grad_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 2;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_biot_g7_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
   if (sz_res) *sz_res = 2*sizeof(casadi_real*);
   if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
   if (sz_w) *sz_w = 0*sizeof(casadi_real);

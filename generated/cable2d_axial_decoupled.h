@@ -107,6 +107,222 @@ int cable2d_axial_decoupled_hvp_work_bytes(casadi_int *sz_arg, casadi_int* sz_re
 #define cable2d_axial_decoupled_hvp_SZ_RES 2
 #define cable2d_axial_decoupled_hvp_SZ_IW 0
 #define cable2d_axial_decoupled_hvp_SZ_W 0
+int cable2d_axial_decoupled_g3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int cable2d_axial_decoupled_g3_checkout(void);
+void cable2d_axial_decoupled_g3_release(int mem);
+void cable2d_axial_decoupled_g3_incref(void);
+void cable2d_axial_decoupled_g3_decref(void);
+casadi_int cable2d_axial_decoupled_g3_n_in(void);
+casadi_int cable2d_axial_decoupled_g3_n_out(void);
+casadi_real cable2d_axial_decoupled_g3_default_in(casadi_int i);
+const char* cable2d_axial_decoupled_g3_name_in(casadi_int i);
+const char* cable2d_axial_decoupled_g3_name_out(casadi_int i);
+const casadi_int* cable2d_axial_decoupled_g3_sparsity_in(casadi_int i);
+const casadi_int* cable2d_axial_decoupled_g3_sparsity_out(casadi_int i);
+int cable2d_axial_decoupled_g3_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int cable2d_axial_decoupled_g3_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define cable2d_axial_decoupled_g3_SZ_ARG 2
+#define cable2d_axial_decoupled_g3_SZ_RES 3
+#define cable2d_axial_decoupled_g3_SZ_IW 0
+#define cable2d_axial_decoupled_g3_SZ_W 0
+int cable2d_axial_decoupled_g3_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int cable2d_axial_decoupled_g3_energy_checkout(void);
+void cable2d_axial_decoupled_g3_energy_release(int mem);
+void cable2d_axial_decoupled_g3_energy_incref(void);
+void cable2d_axial_decoupled_g3_energy_decref(void);
+casadi_int cable2d_axial_decoupled_g3_energy_n_in(void);
+casadi_int cable2d_axial_decoupled_g3_energy_n_out(void);
+casadi_real cable2d_axial_decoupled_g3_energy_default_in(casadi_int i);
+const char* cable2d_axial_decoupled_g3_energy_name_in(casadi_int i);
+const char* cable2d_axial_decoupled_g3_energy_name_out(casadi_int i);
+const casadi_int* cable2d_axial_decoupled_g3_energy_sparsity_in(casadi_int i);
+const casadi_int* cable2d_axial_decoupled_g3_energy_sparsity_out(casadi_int i);
+int cable2d_axial_decoupled_g3_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int cable2d_axial_decoupled_g3_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define cable2d_axial_decoupled_g3_energy_SZ_ARG 2
+#define cable2d_axial_decoupled_g3_energy_SZ_RES 1
+#define cable2d_axial_decoupled_g3_energy_SZ_IW 0
+#define cable2d_axial_decoupled_g3_energy_SZ_W 0
+int adj1_cable2d_axial_decoupled_g3_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int adj1_cable2d_axial_decoupled_g3_energy_checkout(void);
+void adj1_cable2d_axial_decoupled_g3_energy_release(int mem);
+void adj1_cable2d_axial_decoupled_g3_energy_incref(void);
+void adj1_cable2d_axial_decoupled_g3_energy_decref(void);
+casadi_int adj1_cable2d_axial_decoupled_g3_energy_n_in(void);
+casadi_int adj1_cable2d_axial_decoupled_g3_energy_n_out(void);
+casadi_real adj1_cable2d_axial_decoupled_g3_energy_default_in(casadi_int i);
+const char* adj1_cable2d_axial_decoupled_g3_energy_name_in(casadi_int i);
+const char* adj1_cable2d_axial_decoupled_g3_energy_name_out(casadi_int i);
+const casadi_int* adj1_cable2d_axial_decoupled_g3_energy_sparsity_in(casadi_int i);
+const casadi_int* adj1_cable2d_axial_decoupled_g3_energy_sparsity_out(casadi_int i);
+int adj1_cable2d_axial_decoupled_g3_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int adj1_cable2d_axial_decoupled_g3_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define adj1_cable2d_axial_decoupled_g3_energy_SZ_ARG 4
+#define adj1_cable2d_axial_decoupled_g3_energy_SZ_RES 2
+#define adj1_cable2d_axial_decoupled_g3_energy_SZ_IW 0
+#define adj1_cable2d_axial_decoupled_g3_energy_SZ_W 0
+int cable2d_axial_decoupled_g3_grad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int cable2d_axial_decoupled_g3_grad_checkout(void);
+void cable2d_axial_decoupled_g3_grad_release(int mem);
+void cable2d_axial_decoupled_g3_grad_incref(void);
+void cable2d_axial_decoupled_g3_grad_decref(void);
+casadi_int cable2d_axial_decoupled_g3_grad_n_in(void);
+casadi_int cable2d_axial_decoupled_g3_grad_n_out(void);
+casadi_real cable2d_axial_decoupled_g3_grad_default_in(casadi_int i);
+const char* cable2d_axial_decoupled_g3_grad_name_in(casadi_int i);
+const char* cable2d_axial_decoupled_g3_grad_name_out(casadi_int i);
+const casadi_int* cable2d_axial_decoupled_g3_grad_sparsity_in(casadi_int i);
+const casadi_int* cable2d_axial_decoupled_g3_grad_sparsity_out(casadi_int i);
+int cable2d_axial_decoupled_g3_grad_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int cable2d_axial_decoupled_g3_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define cable2d_axial_decoupled_g3_grad_SZ_ARG 2
+#define cable2d_axial_decoupled_g3_grad_SZ_RES 2
+#define cable2d_axial_decoupled_g3_grad_SZ_IW 0
+#define cable2d_axial_decoupled_g3_grad_SZ_W 0
+int cable2d_axial_decoupled_g4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int cable2d_axial_decoupled_g4_checkout(void);
+void cable2d_axial_decoupled_g4_release(int mem);
+void cable2d_axial_decoupled_g4_incref(void);
+void cable2d_axial_decoupled_g4_decref(void);
+casadi_int cable2d_axial_decoupled_g4_n_in(void);
+casadi_int cable2d_axial_decoupled_g4_n_out(void);
+casadi_real cable2d_axial_decoupled_g4_default_in(casadi_int i);
+const char* cable2d_axial_decoupled_g4_name_in(casadi_int i);
+const char* cable2d_axial_decoupled_g4_name_out(casadi_int i);
+const casadi_int* cable2d_axial_decoupled_g4_sparsity_in(casadi_int i);
+const casadi_int* cable2d_axial_decoupled_g4_sparsity_out(casadi_int i);
+int cable2d_axial_decoupled_g4_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int cable2d_axial_decoupled_g4_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define cable2d_axial_decoupled_g4_SZ_ARG 2
+#define cable2d_axial_decoupled_g4_SZ_RES 3
+#define cable2d_axial_decoupled_g4_SZ_IW 0
+#define cable2d_axial_decoupled_g4_SZ_W 0
+int cable2d_axial_decoupled_g4_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int cable2d_axial_decoupled_g4_energy_checkout(void);
+void cable2d_axial_decoupled_g4_energy_release(int mem);
+void cable2d_axial_decoupled_g4_energy_incref(void);
+void cable2d_axial_decoupled_g4_energy_decref(void);
+casadi_int cable2d_axial_decoupled_g4_energy_n_in(void);
+casadi_int cable2d_axial_decoupled_g4_energy_n_out(void);
+casadi_real cable2d_axial_decoupled_g4_energy_default_in(casadi_int i);
+const char* cable2d_axial_decoupled_g4_energy_name_in(casadi_int i);
+const char* cable2d_axial_decoupled_g4_energy_name_out(casadi_int i);
+const casadi_int* cable2d_axial_decoupled_g4_energy_sparsity_in(casadi_int i);
+const casadi_int* cable2d_axial_decoupled_g4_energy_sparsity_out(casadi_int i);
+int cable2d_axial_decoupled_g4_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int cable2d_axial_decoupled_g4_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define cable2d_axial_decoupled_g4_energy_SZ_ARG 2
+#define cable2d_axial_decoupled_g4_energy_SZ_RES 1
+#define cable2d_axial_decoupled_g4_energy_SZ_IW 0
+#define cable2d_axial_decoupled_g4_energy_SZ_W 0
+int adj1_cable2d_axial_decoupled_g4_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int adj1_cable2d_axial_decoupled_g4_energy_checkout(void);
+void adj1_cable2d_axial_decoupled_g4_energy_release(int mem);
+void adj1_cable2d_axial_decoupled_g4_energy_incref(void);
+void adj1_cable2d_axial_decoupled_g4_energy_decref(void);
+casadi_int adj1_cable2d_axial_decoupled_g4_energy_n_in(void);
+casadi_int adj1_cable2d_axial_decoupled_g4_energy_n_out(void);
+casadi_real adj1_cable2d_axial_decoupled_g4_energy_default_in(casadi_int i);
+const char* adj1_cable2d_axial_decoupled_g4_energy_name_in(casadi_int i);
+const char* adj1_cable2d_axial_decoupled_g4_energy_name_out(casadi_int i);
+const casadi_int* adj1_cable2d_axial_decoupled_g4_energy_sparsity_in(casadi_int i);
+const casadi_int* adj1_cable2d_axial_decoupled_g4_energy_sparsity_out(casadi_int i);
+int adj1_cable2d_axial_decoupled_g4_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int adj1_cable2d_axial_decoupled_g4_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define adj1_cable2d_axial_decoupled_g4_energy_SZ_ARG 4
+#define adj1_cable2d_axial_decoupled_g4_energy_SZ_RES 2
+#define adj1_cable2d_axial_decoupled_g4_energy_SZ_IW 0
+#define adj1_cable2d_axial_decoupled_g4_energy_SZ_W 0
+int cable2d_axial_decoupled_g4_grad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int cable2d_axial_decoupled_g4_grad_checkout(void);
+void cable2d_axial_decoupled_g4_grad_release(int mem);
+void cable2d_axial_decoupled_g4_grad_incref(void);
+void cable2d_axial_decoupled_g4_grad_decref(void);
+casadi_int cable2d_axial_decoupled_g4_grad_n_in(void);
+casadi_int cable2d_axial_decoupled_g4_grad_n_out(void);
+casadi_real cable2d_axial_decoupled_g4_grad_default_in(casadi_int i);
+const char* cable2d_axial_decoupled_g4_grad_name_in(casadi_int i);
+const char* cable2d_axial_decoupled_g4_grad_name_out(casadi_int i);
+const casadi_int* cable2d_axial_decoupled_g4_grad_sparsity_in(casadi_int i);
+const casadi_int* cable2d_axial_decoupled_g4_grad_sparsity_out(casadi_int i);
+int cable2d_axial_decoupled_g4_grad_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int cable2d_axial_decoupled_g4_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define cable2d_axial_decoupled_g4_grad_SZ_ARG 2
+#define cable2d_axial_decoupled_g4_grad_SZ_RES 2
+#define cable2d_axial_decoupled_g4_grad_SZ_IW 0
+#define cable2d_axial_decoupled_g4_grad_SZ_W 0
+int cable2d_axial_decoupled_g7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int cable2d_axial_decoupled_g7_checkout(void);
+void cable2d_axial_decoupled_g7_release(int mem);
+void cable2d_axial_decoupled_g7_incref(void);
+void cable2d_axial_decoupled_g7_decref(void);
+casadi_int cable2d_axial_decoupled_g7_n_in(void);
+casadi_int cable2d_axial_decoupled_g7_n_out(void);
+casadi_real cable2d_axial_decoupled_g7_default_in(casadi_int i);
+const char* cable2d_axial_decoupled_g7_name_in(casadi_int i);
+const char* cable2d_axial_decoupled_g7_name_out(casadi_int i);
+const casadi_int* cable2d_axial_decoupled_g7_sparsity_in(casadi_int i);
+const casadi_int* cable2d_axial_decoupled_g7_sparsity_out(casadi_int i);
+int cable2d_axial_decoupled_g7_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int cable2d_axial_decoupled_g7_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define cable2d_axial_decoupled_g7_SZ_ARG 2
+#define cable2d_axial_decoupled_g7_SZ_RES 3
+#define cable2d_axial_decoupled_g7_SZ_IW 0
+#define cable2d_axial_decoupled_g7_SZ_W 0
+int cable2d_axial_decoupled_g7_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int cable2d_axial_decoupled_g7_energy_checkout(void);
+void cable2d_axial_decoupled_g7_energy_release(int mem);
+void cable2d_axial_decoupled_g7_energy_incref(void);
+void cable2d_axial_decoupled_g7_energy_decref(void);
+casadi_int cable2d_axial_decoupled_g7_energy_n_in(void);
+casadi_int cable2d_axial_decoupled_g7_energy_n_out(void);
+casadi_real cable2d_axial_decoupled_g7_energy_default_in(casadi_int i);
+const char* cable2d_axial_decoupled_g7_energy_name_in(casadi_int i);
+const char* cable2d_axial_decoupled_g7_energy_name_out(casadi_int i);
+const casadi_int* cable2d_axial_decoupled_g7_energy_sparsity_in(casadi_int i);
+const casadi_int* cable2d_axial_decoupled_g7_energy_sparsity_out(casadi_int i);
+int cable2d_axial_decoupled_g7_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int cable2d_axial_decoupled_g7_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define cable2d_axial_decoupled_g7_energy_SZ_ARG 2
+#define cable2d_axial_decoupled_g7_energy_SZ_RES 1
+#define cable2d_axial_decoupled_g7_energy_SZ_IW 0
+#define cable2d_axial_decoupled_g7_energy_SZ_W 0
+int adj1_cable2d_axial_decoupled_g7_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int adj1_cable2d_axial_decoupled_g7_energy_checkout(void);
+void adj1_cable2d_axial_decoupled_g7_energy_release(int mem);
+void adj1_cable2d_axial_decoupled_g7_energy_incref(void);
+void adj1_cable2d_axial_decoupled_g7_energy_decref(void);
+casadi_int adj1_cable2d_axial_decoupled_g7_energy_n_in(void);
+casadi_int adj1_cable2d_axial_decoupled_g7_energy_n_out(void);
+casadi_real adj1_cable2d_axial_decoupled_g7_energy_default_in(casadi_int i);
+const char* adj1_cable2d_axial_decoupled_g7_energy_name_in(casadi_int i);
+const char* adj1_cable2d_axial_decoupled_g7_energy_name_out(casadi_int i);
+const casadi_int* adj1_cable2d_axial_decoupled_g7_energy_sparsity_in(casadi_int i);
+const casadi_int* adj1_cable2d_axial_decoupled_g7_energy_sparsity_out(casadi_int i);
+int adj1_cable2d_axial_decoupled_g7_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int adj1_cable2d_axial_decoupled_g7_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define adj1_cable2d_axial_decoupled_g7_energy_SZ_ARG 4
+#define adj1_cable2d_axial_decoupled_g7_energy_SZ_RES 2
+#define adj1_cable2d_axial_decoupled_g7_energy_SZ_IW 0
+#define adj1_cable2d_axial_decoupled_g7_energy_SZ_W 0
+int cable2d_axial_decoupled_g7_grad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int cable2d_axial_decoupled_g7_grad_checkout(void);
+void cable2d_axial_decoupled_g7_grad_release(int mem);
+void cable2d_axial_decoupled_g7_grad_incref(void);
+void cable2d_axial_decoupled_g7_grad_decref(void);
+casadi_int cable2d_axial_decoupled_g7_grad_n_in(void);
+casadi_int cable2d_axial_decoupled_g7_grad_n_out(void);
+casadi_real cable2d_axial_decoupled_g7_grad_default_in(casadi_int i);
+const char* cable2d_axial_decoupled_g7_grad_name_in(casadi_int i);
+const char* cable2d_axial_decoupled_g7_grad_name_out(casadi_int i);
+const casadi_int* cable2d_axial_decoupled_g7_grad_sparsity_in(casadi_int i);
+const casadi_int* cable2d_axial_decoupled_g7_grad_sparsity_out(casadi_int i);
+int cable2d_axial_decoupled_g7_grad_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int cable2d_axial_decoupled_g7_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define cable2d_axial_decoupled_g7_grad_SZ_ARG 2
+#define cable2d_axial_decoupled_g7_grad_SZ_RES 2
+#define cable2d_axial_decoupled_g7_grad_SZ_IW 0
+#define cable2d_axial_decoupled_g7_grad_SZ_W 0
 void cable2d_axial_decoupled_casadi_version(int* major, int* minor, int* patch);
 int cable2d_axial_decoupled_casadi_int_size(void);
 int cable2d_axial_decoupled_casadi_real_size(void);

@@ -31,9 +31,21 @@ extern "C" {
 /* Add prefix to internal symbols */
 #define casadi_f0 CASADI_PREFIX(f0)
 #define casadi_f1 CASADI_PREFIX(f1)
+#define casadi_f10 CASADI_PREFIX(f10)
+#define casadi_f11 CASADI_PREFIX(f11)
+#define casadi_f12 CASADI_PREFIX(f12)
+#define casadi_f13 CASADI_PREFIX(f13)
+#define casadi_f14 CASADI_PREFIX(f14)
+#define casadi_f15 CASADI_PREFIX(f15)
+#define casadi_f16 CASADI_PREFIX(f16)
 #define casadi_f2 CASADI_PREFIX(f2)
 #define casadi_f3 CASADI_PREFIX(f3)
 #define casadi_f4 CASADI_PREFIX(f4)
+#define casadi_f5 CASADI_PREFIX(f5)
+#define casadi_f6 CASADI_PREFIX(f6)
+#define casadi_f7 CASADI_PREFIX(f7)
+#define casadi_f8 CASADI_PREFIX(f8)
+#define casadi_f9 CASADI_PREFIX(f9)
 #define casadi_s0 CASADI_PREFIX(s0)
 #define casadi_s1 CASADI_PREFIX(s1)
 #define casadi_s2 CASADI_PREFIX(s2)
@@ -3766,6 +3778,5758 @@ CASADI_SYMBOL_EXPORT int cable2d_axial_green_hvp_work(casadi_int *sz_arg, casadi
 
 CASADI_SYMBOL_EXPORT int cable2d_axial_green_hvp_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
   if (sz_arg) *sz_arg = 3*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 2*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* cable2d_axial_green_g3:(q[8],p[2])->(energy,gradient[8],hessian[8x8]) */
+static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
+  casadi_real a36, a37, a38, a39, a40, a41, a42, a43, a44, a45, a46, a47;
+  casadi_real a48, a49, a50, a51, a52, a53, a54, a55, a56, a57, a58, a59;
+  casadi_real a60, a61, a62;
+  a00=2.7777777777777785e-01;
+  a01=arg[1]? arg[1][0] : 0;
+  a02=(a00*a01);
+  a03=arg[1]? arg[1][1] : 0;
+  a04=2.;
+  a05=(a03/a04);
+  a06=-5.9999999999999998e-01;
+  a07=arg[0]? arg[0][0] : 0;
+  a08=(a06*a07);
+  a09=5.9999999999999998e-01;
+  a10=arg[0]? arg[0][4] : 0;
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a08=(a08/a01);
+  a11=5.8729833462074177e-01;
+  a12=arg[0]? arg[0][2] : 0;
+  a13=(a11*a12);
+  a08=(a08+a13);
+  a13=-1.8729833462074166e-01;
+  a14=arg[0]? arg[0][6] : 0;
+  a15=(a13*a14);
+  a08=(a08+a15);
+  a15=casadi_sq(a08);
+  a16=arg[0]? arg[0][1] : 0;
+  a17=(a06*a16);
+  a18=arg[0]? arg[0][5] : 0;
+  a19=(a09*a18);
+  a17=(a17+a19);
+  a17=(a17/a01);
+  a19=arg[0]? arg[0][3] : 0;
+  a20=(a11*a19);
+  a17=(a17+a20);
+  a20=arg[0]? arg[0][7] : 0;
+  a21=(a13*a20);
+  a17=(a17+a21);
+  a21=casadi_sq(a17);
+  a15=(a15+a21);
+  a21=1.;
+  a15=(a15-a21);
+  a22=(a15/a04);
+  a22=casadi_sq(a22);
+  a22=(a05*a22);
+  a22=(a02*a22);
+  a23=4.4444444444444442e-01;
+  a23=(a23*a01);
+  a24=(a03/a04);
+  a25=-1.5000000000000000e+00;
+  a26=(a25*a07);
+  a27=1.5000000000000000e+00;
+  a28=(a27*a10);
+  a26=(a26+a28);
+  a26=(a26/a01);
+  a28=-2.5000000000000000e-01;
+  a29=(a28*a12);
+  a26=(a26+a29);
+  a29=(a28*a14);
+  a26=(a26+a29);
+  a29=casadi_sq(a26);
+  a30=(a25*a16);
+  a31=(a27*a18);
+  a30=(a30+a31);
+  a30=(a30/a01);
+  a31=(a28*a19);
+  a30=(a30+a31);
+  a31=(a28*a20);
+  a30=(a30+a31);
+  a31=casadi_sq(a30);
+  a29=(a29+a31);
+  a29=(a29-a21);
+  a31=(a29/a04);
+  a31=casadi_sq(a31);
+  a31=(a24*a31);
+  a31=(a23*a31);
+  a22=(a22+a31);
+  a00=(a00*a01);
+  a03=(a03/a04);
+  a31=-5.9999999999999964e-01;
+  a07=(a31*a07);
+  a32=5.9999999999999964e-01;
+  a10=(a32*a10);
+  a07=(a07+a10);
+  a07=(a07/a01);
+  a10=-1.8729833462074152e-01;
+  a12=(a10*a12);
+  a07=(a07+a12);
+  a12=5.8729833462074188e-01;
+  a14=(a12*a14);
+  a07=(a07+a14);
+  a14=casadi_sq(a07);
+  a16=(a31*a16);
+  a18=(a32*a18);
+  a16=(a16+a18);
+  a16=(a16/a01);
+  a19=(a10*a19);
+  a16=(a16+a19);
+  a20=(a12*a20);
+  a16=(a16+a20);
+  a20=casadi_sq(a16);
+  a14=(a14+a20);
+  a14=(a14-a21);
+  a04=(a14/a04);
+  a04=casadi_sq(a04);
+  a04=(a03*a04);
+  a04=(a00*a04);
+  a22=(a22+a04);
+  if (res[0]!=0) res[0][0]=a22;
+  a22=(a06/a01);
+  a04=(2.*a08);
+  a21=5.0000000000000000e-01;
+  a20=(a05*a02);
+  a20=(a15*a20);
+  a20=(a21*a20);
+  a04=(a04*a20);
+  a19=(a22*a04);
+  a18=(a25/a01);
+  a33=(2.*a26);
+  a34=(a24*a23);
+  a34=(a29*a34);
+  a34=(a21*a34);
+  a33=(a33*a34);
+  a35=(a18*a33);
+  a19=(a19+a35);
+  a35=(a31/a01);
+  a36=(2.*a07);
+  a37=(a03*a00);
+  a37=(a14*a37);
+  a37=(a21*a37);
+  a36=(a36*a37);
+  a38=(a35*a36);
+  a19=(a19+a38);
+  if (res[1]!=0) res[1][0]=a19;
+  a06=(a06/a01);
+  a19=(2.*a17);
+  a19=(a19*a20);
+  a20=(a06*a19);
+  a25=(a25/a01);
+  a38=(2.*a30);
+  a38=(a38*a34);
+  a34=(a25*a38);
+  a20=(a20+a34);
+  a31=(a31/a01);
+  a34=(2.*a16);
+  a34=(a34*a37);
+  a37=(a31*a34);
+  a20=(a20+a37);
+  if (res[1]!=0) res[1][1]=a20;
+  a20=(a11*a04);
+  a37=(a28*a33);
+  a20=(a20+a37);
+  a37=(a10*a36);
+  a20=(a20+a37);
+  if (res[1]!=0) res[1][2]=a20;
+  a20=(a11*a19);
+  a37=(a28*a38);
+  a20=(a20+a37);
+  a37=(a10*a34);
+  a20=(a20+a37);
+  if (res[1]!=0) res[1][3]=a20;
+  a20=(a09/a01);
+  a37=(a20*a04);
+  a39=(a27/a01);
+  a40=(a39*a33);
+  a37=(a37+a40);
+  a40=(a32/a01);
+  a41=(a40*a36);
+  a37=(a37+a41);
+  if (res[1]!=0) res[1][4]=a37;
+  a09=(a09/a01);
+  a37=(a09*a19);
+  a27=(a27/a01);
+  a41=(a27*a38);
+  a37=(a37+a41);
+  a32=(a32/a01);
+  a01=(a32*a34);
+  a37=(a37+a01);
+  if (res[1]!=0) res[1][5]=a37;
+  a04=(a13*a04);
+  a33=(a28*a33);
+  a04=(a04+a33);
+  a36=(a12*a36);
+  a04=(a04+a36);
+  if (res[1]!=0) res[1][6]=a04;
+  a19=(a13*a19);
+  a38=(a28*a38);
+  a19=(a19+a38);
+  a34=(a12*a34);
+  a19=(a19+a34);
+  if (res[1]!=0) res[1][7]=a19;
+  a05=(a05*a02);
+  a15=(a15*a05);
+  a02=(2.*a08);
+  a08=(2.*a08);
+  a08=(a05*a08);
+  a08=(a21*a08);
+  a08=(a02*a08);
+  a08=(a15+a08);
+  a19=(a22*a08);
+  a19=(a19*a22);
+  a24=(a24*a23);
+  a29=(a29*a24);
+  a23=(2.*a26);
+  a26=(2.*a26);
+  a26=(a24*a26);
+  a26=(a21*a26);
+  a26=(a23*a26);
+  a26=(a29+a26);
+  a34=(a18*a26);
+  a34=(a34*a18);
+  a19=(a19+a34);
+  a03=(a03*a00);
+  a14=(a14*a03);
+  a00=(2.*a07);
+  a07=(2.*a07);
+  a07=(a03*a07);
+  a07=(a21*a07);
+  a07=(a00*a07);
+  a07=(a14+a07);
+  a34=(a35*a07);
+  a34=(a34*a35);
+  a19=(a19+a34);
+  if (res[2]!=0) res[2][0]=a19;
+  a19=(2.*a17);
+  a05=(a05*a19);
+  a05=(a21*a05);
+  a02=(a02*a05);
+  a19=(a06*a02);
+  a19=(a19*a22);
+  a34=(2.*a30);
+  a24=(a24*a34);
+  a24=(a21*a24);
+  a23=(a23*a24);
+  a34=(a25*a23);
+  a34=(a34*a18);
+  a19=(a19+a34);
+  a34=(2.*a16);
+  a03=(a03*a34);
+  a21=(a21*a03);
+  a00=(a00*a21);
+  a03=(a31*a00);
+  a03=(a03*a35);
+  a19=(a19+a03);
+  if (res[2]!=0) res[2][1]=a19;
+  a03=(a11*a08);
+  a03=(a03*a22);
+  a34=(a28*a26);
+  a34=(a34*a18);
+  a03=(a03+a34);
+  a34=(a10*a07);
+  a34=(a34*a35);
+  a03=(a03+a34);
+  if (res[2]!=0) res[2][2]=a03;
+  a34=(a11*a02);
+  a34=(a34*a22);
+  a38=(a28*a23);
+  a38=(a38*a18);
+  a34=(a34+a38);
+  a38=(a10*a00);
+  a38=(a38*a35);
+  a34=(a34+a38);
+  if (res[2]!=0) res[2][3]=a34;
+  a38=(a20*a08);
+  a04=(a38*a22);
+  a36=(a39*a26);
+  a33=(a36*a18);
+  a04=(a04+a33);
+  a33=(a40*a07);
+  a37=(a33*a35);
+  a04=(a04+a37);
+  if (res[2]!=0) res[2][4]=a04;
+  a37=(a09*a02);
+  a01=(a37*a22);
+  a41=(a27*a23);
+  a42=(a41*a18);
+  a01=(a01+a42);
+  a42=(a32*a00);
+  a43=(a42*a35);
+  a01=(a01+a43);
+  if (res[2]!=0) res[2][5]=a01;
+  a43=(a13*a08);
+  a44=(a43*a22);
+  a45=(a28*a26);
+  a46=(a45*a18);
+  a44=(a44+a46);
+  a46=(a12*a07);
+  a47=(a46*a35);
+  a44=(a44+a47);
+  if (res[2]!=0) res[2][6]=a44;
+  a47=(a13*a02);
+  a22=(a47*a22);
+  a48=(a28*a23);
+  a18=(a48*a18);
+  a22=(a22+a18);
+  a18=(a12*a00);
+  a35=(a18*a35);
+  a22=(a22+a35);
+  if (res[2]!=0) res[2][7]=a22;
+  if (res[2]!=0) res[2][8]=a19;
+  a17=(2.*a17);
+  a17=(a17*a05);
+  a15=(a15+a17);
+  a17=(a06*a15);
+  a17=(a17*a06);
+  a30=(2.*a30);
+  a30=(a30*a24);
+  a29=(a29+a30);
+  a30=(a25*a29);
+  a30=(a30*a25);
+  a17=(a17+a30);
+  a16=(2.*a16);
+  a16=(a16*a21);
+  a14=(a14+a16);
+  a16=(a31*a14);
+  a16=(a16*a31);
+  a17=(a17+a16);
+  if (res[2]!=0) res[2][9]=a17;
+  a17=(a11*a02);
+  a17=(a17*a06);
+  a16=(a28*a23);
+  a16=(a16*a25);
+  a17=(a17+a16);
+  a16=(a10*a00);
+  a16=(a16*a31);
+  a17=(a17+a16);
+  if (res[2]!=0) res[2][10]=a17;
+  a16=(a11*a15);
+  a16=(a16*a06);
+  a21=(a28*a29);
+  a21=(a21*a25);
+  a16=(a16+a21);
+  a21=(a10*a14);
+  a21=(a21*a31);
+  a16=(a16+a21);
+  if (res[2]!=0) res[2][11]=a16;
+  a21=(a20*a02);
+  a30=(a21*a06);
+  a24=(a39*a23);
+  a05=(a24*a25);
+  a30=(a30+a05);
+  a05=(a40*a00);
+  a19=(a05*a31);
+  a30=(a30+a19);
+  if (res[2]!=0) res[2][12]=a30;
+  a19=(a09*a15);
+  a35=(a19*a06);
+  a49=(a27*a29);
+  a50=(a49*a25);
+  a35=(a35+a50);
+  a50=(a32*a14);
+  a51=(a50*a31);
+  a35=(a35+a51);
+  if (res[2]!=0) res[2][13]=a35;
+  a51=(a13*a02);
+  a52=(a51*a06);
+  a53=(a28*a23);
+  a54=(a53*a25);
+  a52=(a52+a54);
+  a54=(a12*a00);
+  a55=(a54*a31);
+  a52=(a52+a55);
+  if (res[2]!=0) res[2][14]=a52;
+  a13=(a13*a15);
+  a06=(a13*a06);
+  a55=(a28*a29);
+  a25=(a55*a25);
+  a06=(a06+a25);
+  a12=(a12*a14);
+  a31=(a12*a31);
+  a06=(a06+a31);
+  if (res[2]!=0) res[2][15]=a06;
+  if (res[2]!=0) res[2][16]=a03;
+  if (res[2]!=0) res[2][17]=a17;
+  a17=3.4491933384829676e-01;
+  a03=(a17*a08);
+  a31=6.2500000000000000e-02;
+  a25=(a31*a26);
+  a03=(a03+a25);
+  a25=3.5080666151703264e-02;
+  a56=(a25*a07);
+  a03=(a03+a56);
+  if (res[2]!=0) res[2][18]=a03;
+  a03=(a17*a02);
+  a56=(a31*a23);
+  a03=(a03+a56);
+  a56=(a25*a00);
+  a03=(a03+a56);
+  if (res[2]!=0) res[2][19]=a03;
+  a56=(a11*a38);
+  a57=(a28*a36);
+  a56=(a56+a57);
+  a57=(a10*a33);
+  a56=(a56+a57);
+  if (res[2]!=0) res[2][20]=a56;
+  a57=(a11*a37);
+  a58=(a28*a41);
+  a57=(a57+a58);
+  a58=(a10*a42);
+  a57=(a57+a58);
+  if (res[2]!=0) res[2][21]=a57;
+  a58=-1.1000000000000000e-01;
+  a59=(a58*a08);
+  a60=(a31*a26);
+  a59=(a59+a60);
+  a60=-1.0999999999999995e-01;
+  a61=(a60*a07);
+  a59=(a59+a61);
+  if (res[2]!=0) res[2][22]=a59;
+  a61=(a58*a02);
+  a62=(a31*a23);
+  a61=(a61+a62);
+  a62=(a60*a00);
+  a61=(a61+a62);
+  if (res[2]!=0) res[2][23]=a61;
+  if (res[2]!=0) res[2][24]=a34;
+  if (res[2]!=0) res[2][25]=a16;
+  if (res[2]!=0) res[2][26]=a03;
+  a17=(a17*a15);
+  a03=(a31*a29);
+  a17=(a17+a03);
+  a25=(a25*a14);
+  a17=(a17+a25);
+  if (res[2]!=0) res[2][27]=a17;
+  a21=(a11*a21);
+  a24=(a28*a24);
+  a21=(a21+a24);
+  a05=(a10*a05);
+  a21=(a21+a05);
+  if (res[2]!=0) res[2][28]=a21;
+  a11=(a11*a19);
+  a28=(a28*a49);
+  a11=(a11+a28);
+  a10=(a10*a50);
+  a11=(a11+a10);
+  if (res[2]!=0) res[2][29]=a11;
+  a10=(a58*a02);
+  a28=(a31*a23);
+  a10=(a10+a28);
+  a28=(a60*a00);
+  a10=(a10+a28);
+  if (res[2]!=0) res[2][30]=a10;
+  a58=(a58*a15);
+  a28=(a31*a29);
+  a58=(a58+a28);
+  a60=(a60*a14);
+  a58=(a58+a60);
+  if (res[2]!=0) res[2][31]=a58;
+  if (res[2]!=0) res[2][32]=a04;
+  if (res[2]!=0) res[2][33]=a30;
+  if (res[2]!=0) res[2][34]=a56;
+  if (res[2]!=0) res[2][35]=a21;
+  a38=(a38*a20);
+  a36=(a36*a39);
+  a38=(a38+a36);
+  a33=(a33*a40);
+  a38=(a38+a33);
+  if (res[2]!=0) res[2][36]=a38;
+  a37=(a37*a20);
+  a41=(a41*a39);
+  a37=(a37+a41);
+  a42=(a42*a40);
+  a37=(a37+a42);
+  if (res[2]!=0) res[2][37]=a37;
+  a43=(a43*a20);
+  a45=(a45*a39);
+  a43=(a43+a45);
+  a46=(a46*a40);
+  a43=(a43+a46);
+  if (res[2]!=0) res[2][38]=a43;
+  a47=(a47*a20);
+  a48=(a48*a39);
+  a47=(a47+a48);
+  a18=(a18*a40);
+  a47=(a47+a18);
+  if (res[2]!=0) res[2][39]=a47;
+  if (res[2]!=0) res[2][40]=a01;
+  if (res[2]!=0) res[2][41]=a35;
+  if (res[2]!=0) res[2][42]=a57;
+  if (res[2]!=0) res[2][43]=a11;
+  if (res[2]!=0) res[2][44]=a37;
+  a19=(a19*a09);
+  a49=(a49*a27);
+  a19=(a19+a49);
+  a50=(a50*a32);
+  a19=(a19+a50);
+  if (res[2]!=0) res[2][45]=a19;
+  a51=(a51*a09);
+  a53=(a53*a27);
+  a51=(a51+a53);
+  a54=(a54*a32);
+  a51=(a51+a54);
+  if (res[2]!=0) res[2][46]=a51;
+  a13=(a13*a09);
+  a55=(a55*a27);
+  a13=(a13+a55);
+  a12=(a12*a32);
+  a13=(a13+a12);
+  if (res[2]!=0) res[2][47]=a13;
+  if (res[2]!=0) res[2][48]=a44;
+  if (res[2]!=0) res[2][49]=a52;
+  if (res[2]!=0) res[2][50]=a59;
+  if (res[2]!=0) res[2][51]=a10;
+  if (res[2]!=0) res[2][52]=a43;
+  if (res[2]!=0) res[2][53]=a51;
+  a51=3.5080666151703313e-02;
+  a08=(a51*a08);
+  a26=(a31*a26);
+  a08=(a08+a26);
+  a26=3.4491933384829693e-01;
+  a07=(a26*a07);
+  a08=(a08+a07);
+  if (res[2]!=0) res[2][54]=a08;
+  a02=(a51*a02);
+  a23=(a31*a23);
+  a02=(a02+a23);
+  a00=(a26*a00);
+  a02=(a02+a00);
+  if (res[2]!=0) res[2][55]=a02;
+  if (res[2]!=0) res[2][56]=a22;
+  if (res[2]!=0) res[2][57]=a06;
+  if (res[2]!=0) res[2][58]=a61;
+  if (res[2]!=0) res[2][59]=a58;
+  if (res[2]!=0) res[2][60]=a47;
+  if (res[2]!=0) res[2][61]=a13;
+  if (res[2]!=0) res[2][62]=a02;
+  a51=(a51*a15);
+  a31=(a31*a29);
+  a51=(a51+a31);
+  a26=(a26*a14);
+  a51=(a51+a26);
+  if (res[2]!=0) res[2][63]=a51;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f5(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g3_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g3_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g3_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g3_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_green_g3_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_green_g3_n_out(void) { return 3;}
+
+CASADI_SYMBOL_EXPORT casadi_real cable2d_axial_green_g3_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_green_g3_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_green_g3_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    case 1: return "gradient";
+    case 2: return "hessian";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_green_g3_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_green_g3_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s2;
+    case 1: return casadi_s0;
+    case 2: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g3_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 3;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g3_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 3*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* cable2d_axial_green_g3_energy:(q[8],p[2])->(energy) */
+static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20;
+  a00=2.7777777777777785e-01;
+  a01=arg[1]? arg[1][0] : 0;
+  a02=(a00*a01);
+  a03=arg[1]? arg[1][1] : 0;
+  a04=2.;
+  a05=(a03/a04);
+  a06=-5.9999999999999998e-01;
+  a07=arg[0]? arg[0][0] : 0;
+  a08=(a06*a07);
+  a09=5.9999999999999998e-01;
+  a10=arg[0]? arg[0][4] : 0;
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a08=(a08/a01);
+  a11=5.8729833462074177e-01;
+  a12=arg[0]? arg[0][2] : 0;
+  a13=(a11*a12);
+  a08=(a08+a13);
+  a13=-1.8729833462074166e-01;
+  a14=arg[0]? arg[0][6] : 0;
+  a15=(a13*a14);
+  a08=(a08+a15);
+  a08=casadi_sq(a08);
+  a15=arg[0]? arg[0][1] : 0;
+  a06=(a06*a15);
+  a16=arg[0]? arg[0][5] : 0;
+  a09=(a09*a16);
+  a06=(a06+a09);
+  a06=(a06/a01);
+  a09=arg[0]? arg[0][3] : 0;
+  a11=(a11*a09);
+  a06=(a06+a11);
+  a11=arg[0]? arg[0][7] : 0;
+  a13=(a13*a11);
+  a06=(a06+a13);
+  a06=casadi_sq(a06);
+  a08=(a08+a06);
+  a06=1.;
+  a08=(a08-a06);
+  a08=(a08/a04);
+  a08=casadi_sq(a08);
+  a05=(a05*a08);
+  a02=(a02*a05);
+  a05=4.4444444444444442e-01;
+  a05=(a05*a01);
+  a08=(a03/a04);
+  a13=-1.5000000000000000e+00;
+  a17=(a13*a07);
+  a18=1.5000000000000000e+00;
+  a19=(a18*a10);
+  a17=(a17+a19);
+  a17=(a17/a01);
+  a19=-2.5000000000000000e-01;
+  a20=(a19*a12);
+  a17=(a17+a20);
+  a20=(a19*a14);
+  a17=(a17+a20);
+  a17=casadi_sq(a17);
+  a13=(a13*a15);
+  a18=(a18*a16);
+  a13=(a13+a18);
+  a13=(a13/a01);
+  a18=(a19*a09);
+  a13=(a13+a18);
+  a19=(a19*a11);
+  a13=(a13+a19);
+  a13=casadi_sq(a13);
+  a17=(a17+a13);
+  a17=(a17-a06);
+  a17=(a17/a04);
+  a17=casadi_sq(a17);
+  a08=(a08*a17);
+  a05=(a05*a08);
+  a02=(a02+a05);
+  a00=(a00*a01);
+  a03=(a03/a04);
+  a05=-5.9999999999999964e-01;
+  a07=(a05*a07);
+  a08=5.9999999999999964e-01;
+  a10=(a08*a10);
+  a07=(a07+a10);
+  a07=(a07/a01);
+  a10=-1.8729833462074152e-01;
+  a12=(a10*a12);
+  a07=(a07+a12);
+  a12=5.8729833462074188e-01;
+  a14=(a12*a14);
+  a07=(a07+a14);
+  a07=casadi_sq(a07);
+  a05=(a05*a15);
+  a08=(a08*a16);
+  a05=(a05+a08);
+  a05=(a05/a01);
+  a10=(a10*a09);
+  a05=(a05+a10);
+  a12=(a12*a11);
+  a05=(a05+a12);
+  a05=casadi_sq(a05);
+  a07=(a07+a05);
+  a07=(a07-a06);
+  a07=(a07/a04);
+  a07=casadi_sq(a07);
+  a03=(a03*a07);
+  a00=(a00*a03);
+  a02=(a02+a00);
+  if (res[0]!=0) res[0][0]=a02;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g3_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f6(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g3_energy_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g3_energy_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g3_energy_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g3_energy_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_green_g3_energy_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_green_g3_energy_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real cable2d_axial_green_g3_energy_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_green_g3_energy_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_green_g3_energy_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_green_g3_energy_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_green_g3_energy_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g3_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g3_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* adj1_cable2d_axial_green_g3_energy:(q[8],p[2],out_energy[1x1,0nz],adj_energy)->(adj_q[8],adj_p[2]) */
+static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
+  casadi_real a36, a37, a38, a39, a40, a41, a42, a43, a44, a45;
+  a00=-5.9999999999999964e-01;
+  a01=arg[0]? arg[0][0] : 0;
+  a02=(a00*a01);
+  a03=5.9999999999999964e-01;
+  a04=arg[0]? arg[0][4] : 0;
+  a05=(a03*a04);
+  a02=(a02+a05);
+  a05=arg[1]? arg[1][0] : 0;
+  a02=(a02/a05);
+  a06=-1.8729833462074152e-01;
+  a07=arg[0]? arg[0][2] : 0;
+  a08=(a06*a07);
+  a08=(a02+a08);
+  a09=5.8729833462074188e-01;
+  a10=arg[0]? arg[0][6] : 0;
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a11=(2.*a08);
+  a12=5.0000000000000000e-01;
+  a08=casadi_sq(a08);
+  a13=arg[0]? arg[0][1] : 0;
+  a14=(a00*a13);
+  a15=arg[0]? arg[0][5] : 0;
+  a16=(a03*a15);
+  a14=(a14+a16);
+  a14=(a14/a05);
+  a16=arg[0]? arg[0][3] : 0;
+  a17=(a06*a16);
+  a17=(a14+a17);
+  a18=arg[0]? arg[0][7] : 0;
+  a19=(a09*a18);
+  a17=(a17+a19);
+  a19=casadi_sq(a17);
+  a08=(a08+a19);
+  a19=1.;
+  a08=(a08-a19);
+  a20=arg[1]? arg[1][1] : 0;
+  a21=2.;
+  a22=(a20/a21);
+  a23=2.7777777777777785e-01;
+  a24=(a23*a05);
+  a25=arg[3]? arg[3][0] : 0;
+  a24=(a24*a25);
+  a26=(a22*a24);
+  a26=(a08*a26);
+  a26=(a12*a26);
+  a11=(a11*a26);
+  a27=(a11/a05);
+  a28=(a00*a27);
+  a29=-1.5000000000000000e+00;
+  a30=(a29*a01);
+  a31=1.5000000000000000e+00;
+  a32=(a31*a04);
+  a30=(a30+a32);
+  a30=(a30/a05);
+  a32=-2.5000000000000000e-01;
+  a33=(a32*a07);
+  a33=(a30+a33);
+  a34=(a32*a10);
+  a33=(a33+a34);
+  a34=(2.*a33);
+  a33=casadi_sq(a33);
+  a35=(a29*a13);
+  a36=(a31*a15);
+  a35=(a35+a36);
+  a35=(a35/a05);
+  a36=(a32*a16);
+  a36=(a35+a36);
+  a37=(a32*a18);
+  a36=(a36+a37);
+  a37=casadi_sq(a36);
+  a33=(a33+a37);
+  a33=(a33-a19);
+  a37=(a20/a21);
+  a38=4.4444444444444442e-01;
+  a39=(a38*a05);
+  a39=(a39*a25);
+  a40=(a37*a39);
+  a40=(a33*a40);
+  a40=(a12*a40);
+  a34=(a34*a40);
+  a41=(a34/a05);
+  a42=(a29*a41);
+  a28=(a28+a42);
+  a42=-5.9999999999999998e-01;
+  a01=(a42*a01);
+  a43=5.9999999999999998e-01;
+  a04=(a43*a04);
+  a01=(a01+a04);
+  a01=(a01/a05);
+  a04=5.8729833462074177e-01;
+  a07=(a04*a07);
+  a07=(a01+a07);
+  a44=-1.8729833462074166e-01;
+  a10=(a44*a10);
+  a07=(a07+a10);
+  a10=(2.*a07);
+  a07=casadi_sq(a07);
+  a13=(a42*a13);
+  a15=(a43*a15);
+  a13=(a13+a15);
+  a13=(a13/a05);
+  a16=(a04*a16);
+  a16=(a13+a16);
+  a18=(a44*a18);
+  a16=(a16+a18);
+  a18=casadi_sq(a16);
+  a07=(a07+a18);
+  a07=(a07-a19);
+  a20=(a20/a21);
+  a19=(a23*a05);
+  a19=(a19*a25);
+  a18=(a20*a19);
+  a18=(a07*a18);
+  a18=(a12*a18);
+  a10=(a10*a18);
+  a15=(a10/a05);
+  a45=(a42*a15);
+  a28=(a28+a45);
+  if (res[0]!=0) res[0][0]=a28;
+  a17=(2.*a17);
+  a17=(a17*a26);
+  a26=(a17/a05);
+  a00=(a00*a26);
+  a36=(2.*a36);
+  a36=(a36*a40);
+  a40=(a36/a05);
+  a29=(a29*a40);
+  a00=(a00+a29);
+  a16=(2.*a16);
+  a16=(a16*a18);
+  a18=(a16/a05);
+  a42=(a42*a18);
+  a00=(a00+a42);
+  if (res[0]!=0) res[0][1]=a00;
+  a00=(a06*a11);
+  a42=(a32*a34);
+  a00=(a00+a42);
+  a42=(a04*a10);
+  a00=(a00+a42);
+  if (res[0]!=0) res[0][2]=a00;
+  a06=(a06*a17);
+  a00=(a32*a36);
+  a06=(a06+a00);
+  a04=(a04*a16);
+  a06=(a06+a04);
+  if (res[0]!=0) res[0][3]=a06;
+  a27=(a03*a27);
+  a41=(a31*a41);
+  a27=(a27+a41);
+  a15=(a43*a15);
+  a27=(a27+a15);
+  if (res[0]!=0) res[0][4]=a27;
+  a03=(a03*a26);
+  a31=(a31*a40);
+  a03=(a03+a31);
+  a43=(a43*a18);
+  a03=(a03+a43);
+  if (res[0]!=0) res[0][5]=a03;
+  a03=(a09*a11);
+  a43=(a32*a34);
+  a03=(a03+a43);
+  a43=(a44*a10);
+  a03=(a03+a43);
+  if (res[0]!=0) res[0][6]=a03;
+  a09=(a09*a17);
+  a32=(a32*a36);
+  a09=(a09+a32);
+  a44=(a44*a16);
+  a09=(a09+a44);
+  if (res[0]!=0) res[0][7]=a09;
+  a08=(a08/a21);
+  a08=casadi_sq(a08);
+  a22=(a22*a08);
+  a22=(a22*a25);
+  a22=(a23*a22);
+  a14=(a14/a05);
+  a14=(a14*a17);
+  a02=(a02/a05);
+  a02=(a02*a11);
+  a14=(a14+a02);
+  a22=(a22-a14);
+  a35=(a35/a05);
+  a35=(a35*a36);
+  a22=(a22-a35);
+  a30=(a30/a05);
+  a30=(a30*a34);
+  a22=(a22-a30);
+  a33=(a33/a21);
+  a33=casadi_sq(a33);
+  a37=(a37*a33);
+  a37=(a37*a25);
+  a38=(a38*a37);
+  a22=(a22+a38);
+  a13=(a13/a05);
+  a13=(a13*a16);
+  a22=(a22-a13);
+  a01=(a01/a05);
+  a01=(a01*a10);
+  a22=(a22-a01);
+  a07=(a07/a21);
+  a07=casadi_sq(a07);
+  a20=(a20*a07);
+  a20=(a20*a25);
+  a23=(a23*a20);
+  a22=(a22+a23);
+  if (res[1]!=0) res[1][0]=a22;
+  a08=(a08*a24);
+  a08=(a12*a08);
+  a33=(a33*a39);
+  a33=(a12*a33);
+  a08=(a08+a33);
+  a07=(a07*a19);
+  a12=(a12*a07);
+  a08=(a08+a12);
+  if (res[1]!=0) res[1][1]=a08;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_green_g3_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f7(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_green_g3_energy_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void adj1_cable2d_axial_green_g3_energy_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void adj1_cable2d_axial_green_g3_energy_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void adj1_cable2d_axial_green_g3_energy_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int adj1_cable2d_axial_green_g3_energy_n_in(void) { return 4;}
+
+CASADI_SYMBOL_EXPORT casadi_int adj1_cable2d_axial_green_g3_energy_n_out(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_real adj1_cable2d_axial_green_g3_energy_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* adj1_cable2d_axial_green_g3_energy_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    case 2: return "out_energy";
+    case 3: return "adj_energy";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* adj1_cable2d_axial_green_g3_energy_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "adj_q";
+    case 1: return "adj_p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* adj1_cable2d_axial_green_g3_energy_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    case 2: return casadi_s4;
+    case 3: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* adj1_cable2d_axial_green_g3_energy_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_green_g3_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 4;
+  if (sz_res) *sz_res = 2;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_green_g3_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 4*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 2*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* cable2d_axial_green_g3_grad:(q[8],p[2])->(energy,gradient[8]) */
+static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32;
+  a00=2.7777777777777785e-01;
+  a01=arg[1]? arg[1][0] : 0;
+  a02=(a00*a01);
+  a03=arg[1]? arg[1][1] : 0;
+  a04=2.;
+  a05=(a03/a04);
+  a06=-5.9999999999999998e-01;
+  a07=arg[0]? arg[0][0] : 0;
+  a08=(a06*a07);
+  a09=5.9999999999999998e-01;
+  a10=arg[0]? arg[0][4] : 0;
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a08=(a08/a01);
+  a11=5.8729833462074177e-01;
+  a12=arg[0]? arg[0][2] : 0;
+  a13=(a11*a12);
+  a08=(a08+a13);
+  a13=-1.8729833462074166e-01;
+  a14=arg[0]? arg[0][6] : 0;
+  a15=(a13*a14);
+  a08=(a08+a15);
+  a15=casadi_sq(a08);
+  a16=arg[0]? arg[0][1] : 0;
+  a17=(a06*a16);
+  a18=arg[0]? arg[0][5] : 0;
+  a19=(a09*a18);
+  a17=(a17+a19);
+  a17=(a17/a01);
+  a19=arg[0]? arg[0][3] : 0;
+  a20=(a11*a19);
+  a17=(a17+a20);
+  a20=arg[0]? arg[0][7] : 0;
+  a21=(a13*a20);
+  a17=(a17+a21);
+  a21=casadi_sq(a17);
+  a15=(a15+a21);
+  a21=1.;
+  a15=(a15-a21);
+  a22=(a15/a04);
+  a22=casadi_sq(a22);
+  a22=(a05*a22);
+  a22=(a02*a22);
+  a23=4.4444444444444442e-01;
+  a23=(a23*a01);
+  a24=(a03/a04);
+  a25=-1.5000000000000000e+00;
+  a26=(a25*a07);
+  a27=1.5000000000000000e+00;
+  a28=(a27*a10);
+  a26=(a26+a28);
+  a26=(a26/a01);
+  a28=-2.5000000000000000e-01;
+  a29=(a28*a12);
+  a26=(a26+a29);
+  a29=(a28*a14);
+  a26=(a26+a29);
+  a29=casadi_sq(a26);
+  a30=(a25*a16);
+  a31=(a27*a18);
+  a30=(a30+a31);
+  a30=(a30/a01);
+  a31=(a28*a19);
+  a30=(a30+a31);
+  a31=(a28*a20);
+  a30=(a30+a31);
+  a31=casadi_sq(a30);
+  a29=(a29+a31);
+  a29=(a29-a21);
+  a31=(a29/a04);
+  a31=casadi_sq(a31);
+  a31=(a24*a31);
+  a31=(a23*a31);
+  a22=(a22+a31);
+  a00=(a00*a01);
+  a03=(a03/a04);
+  a31=-5.9999999999999964e-01;
+  a07=(a31*a07);
+  a32=5.9999999999999964e-01;
+  a10=(a32*a10);
+  a07=(a07+a10);
+  a07=(a07/a01);
+  a10=-1.8729833462074152e-01;
+  a12=(a10*a12);
+  a07=(a07+a12);
+  a12=5.8729833462074188e-01;
+  a14=(a12*a14);
+  a07=(a07+a14);
+  a14=casadi_sq(a07);
+  a16=(a31*a16);
+  a18=(a32*a18);
+  a16=(a16+a18);
+  a16=(a16/a01);
+  a19=(a10*a19);
+  a16=(a16+a19);
+  a20=(a12*a20);
+  a16=(a16+a20);
+  a20=casadi_sq(a16);
+  a14=(a14+a20);
+  a14=(a14-a21);
+  a04=(a14/a04);
+  a04=casadi_sq(a04);
+  a04=(a03*a04);
+  a04=(a00*a04);
+  a22=(a22+a04);
+  if (res[0]!=0) res[0][0]=a22;
+  a22=(a06/a01);
+  a08=(2.*a08);
+  a04=5.0000000000000000e-01;
+  a05=(a05*a02);
+  a15=(a15*a05);
+  a15=(a04*a15);
+  a08=(a08*a15);
+  a22=(a22*a08);
+  a05=(a25/a01);
+  a26=(2.*a26);
+  a24=(a24*a23);
+  a29=(a29*a24);
+  a29=(a04*a29);
+  a26=(a26*a29);
+  a05=(a05*a26);
+  a22=(a22+a05);
+  a05=(a31/a01);
+  a07=(2.*a07);
+  a03=(a03*a00);
+  a14=(a14*a03);
+  a04=(a04*a14);
+  a07=(a07*a04);
+  a05=(a05*a07);
+  a22=(a22+a05);
+  if (res[1]!=0) res[1][0]=a22;
+  a06=(a06/a01);
+  a17=(2.*a17);
+  a17=(a17*a15);
+  a06=(a06*a17);
+  a25=(a25/a01);
+  a30=(2.*a30);
+  a30=(a30*a29);
+  a25=(a25*a30);
+  a06=(a06+a25);
+  a31=(a31/a01);
+  a16=(2.*a16);
+  a16=(a16*a04);
+  a31=(a31*a16);
+  a06=(a06+a31);
+  if (res[1]!=0) res[1][1]=a06;
+  a06=(a11*a08);
+  a31=(a28*a26);
+  a06=(a06+a31);
+  a31=(a10*a07);
+  a06=(a06+a31);
+  if (res[1]!=0) res[1][2]=a06;
+  a11=(a11*a17);
+  a06=(a28*a30);
+  a11=(a11+a06);
+  a10=(a10*a16);
+  a11=(a11+a10);
+  if (res[1]!=0) res[1][3]=a11;
+  a11=(a09/a01);
+  a11=(a11*a08);
+  a10=(a27/a01);
+  a10=(a10*a26);
+  a11=(a11+a10);
+  a10=(a32/a01);
+  a10=(a10*a07);
+  a11=(a11+a10);
+  if (res[1]!=0) res[1][4]=a11;
+  a09=(a09/a01);
+  a09=(a09*a17);
+  a27=(a27/a01);
+  a27=(a27*a30);
+  a09=(a09+a27);
+  a32=(a32/a01);
+  a32=(a32*a16);
+  a09=(a09+a32);
+  if (res[1]!=0) res[1][5]=a09;
+  a08=(a13*a08);
+  a26=(a28*a26);
+  a08=(a08+a26);
+  a07=(a12*a07);
+  a08=(a08+a07);
+  if (res[1]!=0) res[1][6]=a08;
+  a13=(a13*a17);
+  a28=(a28*a30);
+  a13=(a13+a28);
+  a12=(a12*a16);
+  a13=(a13+a12);
+  if (res[1]!=0) res[1][7]=a13;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g3_grad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f8(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g3_grad_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g3_grad_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g3_grad_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g3_grad_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_green_g3_grad_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_green_g3_grad_n_out(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_real cable2d_axial_green_g3_grad_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_green_g3_grad_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_green_g3_grad_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    case 1: return "gradient";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_green_g3_grad_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_green_g3_grad_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s2;
+    case 1: return casadi_s0;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g3_grad_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 2;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g3_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 2*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* cable2d_axial_green_g4:(q[8],p[2])->(energy,gradient[8],hessian[8x8]) */
+static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
+  casadi_real a36, a37, a38, a39, a40, a41, a42, a43, a44, a45, a46, a47;
+  casadi_real a48, a49, a50, a51, a52, a53, a54, a55, a56, a57, a58, a59;
+  casadi_real a60, a61, a62, a63, a64, a65, a66, a67, a68, a69, a70, a71;
+  casadi_real a72, a73, a74, a75, a76, a77, a78, a79;
+  a00=1.7392742256872679e-01;
+  a01=arg[1]? arg[1][0] : 0;
+  a02=(a00*a01);
+  a03=arg[1]? arg[1][1] : 0;
+  a04=2.;
+  a05=(a03/a04);
+  a06=-3.8766637928128622e-01;
+  a07=arg[0]? arg[0][0] : 0;
+  a08=(a06*a07);
+  a09=3.8766637928128622e-01;
+  a10=arg[0]? arg[0][4] : 0;
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a08=(a08/a01);
+  a11=7.3673496615638323e-01;
+  a12=arg[0]? arg[0][2] : 0;
+  a13=(a11*a12);
+  a08=(a08+a13);
+  a13=-1.2440134543766938e-01;
+  a14=arg[0]? arg[0][6] : 0;
+  a15=(a13*a14);
+  a08=(a08+a15);
+  a15=casadi_sq(a08);
+  a16=arg[0]? arg[0][1] : 0;
+  a17=(a06*a16);
+  a18=arg[0]? arg[0][5] : 0;
+  a19=(a09*a18);
+  a17=(a17+a19);
+  a17=(a17/a01);
+  a19=arg[0]? arg[0][3] : 0;
+  a20=(a11*a19);
+  a17=(a17+a20);
+  a20=arg[0]? arg[0][7] : 0;
+  a21=(a13*a20);
+  a17=(a17+a21);
+  a21=casadi_sq(a17);
+  a15=(a15+a21);
+  a21=1.;
+  a15=(a15-a21);
+  a22=(a15/a04);
+  a22=casadi_sq(a22);
+  a22=(a05*a22);
+  a22=(a02*a22);
+  a23=3.2607257743127321e-01;
+  a24=(a23*a01);
+  a25=(a03/a04);
+  a26=-1.3266193350044282e+00;
+  a27=(a26*a07);
+  a28=1.3266193350044282e+00;
+  a29=(a28*a10);
+  a27=(a27+a29);
+  a27=(a27/a01);
+  a29=6.6808542902140333e-03;
+  a30=(a29*a12);
+  a27=(a27+a30);
+  a30=-3.3330018929464222e-01;
+  a31=(a30*a14);
+  a27=(a27+a31);
+  a31=casadi_sq(a27);
+  a32=(a26*a16);
+  a33=(a28*a18);
+  a32=(a32+a33);
+  a32=(a32/a01);
+  a33=(a29*a19);
+  a32=(a32+a33);
+  a33=(a30*a20);
+  a32=(a32+a33);
+  a33=casadi_sq(a32);
+  a31=(a31+a33);
+  a31=(a31-a21);
+  a33=(a31/a04);
+  a33=casadi_sq(a33);
+  a33=(a25*a33);
+  a33=(a24*a33);
+  a22=(a22+a33);
+  a23=(a23*a01);
+  a33=(a03/a04);
+  a34=-1.3266193350044277e+00;
+  a35=(a34*a07);
+  a36=1.3266193350044277e+00;
+  a37=(a36*a10);
+  a35=(a35+a37);
+  a35=(a35/a01);
+  a37=-3.3330018929464211e-01;
+  a38=(a37*a12);
+  a35=(a35+a38);
+  a38=6.6808542902141443e-03;
+  a39=(a38*a14);
+  a35=(a35+a39);
+  a39=casadi_sq(a35);
+  a40=(a34*a16);
+  a41=(a36*a18);
+  a40=(a40+a41);
+  a40=(a40/a01);
+  a41=(a37*a19);
+  a40=(a40+a41);
+  a41=(a38*a20);
+  a40=(a40+a41);
+  a41=casadi_sq(a40);
+  a39=(a39+a41);
+  a39=(a39-a21);
+  a41=(a39/a04);
+  a41=casadi_sq(a41);
+  a41=(a33*a41);
+  a41=(a23*a41);
+  a22=(a22+a41);
+  a00=(a00*a01);
+  a03=(a03/a04);
+  a41=-3.8766637928128667e-01;
+  a07=(a41*a07);
+  a42=3.8766637928128667e-01;
+  a10=(a42*a10);
+  a07=(a07+a10);
+  a07=(a07/a01);
+  a10=-1.2440134543766934e-01;
+  a12=(a10*a12);
+  a07=(a07+a12);
+  a12=7.3673496615638312e-01;
+  a14=(a12*a14);
+  a07=(a07+a14);
+  a14=casadi_sq(a07);
+  a16=(a41*a16);
+  a18=(a42*a18);
+  a16=(a16+a18);
+  a16=(a16/a01);
+  a19=(a10*a19);
+  a16=(a16+a19);
+  a20=(a12*a20);
+  a16=(a16+a20);
+  a20=casadi_sq(a16);
+  a14=(a14+a20);
+  a14=(a14-a21);
+  a04=(a14/a04);
+  a04=casadi_sq(a04);
+  a04=(a03*a04);
+  a04=(a00*a04);
+  a22=(a22+a04);
+  if (res[0]!=0) res[0][0]=a22;
+  a22=(a06/a01);
+  a04=(2.*a08);
+  a21=5.0000000000000000e-01;
+  a20=(a05*a02);
+  a20=(a15*a20);
+  a20=(a21*a20);
+  a04=(a04*a20);
+  a19=(a22*a04);
+  a18=(a26/a01);
+  a43=(2.*a27);
+  a44=(a25*a24);
+  a44=(a31*a44);
+  a44=(a21*a44);
+  a43=(a43*a44);
+  a45=(a18*a43);
+  a19=(a19+a45);
+  a45=(a34/a01);
+  a46=(2.*a35);
+  a47=(a33*a23);
+  a47=(a39*a47);
+  a47=(a21*a47);
+  a46=(a46*a47);
+  a48=(a45*a46);
+  a19=(a19+a48);
+  a48=(a41/a01);
+  a49=(2.*a07);
+  a50=(a03*a00);
+  a50=(a14*a50);
+  a50=(a21*a50);
+  a49=(a49*a50);
+  a51=(a48*a49);
+  a19=(a19+a51);
+  if (res[1]!=0) res[1][0]=a19;
+  a06=(a06/a01);
+  a19=(2.*a17);
+  a19=(a19*a20);
+  a20=(a06*a19);
+  a26=(a26/a01);
+  a51=(2.*a32);
+  a51=(a51*a44);
+  a44=(a26*a51);
+  a20=(a20+a44);
+  a34=(a34/a01);
+  a44=(2.*a40);
+  a44=(a44*a47);
+  a47=(a34*a44);
+  a20=(a20+a47);
+  a41=(a41/a01);
+  a47=(2.*a16);
+  a47=(a47*a50);
+  a50=(a41*a47);
+  a20=(a20+a50);
+  if (res[1]!=0) res[1][1]=a20;
+  a20=(a11*a04);
+  a50=(a29*a43);
+  a20=(a20+a50);
+  a50=(a37*a46);
+  a20=(a20+a50);
+  a50=(a10*a49);
+  a20=(a20+a50);
+  if (res[1]!=0) res[1][2]=a20;
+  a20=(a11*a19);
+  a50=(a29*a51);
+  a20=(a20+a50);
+  a50=(a37*a44);
+  a20=(a20+a50);
+  a50=(a10*a47);
+  a20=(a20+a50);
+  if (res[1]!=0) res[1][3]=a20;
+  a20=(a09/a01);
+  a50=(a20*a04);
+  a52=(a28/a01);
+  a53=(a52*a43);
+  a50=(a50+a53);
+  a53=(a36/a01);
+  a54=(a53*a46);
+  a50=(a50+a54);
+  a54=(a42/a01);
+  a55=(a54*a49);
+  a50=(a50+a55);
+  if (res[1]!=0) res[1][4]=a50;
+  a09=(a09/a01);
+  a50=(a09*a19);
+  a28=(a28/a01);
+  a55=(a28*a51);
+  a50=(a50+a55);
+  a36=(a36/a01);
+  a55=(a36*a44);
+  a50=(a50+a55);
+  a42=(a42/a01);
+  a01=(a42*a47);
+  a50=(a50+a01);
+  if (res[1]!=0) res[1][5]=a50;
+  a04=(a13*a04);
+  a43=(a30*a43);
+  a04=(a04+a43);
+  a46=(a38*a46);
+  a04=(a04+a46);
+  a49=(a12*a49);
+  a04=(a04+a49);
+  if (res[1]!=0) res[1][6]=a04;
+  a19=(a13*a19);
+  a51=(a30*a51);
+  a19=(a19+a51);
+  a44=(a38*a44);
+  a19=(a19+a44);
+  a47=(a12*a47);
+  a19=(a19+a47);
+  if (res[1]!=0) res[1][7]=a19;
+  a05=(a05*a02);
+  a15=(a15*a05);
+  a02=(2.*a08);
+  a08=(2.*a08);
+  a08=(a05*a08);
+  a08=(a21*a08);
+  a08=(a02*a08);
+  a08=(a15+a08);
+  a19=(a22*a08);
+  a19=(a19*a22);
+  a25=(a25*a24);
+  a31=(a31*a25);
+  a24=(2.*a27);
+  a27=(2.*a27);
+  a27=(a25*a27);
+  a27=(a21*a27);
+  a27=(a24*a27);
+  a27=(a31+a27);
+  a47=(a18*a27);
+  a47=(a47*a18);
+  a19=(a19+a47);
+  a33=(a33*a23);
+  a39=(a39*a33);
+  a23=(2.*a35);
+  a35=(2.*a35);
+  a35=(a33*a35);
+  a35=(a21*a35);
+  a35=(a23*a35);
+  a35=(a39+a35);
+  a47=(a45*a35);
+  a47=(a47*a45);
+  a19=(a19+a47);
+  a03=(a03*a00);
+  a14=(a14*a03);
+  a00=(2.*a07);
+  a07=(2.*a07);
+  a07=(a03*a07);
+  a07=(a21*a07);
+  a07=(a00*a07);
+  a07=(a14+a07);
+  a47=(a48*a07);
+  a47=(a47*a48);
+  a19=(a19+a47);
+  if (res[2]!=0) res[2][0]=a19;
+  a19=(2.*a17);
+  a05=(a05*a19);
+  a05=(a21*a05);
+  a02=(a02*a05);
+  a19=(a06*a02);
+  a19=(a19*a22);
+  a47=(2.*a32);
+  a25=(a25*a47);
+  a25=(a21*a25);
+  a24=(a24*a25);
+  a47=(a26*a24);
+  a47=(a47*a18);
+  a19=(a19+a47);
+  a47=(2.*a40);
+  a33=(a33*a47);
+  a33=(a21*a33);
+  a23=(a23*a33);
+  a47=(a34*a23);
+  a47=(a47*a45);
+  a19=(a19+a47);
+  a47=(2.*a16);
+  a03=(a03*a47);
+  a21=(a21*a03);
+  a00=(a00*a21);
+  a03=(a41*a00);
+  a03=(a03*a48);
+  a19=(a19+a03);
+  if (res[2]!=0) res[2][1]=a19;
+  a03=(a11*a08);
+  a03=(a03*a22);
+  a47=(a29*a27);
+  a47=(a47*a18);
+  a03=(a03+a47);
+  a47=(a37*a35);
+  a47=(a47*a45);
+  a03=(a03+a47);
+  a47=(a10*a07);
+  a47=(a47*a48);
+  a03=(a03+a47);
+  if (res[2]!=0) res[2][2]=a03;
+  a47=(a11*a02);
+  a47=(a47*a22);
+  a44=(a29*a24);
+  a44=(a44*a18);
+  a47=(a47+a44);
+  a44=(a37*a23);
+  a44=(a44*a45);
+  a47=(a47+a44);
+  a44=(a10*a00);
+  a44=(a44*a48);
+  a47=(a47+a44);
+  if (res[2]!=0) res[2][3]=a47;
+  a44=(a20*a08);
+  a51=(a44*a22);
+  a04=(a52*a27);
+  a49=(a04*a18);
+  a51=(a51+a49);
+  a49=(a53*a35);
+  a46=(a49*a45);
+  a51=(a51+a46);
+  a46=(a54*a07);
+  a43=(a46*a48);
+  a51=(a51+a43);
+  if (res[2]!=0) res[2][4]=a51;
+  a43=(a09*a02);
+  a50=(a43*a22);
+  a01=(a28*a24);
+  a55=(a01*a18);
+  a50=(a50+a55);
+  a55=(a36*a23);
+  a56=(a55*a45);
+  a50=(a50+a56);
+  a56=(a42*a00);
+  a57=(a56*a48);
+  a50=(a50+a57);
+  if (res[2]!=0) res[2][5]=a50;
+  a57=(a13*a08);
+  a58=(a57*a22);
+  a59=(a30*a27);
+  a60=(a59*a18);
+  a58=(a58+a60);
+  a60=(a38*a35);
+  a61=(a60*a45);
+  a58=(a58+a61);
+  a61=(a12*a07);
+  a62=(a61*a48);
+  a58=(a58+a62);
+  if (res[2]!=0) res[2][6]=a58;
+  a62=(a13*a02);
+  a22=(a62*a22);
+  a63=(a30*a24);
+  a18=(a63*a18);
+  a22=(a22+a18);
+  a18=(a38*a23);
+  a45=(a18*a45);
+  a22=(a22+a45);
+  a45=(a12*a00);
+  a48=(a45*a48);
+  a22=(a22+a48);
+  if (res[2]!=0) res[2][7]=a22;
+  if (res[2]!=0) res[2][8]=a19;
+  a17=(2.*a17);
+  a17=(a17*a05);
+  a15=(a15+a17);
+  a17=(a06*a15);
+  a17=(a17*a06);
+  a32=(2.*a32);
+  a32=(a32*a25);
+  a31=(a31+a32);
+  a32=(a26*a31);
+  a32=(a32*a26);
+  a17=(a17+a32);
+  a40=(2.*a40);
+  a40=(a40*a33);
+  a39=(a39+a40);
+  a40=(a34*a39);
+  a40=(a40*a34);
+  a17=(a17+a40);
+  a16=(2.*a16);
+  a16=(a16*a21);
+  a14=(a14+a16);
+  a16=(a41*a14);
+  a16=(a16*a41);
+  a17=(a17+a16);
+  if (res[2]!=0) res[2][9]=a17;
+  a17=(a11*a02);
+  a17=(a17*a06);
+  a16=(a29*a24);
+  a16=(a16*a26);
+  a17=(a17+a16);
+  a16=(a37*a23);
+  a16=(a16*a34);
+  a17=(a17+a16);
+  a16=(a10*a00);
+  a16=(a16*a41);
+  a17=(a17+a16);
+  if (res[2]!=0) res[2][10]=a17;
+  a16=(a11*a15);
+  a16=(a16*a06);
+  a21=(a29*a31);
+  a21=(a21*a26);
+  a16=(a16+a21);
+  a21=(a37*a39);
+  a21=(a21*a34);
+  a16=(a16+a21);
+  a21=(a10*a14);
+  a21=(a21*a41);
+  a16=(a16+a21);
+  if (res[2]!=0) res[2][11]=a16;
+  a21=(a20*a02);
+  a40=(a21*a06);
+  a33=(a52*a24);
+  a32=(a33*a26);
+  a40=(a40+a32);
+  a32=(a53*a23);
+  a25=(a32*a34);
+  a40=(a40+a25);
+  a25=(a54*a00);
+  a05=(a25*a41);
+  a40=(a40+a05);
+  if (res[2]!=0) res[2][12]=a40;
+  a05=(a09*a15);
+  a19=(a05*a06);
+  a48=(a28*a31);
+  a64=(a48*a26);
+  a19=(a19+a64);
+  a64=(a36*a39);
+  a65=(a64*a34);
+  a19=(a19+a65);
+  a65=(a42*a14);
+  a66=(a65*a41);
+  a19=(a19+a66);
+  if (res[2]!=0) res[2][13]=a19;
+  a66=(a13*a02);
+  a67=(a66*a06);
+  a68=(a30*a24);
+  a69=(a68*a26);
+  a67=(a67+a69);
+  a69=(a38*a23);
+  a70=(a69*a34);
+  a67=(a67+a70);
+  a70=(a12*a00);
+  a71=(a70*a41);
+  a67=(a67+a71);
+  if (res[2]!=0) res[2][14]=a67;
+  a13=(a13*a15);
+  a06=(a13*a06);
+  a30=(a30*a31);
+  a26=(a30*a26);
+  a06=(a06+a26);
+  a38=(a38*a39);
+  a34=(a38*a34);
+  a06=(a06+a34);
+  a12=(a12*a14);
+  a41=(a12*a41);
+  a06=(a06+a41);
+  if (res[2]!=0) res[2][15]=a06;
+  if (res[2]!=0) res[2][16]=a03;
+  if (res[2]!=0) res[2][17]=a17;
+  a17=5.4277841035744712e-01;
+  a03=(a17*a08);
+  a41=4.4633814047071252e-05;
+  a34=(a41*a27);
+  a03=(a03+a34);
+  a34=1.1108901618384427e-01;
+  a26=(a34*a35);
+  a03=(a03+a26);
+  a26=1.5475694746702335e-02;
+  a71=(a26*a07);
+  a03=(a03+a71);
+  if (res[2]!=0) res[2][18]=a03;
+  a03=(a17*a02);
+  a71=(a41*a24);
+  a03=(a03+a71);
+  a71=(a34*a23);
+  a03=(a03+a71);
+  a71=(a26*a00);
+  a03=(a03+a71);
+  if (res[2]!=0) res[2][19]=a03;
+  a71=(a11*a44);
+  a72=(a29*a04);
+  a71=(a71+a72);
+  a72=(a37*a49);
+  a71=(a71+a72);
+  a72=(a10*a46);
+  a71=(a71+a72);
+  if (res[2]!=0) res[2][20]=a71;
+  a72=(a11*a43);
+  a73=(a29*a01);
+  a72=(a72+a73);
+  a73=(a37*a55);
+  a72=(a72+a73);
+  a73=(a10*a56);
+  a72=(a72+a73);
+  if (res[2]!=0) res[2][21]=a72;
+  a73=-9.1650821020829887e-02;
+  a74=(a73*a08);
+  a75=-2.2267299995782598e-03;
+  a76=(a75*a27);
+  a74=(a74+a76);
+  a76=-2.2267299995782962e-03;
+  a77=(a76*a35);
+  a74=(a74+a77);
+  a77=-9.1650821020829845e-02;
+  a78=(a77*a07);
+  a74=(a74+a78);
+  if (res[2]!=0) res[2][22]=a74;
+  a78=(a73*a02);
+  a79=(a75*a24);
+  a78=(a78+a79);
+  a79=(a76*a23);
+  a78=(a78+a79);
+  a79=(a77*a00);
+  a78=(a78+a79);
+  if (res[2]!=0) res[2][23]=a78;
+  if (res[2]!=0) res[2][24]=a47;
+  if (res[2]!=0) res[2][25]=a16;
+  if (res[2]!=0) res[2][26]=a03;
+  a17=(a17*a15);
+  a41=(a41*a31);
+  a17=(a17+a41);
+  a34=(a34*a39);
+  a17=(a17+a34);
+  a26=(a26*a14);
+  a17=(a17+a26);
+  if (res[2]!=0) res[2][27]=a17;
+  a21=(a11*a21);
+  a33=(a29*a33);
+  a21=(a21+a33);
+  a32=(a37*a32);
+  a21=(a21+a32);
+  a25=(a10*a25);
+  a21=(a21+a25);
+  if (res[2]!=0) res[2][28]=a21;
+  a11=(a11*a05);
+  a29=(a29*a48);
+  a11=(a11+a29);
+  a37=(a37*a64);
+  a11=(a11+a37);
+  a10=(a10*a65);
+  a11=(a11+a10);
+  if (res[2]!=0) res[2][29]=a11;
+  a10=(a73*a02);
+  a37=(a75*a24);
+  a10=(a10+a37);
+  a37=(a76*a23);
+  a10=(a10+a37);
+  a37=(a77*a00);
+  a10=(a10+a37);
+  if (res[2]!=0) res[2][30]=a10;
+  a73=(a73*a15);
+  a75=(a75*a31);
+  a73=(a73+a75);
+  a76=(a76*a39);
+  a73=(a73+a76);
+  a77=(a77*a14);
+  a73=(a73+a77);
+  if (res[2]!=0) res[2][31]=a73;
+  if (res[2]!=0) res[2][32]=a51;
+  if (res[2]!=0) res[2][33]=a40;
+  if (res[2]!=0) res[2][34]=a71;
+  if (res[2]!=0) res[2][35]=a21;
+  a44=(a44*a20);
+  a04=(a04*a52);
+  a44=(a44+a04);
+  a49=(a49*a53);
+  a44=(a44+a49);
+  a46=(a46*a54);
+  a44=(a44+a46);
+  if (res[2]!=0) res[2][36]=a44;
+  a43=(a43*a20);
+  a01=(a01*a52);
+  a43=(a43+a01);
+  a55=(a55*a53);
+  a43=(a43+a55);
+  a56=(a56*a54);
+  a43=(a43+a56);
+  if (res[2]!=0) res[2][37]=a43;
+  a57=(a57*a20);
+  a59=(a59*a52);
+  a57=(a57+a59);
+  a60=(a60*a53);
+  a57=(a57+a60);
+  a61=(a61*a54);
+  a57=(a57+a61);
+  if (res[2]!=0) res[2][38]=a57;
+  a62=(a62*a20);
+  a63=(a63*a52);
+  a62=(a62+a63);
+  a18=(a18*a53);
+  a62=(a62+a18);
+  a45=(a45*a54);
+  a62=(a62+a45);
+  if (res[2]!=0) res[2][39]=a62;
+  if (res[2]!=0) res[2][40]=a50;
+  if (res[2]!=0) res[2][41]=a19;
+  if (res[2]!=0) res[2][42]=a72;
+  if (res[2]!=0) res[2][43]=a11;
+  if (res[2]!=0) res[2][44]=a43;
+  a05=(a05*a09);
+  a48=(a48*a28);
+  a05=(a05+a48);
+  a64=(a64*a36);
+  a05=(a05+a64);
+  a65=(a65*a42);
+  a05=(a05+a65);
+  if (res[2]!=0) res[2][45]=a05;
+  a66=(a66*a09);
+  a68=(a68*a28);
+  a66=(a66+a68);
+  a69=(a69*a36);
+  a66=(a66+a69);
+  a70=(a70*a42);
+  a66=(a66+a70);
+  if (res[2]!=0) res[2][46]=a66;
+  a13=(a13*a09);
+  a30=(a30*a28);
+  a13=(a13+a30);
+  a38=(a38*a36);
+  a13=(a13+a38);
+  a12=(a12*a42);
+  a13=(a13+a12);
+  if (res[2]!=0) res[2][47]=a13;
+  if (res[2]!=0) res[2][48]=a58;
+  if (res[2]!=0) res[2][49]=a67;
+  if (res[2]!=0) res[2][50]=a74;
+  if (res[2]!=0) res[2][51]=a10;
+  if (res[2]!=0) res[2][52]=a57;
+  if (res[2]!=0) res[2][53]=a66;
+  a66=1.5475694746702346e-02;
+  a08=(a66*a08);
+  a57=1.1108901618384434e-01;
+  a27=(a57*a27);
+  a08=(a08+a27);
+  a27=4.4633814047072736e-05;
+  a35=(a27*a35);
+  a08=(a08+a35);
+  a35=5.4277841035744701e-01;
+  a07=(a35*a07);
+  a08=(a08+a07);
+  if (res[2]!=0) res[2][54]=a08;
+  a02=(a66*a02);
+  a24=(a57*a24);
+  a02=(a02+a24);
+  a23=(a27*a23);
+  a02=(a02+a23);
+  a00=(a35*a00);
+  a02=(a02+a00);
+  if (res[2]!=0) res[2][55]=a02;
+  if (res[2]!=0) res[2][56]=a22;
+  if (res[2]!=0) res[2][57]=a06;
+  if (res[2]!=0) res[2][58]=a78;
+  if (res[2]!=0) res[2][59]=a73;
+  if (res[2]!=0) res[2][60]=a62;
+  if (res[2]!=0) res[2][61]=a13;
+  if (res[2]!=0) res[2][62]=a02;
+  a66=(a66*a15);
+  a57=(a57*a31);
+  a66=(a66+a57);
+  a27=(a27*a39);
+  a66=(a66+a27);
+  a35=(a35*a14);
+  a66=(a66+a35);
+  if (res[2]!=0) res[2][63]=a66;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f9(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g4_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g4_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g4_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g4_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_green_g4_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_green_g4_n_out(void) { return 3;}
+
+CASADI_SYMBOL_EXPORT casadi_real cable2d_axial_green_g4_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_green_g4_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_green_g4_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    case 1: return "gradient";
+    case 2: return "hessian";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_green_g4_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_green_g4_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s2;
+    case 1: return casadi_s0;
+    case 2: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g4_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 3;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g4_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 3*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* cable2d_axial_green_g4_energy:(q[8],p[2])->(energy) */
+static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22;
+  a00=1.7392742256872679e-01;
+  a01=arg[1]? arg[1][0] : 0;
+  a02=(a00*a01);
+  a03=arg[1]? arg[1][1] : 0;
+  a04=2.;
+  a05=(a03/a04);
+  a06=-3.8766637928128622e-01;
+  a07=arg[0]? arg[0][0] : 0;
+  a08=(a06*a07);
+  a09=3.8766637928128622e-01;
+  a10=arg[0]? arg[0][4] : 0;
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a08=(a08/a01);
+  a11=7.3673496615638323e-01;
+  a12=arg[0]? arg[0][2] : 0;
+  a13=(a11*a12);
+  a08=(a08+a13);
+  a13=-1.2440134543766938e-01;
+  a14=arg[0]? arg[0][6] : 0;
+  a15=(a13*a14);
+  a08=(a08+a15);
+  a08=casadi_sq(a08);
+  a15=arg[0]? arg[0][1] : 0;
+  a06=(a06*a15);
+  a16=arg[0]? arg[0][5] : 0;
+  a09=(a09*a16);
+  a06=(a06+a09);
+  a06=(a06/a01);
+  a09=arg[0]? arg[0][3] : 0;
+  a11=(a11*a09);
+  a06=(a06+a11);
+  a11=arg[0]? arg[0][7] : 0;
+  a13=(a13*a11);
+  a06=(a06+a13);
+  a06=casadi_sq(a06);
+  a08=(a08+a06);
+  a06=1.;
+  a08=(a08-a06);
+  a08=(a08/a04);
+  a08=casadi_sq(a08);
+  a05=(a05*a08);
+  a02=(a02*a05);
+  a05=3.2607257743127321e-01;
+  a08=(a05*a01);
+  a13=(a03/a04);
+  a17=-1.3266193350044282e+00;
+  a18=(a17*a07);
+  a19=1.3266193350044282e+00;
+  a20=(a19*a10);
+  a18=(a18+a20);
+  a18=(a18/a01);
+  a20=6.6808542902140333e-03;
+  a21=(a20*a12);
+  a18=(a18+a21);
+  a21=-3.3330018929464222e-01;
+  a22=(a21*a14);
+  a18=(a18+a22);
+  a18=casadi_sq(a18);
+  a17=(a17*a15);
+  a19=(a19*a16);
+  a17=(a17+a19);
+  a17=(a17/a01);
+  a20=(a20*a09);
+  a17=(a17+a20);
+  a21=(a21*a11);
+  a17=(a17+a21);
+  a17=casadi_sq(a17);
+  a18=(a18+a17);
+  a18=(a18-a06);
+  a18=(a18/a04);
+  a18=casadi_sq(a18);
+  a13=(a13*a18);
+  a08=(a08*a13);
+  a02=(a02+a08);
+  a05=(a05*a01);
+  a08=(a03/a04);
+  a13=-1.3266193350044277e+00;
+  a18=(a13*a07);
+  a17=1.3266193350044277e+00;
+  a21=(a17*a10);
+  a18=(a18+a21);
+  a18=(a18/a01);
+  a21=-3.3330018929464211e-01;
+  a20=(a21*a12);
+  a18=(a18+a20);
+  a20=6.6808542902141443e-03;
+  a19=(a20*a14);
+  a18=(a18+a19);
+  a18=casadi_sq(a18);
+  a13=(a13*a15);
+  a17=(a17*a16);
+  a13=(a13+a17);
+  a13=(a13/a01);
+  a21=(a21*a09);
+  a13=(a13+a21);
+  a20=(a20*a11);
+  a13=(a13+a20);
+  a13=casadi_sq(a13);
+  a18=(a18+a13);
+  a18=(a18-a06);
+  a18=(a18/a04);
+  a18=casadi_sq(a18);
+  a08=(a08*a18);
+  a05=(a05*a08);
+  a02=(a02+a05);
+  a00=(a00*a01);
+  a03=(a03/a04);
+  a05=-3.8766637928128667e-01;
+  a07=(a05*a07);
+  a08=3.8766637928128667e-01;
+  a10=(a08*a10);
+  a07=(a07+a10);
+  a07=(a07/a01);
+  a10=-1.2440134543766934e-01;
+  a12=(a10*a12);
+  a07=(a07+a12);
+  a12=7.3673496615638312e-01;
+  a14=(a12*a14);
+  a07=(a07+a14);
+  a07=casadi_sq(a07);
+  a05=(a05*a15);
+  a08=(a08*a16);
+  a05=(a05+a08);
+  a05=(a05/a01);
+  a10=(a10*a09);
+  a05=(a05+a10);
+  a12=(a12*a11);
+  a05=(a05+a12);
+  a05=casadi_sq(a05);
+  a07=(a07+a05);
+  a07=(a07-a06);
+  a07=(a07/a04);
+  a07=casadi_sq(a07);
+  a03=(a03*a07);
+  a00=(a00*a03);
+  a02=(a02+a00);
+  if (res[0]!=0) res[0][0]=a02;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g4_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f10(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g4_energy_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g4_energy_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g4_energy_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g4_energy_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_green_g4_energy_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_green_g4_energy_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real cable2d_axial_green_g4_energy_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_green_g4_energy_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_green_g4_energy_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_green_g4_energy_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_green_g4_energy_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g4_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g4_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* adj1_cable2d_axial_green_g4_energy:(q[8],p[2],out_energy[1x1,0nz],adj_energy)->(adj_q[8],adj_p[2]) */
+static int casadi_f11(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
+  casadi_real a36, a37, a38, a39, a40, a41, a42, a43, a44, a45, a46, a47;
+  casadi_real a48, a49, a50, a51, a52, a53, a54, a55, a56, a57, a58, a59;
+  a00=-3.8766637928128667e-01;
+  a01=arg[0]? arg[0][0] : 0;
+  a02=(a00*a01);
+  a03=3.8766637928128667e-01;
+  a04=arg[0]? arg[0][4] : 0;
+  a05=(a03*a04);
+  a02=(a02+a05);
+  a05=arg[1]? arg[1][0] : 0;
+  a02=(a02/a05);
+  a06=-1.2440134543766934e-01;
+  a07=arg[0]? arg[0][2] : 0;
+  a08=(a06*a07);
+  a08=(a02+a08);
+  a09=7.3673496615638312e-01;
+  a10=arg[0]? arg[0][6] : 0;
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a11=(2.*a08);
+  a12=5.0000000000000000e-01;
+  a08=casadi_sq(a08);
+  a13=arg[0]? arg[0][1] : 0;
+  a14=(a00*a13);
+  a15=arg[0]? arg[0][5] : 0;
+  a16=(a03*a15);
+  a14=(a14+a16);
+  a14=(a14/a05);
+  a16=arg[0]? arg[0][3] : 0;
+  a17=(a06*a16);
+  a17=(a14+a17);
+  a18=arg[0]? arg[0][7] : 0;
+  a19=(a09*a18);
+  a17=(a17+a19);
+  a19=casadi_sq(a17);
+  a08=(a08+a19);
+  a19=1.;
+  a08=(a08-a19);
+  a20=arg[1]? arg[1][1] : 0;
+  a21=2.;
+  a22=(a20/a21);
+  a23=1.7392742256872679e-01;
+  a24=(a23*a05);
+  a25=arg[3]? arg[3][0] : 0;
+  a24=(a24*a25);
+  a26=(a22*a24);
+  a26=(a08*a26);
+  a26=(a12*a26);
+  a11=(a11*a26);
+  a27=(a11/a05);
+  a28=(a00*a27);
+  a29=-1.3266193350044277e+00;
+  a30=(a29*a01);
+  a31=1.3266193350044277e+00;
+  a32=(a31*a04);
+  a30=(a30+a32);
+  a30=(a30/a05);
+  a32=-3.3330018929464211e-01;
+  a33=(a32*a07);
+  a33=(a30+a33);
+  a34=6.6808542902141443e-03;
+  a35=(a34*a10);
+  a33=(a33+a35);
+  a35=(2.*a33);
+  a33=casadi_sq(a33);
+  a36=(a29*a13);
+  a37=(a31*a15);
+  a36=(a36+a37);
+  a36=(a36/a05);
+  a37=(a32*a16);
+  a37=(a36+a37);
+  a38=(a34*a18);
+  a37=(a37+a38);
+  a38=casadi_sq(a37);
+  a33=(a33+a38);
+  a33=(a33-a19);
+  a38=(a20/a21);
+  a39=3.2607257743127321e-01;
+  a40=(a39*a05);
+  a40=(a40*a25);
+  a41=(a38*a40);
+  a41=(a33*a41);
+  a41=(a12*a41);
+  a35=(a35*a41);
+  a42=(a35/a05);
+  a43=(a29*a42);
+  a28=(a28+a43);
+  a43=-1.3266193350044282e+00;
+  a44=(a43*a01);
+  a45=1.3266193350044282e+00;
+  a46=(a45*a04);
+  a44=(a44+a46);
+  a44=(a44/a05);
+  a46=6.6808542902140333e-03;
+  a47=(a46*a07);
+  a47=(a44+a47);
+  a48=-3.3330018929464222e-01;
+  a49=(a48*a10);
+  a47=(a47+a49);
+  a49=(2.*a47);
+  a47=casadi_sq(a47);
+  a50=(a43*a13);
+  a51=(a45*a15);
+  a50=(a50+a51);
+  a50=(a50/a05);
+  a51=(a46*a16);
+  a51=(a50+a51);
+  a52=(a48*a18);
+  a51=(a51+a52);
+  a52=casadi_sq(a51);
+  a47=(a47+a52);
+  a47=(a47-a19);
+  a52=(a20/a21);
+  a53=(a39*a05);
+  a53=(a53*a25);
+  a54=(a52*a53);
+  a54=(a47*a54);
+  a54=(a12*a54);
+  a49=(a49*a54);
+  a55=(a49/a05);
+  a56=(a43*a55);
+  a28=(a28+a56);
+  a56=-3.8766637928128622e-01;
+  a01=(a56*a01);
+  a57=3.8766637928128622e-01;
+  a04=(a57*a04);
+  a01=(a01+a04);
+  a01=(a01/a05);
+  a04=7.3673496615638323e-01;
+  a07=(a04*a07);
+  a07=(a01+a07);
+  a58=-1.2440134543766938e-01;
+  a10=(a58*a10);
+  a07=(a07+a10);
+  a10=(2.*a07);
+  a07=casadi_sq(a07);
+  a13=(a56*a13);
+  a15=(a57*a15);
+  a13=(a13+a15);
+  a13=(a13/a05);
+  a16=(a04*a16);
+  a16=(a13+a16);
+  a18=(a58*a18);
+  a16=(a16+a18);
+  a18=casadi_sq(a16);
+  a07=(a07+a18);
+  a07=(a07-a19);
+  a20=(a20/a21);
+  a19=(a23*a05);
+  a19=(a19*a25);
+  a18=(a20*a19);
+  a18=(a07*a18);
+  a18=(a12*a18);
+  a10=(a10*a18);
+  a15=(a10/a05);
+  a59=(a56*a15);
+  a28=(a28+a59);
+  if (res[0]!=0) res[0][0]=a28;
+  a17=(2.*a17);
+  a17=(a17*a26);
+  a26=(a17/a05);
+  a00=(a00*a26);
+  a37=(2.*a37);
+  a37=(a37*a41);
+  a41=(a37/a05);
+  a29=(a29*a41);
+  a00=(a00+a29);
+  a51=(2.*a51);
+  a51=(a51*a54);
+  a54=(a51/a05);
+  a43=(a43*a54);
+  a00=(a00+a43);
+  a16=(2.*a16);
+  a16=(a16*a18);
+  a18=(a16/a05);
+  a56=(a56*a18);
+  a00=(a00+a56);
+  if (res[0]!=0) res[0][1]=a00;
+  a00=(a06*a11);
+  a56=(a32*a35);
+  a00=(a00+a56);
+  a56=(a46*a49);
+  a00=(a00+a56);
+  a56=(a04*a10);
+  a00=(a00+a56);
+  if (res[0]!=0) res[0][2]=a00;
+  a06=(a06*a17);
+  a32=(a32*a37);
+  a06=(a06+a32);
+  a46=(a46*a51);
+  a06=(a06+a46);
+  a04=(a04*a16);
+  a06=(a06+a04);
+  if (res[0]!=0) res[0][3]=a06;
+  a27=(a03*a27);
+  a42=(a31*a42);
+  a27=(a27+a42);
+  a55=(a45*a55);
+  a27=(a27+a55);
+  a15=(a57*a15);
+  a27=(a27+a15);
+  if (res[0]!=0) res[0][4]=a27;
+  a03=(a03*a26);
+  a31=(a31*a41);
+  a03=(a03+a31);
+  a45=(a45*a54);
+  a03=(a03+a45);
+  a57=(a57*a18);
+  a03=(a03+a57);
+  if (res[0]!=0) res[0][5]=a03;
+  a03=(a09*a11);
+  a57=(a34*a35);
+  a03=(a03+a57);
+  a57=(a48*a49);
+  a03=(a03+a57);
+  a57=(a58*a10);
+  a03=(a03+a57);
+  if (res[0]!=0) res[0][6]=a03;
+  a09=(a09*a17);
+  a34=(a34*a37);
+  a09=(a09+a34);
+  a48=(a48*a51);
+  a09=(a09+a48);
+  a58=(a58*a16);
+  a09=(a09+a58);
+  if (res[0]!=0) res[0][7]=a09;
+  a08=(a08/a21);
+  a08=casadi_sq(a08);
+  a22=(a22*a08);
+  a22=(a22*a25);
+  a22=(a23*a22);
+  a14=(a14/a05);
+  a14=(a14*a17);
+  a02=(a02/a05);
+  a02=(a02*a11);
+  a14=(a14+a02);
+  a22=(a22-a14);
+  a36=(a36/a05);
+  a36=(a36*a37);
+  a22=(a22-a36);
+  a30=(a30/a05);
+  a30=(a30*a35);
+  a22=(a22-a30);
+  a33=(a33/a21);
+  a33=casadi_sq(a33);
+  a38=(a38*a33);
+  a38=(a38*a25);
+  a38=(a39*a38);
+  a22=(a22+a38);
+  a50=(a50/a05);
+  a50=(a50*a51);
+  a22=(a22-a50);
+  a44=(a44/a05);
+  a44=(a44*a49);
+  a22=(a22-a44);
+  a47=(a47/a21);
+  a47=casadi_sq(a47);
+  a52=(a52*a47);
+  a52=(a52*a25);
+  a39=(a39*a52);
+  a22=(a22+a39);
+  a13=(a13/a05);
+  a13=(a13*a16);
+  a22=(a22-a13);
+  a01=(a01/a05);
+  a01=(a01*a10);
+  a22=(a22-a01);
+  a07=(a07/a21);
+  a07=casadi_sq(a07);
+  a20=(a20*a07);
+  a20=(a20*a25);
+  a23=(a23*a20);
+  a22=(a22+a23);
+  if (res[1]!=0) res[1][0]=a22;
+  a08=(a08*a24);
+  a08=(a12*a08);
+  a33=(a33*a40);
+  a33=(a12*a33);
+  a08=(a08+a33);
+  a47=(a47*a53);
+  a47=(a12*a47);
+  a08=(a08+a47);
+  a07=(a07*a19);
+  a12=(a12*a07);
+  a08=(a08+a12);
+  if (res[1]!=0) res[1][1]=a08;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_green_g4_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f11(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_green_g4_energy_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void adj1_cable2d_axial_green_g4_energy_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void adj1_cable2d_axial_green_g4_energy_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void adj1_cable2d_axial_green_g4_energy_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int adj1_cable2d_axial_green_g4_energy_n_in(void) { return 4;}
+
+CASADI_SYMBOL_EXPORT casadi_int adj1_cable2d_axial_green_g4_energy_n_out(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_real adj1_cable2d_axial_green_g4_energy_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* adj1_cable2d_axial_green_g4_energy_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    case 2: return "out_energy";
+    case 3: return "adj_energy";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* adj1_cable2d_axial_green_g4_energy_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "adj_q";
+    case 1: return "adj_p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* adj1_cable2d_axial_green_g4_energy_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    case 2: return casadi_s4;
+    case 3: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* adj1_cable2d_axial_green_g4_energy_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_green_g4_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 4;
+  if (sz_res) *sz_res = 2;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_green_g4_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 4*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 2*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* cable2d_axial_green_g4_grad:(q[8],p[2])->(energy,gradient[8]) */
+static int casadi_f12(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
+  casadi_real a36, a37, a38, a39, a40, a41, a42;
+  a00=1.7392742256872679e-01;
+  a01=arg[1]? arg[1][0] : 0;
+  a02=(a00*a01);
+  a03=arg[1]? arg[1][1] : 0;
+  a04=2.;
+  a05=(a03/a04);
+  a06=-3.8766637928128622e-01;
+  a07=arg[0]? arg[0][0] : 0;
+  a08=(a06*a07);
+  a09=3.8766637928128622e-01;
+  a10=arg[0]? arg[0][4] : 0;
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a08=(a08/a01);
+  a11=7.3673496615638323e-01;
+  a12=arg[0]? arg[0][2] : 0;
+  a13=(a11*a12);
+  a08=(a08+a13);
+  a13=-1.2440134543766938e-01;
+  a14=arg[0]? arg[0][6] : 0;
+  a15=(a13*a14);
+  a08=(a08+a15);
+  a15=casadi_sq(a08);
+  a16=arg[0]? arg[0][1] : 0;
+  a17=(a06*a16);
+  a18=arg[0]? arg[0][5] : 0;
+  a19=(a09*a18);
+  a17=(a17+a19);
+  a17=(a17/a01);
+  a19=arg[0]? arg[0][3] : 0;
+  a20=(a11*a19);
+  a17=(a17+a20);
+  a20=arg[0]? arg[0][7] : 0;
+  a21=(a13*a20);
+  a17=(a17+a21);
+  a21=casadi_sq(a17);
+  a15=(a15+a21);
+  a21=1.;
+  a15=(a15-a21);
+  a22=(a15/a04);
+  a22=casadi_sq(a22);
+  a22=(a05*a22);
+  a22=(a02*a22);
+  a23=3.2607257743127321e-01;
+  a24=(a23*a01);
+  a25=(a03/a04);
+  a26=-1.3266193350044282e+00;
+  a27=(a26*a07);
+  a28=1.3266193350044282e+00;
+  a29=(a28*a10);
+  a27=(a27+a29);
+  a27=(a27/a01);
+  a29=6.6808542902140333e-03;
+  a30=(a29*a12);
+  a27=(a27+a30);
+  a30=-3.3330018929464222e-01;
+  a31=(a30*a14);
+  a27=(a27+a31);
+  a31=casadi_sq(a27);
+  a32=(a26*a16);
+  a33=(a28*a18);
+  a32=(a32+a33);
+  a32=(a32/a01);
+  a33=(a29*a19);
+  a32=(a32+a33);
+  a33=(a30*a20);
+  a32=(a32+a33);
+  a33=casadi_sq(a32);
+  a31=(a31+a33);
+  a31=(a31-a21);
+  a33=(a31/a04);
+  a33=casadi_sq(a33);
+  a33=(a25*a33);
+  a33=(a24*a33);
+  a22=(a22+a33);
+  a23=(a23*a01);
+  a33=(a03/a04);
+  a34=-1.3266193350044277e+00;
+  a35=(a34*a07);
+  a36=1.3266193350044277e+00;
+  a37=(a36*a10);
+  a35=(a35+a37);
+  a35=(a35/a01);
+  a37=-3.3330018929464211e-01;
+  a38=(a37*a12);
+  a35=(a35+a38);
+  a38=6.6808542902141443e-03;
+  a39=(a38*a14);
+  a35=(a35+a39);
+  a39=casadi_sq(a35);
+  a40=(a34*a16);
+  a41=(a36*a18);
+  a40=(a40+a41);
+  a40=(a40/a01);
+  a41=(a37*a19);
+  a40=(a40+a41);
+  a41=(a38*a20);
+  a40=(a40+a41);
+  a41=casadi_sq(a40);
+  a39=(a39+a41);
+  a39=(a39-a21);
+  a41=(a39/a04);
+  a41=casadi_sq(a41);
+  a41=(a33*a41);
+  a41=(a23*a41);
+  a22=(a22+a41);
+  a00=(a00*a01);
+  a03=(a03/a04);
+  a41=-3.8766637928128667e-01;
+  a07=(a41*a07);
+  a42=3.8766637928128667e-01;
+  a10=(a42*a10);
+  a07=(a07+a10);
+  a07=(a07/a01);
+  a10=-1.2440134543766934e-01;
+  a12=(a10*a12);
+  a07=(a07+a12);
+  a12=7.3673496615638312e-01;
+  a14=(a12*a14);
+  a07=(a07+a14);
+  a14=casadi_sq(a07);
+  a16=(a41*a16);
+  a18=(a42*a18);
+  a16=(a16+a18);
+  a16=(a16/a01);
+  a19=(a10*a19);
+  a16=(a16+a19);
+  a20=(a12*a20);
+  a16=(a16+a20);
+  a20=casadi_sq(a16);
+  a14=(a14+a20);
+  a14=(a14-a21);
+  a04=(a14/a04);
+  a04=casadi_sq(a04);
+  a04=(a03*a04);
+  a04=(a00*a04);
+  a22=(a22+a04);
+  if (res[0]!=0) res[0][0]=a22;
+  a22=(a06/a01);
+  a08=(2.*a08);
+  a04=5.0000000000000000e-01;
+  a05=(a05*a02);
+  a15=(a15*a05);
+  a15=(a04*a15);
+  a08=(a08*a15);
+  a22=(a22*a08);
+  a05=(a26/a01);
+  a27=(2.*a27);
+  a25=(a25*a24);
+  a31=(a31*a25);
+  a31=(a04*a31);
+  a27=(a27*a31);
+  a05=(a05*a27);
+  a22=(a22+a05);
+  a05=(a34/a01);
+  a35=(2.*a35);
+  a33=(a33*a23);
+  a39=(a39*a33);
+  a39=(a04*a39);
+  a35=(a35*a39);
+  a05=(a05*a35);
+  a22=(a22+a05);
+  a05=(a41/a01);
+  a07=(2.*a07);
+  a03=(a03*a00);
+  a14=(a14*a03);
+  a04=(a04*a14);
+  a07=(a07*a04);
+  a05=(a05*a07);
+  a22=(a22+a05);
+  if (res[1]!=0) res[1][0]=a22;
+  a06=(a06/a01);
+  a17=(2.*a17);
+  a17=(a17*a15);
+  a06=(a06*a17);
+  a26=(a26/a01);
+  a32=(2.*a32);
+  a32=(a32*a31);
+  a26=(a26*a32);
+  a06=(a06+a26);
+  a34=(a34/a01);
+  a40=(2.*a40);
+  a40=(a40*a39);
+  a34=(a34*a40);
+  a06=(a06+a34);
+  a41=(a41/a01);
+  a16=(2.*a16);
+  a16=(a16*a04);
+  a41=(a41*a16);
+  a06=(a06+a41);
+  if (res[1]!=0) res[1][1]=a06;
+  a06=(a11*a08);
+  a41=(a29*a27);
+  a06=(a06+a41);
+  a41=(a37*a35);
+  a06=(a06+a41);
+  a41=(a10*a07);
+  a06=(a06+a41);
+  if (res[1]!=0) res[1][2]=a06;
+  a11=(a11*a17);
+  a29=(a29*a32);
+  a11=(a11+a29);
+  a37=(a37*a40);
+  a11=(a11+a37);
+  a10=(a10*a16);
+  a11=(a11+a10);
+  if (res[1]!=0) res[1][3]=a11;
+  a11=(a09/a01);
+  a11=(a11*a08);
+  a10=(a28/a01);
+  a10=(a10*a27);
+  a11=(a11+a10);
+  a10=(a36/a01);
+  a10=(a10*a35);
+  a11=(a11+a10);
+  a10=(a42/a01);
+  a10=(a10*a07);
+  a11=(a11+a10);
+  if (res[1]!=0) res[1][4]=a11;
+  a09=(a09/a01);
+  a09=(a09*a17);
+  a28=(a28/a01);
+  a28=(a28*a32);
+  a09=(a09+a28);
+  a36=(a36/a01);
+  a36=(a36*a40);
+  a09=(a09+a36);
+  a42=(a42/a01);
+  a42=(a42*a16);
+  a09=(a09+a42);
+  if (res[1]!=0) res[1][5]=a09;
+  a08=(a13*a08);
+  a27=(a30*a27);
+  a08=(a08+a27);
+  a35=(a38*a35);
+  a08=(a08+a35);
+  a07=(a12*a07);
+  a08=(a08+a07);
+  if (res[1]!=0) res[1][6]=a08;
+  a13=(a13*a17);
+  a30=(a30*a32);
+  a13=(a13+a30);
+  a38=(a38*a40);
+  a13=(a13+a38);
+  a12=(a12*a16);
+  a13=(a13+a12);
+  if (res[1]!=0) res[1][7]=a13;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g4_grad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f12(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g4_grad_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g4_grad_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g4_grad_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g4_grad_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_green_g4_grad_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_green_g4_grad_n_out(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_real cable2d_axial_green_g4_grad_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_green_g4_grad_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_green_g4_grad_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    case 1: return "gradient";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_green_g4_grad_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_green_g4_grad_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s2;
+    case 1: return casadi_s0;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g4_grad_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 2;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g4_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 2*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* cable2d_axial_green_g7:(q[8],p[2])->(energy,gradient[8],hessian[8x8]) */
+static int casadi_f13(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a000, a001, a002, a003, a004, a005, a006, a007, a008, a009, a010, a011;
+  casadi_real a012, a013, a014, a015, a016, a017, a018, a019, a020, a021, a022, a023;
+  casadi_real a024, a025, a026, a027, a028, a029, a030, a031, a032, a033, a034, a035;
+  casadi_real a036, a037, a038, a039, a040, a041, a042, a043, a044, a045, a046, a047;
+  casadi_real a048, a049, a050, a051, a052, a053, a054, a055, a056, a057, a058, a059;
+  casadi_real a060, a061, a062, a063, a064, a065, a066, a067, a068, a069, a070, a071;
+  casadi_real a072, a073, a074, a075, a076, a077, a078, a079, a080, a081, a082, a083;
+  casadi_real a084, a085, a086, a087, a088, a089, a090, a091, a092, a093, a094, a095;
+  casadi_real a096, a097, a098, a099, a100, a101, a102, a103, a104, a105, a106, a107;
+  casadi_real a108, a109, a110, a111, a112, a113, a114, a115, a116, a117, a118, a119;
+  casadi_real a120, a121, a122, a123, a124, a125, a126;
+  a000=6.4742483084434865e-02;
+  a001=arg[1]? arg[1][0] : 0;
+  a002=(a000*a001);
+  a003=arg[1]? arg[1][1] : 0;
+  a004=2.;
+  a005=(a003/a004);
+  a006=-1.4879125609255570e-01;
+  a007=arg[0]? arg[0][0] : 0;
+  a008=(a006*a007);
+  a009=1.4879125609255570e-01;
+  a010=arg[0]? arg[0][4] : 0;
+  a011=(a009*a010);
+  a008=(a008+a011);
+  a008=(a008/a001);
+  a011=9.0015832812510144e-01;
+  a012=arg[0]? arg[0][2] : 0;
+  a013=(a011*a012);
+  a008=(a008+a013);
+  a013=-4.8949584217657147e-02;
+  a014=arg[0]? arg[0][6] : 0;
+  a015=(a013*a014);
+  a008=(a008+a015);
+  a015=casadi_sq(a008);
+  a016=arg[0]? arg[0][1] : 0;
+  a017=(a006*a016);
+  a018=arg[0]? arg[0][5] : 0;
+  a019=(a009*a018);
+  a017=(a017+a019);
+  a017=(a017/a001);
+  a019=arg[0]? arg[0][3] : 0;
+  a020=(a011*a019);
+  a017=(a017+a020);
+  a020=arg[0]? arg[0][7] : 0;
+  a021=(a013*a020);
+  a017=(a017+a021);
+  a021=casadi_sq(a017);
+  a015=(a015+a021);
+  a021=1.;
+  a015=(a015-a021);
+  a022=(a015/a004);
+  a022=casadi_sq(a022);
+  a022=(a005*a022);
+  a022=(a002*a022);
+  a023=1.3985269574463843e-01;
+  a024=(a023*a001);
+  a025=(a003/a004);
+  a026=-6.7519725117533458e-01;
+  a027=(a026*a007);
+  a028=6.7519725117533458e-01;
+  a029=(a028*a010);
+  a027=(a027+a029);
+  a027=(a027/a001);
+  a029=5.3316696721202994e-01;
+  a030=(a029*a012);
+  a027=(a027+a030);
+  a030=-2.0836421838736452e-01;
+  a031=(a030*a014);
+  a027=(a027+a031);
+  a031=casadi_sq(a027);
+  a032=(a026*a016);
+  a033=(a028*a018);
+  a032=(a032+a033);
+  a032=(a032/a001);
+  a033=(a029*a019);
+  a032=(a032+a033);
+  a033=(a030*a020);
+  a032=(a032+a033);
+  a033=casadi_sq(a032);
+  a031=(a031+a033);
+  a031=(a031-a021);
+  a033=(a031/a004);
+  a033=casadi_sq(a033);
+  a033=(a025*a033);
+  a033=(a024*a033);
+  a022=(a022+a033);
+  a033=1.9091502525255935e-01;
+  a034=(a033*a001);
+  a035=(a003/a004);
+  a036=-1.2529345696551863e+00;
+  a037=(a036*a007);
+  a038=1.2529345696551863e+00;
+  a039=(a038*a010);
+  a037=(a037+a039);
+  a037=(a037/a001);
+  a039=7.6455290861105418e-02;
+  a040=(a039*a012);
+  a037=(a037+a040);
+  a040=-3.2938986051629177e-01;
+  a041=(a040*a014);
+  a037=(a037+a041);
+  a041=casadi_sq(a037);
+  a042=(a036*a016);
+  a043=(a038*a018);
+  a042=(a042+a043);
+  a042=(a042/a001);
+  a043=(a039*a019);
+  a042=(a042+a043);
+  a043=(a040*a020);
+  a042=(a042+a043);
+  a043=casadi_sq(a042);
+  a041=(a041+a043);
+  a041=(a041-a021);
+  a043=(a041/a004);
+  a043=casadi_sq(a043);
+  a043=(a035*a043);
+  a043=(a034*a043);
+  a022=(a022+a043);
+  a043=2.0897959183673465e-01;
+  a043=(a043*a001);
+  a044=(a003/a004);
+  a045=-1.5000000000000000e+00;
+  a046=(a045*a007);
+  a047=1.5000000000000000e+00;
+  a048=(a047*a010);
+  a046=(a046+a048);
+  a046=(a046/a001);
+  a048=-2.5000000000000000e-01;
+  a049=(a048*a012);
+  a046=(a046+a049);
+  a049=(a048*a014);
+  a046=(a046+a049);
+  a049=casadi_sq(a046);
+  a050=(a045*a016);
+  a051=(a047*a018);
+  a050=(a050+a051);
+  a050=(a050/a001);
+  a051=(a048*a019);
+  a050=(a050+a051);
+  a051=(a048*a020);
+  a050=(a050+a051);
+  a051=casadi_sq(a050);
+  a049=(a049+a051);
+  a049=(a049-a021);
+  a051=(a049/a004);
+  a051=casadi_sq(a051);
+  a051=(a044*a051);
+  a051=(a043*a051);
+  a022=(a022+a051);
+  a033=(a033*a001);
+  a051=(a003/a004);
+  a052=(a036*a007);
+  a053=(a038*a010);
+  a052=(a052+a053);
+  a052=(a052/a001);
+  a053=-3.2938986051629171e-01;
+  a054=(a053*a012);
+  a052=(a052+a054);
+  a054=7.6455290861105363e-02;
+  a055=(a054*a014);
+  a052=(a052+a055);
+  a055=casadi_sq(a052);
+  a056=(a036*a016);
+  a057=(a038*a018);
+  a056=(a056+a057);
+  a056=(a056/a001);
+  a057=(a053*a019);
+  a056=(a056+a057);
+  a057=(a054*a020);
+  a056=(a056+a057);
+  a057=casadi_sq(a056);
+  a055=(a055+a057);
+  a055=(a055-a021);
+  a057=(a055/a004);
+  a057=casadi_sq(a057);
+  a057=(a051*a057);
+  a057=(a033*a057);
+  a022=(a022+a057);
+  a023=(a023*a001);
+  a057=(a003/a004);
+  a058=-6.7519725117533369e-01;
+  a059=(a058*a007);
+  a060=6.7519725117533369e-01;
+  a061=(a060*a010);
+  a059=(a059+a061);
+  a059=(a059/a001);
+  a061=-2.0836421838736419e-01;
+  a062=(a061*a012);
+  a059=(a059+a062);
+  a062=5.3316696721203027e-01;
+  a063=(a062*a014);
+  a059=(a059+a063);
+  a063=casadi_sq(a059);
+  a064=(a058*a016);
+  a065=(a060*a018);
+  a064=(a064+a065);
+  a064=(a064/a001);
+  a065=(a061*a019);
+  a064=(a064+a065);
+  a065=(a062*a020);
+  a064=(a064+a065);
+  a065=casadi_sq(a064);
+  a063=(a063+a065);
+  a063=(a063-a021);
+  a065=(a063/a004);
+  a065=casadi_sq(a065);
+  a065=(a057*a065);
+  a065=(a023*a065);
+  a022=(a022+a065);
+  a000=(a000*a001);
+  a003=(a003/a004);
+  a065=-1.4879125609255617e-01;
+  a007=(a065*a007);
+  a066=1.4879125609255617e-01;
+  a010=(a066*a010);
+  a007=(a007+a010);
+  a007=(a007/a001);
+  a010=-4.8949584217657272e-02;
+  a012=(a010*a012);
+  a007=(a007+a012);
+  a012=9.0015832812510133e-01;
+  a014=(a012*a014);
+  a007=(a007+a014);
+  a014=casadi_sq(a007);
+  a016=(a065*a016);
+  a018=(a066*a018);
+  a016=(a016+a018);
+  a016=(a016/a001);
+  a019=(a010*a019);
+  a016=(a016+a019);
+  a020=(a012*a020);
+  a016=(a016+a020);
+  a020=casadi_sq(a016);
+  a014=(a014+a020);
+  a014=(a014-a021);
+  a004=(a014/a004);
+  a004=casadi_sq(a004);
+  a004=(a003*a004);
+  a004=(a000*a004);
+  a022=(a022+a004);
+  if (res[0]!=0) res[0][0]=a022;
+  a022=(a006/a001);
+  a004=(2.*a008);
+  a021=5.0000000000000000e-01;
+  a020=(a005*a002);
+  a020=(a015*a020);
+  a020=(a021*a020);
+  a004=(a004*a020);
+  a019=(a022*a004);
+  a018=(a026/a001);
+  a067=(2.*a027);
+  a068=(a025*a024);
+  a068=(a031*a068);
+  a068=(a021*a068);
+  a067=(a067*a068);
+  a069=(a018*a067);
+  a019=(a019+a069);
+  a069=(a036/a001);
+  a070=(2.*a037);
+  a071=(a035*a034);
+  a071=(a041*a071);
+  a071=(a021*a071);
+  a070=(a070*a071);
+  a072=(a069*a070);
+  a019=(a019+a072);
+  a072=(a045/a001);
+  a073=(2.*a046);
+  a074=(a044*a043);
+  a074=(a049*a074);
+  a074=(a021*a074);
+  a073=(a073*a074);
+  a075=(a072*a073);
+  a019=(a019+a075);
+  a075=(a036/a001);
+  a076=(2.*a052);
+  a077=(a051*a033);
+  a077=(a055*a077);
+  a077=(a021*a077);
+  a076=(a076*a077);
+  a078=(a075*a076);
+  a019=(a019+a078);
+  a078=(a058/a001);
+  a079=(2.*a059);
+  a080=(a057*a023);
+  a080=(a063*a080);
+  a080=(a021*a080);
+  a079=(a079*a080);
+  a081=(a078*a079);
+  a019=(a019+a081);
+  a081=(a065/a001);
+  a082=(2.*a007);
+  a083=(a003*a000);
+  a083=(a014*a083);
+  a083=(a021*a083);
+  a082=(a082*a083);
+  a084=(a081*a082);
+  a019=(a019+a084);
+  if (res[1]!=0) res[1][0]=a019;
+  a006=(a006/a001);
+  a019=(2.*a017);
+  a019=(a019*a020);
+  a020=(a006*a019);
+  a026=(a026/a001);
+  a084=(2.*a032);
+  a084=(a084*a068);
+  a068=(a026*a084);
+  a020=(a020+a068);
+  a068=(a036/a001);
+  a085=(2.*a042);
+  a085=(a085*a071);
+  a071=(a068*a085);
+  a020=(a020+a071);
+  a045=(a045/a001);
+  a071=(2.*a050);
+  a071=(a071*a074);
+  a074=(a045*a071);
+  a020=(a020+a074);
+  a036=(a036/a001);
+  a074=(2.*a056);
+  a074=(a074*a077);
+  a077=(a036*a074);
+  a020=(a020+a077);
+  a058=(a058/a001);
+  a077=(2.*a064);
+  a077=(a077*a080);
+  a080=(a058*a077);
+  a020=(a020+a080);
+  a065=(a065/a001);
+  a080=(2.*a016);
+  a080=(a080*a083);
+  a083=(a065*a080);
+  a020=(a020+a083);
+  if (res[1]!=0) res[1][1]=a020;
+  a020=(a011*a004);
+  a083=(a029*a067);
+  a020=(a020+a083);
+  a083=(a039*a070);
+  a020=(a020+a083);
+  a083=(a048*a073);
+  a020=(a020+a083);
+  a083=(a053*a076);
+  a020=(a020+a083);
+  a083=(a061*a079);
+  a020=(a020+a083);
+  a083=(a010*a082);
+  a020=(a020+a083);
+  if (res[1]!=0) res[1][2]=a020;
+  a020=(a011*a019);
+  a083=(a029*a084);
+  a020=(a020+a083);
+  a083=(a039*a085);
+  a020=(a020+a083);
+  a083=(a048*a071);
+  a020=(a020+a083);
+  a083=(a053*a074);
+  a020=(a020+a083);
+  a083=(a061*a077);
+  a020=(a020+a083);
+  a083=(a010*a080);
+  a020=(a020+a083);
+  if (res[1]!=0) res[1][3]=a020;
+  a020=(a009/a001);
+  a083=(a020*a004);
+  a086=(a028/a001);
+  a087=(a086*a067);
+  a083=(a083+a087);
+  a087=(a038/a001);
+  a088=(a087*a070);
+  a083=(a083+a088);
+  a088=(a047/a001);
+  a089=(a088*a073);
+  a083=(a083+a089);
+  a089=(a038/a001);
+  a090=(a089*a076);
+  a083=(a083+a090);
+  a090=(a060/a001);
+  a091=(a090*a079);
+  a083=(a083+a091);
+  a091=(a066/a001);
+  a092=(a091*a082);
+  a083=(a083+a092);
+  if (res[1]!=0) res[1][4]=a083;
+  a009=(a009/a001);
+  a083=(a009*a019);
+  a028=(a028/a001);
+  a092=(a028*a084);
+  a083=(a083+a092);
+  a092=(a038/a001);
+  a093=(a092*a085);
+  a083=(a083+a093);
+  a047=(a047/a001);
+  a093=(a047*a071);
+  a083=(a083+a093);
+  a038=(a038/a001);
+  a093=(a038*a074);
+  a083=(a083+a093);
+  a060=(a060/a001);
+  a093=(a060*a077);
+  a083=(a083+a093);
+  a066=(a066/a001);
+  a001=(a066*a080);
+  a083=(a083+a001);
+  if (res[1]!=0) res[1][5]=a083;
+  a004=(a013*a004);
+  a067=(a030*a067);
+  a004=(a004+a067);
+  a070=(a040*a070);
+  a004=(a004+a070);
+  a073=(a048*a073);
+  a004=(a004+a073);
+  a076=(a054*a076);
+  a004=(a004+a076);
+  a079=(a062*a079);
+  a004=(a004+a079);
+  a082=(a012*a082);
+  a004=(a004+a082);
+  if (res[1]!=0) res[1][6]=a004;
+  a019=(a013*a019);
+  a084=(a030*a084);
+  a019=(a019+a084);
+  a085=(a040*a085);
+  a019=(a019+a085);
+  a071=(a048*a071);
+  a019=(a019+a071);
+  a074=(a054*a074);
+  a019=(a019+a074);
+  a077=(a062*a077);
+  a019=(a019+a077);
+  a080=(a012*a080);
+  a019=(a019+a080);
+  if (res[1]!=0) res[1][7]=a019;
+  a005=(a005*a002);
+  a015=(a015*a005);
+  a002=(2.*a008);
+  a008=(2.*a008);
+  a008=(a005*a008);
+  a008=(a021*a008);
+  a008=(a002*a008);
+  a008=(a015+a008);
+  a019=(a022*a008);
+  a019=(a019*a022);
+  a025=(a025*a024);
+  a031=(a031*a025);
+  a024=(2.*a027);
+  a027=(2.*a027);
+  a027=(a025*a027);
+  a027=(a021*a027);
+  a027=(a024*a027);
+  a027=(a031+a027);
+  a080=(a018*a027);
+  a080=(a080*a018);
+  a019=(a019+a080);
+  a035=(a035*a034);
+  a041=(a041*a035);
+  a034=(2.*a037);
+  a037=(2.*a037);
+  a037=(a035*a037);
+  a037=(a021*a037);
+  a037=(a034*a037);
+  a037=(a041+a037);
+  a080=(a069*a037);
+  a080=(a080*a069);
+  a019=(a019+a080);
+  a044=(a044*a043);
+  a049=(a049*a044);
+  a043=(2.*a046);
+  a046=(2.*a046);
+  a046=(a044*a046);
+  a046=(a021*a046);
+  a046=(a043*a046);
+  a046=(a049+a046);
+  a080=(a072*a046);
+  a080=(a080*a072);
+  a019=(a019+a080);
+  a051=(a051*a033);
+  a055=(a055*a051);
+  a033=(2.*a052);
+  a052=(2.*a052);
+  a052=(a051*a052);
+  a052=(a021*a052);
+  a052=(a033*a052);
+  a052=(a055+a052);
+  a080=(a075*a052);
+  a080=(a080*a075);
+  a019=(a019+a080);
+  a057=(a057*a023);
+  a063=(a063*a057);
+  a023=(2.*a059);
+  a059=(2.*a059);
+  a059=(a057*a059);
+  a059=(a021*a059);
+  a059=(a023*a059);
+  a059=(a063+a059);
+  a080=(a078*a059);
+  a080=(a080*a078);
+  a019=(a019+a080);
+  a003=(a003*a000);
+  a014=(a014*a003);
+  a000=(2.*a007);
+  a007=(2.*a007);
+  a007=(a003*a007);
+  a007=(a021*a007);
+  a007=(a000*a007);
+  a007=(a014+a007);
+  a080=(a081*a007);
+  a080=(a080*a081);
+  a019=(a019+a080);
+  if (res[2]!=0) res[2][0]=a019;
+  a019=(2.*a017);
+  a005=(a005*a019);
+  a005=(a021*a005);
+  a002=(a002*a005);
+  a019=(a006*a002);
+  a019=(a019*a022);
+  a080=(2.*a032);
+  a025=(a025*a080);
+  a025=(a021*a025);
+  a024=(a024*a025);
+  a080=(a026*a024);
+  a080=(a080*a018);
+  a019=(a019+a080);
+  a080=(2.*a042);
+  a035=(a035*a080);
+  a035=(a021*a035);
+  a034=(a034*a035);
+  a080=(a068*a034);
+  a080=(a080*a069);
+  a019=(a019+a080);
+  a080=(2.*a050);
+  a044=(a044*a080);
+  a044=(a021*a044);
+  a043=(a043*a044);
+  a080=(a045*a043);
+  a080=(a080*a072);
+  a019=(a019+a080);
+  a080=(2.*a056);
+  a051=(a051*a080);
+  a051=(a021*a051);
+  a033=(a033*a051);
+  a080=(a036*a033);
+  a080=(a080*a075);
+  a019=(a019+a080);
+  a080=(2.*a064);
+  a057=(a057*a080);
+  a057=(a021*a057);
+  a023=(a023*a057);
+  a080=(a058*a023);
+  a080=(a080*a078);
+  a019=(a019+a080);
+  a080=(2.*a016);
+  a003=(a003*a080);
+  a021=(a021*a003);
+  a000=(a000*a021);
+  a003=(a065*a000);
+  a003=(a003*a081);
+  a019=(a019+a003);
+  if (res[2]!=0) res[2][1]=a019;
+  a003=(a011*a008);
+  a003=(a003*a022);
+  a080=(a029*a027);
+  a080=(a080*a018);
+  a003=(a003+a080);
+  a080=(a039*a037);
+  a080=(a080*a069);
+  a003=(a003+a080);
+  a080=(a048*a046);
+  a080=(a080*a072);
+  a003=(a003+a080);
+  a080=(a053*a052);
+  a080=(a080*a075);
+  a003=(a003+a080);
+  a080=(a061*a059);
+  a080=(a080*a078);
+  a003=(a003+a080);
+  a080=(a010*a007);
+  a080=(a080*a081);
+  a003=(a003+a080);
+  if (res[2]!=0) res[2][2]=a003;
+  a080=(a011*a002);
+  a080=(a080*a022);
+  a077=(a029*a024);
+  a077=(a077*a018);
+  a080=(a080+a077);
+  a077=(a039*a034);
+  a077=(a077*a069);
+  a080=(a080+a077);
+  a077=(a048*a043);
+  a077=(a077*a072);
+  a080=(a080+a077);
+  a077=(a053*a033);
+  a077=(a077*a075);
+  a080=(a080+a077);
+  a077=(a061*a023);
+  a077=(a077*a078);
+  a080=(a080+a077);
+  a077=(a010*a000);
+  a077=(a077*a081);
+  a080=(a080+a077);
+  if (res[2]!=0) res[2][3]=a080;
+  a077=(a020*a008);
+  a074=(a077*a022);
+  a071=(a086*a027);
+  a085=(a071*a018);
+  a074=(a074+a085);
+  a085=(a087*a037);
+  a084=(a085*a069);
+  a074=(a074+a084);
+  a084=(a088*a046);
+  a004=(a084*a072);
+  a074=(a074+a004);
+  a004=(a089*a052);
+  a082=(a004*a075);
+  a074=(a074+a082);
+  a082=(a090*a059);
+  a079=(a082*a078);
+  a074=(a074+a079);
+  a079=(a091*a007);
+  a076=(a079*a081);
+  a074=(a074+a076);
+  if (res[2]!=0) res[2][4]=a074;
+  a076=(a009*a002);
+  a073=(a076*a022);
+  a070=(a028*a024);
+  a067=(a070*a018);
+  a073=(a073+a067);
+  a067=(a092*a034);
+  a083=(a067*a069);
+  a073=(a073+a083);
+  a083=(a047*a043);
+  a001=(a083*a072);
+  a073=(a073+a001);
+  a001=(a038*a033);
+  a093=(a001*a075);
+  a073=(a073+a093);
+  a093=(a060*a023);
+  a094=(a093*a078);
+  a073=(a073+a094);
+  a094=(a066*a000);
+  a095=(a094*a081);
+  a073=(a073+a095);
+  if (res[2]!=0) res[2][5]=a073;
+  a095=(a013*a008);
+  a096=(a095*a022);
+  a097=(a030*a027);
+  a098=(a097*a018);
+  a096=(a096+a098);
+  a098=(a040*a037);
+  a099=(a098*a069);
+  a096=(a096+a099);
+  a099=(a048*a046);
+  a100=(a099*a072);
+  a096=(a096+a100);
+  a100=(a054*a052);
+  a101=(a100*a075);
+  a096=(a096+a101);
+  a101=(a062*a059);
+  a102=(a101*a078);
+  a096=(a096+a102);
+  a102=(a012*a007);
+  a103=(a102*a081);
+  a096=(a096+a103);
+  if (res[2]!=0) res[2][6]=a096;
+  a103=(a013*a002);
+  a022=(a103*a022);
+  a104=(a030*a024);
+  a018=(a104*a018);
+  a022=(a022+a018);
+  a018=(a040*a034);
+  a069=(a018*a069);
+  a022=(a022+a069);
+  a069=(a048*a043);
+  a072=(a069*a072);
+  a022=(a022+a072);
+  a072=(a054*a033);
+  a075=(a072*a075);
+  a022=(a022+a075);
+  a075=(a062*a023);
+  a078=(a075*a078);
+  a022=(a022+a078);
+  a078=(a012*a000);
+  a081=(a078*a081);
+  a022=(a022+a081);
+  if (res[2]!=0) res[2][7]=a022;
+  if (res[2]!=0) res[2][8]=a019;
+  a017=(2.*a017);
+  a017=(a017*a005);
+  a015=(a015+a017);
+  a017=(a006*a015);
+  a017=(a017*a006);
+  a032=(2.*a032);
+  a032=(a032*a025);
+  a031=(a031+a032);
+  a032=(a026*a031);
+  a032=(a032*a026);
+  a017=(a017+a032);
+  a042=(2.*a042);
+  a042=(a042*a035);
+  a041=(a041+a042);
+  a042=(a068*a041);
+  a042=(a042*a068);
+  a017=(a017+a042);
+  a050=(2.*a050);
+  a050=(a050*a044);
+  a049=(a049+a050);
+  a050=(a045*a049);
+  a050=(a050*a045);
+  a017=(a017+a050);
+  a056=(2.*a056);
+  a056=(a056*a051);
+  a055=(a055+a056);
+  a056=(a036*a055);
+  a056=(a056*a036);
+  a017=(a017+a056);
+  a064=(2.*a064);
+  a064=(a064*a057);
+  a063=(a063+a064);
+  a064=(a058*a063);
+  a064=(a064*a058);
+  a017=(a017+a064);
+  a016=(2.*a016);
+  a016=(a016*a021);
+  a014=(a014+a016);
+  a016=(a065*a014);
+  a016=(a016*a065);
+  a017=(a017+a016);
+  if (res[2]!=0) res[2][9]=a017;
+  a017=(a011*a002);
+  a017=(a017*a006);
+  a016=(a029*a024);
+  a016=(a016*a026);
+  a017=(a017+a016);
+  a016=(a039*a034);
+  a016=(a016*a068);
+  a017=(a017+a016);
+  a016=(a048*a043);
+  a016=(a016*a045);
+  a017=(a017+a016);
+  a016=(a053*a033);
+  a016=(a016*a036);
+  a017=(a017+a016);
+  a016=(a061*a023);
+  a016=(a016*a058);
+  a017=(a017+a016);
+  a016=(a010*a000);
+  a016=(a016*a065);
+  a017=(a017+a016);
+  if (res[2]!=0) res[2][10]=a017;
+  a016=(a011*a015);
+  a016=(a016*a006);
+  a021=(a029*a031);
+  a021=(a021*a026);
+  a016=(a016+a021);
+  a021=(a039*a041);
+  a021=(a021*a068);
+  a016=(a016+a021);
+  a021=(a048*a049);
+  a021=(a021*a045);
+  a016=(a016+a021);
+  a021=(a053*a055);
+  a021=(a021*a036);
+  a016=(a016+a021);
+  a021=(a061*a063);
+  a021=(a021*a058);
+  a016=(a016+a021);
+  a021=(a010*a014);
+  a021=(a021*a065);
+  a016=(a016+a021);
+  if (res[2]!=0) res[2][11]=a016;
+  a021=(a020*a002);
+  a064=(a021*a006);
+  a057=(a086*a024);
+  a056=(a057*a026);
+  a064=(a064+a056);
+  a056=(a087*a034);
+  a051=(a056*a068);
+  a064=(a064+a051);
+  a051=(a088*a043);
+  a050=(a051*a045);
+  a064=(a064+a050);
+  a050=(a089*a033);
+  a044=(a050*a036);
+  a064=(a064+a044);
+  a044=(a090*a023);
+  a042=(a044*a058);
+  a064=(a064+a042);
+  a042=(a091*a000);
+  a035=(a042*a065);
+  a064=(a064+a035);
+  if (res[2]!=0) res[2][12]=a064;
+  a035=(a009*a015);
+  a032=(a035*a006);
+  a025=(a028*a031);
+  a005=(a025*a026);
+  a032=(a032+a005);
+  a005=(a092*a041);
+  a019=(a005*a068);
+  a032=(a032+a019);
+  a019=(a047*a049);
+  a081=(a019*a045);
+  a032=(a032+a081);
+  a081=(a038*a055);
+  a105=(a081*a036);
+  a032=(a032+a105);
+  a105=(a060*a063);
+  a106=(a105*a058);
+  a032=(a032+a106);
+  a106=(a066*a014);
+  a107=(a106*a065);
+  a032=(a032+a107);
+  if (res[2]!=0) res[2][13]=a032;
+  a107=(a013*a002);
+  a108=(a107*a006);
+  a109=(a030*a024);
+  a110=(a109*a026);
+  a108=(a108+a110);
+  a110=(a040*a034);
+  a111=(a110*a068);
+  a108=(a108+a111);
+  a111=(a048*a043);
+  a112=(a111*a045);
+  a108=(a108+a112);
+  a112=(a054*a033);
+  a113=(a112*a036);
+  a108=(a108+a113);
+  a113=(a062*a023);
+  a114=(a113*a058);
+  a108=(a108+a114);
+  a114=(a012*a000);
+  a115=(a114*a065);
+  a108=(a108+a115);
+  if (res[2]!=0) res[2][14]=a108;
+  a013=(a013*a015);
+  a006=(a013*a006);
+  a030=(a030*a031);
+  a026=(a030*a026);
+  a006=(a006+a026);
+  a040=(a040*a041);
+  a068=(a040*a068);
+  a006=(a006+a068);
+  a068=(a048*a049);
+  a045=(a068*a045);
+  a006=(a006+a045);
+  a054=(a054*a055);
+  a036=(a054*a036);
+  a006=(a006+a036);
+  a062=(a062*a063);
+  a058=(a062*a058);
+  a006=(a006+a058);
+  a012=(a012*a014);
+  a065=(a012*a065);
+  a006=(a006+a065);
+  if (res[2]!=0) res[2][15]=a006;
+  if (res[2]!=0) res[2][16]=a003;
+  if (res[2]!=0) res[2][17]=a017;
+  a017=8.1028501569297784e-01;
+  a003=(a017*a008);
+  a065=2.8426701492607381e-01;
+  a058=(a065*a027);
+  a003=(a003+a058);
+  a058=5.8454115006562300e-03;
+  a036=(a058*a037);
+  a003=(a003+a036);
+  a036=6.2500000000000000e-02;
+  a045=(a036*a046);
+  a003=(a003+a045);
+  a045=1.0849768021094211e-01;
+  a026=(a045*a052);
+  a003=(a003+a026);
+  a026=4.3415647504177195e-02;
+  a115=(a026*a059);
+  a003=(a003+a115);
+  a115=2.3960617950815220e-03;
+  a116=(a115*a007);
+  a003=(a003+a116);
+  if (res[2]!=0) res[2][18]=a003;
+  a003=(a017*a002);
+  a116=(a065*a024);
+  a003=(a003+a116);
+  a116=(a058*a034);
+  a003=(a003+a116);
+  a116=(a036*a043);
+  a003=(a003+a116);
+  a116=(a045*a033);
+  a003=(a003+a116);
+  a116=(a026*a023);
+  a003=(a003+a116);
+  a116=(a115*a000);
+  a003=(a003+a116);
+  if (res[2]!=0) res[2][19]=a003;
+  a116=(a011*a077);
+  a117=(a029*a071);
+  a116=(a116+a117);
+  a117=(a039*a085);
+  a116=(a116+a117);
+  a117=(a048*a084);
+  a116=(a116+a117);
+  a117=(a053*a004);
+  a116=(a116+a117);
+  a117=(a061*a082);
+  a116=(a116+a117);
+  a117=(a010*a079);
+  a116=(a116+a117);
+  if (res[2]!=0) res[2][20]=a116;
+  a117=(a011*a076);
+  a118=(a029*a070);
+  a117=(a117+a118);
+  a118=(a039*a067);
+  a117=(a117+a118);
+  a118=(a048*a083);
+  a117=(a117+a118);
+  a118=(a053*a001);
+  a117=(a117+a118);
+  a118=(a061*a093);
+  a117=(a117+a118);
+  a118=(a010*a094);
+  a117=(a117+a118);
+  if (res[2]!=0) res[2][21]=a117;
+  a118=-4.4062375891785112e-02;
+  a119=(a118*a008);
+  a120=-1.1109291839309622e-01;
+  a121=(a120*a027);
+  a119=(a119+a121);
+  a121=-2.5183597592472032e-02;
+  a122=(a121*a037);
+  a119=(a119+a122);
+  a122=(a036*a046);
+  a119=(a119+a122);
+  a122=-2.5183597592472007e-02;
+  a123=(a122*a052);
+  a119=(a119+a123);
+  a123=-1.1109291839309611e-01;
+  a124=(a123*a059);
+  a119=(a119+a124);
+  a124=-4.4062375891785216e-02;
+  a125=(a124*a007);
+  a119=(a119+a125);
+  if (res[2]!=0) res[2][22]=a119;
+  a125=(a118*a002);
+  a126=(a120*a024);
+  a125=(a125+a126);
+  a126=(a121*a034);
+  a125=(a125+a126);
+  a126=(a036*a043);
+  a125=(a125+a126);
+  a126=(a122*a033);
+  a125=(a125+a126);
+  a126=(a123*a023);
+  a125=(a125+a126);
+  a126=(a124*a000);
+  a125=(a125+a126);
+  if (res[2]!=0) res[2][23]=a125;
+  if (res[2]!=0) res[2][24]=a080;
+  if (res[2]!=0) res[2][25]=a016;
+  if (res[2]!=0) res[2][26]=a003;
+  a017=(a017*a015);
+  a065=(a065*a031);
+  a017=(a017+a065);
+  a058=(a058*a041);
+  a017=(a017+a058);
+  a058=(a036*a049);
+  a017=(a017+a058);
+  a045=(a045*a055);
+  a017=(a017+a045);
+  a026=(a026*a063);
+  a017=(a017+a026);
+  a115=(a115*a014);
+  a017=(a017+a115);
+  if (res[2]!=0) res[2][27]=a017;
+  a021=(a011*a021);
+  a057=(a029*a057);
+  a021=(a021+a057);
+  a056=(a039*a056);
+  a021=(a021+a056);
+  a051=(a048*a051);
+  a021=(a021+a051);
+  a050=(a053*a050);
+  a021=(a021+a050);
+  a044=(a061*a044);
+  a021=(a021+a044);
+  a042=(a010*a042);
+  a021=(a021+a042);
+  if (res[2]!=0) res[2][28]=a021;
+  a011=(a011*a035);
+  a029=(a029*a025);
+  a011=(a011+a029);
+  a039=(a039*a005);
+  a011=(a011+a039);
+  a048=(a048*a019);
+  a011=(a011+a048);
+  a053=(a053*a081);
+  a011=(a011+a053);
+  a061=(a061*a105);
+  a011=(a011+a061);
+  a010=(a010*a106);
+  a011=(a011+a010);
+  if (res[2]!=0) res[2][29]=a011;
+  a010=(a118*a002);
+  a061=(a120*a024);
+  a010=(a010+a061);
+  a061=(a121*a034);
+  a010=(a010+a061);
+  a061=(a036*a043);
+  a010=(a010+a061);
+  a061=(a122*a033);
+  a010=(a010+a061);
+  a061=(a123*a023);
+  a010=(a010+a061);
+  a061=(a124*a000);
+  a010=(a010+a061);
+  if (res[2]!=0) res[2][30]=a010;
+  a118=(a118*a015);
+  a120=(a120*a031);
+  a118=(a118+a120);
+  a121=(a121*a041);
+  a118=(a118+a121);
+  a121=(a036*a049);
+  a118=(a118+a121);
+  a122=(a122*a055);
+  a118=(a118+a122);
+  a123=(a123*a063);
+  a118=(a118+a123);
+  a124=(a124*a014);
+  a118=(a118+a124);
+  if (res[2]!=0) res[2][31]=a118;
+  if (res[2]!=0) res[2][32]=a074;
+  if (res[2]!=0) res[2][33]=a064;
+  if (res[2]!=0) res[2][34]=a116;
+  if (res[2]!=0) res[2][35]=a021;
+  a077=(a077*a020);
+  a071=(a071*a086);
+  a077=(a077+a071);
+  a085=(a085*a087);
+  a077=(a077+a085);
+  a084=(a084*a088);
+  a077=(a077+a084);
+  a004=(a004*a089);
+  a077=(a077+a004);
+  a082=(a082*a090);
+  a077=(a077+a082);
+  a079=(a079*a091);
+  a077=(a077+a079);
+  if (res[2]!=0) res[2][36]=a077;
+  a076=(a076*a020);
+  a070=(a070*a086);
+  a076=(a076+a070);
+  a067=(a067*a087);
+  a076=(a076+a067);
+  a083=(a083*a088);
+  a076=(a076+a083);
+  a001=(a001*a089);
+  a076=(a076+a001);
+  a093=(a093*a090);
+  a076=(a076+a093);
+  a094=(a094*a091);
+  a076=(a076+a094);
+  if (res[2]!=0) res[2][37]=a076;
+  a095=(a095*a020);
+  a097=(a097*a086);
+  a095=(a095+a097);
+  a098=(a098*a087);
+  a095=(a095+a098);
+  a099=(a099*a088);
+  a095=(a095+a099);
+  a100=(a100*a089);
+  a095=(a095+a100);
+  a101=(a101*a090);
+  a095=(a095+a101);
+  a102=(a102*a091);
+  a095=(a095+a102);
+  if (res[2]!=0) res[2][38]=a095;
+  a103=(a103*a020);
+  a104=(a104*a086);
+  a103=(a103+a104);
+  a018=(a018*a087);
+  a103=(a103+a018);
+  a069=(a069*a088);
+  a103=(a103+a069);
+  a072=(a072*a089);
+  a103=(a103+a072);
+  a075=(a075*a090);
+  a103=(a103+a075);
+  a078=(a078*a091);
+  a103=(a103+a078);
+  if (res[2]!=0) res[2][39]=a103;
+  if (res[2]!=0) res[2][40]=a073;
+  if (res[2]!=0) res[2][41]=a032;
+  if (res[2]!=0) res[2][42]=a117;
+  if (res[2]!=0) res[2][43]=a011;
+  if (res[2]!=0) res[2][44]=a076;
+  a035=(a035*a009);
+  a025=(a025*a028);
+  a035=(a035+a025);
+  a005=(a005*a092);
+  a035=(a035+a005);
+  a019=(a019*a047);
+  a035=(a035+a019);
+  a081=(a081*a038);
+  a035=(a035+a081);
+  a105=(a105*a060);
+  a035=(a035+a105);
+  a106=(a106*a066);
+  a035=(a035+a106);
+  if (res[2]!=0) res[2][45]=a035;
+  a107=(a107*a009);
+  a109=(a109*a028);
+  a107=(a107+a109);
+  a110=(a110*a092);
+  a107=(a107+a110);
+  a111=(a111*a047);
+  a107=(a107+a111);
+  a112=(a112*a038);
+  a107=(a107+a112);
+  a113=(a113*a060);
+  a107=(a107+a113);
+  a114=(a114*a066);
+  a107=(a107+a114);
+  if (res[2]!=0) res[2][46]=a107;
+  a013=(a013*a009);
+  a030=(a030*a028);
+  a013=(a013+a030);
+  a040=(a040*a092);
+  a013=(a013+a040);
+  a068=(a068*a047);
+  a013=(a013+a068);
+  a054=(a054*a038);
+  a013=(a013+a054);
+  a062=(a062*a060);
+  a013=(a013+a062);
+  a012=(a012*a066);
+  a013=(a013+a012);
+  if (res[2]!=0) res[2][47]=a013;
+  if (res[2]!=0) res[2][48]=a096;
+  if (res[2]!=0) res[2][49]=a108;
+  if (res[2]!=0) res[2][50]=a119;
+  if (res[2]!=0) res[2][51]=a010;
+  if (res[2]!=0) res[2][52]=a095;
+  if (res[2]!=0) res[2][53]=a107;
+  a107=2.3960617950815094e-03;
+  a008=(a107*a008);
+  a095=4.3415647504177333e-02;
+  a027=(a095*a027);
+  a008=(a008+a027);
+  a027=1.0849768021094215e-01;
+  a037=(a027*a037);
+  a008=(a008+a037);
+  a046=(a036*a046);
+  a008=(a008+a046);
+  a046=5.8454115006562214e-03;
+  a052=(a046*a052);
+  a008=(a008+a052);
+  a052=2.8426701492607415e-01;
+  a059=(a052*a059);
+  a008=(a008+a059);
+  a059=8.1028501569297762e-01;
+  a007=(a059*a007);
+  a008=(a008+a007);
+  if (res[2]!=0) res[2][54]=a008;
+  a002=(a107*a002);
+  a024=(a095*a024);
+  a002=(a002+a024);
+  a034=(a027*a034);
+  a002=(a002+a034);
+  a043=(a036*a043);
+  a002=(a002+a043);
+  a033=(a046*a033);
+  a002=(a002+a033);
+  a023=(a052*a023);
+  a002=(a002+a023);
+  a000=(a059*a000);
+  a002=(a002+a000);
+  if (res[2]!=0) res[2][55]=a002;
+  if (res[2]!=0) res[2][56]=a022;
+  if (res[2]!=0) res[2][57]=a006;
+  if (res[2]!=0) res[2][58]=a125;
+  if (res[2]!=0) res[2][59]=a118;
+  if (res[2]!=0) res[2][60]=a103;
+  if (res[2]!=0) res[2][61]=a013;
+  if (res[2]!=0) res[2][62]=a002;
+  a107=(a107*a015);
+  a095=(a095*a031);
+  a107=(a107+a095);
+  a027=(a027*a041);
+  a107=(a107+a027);
+  a036=(a036*a049);
+  a107=(a107+a036);
+  a046=(a046*a055);
+  a107=(a107+a046);
+  a052=(a052*a063);
+  a107=(a107+a052);
+  a059=(a059*a014);
+  a107=(a107+a059);
+  if (res[2]!=0) res[2][63]=a107;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f13(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g7_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g7_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g7_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g7_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_green_g7_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_green_g7_n_out(void) { return 3;}
+
+CASADI_SYMBOL_EXPORT casadi_real cable2d_axial_green_g7_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_green_g7_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_green_g7_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    case 1: return "gradient";
+    case 2: return "hessian";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_green_g7_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_green_g7_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s2;
+    case 1: return casadi_s0;
+    case 2: return casadi_s3;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g7_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 3;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g7_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 3*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* cable2d_axial_green_g7_energy:(q[8],p[2])->(energy) */
+static int casadi_f14(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24;
+  a00=6.4742483084434865e-02;
+  a01=arg[1]? arg[1][0] : 0;
+  a02=(a00*a01);
+  a03=arg[1]? arg[1][1] : 0;
+  a04=2.;
+  a05=(a03/a04);
+  a06=-1.4879125609255570e-01;
+  a07=arg[0]? arg[0][0] : 0;
+  a08=(a06*a07);
+  a09=1.4879125609255570e-01;
+  a10=arg[0]? arg[0][4] : 0;
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a08=(a08/a01);
+  a11=9.0015832812510144e-01;
+  a12=arg[0]? arg[0][2] : 0;
+  a13=(a11*a12);
+  a08=(a08+a13);
+  a13=-4.8949584217657147e-02;
+  a14=arg[0]? arg[0][6] : 0;
+  a15=(a13*a14);
+  a08=(a08+a15);
+  a08=casadi_sq(a08);
+  a15=arg[0]? arg[0][1] : 0;
+  a06=(a06*a15);
+  a16=arg[0]? arg[0][5] : 0;
+  a09=(a09*a16);
+  a06=(a06+a09);
+  a06=(a06/a01);
+  a09=arg[0]? arg[0][3] : 0;
+  a11=(a11*a09);
+  a06=(a06+a11);
+  a11=arg[0]? arg[0][7] : 0;
+  a13=(a13*a11);
+  a06=(a06+a13);
+  a06=casadi_sq(a06);
+  a08=(a08+a06);
+  a06=1.;
+  a08=(a08-a06);
+  a08=(a08/a04);
+  a08=casadi_sq(a08);
+  a05=(a05*a08);
+  a02=(a02*a05);
+  a05=1.3985269574463843e-01;
+  a08=(a05*a01);
+  a13=(a03/a04);
+  a17=-6.7519725117533458e-01;
+  a18=(a17*a07);
+  a19=6.7519725117533458e-01;
+  a20=(a19*a10);
+  a18=(a18+a20);
+  a18=(a18/a01);
+  a20=5.3316696721202994e-01;
+  a21=(a20*a12);
+  a18=(a18+a21);
+  a21=-2.0836421838736452e-01;
+  a22=(a21*a14);
+  a18=(a18+a22);
+  a18=casadi_sq(a18);
+  a17=(a17*a15);
+  a19=(a19*a16);
+  a17=(a17+a19);
+  a17=(a17/a01);
+  a20=(a20*a09);
+  a17=(a17+a20);
+  a21=(a21*a11);
+  a17=(a17+a21);
+  a17=casadi_sq(a17);
+  a18=(a18+a17);
+  a18=(a18-a06);
+  a18=(a18/a04);
+  a18=casadi_sq(a18);
+  a13=(a13*a18);
+  a08=(a08*a13);
+  a02=(a02+a08);
+  a08=1.9091502525255935e-01;
+  a13=(a08*a01);
+  a18=(a03/a04);
+  a17=-1.2529345696551863e+00;
+  a21=(a17*a07);
+  a20=1.2529345696551863e+00;
+  a19=(a20*a10);
+  a21=(a21+a19);
+  a21=(a21/a01);
+  a19=7.6455290861105418e-02;
+  a22=(a19*a12);
+  a21=(a21+a22);
+  a22=-3.2938986051629177e-01;
+  a23=(a22*a14);
+  a21=(a21+a23);
+  a21=casadi_sq(a21);
+  a23=(a17*a15);
+  a24=(a20*a16);
+  a23=(a23+a24);
+  a23=(a23/a01);
+  a19=(a19*a09);
+  a23=(a23+a19);
+  a22=(a22*a11);
+  a23=(a23+a22);
+  a23=casadi_sq(a23);
+  a21=(a21+a23);
+  a21=(a21-a06);
+  a21=(a21/a04);
+  a21=casadi_sq(a21);
+  a18=(a18*a21);
+  a13=(a13*a18);
+  a02=(a02+a13);
+  a13=2.0897959183673465e-01;
+  a13=(a13*a01);
+  a18=(a03/a04);
+  a21=-1.5000000000000000e+00;
+  a23=(a21*a07);
+  a22=1.5000000000000000e+00;
+  a19=(a22*a10);
+  a23=(a23+a19);
+  a23=(a23/a01);
+  a19=-2.5000000000000000e-01;
+  a24=(a19*a12);
+  a23=(a23+a24);
+  a24=(a19*a14);
+  a23=(a23+a24);
+  a23=casadi_sq(a23);
+  a21=(a21*a15);
+  a22=(a22*a16);
+  a21=(a21+a22);
+  a21=(a21/a01);
+  a22=(a19*a09);
+  a21=(a21+a22);
+  a19=(a19*a11);
+  a21=(a21+a19);
+  a21=casadi_sq(a21);
+  a23=(a23+a21);
+  a23=(a23-a06);
+  a23=(a23/a04);
+  a23=casadi_sq(a23);
+  a18=(a18*a23);
+  a13=(a13*a18);
+  a02=(a02+a13);
+  a08=(a08*a01);
+  a13=(a03/a04);
+  a18=(a17*a07);
+  a23=(a20*a10);
+  a18=(a18+a23);
+  a18=(a18/a01);
+  a23=-3.2938986051629171e-01;
+  a21=(a23*a12);
+  a18=(a18+a21);
+  a21=7.6455290861105363e-02;
+  a19=(a21*a14);
+  a18=(a18+a19);
+  a18=casadi_sq(a18);
+  a17=(a17*a15);
+  a20=(a20*a16);
+  a17=(a17+a20);
+  a17=(a17/a01);
+  a23=(a23*a09);
+  a17=(a17+a23);
+  a21=(a21*a11);
+  a17=(a17+a21);
+  a17=casadi_sq(a17);
+  a18=(a18+a17);
+  a18=(a18-a06);
+  a18=(a18/a04);
+  a18=casadi_sq(a18);
+  a13=(a13*a18);
+  a08=(a08*a13);
+  a02=(a02+a08);
+  a05=(a05*a01);
+  a08=(a03/a04);
+  a13=-6.7519725117533369e-01;
+  a18=(a13*a07);
+  a17=6.7519725117533369e-01;
+  a21=(a17*a10);
+  a18=(a18+a21);
+  a18=(a18/a01);
+  a21=-2.0836421838736419e-01;
+  a23=(a21*a12);
+  a18=(a18+a23);
+  a23=5.3316696721203027e-01;
+  a20=(a23*a14);
+  a18=(a18+a20);
+  a18=casadi_sq(a18);
+  a13=(a13*a15);
+  a17=(a17*a16);
+  a13=(a13+a17);
+  a13=(a13/a01);
+  a21=(a21*a09);
+  a13=(a13+a21);
+  a23=(a23*a11);
+  a13=(a13+a23);
+  a13=casadi_sq(a13);
+  a18=(a18+a13);
+  a18=(a18-a06);
+  a18=(a18/a04);
+  a18=casadi_sq(a18);
+  a08=(a08*a18);
+  a05=(a05*a08);
+  a02=(a02+a05);
+  a00=(a00*a01);
+  a03=(a03/a04);
+  a05=-1.4879125609255617e-01;
+  a07=(a05*a07);
+  a08=1.4879125609255617e-01;
+  a10=(a08*a10);
+  a07=(a07+a10);
+  a07=(a07/a01);
+  a10=-4.8949584217657272e-02;
+  a12=(a10*a12);
+  a07=(a07+a12);
+  a12=9.0015832812510133e-01;
+  a14=(a12*a14);
+  a07=(a07+a14);
+  a07=casadi_sq(a07);
+  a05=(a05*a15);
+  a08=(a08*a16);
+  a05=(a05+a08);
+  a05=(a05/a01);
+  a10=(a10*a09);
+  a05=(a05+a10);
+  a12=(a12*a11);
+  a05=(a05+a12);
+  a05=casadi_sq(a05);
+  a07=(a07+a05);
+  a07=(a07-a06);
+  a07=(a07/a04);
+  a07=casadi_sq(a07);
+  a03=(a03*a07);
+  a00=(a00*a03);
+  a02=(a02+a00);
+  if (res[0]!=0) res[0][0]=a02;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g7_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f14(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g7_energy_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g7_energy_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g7_energy_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g7_energy_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_green_g7_energy_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_green_g7_energy_n_out(void) { return 1;}
+
+CASADI_SYMBOL_EXPORT casadi_real cable2d_axial_green_g7_energy_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_green_g7_energy_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_green_g7_energy_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_green_g7_energy_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_green_g7_energy_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g7_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g7_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 1*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* adj1_cable2d_axial_green_g7_energy:(q[8],p[2],out_energy[1x1,0nz],adj_energy)->(adj_q[8],adj_p[2]) */
+static int casadi_f15(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
+  casadi_real a36, a37, a38, a39, a40, a41, a42, a43, a44, a45, a46, a47;
+  casadi_real a48, a49, a50, a51, a52, a53, a54, a55, a56, a57, a58, a59;
+  casadi_real a60, a61, a62, a63, a64, a65, a66, a67, a68, a69, a70, a71;
+  casadi_real a72, a73, a74, a75, a76, a77, a78, a79, a80, a81, a82, a83;
+  casadi_real a84, a85, a86, a87, a88, a89, a90, a91, a92, a93, a94, a95;
+  casadi_real a96, a97;
+  a00=-1.4879125609255617e-01;
+  a01=arg[0]? arg[0][0] : 0;
+  a02=(a00*a01);
+  a03=1.4879125609255617e-01;
+  a04=arg[0]? arg[0][4] : 0;
+  a05=(a03*a04);
+  a02=(a02+a05);
+  a05=arg[1]? arg[1][0] : 0;
+  a02=(a02/a05);
+  a06=-4.8949584217657272e-02;
+  a07=arg[0]? arg[0][2] : 0;
+  a08=(a06*a07);
+  a08=(a02+a08);
+  a09=9.0015832812510133e-01;
+  a10=arg[0]? arg[0][6] : 0;
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a11=(2.*a08);
+  a12=5.0000000000000000e-01;
+  a08=casadi_sq(a08);
+  a13=arg[0]? arg[0][1] : 0;
+  a14=(a00*a13);
+  a15=arg[0]? arg[0][5] : 0;
+  a16=(a03*a15);
+  a14=(a14+a16);
+  a14=(a14/a05);
+  a16=arg[0]? arg[0][3] : 0;
+  a17=(a06*a16);
+  a17=(a14+a17);
+  a18=arg[0]? arg[0][7] : 0;
+  a19=(a09*a18);
+  a17=(a17+a19);
+  a19=casadi_sq(a17);
+  a08=(a08+a19);
+  a19=1.;
+  a08=(a08-a19);
+  a20=arg[1]? arg[1][1] : 0;
+  a21=2.;
+  a22=(a20/a21);
+  a23=6.4742483084434865e-02;
+  a24=(a23*a05);
+  a25=arg[3]? arg[3][0] : 0;
+  a24=(a24*a25);
+  a26=(a22*a24);
+  a26=(a08*a26);
+  a26=(a12*a26);
+  a11=(a11*a26);
+  a27=(a11/a05);
+  a28=(a00*a27);
+  a29=-6.7519725117533369e-01;
+  a30=(a29*a01);
+  a31=6.7519725117533369e-01;
+  a32=(a31*a04);
+  a30=(a30+a32);
+  a30=(a30/a05);
+  a32=-2.0836421838736419e-01;
+  a33=(a32*a07);
+  a33=(a30+a33);
+  a34=5.3316696721203027e-01;
+  a35=(a34*a10);
+  a33=(a33+a35);
+  a35=(2.*a33);
+  a33=casadi_sq(a33);
+  a36=(a29*a13);
+  a37=(a31*a15);
+  a36=(a36+a37);
+  a36=(a36/a05);
+  a37=(a32*a16);
+  a37=(a36+a37);
+  a38=(a34*a18);
+  a37=(a37+a38);
+  a38=casadi_sq(a37);
+  a33=(a33+a38);
+  a33=(a33-a19);
+  a38=(a20/a21);
+  a39=1.3985269574463843e-01;
+  a40=(a39*a05);
+  a40=(a40*a25);
+  a41=(a38*a40);
+  a41=(a33*a41);
+  a41=(a12*a41);
+  a35=(a35*a41);
+  a42=(a35/a05);
+  a43=(a29*a42);
+  a28=(a28+a43);
+  a43=-1.2529345696551863e+00;
+  a44=(a43*a01);
+  a45=1.2529345696551863e+00;
+  a46=(a45*a04);
+  a44=(a44+a46);
+  a44=(a44/a05);
+  a46=-3.2938986051629171e-01;
+  a47=(a46*a07);
+  a47=(a44+a47);
+  a48=7.6455290861105363e-02;
+  a49=(a48*a10);
+  a47=(a47+a49);
+  a49=(2.*a47);
+  a47=casadi_sq(a47);
+  a50=(a43*a13);
+  a51=(a45*a15);
+  a50=(a50+a51);
+  a50=(a50/a05);
+  a51=(a46*a16);
+  a51=(a50+a51);
+  a52=(a48*a18);
+  a51=(a51+a52);
+  a52=casadi_sq(a51);
+  a47=(a47+a52);
+  a47=(a47-a19);
+  a52=(a20/a21);
+  a53=1.9091502525255935e-01;
+  a54=(a53*a05);
+  a54=(a54*a25);
+  a55=(a52*a54);
+  a55=(a47*a55);
+  a55=(a12*a55);
+  a49=(a49*a55);
+  a56=(a49/a05);
+  a57=(a43*a56);
+  a28=(a28+a57);
+  a57=-1.5000000000000000e+00;
+  a58=(a57*a01);
+  a59=1.5000000000000000e+00;
+  a60=(a59*a04);
+  a58=(a58+a60);
+  a58=(a58/a05);
+  a60=-2.5000000000000000e-01;
+  a61=(a60*a07);
+  a61=(a58+a61);
+  a62=(a60*a10);
+  a61=(a61+a62);
+  a62=(2.*a61);
+  a61=casadi_sq(a61);
+  a63=(a57*a13);
+  a64=(a59*a15);
+  a63=(a63+a64);
+  a63=(a63/a05);
+  a64=(a60*a16);
+  a64=(a63+a64);
+  a65=(a60*a18);
+  a64=(a64+a65);
+  a65=casadi_sq(a64);
+  a61=(a61+a65);
+  a61=(a61-a19);
+  a65=(a20/a21);
+  a66=2.0897959183673465e-01;
+  a67=(a66*a05);
+  a67=(a67*a25);
+  a68=(a65*a67);
+  a68=(a61*a68);
+  a68=(a12*a68);
+  a62=(a62*a68);
+  a69=(a62/a05);
+  a70=(a57*a69);
+  a28=(a28+a70);
+  a70=(a43*a01);
+  a71=(a45*a04);
+  a70=(a70+a71);
+  a70=(a70/a05);
+  a71=7.6455290861105418e-02;
+  a72=(a71*a07);
+  a72=(a70+a72);
+  a73=-3.2938986051629177e-01;
+  a74=(a73*a10);
+  a72=(a72+a74);
+  a74=(2.*a72);
+  a72=casadi_sq(a72);
+  a75=(a43*a13);
+  a76=(a45*a15);
+  a75=(a75+a76);
+  a75=(a75/a05);
+  a76=(a71*a16);
+  a76=(a75+a76);
+  a77=(a73*a18);
+  a76=(a76+a77);
+  a77=casadi_sq(a76);
+  a72=(a72+a77);
+  a72=(a72-a19);
+  a77=(a20/a21);
+  a78=(a53*a05);
+  a78=(a78*a25);
+  a79=(a77*a78);
+  a79=(a72*a79);
+  a79=(a12*a79);
+  a74=(a74*a79);
+  a80=(a74/a05);
+  a81=(a43*a80);
+  a28=(a28+a81);
+  a81=-6.7519725117533458e-01;
+  a82=(a81*a01);
+  a83=6.7519725117533458e-01;
+  a84=(a83*a04);
+  a82=(a82+a84);
+  a82=(a82/a05);
+  a84=5.3316696721202994e-01;
+  a85=(a84*a07);
+  a85=(a82+a85);
+  a86=-2.0836421838736452e-01;
+  a87=(a86*a10);
+  a85=(a85+a87);
+  a87=(2.*a85);
+  a85=casadi_sq(a85);
+  a88=(a81*a13);
+  a89=(a83*a15);
+  a88=(a88+a89);
+  a88=(a88/a05);
+  a89=(a84*a16);
+  a89=(a88+a89);
+  a90=(a86*a18);
+  a89=(a89+a90);
+  a90=casadi_sq(a89);
+  a85=(a85+a90);
+  a85=(a85-a19);
+  a90=(a20/a21);
+  a91=(a39*a05);
+  a91=(a91*a25);
+  a92=(a90*a91);
+  a92=(a85*a92);
+  a92=(a12*a92);
+  a87=(a87*a92);
+  a93=(a87/a05);
+  a94=(a81*a93);
+  a28=(a28+a94);
+  a94=-1.4879125609255570e-01;
+  a01=(a94*a01);
+  a95=1.4879125609255570e-01;
+  a04=(a95*a04);
+  a01=(a01+a04);
+  a01=(a01/a05);
+  a04=9.0015832812510144e-01;
+  a07=(a04*a07);
+  a07=(a01+a07);
+  a96=-4.8949584217657147e-02;
+  a10=(a96*a10);
+  a07=(a07+a10);
+  a10=(2.*a07);
+  a07=casadi_sq(a07);
+  a13=(a94*a13);
+  a15=(a95*a15);
+  a13=(a13+a15);
+  a13=(a13/a05);
+  a16=(a04*a16);
+  a16=(a13+a16);
+  a18=(a96*a18);
+  a16=(a16+a18);
+  a18=casadi_sq(a16);
+  a07=(a07+a18);
+  a07=(a07-a19);
+  a20=(a20/a21);
+  a19=(a23*a05);
+  a19=(a19*a25);
+  a18=(a20*a19);
+  a18=(a07*a18);
+  a18=(a12*a18);
+  a10=(a10*a18);
+  a15=(a10/a05);
+  a97=(a94*a15);
+  a28=(a28+a97);
+  if (res[0]!=0) res[0][0]=a28;
+  a17=(2.*a17);
+  a17=(a17*a26);
+  a26=(a17/a05);
+  a00=(a00*a26);
+  a37=(2.*a37);
+  a37=(a37*a41);
+  a41=(a37/a05);
+  a29=(a29*a41);
+  a00=(a00+a29);
+  a51=(2.*a51);
+  a51=(a51*a55);
+  a55=(a51/a05);
+  a29=(a43*a55);
+  a00=(a00+a29);
+  a64=(2.*a64);
+  a64=(a64*a68);
+  a68=(a64/a05);
+  a57=(a57*a68);
+  a00=(a00+a57);
+  a76=(2.*a76);
+  a76=(a76*a79);
+  a79=(a76/a05);
+  a43=(a43*a79);
+  a00=(a00+a43);
+  a89=(2.*a89);
+  a89=(a89*a92);
+  a92=(a89/a05);
+  a81=(a81*a92);
+  a00=(a00+a81);
+  a16=(2.*a16);
+  a16=(a16*a18);
+  a18=(a16/a05);
+  a94=(a94*a18);
+  a00=(a00+a94);
+  if (res[0]!=0) res[0][1]=a00;
+  a00=(a06*a11);
+  a94=(a32*a35);
+  a00=(a00+a94);
+  a94=(a46*a49);
+  a00=(a00+a94);
+  a94=(a60*a62);
+  a00=(a00+a94);
+  a94=(a71*a74);
+  a00=(a00+a94);
+  a94=(a84*a87);
+  a00=(a00+a94);
+  a94=(a04*a10);
+  a00=(a00+a94);
+  if (res[0]!=0) res[0][2]=a00;
+  a06=(a06*a17);
+  a32=(a32*a37);
+  a06=(a06+a32);
+  a46=(a46*a51);
+  a06=(a06+a46);
+  a46=(a60*a64);
+  a06=(a06+a46);
+  a71=(a71*a76);
+  a06=(a06+a71);
+  a84=(a84*a89);
+  a06=(a06+a84);
+  a04=(a04*a16);
+  a06=(a06+a04);
+  if (res[0]!=0) res[0][3]=a06;
+  a27=(a03*a27);
+  a42=(a31*a42);
+  a27=(a27+a42);
+  a56=(a45*a56);
+  a27=(a27+a56);
+  a69=(a59*a69);
+  a27=(a27+a69);
+  a80=(a45*a80);
+  a27=(a27+a80);
+  a93=(a83*a93);
+  a27=(a27+a93);
+  a15=(a95*a15);
+  a27=(a27+a15);
+  if (res[0]!=0) res[0][4]=a27;
+  a03=(a03*a26);
+  a31=(a31*a41);
+  a03=(a03+a31);
+  a55=(a45*a55);
+  a03=(a03+a55);
+  a59=(a59*a68);
+  a03=(a03+a59);
+  a45=(a45*a79);
+  a03=(a03+a45);
+  a83=(a83*a92);
+  a03=(a03+a83);
+  a95=(a95*a18);
+  a03=(a03+a95);
+  if (res[0]!=0) res[0][5]=a03;
+  a03=(a09*a11);
+  a95=(a34*a35);
+  a03=(a03+a95);
+  a95=(a48*a49);
+  a03=(a03+a95);
+  a95=(a60*a62);
+  a03=(a03+a95);
+  a95=(a73*a74);
+  a03=(a03+a95);
+  a95=(a86*a87);
+  a03=(a03+a95);
+  a95=(a96*a10);
+  a03=(a03+a95);
+  if (res[0]!=0) res[0][6]=a03;
+  a09=(a09*a17);
+  a34=(a34*a37);
+  a09=(a09+a34);
+  a48=(a48*a51);
+  a09=(a09+a48);
+  a60=(a60*a64);
+  a09=(a09+a60);
+  a73=(a73*a76);
+  a09=(a09+a73);
+  a86=(a86*a89);
+  a09=(a09+a86);
+  a96=(a96*a16);
+  a09=(a09+a96);
+  if (res[0]!=0) res[0][7]=a09;
+  a08=(a08/a21);
+  a08=casadi_sq(a08);
+  a22=(a22*a08);
+  a22=(a22*a25);
+  a22=(a23*a22);
+  a14=(a14/a05);
+  a14=(a14*a17);
+  a02=(a02/a05);
+  a02=(a02*a11);
+  a14=(a14+a02);
+  a22=(a22-a14);
+  a36=(a36/a05);
+  a36=(a36*a37);
+  a22=(a22-a36);
+  a30=(a30/a05);
+  a30=(a30*a35);
+  a22=(a22-a30);
+  a33=(a33/a21);
+  a33=casadi_sq(a33);
+  a38=(a38*a33);
+  a38=(a38*a25);
+  a38=(a39*a38);
+  a22=(a22+a38);
+  a50=(a50/a05);
+  a50=(a50*a51);
+  a22=(a22-a50);
+  a44=(a44/a05);
+  a44=(a44*a49);
+  a22=(a22-a44);
+  a47=(a47/a21);
+  a47=casadi_sq(a47);
+  a52=(a52*a47);
+  a52=(a52*a25);
+  a52=(a53*a52);
+  a22=(a22+a52);
+  a63=(a63/a05);
+  a63=(a63*a64);
+  a22=(a22-a63);
+  a58=(a58/a05);
+  a58=(a58*a62);
+  a22=(a22-a58);
+  a61=(a61/a21);
+  a61=casadi_sq(a61);
+  a65=(a65*a61);
+  a65=(a65*a25);
+  a66=(a66*a65);
+  a22=(a22+a66);
+  a75=(a75/a05);
+  a75=(a75*a76);
+  a22=(a22-a75);
+  a70=(a70/a05);
+  a70=(a70*a74);
+  a22=(a22-a70);
+  a72=(a72/a21);
+  a72=casadi_sq(a72);
+  a77=(a77*a72);
+  a77=(a77*a25);
+  a53=(a53*a77);
+  a22=(a22+a53);
+  a88=(a88/a05);
+  a88=(a88*a89);
+  a22=(a22-a88);
+  a82=(a82/a05);
+  a82=(a82*a87);
+  a22=(a22-a82);
+  a85=(a85/a21);
+  a85=casadi_sq(a85);
+  a90=(a90*a85);
+  a90=(a90*a25);
+  a39=(a39*a90);
+  a22=(a22+a39);
+  a13=(a13/a05);
+  a13=(a13*a16);
+  a22=(a22-a13);
+  a01=(a01/a05);
+  a01=(a01*a10);
+  a22=(a22-a01);
+  a07=(a07/a21);
+  a07=casadi_sq(a07);
+  a20=(a20*a07);
+  a20=(a20*a25);
+  a23=(a23*a20);
+  a22=(a22+a23);
+  if (res[1]!=0) res[1][0]=a22;
+  a08=(a08*a24);
+  a08=(a12*a08);
+  a33=(a33*a40);
+  a33=(a12*a33);
+  a08=(a08+a33);
+  a47=(a47*a54);
+  a47=(a12*a47);
+  a08=(a08+a47);
+  a61=(a61*a67);
+  a61=(a12*a61);
+  a08=(a08+a61);
+  a72=(a72*a78);
+  a72=(a12*a72);
+  a08=(a08+a72);
+  a85=(a85*a91);
+  a85=(a12*a85);
+  a08=(a08+a85);
+  a07=(a07*a19);
+  a12=(a12*a07);
+  a08=(a08+a12);
+  if (res[1]!=0) res[1][1]=a08;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_green_g7_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f15(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_green_g7_energy_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void adj1_cable2d_axial_green_g7_energy_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void adj1_cable2d_axial_green_g7_energy_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void adj1_cable2d_axial_green_g7_energy_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int adj1_cable2d_axial_green_g7_energy_n_in(void) { return 4;}
+
+CASADI_SYMBOL_EXPORT casadi_int adj1_cable2d_axial_green_g7_energy_n_out(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_real adj1_cable2d_axial_green_g7_energy_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* adj1_cable2d_axial_green_g7_energy_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    case 2: return "out_energy";
+    case 3: return "adj_energy";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* adj1_cable2d_axial_green_g7_energy_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "adj_q";
+    case 1: return "adj_p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* adj1_cable2d_axial_green_g7_energy_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    case 2: return casadi_s4;
+    case 3: return casadi_s2;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* adj1_cable2d_axial_green_g7_energy_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_green_g7_energy_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 4;
+  if (sz_res) *sz_res = 2;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int adj1_cable2d_axial_green_g7_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 4*sizeof(const casadi_real*);
+  if (sz_res) *sz_res = 2*sizeof(casadi_real*);
+  if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
+  if (sz_w) *sz_w = 0*sizeof(casadi_real);
+  return 0;
+}
+
+/* cable2d_axial_green_g7_grad:(q[8],p[2])->(energy,gradient[8]) */
+static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  casadi_real a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  casadi_real a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22, a23;
+  casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
+  casadi_real a36, a37, a38, a39, a40, a41, a42, a43, a44, a45, a46, a47;
+  casadi_real a48, a49, a50, a51, a52, a53, a54, a55, a56, a57, a58, a59;
+  casadi_real a60, a61, a62, a63, a64, a65, a66;
+  a00=6.4742483084434865e-02;
+  a01=arg[1]? arg[1][0] : 0;
+  a02=(a00*a01);
+  a03=arg[1]? arg[1][1] : 0;
+  a04=2.;
+  a05=(a03/a04);
+  a06=-1.4879125609255570e-01;
+  a07=arg[0]? arg[0][0] : 0;
+  a08=(a06*a07);
+  a09=1.4879125609255570e-01;
+  a10=arg[0]? arg[0][4] : 0;
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a08=(a08/a01);
+  a11=9.0015832812510144e-01;
+  a12=arg[0]? arg[0][2] : 0;
+  a13=(a11*a12);
+  a08=(a08+a13);
+  a13=-4.8949584217657147e-02;
+  a14=arg[0]? arg[0][6] : 0;
+  a15=(a13*a14);
+  a08=(a08+a15);
+  a15=casadi_sq(a08);
+  a16=arg[0]? arg[0][1] : 0;
+  a17=(a06*a16);
+  a18=arg[0]? arg[0][5] : 0;
+  a19=(a09*a18);
+  a17=(a17+a19);
+  a17=(a17/a01);
+  a19=arg[0]? arg[0][3] : 0;
+  a20=(a11*a19);
+  a17=(a17+a20);
+  a20=arg[0]? arg[0][7] : 0;
+  a21=(a13*a20);
+  a17=(a17+a21);
+  a21=casadi_sq(a17);
+  a15=(a15+a21);
+  a21=1.;
+  a15=(a15-a21);
+  a22=(a15/a04);
+  a22=casadi_sq(a22);
+  a22=(a05*a22);
+  a22=(a02*a22);
+  a23=1.3985269574463843e-01;
+  a24=(a23*a01);
+  a25=(a03/a04);
+  a26=-6.7519725117533458e-01;
+  a27=(a26*a07);
+  a28=6.7519725117533458e-01;
+  a29=(a28*a10);
+  a27=(a27+a29);
+  a27=(a27/a01);
+  a29=5.3316696721202994e-01;
+  a30=(a29*a12);
+  a27=(a27+a30);
+  a30=-2.0836421838736452e-01;
+  a31=(a30*a14);
+  a27=(a27+a31);
+  a31=casadi_sq(a27);
+  a32=(a26*a16);
+  a33=(a28*a18);
+  a32=(a32+a33);
+  a32=(a32/a01);
+  a33=(a29*a19);
+  a32=(a32+a33);
+  a33=(a30*a20);
+  a32=(a32+a33);
+  a33=casadi_sq(a32);
+  a31=(a31+a33);
+  a31=(a31-a21);
+  a33=(a31/a04);
+  a33=casadi_sq(a33);
+  a33=(a25*a33);
+  a33=(a24*a33);
+  a22=(a22+a33);
+  a33=1.9091502525255935e-01;
+  a34=(a33*a01);
+  a35=(a03/a04);
+  a36=-1.2529345696551863e+00;
+  a37=(a36*a07);
+  a38=1.2529345696551863e+00;
+  a39=(a38*a10);
+  a37=(a37+a39);
+  a37=(a37/a01);
+  a39=7.6455290861105418e-02;
+  a40=(a39*a12);
+  a37=(a37+a40);
+  a40=-3.2938986051629177e-01;
+  a41=(a40*a14);
+  a37=(a37+a41);
+  a41=casadi_sq(a37);
+  a42=(a36*a16);
+  a43=(a38*a18);
+  a42=(a42+a43);
+  a42=(a42/a01);
+  a43=(a39*a19);
+  a42=(a42+a43);
+  a43=(a40*a20);
+  a42=(a42+a43);
+  a43=casadi_sq(a42);
+  a41=(a41+a43);
+  a41=(a41-a21);
+  a43=(a41/a04);
+  a43=casadi_sq(a43);
+  a43=(a35*a43);
+  a43=(a34*a43);
+  a22=(a22+a43);
+  a43=2.0897959183673465e-01;
+  a43=(a43*a01);
+  a44=(a03/a04);
+  a45=-1.5000000000000000e+00;
+  a46=(a45*a07);
+  a47=1.5000000000000000e+00;
+  a48=(a47*a10);
+  a46=(a46+a48);
+  a46=(a46/a01);
+  a48=-2.5000000000000000e-01;
+  a49=(a48*a12);
+  a46=(a46+a49);
+  a49=(a48*a14);
+  a46=(a46+a49);
+  a49=casadi_sq(a46);
+  a50=(a45*a16);
+  a51=(a47*a18);
+  a50=(a50+a51);
+  a50=(a50/a01);
+  a51=(a48*a19);
+  a50=(a50+a51);
+  a51=(a48*a20);
+  a50=(a50+a51);
+  a51=casadi_sq(a50);
+  a49=(a49+a51);
+  a49=(a49-a21);
+  a51=(a49/a04);
+  a51=casadi_sq(a51);
+  a51=(a44*a51);
+  a51=(a43*a51);
+  a22=(a22+a51);
+  a33=(a33*a01);
+  a51=(a03/a04);
+  a52=(a36*a07);
+  a53=(a38*a10);
+  a52=(a52+a53);
+  a52=(a52/a01);
+  a53=-3.2938986051629171e-01;
+  a54=(a53*a12);
+  a52=(a52+a54);
+  a54=7.6455290861105363e-02;
+  a55=(a54*a14);
+  a52=(a52+a55);
+  a55=casadi_sq(a52);
+  a56=(a36*a16);
+  a57=(a38*a18);
+  a56=(a56+a57);
+  a56=(a56/a01);
+  a57=(a53*a19);
+  a56=(a56+a57);
+  a57=(a54*a20);
+  a56=(a56+a57);
+  a57=casadi_sq(a56);
+  a55=(a55+a57);
+  a55=(a55-a21);
+  a57=(a55/a04);
+  a57=casadi_sq(a57);
+  a57=(a51*a57);
+  a57=(a33*a57);
+  a22=(a22+a57);
+  a23=(a23*a01);
+  a57=(a03/a04);
+  a58=-6.7519725117533369e-01;
+  a59=(a58*a07);
+  a60=6.7519725117533369e-01;
+  a61=(a60*a10);
+  a59=(a59+a61);
+  a59=(a59/a01);
+  a61=-2.0836421838736419e-01;
+  a62=(a61*a12);
+  a59=(a59+a62);
+  a62=5.3316696721203027e-01;
+  a63=(a62*a14);
+  a59=(a59+a63);
+  a63=casadi_sq(a59);
+  a64=(a58*a16);
+  a65=(a60*a18);
+  a64=(a64+a65);
+  a64=(a64/a01);
+  a65=(a61*a19);
+  a64=(a64+a65);
+  a65=(a62*a20);
+  a64=(a64+a65);
+  a65=casadi_sq(a64);
+  a63=(a63+a65);
+  a63=(a63-a21);
+  a65=(a63/a04);
+  a65=casadi_sq(a65);
+  a65=(a57*a65);
+  a65=(a23*a65);
+  a22=(a22+a65);
+  a00=(a00*a01);
+  a03=(a03/a04);
+  a65=-1.4879125609255617e-01;
+  a07=(a65*a07);
+  a66=1.4879125609255617e-01;
+  a10=(a66*a10);
+  a07=(a07+a10);
+  a07=(a07/a01);
+  a10=-4.8949584217657272e-02;
+  a12=(a10*a12);
+  a07=(a07+a12);
+  a12=9.0015832812510133e-01;
+  a14=(a12*a14);
+  a07=(a07+a14);
+  a14=casadi_sq(a07);
+  a16=(a65*a16);
+  a18=(a66*a18);
+  a16=(a16+a18);
+  a16=(a16/a01);
+  a19=(a10*a19);
+  a16=(a16+a19);
+  a20=(a12*a20);
+  a16=(a16+a20);
+  a20=casadi_sq(a16);
+  a14=(a14+a20);
+  a14=(a14-a21);
+  a04=(a14/a04);
+  a04=casadi_sq(a04);
+  a04=(a03*a04);
+  a04=(a00*a04);
+  a22=(a22+a04);
+  if (res[0]!=0) res[0][0]=a22;
+  a22=(a06/a01);
+  a08=(2.*a08);
+  a04=5.0000000000000000e-01;
+  a05=(a05*a02);
+  a15=(a15*a05);
+  a15=(a04*a15);
+  a08=(a08*a15);
+  a22=(a22*a08);
+  a05=(a26/a01);
+  a27=(2.*a27);
+  a25=(a25*a24);
+  a31=(a31*a25);
+  a31=(a04*a31);
+  a27=(a27*a31);
+  a05=(a05*a27);
+  a22=(a22+a05);
+  a05=(a36/a01);
+  a37=(2.*a37);
+  a35=(a35*a34);
+  a41=(a41*a35);
+  a41=(a04*a41);
+  a37=(a37*a41);
+  a05=(a05*a37);
+  a22=(a22+a05);
+  a05=(a45/a01);
+  a46=(2.*a46);
+  a44=(a44*a43);
+  a49=(a49*a44);
+  a49=(a04*a49);
+  a46=(a46*a49);
+  a05=(a05*a46);
+  a22=(a22+a05);
+  a05=(a36/a01);
+  a52=(2.*a52);
+  a51=(a51*a33);
+  a55=(a55*a51);
+  a55=(a04*a55);
+  a52=(a52*a55);
+  a05=(a05*a52);
+  a22=(a22+a05);
+  a05=(a58/a01);
+  a59=(2.*a59);
+  a57=(a57*a23);
+  a63=(a63*a57);
+  a63=(a04*a63);
+  a59=(a59*a63);
+  a05=(a05*a59);
+  a22=(a22+a05);
+  a05=(a65/a01);
+  a07=(2.*a07);
+  a03=(a03*a00);
+  a14=(a14*a03);
+  a04=(a04*a14);
+  a07=(a07*a04);
+  a05=(a05*a07);
+  a22=(a22+a05);
+  if (res[1]!=0) res[1][0]=a22;
+  a06=(a06/a01);
+  a17=(2.*a17);
+  a17=(a17*a15);
+  a06=(a06*a17);
+  a26=(a26/a01);
+  a32=(2.*a32);
+  a32=(a32*a31);
+  a26=(a26*a32);
+  a06=(a06+a26);
+  a26=(a36/a01);
+  a42=(2.*a42);
+  a42=(a42*a41);
+  a26=(a26*a42);
+  a06=(a06+a26);
+  a45=(a45/a01);
+  a50=(2.*a50);
+  a50=(a50*a49);
+  a45=(a45*a50);
+  a06=(a06+a45);
+  a36=(a36/a01);
+  a56=(2.*a56);
+  a56=(a56*a55);
+  a36=(a36*a56);
+  a06=(a06+a36);
+  a58=(a58/a01);
+  a64=(2.*a64);
+  a64=(a64*a63);
+  a58=(a58*a64);
+  a06=(a06+a58);
+  a65=(a65/a01);
+  a16=(2.*a16);
+  a16=(a16*a04);
+  a65=(a65*a16);
+  a06=(a06+a65);
+  if (res[1]!=0) res[1][1]=a06;
+  a06=(a11*a08);
+  a65=(a29*a27);
+  a06=(a06+a65);
+  a65=(a39*a37);
+  a06=(a06+a65);
+  a65=(a48*a46);
+  a06=(a06+a65);
+  a65=(a53*a52);
+  a06=(a06+a65);
+  a65=(a61*a59);
+  a06=(a06+a65);
+  a65=(a10*a07);
+  a06=(a06+a65);
+  if (res[1]!=0) res[1][2]=a06;
+  a11=(a11*a17);
+  a29=(a29*a32);
+  a11=(a11+a29);
+  a39=(a39*a42);
+  a11=(a11+a39);
+  a39=(a48*a50);
+  a11=(a11+a39);
+  a53=(a53*a56);
+  a11=(a11+a53);
+  a61=(a61*a64);
+  a11=(a11+a61);
+  a10=(a10*a16);
+  a11=(a11+a10);
+  if (res[1]!=0) res[1][3]=a11;
+  a11=(a09/a01);
+  a11=(a11*a08);
+  a10=(a28/a01);
+  a10=(a10*a27);
+  a11=(a11+a10);
+  a10=(a38/a01);
+  a10=(a10*a37);
+  a11=(a11+a10);
+  a10=(a47/a01);
+  a10=(a10*a46);
+  a11=(a11+a10);
+  a10=(a38/a01);
+  a10=(a10*a52);
+  a11=(a11+a10);
+  a10=(a60/a01);
+  a10=(a10*a59);
+  a11=(a11+a10);
+  a10=(a66/a01);
+  a10=(a10*a07);
+  a11=(a11+a10);
+  if (res[1]!=0) res[1][4]=a11;
+  a09=(a09/a01);
+  a09=(a09*a17);
+  a28=(a28/a01);
+  a28=(a28*a32);
+  a09=(a09+a28);
+  a28=(a38/a01);
+  a28=(a28*a42);
+  a09=(a09+a28);
+  a47=(a47/a01);
+  a47=(a47*a50);
+  a09=(a09+a47);
+  a38=(a38/a01);
+  a38=(a38*a56);
+  a09=(a09+a38);
+  a60=(a60/a01);
+  a60=(a60*a64);
+  a09=(a09+a60);
+  a66=(a66/a01);
+  a66=(a66*a16);
+  a09=(a09+a66);
+  if (res[1]!=0) res[1][5]=a09;
+  a08=(a13*a08);
+  a27=(a30*a27);
+  a08=(a08+a27);
+  a37=(a40*a37);
+  a08=(a08+a37);
+  a46=(a48*a46);
+  a08=(a08+a46);
+  a52=(a54*a52);
+  a08=(a08+a52);
+  a59=(a62*a59);
+  a08=(a08+a59);
+  a07=(a12*a07);
+  a08=(a08+a07);
+  if (res[1]!=0) res[1][6]=a08;
+  a13=(a13*a17);
+  a30=(a30*a32);
+  a13=(a13+a30);
+  a40=(a40*a42);
+  a13=(a13+a40);
+  a48=(a48*a50);
+  a13=(a13+a48);
+  a54=(a54*a56);
+  a13=(a13+a54);
+  a62=(a62*a64);
+  a13=(a13+a62);
+  a12=(a12*a16);
+  a13=(a13+a12);
+  if (res[1]!=0) res[1][7]=a13;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g7_grad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem){
+  return casadi_f16(arg, res, iw, w, mem);
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g7_grad_checkout(void) {
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g7_grad_release(int mem) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g7_grad_incref(void) {
+}
+
+CASADI_SYMBOL_EXPORT void cable2d_axial_green_g7_grad_decref(void) {
+}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_green_g7_grad_n_in(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_green_g7_grad_n_out(void) { return 2;}
+
+CASADI_SYMBOL_EXPORT casadi_real cable2d_axial_green_g7_grad_default_in(casadi_int i) {
+  switch (i) {
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_green_g7_grad_name_in(casadi_int i) {
+  switch (i) {
+    case 0: return "q";
+    case 1: return "p";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_green_g7_grad_name_out(casadi_int i) {
+  switch (i) {
+    case 0: return "energy";
+    case 1: return "gradient";
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_green_g7_grad_sparsity_in(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s0;
+    case 1: return casadi_s1;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_green_g7_grad_sparsity_out(casadi_int i) {
+  switch (i) {
+    case 0: return casadi_s2;
+    case 1: return casadi_s0;
+    default: return 0;
+  }
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g7_grad_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 2;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_g7_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2*sizeof(const casadi_real*);
   if (sz_res) *sz_res = 2*sizeof(casadi_real*);
   if (sz_iw) *sz_iw = 0*sizeof(casadi_int);
   if (sz_w) *sz_w = 0*sizeof(casadi_real);

@@ -42,31 +42,37 @@ def generate(out_dir: Path = GENERATED, verbose: bool = False) -> dict:
     from . import definitions, writer
 
     out_dir.mkdir(parents=True, exist_ok=True)
-    entries = []
+    entries, groups = [], {}
     for element, effect, gauss in registry.all_kernels():
         k = definitions.kernel(element, effect, gauss)
         name = k.name()
         third = registry.has_third_derivatives(element, effect, gauss)
         energy, grad = definitions.lower_orders(element, effect, gauss, k)
-        files = writer.write_c(name, writer.companions(k, energy, grad, third), out_dir)
+        lib = registry.library_name(element, effect)
+        groups.setdefault(lib, []).extend(writer.companions(k, energy, grad, third))
         entries.append({
             "name": name, "element": element, "effect": effect, "gauss": gauss,
             "params": list(registry.EFFECTS[(element, effect)].params),
-            "c_file": name + ".c", "cflags": CFLAGS.get(name, DEFAULT_CFLAGS),
+            "library": lib, "c_file": lib + ".c", "cflags": CFLAGS.get(lib, DEFAULT_CFLAGS),
             "functions": [name, name + "_energy", "adj1_" + name + "_energy", name + "_grad"]
             + ([name + "_hvp"] if third else []),
-            "sha256": hashlib.sha256(files[name + ".c"].encode()).hexdigest(),
         })
+    digests = {}
+    for lib, functions in groups.items():
+        files = writer.write_c(lib, functions, out_dir)
+        digests[lib] = hashlib.sha256(files[lib + ".c"].encode()).hexdigest()
         if verbose:
-            print(f"  {name}: {len(files[name + '.c'].splitlines())} lines")
+            print(f"  {lib}: {len(functions)} functions, {len(files[lib + '.c'].splitlines())} lines")
+    for e in entries:
+        e["sha256"] = digests[e["library"]]
     mass = [definitions.mass(el) for el in registry.ELEMENTS]
     files = writer.write_c("ancf_mass", mass, out_dir)
     entries.append({"name": "ancf_mass", "element": None, "effect": "mass", "gauss": None, "params": None,
-                     "c_file": "ancf_mass.c", "cflags": DEFAULT_CFLAGS, "functions": [m.name() for m in mass],
+                     "library": "ancf_mass", "c_file": "ancf_mass.c", "cflags": DEFAULT_CFLAGS, "functions": [m.name() for m in mass],
                      "sha256": hashlib.sha256(files["ancf_mass.c"].encode()).hexdigest()})
     header = ["/* ancf_sym generated kernels: include this to call any of them from C. Do not edit. */",
               "#ifndef ANCF_KERNELS_H", "#define ANCF_KERNELS_H"]
-    header += [f'#include "{e["name"]}.h"' for e in entries] + ["#endif", ""]
+    header += [f'#include "{lib}.h"' for lib in dict.fromkeys(e["library"] for e in entries)] + ["#endif", ""]
     (out_dir / HEADER).write_text("\n".join(header))
     manifest = {"casadi_version": ca.__version__, "source_hash": source_hash(), "codegen_options": writer.CODEGEN_OPTIONS,
                 "kernels": entries}

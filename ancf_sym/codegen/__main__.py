@@ -26,7 +26,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"generated/ is up to date ({time.perf_counter() - t0:.1f} s)")
         return 0
     m = generate(args.out, verbose=True)
-    print(f"wrote {len(m['kernels'])} C files to {args.out} in {time.perf_counter() - t0:.1f} s")
+    libs = {k["library"] for k in m["kernels"]}
+    print(f"wrote {len(m['kernels'])} kernels in {len(libs)} C files to {args.out} in {time.perf_counter() - t0:.1f} s")
     return 0
 
 

@@ -75,7 +75,7 @@ def _direct_energy(element: str, effect: str, gauss: int | None):
     raise KeyError((element, effect))
 
 
-_POINT_CACHE: dict[tuple[str, str], ca.Function] = {}
+_POINT_CACHE: dict[tuple, ca.Function | tuple] = {}
 
 
 def point_function(element: str, effect: str) -> ca.Function:
@@ -111,5 +111,11 @@ def mass(element: str) -> ca.Function:
 def lower_orders(element: str, effect: str, gauss: int | None, k: ca.Function) -> tuple[ca.Function, ca.Function]:
     """The kernel's energy-only and energy+gradient functions (see forms.lower_orders)."""
     eff = registry.EFFECTS[(element, effect)]
-    point = point_function(element, effect) if effect in _QUADRATURE else None
-    return forms.lower_orders(k, point, gauss or eff.default_gauss)
+    points = None
+    if effect in _QUADRATURE:
+        key = (element, effect, "pruned")
+        if key not in _POINT_CACHE:  # one object per effect, so a library holding all orders emits it once
+            pt = point_function(element, effect)
+            _POINT_CACHE[key] = (forms.pruned(pt, 1, pt.name() + "_e"), forms.pruned(pt, 2, pt.name() + "_eg"))
+        points = _POINT_CACHE[key]
+    return forms.lower_orders(k, points, gauss or eff.default_gauss)

@@ -84,7 +84,8 @@ def direct_kernel(name: str, nq: int, n_p: int, energy: Callable[[ca.SX, ca.SX],
     return ca.Function(name, [q, p], [U, g, ca.densify(H)], KERNEL_IN, KERNEL_OUT)
 
 
-def lower_orders(kernel: ca.Function, point: ca.Function | None, gauss: int | None) -> tuple[ca.Function, ca.Function]:
+def lower_orders(kernel: ca.Function, points: tuple[ca.Function, ca.Function] | None,
+                 gauss: int | None) -> tuple[ca.Function, ca.Function]:
     """(<name>_energy: (q, p) -> energy, <name>_grad: (q, p) -> (energy, gradient)) without the Hessian's work.
 
     The energy is what IPOPT differentiates through (with its reverse companion); energy + gradient is the
@@ -92,8 +93,8 @@ def lower_orders(kernel: ca.Function, point: ca.Function | None, gauss: int | No
     name = kernel.name()
     if kernel.is_a("SXFunction"):
         return pruned(kernel, 1, name + "_energy"), pruned(kernel, 2, name + "_grad")
-    return (quadrature_kernel(name + "_energy", pruned(point, 1, point.name() + "_e"), gauss),
-            quadrature_kernel(name + "_grad", pruned(point, 2, point.name() + "_eg"), gauss))
+    point_e, point_eg = points  # the point function pruned to (e) and (e, g): shared by every quadrature order
+    return (quadrature_kernel(name + "_energy", point_e, gauss), quadrature_kernel(name + "_grad", point_eg, gauss))
 
 
 def hvp_function(kernel: ca.Function) -> ca.Function:
