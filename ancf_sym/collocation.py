@@ -24,8 +24,8 @@ import casadi as ca
 import numpy as np
 import numpy.polynomial.legendre as leg
 
-from .integrators import (Counters, Factor, NewtonOptions, StepOutcome, StepSystem, _dm, _mx_sparse_nz,
-                          initial_acceleration, newton)
+from .integrators import (Counters, Factor, NewtonOptions, StepOutcome, StepSystem, StiffnessDamping, _dm,
+                          _mx_sparse_nz, initial_acceleration, newton)
 from .scene import SceneError
 
 
@@ -247,25 +247,14 @@ class CollocationIntegrator:
         self.q, self.v, self.a, self.lam = np.zeros(nf), np.zeros(nf), np.zeros(nf), np.zeros(mc)
         self.new = dict(q=np.zeros(nf), v=np.zeros(nf), a=np.zeros(nf), lam=np.zeros(mc))
         self._prev = None  # (h, Q stages) of the last accepted step, for extrapolation
-        self._kel_f = None
-        if system.kel_sparsity is not None:
-            xf = ca.MX.sym("x", nf)
-            self._kel_f = ca.Function("kel", [xf], [system.forces_f(xf)[2]])
+        self.kdamp = StiffnessDamping(system, counters)
         self._W = np.linalg.inv(self.tab.A)
 
     def initialize(self, q0, v0, Q0) -> None:
         self.q[:], self.v[:] = q0, v0
-        self.update_damping()
-        a, lam = initial_acceleration(self.S, q0, v0, Q0, self.damping_matrix())
+        self.kdamp.update(self.q)
+        a, lam = initial_acceleration(self.S, q0, v0, Q0, self.kdamp.matrix())
         self.a[:], self.lam[:] = a, lam
-
-    def update_damping(self) -> None:
-        if self._kel_f is not None:
-            self.S.kel[:] = np.asarray(self._kel_f(self.q)).ravel()
-            self.counters.residuals += 1
-
-    def damping_matrix(self):
-        return self.S.damping_matrix(self.S.kel)
 
     def _guess(self, h: float) -> np.ndarray:
         """Stage positions: extrapolated collocation polynomial of the last step, else Taylor."""
@@ -336,7 +325,7 @@ class CollocationIntegrator:
         self._prev = self._pending
         for k in ("q", "v", "a", "lam"):
             getattr(self, k)[:] = self.new[k]
-        self.update_damping()
+        self.kdamp.update(self.q)
 
 
 __all__ = ["Tableau", "tableau", "stage_function", "CollocationIntegrator"]

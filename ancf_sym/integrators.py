@@ -729,6 +729,30 @@ class StepSystem:
 
 # -- Newton ------------------------------------------------------------------------------------------------------
 
+class StiffnessDamping:
+    """Rayleigh beta K_el: the elastic tangent at the start of each step, kept in system.kel (shared by the alpha and
+    collocation integrators)."""
+
+    def __init__(self, system: "StepSystem", counters: "Counters"):
+        self.S, self.counters = system, counters
+        self.f = None
+        if system.kel_sparsity is not None:
+            xf = ca.MX.sym("x", system.nf)
+            self.f = ca.Function("kel", [xf], [system.forces_f(xf)[2]])
+
+    @property
+    def active(self) -> bool:
+        return self.f is not None
+
+    def update(self, q: np.ndarray) -> None:
+        if self.f is not None:
+            self.S.kel[:] = np.asarray(self.f(q)).ravel()
+            self.counters.residuals += 1
+
+    def matrix(self):
+        return self.S.damping_matrix(self.S.kel)
+
+
 @dataclass
 class NewtonOptions:
     """Newton on the exact tangent. A step converges when the residual is below tol x force scale (never below
@@ -1008,10 +1032,7 @@ class AlphaIntegrator:
         self.new = dict(q=np.zeros(nf), v=np.zeros(nf), a=np.zeros(nf), ab=np.zeros(nf), lam=np.zeros(mc))
         self._new_ctl = self.ctl.copy()
         self._new_fac = [f.copy() for f in self.fac]
-        self._kel_f = None
-        if system.kel_sparsity is not None:
-            xf = ca.MX.sym("x", nf)
-            self._kel_f = ca.Function("kel", [xf], [system.forces_f(xf)[2]])
+        self.kdamp = StiffnessDamping(system, counters)
         self.step_f = self._build_modified() if self.modified_graph else self._build_full()
         self._setup_step_buffers()
         self._chunks: dict = {}
@@ -1286,28 +1307,19 @@ class AlphaIntegrator:
     def initialize(self, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray) -> None:
         self.q[:] = q0
         self.v[:] = v0
-        self.update_damping()
-        a, lam = initial_acceleration(self.S, q0, v0, Q0, self.damping_matrix())
+        self.kdamp.update(self.q)
+        a, lam = initial_acceleration(self.S, q0, v0, Q0, self.kdamp.matrix())
         self.a[:], self.lam[:] = a, lam
         self.ab[:] = self.a
         self.a_prev[:] = self.a
         self.h_prev = None
         self._reset_controls()
 
-    def update_damping(self) -> None:
-        """Rayleigh stiffness damping uses the elastic tangent at the start of the step."""
-        if self._kel_f is not None:
-            self.S.kel[:] = np.asarray(self._kel_f(self.q)).ravel()
-            self.counters.residuals += 1
-
-    def damping_matrix(self):
-        return self.S.damping_matrix(self.S.kel)
-
     @property
     def chunkable(self) -> bool:
         """The whole step is in the graph (no Python per step): no stiffness damping update, and not the Python
         modified-Newton loop."""
-        return (self.modified_graph or not self.opts.modified) and self._kel_f is None
+        return (self.modified_graph or not self.opts.modified) and not self.kdamp.active
 
     # -- one step ---------------------------------------------------------------------------------------------
     def attempt(self, t: float, h: float, loads=None) -> StepOutcome:
@@ -1382,7 +1394,7 @@ class AlphaIntegrator:
         vh = self.v + h * (1 - g) * self.ab
         cm, cc = sc.cm(h), sc.cc(h)
         p = S.M @ ((am * self.ab - af * self.a) / (1 - af) - cm * qh) + pload
-        C = self.damping_matrix()
+        C = self.kdamp.matrix()
         if C is not None:
             p += C @ (vh - cc * qh)
         ap = self.a + ((self.a - self.a_prev) * h / self.h_prev if self.h_prev else 0.0)
@@ -1414,7 +1426,7 @@ class AlphaIntegrator:
         for dst, src in zip(self.fac, self._new_fac):
             dst[:] = src
         self.h_prev = self._h_try
-        self.update_damping()
+        self.kdamp.update(self.q)
 
     # -- many steps in one call -------------------------------------------------------------------------------
     def chunk_function(self, n: int):
