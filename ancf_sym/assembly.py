@@ -17,6 +17,7 @@ from .loads import load_vector
 from .mesh import Mesh, build_mesh
 from .registry import ELEMENTS
 from .scene import Scene
+from .sparsity import casadi_sparsity, csc_pattern
 from .terms import Term, scene_terms
 
 
@@ -89,16 +90,11 @@ class Assembly:
             cols += [JtJ.col, Hq.col]
         r = np.concatenate(rows) if rows else np.zeros(0, int)
         c = np.concatenate(cols) if cols else np.zeros(0, int)
-        key = c.astype(np.int64) * self.n + r
-        uniq, inv = np.unique(key, return_inverse=True)
-        self._hpos = inv
+        self.h_indptr, self.h_indices, self._hpos = csc_pattern(r, c, self.n, self.n)
         self._n_kernel_entries = sum(mk.H.size for mk in self.curved)
-        ucol, urow = uniq // self.n, uniq % self.n
-        indptr = np.zeros(self.n + 1, dtype=np.int64)
-        np.add.at(indptr, ucol + 1, 1)
-        self.h_indptr, self.h_indices = np.cumsum(indptr), urow
-        self.h_key = uniq
-        self.h_nnz = len(uniq)
+        self.h_nnz = len(self.h_indices)
+        nz_col = np.repeat(np.arange(self.n, dtype=np.int64), np.diff(self.h_indptr))
+        self.h_key = nz_col * self.n + self.h_indices  # column-major key of each non-zero, ascending
 
     # -- evaluation ------------------------------------------------------------------------------------------
     def evaluate(self, x: np.ndarray, hessian: bool = True, penalty: bool = True) -> Evaluation:
@@ -187,10 +183,8 @@ class Assembly:
         sel = self.h_key // self.n >= self.h_key % self.n  # col >= row
         upper_pos = -np.ones(self.h_nnz, dtype=np.int64)
         upper_pos[sel] = np.arange(sel.sum())
-        ucols, urows = self.h_key[sel] // self.n, self.h_key[sel] % self.n
-        indptr = np.zeros(self.n + 1, dtype=np.int64)
-        np.add.at(indptr, ucols + 1, 1)
-        sp_up = ca.Sparsity(self.n, self.n, np.cumsum(indptr).tolist(), urows.tolist())
+        indptr, indices, _ = csc_pattern(self.h_key[sel] % self.n, self.h_key[sel] // self.n, self.n, self.n)
+        sp_up = casadi_sparsity(self.n, self.n, indptr, indices)
         hess = None
         if hvals:
             pos = upper_pos[self._hpos[:self._n_kernel_entries]]

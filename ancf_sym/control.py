@@ -55,6 +55,7 @@ from .checks import number
 from .elements import hermite
 from .integrators import LINEAR_EFFECTS, partition
 from .scene import Scene, SceneError
+from .sparsity import casadi_sparsity, csc_pattern
 
 SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 FULL_STEP_ITERATIONS = 150  # cap of the full-step attempt before IPOPT's line search takes over
@@ -196,13 +197,9 @@ def _dm(A) -> ca.DM:
 def _scatter(n_rows: int, n_cols: int, rows: np.ndarray, cols: np.ndarray, n_entries: int, keep: np.ndarray,
              values: ca.MX) -> ca.MX:
     """Sparse MX (n_rows x n_cols) summing values[keep[i]] at (rows[i], cols[i])."""
-    key = cols.astype(np.int64) * n_rows + rows
-    uniq, inv = np.unique(key, return_inverse=True)
-    c, r = uniq // n_rows, uniq % n_rows
-    indptr = np.zeros(n_cols + 1, dtype=np.int64)
-    np.add.at(indptr, c + 1, 1)
-    spy = ca.Sparsity(n_rows, n_cols, np.cumsum(indptr).tolist(), r.tolist())
-    A = sp.coo_matrix((np.ones(len(inv)), (inv, keep)), shape=(len(uniq), n_entries))
+    indptr, indices, inv = csc_pattern(rows, cols, n_rows, n_cols)
+    spy = casadi_sparsity(n_rows, n_cols, indptr, indices)
+    A = sp.coo_matrix((np.ones(len(inv)), (inv, keep)), shape=(len(indices), n_entries))
     return ca.MX(spy, ca.mtimes(_dm(A), values))
 
 

@@ -45,6 +45,7 @@ import scipy.sparse.linalg as spla
 from . import kernels
 from .assembly import Assembly
 from .scene import SceneError
+from .sparsity import casadi_sparsity, csc_pattern
 
 ELASTIC_LABELS = ("axial", "bending", "torsion", "continuum")
 LINEAR_EFFECTS = ("gravity",)  # energy linear in q: constant force, no Hessian
@@ -464,17 +465,13 @@ class StepSystem:
                  n_src: int | None = None) -> ca.MX:
         """Sparse nf x nf MX summing the values at (r, c): entry k is vertcat(vals)[src[k]] (default: k)."""
         nf = self.nf
-        key = c.astype(np.int64) * nf + r
-        uniq, inv = np.unique(key, return_inverse=True)
-        cols, rws = uniq // nf, uniq % nf
-        indptr = np.zeros(nf + 1, dtype=np.int64)
-        np.add.at(indptr, cols + 1, 1)
-        spK = ca.Sparsity(nf, nf, np.cumsum(indptr).tolist(), rws.tolist())
+        indptr, indices, inv = csc_pattern(r, c, nf, nf)
+        spK = casadi_sparsity(nf, nf, indptr, indices)
         if src is None:
             src, n_src = np.arange(len(inv)), len(inv)
         target = -np.ones(n_src, dtype=np.int64)
         target[src] = inv
-        return ca.MX(spK, _gather_sum(vals, target, len(uniq)))
+        return ca.MX(spK, _gather_sum(vals, target, len(indices)))
 
     def constraint_mx(self, xf: ca.MX) -> ca.MX:
         return Assembly._casadi_constraint(self.cons, self.x_full_mx(xf))
