@@ -2,6 +2,9 @@
 
     ancf-sym run SCENE.toml --out DIR [--quiet] [--samples N]   solve the scene's [analysis], write DIR/
     ancf-sym kernels [--json]                                   the compiled kernel catalogue
+    ancf-sym study NAME --out DIR [--quick] [--jobs N] [--sweep AXIS=V1,V2 ...] [--target E]
+                                                                what accuracy costs in time (ancf_sym.study)
+    ancf-sym study --list                                       the studies
 
 `run` writes DIR/result.json, DIR/shape.png, DIR/fields.png, DIR/result.vtu and a copy of the scene as
 DIR/scene.toml. Everything is written into a temporary sibling directory first; DIR is replaced only when the
@@ -258,6 +261,33 @@ def cmd_kernels(args) -> int:
     return 0
 
 
+def cmd_study(args) -> int:
+    from .study import StudyError, get_study, run_study, studies
+    if args.list or not args.name:
+        for name, title in studies().items():
+            st = get_study(name)
+            print(f"{name:20s} {title}\n{'':20s} axes: " +
+                  "; ".join(f"{a.name} = {','.join(map(str, a.values))}" for a in st.axes))
+        return 0 if args.list else 2
+    if not args.out:
+        _fail("study: --out DIR is required")
+        return 2
+    command = "ancf-sym study " + " ".join(sys.argv[2:]) if sys.argv[1:2] == ["study"] else None
+    try:
+        report = run_study(args.name, args.out, quick=args.quick, jobs=args.jobs, sweep=args.sweep or None,
+                           target=args.target, progress=not args.quiet, command=command)
+    except StudyError as exc:
+        _fail(str(exc))
+        return 2
+    except KeyboardInterrupt:
+        return 130
+    failed = sum(1 for r in report.records if not r.get("success"))
+    if not args.quiet:
+        print(f"{args.name}: {len(report.records)} settings ({failed} failed) -> {report.out}/report.md\n"
+              f"{report.answer}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="ancf-sym", description="ANCF cables and beams: scenes, kernels, solvers")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -270,6 +300,16 @@ def main(argv: list[str] | None = None) -> int:
     k = sub.add_parser("kernels", help="list the compiled kernels")
     k.add_argument("--json", action="store_true", help="the full catalogue as JSON")
     k.set_defaults(func=cmd_kernels)
+    st = sub.add_parser("study", help="sweep settings against a reference: error vs wall time report")
+    st.add_argument("name", nargs="?", help="study name (--list shows them)")
+    st.add_argument("--out", help="report folder (created; an interrupted study there resumes)")
+    st.add_argument("--list", action="store_true", help="list the studies and their axes")
+    st.add_argument("--quick", action="store_true", help="the small sweep of the test suite")
+    st.add_argument("--jobs", type=int, default=None, help="worker processes (default: the number of cores)")
+    st.add_argument("--sweep", action="append", metavar="AXIS=V1,V2", help="replace an axis' values (repeatable)")
+    st.add_argument("--target", type=float, default=None, help="error the answer aims at (default: the study's)")
+    st.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
+    st.set_defaults(func=cmd_study)
     args = parser.parse_args(argv)
     try:
         return args.func(args)

@@ -1,0 +1,105 @@
+"""What accuracy costs in time: sweeps of a setting space against a reference, with a report.
+
+    from ancf_sym.study import run_study
+    report = run_study("zhang_cantilever", "out/study", jobs=2)
+    print(report.answer)                  # the cheapest setting reaching the study's target error
+
+Also `ancf-sym study NAME --out DIR`. Studies: see STUDIES (name -> one-line title) or `ancf-sym study --list`.
+"""
+from __future__ import annotations
+
+import datetime
+import os
+import shlex
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from .base import Study, StudyError, parse_sweep
+from .runner import load_reference, prepare_folder, run_settings
+
+_MODULES = ("statics_studies", "dynamics_studies", "beam_studies", "kernel_studies")
+
+
+def _registry() -> dict[str, Study]:
+    import importlib
+    out = {}
+    for m in _MODULES:
+        for s in importlib.import_module(f"{__name__}.{m}").STUDIES:
+            out[s.name] = s
+    return out
+
+
+def get_study(name: str) -> Study:
+    reg = _registry()
+    if name not in reg:
+        raise StudyError(f"unknown study {name!r}; known: {sorted(reg)}")
+    return reg[name]
+
+
+def studies() -> dict[str, str]:
+    """name -> title of every study."""
+    return {k: s.title for k, s in sorted(_registry().items())}
+
+
+@dataclass
+class StudyReport:
+    name: str
+    out: Path
+    records: list  # one dict per finished setting (axes, error, wall_s, status, ...)
+    reference: dict
+    answer: str  # the cheapest setting reaching the target (or the closest one)
+    planned: int
+
+    @property
+    def complete(self) -> bool:
+        return len(self.records) == self.planned
+
+
+def run_study(name: str, out: str | Path, *, quick: bool = False, jobs: int | None = None,
+              sweep: dict[str, list] | list[str] | None = None, target: float | None = None,
+              progress: bool = True, command: str | None = None) -> StudyReport:
+    """Run (or resume) the study `name` into `out` and write its report.
+
+    quick: the small sweep of the test suite; jobs: worker processes (default: the number of cores);
+    sweep: {axis: values} or ["axis=v1,v2", ...] replacing an axis' values; target: error the answer aims at.
+    Bad input raises StudyError before any run; an interrupted study keeps its finished settings (rerun resumes).
+    """
+    study = get_study(name)
+    if isinstance(sweep, list):
+        sweep = parse_sweep(study, sweep)
+    elif sweep:
+        sweep = parse_sweep(study, [f"{k}={','.join(str(v) for v in vs)}" for k, vs in sweep.items()])
+    if target is not None and not (isinstance(target, (int, float)) and 0 < target < float("inf")):
+        raise StudyError(f"--target must be a positive number, got {target!r}")
+    cores = os.cpu_count() or 1
+    if jobs is None:
+        jobs = cores
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise StudyError(f"--jobs must be a positive integer, got {jobs!r}")
+    variant = "quick" if quick else "full"
+    settings = study.settings(variant, sweep)
+    out = Path(out)
+    prepare_folder(out, study, variant)
+    reference = load_reference(study, variant, out)
+    target = float(target if target is not None else study.target)
+    meta = {"variant": variant, "jobs": jobs, "cores": cores, "date": datetime.date.today().isoformat(),
+            "timing": study.extra.get("timing", "wall time of the run, min over repeats"),
+            "command": command or f"ancf-sym study {name} --out {shlex.quote(str(out))}" + (" --quick" if quick else "")}
+    from .report import write_report
+    try:
+        records = run_settings(study, variant, settings, out, reference, jobs, progress)
+    except KeyboardInterrupt:
+        from .runner import finished_records
+        from .base import setting_key
+        done = finished_records(out)
+        records = [done[setting_key(s)] for s in settings if setting_key(s) in done]
+        write_report(out, study, records, reference, target, meta, len(settings))
+        print(f"interrupted: {len(records)} of {len(settings)} settings finished and kept in {out}/runs; "
+              "run the same command again to resume", file=sys.stderr)
+        raise
+    answer = write_report(out, study, records, reference, target, meta, len(settings))
+    return StudyReport(name, out, records, reference, answer, len(settings))
+
+
+__all__ = ["run_study", "studies", "get_study", "Study", "StudyError", "StudyReport"]

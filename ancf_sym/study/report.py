@@ -1,0 +1,172 @@
+"""A study's report: results.csv, report.md (table, convergence rates, the cheapest setting reaching the target)
+and two figures: error vs wall time (log-log, Pareto front marked) and error vs the refinement axis with the
+observed convergence rate."""
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .base import Study
+
+
+def _ok(r: dict) -> bool:
+    e, t = r.get("error"), r.get("wall_s")
+    return bool(r.get("success")) and e is not None and t is not None and math.isfinite(e) and math.isfinite(t)
+
+
+def pareto_front(records: list[dict]) -> list[dict]:
+    """The settings no other setting beats in both wall time and error (sorted by time)."""
+    pts = sorted((r for r in records if _ok(r)), key=lambda r: (r["wall_s"], r["error"]))
+    front, best = [], math.inf
+    for r in pts:
+        if r["error"] < best:
+            front.append(r)
+            best = r["error"]
+    return front
+
+
+def cheapest(records: list[dict], target: float) -> dict | None:
+    ok = [r for r in records if _ok(r) and r["error"] <= target]
+    return min(ok, key=lambda r: r["wall_s"]) if ok else None
+
+
+def group_label(study: Study, r: dict) -> str:
+    return ", ".join(f"{a.name}={r[a.name]}" for a in study.axes if a.name != study.refine_axis) or "all"
+
+
+def convergence_rates(study: Study, records: list[dict], floor: float = 0.0) -> dict[str, float | None]:
+    """Observed order per group: -slope of log(error) vs log(n) over the three finest n above the error floor."""
+    if study.refine_axis is None:
+        return {}
+    groups: dict[str, list] = {}
+    for r in records:
+        if _ok(r) and r["error"] > 3 * floor:
+            groups.setdefault(group_label(study, r), []).append((float(r[study.refine_axis]), r["error"]))
+    rates = {}
+    for g, pts in groups.items():
+        pts = sorted(pts)[-3:]
+        if len(pts) < 2 or min(p[1] for p in pts) <= 0:
+            rates[g] = None
+            continue
+        x, y = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
+        rates[g] = float(-np.polyfit(x, y, 1)[0])
+    return rates
+
+
+def _fmt(v) -> str:
+    if v is None:
+        return "-"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    return str(v)
+
+
+def setting_text(study: Study, r: dict) -> str:
+    return ", ".join(f"{a.name} = {r[a.name]}" for a in study.axes)
+
+
+def write_csv(path: Path, study: Study, records: list[dict]) -> list[str]:
+    cols = [a.name for a in study.axes] + ["error", "wall_s", *study.columns, "status"]
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(cols)
+        for r in records:
+            w.writerow(["" if r.get(c) is None else r.get(c) for c in cols])
+    return cols
+
+
+def write_plots(out: Path, study: Study, records: list[dict], target: float, rates: dict) -> list[str]:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ok = [r for r in records if _ok(r) and r["error"] > 0]
+    files = []
+    groups = sorted({group_label(study, r) for r in ok})
+    colors = {g: plt.cm.tab10(i % 10) for i, g in enumerate(groups)}
+    markers = "osD^v<>phX*"
+    fig, ax = plt.subplots(figsize=(7.5, 5))
+    for i, g in enumerate(groups):
+        pts = [r for r in ok if group_label(study, r) == g]
+        ax.loglog([r["wall_s"] for r in pts], [r["error"] for r in pts], markers[i % len(markers)], color=colors[g],
+                  label=g, ms=5, alpha=0.85)
+    front = [r for r in pareto_front(records) if r["error"] > 0]
+    if front:
+        ax.loglog([r["wall_s"] for r in front], [r["error"] for r in front], "k-", lw=1.2, label="Pareto front",
+                  drawstyle="steps-post")
+    ax.axhline(target, color="0.4", ls=":", lw=1, label=f"target {target:g}")
+    ax.set_xlabel("wall time per setting [s]")
+    ax.set_ylabel(study.error_name)
+    ax.set_title(f"{study.title}: error vs time")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    fig.savefig(out / "error_vs_time.png", dpi=120)
+    plt.close(fig)
+    files.append("error_vs_time.png")
+    if study.refine_axis:
+        fig, ax = plt.subplots(figsize=(7.5, 5))
+        for i, g in enumerate(groups):
+            pts = sorted((float(r[study.refine_axis]), r["error"]) for r in ok if group_label(study, r) == g)
+            rate = rates.get(g)
+            lab = g + (f" (rate {rate:.2f})" if rate is not None else "")
+            ax.loglog([p[0] for p in pts], [p[1] for p in pts], markers[i % len(markers)] + "-", color=colors[g],
+                      label=lab, ms=4, lw=1)
+        ax.axhline(target, color="0.4", ls=":", lw=1, label=f"target {target:g}")
+        ax.set_xlabel(study.refine_axis)
+        ax.set_ylabel(study.error_name)
+        ax.set_title(f"{study.title}: convergence")
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(fontsize=7, ncol=2)
+        fig.tight_layout()
+        fig.savefig(out / f"error_vs_{study.refine_axis}.png", dpi=120)
+        plt.close(fig)
+        files.append(f"error_vs_{study.refine_axis}.png")
+    return files
+
+
+def write_report(out: Path, study: Study, records: list[dict], reference: dict, target: float, meta: dict,
+                 planned: int) -> str:
+    """Write results.csv, the figures and report.md; returns the one-line answer."""
+    floor = float(reference.get("error_bound") or 0.0)
+    rates = convergence_rates(study, records, floor)
+    cols = write_csv(out / "results.csv", study, records)
+    figures = write_plots(out, study, records, target, rates) if any(_ok(r) for r in records) else []
+    best = cheapest(records, target)
+    if best:
+        answer = (f"cheapest setting reaching {study.error_name} <= {target:g}: {setting_text(study, best)} "
+                  f"(error {best['error']:.3g}, {best['wall_s']:.3g} s)")
+    else:
+        good = [r for r in records if _ok(r)]
+        closest = min(good, key=lambda r: r["error"]) if good else None
+        answer = (f"no setting reached {study.error_name} <= {target:g}" +
+                  (f"; the smallest error was {closest['error']:.3g} with {setting_text(study, closest)} "
+                   f"({closest['wall_s']:.3g} s)" if closest else ""))
+    front = pareto_front(records)
+    lines = [f"# {study.title}", "", study.notes.strip(), "",
+             f"Reference: {reference.get('how', '?')}" +
+             (f" (its own error is below {floor:.2g})" if floor else "") + ".", "",
+             f"Error: {study.error_name}. Time: {meta['timing']}. Variant `{meta['variant']}`, "
+             f"{len(records)} of {planned} settings finished, {meta['jobs']} worker process(es) on {meta['cores']} "
+             f"core(s) ({meta['date']}; parallel workers on a shared machine inflate times: use `--jobs 1` for "
+             "clean timings). Reproduce: `" + meta["command"] + "`.", "",
+             "| " + " | ".join(cols) + " | Pareto |", "|" + "---|" * (len(cols) + 1)]
+    front_ids = {id(r) for r in front}
+    for r in records:
+        lines.append("| " + " | ".join(_fmt(r.get(c)) for c in cols) + f" | {'*' if id(r) in front_ids else ''} |")
+    if rates:
+        lines += ["", f"Observed convergence rate in {study.refine_axis} (three finest points above 3x the reference "
+                      "error):", "", "| setting | rate |", "|---|---|"]
+        lines += [f"| {g} | {_fmt(v)} |" for g, v in sorted(rates.items())]
+    if figures:
+        lines += [""] + [f"![{f}]({f})" for f in figures]
+    lines += ["", "## Answer", "", f"- {answer}."]
+    if study.conclusions:
+        lines += [f"- {c}" for c in study.conclusions(records, reference)]
+    (out / "report.md").write_text("\n".join(lines) + "\n")
+    return answer
