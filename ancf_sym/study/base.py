@@ -26,6 +26,7 @@ class Axis:
     kind: type = str  # int | float | str: how --sweep values are read
     allowed: tuple | None = None  # categorical axes: the values a sweep may name
     help: str = ""
+    positive: bool = True  # numeric values must be > 0 (else >= 0)
 
     def parse(self, text: str) -> Any:
         try:
@@ -34,8 +35,9 @@ class Axis:
             raise StudyError(f"--sweep {self.name}: {text!r} is not a {self.kind.__name__}") from None
         if self.allowed is not None and v not in self.allowed:
             raise StudyError(f"--sweep {self.name}: {v!r} is not one of {list(self.allowed)}")
-        if isinstance(v, (int, float)) and not (math.isfinite(v) and v > 0):
-            raise StudyError(f"--sweep {self.name}: values must be positive and finite, got {text!r}")
+        if isinstance(v, (int, float)) and not (math.isfinite(v) and (v > 0 if self.positive else v >= 0)):
+            raise StudyError(f"--sweep {self.name}: values must be {'positive' if self.positive else 'non-negative'} "
+                             f"and finite, got {text!r}")
         return v
 
 
