@@ -59,17 +59,19 @@ def test_report_files(quick):
 
 
 def test_compiled_beats_the_sx_virtual_machine(quick):
-    """Measured 8-20x on 2 shared cores; 1.5x holds on a loaded machine (min over repeats)."""
-    by = {(r["form"], r["split"]): r["wall_s"] for r in quick.records}
+    """Measured 7-20x on 2 shared cores; 1.5x holds on a loaded machine. Each run timed its form interleaved with
+    the compiled per-effect kernels (speedup_vs_ref), so the ratio compares same-moment measurements."""
+    rel = {(r["form"], r["split"]): r["speedup_vs_ref"] for r in quick.records}
     for split in ks.SPLITS:
-        ratio = by[("sx_vm", split)] / by[("compiled", split)]
+        ratio = rel[("compiled", split)] / rel[("sx_vm", split)]
         assert ratio >= 1.5, f"{split}: compiled kernel only {ratio:.2f}x faster than the SX VM (expected >= 1.5x)"
+    assert 1 / rel[("sx_vm", "per_effect")] >= 1.5  # the SX VM per-effect kernels vs the compiled ones, directly
 
 
 def test_conclusions_state_the_ratios(quick):
     lines = get_study("kernels").conclusions(quick.records, quick.reference)
     text = "\n".join(lines)
-    assert "compiled is" in text and "x faster" in text and "per-effect time / fused time" in text
+    assert "the compiled kernel is" in text and "x faster" in text and "per-effect time / fused time" in text
     assert "ns per element" in text
 
 

@@ -250,32 +250,38 @@ def relative_differences(got: list[np.ndarray], ref: list[np.ndarray]) -> dict[s
             for k, a, b in zip(("energy", "gradient", "hessian"), got, ref)}
 
 
-def time_per_element(bufs: list[Buffered], n: int, min_time: float, repeats: int) -> tuple[float, float]:
-    """(min, median) seconds per element over `repeats` batches, each batch calling the mapped kernel(s) back to
-    back enough times to last >= min_time."""
-    evals = [b.eval for b in bufs]
+def time_per_element(groups: list[list[Buffered]], n: int, min_time: float, repeats: int) -> list[tuple[float, float]]:
+    """(min, median) seconds per element of each group of mapped kernels (called back to back), over `repeats`
+    batches each lasting >= min_time. The groups' batches alternate (round-robin), so load from other processes
+    drifting in time hits them alike and their ratio is steadier than their absolute times."""
+    calls, counts = [], []
+    for bufs in groups:
+        evals = [b.eval for b in bufs]
 
-    def once():
-        for e in evals:
-            e()
+        def once(evals=evals):
+            for e in evals:
+                e()
 
-    once()
-    k = 1
-    while True:
-        t0 = time.perf_counter()
-        for _ in range(k):
-            once()
-        dt = time.perf_counter() - t0
-        if dt >= min_time:
-            break
-        k = max(k + 1, int(k * min(10.0, 1.2 * min_time / max(dt, 1e-9))))
-    samples = [dt / k / n]
-    for _ in range(repeats - 1):
-        t0 = time.perf_counter()
-        for _ in range(k):
-            once()
-        samples.append((time.perf_counter() - t0) / k / n)
-    return min(samples), statistics.median(samples)
+        once()
+        k = 1
+        while True:
+            t0 = time.perf_counter()
+            for _ in range(k):
+                once()
+            dt = time.perf_counter() - t0
+            if dt >= min_time:
+                break
+            k = max(k + 1, int(k * min(10.0, 1.2 * min_time / max(dt, 1e-9))))
+        calls.append(once)
+        counts.append(k)
+    samples = [[] for _ in groups]
+    for _ in range(repeats):
+        for once, k, smp in zip(calls, counts, samples):
+            t0 = time.perf_counter()
+            for _ in range(k):
+                once()
+            smp.append((time.perf_counter() - t0) / k / n)
+    return [(min(smp), statistics.median(smp)) for smp in samples]
 
 
 def kernels_run(setting: dict, variant: str) -> dict:
@@ -285,12 +291,14 @@ def kernels_run(setting: dict, variant: str) -> dict:
     q = element_states(el, n)
     ref_fns = [(kernels.load(el, e, gauss), kernels.parameters(el, e)) for e in PARTS[el]]
     import casadi as ca
-    ref = summed_outputs(mapped([(ca.Function(f), p) for f, p in ref_fns], q))
+    ref_bufs = mapped([(ca.Function(f), p) for f, p in ref_fns], q)
+    ref = summed_outputs(ref_bufs)
     form = build_form(el, setting["form"], setting["split"], gauss)
     bufs = mapped(form["fns"], q)
     diffs = relative_differences(summed_outputs(bufs), ref)
-    t_min, t_med = time_per_element(bufs, n, cfg["min_time"], cfg["repeats"])
+    (t_min, t_med), (r_min, _) = time_per_element([bufs, ref_bufs], n, cfg["min_time"], cfg["repeats"])
     return {"status": "ok", "success": True, "wall_s": t_min, "ns_min": t_min * 1e9, "ns_median": t_med * 1e9,
+            "ref_ns_min": r_min * 1e9, "speedup_vs_ref": r_min / t_min,
             "kernels": len(bufs), "sx_ops": form["ops"], "source": form["source"], "build_s": form["build_s"],
             "diff_energy": diffs["energy"], "diff_gradient": diffs["gradient"], "diff_hessian": diffs["hessian"],
             "raw_diff": max(diffs.values()), "n_elements": n}
@@ -317,44 +325,49 @@ def _ratio_text(rs: list[float]) -> str:
 
 
 def kernels_conclusions(records: list[dict], ref: dict) -> list[str]:
+    """Speed-up ratios from the interleaved timings: each run timed its form against the compiled per-effect
+    kernels batch by batch (speedup_vs_ref), so a ratio of two forms divides two same-moment measurements."""
     ok = {(r["element"], r["form"], r["split"], int(r["gauss"])): r for r in records
-          if r.get("success") and r.get("error") is not None and r.get("wall_s")}
-    ns = {k: r["wall_s"] * 1e9 for k, r in ok.items()}
+          if r.get("success") and r.get("error") is not None and r.get("speedup_vs_ref")}
+    rel = {k: r["speedup_vs_ref"] for k, r in ok.items()}
     lines = []
-    vm, fu = {"per_effect": [], "fused": []}, {"compiled": [], "sx_vm": []}
-    for (el, form, split, g), t in ns.items():
-        if form == "compiled" and (el, "sx_vm", split, g) in ns:
-            vm[split].append(ns[(el, "sx_vm", split, g)] / t)
-        if split == "per_effect" and (el, form, "fused", g) in ns:
-            fu[form].append(t / ns[(el, form, "fused", g)])
+    vm, fu = {s: [] for s in SPLITS}, {f: [] for f in FORMS}
+    for (el, form, split, g), x in rel.items():
+        if form == "compiled" and (el, "sx_vm", split, g) in rel:
+            vm[split].append(x / rel[(el, "sx_vm", split, g)])
+        if split == "fused" and (el, form, "per_effect", g) in rel:
+            fu[form].append(x / rel[(el, form, "per_effect", g)])
     for split in SPLITS:
         if vm[split]:
-            lines.append(f"compiled vs SX VM ({split.replace('_', '-')} kernels): compiled is {_ratio_text(vm[split])} "
-                         f"faster over {len(vm[split])} (element, Gauss order) pairs")
+            lines.append(f"compiled vs SX VM ({split.replace('_', '-')} kernels): the compiled kernel is "
+                         f"{_ratio_text(vm[split])} faster over {len(vm[split])} (element, Gauss order) pair(s)")
     for form in FORMS:
         if fu[form]:
             lines.append(f"fused vs per-effect ({form.replace('_', ' ')}): per-effect time / fused time = "
-                         f"{_ratio_text(fu[form])} (> 1: the fused kernel is faster)")
+                         f"{_ratio_text(fu[form])} over {len(fu[form])} pair(s) (> 1: the fused kernel is faster)")
     for el in ELEMENTS:
-        gs = sorted({g for (e, _, _, g) in ns if e == el})
+        gs = sorted({g for (e, _, _, g) in rel if e == el})
         if not gs:
             continue
         g = 5 if 5 in gs else gs[len(gs) // 2]
-        cells = {(f, s): ns.get((el, f, s, g)) for f in FORMS for s in SPLITS}
-        parts = [f"{f.replace('_', ' ')} {s.replace('_', '-')} {v:.0f}" for (f, s), v in cells.items() if v]
-        within = [(ok[(el, f, s, g)]["wall_s"], f, s) for f in FORMS for s in SPLITS
-                  if (el, f, s, g) in ok and ok[(el, f, s, g)]["error"] <= TARGET]
-        best = f"; fastest within {TARGET:g}: {min(within)[1]} {min(within)[2]}" if within else ""
+        cells = [(f, s, ok[(el, f, s, g)]) for f in FORMS for s in SPLITS if (el, f, s, g) in ok]
+        parts = [f"{f.replace('_', ' ')} {s.replace('_', '-')} {r['ns_min']:.0f} ({r['speedup_vs_ref']:.2f}x)"
+                 for f, s, r in cells]
+        within = [(r["speedup_vs_ref"], f, s) for f, s, r in cells if r["error"] <= TARGET]
+        best = f"; fastest within {TARGET:g}: {max(within)[1]} {max(within)[2].replace('_', '-')}" if within else ""
         src = ok.get((el, "compiled", "fused", g), {}).get("source")
-        lines.append(f"{el}, Gauss {g}, ns per element: " + ", ".join(parts) + best +
-                     (f" (compiled fused: {src})" if src else ""))
+        lines.append(f"{el}, Gauss {g}: ns per element (speed-up vs compiled per-effect, timed interleaved): "
+                     + ", ".join(parts) + best + (f"; compiled fused kernel: {src}" if src else ""))
+        refs = {gg: min(r["ref_ns_min"] for (e, _, _, g2), r in ok.items() if e == el and g2 == gg) for gg in gs}
         if len(gs) > 1:
-            lo, hi = gs[0], gs[-1]
-            rs = [ns[(el, f, s, hi)] / ns[(el, f, s, lo)] for f in FORMS for s in SPLITS
-                  if (el, f, s, hi) in ns and (el, f, s, lo) in ns]
-            if rs:
-                lines.append(f"{el}: Gauss {hi} costs {_ratio_text(rs)} the time of Gauss {lo} "
-                             f"(point ratio {hi / lo:.2f}; fixed per-element work makes it less)")
+            lines.append(f"{el}, compiled per-effect kernels vs Gauss order: " +
+                         ", ".join(f"{gg} points {t:.0f} ns" for gg, t in refs.items()) +
+                         f" (min over the runs that timed them; {gs[-1]}/{gs[0]} points = {gs[-1] / gs[0]:.2f}, "
+                         f"time ratio {refs[gs[-1]] / refs[gs[0]]:.2f})")
+    self_t = [r["speedup_vs_ref"] for (el, f, s, g), r in ok.items() if (f, s) == ("compiled", "per_effect")]
+    if self_t:
+        lines.append(f"timing noise: the reference timed interleaved against itself gives {_ratio_text(self_t)} "
+                     "(ideal 1.00)")
     worst = max((r["raw_diff"] for r in ok.values()), default=None)
     if worst is not None:
         lines.append(f"every form agrees with the compiled per-effect kernels to {worst:.1e} (largest relative "
@@ -364,8 +377,9 @@ def kernels_conclusions(records: list[dict], ref: dict) -> list[str]:
 
 _TIMING = ("seconds per element evaluation (energy + gradient + Hessian), the kernel(s) mapped over 1000 elements "
            "(200 in --quick) with Function.map and called through Function.buffer(); min over 7 batches of >= 50 ms "
-           "(3 of >= 10 ms in --quick); per-effect kernels called back to back; build and compile time not included "
-           "(column build_s)")
+           "(3 of >= 10 ms in --quick); per-effect kernels called back to back; each batch alternates with one of "
+           "the compiled per-effect kernels (ref_ns_min, speedup_vs_ref = ref_ns_min / ns_min: the ratios below "
+           "compare same-moment measurements); build and compile time not included (column build_s)")
 
 STUDIES = [
     Study("kernels", "Kernel level: compiled vs CasADi SX virtual machine, fused vs per-effect kernels",
@@ -375,8 +389,8 @@ STUDIES = [
            Axis("gauss", (3, 5, 7), (5,), int, (3, 4, 5, 7), "Gauss points per element")),
           kernels_run, kernels_reference, kernels_error,
           "max relative difference of energy, gradient, Hessian vs the compiled per-effect kernels", TARGET,
-          columns=("ns_min", "ns_median", "sx_ops", "kernels", "build_s", "diff_energy", "diff_gradient",
-                   "diff_hessian", "raw_diff", "source"),
+          columns=("ns_min", "ns_median", "ref_ns_min", "speedup_vs_ref", "sx_ops", "kernels", "build_s",
+                   "diff_energy", "diff_gradient", "diff_hessian", "raw_diff", "source"),
           refine_axis=None, conclusions=kernels_conclusions, extra={"timing": _TIMING},
           notes="Time per element evaluation (energy, gradient and Hessian together) of the same element energies "
                 "in four forms: the compiled C kernels shipped with the package (`compiled`) or the same symbolic "
