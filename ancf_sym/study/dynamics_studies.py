@@ -106,27 +106,29 @@ _DT = Axis("dt", (4e-3, 2e-3, 1e-3, 5e-4), (4e-3, 2e-3), float)
 _TIMING = ("run_dynamics wall time: building the compiled step graph + the time loop (tip recorded every 0.01 s, "
            "no energy bookkeeping), one run per setting")
 
+
+def _study(name: str, title: str, scene_fn, member: str, t_end: float, ns: tuple, quick_ns: tuple,
+           ref_n: tuple[int, int], ref_dt: tuple[float, float], target: float, notes: str) -> Study:
+    """A dynamics study; ref_n / ref_dt: the reference's (quick, full) mesh and step."""
+    def reference(variant: str) -> dict:
+        k = 0 if variant == "quick" else 1
+        return _reference(scene_fn, ref_n[k], ref_dt[k], t_end, member)
+
+    return Study(name, title, (_INTEG, _DT, Axis("n", ns, quick_ns, int)), _run(scene_fn, member, t_end), reference,
+                 _history_error, "max tip position error / max tip displacement", target,
+                 columns=("loop_s", "setup_s", "steps", "newton_iterations", "factorizations"),
+                 conclusions=_conclusions, extra={"timing": _TIMING}, notes=notes)
+
+
 STUDIES = [
-    Study("zhang_pendulum", "Paper 000 beam released horizontal, clamped (1 s)",
-          (_INTEG, _DT, Axis("n", (3, 6, 12, 24), (3, 6), int)),
-          _run(zhang_scene, "beam", ZT),
-          lambda variant: _reference(zhang_scene, 12 if variant == "quick" else 48, 5e-4 if variant == "quick"
-                                     else 1.25e-4, ZT, "beam"),
-          _history_error, "max tip position error / max tip displacement", 1e-3,
-          columns=("loop_s", "setup_s", "steps", "newton_iterations", "factorizations"),
-          conclusions=_conclusions, extra={"timing": _TIMING},
-          notes="Paper 000 section 3.2 (its table 2 beam: L = 3 m, E = 20 GPa), clamped at x = 0 and released "
-                "horizontal under gravity, decoupled strain, 1 s (the fall and curl to the first extremum). "
-                "HHT alpha = -0.05, generalized-alpha rho_inf = 0.9, Radau IIA 3 stages, Gauss-Legendre 2 stages."),
-    Study("rope", "Paper 002 soft rope pinned and released (1 s)",
-          (_INTEG, _DT, Axis("n", (8, 16, 32), (8, 16), int)),
-          _run(rope_scene, "rope", RT),
-          lambda variant: _reference(rope_scene, 32 if variant == "quick" else 64, 5e-4 if variant == "quick"
-                                     else 2.5e-4, RT, "rope"),
-          _history_error, "max tip position error / max tip displacement", 1e-2,
-          columns=("loop_s", "setup_s", "steps", "newton_iterations", "factorizations"),
-          conclusions=_conclusions, extra={"timing": _TIMING},
-          notes="Paper 002's soft rope (L = 1.2 m, A = 0.0018 m^2, I = 1.215e-8 m^4, rho = 5540 kg/m^3, E = 0.7 MPa: "
-                "up to ~30 % stretch), pinned at x = 0 and released horizontal, Green strain, 1 s. Target 1e-2: the "
-                "rope's motion is sensitive (folds travelling along it), 1 % of the tip's travel is ~1.5 cm."),
+    _study("zhang_pendulum", "Paper 000 beam released horizontal, clamped (1 s)", zhang_scene, "beam", ZT,
+           (3, 6, 12, 24), (3, 6), (12, 48), (5e-4, 1.25e-4), 1e-3,
+           "Paper 000 section 3.2 (its table 2 beam: L = 3 m, E = 20 GPa), clamped at x = 0 and released "
+           "horizontal under gravity, decoupled strain, 1 s (the fall and curl to the first extremum). "
+           "HHT alpha = -0.05, generalized-alpha rho_inf = 0.9, Radau IIA 3 stages, Gauss-Legendre 2 stages."),
+    _study("rope", "Paper 002 soft rope pinned and released (1 s)", rope_scene, "rope", RT,
+           (8, 16, 32), (8, 16), (32, 64), (5e-4, 2.5e-4), 1e-2,
+           "Paper 002's soft rope (L = 1.2 m, A = 0.0018 m^2, I = 1.215e-8 m^4, rho = 5540 kg/m^3, E = 0.7 MPa: "
+           "up to ~30 % stretch), pinned at x = 0 and released horizontal, Green strain, 1 s. Target 1e-2: the "
+           "rope's motion is sensitive (folds travelling along it), 1 % of the tip's travel is ~1.5 cm."),
 ]
