@@ -34,7 +34,8 @@ def test_quick_study_runs_every_form(quick):
     assert set(by) == {(f, s) for f in ks.FORMS for s in ks.SPLITS}
     for key, r in by.items():
         assert r["success"], (key, r["status"])
-        assert r["ns_min"] > 0 and r["wall_s"] == pytest.approx(r["ns_min"] * 1e-9)
+        assert r["ns_min"] > 0 and r["wall_s"] == pytest.approx(r["ns_norm"] * 1e-9)  # load-normalised time
+        assert r["ns_norm"] == pytest.approx(r["ns_min"] * quick.reference["baseline_ns"]["cable2d,5"] / r["ref_ns_min"])
 
 
 def test_every_form_is_the_same_function_to_round_off(quick):
