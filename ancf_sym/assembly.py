@@ -15,6 +15,7 @@ from . import kernels
 from .constraints import Constraints, build_constraints
 from .loads import load_vector
 from .mesh import Mesh, build_mesh
+from . import registry
 from .registry import ELEMENTS
 from .scene import Scene
 from .sparsity import casadi_sparsity, csc_pattern
@@ -48,6 +49,83 @@ class MappedKernel:
     def __call__(self, x: np.ndarray) -> None:
         np.take(x, self.term.idx, out=self.X)
         self._eval()
+
+
+@dataclass
+class ForceTerm:
+    """One mapped kernel call of a step graph: a scene term, or an axial and a bending term fused on the elements
+    they share (internal effect elastic_<strain>, p = (L, EA, EI)). `sources` are (index of the term in the list
+    given to force_terms, its rows covered here): the fused rows of both terms, or a single term's rows."""
+    element: str
+    effect: str
+    gauss: int | None
+    idx: np.ndarray  # (N, nd) global coordinate indices per element
+    P: np.ndarray  # (N, n_p) kernel parameters per element
+    labels: tuple  # energy buckets of the public effects it holds
+    sources: list
+
+    @property
+    def N(self) -> int:
+        return self.idx.shape[0]
+
+    @property
+    def nd(self) -> int:
+        return self.idx.shape[1]
+
+    @property
+    def fused(self) -> bool:
+        return len(self.sources) > 1
+
+    def mapped(self) -> ca.Function:
+        """(q, p) -> (energy, gradient, Hessian), mapped over the elements."""
+        return kernels.load(self.element, self.effect, self.gauss).map(self.N)
+
+    def mapped_grad(self) -> ca.Function:
+        """(q, p) -> (energy, gradient) without the Hessian's work, mapped over the elements."""
+        return kernels.load_grad(self.element, self.effect, self.gauss).map(self.N)
+
+
+def force_terms(terms: list[Term], fuse: bool = True, row_keys: dict | None = None) -> list[ForceTerm]:
+    """The terms as mapped kernel calls for gradients and Hessians, a cable's axial (green, biot) and bending
+    terms fused into one elastic_<strain> call on every element where both are on at the same Gauss order (same
+    coordinates and length): one B^T f_uu B per Gauss point instead of two. Energies per effect are not in
+    these calls' first output (the step graphs report them from the separate <effect>_energy functions).
+
+    row_keys: term index -> per-element values that must also agree for two rows to fuse (Rayleigh weights)."""
+    out: list[ForceTerm] = []
+    used: dict[int, np.ndarray] = {i: np.zeros(len(t.idx), bool) for i, t in enumerate(terms)}
+    if fuse:
+        for ia, ta in enumerate(terms):
+            if not ta.element.startswith("cable") or not ta.effect.startswith("axial_"):
+                continue
+            for ib, tb in enumerate(terms):
+                fe = registry.fused_effect(ta.element, (ta.effect, tb.effect)) if tb.effect == "bending" else None
+                if fe is None or tb.element != ta.element or tb.gauss != ta.gauss:
+                    continue
+
+                def key(i, t, r):
+                    extra = () if row_keys is None or i not in row_keys else (float(np.asarray(row_keys[i])[r]),)
+                    return (t.idx[r].tobytes(), float(t.P[r, 0])) + extra
+                rows_b: dict = {}
+                for r in np.flatnonzero(~used[ib]):
+                    rows_b.setdefault(key(ib, tb, r), r)
+                pairs = []
+                for r in np.flatnonzero(~used[ia]):
+                    rb = rows_b.pop(key(ia, ta, r), None)
+                    if rb is not None:
+                        pairs.append((r, rb))
+                if not pairs:
+                    continue
+                ra, rb = (np.array(v, dtype=np.int64) for v in zip(*pairs))
+                used[ia][ra], used[ib][rb] = True, True
+                P = np.c_[ta.P[ra, :2], tb.P[rb, 1]]  # (L, EA, EI)
+                out.append(ForceTerm(ta.element, fe, ta.gauss, ta.idx[ra], P, (ta.label, tb.label),
+                                     [(ia, ra), (ib, rb)]))
+    for i, t in enumerate(terms):
+        rest = np.flatnonzero(~used[i])
+        if len(rest):
+            out.append(ForceTerm(t.element, t.effect, t.gauss, t.idx[rest], t.P[rest], (t.label,), [(i, rest)]))
+    return out
 
 
 @dataclass

@@ -43,7 +43,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from . import kernels
-from .assembly import Assembly
+from .assembly import Assembly, force_terms
 from .scene import SceneError
 from .sparsity import casadi_sparsity, csc_pattern
 
@@ -270,8 +270,9 @@ class StepSystem:
     """
 
     def __init__(self, asm: Assembly, rayleigh: RayleighData | None = None, linsol: str = "auto",
-                 strain_rate: StrainRateData | None = None):
+                 strain_rate: StrainRateData | None = None, fuse: bool = True):
         self.asm = asm
+        self.fuse = fuse  # axial + bending of a cable in one kernel call (False: one call per term, for tests)
         self.strain_rate = strain_rate
         self.part = part = partition(asm)
         n = asm.n
@@ -323,23 +324,26 @@ class StepSystem:
         x = self.x_full_mx(xf)
         energies = []
         kel_vals, kel_rows, kel_cols = [], [], []
-        groups: dict = {}  # terms on the same element coordinates: gradients and Hessians summed before the scatter
-        for ti, mk in enumerate(self.nonlinear):
-            t = mk.term
-            Xe = ca.reshape(x[t.idx.ravel().tolist()], mk.nd, mk.N)
-            e_, G, H = mk.f(Xe, ca.DM(mk.P.T))
-            energies.append((t.label, ca.sum2(e_)))
-            key = (t.idx.shape, t.idx.tobytes())
+        # the kernel calls: a cable's axial and bending terms fused into one elastic_<strain> kernel where both
+        # are on (same elements, Gauss order and Rayleigh weight): one B^T f_uu B per point instead of two
+        weights = self.rayleigh.element_weight if (self.rayleigh is not None and self.rayleigh.beta) else {}
+        self.force_terms = force_terms([mk.term for mk in self.nonlinear], fuse=self.fuse, row_keys=weights)
+        groups: dict = {}  # calls on the same element coordinates: gradients and Hessians summed before the scatter
+        for ft in self.force_terms:
+            Xe = ca.reshape(x[ft.idx.ravel().tolist()], ft.nd, ft.N)
+            _, G, H = ft.mapped()(Xe, ca.DM(ft.P.T))
+            key = (ft.idx.shape, ft.idx.tobytes())
             if key in groups:
                 grp = groups[key]
                 grp[1], grp[2] = grp[1] + G, grp[2] + H
             else:
-                groups[key] = [t.idx, G, H]
-            if self.rayleigh is not None and self.rayleigh.beta and t.label in ELASTIC_LABELS:
-                w = self.rayleigh.element_weight.get(ti)
-                if w is not None and np.any(w):
-                    ia, ib, keep = self._hessian_entries(t.idx)
-                    we = np.repeat(np.asarray(w, float), mk.nd * mk.nd)[keep]
+                groups[key] = [ft.idx, G, H]
+            if weights and all(lbl in ELASTIC_LABELS for lbl in ft.labels):
+                ti, rows = ft.sources[0]  # fused rows have equal weights (row_keys)
+                w = weights.get(ti)
+                if w is not None and np.any(np.asarray(w)[rows]):
+                    ia, ib, keep = self._hessian_entries(ft.idx)
+                    we = np.repeat(np.asarray(w, float)[rows], ft.nd * ft.nd)[keep]
                     hv = ca.vec(H)
                     kel_vals.append((hv[keep.tolist()] if len(keep) < hv.shape[0] else hv) * ca.DM(we))
                     kel_rows.append(ib[keep])
@@ -375,12 +379,11 @@ class StepSystem:
         self.forces_f = ca.Function("forces", [xf], outs, ["x"], ["g", "K"] + (["kel"] if kel_vals else []))
         # the gradient alone from the (energy, gradient) companions: no Hessian work (residuals of modified Newton)
         ggroups: dict = {}
-        for mk in self.nonlinear:
-            t = mk.term
-            Xe = ca.reshape(x[t.idx.ravel().tolist()], mk.nd, mk.N)
-            G = kernels.load_grad(t.element, t.effect, t.gauss).map(mk.N)(Xe, ca.DM(mk.P.T))[1]
-            key = (t.idx.shape, t.idx.tobytes())
-            ggroups[key] = (t.idx, ggroups[key][1] + G) if key in ggroups else (t.idx, G)
+        for ft in self.force_terms:
+            Xe = ca.reshape(x[ft.idx.ravel().tolist()], ft.nd, ft.N)
+            G = ft.mapped_grad()(Xe, ca.DM(ft.P.T))[1]
+            key = (ft.idx.shape, ft.idx.tobytes())
+            ggroups[key] = (ft.idx, ggroups[key][1] + G) if key in ggroups else (ft.idx, G)
         gg = _gather_sum([ca.vec(G) for _, G in ggroups.values()],
                          np.concatenate([pos[idx.ravel()] for idx, _ in ggroups.values()]), nf) \
             if ggroups else ca.MX.zeros(nf)

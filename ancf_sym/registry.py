@@ -29,6 +29,12 @@ class Effect:
     description: str
     gauss: tuple[int, ...] = ()  # quadrature orders emitted; () = exact/closed form, no quadrature choice
     elastic: bool = True  # elastic effects vanish under rigid-body motion
+    parts: tuple[str, ...] = ()  # internal fused effect: the public effects it sums in one kernel (else ())
+
+    @property
+    def internal(self) -> bool:
+        """Fused effects are an optimisation of the step graphs: scenes never name them."""
+        return bool(self.parts)
 
     @property
     def default_gauss(self) -> int | None:
@@ -58,6 +64,10 @@ ELEMENTS: dict[str, Element] = {
 }
 
 _G = (3, 4, 5, 7)
+# Axial strains whose quadrature kernel also exists fused with bending (elastic_<strain>: p = L, EA, EI): one
+# B^T f_uu B per Gauss point, one accumulation and one mirror instead of two (bench/kernel_forms.py). The step
+# graphs use it where a cable member has both effects at the same Gauss order (assembly.force_terms).
+FUSED_STRAINS = ("green", "biot")
 
 
 def _cable_effects(el: str, dim: int) -> list[Effect]:
@@ -74,6 +84,11 @@ def _cable_effects(el: str, dim: int) -> list[Effect]:
                "potential -M*phi of a moment M turning the tangent r_x(xi) by phi from reference t0"
                + ("" if dim == 2 else " about axis n (angle of the projection on the plane normal to n)"),
                elastic=False),
+    ] + [
+        Effect(el, f"elastic_{strain}", ("L", "EA", "EI"),
+               f"internal: axial_{strain} + bending as one density of (r_x, r_xx) (one kernel instead of two)",
+               _G, parts=(f"axial_{strain}", "bending"))
+        for strain in FUSED_STRAINS
     ]
 
 
@@ -117,6 +132,14 @@ THIRD_DERIVATIVE_EFFECTS = ("axial_green", "axial_biot", "axial_decoupled", "ben
 def has_third_derivatives(element: str, effect: str, gauss: int | None) -> bool:
     eff = EFFECTS[(element, effect)]
     return element.startswith("cable") and effect in THIRD_DERIVATIVE_EFFECTS and gauss in (None, eff.default_gauss)
+
+
+def fused_effect(element: str, effects: tuple[str, ...]) -> str | None:
+    """The internal effect summing exactly `effects` (in any order) on `element`, or None."""
+    for (el, ef), eff in EFFECTS.items():
+        if el == element and eff.parts and sorted(eff.parts) == sorted(effects):
+            return ef
+    return None
 
 
 def kernel_name(element: str, effect: str, gauss: int | None = None) -> str:

@@ -20,6 +20,11 @@ def _cable_station(effect: str, dim: int):
         elif effect == "bending":
             u = ca.vertcat(rx, cable.curvature_vector(q, L, xi, dim))
             yield u, lambda v, p: cable.bending_density(v[:dim], v[dim:], p[1]), w * L
+        elif effect in FUSED:
+            # axial + bending as one density of u = (r_x, r_xx), p = (L, EA, EI): one B^T f_uu B per point
+            axial = FUSED[effect]
+            u = ca.vertcat(rx, cable.curvature_vector(q, L, xi, dim))
+            yield u, lambda v, p: axial(v[:dim], p[1]) + cable.bending_density(v[:dim], v[dim:], p[2]), w * L
         else:
             raise KeyError(effect)
     return station
@@ -52,7 +57,10 @@ def _beam_station(effect: str):
     return station
 
 
-_QUADRATURE = {"axial_green", "axial_biot", "bending", "continuum", "line_strain", "line_bending", "line_torsion"}
+# internal fused effects (registry Effect.parts): axial density of the strain measure + bending density
+FUSED = {f"elastic_{s}": {"green": cable.green_density, "biot": cable.biot_density}[s] for s in registry.FUSED_STRAINS}
+_QUADRATURE = {"axial_green", "axial_biot", "bending", "continuum", "line_strain", "line_bending", "line_torsion",
+               *FUSED}
 
 
 def _direct_energy(element: str, effect: str, gauss: int | None):
