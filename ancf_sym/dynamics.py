@@ -31,7 +31,7 @@ from .assembly import Assembly
 from .elements import hermite
 from .integrators import (LINEAR_EFFECTS, AlphaIntegrator, Counters, NewtonOptions, RayleighData, Scheme,
                           StepSystem, StrainRateData)
-from .mesh import MemberMesh
+from .mesh import MemberMesh, check_stretch
 from .checks import number
 from .scene import Scene, SceneError
 
@@ -761,6 +761,8 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
             raise SceneError(f"{name} must have {asm.n} entries (the scene's coordinates), got {arr.size}")
         if not np.all(np.isfinite(arr)):
             raise SceneError(f"{name} must be finite")
+    if opts.q0 is not None:
+        check_stretch(asm.mesh, q0, "q0")
     L = S.length_scale
     tol_x = opts.newton.xtol * L
     cons_tol = max(1e-8 * L, 10 * tol_x)

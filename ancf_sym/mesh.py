@@ -13,6 +13,10 @@ from .registry import ELEMENTS
 from .scene import Member, Scene, SceneError
 
 
+MIN_ELEMENT_FRACTION = 1e-6  # shortest element allowed, as a fraction of its member's length
+MIN_STRETCH = 1e-3  # smallest |r_x| accepted in a given state (the reference has |r_x| = 1 + prestrain)
+
+
 def node_size(element: str) -> int:
     return ELEMENTS[element].ndof // 2
 
@@ -80,6 +84,13 @@ def mesh_member(m: Member, offset: int) -> MemberMesh:
         share[np.argmax(share)] -= 1
     while share.sum() < m.elements:
         share[np.argmax(seg_len / share)] += 1
+    el_len = seg_len / share
+    k = int(np.argmin(el_len))
+    if el_len[k] < MIN_ELEMENT_FRACTION * seg_len.sum():
+        # a nearly degenerate element: its stiffness (EA/l, EI/l^3) would swamp every other in double precision
+        raise SceneError(f"member {m.name!r}: segment {k} is meshed into elements of length {el_len[k]:.3g} m, "
+                         f"below {MIN_ELEMENT_FRACTION:g} x the member length {seg_len.sum():.6g} m (nearly "
+                         "degenerate elements); merge nearly coincident points or use fewer elements")
     ns = node_size(m.element)
     stretch = 1.0 + m.prestrain  # geometric / reference length
     rows, elem_nodes, elem_len, public, pairs, s_nodes = [], [], [], [], [], []
@@ -105,6 +116,34 @@ def mesh_member(m: Member, offset: int) -> MemberMesh:
         s0 += seg_len[k] / stretch
     return MemberMesh(m, offset, ns, np.array(rows), np.array(elem_nodes), np.array(elem_len), np.array(public),
                       pairs, np.array(s_nodes))
+
+
+def check_stretch(mesh: "Mesh", x: np.ndarray, what: str) -> None:
+    """Refuse a state `x` (full coordinates) in which an element has (nearly) collapsed: |r_x| < MIN_STRETCH at a
+    node or, for cables, at one of 5 Gauss points. No material compresses to 0.1 % of its length, and the kernels'
+    1/|r_x| (Biot, decoupled strain) and |r_x|^-6 (curvature) factors make such a state a numerical singularity."""
+    xg, _ = np.polynomial.legendre.leggauss(5)
+    xi = np.concatenate([[0.0], (xg + 1) / 2, [1.0]])
+    d = mesh.scene.dim
+    for name, mm in mesh.members.items():
+        X = np.asarray(x[mm.offset:mm.offset + mm.x0.size], float).reshape(mm.n_nodes, mm.node_size)
+        a, b = mm.elem_nodes[:, 0], mm.elem_nodes[:, 1]
+        if mm.member.element.startswith("cable"):  # r_x(xi) of the cubic Hermite interpolation
+            L = mm.elem_length[:, None, None]
+            dS = [(-6 * xi + 6 * xi**2)[None, :, None] / L, (1 - 4 * xi + 3 * xi**2)[None, :, None],
+                  (6 * xi - 6 * xi**2)[None, :, None] / L, (-2 * xi + 3 * xi**2)[None, :, None]]
+            rx = (dS[0] * X[a, None, :d] + dS[1] * X[a, None, d:2 * d] + dS[2] * X[b, None, :d]
+                  + dS[3] * X[b, None, d:2 * d])
+        else:
+            rx = np.stack([X[a, d:2 * d], X[b, d:2 * d]], axis=1)
+        nrm = np.linalg.norm(rx, axis=2)  # (n_el, points)
+        e, p = np.unravel_index(int(np.argmin(nrm)), nrm.shape)
+        if nrm[e, p] < MIN_STRETCH:
+            where = "at its start node" if p == 0 else "at its end node" if p == nrm.shape[1] - 1 else \
+                f"at xi = {xi[p]:.3f}"
+            raise SceneError(f"{what}: member {name!r}, element {e}: |r_x| = {nrm[e, p]:.3g} {where} is below "
+                             f"{MIN_STRETCH:g} (a collapsed, degenerate element; the reference state has |r_x| = "
+                             f"{1 + mm.member.prestrain:g})")
 
 
 @dataclass
