@@ -16,7 +16,7 @@ import casadi as ca
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
-import scipy.sparse.linalg  # noqa: F401  (sp.linalg.splu)
+from scipy.sparse.linalg import splu
 
 from . import fields
 from .assembly import Assembly
@@ -240,7 +240,7 @@ class StaticProblem:
             for k in range(steps):
                 if worst <= 10.0:
                     break
-                d = sp.linalg.splu(K).solve(-r)
+                d = splu(K).solve(-r)
                 if not np.all(np.isfinite(d)):
                     break
                 xn, ln = x + d[:n], lam + d[n:]
