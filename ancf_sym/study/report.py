@@ -100,7 +100,7 @@ def write_plots(out: Path, study: Study, records: list[dict], target: float, rat
         ax.loglog([r["wall_s"] for r in front], [r["error"] for r in front], "k-", lw=1.2, label="Pareto front",
                   drawstyle="steps-post")
     ax.axhline(target, color="0.4", ls=":", lw=1, label=f"target {target:g}")
-    ax.set_xlabel("wall time per setting [s]")
+    ax.set_xlabel(study.extra.get("time_label", "wall time per setting [s]"))
     ax.set_ylabel(study.error_name)
     ax.set_title(f"{study.title}: error vs time")
     ax.grid(alpha=0.3, which="both")
