@@ -77,12 +77,30 @@ class ForceTerm:
         return len(self.sources) > 1
 
     def mapped(self) -> ca.Function:
-        """(q, p) -> (energy, gradient, Hessian), mapped over the elements."""
-        return kernels.load(self.element, self.effect, self.gauss).map(self.N)
+        """(q, p) -> (energy, gradient, Hessian), mapped over the elements (q: nd x N, p: n_p x N)."""
+        return self._mapped(kernels.load(self.element, self.effect, self.gauss),
+                            kernels.load_batch(self.element, self.effect, self.gauss))
 
     def mapped_grad(self) -> ca.Function:
         """(q, p) -> (energy, gradient) without the Hessian's work, mapped over the elements."""
-        return kernels.load_grad(self.element, self.effect, self.gauss).map(self.N)
+        return self._mapped(kernels.load_grad(self.element, self.effect, self.gauss),
+                            kernels.load_batch(self.element, self.effect, self.gauss, grad=True))
+
+    def _mapped(self, one: ca.Function, batch: ca.Function | None) -> ca.Function:
+        """The batched kernel (registry.BATCH_LANES elements per call, SIMD) mapped over the whole batches and the
+        one-element kernel over the rest; the plain map where no batched kernel exists."""
+        lanes = registry.BATCH_LANES
+        nb = self.N // lanes if batch is not None else 0
+        if nb == 0:
+            return one.map(self.N)
+        if nb * lanes == self.N:
+            return batch.map(nb)
+        X, P = ca.MX.sym("q", self.nd, self.N), ca.MX.sym("p", self.P.shape[1], self.N)
+        k = nb * lanes
+        a = batch.map(nb)(X[:, :k], P[:, :k])
+        b = one.map(self.N - k)(X[:, k:], P[:, k:])
+        return ca.Function(f"{one.name()}_mapped", [X, P], [ca.horzcat(u, v) for u, v in zip(a, b)],
+                           one.name_in(), one.name_out())
 
 
 def force_terms(terms: list[Term], fuse: bool = True, row_keys: dict | None = None) -> list[ForceTerm]:

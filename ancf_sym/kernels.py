@@ -122,6 +122,18 @@ def load_grad(element: str, effect: str, gauss: int | None = None) -> ca.Functio
     return ca.external(name + "_grad", str(library_path(registry.library_name(element, effect))))
 
 
+@functools.lru_cache(maxsize=None)
+def load_batch(element: str, effect: str, gauss: int | None = None, grad: bool = False) -> ca.Function | None:
+    """The batched kernel (grad=False) or _grad companion (grad=True) evaluating registry.BATCH_LANES elements per
+    call in SIMD lanes: (q[nd x lanes], p[np x lanes]) -> the outputs of `load(...).map(lanes)`, or None where
+    none is generated (registry.has_batch: the fused elastic effects at the default quadrature order)."""
+    _check_names(element, effect)
+    if not registry.has_batch(element, effect, gauss):
+        return None
+    name = registry.kernel_name(element, effect, gauss) + ("_grad" if grad else "") + registry.BATCH_SUFFIX
+    return ca.external(name, str(library_path(registry.library_name(element, effect))))
+
+
 def load_hvp(element: str, effect: str) -> ca.Function:
     """(q, p, v) -> (H v, d(H v)/dq), third derivatives of the energy contracted with v (cable elastic effects,
     default quadrature): what an exact Lagrangian Hessian needs when grad U sits inside constraints."""

@@ -142,6 +142,18 @@ def fused_effect(element: str, effects: tuple[str, ...]) -> str | None:
     return None
 
 
+# Batched kernels (codegen.batch): <name>_x4 evaluates BATCH_LANES elements per call in SIMD lanes, for the kernel
+# and its _grad companion; emitted for the fused elastic effects at the default quadrature order (the step graphs'
+# hot path). Elsewhere the step graphs map the one-element kernel.
+BATCH_LANES = 4
+BATCH_SUFFIX = f"_x{BATCH_LANES}"
+
+
+def has_batch(element: str, effect: str, gauss: int | None) -> bool:
+    eff = EFFECTS[(element, effect)]
+    return eff.internal and gauss in (None, eff.default_gauss)
+
+
 def kernel_name(element: str, effect: str, gauss: int | None = None) -> str:
     eff = EFFECTS[(element, effect)]
     if gauss is None or gauss == eff.default_gauss or not eff.gauss:

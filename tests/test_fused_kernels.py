@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from ancf_sym import Material, Scene, Section, kernels, registry
-from ancf_sym.assembly import Assembly, force_terms
+from ancf_sym.assembly import Assembly, ForceTerm, force_terms
 from ancf_sym.dynamics import DynamicOptions, LINEAR_EFFECTS, StepSystem, rayleigh_data, simulate
 
 from helpers import params, perturbed_state
@@ -122,7 +122,7 @@ def test_dynamics_fused_matches_separate(dim, members, rayleigh):
     agree to round-off accumulated over the run."""
     runs = []
     for fuse in (True, False):
-        asm = Assembly(_scene(dim, members, rayleigh))
+        asm = Assembly(_scene(dim, members, rayleigh))  # 6 elements: one batch of 4 and 2 single
         S = StepSystem(asm, rayleigh_data(asm, [mk for mk in asm.mapped if mk.term.effect not in LINEAR_EFFECTS]),
                        fuse=fuse)
         assert any(ft.fused for ft in S.force_terms) == fuse
@@ -137,3 +137,36 @@ def test_dynamics_fused_matches_separate(dim, members, rayleigh):
     for key in ("potential_axial", "potential_bending", "kinetic"):
         scale = max(np.max(np.abs(b.energies[key])), 1e-300)
         assert np.max(np.abs(a.energies[key] - b.energies[key])) < 1e-8 * scale, key
+
+
+BATCHED = [(k["element"], k["effect"]) for k in kernels.catalogue()
+           if any(f.endswith(registry.BATCH_SUFFIX) for f in k["functions"])]
+
+
+def test_batched_kernels_are_listed():
+    assert sorted(BATCHED) == sorted((el, f"elastic_{s}") for el in ("cable2d", "cable3d") for s in ("green", "biot"))
+    assert kernels.load_batch("cable2d", "bending") is None and kernels.load_batch("cable2d", "elastic_biot", 3) is None
+
+
+@pytest.mark.parametrize("element,effect", BATCHED, ids=[f"{el}_{ef}" for el, ef in BATCHED])
+def test_batched_kernel_equals_the_mapped_kernel(element, effect):
+    """<name>_x4 (lanes of SIMD vectors) gives the mapped one-element kernel's outputs (FMA contraction on x86-64-v3
+    changes the last bits only), and ForceTerm's mapping (whole batches + the rest) covers any element count."""
+    lanes = registry.BATCH_LANES
+    rng = np.random.default_rng(9)
+    n = 2 * lanes + 3
+    X = np.column_stack([perturbed_state(element, rng, amplitude=0.2, stretch=0.1, angle=0.3 * k) for k in range(n)])
+    P = np.array([[0.8, 3.0e3, 7.0]] * n).T * (1 + 0.1 * rng.random((3, n)))
+    ref = [np.asarray(a) for a in kernels.load(element, effect).map(n)(X, P)]
+    got = [np.asarray(a) for a in kernels.load_batch(element, effect).map(2)(X[:, :2 * lanes], P[:, :2 * lanes])]
+    for a, b in zip(got, ref):
+        assert _rel(a, b[:, :a.shape[1]]) < 1e-13
+    got = [np.asarray(a) for a in kernels.load_batch(element, effect, grad=True).map(2)(X[:, :2 * lanes], P[:, :2 * lanes])]
+    for a, b in zip(got, ref):
+        assert _rel(a, b[:, :a.shape[1]]) < 1e-13
+    idx = np.arange(n * X.shape[0]).reshape(n, -1)
+    ft = ForceTerm(element, effect, None, idx, P.T, ("axial", "bending"), [(0, np.arange(n)), (1, np.arange(n))])
+    for a, b in zip(ft.mapped()(X, P), ref):
+        assert _rel(a, b) < 1e-13
+    for a, b in zip(ft.mapped_grad()(X, P), ref):
+        assert _rel(a, b) < 1e-13

@@ -42,7 +42,7 @@ def generate(out_dir: Path = GENERATED, verbose: bool = False) -> dict:
     from . import definitions, writer
 
     out_dir.mkdir(parents=True, exist_ok=True)
-    entries, groups = [], {}
+    entries, groups, batched = [], {}, {}
     for element, effect, gauss in registry.all_kernels():
         k = definitions.kernel(element, effect, gauss)
         name = k.name()
@@ -50,16 +50,20 @@ def generate(out_dir: Path = GENERATED, verbose: bool = False) -> dict:
         energy, grad = definitions.lower_orders(element, effect, gauss, k)
         lib = registry.library_name(element, effect)
         groups.setdefault(lib, []).extend(writer.companions(k, energy, grad, third))
+        batch = registry.has_batch(element, effect, gauss)
+        if batch:
+            batched.setdefault(lib, []).extend([k, grad])
         entries.append({
             "name": name, "element": element, "effect": effect, "gauss": gauss,
             "params": list(registry.EFFECTS[(element, effect)].params),
             "library": lib, "c_file": lib + ".c", "cflags": CFLAGS.get(lib, DEFAULT_CFLAGS),
             "functions": [name, name + "_energy", "adj1_" + name + "_energy", name + "_grad"]
-            + ([name + "_hvp"] if third else []),
+            + ([name + "_hvp"] if third else [])
+            + ([name + registry.BATCH_SUFFIX, name + "_grad" + registry.BATCH_SUFFIX] if batch else []),
         })
     digests = {}
     for lib, functions in groups.items():
-        files = writer.write_c(lib, functions, out_dir)
+        files = writer.write_c(lib, functions, out_dir, batched.get(lib, []))
         digests[lib] = hashlib.sha256(files[lib + ".c"].encode()).hexdigest()
         if verbose:
             print(f"  {lib}: {len(functions)} functions, {len(files[lib + '.c'].splitlines())} lines")

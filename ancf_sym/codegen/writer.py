@@ -22,8 +22,10 @@ def companions(kernel: ca.Function, energy: ca.Function, grad: ca.Function, thir
     return [kernel, energy, energy.reverse(1), grad] + ([hvp_function(kernel)] if third else [])
 
 
-def write_c(name: str, functions: list[ca.Function], out_dir: Path) -> dict[str, str]:
-    """Generate <name>.c and <name>.h in out_dir; returns {filename: text}."""
+def write_c(name: str, functions: list[ca.Function], out_dir: Path,
+            batched: list[ca.Function] = ()) -> dict[str, str]:
+    """Generate <name>.c and <name>.h in out_dir; returns {filename: text}. `batched`: functions (of `functions`)
+    that also get a <fn>_x4 batch version (codegen.batch), appended to the same file."""
     with tempfile.TemporaryDirectory() as tmp:
         cwd = os.getcwd()
         os.chdir(tmp)
@@ -35,6 +37,15 @@ def write_c(name: str, functions: list[ca.Function], out_dir: Path) -> dict[str,
         finally:
             os.chdir(cwd)
         files = {fn: (Path(tmp) / fn).read_text() for fn in (name + ".c", name + ".h")}
+    if batched:
+        from . import batch
+
+        files[name + ".c"] += batch.PRELUDE + "\n".join(batch.batch_c(f) for f in batched)
+        h = files[name + ".h"]
+        decls = "".join(f"int {f.name()}{batch.SUFFIX}(const casadi_real** arg, casadi_real** res, casadi_int* iw, "
+                        f"casadi_real* w, int mem);\n" for f in batched)
+        at = h.rfind("#ifdef __cplusplus")
+        files[name + ".h"] = h[:at] + decls + h[at:] if at > 0 else h + decls
     for fn, text in files.items():
         (out_dir / fn).write_text(text)
     return files
