@@ -25,6 +25,7 @@ from .scene import Scene, SceneError
 
 SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 RESOLVABLE = 0.1  # a round-off floor above this fraction of the largest applied force cannot resolve the loads
+UNRESOLVED = 1e4  # largest residual / row round-off floor accepted after the Newton polish (measured <= 80 when right)
 STABILITY_EPS = 100 * np.finfo(float).eps  # negative-curvature threshold, relative to the reduced Hessian's norm
 
 
@@ -201,7 +202,14 @@ class StaticProblem:
                 ok, x, lam_g = True, xk, lgk
         stable = None
         if ok:
-            x, lam_g = self._polish(x, lam_g, attempts)
+            x, lam_g, worst = self._polish(x, lam_g, attempts)
+            if worst > UNRESOLVED:  # some rows far above their own round-off: not an equilibrium, say so
+                ok, status = False, "Unresolved_Residual"
+                attempts.append({"method": "newton polish", "status": status, "iterations": 0,
+                                 "detail": f"after IPOPT and Newton polishing a residual is {worst:.3g} x its row's "
+                                           f"round-off floor (limit {UNRESOLVED:g}): stiffnesses too far apart (e.g. "
+                                           "a penalty factor too large) for double precision at these loads"})
+        if ok:
             stable, direction = self.stability(x, lam_g)
             if stable is False and opts.escape_saddle:
                 x, lam_g, status, stable, iters = self._leave_saddle(x, lam_g, status, direction, iters, attempts, opts)
@@ -251,10 +259,10 @@ class StaticProblem:
                 moved = max(moved, float(np.max(np.abs(d[:n]))))
                 x, lam, r, K, floor, worst = xn, ln, rn, Kn, fn, wn
         except (RuntimeError, ValueError):  # singular KKT matrix (redundant constraints): keep IPOPT's point
-            return x, lam_g
+            return x, lam_g, 0.0
         if moved > 1e-12 * self._length_scale():
             attempts[-1]["polish"] = {"newton_steps": k, "max_move": moved, "residual_over_floor": worst}
-        return x, (lam if lam_g is not None else None)
+        return x, (lam if lam_g is not None else None), worst
 
     def _leave_saddle(self, x, lam_g, status, direction, iters, attempts, opts):
         """Restart from x nudged along the negative-curvature direction (full steps first, then line search);
