@@ -77,6 +77,8 @@ def run_study(name: str, out: str | Path, *, quick: bool = False, jobs: int | No
         jobs = cores
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise StudyError(f"--jobs must be a positive integer, got {jobs!r}")
+    if study.max_jobs is not None and jobs > study.max_jobs:
+        jobs = study.max_jobs  # the study's timings need it (stated in the report)
     variant = "quick" if quick else "full"
     settings = study.settings(variant, sweep)
     out = Path(out)

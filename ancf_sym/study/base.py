@@ -56,6 +56,7 @@ class Study:
     conclusions: Callable[[list[dict], dict], list[str]] | None = None  # extra Markdown lines at the end
     notes: str = ""  # Markdown paragraph: model, reference, what is timed
     repeats: int = 1  # timing repeats per setting (min is kept)
+    max_jobs: int | None = None  # e.g. 1 for studies timing sub-microsecond work: parallel workers would skew them
     extra: dict = field(default_factory=dict)
 
     def axis(self, name: str) -> Axis:

@@ -427,7 +427,7 @@ STUDIES = [
           "relative difference (e, g, H) to compiled per-effect", TARGET,
           columns=("ns_norm", "ns_min", "ns_median", "ref_ns_min", "speedup_vs_ref", "sx_ops", "kernels", "build_s",
                    "diff_energy", "diff_gradient", "diff_hessian", "raw_diff", "source"),
-          refine_axis="gauss", conclusions=kernels_conclusions,
+          refine_axis="gauss", conclusions=kernels_conclusions, max_jobs=1,
           extra={"timing": _TIMING, "time_label": "CPU time per element evaluation [s] (load-normalised)"},
           notes="Time per element evaluation (energy, gradient and Hessian together) of the same element energies "
                 "in four forms: the compiled C kernels shipped with the package (`compiled`) or the same symbolic "

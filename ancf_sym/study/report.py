@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import math
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -102,7 +103,7 @@ def write_plots(out: Path, study: Study, records: list[dict], target: float, rat
     ax.axhline(target, color="0.4", ls=":", lw=1, label=f"target {target:g}")
     ax.set_xlabel(study.extra.get("time_label", "wall time per setting [s]"))
     ax.set_ylabel(study.error_name)
-    ax.set_title(f"{study.title}: error vs time")
+    ax.set_title(textwrap.fill(f"{study.title}: error vs time", 70), fontsize=10)
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=7, ncol=2)
     fig.tight_layout()
@@ -120,7 +121,7 @@ def write_plots(out: Path, study: Study, records: list[dict], target: float, rat
         ax.axhline(target, color="0.4", ls=":", lw=1, label=f"target {target:g}")
         ax.set_xlabel(study.refine_axis)
         ax.set_ylabel(study.error_name)
-        ax.set_title(f"{study.title}: convergence")
+        ax.set_title(textwrap.fill(f"{study.title}: convergence", 70), fontsize=10)
         ax.grid(alpha=0.3, which="both")
         ax.legend(fontsize=7, ncol=2)
         fig.tight_layout()
