@@ -1079,26 +1079,33 @@ class AlphaIntegrator:
         S, sc = self.S, self.scheme
         nf = S.nf
         b, g, am, af = sc.beta, sc.gamma, sc.alpha_m, sc.alpha_f
-        qh = q + h * v + h * h * (0.5 - b) * ab
-        vh = v + h * (1 - g) * ab
-        cm = (1 - am) / ((1 - af) * b * h * h)
+        # (each MX node costs a virtual-machine instruction: shared subexpressions are built once, constant
+        # factors folded in Python)
+        hh = h * h
+        bhh = b * hh
+        qh = q + h * v + ((0.5 - b) * hh) * ab
+        vh = v + (h * (1 - g)) * ab
+        cm = ((1 - am) / (1 - af)) / bhh
         cc = g / (b * h)
         kc = cm * S.stiffness_scale()
-        Cvh, _ = S.damping_mx(vh - cc * qh, kel)
-        p = ca.mtimes(_dm(S.M), (am * ab - af * a) / (1 - af) - cm * qh) + Cvh + pload
-        apred = a + ca.if_else(hp > 0, (a - ap) * h / ca.fmax(hp, 1e-300), ca.MX.zeros(nf))
-        x0 = qh + b * h * h * ((1 - af) * apred + af * a - am * ab) / (1 - am)
-        # x = qh + (b h^2) ab_n+1;  a_n+1 = ((1 - am) ab_n+1 + am ab - af a) / (1 - af)
-        ka, k0 = (1 - am) / ((1 - af) * b * h * h), (am * ab - af * a) / (1 - af)
+        vc = vh - cc * qh
+        Cvh, _ = S.damping_mx(vc, kel)
+        # a_n+1 = ((1 - am) ab_n+1 + am ab - af a) / (1 - af) = cm (x - qh) + k0, with x = qh + (b h^2) ab_n+1
+        k0 = (am / (1 - af)) * ab - (af / (1 - af)) * a
+        p = ca.mtimes(_dm(S.M), k0 - cm * qh) + Cvh + pload
+        apred = a + ca.if_else(hp > 0, (a - ap) * (h / ca.fmax(hp, 1e-300)), ca.MX.zeros(nf))
+        x0 = qh + (bhh / (1 - am)) * ((1 - af) * apred + af * a - am * ab)
+        err_c = sc.error_constant()
 
         def lte(x):
-            return sc.error_constant() * h * h * ca.mmax(ca.fabs(ka * (x - qh) + k0 - a))
+            return (err_c * hh) * ca.mmax(ca.fabs(cm * (x - qh) + k0 - a))
 
         def block(x):  # q, v, a, ab of the new state and a_prev
-            ab1 = (x - qh) / (b * h * h)
-            return ca.vertcat(x, vh + h * g * ab1, ((1 - am) * ab1 + am * ab - af * a) / (1 - af), ab1, a)
+            d = x - qh
+            ab1 = d / bhh
+            return ca.vertcat(x, vh + (h * g) * ab1, cm * d + k0, ab1, a)
 
-        return dict(x0=x0, p=p, cm=cm, cc=cc, kc=kc, vc=vh - cc * qh, lte=lte, block=block)
+        return dict(x0=x0, p=p, cm=cm, cc=cc, kc=kc, vc=vc, lte=lte, block=block)
 
     def _full_control_functions(self) -> tuple[ca.Function, ca.Function]:
         """The full-Newton step's scalar logic as two SX functions (before and after the second iteration)."""
