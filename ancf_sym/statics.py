@@ -258,8 +258,8 @@ class StaticProblem:
                     break
                 moved = max(moved, float(np.max(np.abs(d[:n]))))
                 x, lam, r, K, floor, worst = xn, ln, rn, Kn, fn, wn
-        except (RuntimeError, ValueError):  # singular KKT matrix (redundant constraints): keep IPOPT's point
-            return x, lam_g, 0.0
+        except (RuntimeError, ValueError):  # singular KKT matrix (redundant constraints): keep the last point
+            return x, (lam if lam_g is not None else None), 0.0
         if moved > 1e-12 * self._length_scale():
             attempts[-1]["polish"] = {"newton_steps": k, "max_move": moved, "residual_over_floor": worst}
         return x, (lam if lam_g is not None else None), worst
