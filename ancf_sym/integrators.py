@@ -501,11 +501,14 @@ class StepSystem:
         cm, cc, kc = ca.MX.sym("cm"), ca.MX.sym("cc"), ca.MX.sym("kc")
         kel = ca.MX.sym("kel", self.kel_sparsity.nnz()) if self.kel_sparsity is not None else None
         vc = ca.MX.sym("vc", nf)  # v_n+1 = vc + cc x (used by the strain-rate damping)
+        # y: inertia part of the constant residual, M (cm x + y) (the alpha step graph: one product with M per
+        # iteration and none in the step's predictor; other callers pass y = 0 and M y in p)
+        y = ca.MX.sym("y", nf)
         out = self.forces_f(xf)
         g, K = out[0], out[1]
         Mdm = _dm(self.M)
         Cx, C = self.damping_mx(xf, kel)
-        r_q = cm * ca.mtimes(Mdm, xf) + cc * Cx + g + p
+        r_q = ca.mtimes(Mdm, cm * xf + y) + cc * Cx + g + p
         spS = K.sparsity().unite(Mdm.sparsity())
         if spS == K.sparsity():  # M placed in K's pattern once: no projection of M at every evaluation
             S = cm * ca.project(Mdm, spS) + cc * C + K
@@ -516,7 +519,7 @@ class StepSystem:
             r_q += fd
             S = S + dfx + cc * dfv
         # the same residual from the gradient-only kernels (modified Newton: no Hessian work)
-        r_g = cm * ca.mtimes(Mdm, xf) + cc * Cx + self.grad_f(xf) + p
+        r_g = ca.mtimes(Mdm, cm * xf + y) + cc * Cx + self.grad_f(xf) + p
         if self.damp_f is not None:
             r_g += self.damp_force_f(xf, vc + cc * xf)
         if mc:
@@ -533,8 +536,8 @@ class StepSystem:
         else:
             r, rg, KKT, rc = r_q, r_g, S, ca.MX(0)
         rq = ca.mmax(ca.fabs(r_q))
-        ins = [xf, lam, p, cm, cc, kc, vc] + ([kel] if kel is not None else [])
-        names = ["x", "lam", "p", "cm", "cc", "kc", "vc"] + (["kel"] if kel is not None else [])
+        ins = [xf, lam, p, cm, cc, kc, vc] + ([kel] if kel is not None else []) + [y]
+        names = ["x", "lam", "p", "cm", "cc", "kc", "vc"] + (["kel"] if kel is not None else []) + ["y"]
         self.kkt_sparsity = KKT.sparsity()
         kkt_nz = _mx_sparse_nz(KKT)
         # largest entry (round-off floor): on the diagonal when the step matrix is positive definite
@@ -599,6 +602,7 @@ class StepSystem:
         nf, mc = self.nf, self.mc
         self.nz = nf + mc
         self.x, self.lam, self.p, self.vc = np.zeros(nf), np.zeros(mc), np.zeros(nf), np.zeros(nf)
+        self.y = np.zeros(nf)  # (stays 0 here: p holds the whole constant part)
         self.cm, self.cc, self.kc = np.zeros(1), np.zeros(1), np.ones(1)
         self.kel = np.zeros(self.kel_sparsity.nnz()) if has_kel else None
         self.r, self.dz = np.zeros(self.nz), np.zeros(self.nz)
@@ -608,7 +612,8 @@ class StepSystem:
         spk = self.kkt_sparsity
         self.kkt = sp.csc_matrix((np.zeros(spk.nnz()), np.array(spk.row(), dtype=np.int32),
                                   np.array(spk.colind(), dtype=np.int32)), shape=(self.nz, self.nz))
-        args = [self.x, self.lam, self.p, self.cm, self.cc, self.kc, self.vc] + ([self.kel] if has_kel else [])
+        args = [self.x, self.lam, self.p, self.cm, self.cc, self.kc, self.vc] + ([self.kel] if has_kel else []) \
+            + [self.y]
         self._bufs = []
         for f, outs in ((self.iter_f, (self.dz, self.norms)), (self.res_f, (self.r, self.norms[:2])),
                         (self.jac_f, (self.r, self._jac_norms, self.kkt.data))):
@@ -1092,7 +1097,8 @@ class AlphaIntegrator:
         Cvh, _ = S.damping_mx(vc, kel)
         # a_n+1 = ((1 - am) ab_n+1 + am ab - af a) / (1 - af) = cm (x - qh) + k0, with x = qh + (b h^2) ab_n+1
         k0 = (am / (1 - af)) * ab - (af / (1 - af)) * a
-        p = ca.mtimes(_dm(S.M), k0 - cm * qh) + Cvh + pload
+        y = k0 - cm * qh  # the residual's inertia is M (cm x + y): no product with M here
+        p = Cvh + pload
         apred = a + ca.if_else(hp > 0, (a - ap) * (h / ca.fmax(hp, 1e-300)), ca.MX.zeros(nf))
         x0 = qh + (bhh / (1 - am)) * ((1 - af) * apred + af * a - am * ab)
         err_c = sc.error_constant()
@@ -1105,7 +1111,7 @@ class AlphaIntegrator:
             ab1 = d / bhh
             return ca.vertcat(x, vh + (h * g) * ab1, cm * d + k0, ab1, a)
 
-        return dict(x0=x0, p=p, cm=cm, cc=cc, kc=kc, vc=vc, lte=lte, block=block)
+        return dict(x0=x0, p=p, y=y, cm=cm, cc=cc, kc=kc, vc=vc, lte=lte, block=block)
 
     def _full_control_functions(self) -> tuple[ca.Function, ca.Function]:
         """The full-Newton step's scalar logic as two SX functions (before and after the second iteration)."""
@@ -1145,10 +1151,10 @@ class AlphaIntegrator:
         nf, mc = S.nf, S.mc
         st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel = self._step_inputs()
         c = self._step_common(q, v, a, ab, ap, h, hp, pload, kel)
-        x0, p, cm, cc, kc, vc = c["x0"], c["p"], c["cm"], c["cc"], c["kc"], c["vc"]
+        x0, p, cm, cc, kc, vc, y = c["x0"], c["p"], c["cm"], c["cc"], c["kc"], c["vc"], c["y"]
         l0 = lam / kc
         extra = [kel] if kel is not None else []
-        dz, n0 = S.iter_f(x0, l0, p, cm, cc, kc, vc, *extra)
+        dz, n0 = S.iter_f(x0, l0, p, cm, cc, kc, vc, *extra, y)
         x1 = x0 + dz[:nf]
         l1 = l0 + dz[nf:] if mc else l0
         lte = c["lte"](x1)
@@ -1158,12 +1164,13 @@ class AlphaIntegrator:
         xb, lb, pb = ca.MX.sym("xb", nf), ca.MX.sym("lb", mc), ca.MX.sym("pb", nf)
         cb, ccb, kb, vb = ca.MX.sym("cmb"), ca.MX.sym("ccb"), ca.MX.sym("kcb"), ca.MX.sym("vcb", nf)
         eb = [ca.MX.sym("kelb", S.kel.size)] if kel is not None else []
-        dzb, nb = S.iter_f(xb, lb, pb, cb, ccb, kb, vb, *eb)
-        f_keep = ca.Function("keep", [xb, lb, pb, cb, ccb, kb, vb] + eb, [xb, lb, ca.DM.zeros(5)])
-        f_iter = ca.Function("second", [xb, lb, pb, cb, ccb, kb, vb] + eb,
+        yb = ca.MX.sym("yb", nf)
+        dzb, nb = S.iter_f(xb, lb, pb, cb, ccb, kb, vb, *eb, yb)
+        f_keep = ca.Function("keep", [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb], [xb, lb, ca.DM.zeros(5)])
+        f_iter = ca.Function("second", [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb],
                              [xb + dzb[:nf], (lb + dzb[nf:]) if mc else lb, nb])
         switch = ca.Function.conditional("second_iteration", [f_keep], f_iter)
-        x2, l2, n1 = switch(a1[0], x1, l1, p, cm, cc, kc, vc, *extra)
+        x2, l2, n1 = switch(a1[0], x1, l1, p, cm, cc, kc, vc, *extra, y)
         ctl_new, info = final(ctl, n0, a1, n1, lte, tols)
         new_state = ca.vertcat(c["block"](x2), l2 * kc, ctl_new)
         return self._make_step_f([st], [h, hp, pload, tols] + extra, [new_state], info)
@@ -1259,18 +1266,19 @@ class AlphaIntegrator:
         st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel = self._step_inputs()
         D0, U0, UT0 = ca.MX.sym("D", nD), ca.MX.sym("U", nU), ca.MX.sym("UT", nUT)
         c = self._step_common(q, v, a, ab, ap, h, hp, pload, kel)
-        x0, p, cm, cc, vc = c["x0"], c["p"], c["cm"], c["cc"], c["vc"]
+        x0, p, cm, cc, vc, y = c["x0"], c["p"], c["cm"], c["cc"], c["vc"], c["y"]
         extra = [kel] if kel is not None else []
         # one Newton iteration of each kind, with the same signature: keep (converged), kept factor, refactorise
         xs, Ds, Us, UTs = ca.MX.sym("x", nf), ca.MX.sym("D", nD), ca.MX.sym("U", nU), ca.MX.sym("UT", nUT)
         ps, cms, ccs, vcs = ca.MX.sym("p", nf), ca.MX.sym("cm"), ca.MX.sym("cc"), ca.MX.sym("vc", nf)
         ks = [ca.MX.sym("kel", S.kel.size)] if kel is not None else []
-        args = [xs, Ds, Us, UTs, ps, cms, ccs, vcs] + ks
+        ys = ca.MX.sym("y", nf)
+        args = [xs, Ds, Us, UTs, ps, cms, ccs, vcs] + ks + [ys]
         none = ca.MX(0, 1)
-        r, nr = S.res_f(xs, none, ps, cms, ccs, 1.0, vcs, *ks)
+        r, nr = S.res_f(xs, none, ps, cms, ccs, 1.0, vcs, *ks, ys)
         dz = -S.ldl_solve_mx(Ds, Us, UTs, r)
         f_mod = ca.Function("kept_factor", args, [xs + dz, Ds, Us, UTs, ca.vertcat(nr[0], ca.mmax(ca.fabs(dz)), 0)])
-        r, nj, knz = S.jac_f(xs, none, ps, cms, ccs, 1.0, vcs, *ks)
+        r, nj, knz = S.jac_f(xs, none, ps, cms, ccs, 1.0, vcs, *ks, ys)
         D2, U2, UT2 = S.fact_f(knz)
         dz = -S.ldl_solve_mx(D2, U2, UT2, r)
         f_full = ca.Function("refactorise", args,
@@ -1280,10 +1288,10 @@ class AlphaIntegrator:
         cf = self._control_functions()
         dm = cf["decide"](ctl, h)
         mode0, th0 = dm[0], dm[1]
-        x, Dk, Uk, UTk, n = slot(mode0, x0, D0, U0, UT0, p, cm, cc, vc, *extra)
+        x, Dk, Uk, UTk, n = slot(mode0, x0, D0, U0, UT0, p, cm, cc, vc, *extra, y)
         cv = cf["first"](ctl, n, c["lte"](x), tols, mode0, th0)
         for k in range(1, self.max_slots):
-            x, Dk, Uk, UTk, n = slot(cv[cf["mode"]], x, Dk, Uk, UTk, p, cm, cc, vc, *extra)
+            x, Dk, Uk, UTk, n = slot(cv[cf["mode"]], x, Dk, Uk, UTk, p, cm, cc, vc, *extra, y)
             cv = (cf["second"] if k == 1 else cf["later"])(cv, n)
         ctl_new, info = cf["final"](ctl, cv, c["lte"](x), h)
         new_state = ca.vertcat(c["block"](x), lam, ctl_new)
