@@ -494,14 +494,23 @@ class _Recorder:
             self.data[s.sensor.name].append(s(x, v))
         if self.with_energies:
             T, pot, E = self.energy(qf, vf)
-            row = {"kinetic": T, "potential": E - T, **{f"potential_{k}": val for k, val in pot.items()},
-                   "total": E, "damping_work": damping_work, "external_work": external_work,
-                   "algorithmic": self.E0 + external_work - damping_work - E}
-            for k, val in row.items():
-                self.energies.setdefault(k, []).append(val)
-            self.scale = max(self.scale, abs(T) + sum(abs(v) for v in pot.values()) + abs(damping_work)
+            algorithmic = self.E0 + external_work - damping_work - E
+            en = self.energies
+            if not en:  # the columns, in this order, once (the labels of a scene's potentials do not change)
+                for k in ("kinetic", "potential", *(f"potential_{k}" for k in pot), "total", "damping_work",
+                          "external_work", "algorithmic"):
+                    en[k] = []
+            en["kinetic"].append(T)
+            en["potential"].append(E - T)
+            for k, val in pot.items():
+                en["potential_" + k].append(val)
+            en["total"].append(E)
+            en["damping_work"].append(damping_work)
+            en["external_work"].append(external_work)
+            en["algorithmic"].append(algorithmic)
+            self.scale = max(self.scale, abs(T) + sum(map(abs, pot.values())) + abs(damping_work)
                              + abs(external_work) + abs(self.E0))
-            created = -row["algorithmic"]
+            created = -algorithmic
             if self.blowup is None and created > ENERGY_CREATION_LIMIT * self.scale:
                 self.blowup = (float(t), created, self.scale)
         self.viol.append(self._violation(x))

@@ -401,10 +401,16 @@ class StepSystem:
         self.energy_labels = [lbl for lbl, _ in elist]
         self.energy_f = ca.Function("energies", [xf], [ca.vertcat(*[e for _, e in elist]) if elist
                                                        else ca.MX(0, 1)])
-        vf = ca.MX.sym("v", nf)  # the outputs' energies in one call: the potentials and the kinetic energy
+        # the outputs' energies in one call: the potentials (the linear ones, U = c + G.x, as dot products) and the
+        # kinetic energy
+        for idx, G, c, label in self._lin_energy:
+            elist.append((label, c + ca.dot(ca.DM(np.bincount(idx, G, minlength=asm.n)), x)))
+        if np.any(asm.Q):
+            elist.append(("loads", -ca.dot(ca.DM(asm.Q), x)))
+        self._energy_kin_labels = [lbl for lbl, _ in elist]
+        vf = ca.MX.sym("v", nf)
         self._energy_kin_f = ca.Function("energies_kinetic", [xf, vf], [
             ca.vertcat(*[e for _, e in elist], 0.5 * ca.dot(vf, ca.mtimes(_dm(self.M), vf)))])
-        self._has_loads = bool(np.any(asm.Q))
 
     def _build_damping(self) -> None:
         """damp_f(x, v) -> (f_d, df_d/dx, df_d/dv) of the strain-rate dissipation D = 1/2 sum_points w L
@@ -693,15 +699,10 @@ class StepSystem:
         self._e_x[:] = xf
         self._e_vel[:] = 0.0 if vf is None else vf
         self._ebuf[1]()
-        vals = self._e_v
-        for label, v in zip(self.energy_labels, vals[:-1]):
-            out[label] = out.get(label, 0.0) + float(v)
-        x = self.full(xf)
-        for idx, G, c, label in self._lin_energy:
-            out[label] = out.get(label, 0.0) + c + float(G @ x[idx])
-        if self._has_loads:
-            out["loads"] = out.get("loads", 0.0) - float(self.asm.Q @ x)
-        return float(vals[-1]), out
+        vals = self._e_v.tolist()
+        for label, v in zip(self._energy_kin_labels, vals):
+            out[label] = out.get(label, 0.0) + v
+        return vals[-1], out
 
     def phi(self, xf: np.ndarray) -> np.ndarray:
         return self.cons.value(self.full(xf)) if self.mc else np.zeros(0)
