@@ -53,6 +53,7 @@ class Study:
     target: float  # the error a user asks for (the report's answer names the cheapest setting reaching it)
     columns: tuple[str, ...] = ()  # extra record fields shown in the table
     refine_axis: str | None = "n"  # the axis of the convergence plot (error vs n)
+    step_axis: str | None = None  # a step-size axis (error ~ dt^p): a second convergence plot
     conclusions: Callable[[list[dict], dict], list[str]] | None = None  # extra Markdown lines at the end
     notes: str = ""  # Markdown paragraph: model, reference, what is timed
     repeats: int = 1  # timing repeats per setting (min is kept)

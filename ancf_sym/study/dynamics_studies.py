@@ -117,7 +117,7 @@ def _study(name: str, title: str, scene_fn, member: str, t_end: float, ns: tuple
     return Study(name, title, (_INTEG, _DT, Axis("n", ns, quick_ns, int)), _run(scene_fn, member, t_end), reference,
                  _history_error, "max tip position error / max tip displacement", target,
                  columns=("loop_s", "setup_s", "steps", "newton_iterations", "factorizations"),
-                 conclusions=_conclusions, extra={"timing": _TIMING}, notes=notes)
+                 conclusions=_conclusions, extra={"timing": _TIMING}, notes=notes, step_axis="dt")
 
 
 STUDIES = [

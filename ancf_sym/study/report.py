@@ -34,27 +34,41 @@ def cheapest(records: list[dict], target: float) -> dict | None:
     return min(ok, key=lambda r: r["wall_s"]) if ok else None
 
 
-def group_label(study: Study, r: dict) -> str:
-    return ", ".join(f"{a.name}={r[a.name]}" for a in study.axes if a.name != study.refine_axis) or "all"
+def group_label(study: Study, r: dict, axis: str | None = None) -> str:
+    """The setting without the refinement axis (default: the study's element-count axis)."""
+    axis = axis or study.refine_axis
+    return ", ".join(f"{a.name}={r[a.name]}" for a in study.axes if a.name != axis) or "all"
 
 
-def convergence_rates(study: Study, records: list[dict], floor: float = 0.0) -> dict[str, float | None]:
-    """Observed order per group: -slope of log(error) vs log(n) over the three finest n above the error floor."""
-    if study.refine_axis is None:
+def convergence_rates(study: Study, records: list[dict], floor: float = 0.0, axis: str | None = None,
+                      shrinks: bool = False) -> dict[str, float | None]:
+    """Observed order per group over the three finest values of `axis` (default the element count) above 3x the
+    reference's error: error ~ n^-p (slope -p), or for a step-size axis (shrinks=True) error ~ dt^p."""
+    axis = axis or study.refine_axis
+    if axis is None:
         return {}
     groups: dict[str, list] = {}
     for r in records:
         if _ok(r) and r["error"] > 3 * floor:
-            groups.setdefault(group_label(study, r), []).append((float(r[study.refine_axis]), r["error"]))
+            groups.setdefault(group_label(study, r, axis), []).append((float(r[axis]), r["error"]))
     rates = {}
     for g, pts in groups.items():
-        pts = sorted(pts)[-3:]
+        pts = sorted(pts, reverse=shrinks)[-3:]
         if len(pts) < 2 or min(p[1] for p in pts) <= 0:
             rates[g] = None
             continue
         x, y = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
-        rates[g] = float(-np.polyfit(x, y, 1)[0])
+        slope = float(np.polyfit(x, y, 1)[0])
+        rates[g] = slope if shrinks else -slope
     return rates
+
+
+def finest_mesh(study: Study, records: list[dict]) -> list[dict]:
+    """The records at the largest value of the element-count axis (all records if the study has none)."""
+    if not study.refine_axis or not records:
+        return records
+    top = max(r[study.refine_axis] for r in records)
+    return [r for r in records if r[study.refine_axis] == top]
 
 
 def _fmt(v) -> str:
@@ -110,24 +124,25 @@ def write_plots(out: Path, study: Study, records: list[dict], target: float, rat
     fig.savefig(out / "error_vs_time.png", dpi=120)
     plt.close(fig)
     files.append("error_vs_time.png")
-    if study.refine_axis:
+    for axis, axis_rates in rates.items():
         fig, ax = plt.subplots(figsize=(7.5, 5))
-        for i, g in enumerate(groups):
-            pts = sorted((float(r[study.refine_axis]), r["error"]) for r in ok if group_label(study, r) == g)
-            rate = rates.get(g)
+        sub = sorted(axis_rates) if axis == study.step_axis else sorted({group_label(study, r, axis) for r in ok})
+        for i, g in enumerate(sub):
+            pts = sorted((float(r[axis]), r["error"]) for r in ok if group_label(study, r, axis) == g)
+            rate = axis_rates.get(g)
             lab = g + (f" (rate {rate:.2f})" if rate is not None else "")
-            ax.loglog([p[0] for p in pts], [p[1] for p in pts], markers[i % len(markers)] + "-", color=colors[g],
-                      label=lab, ms=4, lw=1)
+            ax.loglog([p[0] for p in pts], [p[1] for p in pts], markers[i % len(markers)] + "-",
+                      color=plt.cm.tab10(i % 10), label=lab, ms=4, lw=1)
         ax.axhline(target, color="0.4", ls=":", lw=1, label=f"target {target:g}")
-        ax.set_xlabel(study.refine_axis)
+        ax.set_xlabel(axis)
         ax.set_ylabel(study.error_name)
-        ax.set_title(textwrap.fill(f"{study.title}: convergence", 70), fontsize=10)
+        ax.set_title(textwrap.fill(f"{study.title}: convergence in {axis}", 70), fontsize=10)
         ax.grid(alpha=0.3, which="both")
         ax.legend(fontsize=7, ncol=2)
         fig.tight_layout()
-        fig.savefig(out / f"error_vs_{study.refine_axis}.png", dpi=120)
+        fig.savefig(out / f"error_vs_{axis}.png", dpi=120)
         plt.close(fig)
-        files.append(f"error_vs_{study.refine_axis}.png")
+        files.append(f"error_vs_{axis}.png")
     return files
 
 
@@ -135,7 +150,12 @@ def write_report(out: Path, study: Study, records: list[dict], reference: dict, 
                  planned: int) -> str:
     """Write results.csv, the figures and report.md; returns the one-line answer."""
     floor = float(reference.get("error_bound") or 0.0)
-    rates = convergence_rates(study, records, floor)
+    rates = {}  # axis -> {group: observed order}
+    if study.refine_axis:
+        rates[study.refine_axis] = convergence_rates(study, records, floor)
+    if study.step_axis:  # at the finest mesh only: on coarser ones the mesh error hides the step's
+        finest = finest_mesh(study, records)
+        rates[study.step_axis] = convergence_rates(study, finest, floor, study.step_axis, shrinks=True)
     cols = write_csv(out / "results.csv", study, records)
     figures = write_plots(out, study, records, target, rates) if any(_ok(r) for r in records) else []
     best = cheapest(records, target)
@@ -160,10 +180,12 @@ def write_report(out: Path, study: Study, records: list[dict], reference: dict, 
     front_ids = {id(r) for r in front}
     for r in records:
         lines.append("| " + " | ".join(_fmt(r.get(c)) for c in cols) + f" | {'*' if id(r) in front_ids else ''} |")
-    if rates:
-        lines += ["", f"Observed convergence rate in {study.refine_axis} (three finest points above 3x the reference "
-                      "error):", "", "| setting | rate |", "|---|---|"]
-        lines += [f"| {g} | {_fmt(v)} |" for g, v in sorted(rates.items())]
+    for axis, axis_rates in rates.items():
+        where = (f" at the finest {study.refine_axis}" if axis == study.step_axis and study.refine_axis else "")
+        lines += ["", f"Observed convergence rate in {axis}{where} (three finest points above 3x the reference error; "
+                      f"error ~ {axis}^{'p' if axis == study.step_axis else '-p'}):", "", "| setting | rate p |",
+                  "|---|---|"]
+        lines += [f"| {g} | {_fmt(v)} |" for g, v in sorted(axis_rates.items())]
     if figures:
         lines += [""] + [f"![{f}]({f})" for f in figures]
     lines += ["", "## Answer", "", f"- {answer}."]
