@@ -189,3 +189,18 @@ def test_cli_study(tmp_path):
                        text=True, cwd=tmp_path)
     assert r.returncode == 2 and "--sweep poisson" in r.stderr and "non-negative" in r.stderr
     assert np.isfinite(errs).all()
+
+
+def test_convergence_rates_on_known_orders():
+    """error = C n^-4 (mesh) and C dt^2 (step): the fitted orders are 4 and 2; points at the reference's error floor
+    are left out of the fit."""
+    st = get_study("zhang_pendulum")
+    recs = [{"integrator": "newmark", "dt": dt, "n": n, "success": True, "wall_s": 1.0,
+             "error": 3.0 * n**-4.0 + (0.0 if n < 24 else 5.0 * dt**2)} for n in (3, 6, 12, 24) for dt in (4e-3, 2e-3, 1e-3)]
+    by_n = convergence_rates(st, [r for r in recs if r["dt"] == 1e-3 and r["n"] < 24])
+    assert by_n["integrator=newmark, dt=0.001"] == pytest.approx(4.0, abs=1e-9)
+    recs_dt = [dict(r, error=5.0 * r["dt"]**2) for r in recs if r["n"] == 24]
+    by_dt = convergence_rates(st, recs_dt, axis="dt", shrinks=True)
+    assert by_dt["integrator=newmark, n=24"] == pytest.approx(2.0, abs=1e-9)
+    floored = convergence_rates(st, recs_dt, floor=5.0 * 2e-3**2, axis="dt", shrinks=True)
+    assert floored["integrator=newmark, n=24"] is None  # only dt = 4e-3 stays above 3x the floor: no fit
