@@ -556,6 +556,7 @@ class _Run:
         self.dt_min, self.dt_max, self.err_tol = dt_min, dt_max, err_tol
         self.t = opts.t_start
         self.eps_t = 1e-9 * opts.dt
+        self._const_pl: dict = {}
         self.W_d = self.W_ext = 0.0
         self.steps, self.rejected = 0, []
         self.status, self.message = "completed", ""
@@ -641,8 +642,11 @@ class _Run:
         """Steps k+1 .. k+n in one call; returns how many were accepted."""
         integ, S, o = self.integ, self.S, self.opts
         nf = S.nf
-        if self.loads is None:
-            pl = np.repeat(-S.f_lin[:, None], n, axis=1)
+        if self.loads is None:  # the same constant load at every step: one array per chunk length
+            pl = self._const_pl.get(n)
+            if pl is None:
+                pl = self._const_pl[n] = np.repeat(-S.f_lin[:, None], n, axis=1)
+                pl.flags.writeable = False  # (run_chunk copies a read-only load array into its buffer once)
         else:
             pl = -np.column_stack([S.f_lin + self.loads(self.grid(k + j + 1)) for j in range(n)])
         q_old, v_old = integ.q.copy(), integ.v.copy()

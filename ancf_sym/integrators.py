@@ -1472,7 +1472,9 @@ class AlphaIntegrator:
         b["h"][:] = h  # (mapaccum maps every input but the state over the steps)
         b["hp"][:] = h
         b["hp"][0] = self.h_prev if self.h_prev else 0.0
-        b["pload"][:] = ploads.ravel(order="F")
+        if ploads is not b.get("pload_from"):  # (a constant load array is copied in once)
+            b["pload"][:] = ploads.ravel(order="F")
+            b["pload_from"] = ploads if not ploads.flags.writeable else None
         b["tols"][0::2], b["tols"][1::2] = self.tol_q, self.tol_x
         ev()
         info = b["info"].reshape(n, self.info_size)

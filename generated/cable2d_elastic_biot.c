@@ -18715,7 +18715,7 @@ typedef double ancf_vec __attribute__((vector_size(32)));
 #define ANCF_SPLAT(c) ((ancf_vec){(c), (c), (c), (c)})
 #define ANCF_SQ(x) ((x)*(x))
 #define ancf_vsqrt(x) ({ ancf_vec ancf_r_ = (x); int ancf_k_; \
-  for (ancf_k_=0; ancf_k_<4; ++ancf_k_) ancf_r_[ancf_k_] = sqrt(ancf_r_[ancf_k_]); ancf_r_; })
+  for (ancf_k_=0; ancf_k_<4; ++ancf_k_) { ancf_r_[ancf_k_] = sqrt(ancf_r_[ancf_k_]); } ancf_r_; })
 #if !defined(ANCF_NO_CLONES) && defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && defined(__GLIBC__) && __GNUC__ >= 12
 #define ANCF_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
 #else
