@@ -316,7 +316,10 @@ class StepSystem:
 
     # -- symbolic assembly (once per scene) -------------------------------------------------------------------
     def x_full_mx(self, xf: ca.MX) -> ca.MX:
-        return ca.mtimes(_dm(self.E), xf) + ca.DM(self.part.c)
+        """E xf + c as a gather (every coordinate is one unknown or fixed): the element gathers that follow merge
+        with it into one, where a product with E would cost a sparse product at every evaluation."""
+        x = ca.vertcat(xf, ca.MX.zeros(1))[self._gather.tolist()]
+        return x + ca.DM(self.part.c) if np.any(self.part.c) else x
 
     def _build_forces(self) -> None:
         asm, nf, pos = self.asm, self.nf, self.pos
