@@ -78,29 +78,30 @@ class ForceTerm:
 
     def mapped(self) -> ca.Function:
         """(q, p) -> (energy, gradient, Hessian), mapped over the elements (q: nd x N, p: n_p x N)."""
-        return self._mapped(kernels.load(self.element, self.effect, self.gauss),
-                            kernels.load_batch(self.element, self.effect, self.gauss))
+        return map_elements(kernels.load(self.element, self.effect, self.gauss),
+                            kernels.load_batch(self.element, self.effect, self.gauss), self.N)
 
     def mapped_grad(self) -> ca.Function:
         """(q, p) -> (energy, gradient) without the Hessian's work, mapped over the elements."""
-        return self._mapped(kernels.load_grad(self.element, self.effect, self.gauss),
-                            kernels.load_batch(self.element, self.effect, self.gauss, grad=True))
+        return map_elements(kernels.load_grad(self.element, self.effect, self.gauss),
+                            kernels.load_batch(self.element, self.effect, self.gauss, "_grad"), self.N)
 
-    def _mapped(self, one: ca.Function, batch: ca.Function | None) -> ca.Function:
-        """The batched kernel (registry.BATCH_LANES elements per call, SIMD) mapped over the whole batches and the
-        one-element kernel over the rest; the plain map where no batched kernel exists."""
-        lanes = registry.BATCH_LANES
-        nb = self.N // lanes if batch is not None else 0
-        if nb == 0:
-            return one.map(self.N)
-        if nb * lanes == self.N:
-            return batch.map(nb)
-        X, P = ca.MX.sym("q", self.nd, self.N), ca.MX.sym("p", self.P.shape[1], self.N)
-        k = nb * lanes
-        a = batch.map(nb)(X[:, :k], P[:, :k])
-        b = one.map(self.N - k)(X[:, k:], P[:, k:])
-        return ca.Function(f"{one.name()}_mapped", [X, P], [ca.horzcat(u, v) for u, v in zip(a, b)],
-                           one.name_in(), one.name_out())
+
+def map_elements(one: ca.Function, batch: ca.Function | None, N: int) -> ca.Function:
+    """`one` mapped over N elements: its batched version (registry.BATCH_LANES elements per call, SIMD) over the
+    whole batches and `one` over the rest; the plain map where no batched version exists."""
+    lanes = registry.BATCH_LANES
+    nb = N // lanes if batch is not None else 0
+    if nb == 0:
+        return one.map(N)
+    if nb * lanes == N:
+        return batch.map(nb)
+    X, P = ca.MX.sym("q", one.size1_in(0), N), ca.MX.sym("p", one.size1_in(1), N)
+    k = nb * lanes
+    a = batch.map(nb).call([X[:, :k], P[:, :k]])
+    b = one.map(N - k).call([X[:, k:], P[:, k:]])
+    return ca.Function(f"{one.name()}_mapped", [X, P], [ca.horzcat(u, v) for u, v in zip(a, b)],
+                       one.name_in(), one.name_out())
 
 
 def force_terms(terms: list[Term], fuse: bool = True, row_keys: dict | None = None) -> list[ForceTerm]:

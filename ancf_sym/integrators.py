@@ -43,7 +43,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from . import kernels
-from .assembly import Assembly, force_terms
+from .assembly import Assembly, force_terms, map_elements
 from .scene import SceneError
 from .sparsity import casadi_sparsity, csc_pattern
 
@@ -398,7 +398,8 @@ class StepSystem:
         for mk in self.nonlinear:
             t = mk.term
             Xe = ca.reshape(x[t.idx.ravel().tolist()], mk.nd, mk.N)
-            ef = kernels.load_energy(t.element, t.effect, t.gauss).map(mk.N)
+            ef = map_elements(kernels.load_energy(t.element, t.effect, t.gauss),
+                              kernels.load_batch(t.element, t.effect, t.gauss, "_energy"), mk.N)
             elist.append((t.label, ca.sum2(ef(Xe, ca.DM(mk.P.T)))))
         elist += [(lbl, e) for lbl, e in energies if lbl == "penalty"]
         self.energy_labels = [lbl for lbl, _ in elist]

@@ -123,14 +123,15 @@ def load_grad(element: str, effect: str, gauss: int | None = None) -> ca.Functio
 
 
 @functools.lru_cache(maxsize=None)
-def load_batch(element: str, effect: str, gauss: int | None = None, grad: bool = False) -> ca.Function | None:
-    """The batched kernel (grad=False) or _grad companion (grad=True) evaluating registry.BATCH_LANES elements per
-    call in SIMD lanes: (q[nd x lanes], p[np x lanes]) -> the outputs of `load(...).map(lanes)`, or None where
-    none is generated (registry.has_batch: the fused elastic effects at the default quadrature order)."""
+def load_batch(element: str, effect: str, gauss: int | None = None, companion: str = "") -> ca.Function | None:
+    """The batched kernel (companion "") or its "_grad" / "_energy" companion evaluating registry.BATCH_LANES
+    elements per call in SIMD lanes: (q[nd x lanes], p[np x lanes]) -> the outputs of the one-element function
+    mapped over the lanes; None where none is generated (registry.batched: the fused elastic effects' kernel and
+    _grad, the cables' axial and bending _energy, at the default quadrature order)."""
     _check_names(element, effect)
-    if not registry.has_batch(element, effect, gauss):
+    if not registry.has_batch(element, effect, gauss, companion):
         return None
-    name = registry.kernel_name(element, effect, gauss) + ("_grad" if grad else "") + registry.BATCH_SUFFIX
+    name = registry.kernel_name(element, effect, gauss) + companion + registry.BATCH_SUFFIX
     return ca.external(name, str(library_path(registry.library_name(element, effect))))
 
 

@@ -142,16 +142,28 @@ def fused_effect(element: str, effects: tuple[str, ...]) -> str | None:
     return None
 
 
-# Batched kernels (codegen.batch): <name>_x4 evaluates BATCH_LANES elements per call in SIMD lanes, for the kernel
-# and its _grad companion; emitted for the fused elastic effects at the default quadrature order (the step graphs'
-# hot path). Elsewhere the step graphs map the one-element kernel.
+# Batched kernels (codegen.batch): <function>_x4 evaluates BATCH_LANES elements per call in SIMD lanes. Emitted at
+# the default quadrature order for what the dynamics step graphs call at every step or output: the fused elastic
+# effects' kernel and _grad companion, and the _energy companion of the cables' public quadrature effects (the
+# energies per effect at the output times). Elsewhere the graphs map the one-element function.
 BATCH_LANES = 4
 BATCH_SUFFIX = f"_x{BATCH_LANES}"
 
 
-def has_batch(element: str, effect: str, gauss: int | None) -> bool:
+def batched(element: str, effect: str, gauss: int | None) -> tuple[str, ...]:
+    """Companion suffixes ("" = the kernel itself, "_grad", "_energy") that have a batched version."""
     eff = EFFECTS[(element, effect)]
-    return eff.internal and gauss in (None, eff.default_gauss)
+    if gauss not in (None, eff.default_gauss) or not element.startswith("cable"):
+        return ()
+    if eff.internal:
+        return ("", "_grad")
+    if effect in ("axial_green", "axial_biot", "bending"):
+        return ("_energy",)
+    return ()
+
+
+def has_batch(element: str, effect: str, gauss: int | None, companion: str = "") -> bool:
+    return companion in batched(element, effect, gauss)
 
 
 def kernel_name(element: str, effect: str, gauss: int | None = None) -> str:

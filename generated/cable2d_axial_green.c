@@ -9540,3 +9540,217 @@ CASADI_SYMBOL_EXPORT int cable2d_axial_green_g7_grad_work_bytes(casadi_int *sz_a
 #ifdef __cplusplus
 } /* extern "C" */
 #endif
+
+/* ---- batched kernels (ancf_sym.codegen.batch): 4 elements per call in vector lanes ---- */
+typedef double ancf_vec __attribute__((vector_size(32)));
+#define ANCF_SPLAT(c) ((ancf_vec){(c), (c), (c), (c)})
+#define ANCF_SQ(x) ((x)*(x))
+#define ancf_vsqrt(x) ({ ancf_vec ancf_r_ = (x); int ancf_k_; \
+  for (ancf_k_=0; ancf_k_<4; ++ancf_k_) { ancf_r_[ancf_k_] = sqrt(ancf_r_[ancf_k_]); } ancf_r_; })
+#if !defined(ANCF_NO_CLONES) && defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && defined(__GLIBC__) && __GNUC__ >= 12
+#define ANCF_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define ANCF_CLONES
+#endif
+/* cable2d_axial_green_energy_x4: cable2d_axial_green_energy on 4 elements (columns) per call */
+ANCF_CLONES static void cable2d_axial_green_energy_x4_body(const ancf_vec* x0, const ancf_vec* x1, ancf_vec* y0) {
+  ancf_vec a00, a01, a02, a03, a04, a05, a06, a07, a08, a09, a10, a11;
+  ancf_vec a12, a13, a14, a15, a16, a17, a18, a19, a20, a21, a22;
+  a00=ANCF_SPLAT(1.1846344252809464e-01);
+  a01=x1[0];
+  a02=(a00*a01);
+  a03=x1[1];
+  a04=ANCF_SPLAT(2.);
+  a05=(a03/a04);
+  a06=ANCF_SPLAT(-2.6825713022186887e-01);
+  a07=x0[0];
+  a08=(a06*a07);
+  a09=ANCF_SPLAT(2.6825713022186887e-01);
+  a10=x0[4];
+  a11=(a09*a10);
+  a08=(a08+a11);
+  a08=(a08/a01);
+  a11=ANCF_SPLAT(8.1896135785839752e-01);
+  a12=x0[2];
+  a13=(a11*a12);
+  a08=(a08+a13);
+  a13=ANCF_SPLAT(-8.7218488080266415e-02);
+  a14=x0[6];
+  a15=(a13*a14);
+  a08=(a08+a15);
+  a08=ANCF_SQ(a08);
+  a15=x0[1];
+  a06=(a06*a15);
+  a16=x0[5];
+  a09=(a09*a16);
+  a06=(a06+a09);
+  a06=(a06/a01);
+  a09=x0[3];
+  a11=(a11*a09);
+  a06=(a06+a11);
+  a11=x0[7];
+  a13=(a13*a11);
+  a06=(a06+a13);
+  a06=ANCF_SQ(a06);
+  a08=(a08+a06);
+  a06=ANCF_SPLAT(1.);
+  a08=(a08-a06);
+  a08=(a08/a04);
+  a08=ANCF_SQ(a08);
+  a05=(a05*a08);
+  a02=(a02*a05);
+  a05=ANCF_SPLAT(2.3931433524968315e-01);
+  a08=(a05*a01);
+  a13=(a03/a04);
+  a17=ANCF_SPLAT(-1.0650762031114644e+00);
+  a18=(a17*a07);
+  a19=ANCF_SPLAT(1.0650762031114644e+00);
+  a20=(a19*a10);
+  a18=(a18+a20);
+  a18=(a18/a01);
+  a20=ANCF_SPLAT(2.3669655349710930e-01);
+  a21=(a20*a12);
+  a18=(a18+a21);
+  a21=ANCF_SPLAT(-3.0177275660857383e-01);
+  a22=(a21*a14);
+  a18=(a18+a22);
+  a18=ANCF_SQ(a18);
+  a17=(a17*a15);
+  a19=(a19*a16);
+  a17=(a17+a19);
+  a17=(a17/a01);
+  a20=(a20*a09);
+  a17=(a17+a20);
+  a21=(a21*a11);
+  a17=(a17+a21);
+  a17=ANCF_SQ(a17);
+  a18=(a18+a17);
+  a18=(a18-a06);
+  a18=(a18/a04);
+  a18=ANCF_SQ(a18);
+  a13=(a13*a18);
+  a08=(a08*a13);
+  a02=(a02+a08);
+  a08=ANCF_SPLAT(2.8444444444444433e-01);
+  a08=(a08*a01);
+  a13=(a03/a04);
+  a18=ANCF_SPLAT(-1.5000000000000000e+00);
+  a17=(a18*a07);
+  a21=ANCF_SPLAT(1.5000000000000000e+00);
+  a20=(a21*a10);
+  a17=(a17+a20);
+  a17=(a17/a01);
+  a20=ANCF_SPLAT(-2.5000000000000000e-01);
+  a19=(a20*a12);
+  a17=(a17+a19);
+  a19=(a20*a14);
+  a17=(a17+a19);
+  a17=ANCF_SQ(a17);
+  a18=(a18*a15);
+  a21=(a21*a16);
+  a18=(a18+a21);
+  a18=(a18/a01);
+  a21=(a20*a09);
+  a18=(a18+a21);
+  a20=(a20*a11);
+  a18=(a18+a20);
+  a18=ANCF_SQ(a18);
+  a17=(a17+a18);
+  a17=(a17-a06);
+  a17=(a17/a04);
+  a17=ANCF_SQ(a17);
+  a13=(a13*a17);
+  a08=(a08*a13);
+  a02=(a02+a08);
+  a05=(a05*a01);
+  a08=(a03/a04);
+  a13=ANCF_SPLAT(-1.0650762031114653e+00);
+  a17=(a13*a07);
+  a18=ANCF_SPLAT(1.0650762031114653e+00);
+  a20=(a18*a10);
+  a17=(a17+a20);
+  a17=(a17/a01);
+  a20=ANCF_SPLAT(-3.0177275660857394e-01);
+  a21=(a20*a12);
+  a17=(a17+a21);
+  a21=ANCF_SPLAT(2.3669655349710905e-01);
+  a19=(a21*a14);
+  a17=(a17+a19);
+  a17=ANCF_SQ(a17);
+  a13=(a13*a15);
+  a18=(a18*a16);
+  a13=(a13+a18);
+  a13=(a13/a01);
+  a20=(a20*a09);
+  a13=(a13+a20);
+  a21=(a21*a11);
+  a13=(a13+a21);
+  a13=ANCF_SQ(a13);
+  a17=(a17+a13);
+  a17=(a17-a06);
+  a17=(a17/a04);
+  a17=ANCF_SQ(a17);
+  a08=(a08*a17);
+  a05=(a05*a08);
+  a02=(a02+a05);
+  a00=(a00*a01);
+  a03=(a03/a04);
+  a05=ANCF_SPLAT(-2.6825713022186903e-01);
+  a07=(a05*a07);
+  a08=ANCF_SPLAT(2.6825713022186903e-01);
+  a10=(a08*a10);
+  a07=(a07+a10);
+  a07=(a07/a01);
+  a10=ANCF_SPLAT(-8.7218488080266443e-02);
+  a12=(a10*a12);
+  a07=(a07+a12);
+  a12=ANCF_SPLAT(8.1896135785839741e-01);
+  a14=(a12*a14);
+  a07=(a07+a14);
+  a07=ANCF_SQ(a07);
+  a05=(a05*a15);
+  a08=(a08*a16);
+  a05=(a05+a08);
+  a05=(a05/a01);
+  a10=(a10*a09);
+  a05=(a05+a10);
+  a12=(a12*a11);
+  a05=(a05+a12);
+  a05=ANCF_SQ(a05);
+  a07=(a07+a05);
+  a07=(a07-a06);
+  a07=(a07/a04);
+  a07=ANCF_SQ(a07);
+  a03=(a03*a07);
+  a00=(a00*a03);
+  a02=(a02+a00);
+  y0[0]=a02;
+}
+
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_energy_x4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {
+  ancf_vec x0[8];
+  ancf_vec x1[2];
+  ancf_vec y0[1];
+  casadi_int i, k;
+  for (k=0; k<4; ++k) for (i=0; i<8; ++i) x0[i][k] = arg[0] ? arg[0][k*8+i] : 0;
+  for (k=0; k<4; ++k) for (i=0; i<2; ++i) x1[i][k] = arg[1] ? arg[1][k*2+i] : 0;
+  cable2d_axial_green_energy_x4_body(x0, x1, y0);
+  if (res[0]) for (k=0; k<4; ++k) for (i=0; i<1; ++i) res[0][k*1+i] = y0[i][k];
+  return 0;
+}
+
+static const casadi_int cable2d_axial_green_energy_x4_sin[2][3] = {{8, 4, 1}, {2, 4, 1}};
+static const casadi_int cable2d_axial_green_energy_x4_sout[1][3] = {{1, 4, 1}};
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_green_energy_x4_n_in(void) { return 2; }
+CASADI_SYMBOL_EXPORT casadi_int cable2d_axial_green_energy_x4_n_out(void) { return 1; }
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_green_energy_x4_name_in(casadi_int i) { static const char* n[] = {"q", "p"}; return i >= 0 && i < 2 ? n[i] : 0; }
+CASADI_SYMBOL_EXPORT const char* cable2d_axial_green_energy_x4_name_out(casadi_int i) { static const char* n[] = {"energy"}; return i >= 0 && i < 1 ? n[i] : 0; }
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_green_energy_x4_sparsity_in(casadi_int i) { return i >= 0 && i < 2 ? cable2d_axial_green_energy_x4_sin[i] : 0; }
+CASADI_SYMBOL_EXPORT const casadi_int* cable2d_axial_green_energy_x4_sparsity_out(casadi_int i) { return i >= 0 && i < 1 ? cable2d_axial_green_energy_x4_sout[i] : 0; }
+CASADI_SYMBOL_EXPORT int cable2d_axial_green_energy_x4_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w) {
+  if (sz_arg) *sz_arg = 2;
+  if (sz_res) *sz_res = 1;
+  if (sz_iw) *sz_iw = 0;
+  if (sz_w) *sz_w = 0;
+  return 0;
+}

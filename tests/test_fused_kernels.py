@@ -140,12 +140,32 @@ def test_dynamics_fused_matches_separate(dim, members, rayleigh):
 
 
 BATCHED = [(k["element"], k["effect"]) for k in kernels.catalogue()
-           if any(f.endswith(registry.BATCH_SUFFIX) for f in k["functions"])]
+           if k["name"] + registry.BATCH_SUFFIX in k["functions"]]
+BATCHED_ENERGY = [(k["element"], k["effect"]) for k in kernels.catalogue()
+                  if k["name"] + "_energy" + registry.BATCH_SUFFIX in k["functions"]]
 
 
 def test_batched_kernels_are_listed():
     assert sorted(BATCHED) == sorted((el, f"elastic_{s}") for el in ("cable2d", "cable3d") for s in ("green", "biot"))
+    assert sorted(BATCHED_ENERGY) == sorted((el, ef) for el in ("cable2d", "cable3d")
+                                            for ef in ("axial_green", "axial_biot", "bending"))
     assert kernels.load_batch("cable2d", "bending") is None and kernels.load_batch("cable2d", "elastic_biot", 3) is None
+    assert kernels.load_batch("cable2d", "axial_decoupled", None, "_energy") is None
+
+
+@pytest.mark.parametrize("element,effect", BATCHED_ENERGY, ids=[f"{el}_{ef}" for el, ef in BATCHED_ENERGY])
+def test_batched_energy_equals_the_mapped_energy(element, effect):
+    """The outputs' energies per effect: <name>_energy_x4 gives the mapped _energy function's values, whole batches
+    and remainders (assembly.map_elements)."""
+    from ancf_sym.assembly import map_elements
+    rng = np.random.default_rng(4)
+    n = 2 * registry.BATCH_LANES + 1
+    X = np.column_stack([perturbed_state(element, rng, amplitude=0.2, stretch=0.1, angle=0.4 * k) for k in range(n)])
+    P = np.array([[0.8, 7.0]] * n).T * (1 + 0.1 * rng.random((2, n)))
+    one = kernels.load_energy(element, effect)
+    ref = np.asarray(one.map(n)(X, P))
+    got = np.asarray(map_elements(one, kernels.load_batch(element, effect, None, "_energy"), n)(X, P))
+    assert _rel(got, ref) < 1e-13
 
 
 @pytest.mark.parametrize("element,effect", BATCHED, ids=[f"{el}_{ef}" for el, ef in BATCHED])
@@ -161,7 +181,7 @@ def test_batched_kernel_equals_the_mapped_kernel(element, effect):
     got = [np.asarray(a) for a in kernels.load_batch(element, effect).map(2)(X[:, :2 * lanes], P[:, :2 * lanes])]
     for a, b in zip(got, ref):
         assert _rel(a, b[:, :a.shape[1]]) < 1e-13
-    got = [np.asarray(a) for a in kernels.load_batch(element, effect, grad=True).map(2)(X[:, :2 * lanes], P[:, :2 * lanes])]
+    got = [np.asarray(a) for a in kernels.load_batch(element, effect, None, "_grad").map(2)(X[:, :2 * lanes], P[:, :2 * lanes])]
     for a, b in zip(got, ref):
         assert _rel(a, b[:, :a.shape[1]]) < 1e-13
     idx = np.arange(n * X.shape[0]).reshape(n, -1)

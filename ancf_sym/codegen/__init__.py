@@ -50,16 +50,17 @@ def generate(out_dir: Path = GENERATED, verbose: bool = False) -> dict:
         energy, grad = definitions.lower_orders(element, effect, gauss, k)
         lib = registry.library_name(element, effect)
         groups.setdefault(lib, []).extend(writer.companions(k, energy, grad, third))
-        batch = registry.has_batch(element, effect, gauss)
+        batch = registry.batched(element, effect, gauss)
         if batch:
-            batched.setdefault(lib, []).extend([k, grad])
+            by_suffix = {"": k, "_grad": grad, "_energy": energy}
+            batched.setdefault(lib, []).extend(by_suffix[s] for s in batch)
         entries.append({
             "name": name, "element": element, "effect": effect, "gauss": gauss,
             "params": list(registry.EFFECTS[(element, effect)].params),
             "library": lib, "c_file": lib + ".c", "cflags": CFLAGS.get(lib, DEFAULT_CFLAGS),
             "functions": [name, name + "_energy", "adj1_" + name + "_energy", name + "_grad"]
             + ([name + "_hvp"] if third else [])
-            + ([name + registry.BATCH_SUFFIX, name + "_grad" + registry.BATCH_SUFFIX] if batch else []),
+            + [name + s + registry.BATCH_SUFFIX for s in batch],
         })
     digests = {}
     for lib, functions in groups.items():
