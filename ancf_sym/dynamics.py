@@ -526,7 +526,7 @@ class _Recorder:
         val = self._cA @ x - cons.d
         if len(cons.qrow):
             val += np.bincount(cons.qrow, cons.qcoef * x[cons.qi] * x[cons.qj], minlength=cons.m)
-        return float(np.max(np.abs(val)))
+        return float(np.abs(val).max())
 
 
 # The alpha schemes dissipate (or, Newmark, conserve to O(h^2)); a run whose energy balance shows the scheme
@@ -686,7 +686,7 @@ class _Run:
                     if self.progress:
                         self.progress(self.grid(k + j + 1), o.t_end)
             return
-        T = np.array([self.grid(k + j + 1) for j in range(n_ok)])
+        T = o.t_start + (k + 1 + np.arange(n_ok)) * o.dt  # = self.grid(k + j + 1), without a Python loop
         while self.out_i < len(out) and out[self.out_i] <= T[-1] + self.eps_t:
             tau = out[self.out_i]
             j = int(np.searchsorted(T, tau - self.eps_t))
