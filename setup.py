@@ -37,12 +37,13 @@ class BuildPyWithManifest(build_py):
             shutil.copy(GENERATED / f"{lib}.h", dst)
 
 
-# one shared library per generated C file (all quadrature orders of an (element, effect) share one)
+# one shared library per generated C file (all quadrature orders of an (element, effect) share one); the largest
+# files first, so that the parallel build does not end on one long compile (longest-first scheduling)
 LIBRARIES = {k["library"]: k for k in MANIFEST["kernels"]}
 extensions = [
     Extension(f"ancf_sym._kernels.{lib}", sources=[f"generated/{k['c_file']}"],
               extra_compile_args=k["cflags"], libraries=["m"])
-    for lib, k in LIBRARIES.items()
+    for lib, k in sorted(LIBRARIES.items(), key=lambda lk: -(GENERATED / lk[1]["c_file"]).stat().st_size)
 ]
 
 setup(ext_modules=extensions, cmdclass={"build_ext": ParallelBuildExt, "build_py": BuildPyWithManifest})

@@ -39,6 +39,7 @@ def compile_all(root: Path, extra: list[str], jobs: int) -> tuple[dict[str, floa
     manifest = json.loads((root / "generated" / "manifest.json").read_text())
     files = {k["c_file"]: k["cflags"] for k in manifest["kernels"]}  # several kernels share one file
     entries = [(root / "generated" / f, extra + flags) for f, flags in files.items()]
+    entries.sort(key=lambda e: -e[0].stat().st_size)  # largest first, as setup.py orders the build
     with tempfile.TemporaryDirectory() as tmp:
         times = {}
         for src, flags in entries:
