@@ -953,7 +953,7 @@ def _newton_modified(system, factor, key, opts, counters, tol_q, tol_x) -> Newto
 
 def initial_acceleration(S: StepSystem, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray, C=None):
     """Consistent initial acceleration and multipliers: [M J^T; J 0][a; lam] = [f - C v - g; -phi_vv]."""
-    g = S.forces(q0)[0]
+    g = np.asarray(S.grad_f(q0)).ravel()  # (the gradient-only graph: no Hessian to compute and convert)
     f = S.f_lin + Q0 - g
     if C is not None:
         f = f - C @ v0
