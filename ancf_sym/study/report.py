@@ -127,6 +127,9 @@ def write_plots(out: Path, study: Study, records: list[dict], target: float, rat
     for axis, axis_rates in rates.items():
         fig, ax = plt.subplots(figsize=(7.5, 5))
         sub = sorted(axis_rates) if axis == study.step_axis else sorted({group_label(study, r, axis) for r in ok})
+        if not sub:
+            plt.close(fig)
+            continue
         for i, g in enumerate(sub):
             pts = sorted((float(r[axis]), r["error"]) for r in ok if group_label(study, r, axis) == g)
             rate = axis_rates.get(g)
@@ -181,6 +184,8 @@ def write_report(out: Path, study: Study, records: list[dict], reference: dict, 
     for r in records:
         lines.append("| " + " | ".join(_fmt(r.get(c)) for c in cols) + f" | {'*' if id(r) in front_ids else ''} |")
     for axis, axis_rates in rates.items():
+        if not axis_rates:  # nothing above the reference's error floor: no rate to state
+            continue
         where = (f" at the finest {study.refine_axis}" if axis == study.step_axis and study.refine_axis else "")
         lines += ["", f"Observed convergence rate in {axis}{where} (three finest points above 3x the reference error; "
                       f"error ~ {axis}^{'p' if axis == study.step_axis else '-p'}):", "", "| setting | rate p |",
