@@ -18,6 +18,9 @@ def _ok(r: dict) -> bool:
     return bool(r.get("success")) and e is not None and t is not None and math.isfinite(e) and math.isfinite(t)
 
 
+TIE = 0.1  # relative time difference below which two settings count as equally expensive in the answer
+
+
 def pareto_front(records: list[dict]) -> list[dict]:
     """The settings no other setting beats in both wall time and error (sorted by time)."""
     pts = sorted((r for r in records if _ok(r)), key=lambda r: (r["wall_s"], r["error"]))
@@ -165,6 +168,14 @@ def write_report(out: Path, study: Study, records: list[dict], reference: dict, 
     if best:
         answer = (f"cheapest setting reaching {study.error_name} <= {target:g}: {setting_text(study, best)} "
                   f"(error {best['error']:.3g}, {best['wall_s']:.3g} s)")
+        # timings a few percent apart are machine noise: say what else costs about the same
+        ties = [r for r in records if _ok(r) and r is not best and r["error"] <= target
+                and r["wall_s"] <= (1 + TIE) * best["wall_s"]]
+        if ties:
+            acc = min(ties, key=lambda r: r["error"])
+            answer += (f"; {len(ties)} other setting(s) reach it within {TIE:.0%} of that time (a tie on this "
+                       f"machine), the most accurate of them {setting_text(study, acc)} (error {acc['error']:.3g}, "
+                       f"{acc['wall_s']:.3g} s)")
     else:
         good = [r for r in records if _ok(r)]
         closest = min(good, key=lambda r: r["error"]) if good else None
