@@ -249,6 +249,11 @@ class Scene:
             raise SceneError(f"member {name!r}: material must be a Material, got {material!r}")
         if not isinstance(section, Section):
             raise SceneError(f"member {name!r}: section must be a Section, got {section!r}")
+        if axial == "decoupled" and not bending:
+            # the decoupled energy sees only the nodal stretches and the element's length: without bending stiffness
+            # an element can fold at no cost (a hanging soft rope's end element folds into a hook, measured)
+            raise SceneError(f"member {name!r}: axial='decoupled' needs bending=True (without bending stiffness the "
+                             "decoupled strain leaves folding modes of an element unresisted); use 'green' or 'biot'")
         if element.startswith("cable") and bending and section.bending_inertia is None:
             raise SceneError(f"member {name!r}: bending=True needs section.I (or Iy/Iz)")
         if element == "beam3d":
