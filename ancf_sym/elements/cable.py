@@ -91,10 +91,23 @@ def planar_angle(ref_a, ref_b, a, b):
     return ca.atan2(ref_a * b - ref_b * a, ref_a * a + ref_b * b)
 
 
+def _angle_over_sine(c):
+    """acos(c) / sqrt(1 - c^2), analytic at c = 1 (series there: both branches stay finite for the derivatives)."""
+    x = 1 - c
+    series = 1 + x / 3 + 2 * x**2 / 15 + 2 * x**3 / 35 + 8 * x**4 / 315  # error < 1e-14 for x < 1e-3
+    cc = ca.fmax(ca.fmin(c, 1 - 1e-3), -1 + 1e-12)
+    return ca.if_else(x < 1e-3, series, ca.acos(cc) / ca.sqrt(1 - cc * cc))
+
+
 def moment_energy(q, p, dim: int):
     """Potential -M*phi of a moment turning the tangent at xi; phi measured from the reference t0.
 
-    The energy has a branch cut at phi = +-pi (2*pi*M jump), its gradient and Hessian are smooth through it.
+    2D: phi the signed planar angle; the energy has a branch cut at phi = +-pi (2*pi*M jump), its gradient and
+    Hessian are smooth through it. 3D: phi = n . theta, theta = alpha u the rotation vector of the shortest rotation
+    turning t0 into t (alpha the angle between them): the planar angle for tangents in the plane normal to n, and
+    less for an arc turned about t0 out of that plane (phi = alpha cos(beta)), so planar arcs stay stable up to 180
+    degrees (the angle of the tangent's projection on that plane grew with such a turn past 90 degrees: every planar
+    arc past 90 degrees was a saddle). Singular at alpha = 180 degrees, where the rotation axis is undefined.
     """
     L, xi, M = p[0], p[1], p[2]
     t = slope(q, L, xi, dim)
@@ -104,7 +117,9 @@ def moment_energy(q, p, dim: int):
     else:
         n, t0 = p[3:6], p[6:9]
         n = n / ca.norm_2(n)
-        phi = ca.atan2(ca.dot(n, ca.cross(t0, t)), ca.dot(t0, t) - ca.dot(n, t0) * ca.dot(n, t))
+        scale = ca.norm_2(t0) * ca.norm_2(t)
+        c = ca.dot(t0, t) / scale  # cos(alpha)
+        phi = ca.dot(n, ca.cross(t0, t)) / scale * _angle_over_sine(c)  # sin(alpha) (n . u) * alpha / sin(alpha)
     return -M * phi
 
 
