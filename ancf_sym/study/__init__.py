@@ -15,8 +15,8 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from .base import Study, StudyError, parse_sweep
-from .runner import load_reference, prepare_folder, run_settings
+from .base import Study, StudyError, parse_sweep, setting_key
+from .runner import finished_records, load_reference, prepare_folder, run_settings
 
 _MODULES = ("statics_studies", "dynamics_studies", "beam_studies", "kernel_studies")
 
@@ -92,8 +92,6 @@ def run_study(name: str, out: str | Path, *, quick: bool = False, jobs: int | No
     try:
         records = run_settings(study, variant, settings, out, reference, jobs, progress)
     except KeyboardInterrupt:
-        from .runner import finished_records
-        from .base import setting_key
         done = finished_records(out)
         records = [done[setting_key(s)] for s in settings if setting_key(s) in done]
         write_report(out, study, records, reference, target, meta, len(settings))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import Axis, Study
-from .statics_studies import _rod_reference, _timed_static, _tip_error
+from .statics_studies import _rod_reference, _timed_static, _tip_error, static_record
 
 BL, BB, BE, BLOAD = 1.0, 0.02, 210e9, 1.0  # square 20 mm steel bar, 1 m; PL^2/EI = 1
 BIZ = BB**4 / 12
@@ -32,11 +32,7 @@ def beam_reference(variant: str) -> dict:
 def beam_run(setting: dict, variant: str) -> dict:
     r, wall = _timed_static(lambda: beam_scene(setting["method"], setting["n"], setting["poisson"]),
                             1 if variant == "quick" else 3)
-    rec = {"status": r.status, "success": bool(r.success), "wall_s": wall, "iterations": r.iterations}
-    if r.success:
-        tip = r.tip("beam")
-        rec.update(tip_x=float(tip[0]), tip_y=float(tip[1]), tip_z=float(tip[2]))
-    return rec
+    return static_record(r, wall)
 
 
 def beam_conclusions(records: list[dict], ref: dict) -> list[str]:

@@ -14,31 +14,15 @@ import time
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
 
-import numpy as np
-
+from ..output_json import _clean
 from .base import Study, StudyError, setting_key
-
-
-def _plain(v):
-    if isinstance(v, dict):
-        return {k: _plain(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple, np.ndarray)):
-        return [_plain(x) for x in v]
-    if isinstance(v, (np.bool_, bool)):
-        return bool(v)
-    if isinstance(v, np.integer):
-        return int(v)
-    if isinstance(v, (float, np.floating)):
-        v = float(v)
-        return v if np.isfinite(v) else None  # JSON has no NaN: a missing value is null, never a silent NaN
-    return v
 
 
 def write_json_atomic(path: Path, data) -> None:
     """Write to a temporary sibling, then rename: a file is either the old one or the complete new one."""
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     with os.fdopen(fd, "w") as f:
-        json.dump(_plain(data), f, indent=1)
+        json.dump(_clean(data), f, indent=1, allow_nan=False)  # NaN -> null: never a silent NaN
     os.replace(tmp, path)
 
 

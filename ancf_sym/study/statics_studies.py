@@ -58,11 +58,12 @@ def zhang_scene(strain: str, n: int, gauss: int):
     return s
 
 
-def _static_record(r, wall: float, ref: dict) -> dict:
+def static_record(r, wall: float) -> dict:
+    """status, wall time, IPOPT iterations and, when solved, the tip of member "beam" (tip_x, tip_y[, tip_z]) and
+    the potential."""
     rec = {"status": r.status, "success": bool(r.success), "wall_s": wall, "iterations": r.iterations}
     if r.success:
-        tip = r.tip("beam")
-        rec.update(tip_x=float(tip[0]), tip_y=float(tip[1]), potential=r.potential)
+        rec.update({f"tip_{c}": float(v) for c, v in zip("xyz", r.tip("beam"))}, potential=r.potential)
     return rec
 
 
@@ -73,7 +74,7 @@ def zhang_reference(variant: str) -> dict:
 def zhang_run(setting: dict, variant: str) -> dict:
     r, wall = _timed_static(lambda: zhang_scene(setting["strain"], setting["n"], setting["gauss"]),
                             1 if variant == "quick" else 3)
-    return _static_record(r, wall, {})
+    return static_record(r, wall)
 
 
 def _with_potential_error(rec: dict, ref: dict) -> float:
@@ -120,7 +121,7 @@ def elastica_reference(variant: str) -> dict:
 def elastica_run(setting: dict, variant: str) -> dict:
     r, wall = _timed_static(lambda: elastica_scene(setting["strain"], setting["n"], setting["gauss"]),
                             1 if variant == "quick" else 3)
-    return _static_record(r, wall, {})
+    return static_record(r, wall)
 
 
 _GAUSS = Axis("gauss", (3, 4, 5, 7), (5,), int, (3, 4, 5, 7), "Gauss points per element")
