@@ -9,6 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .elements import hermite
+from .elements.quadrature import gauss01
 from .registry import ELEMENTS
 from .scene import Member, Scene, SceneError
 
@@ -122,18 +124,16 @@ def check_stretch(mesh: "Mesh", x: np.ndarray, what: str) -> None:
     """Refuse a state `x` (full coordinates) in which an element has (nearly) collapsed: |r_x| < MIN_STRETCH at a
     node or, for cables, at one of 5 Gauss points. No material compresses to 0.1 % of its length, and the kernels'
     1/|r_x| (Biot, decoupled strain) and |r_x|^-6 (curvature) factors make such a state a numerical singularity."""
-    xg, _ = np.polynomial.legendre.leggauss(5)
-    xi = np.concatenate([[0.0], (xg + 1) / 2, [1.0]])
+    xi = np.concatenate([[0.0], gauss01(5)[0], [1.0]])
+    dh = [np.asarray(f)[None, :, None] for f in hermite.dh(xi)]  # (1, points, 1) each
     d = mesh.scene.dim
     for name, mm in mesh.members.items():
         X = np.asarray(x[mm.offset:mm.offset + mm.x0.size], float).reshape(mm.n_nodes, mm.node_size)
         a, b = mm.elem_nodes[:, 0], mm.elem_nodes[:, 1]
         if mm.member.element.startswith("cable"):  # r_x(xi) of the cubic Hermite interpolation
             L = mm.elem_length[:, None, None]
-            dS = [(-6 * xi + 6 * xi**2)[None, :, None] / L, (1 - 4 * xi + 3 * xi**2)[None, :, None],
-                  (6 * xi - 6 * xi**2)[None, :, None] / L, (-2 * xi + 3 * xi**2)[None, :, None]]
-            rx = (dS[0] * X[a, None, :d] + dS[1] * X[a, None, d:2 * d] + dS[2] * X[b, None, :d]
-                  + dS[3] * X[b, None, d:2 * d])
+            rx = (dh[0] / L * X[a, None, :d] + dh[1] * X[a, None, d:2 * d] + dh[2] / L * X[b, None, :d]
+                  + dh[3] * X[b, None, d:2 * d])
         else:
             rx = np.stack([X[a, d:2 * d], X[b, d:2 * d]], axis=1)
         nrm = np.linalg.norm(rx, axis=2)  # (n_el, points)
