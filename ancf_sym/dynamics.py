@@ -302,6 +302,11 @@ class DynamicOptions:
             raise SceneError(f"loads must be a list, got {self.loads!r}")
         self.loads = [TimeLoad.from_dict(d, i) for i, d in enumerate(self.loads)]
 
+    @property
+    def n_grid(self) -> int:
+        """Whole steps of dt in [t_start, t_end] (a shorter last step, if any, comes after them)."""
+        return int(math.floor((self.t_end - self.t_start) / self.dt + 1e-9))
+
     def scheme(self) -> Scheme | None:
         if self.integrator == "newmark":
             return Scheme.newmark(_num("beta", self.beta), _num("gamma", self.gamma))
@@ -618,7 +623,7 @@ class _Run:
         o = self.opts
         if o.adaptive:
             return self.per_step(o.t_end)
-        n_grid = int(math.floor((o.t_end - o.t_start) / o.dt + 1e-9))
+        n_grid = o.n_grid
         k = 0
         if isinstance(self.integ, AlphaIntegrator) and self.integ.chunkable:
             size = chunk_size(n_grid)
@@ -815,7 +820,7 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
     counters = Counters()
     integ = make_integrator(S, opts, counters, 0.0, tol_x)
     if isinstance(integ, AlphaIntegrator) and integ.chunkable and not opts.adaptive:
-        n_grid = int(math.floor((opts.t_end - opts.t_start) / opts.dt + 1e-9))
+        n_grid = opts.n_grid
         if chunk_size(n_grid):
             integ.chunk_function(chunk_size(n_grid))  # compiled-call set-up, like the step graph itself
     setup = time.perf_counter() - t_setup
