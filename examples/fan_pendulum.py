@@ -17,17 +17,18 @@ moment (12.5 N m of gravity torque about the pin when horizontal) does not swing
 - ELM terms: line_strain (centreline Green strains x area), line_bending (EI_y, EI_z), line_torsion (G J).
 - Mesh 8 elements (quick: 4), generalized-alpha rho_inf = 0.9, dt = 1e-3 s, t_end 2 s (quick 0.5 s).
 
-Agreement. Per case, max over the run of |tip_CMM(t) - tip_ELM(t)| / L. With nu = 0 the two methods differ only in
-terms of relative size (kappa h)^2 (ELM drops the second-order axial strain of the section fibres and measures
-bending by the centreline curvature instead of r_x . r_yx): about 1e-3 at the curvatures here (kappa <~ 1 / m,
-h = 0.04 m). Measured, full run (8 elements, 2 s): gravity 1.5e-3, force 3.7e-3, moment 2.0e-2; quick (4
-elements, 0.5 s): 2.9e-4, 1.0e-3, 1.1e-2 (the test bounds these at 2-3x). The end moment, applied at once, rings
+Agreement. Per case, max over the run of |tip_CMM(t) - tip_ELM(t)| / L. The two methods differ only in terms of
+relative size (kappa h)^2 (ELM drops the second-order axial strain of the section fibres and measures bending by the
+centreline curvature instead of r_x . r_yx): about 1e-3 at the curvatures here (kappa <~ 1 / m, h = 0.04 m).
+Measured at nu = 0.3, full run (8 elements, 2 s): gravity 1.6e-3, force 3.5e-3, moment 1.5e-2; quick (4 elements,
+0.5 s): 3.6e-4, 1.3e-3, 8.7e-3 (the test bounds these at 2-3x), the same as the plain form's at nu = 0 (1.5e-3,
+3.7e-3, 2.0e-2); the plain form at nu = 0.3 was 12x apart (gravity 1.8e-2). The end moment, applied at once, rings
 the soft bar's 3rd and 4th bending modes (20-30 Hz jitter of the tip); their phase is sensitive to the small
-stiffness difference, hence the larger gap there. At nu = 0.3 (gravity, full run) the gap is 1.8e-2, 12x the nu = 0
-one: Poisson locking of the continuum element.
-Cost: the time loops differ by 1.3-2.5x (moment case: more Newton iterations); the elastic forces with their
-Hessian alone (64 elements, compiled kernels) by 2-2.6x (CMM ~19-23 us, ELM ~7-12 us per element on 2 busy
-cores), not the paper's 9x (its CMM is integrated numerically element by element; ours is one compiled kernel).
+stiffness difference, hence the larger gap there.
+Cost: the time loops differ by 1.1-2.1x (moment case: more Newton iterations); the elastic forces with their
+Hessian alone (64 elements, compiled kernels) by 1.1x (CMM 11.8 us, ELM 11.0 us per element on 2 busy cores; the
+plain form's CMM took ~20 us), not the paper's 9x (its CMM is integrated numerically element by element; ours is
+one compiled kernel with 5 x 2 x 2 + 5 points).
 Mesh: with 16 or 32 elements the suddenly applied moment makes the tip element whip faster than dt = 1e-3 s
 resolves: CMM at 16 and both methods at 32 ended "newton_failed" in our trials (gravity and force run fine).
 
