@@ -27,7 +27,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from . import fields
-from .assembly import Assembly
+from .assembly import LOAD_LABELS, Assembly
 from .mesh import check_stretch
 from .scene import Scene, SceneError
 
@@ -215,7 +215,7 @@ class StaticProblem:
             x = self.S.full(self.S.reduce(x))  # supports and hinges that fix or identify coordinates hold exactly
         attempts: list = []
         work = self.work if self.work > 0 else self.newton.load_work(x)
-        if work == 0.0:  # nothing loads it and nothing is strained: the start is the equilibrium
+        if work == 0.0 or self._unloaded_at_rest(x):  # the start is the equilibrium
             attempts.append({"method": "none", "status": "Solve_Succeeded", "iterations": 0,
                              "detail": "no load and no residual force at the start: solved at the start shape"})
             stable, _ = self.stability(x)
@@ -229,6 +229,9 @@ class StaticProblem:
         if run.converged and not ok:
             attempts[-1]["rejected"] = "potential above that of the feasible start point"
         if not ok and run.status != "round_off":
+            if self._unresolvable(attempts):
+                return self._result(False, "Round_Off_Floor_Above_Loads", iters, time.perf_counter() - t0, x, None,
+                                    attempts, "", None)
             ok, xs, lg, path = self._ipopt(x, opts, attempts, ceiling)
             iters += sum(at["iterations"] for at in attempts[1:])
             if ok:
@@ -245,6 +248,33 @@ class StaticProblem:
                 iters += it
         return self._result(ok, status, iters, time.perf_counter() - t0, x_out, stable, attempts, path,
                             run if ok else None)
+
+    def _unloaded_at_rest(self, x: np.ndarray) -> bool:
+        """No load term (gravity, forces, moments) in the scene and the start's residual at its round-off level
+        (eps x max|K| x span): nothing loads it and nothing is strained."""
+        a = self.asm
+        if np.any(self.S.f_lin) or np.any(a.Q) or any(mk.term.label in LOAD_LABELS for mk in a.mapped):
+            return False
+        ev = a.evaluate(x)
+        r = self.S.reduce_force(ev.gradient)
+        kmax = float(abs(ev.hessian).max()) if ev.hessian.nnz else 0.0
+        return float(np.max(np.abs(r), initial=0.0)) <= 100 * np.finfo(float).eps * kmax * self.S.span
+
+    def _unresolvable(self, attempts: list) -> bool:
+        """Newton failed and IPOPT's absolute tolerance (twice the gradient's round-off floor, which it cannot go
+        below) lies above a tenth of the largest start residual: IPOPT would stop at once (or wander) and call the
+        start an equilibrium. Refuse, with the reason."""
+        if self._nlp is None:
+            self._build_nlp()
+        start = self.S.reduce_force(self.asm.evaluate(self.asm.x0, hessian=False).gradient)
+        load = float(np.max(np.abs(start))) if start.size else 0.0
+        if not self.floor > 0.1 * load:
+            return False
+        attempts.append({"method": "none", "status": "Round_Off_Floor_Above_Loads", "iterations": 0,
+                         "detail": f"Newton did not converge and the gradient's round-off floor {self.floor:.3g} N "
+                                   f"exceeds a tenth of the largest applied force {load:.3g} N: IPOPT cannot resolve "
+                                   "these loads (stiffness or penalty factor too large for double precision)"})
+        return True
 
     def _newton_attempt(self, method: str, run: NewtonRun) -> dict:
         return {"method": method, "status": run.status, "iterations": run.iterations,
@@ -268,7 +298,7 @@ class StaticProblem:
                                        "double precision at these loads"})
             return "Round_Off_Floor_Above_Loads"
         last = attempts[-1]["status"]
-        return last if last not in ("converged", "max_iter", "diverged", "not_finite") else "Unresolved_Residual"
+        return last if last not in ("converged", "max_iter", "diverged", "not_finite", "stalled") else "Unresolved_Residual"
 
     def _leave_saddle(self, x, direction, status, opts, work, attempts):
         """Restart from x nudged along the negative-curvature direction (IPOPT full steps, then line search, then

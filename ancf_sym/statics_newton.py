@@ -14,8 +14,8 @@ Convergence (`tol`, relative, the same at any mesh size):
 The answer is the point AFTER that update: Newton's error there is of the order of the update squared, so it lies
 within tol^2 L of the discrete solution, far below tol. The start state is never accepted while a load acts: its
 update is the (non-zero) response to the loads and it is applied before the test.
-Round-off: when the updates stop contracting (each more than half the previous) they measure the round-off of the
-solution itself; above tol it cannot be resolved in double precision (e.g. a penalty factor so stiff that
+Round-off: when the updates stop contracting (each more than half the previous) while the residual sits at its
+round-off level (within ROUND_OFF x eps x max|K| x span), they measure the round-off of the solution itself; above tol it cannot be resolved in double precision (e.g. a penalty factor so stiff that
 eps x its force swamps the loads) and the run says so.
 """
 from __future__ import annotations
@@ -31,12 +31,14 @@ from .integrators import StepSystem
 
 STALL = 0.5  # updates contracting by less than this factor are no longer Newton's quadratic phase
 STALL_COUNT = 3  # that many in a row: the updates are round-off
+ROUND_OFF = 100.0  # a residual within this factor of eps x max|K| x span is at round-off
+WILD = 1e3  # an update of a thousand structure lengths left every physical equilibrium behind: hand over to IPOPT
 
 
 @dataclass
 class NewtonRun:
     converged: bool
-    status: str  # "converged", "round_off", "diverged", "not_finite", "max_iter"
+    status: str  # "converged", "round_off", "stalled", "diverged", "not_finite", "max_iter"
     iterations: int
     x: np.ndarray  # full coordinates after the last applied update
     lam: np.ndarray  # multipliers of the StepSystem's kept rows
@@ -132,13 +134,19 @@ class NewtonStatics:
             if inc <= tol and dec <= tol:
                 status = "converged"
                 break
+            if inc > WILD:
+                status = "diverged"
+                break
             if len(hist) > 1:
                 stall = stall + 1 if inc > STALL * hist[-2][0] else 0
                 if hist[-1][0] > 1e8 * hist[0][0] + 1e8:
                     status = "diverged"
                     break
-                if stall >= STALL_COUNT and inc < 1e-3:
+                if stall >= STALL_COUNT and inc < 1e-3 and rq <= ROUND_OFF * floor:
                     status = "round_off"
+                    break
+                if stall >= 2 * STALL_COUNT:  # cycling with a residual well above round-off: not Newton's basin
+                    status = "stalled"
                     break
         x = S.full(self.x)
         return NewtonRun(status == "converged", status, it, x, self.lam.copy(), float(inc), float(dec),
