@@ -225,9 +225,14 @@ class StaticProblem:
         run = self.newton.solve(x, opts.tol, NEWTON_MAX_ITER, work)
         attempts.append(self._newton_attempt("newton", run))
         iters, path = run.iterations, "newton"
-        ok = run.converged and a.energy(run.x) <= ceiling
+        ev = a.evaluate(run.x, hessian=False) if run.converged else None
+        ok = run.converged and ev.energy <= ceiling
         if run.converged and not ok:
             attempts[-1]["rejected"] = "potential above that of the feasible start point"
+        if not ok and run.status in ("diverged", "stalled", "max_iter", "not_finite"):
+            run, ev, ok = self._newton_load_steps(x, opts, work, ceiling, attempts)
+            iters += sum(at["iterations"] for at in attempts if at["method"].startswith("newton load"))
+            path = "newton load steps"
         if not ok and run.status != "round_off":
             if self._unresolvable(attempts):
                 return self._result(False, "Round_Off_Floor_Above_Loads", iters, time.perf_counter() - t0, x, None,
@@ -238,6 +243,7 @@ class StaticProblem:
                 run = self._finish(xs, lg, opts, work, attempts)
                 iters += run.iterations
                 ok = run.converged
+                ev = None
         status = "Solve_Succeeded" if ok else self._failure(run, attempts, opts)
         x_out = run.x if ok else x
         stable = None
@@ -246,8 +252,26 @@ class StaticProblem:
             if stable is False and opts.escape_saddle:
                 x_out, status, stable, it = self._leave_saddle(x_out, direction, status, opts, work, attempts)
                 iters += it
+                if direction is not None:
+                    ev = None
         return self._result(ok, status, iters, time.perf_counter() - t0, x_out, stable, attempts, path,
-                            run if ok else None)
+                            run if ok else None, ev if ok else None)
+
+    def _newton_load_steps(self, x, opts, work, ceiling, attempts, steps: int = 4):
+        """Full-step Newton at load factors 1/steps .. 1, each from the last: a large deflection that a single
+        Newton run overshoots (Green strain, E = 1 GPa) is reached in a few short runs. (run, evaluation, ok)."""
+        run = None
+        for k in range(1, steps + 1):
+            run = self.newton.solve(x, opts.tol, NEWTON_MAX_ITER, work, load=k / steps)
+            attempts.append(self._newton_attempt(f"newton load step {k}/{steps}", run))
+            if not run.converged:
+                return run, None, False
+            x = run.x
+        ev = self.asm.evaluate(run.x, hessian=False)
+        if ev.energy > ceiling:
+            attempts[-1]["rejected"] = "potential above that of the feasible start point"
+            return run, None, False
+        return run, ev, True
 
     def _unloaded_at_rest(self, x: np.ndarray) -> bool:
         """No load term (gravity, forces, moments) in the scene and the start's residual at its round-off level
@@ -330,18 +354,22 @@ class StaticProblem:
         a = self.asm
         if a.exact.m and np.max(np.abs(a.exact.value(x))) > 1e-9 * self._length_scale():
             return np.inf
+        if x is a.x0 or np.array_equal(x, a.x0):
+            if not hasattr(self, "_e_ref"):
+                self._e_ref = a.energy(a.x0)
+            return self._e_ref + tol * work
         return a.energy(x) + tol * work
 
     def _length_scale(self) -> float:
         return max(mm.member.length for mm in self.asm.mesh.members.values())
 
-    def multipliers(self, x: np.ndarray) -> np.ndarray:
+    def multipliers(self, x: np.ndarray, gradient: np.ndarray | None = None) -> np.ndarray:
         """Lagrange multipliers of every exact constraint row at an equilibrium x: J^T lam = -grad Pi (least
         squares through the normal equations; exact at an equilibrium with independent rows)."""
         a = self.asm
         if not a.exact.m:
             return np.zeros(0)
-        g = a.evaluate(x, hessian=False).gradient
+        g = a.evaluate(x, hessian=False).gradient if gradient is None else gradient
         J = a.exact.jacobian(x)
         try:
             return splu(sp.csc_matrix(J @ J.T)).solve(-(J @ g))
@@ -368,14 +396,14 @@ class StaticProblem:
         d = None if inertia.direction is None else S.full_v(inertia.direction)
         return inertia.stable, (d / np.max(np.abs(d)) if d is not None and np.any(d) else None)
 
-    def _result(self, ok, status, iters, wall, x, stable, attempts, path, run) -> StaticResult:
+    def _result(self, ok, status, iters, wall, x, stable, attempts, path, run, ev=None) -> StaticResult:
         a = self.asm
         if not ok:  # never hand NaN to the caller: report the start point's energies with the failure
             x = x if np.all(np.isfinite(x)) else a.x0
-        ev = a.evaluate(x, hessian=False)
+        ev = ev or a.evaluate(x, hessian=False)
         forces: dict[str, list] = {}
         if ok and a.exact.m:
-            for lbl, v in zip(a.exact.labels, self.multipliers(x)):
+            for lbl, v in zip(a.exact.labels, self.multipliers(x, ev.gradient)):
                 forces.setdefault(lbl, []).append(float(v))
         if a.penalty is not None:
             c = a.penalty.value(x)
