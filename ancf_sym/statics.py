@@ -46,7 +46,7 @@ class StaticOptions:
     structure's length and slopes as they are, and the energy decrement in units of the load work, both <= tol.
     The answer then lies within about tol^2 L of the discrete equilibrium."""
     tol: float = 1e-10
-    max_iter: int = 500  # IPOPT iterations per attempt
+    max_iter: int = 500  # iterations per attempt (Newton runs stop at min(this, 60))
     load_steps: int = 8  # continuation steps if the direct solves fail
     escape_saddle: bool = True
     print_level: int = 0
@@ -222,7 +222,7 @@ class StaticProblem:
             return self._result(True, "Solve_Succeeded", 0, time.perf_counter() - t0, x, stable, attempts, "start",
                                 None)
         ceiling = self._start_ceiling(x, work, opts.tol)
-        run = self.newton.solve(x, opts.tol, NEWTON_MAX_ITER, work)
+        run = self.newton.solve(x, opts.tol, min(NEWTON_MAX_ITER, int(opts.max_iter)), work)
         attempts.append(self._newton_attempt("newton", run))
         iters, path = run.iterations, "newton"
         ev = a.evaluate(run.x, hessian=False) if run.converged else None
@@ -262,7 +262,7 @@ class StaticProblem:
         Newton run overshoots (Green strain, E = 1 GPa) is reached in a few short runs. (run, evaluation, ok)."""
         run = None
         for k in range(1, steps + 1):
-            run = self.newton.solve(x, opts.tol, NEWTON_MAX_ITER, work, load=k / steps)
+            run = self.newton.solve(x, opts.tol, min(NEWTON_MAX_ITER, int(opts.max_iter)), work, load=k / steps)
             attempts.append(self._newton_attempt(f"newton load step {k}/{steps}", run))
             if not run.converged:
                 return run, None, False
@@ -307,7 +307,7 @@ class StaticProblem:
     def _finish(self, x, lam_g, opts, work, attempts) -> NewtonRun:
         """Newton from IPOPT's point (with its multipliers of the rows Newton keeps) to the relative test."""
         lam = np.asarray(lam_g)[self.S.part.rows] if lam_g is not None and self.S.mc else None
-        run = self.newton.solve(x, opts.tol, NEWTON_MAX_ITER, work, lam=lam)
+        run = self.newton.solve(x, opts.tol, min(NEWTON_MAX_ITER, int(opts.max_iter)), work, lam=lam)
         attempts.append(self._newton_attempt("newton finish", run))
         return run
 
