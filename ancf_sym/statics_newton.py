@@ -105,7 +105,7 @@ class NewtonStatics:
         return float(np.sum(np.abs(r) * self.scale))
 
     def solve(self, x_full: np.ndarray, tol: float, max_iter: int, work: float, load: float = 1.0,
-              lam: np.ndarray | None = None) -> NewtonRun:
+              lam: np.ndarray | None = None, max_step: float = np.inf) -> NewtonRun:
         """Newton from x_full (which must satisfy the eliminated supports and hinges) at the given load factor.
 
         work: the load work W [J] for the energy decrement's scale."""
@@ -127,6 +127,9 @@ class NewtonStatics:
                 status = "not_finite"
                 it -= 1
                 break
+            if inc > max_step:  # a step longer than max_step structure lengths is cut back along its direction
+                self.dz *= max_step / inc
+                inc, dec = max_step, dec * (max_step / inc)
             self.x += self.dz[:nf]
             if S.mc:
                 self.lam += self.dz[nf:]
