@@ -4,13 +4,14 @@ The reduced Hessian Z^T H Z (Z a basis of the null space of the constraint Jacob
 exactly when the KKT matrix K = [[H, J^T], [J, 0]] has m negative eigenvalues (and J has full rank). K is congruent
 to [[H + rho J^T J, J^T], [J, 0]] for every rho, and for H_rho = H + rho J^T J nonsingular its inertia is
 In(H_rho) + In(-S) with S = J H_rho^-1 J^T (m x m, dense, m small: the rows left after the supports that fix
-coordinates are eliminated). So neg(K) = neg(H_rho) + pos(S).
+coordinates are eliminated). So neg(K) = neg(H_rho) + pos(S). Without constraint rows, a banded Cholesky (scipy's LAPACK dpbtrf) of H + sigma I
+settles the usual stable case first in O(n x band^2); only when it fails (or the band is wide) is the count needed.
 
 neg(H_rho) comes from a sparse LDL^T: SciPy's SuperLU with a symmetric fill-reducing ordering and diagonal pivots
 only (diag_pivot_thresh = 0, SymmetricMode) gives P H P^T = L U with U = D L^T, so the signs of diag(U) are the
 inertia (checked: the row and column permutations must agree; SciPy has no sparse LDL^T, CHOLMOD is not a
-dependency, CasADi's ldl hides D inside its solve). A banded Cholesky (scipy.linalg.cholesky_banded) would only
-say yes or no and needs a bandwidth-reducing ordering of its own; this gives the count and a direction.
+dependency, CasADi's ldl hides D inside its solve). The banded Cholesky only says yes or no; this gives the count
+and a direction.
 
 Threshold: H is shifted by sigma = STABILITY_EPS x max|H_ii| first, so "stable" means every eigenvalue of the
 reduced Hessian is above -sigma: an exactly zero mode (a free rotation about a pin) computes within a fraction of
@@ -22,9 +23,12 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.linalg.lapack import dpbtrf
+from scipy.sparse.csgraph import reverse_cuthill_mckee
 from scipy.sparse.linalg import splu, spsolve_triangular
 
 STABILITY_EPS = 100 * np.finfo(float).eps  # negative-curvature threshold, relative to max |H_ii|
+BAND_LIMIT = 64  # widest band (entries above the diagonal) worth a banded Cholesky
 DENSE_DIRECTION = 2000  # up to this size the direction of most negative curvature is an eigenvector
 
 
@@ -45,12 +49,17 @@ def reduced_inertia(H: sp.spmatrix, J: sp.spmatrix | None = None) -> Inertia:
     diag = np.abs(H.diagonal())
     hmax = float(diag.max()) if diag.size and diag.max() > 0 else float(abs(H).max() or 1.0)
     sigma = STABILITY_EPS * hmax
-    Hs = H + sigma * sp.identity(n, format="csc")
+    if not m and _banded_positive_definite(H, sigma):
+        return Inertia(True, 0, None)
     if m:
         J = sp.csr_matrix(J)
         jn = float(sp.linalg.norm(J, axis=1).max()) or 1.0
-        Hs = Hs + (hmax / jn**2) * (J.T @ J)
-    Hs = sp.csc_matrix(Hs)
+        Hs = sp.csc_matrix(H + sigma * sp.identity(n, format="csc") + (hmax / jn**2) * (J.T @ J))
+    elif np.all(H.diagonal() != 0):  # the shift on the stored diagonal, no sparse sum
+        Hs = H.copy()
+        Hs.setdiag(Hs.diagonal() + sigma)
+    else:
+        Hs = sp.csc_matrix(H + sigma * sp.identity(n, format="csc"))
     try:
         lu = splu(Hs, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
     except RuntimeError:  # exactly singular after the shift: only a constraint-normal direction can be
@@ -68,6 +77,33 @@ def reduced_inertia(H: sp.spmatrix, J: sp.spmatrix | None = None) -> Inertia:
     if negative <= 0:
         return Inertia(True, 0, None)
     return Inertia(False, negative, _direction(H, J, lu, d))
+
+
+def _banded_positive_definite(H: sp.csc_matrix, sigma: float) -> bool:
+    """H + sigma I positive definite by a banded Cholesky (LAPACK dpbtrf) in the coordinates' own order, or in a
+    reverse Cuthill-McKee order when that is narrower: a 1D mesh numbered node by node is a band of width
+    2 x node size, so this is O(n) and cheaper than a general sparse factorisation. False: not positive definite,
+    or the band too wide to pay (the sparse LDL^T then counts)."""
+    n = H.shape[0]
+    coo = H.tocoo()
+    up = coo.row <= coo.col
+    r, c, v = coo.row[up], coo.col[up], coo.data[up]
+    bw = int(np.max(c - r, initial=0))
+    if bw > BAND_LIMIT:
+        perm = reverse_cuthill_mckee(sp.csr_matrix(H), symmetric_mode=True)
+        inv = np.empty(n, dtype=np.int64)
+        inv[perm] = np.arange(n)
+        r2, c2 = inv[coo.row], inv[coo.col]
+        up = r2 <= c2
+        r, c, v = r2[up], c2[up], coo.data[up]
+        bw = int(np.max(c - r, initial=0))
+        if bw > BAND_LIMIT:
+            return False
+    ab = np.zeros((bw + 1, n))
+    ab[bw + r - c, c] = v  # (a CSC matrix holds each entry once)
+    ab[bw] += sigma
+    _, info = dpbtrf(ab, lower=0, overwrite_ab=1)
+    return info == 0
 
 
 def _direction(H, J, lu, d) -> np.ndarray | None:

@@ -381,17 +381,20 @@ class StaticProblem:
         return max(mm.member.length for mm in self.asm.mesh.members.values())
 
     def multipliers(self, x: np.ndarray, gradient: np.ndarray | None = None) -> np.ndarray:
-        """Lagrange multipliers of every exact constraint row at an equilibrium x: J^T lam = -grad Pi (least
-        squares through the normal equations; exact at an equilibrium with independent rows)."""
+        """Lagrange multipliers of every exact constraint row at an equilibrium x: J^T lam = -grad Pi, least squares
+        on the coordinates the rows touch (exact at an equilibrium; minimum norm for dependent rows)."""
         a = self.asm
         if not a.exact.m:
             return np.zeros(0)
         g = a.evaluate(x, hessian=False).gradient if gradient is None else gradient
-        J = a.exact.jacobian(x)
-        try:
-            return splu(sp.csc_matrix(J @ J.T)).solve(-(J @ g))
-        except RuntimeError:  # dependent rows: the minimum-norm multipliers
-            return sp.linalg.lsqr(J.T, -g, atol=1e-15, btol=1e-15)[0]
+        if not hasattr(self, "_mult_cols"):
+            self._mult_cols = np.unique(np.r_[a.exact.A.tocsr().indices, a.exact.qi, a.exact.qj]).astype(np.int64)
+            self._mult_J = a.exact.A.tocsc()[:, self._mult_cols].toarray() if not len(a.exact.qrow) else None
+        cols = self._mult_cols
+        Jd = self._mult_J if self._mult_J is not None else a.exact.jacobian(x).tocsc()[:, cols].toarray()
+        if Jd.size > 4e6:  # many rows: sparse least squares
+            return sp.linalg.lsqr(a.exact.jacobian(x).T, -g, atol=1e-15, btol=1e-15)[0]
+        return np.linalg.lstsq(Jd.T, -g[cols], rcond=None)[0]
 
     def stability(self, x: np.ndarray, lam_g: np.ndarray | None = None) -> tuple[bool | None, np.ndarray | None]:
         """Is the reduced Hessian of the Lagrangian (on the tangent space of the exact constraints) positive definite?
@@ -406,9 +409,9 @@ class StaticProblem:
         S.x[:] = S.reduce(x)
         S.p[:] = -S.f_lin
         S.cm[:], S.cc[:], S.kc[:] = 0.0, 0.0, 1.0
-        K = S.jacobian().tocsc()
+        K = S.jacobian()
         nf = S.nf
-        H, J = K[:nf, :nf], (K[nf:, :nf] if S.mc else None)
+        H, J = (K[:nf, :nf], K[nf:, :nf]) if S.mc else (K, None)
         inertia = reduced_inertia(H, J)
         d = None if inertia.direction is None else S.full_v(inertia.direction)
         return inertia.stable, (d / np.max(np.abs(d)) if d is not None and np.any(d) else None)
