@@ -1,7 +1,7 @@
 """Static equilibrium: full-step Newton first, IPOPT where Newton alone is not enough. User guide: docs/statics.md.
 
 1. Newton (statics_newton.py): full steps on the exact tangent, one CasADi call per iteration, from the start
-   point. Measured (DESIGN.md) it converges in 8 (Biot) to 18 (Green) iterations on a cantilever at any mesh size,
+   point. Measured (bench/STATICS_RESULTS.md) it converges in 8 (Biot) to 18 (Green) iterations on a cantilever at any mesh size,
    where a line search creeps along the narrow valley that a large EA/EI makes.
 2. If Newton does not converge cleanly (diverges, exceeds its iterations, ends above the start's potential), IPOPT
    minimises: first accepting every trial step, then with its line search, then stepping the loads up; Newton
