@@ -85,17 +85,17 @@ def _banded_positive_definite(H: sp.csc_matrix, sigma: float) -> bool:
     2 x node size, so this is O(n) and cheaper than a general sparse factorisation. False: not positive definite,
     or the band too wide to pay (the sparse LDL^T then counts)."""
     n = H.shape[0]
-    coo = H.tocoo()
-    up = coo.row <= coo.col
-    r, c, v = coo.row[up], coo.col[up], coo.data[up]
+    rows, cols = H.indices, np.repeat(np.arange(n), np.diff(H.indptr))  # CSC entries (no format conversion)
+    up = rows <= cols
+    r, c, v = rows[up], cols[up], H.data[up]
     bw = int(np.max(c - r, initial=0))
     if bw > BAND_LIMIT:
         perm = reverse_cuthill_mckee(sp.csr_matrix(H), symmetric_mode=True)
         inv = np.empty(n, dtype=np.int64)
         inv[perm] = np.arange(n)
-        r2, c2 = inv[coo.row], inv[coo.col]
+        r2, c2 = inv[rows], inv[cols]
         up = r2 <= c2
-        r, c, v = r2[up], c2[up], coo.data[up]
+        r, c, v = r2[up], c2[up], H.data[up]
         bw = int(np.max(c - r, initial=0))
         if bw > BAND_LIMIT:
             return False
