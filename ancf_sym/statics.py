@@ -3,8 +3,8 @@
 1. Newton (statics_newton.py): full steps on the exact tangent, one CasADi call per iteration, from the start
    point. Measured (bench/STATICS_RESULTS.md) it converges in 8 (Biot) to 18 (Green) iterations on a cantilever at any mesh size,
    where a line search creeps along the narrow valley that a large EA/EI makes.
-2. If Newton does not converge cleanly (diverges, exceeds its iterations, ends above the start's potential), IPOPT
-   minimises: first accepting every trial step, then with its line search, then stepping the loads up; Newton
+2. If Newton does not converge cleanly (diverges, stalls, exceeds its iterations), Newton again along the load
+   factor in adaptive steps; if that fails too (or a result lies above the start's potential), IPOPT minimises: first accepting every trial step, then with its line search, then stepping the loads up; Newton
    finishes from IPOPT's point, so every answer passes the same convergence test.
 3. The reduced Hessian's inertia (inertia.py, one sparse factorisation) says whether the point is stable; a
    saddle (a straight column past its Euler load) is left along its negative-curvature direction.

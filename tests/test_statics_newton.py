@@ -76,3 +76,20 @@ def test_stability_reported_above_1500_coordinates():
     r = solve_static(column(2.0), escape_saddle=False)
     assert r.success and r.stable is False
     assert solve_static(column(0.9), escape_saddle=False).stable is True
+
+
+def test_interrupted_ipopt_raises_keyboard_interrupt(monkeypatch):
+    """IPOPT swallows SIGINT and returns 'User_Requested_Stop': the solve must stop (KeyboardInterrupt), not go on
+    to the next attempt as if IPOPT had merely failed."""
+    p = StaticProblem(cantilever(4))
+
+    class Stopped:
+        def __call__(self, **kw):
+            return {"x": p.asm.x0, "lam_g": np.zeros(p.asm.exact.m)}
+
+        def stats(self):
+            return {"return_status": "User_Requested_Stop", "iter_count": 3}
+
+    monkeypatch.setattr(p, "solver", lambda line_search, opts: Stopped())
+    with pytest.raises(KeyboardInterrupt):
+        p._run(p.asm.x0, None, 1.0, False, None)
