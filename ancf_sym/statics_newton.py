@@ -32,6 +32,7 @@ from .integrators import StepSystem
 STALL = 0.5  # updates contracting by less than this factor are no longer Newton's quadratic phase
 STALL_COUNT = 3  # that many in a row: the updates are round-off
 ROUND_OFF = 100.0  # a residual within this factor of eps x max|K| x span is at round-off
+NO_PROGRESS = 4  # converging runs set a new smallest update at least every 3 iterations (measured, zig-zags included)
 WILD = 1e3  # an update of a thousand structure lengths left every physical equilibrium behind: hand over to IPOPT
 
 
@@ -117,7 +118,7 @@ class NewtonStatics:
         W = max(work, np.finfo(float).tiny)
         hist: list = []
         status, inc, dec, stall, it = "max_iter", math.inf, math.inf, 0, 0
-        best = None
+        best, best_at = math.inf, 0
         for it in range(1, max_iter + 1):
             self._eval()
             rq, rc, inc, dec, kmax = self.norms
@@ -134,6 +135,8 @@ class NewtonStatics:
             if S.mc:
                 self.lam += self.dz[nf:]
             hist.append((float(inc), float(dec)))
+            if inc < best:
+                best, best_at = inc, it
             if inc <= tol and dec <= tol:
                 status = "converged"
                 break
@@ -148,8 +151,8 @@ class NewtonStatics:
                 if stall >= STALL_COUNT and inc < 1e-3 and rq <= ROUND_OFF * floor:
                     status = "round_off"
                     break
-                if stall >= 2 * STALL_COUNT:  # cycling with a residual well above round-off: not Newton's basin
-                    status = "stalled"
+                if stall >= 2 * STALL_COUNT or it - best_at > NO_PROGRESS:  # cycling well above round-off, or no
+                    status = "stalled"  # new smallest update for NO_PROGRESS iterations: not in Newton's basin
                     break
         x = S.full(self.x)
         return NewtonRun(status == "converged", status, it, x, self.lam.copy(), float(inc), float(dec),
