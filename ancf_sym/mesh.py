@@ -56,6 +56,11 @@ class MemberMesh:
             return self.n_nodes - 1
         return int(self.public_nodes[at])
 
+    def coordinate(self, at) -> float:
+        """Material coordinate s [m] of a location: a float is s itself; 'start', 'end' or a public node index give
+        that node's coordinate (check the location first: Scene.check_at)."""
+        return float(at) if isinstance(at, float) else float(self.s_node[self.node(at)])
+
     def locate(self, s: float) -> tuple[int, float]:
         """(element, xi) of material coordinate s [m]."""
         ends = np.cumsum(self.elem_length)

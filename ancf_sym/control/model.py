@@ -13,7 +13,7 @@ import scipy.sparse as sp
 from .. import registry
 from ..assembly import Assembly
 from ..checks import number as _num
-from ..elements import hermite
+from ..interpolation import Probe
 from ..integrators import LINEAR_EFFECTS, partition
 from ..loads import point_force
 from ..scene import Scene, SceneError, _vector
@@ -33,7 +33,7 @@ class ControlAssembly(Assembly):
         for i, pm in enumerate(self.point_masses):
             if not isinstance(pm, PointMass):
                 raise SceneError(f"point_masses[{i}] must be a PointMass, got {pm!r}")
-            scene._check_at(pm.member, pm.at, node_only=True, field_name=f"point_masses[{i}].at")
+            scene.check_at(pm.member, pm.at, node_only=True, field_name=f"point_masses[{i}].at")
             m = _num(f"point_masses[{i}].mass", pm.mass, positive=True)
             mm = self.mesh.members[pm.member]
             dofs = mm.node_dofs(mm.node(pm.at))[:dim]
@@ -110,7 +110,7 @@ class ModelMixin:
                 if c.member not in sc.members:
                     raise SceneError(f"controls[{i}]: member {c.member!r} does not exist; members: "
                                      f"{sorted(sc.members)}")
-                sc._check_at(c.member, c.at, node_only=True, field_name=f"controls[{i}].at")
+                sc.check_at(c.member, c.at, node_only=True, field_name=f"controls[{i}].at")
                 mm = a.mesh.members[c.member]
                 node = mm.node(c.at)
                 sup = [s for s in sc.supports if s.member == c.member and s.kind in ("pin", "clamp")
@@ -145,7 +145,7 @@ class ModelMixin:
                 if c.member not in sc.members:
                     raise SceneError(f"controls[{i}]: member {c.member!r} does not exist; members: "
                                      f"{sorted(sc.members)}")
-                sc._check_at(c.member, c.at, node_only=False, field_name=f"controls[{i}].at")
+                sc.check_at(c.member, c.at, node_only=False, field_name=f"controls[{i}].at")
                 d = _vector(f"controls[{i}].direction", c.direction, dim)
                 if np.linalg.norm(d) == 0:
                     raise SceneError(f"controls[{i}].direction must not be zero")
@@ -153,7 +153,7 @@ class ModelMixin:
                     raise SceneError(f"controls[{i}]: name {c.name!r} used twice")
                 names.add(c.name)
                 mm = a.mesh.members[c.member]
-                s = float(c.at) if isinstance(c.at, float) else float(mm.s_node[mm.node(c.at)])
+                s = mm.coordinate(c.at)
                 idx, val = point_force(mm, s, d / np.linalg.norm(d))
                 vec = np.zeros(self.n)
                 np.add.at(vec, idx, val)
@@ -298,14 +298,7 @@ class ModelMixin:
     def _probe(self, member: str, at: Any):
         """(idx (dim, 4) global coordinates, weights (4,)) with r(s) = x[idx] @ w."""
         sc = self.scene
-        sc._check_at(member, at, node_only=False, field_name="point.at")
+        sc.check_at(member, at, node_only=False, field_name="point.at")
         mm = self.asm.mesh.members[member]
-        s = float(at) if isinstance(at, float) else float(mm.s_node[mm.node(at)])
-        e, xi = mm.locate(s)
-        L = mm.elem_length[e]
-        n0, n1 = mm.elem_nodes[e]
-        h = hermite.h(xi)
-        dim, ns = sc.dim, mm.node_size
-        b0, b1 = mm.offset + n0 * ns, mm.offset + n1 * ns
-        idx = np.array([[b0 + k, b0 + dim + k, b1 + k, b1 + dim + k] for k in range(dim)])
-        return idx, np.array([h[0], L * h[1], h[2], L * h[3]])
+        p = Probe(mm, mm.coordinate(at), sc.dim)
+        return p.idx, p.w
