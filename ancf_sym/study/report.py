@@ -119,7 +119,7 @@ def encodings(study: Study) -> dict[str, str]:
 
 
 MARKERS = "osD^v<>phX*"
-SIZES = (4, 6, 8, 10, 12, 14)
+SIZES = (5, 7, 9, 11, 13, 15)
 FILLS = ("full", "none", "left", "bottom")
 
 
@@ -167,6 +167,8 @@ def write_plots(out: Path, study: Study, records: list[dict], target: float, rat
         if channel not in chan:
             return default
         axis, vals = chan[channel]
+        if channel == "size" and len(vals) == 1:
+            return 7
         return style[channel][vals.index(r[axis]) % len(style[channel])]
     fig, ax = plt.subplots(figsize=(7.5, 5.2))
     errs = [r["error"] for r in ok]
@@ -201,7 +203,8 @@ def write_plots(out: Path, study: Study, records: list[dict], target: float, rat
         if channel in chan:
             axis, vals = chan[channel]
             hs = [Line2D([], [], ls="", color="0.35", marker=style["marker"][i % len(MARKERS)] if channel == "marker"
-                         else "o", ms=style["size"][i % len(SIZES)] if channel == "size" else 6,
+                         else "o", ms=(style["size"][i % len(SIZES)] if len(vals) > 1 else 7) if channel == "size"
+                         else 6,
                          fillstyle=style["fill"][i % len(FILLS)] if channel == "fill" else "full",
                          markerfacecoloralt="white", label=str(v)) for i, v in enumerate(vals)]
             legs.append((hs, axis))
