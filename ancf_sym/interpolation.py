@@ -5,17 +5,21 @@ from __future__ import annotations
 
 import numpy as np
 
+from typing import TYPE_CHECKING
+
 from .elements import hermite
-from .mesh import MemberMesh
+
+if TYPE_CHECKING:
+    from .mesh import MemberMesh
 
 
-def weights(xi, L: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(w, wx, wxx), each (4,) + shape of xi: r = sum_k w_k c_k, r_x = sum_k wx_k c_k, r_xx = sum_k wxx_k c_k with
-    c = (r(0), r_x(0), r(L), r_x(L)) of an element of length L at xi = x / L."""
+def weights(xi, L) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(w, wx, wxx), each (4,) + the broadcast shape of xi and L: r = sum_k w_k c_k, r_x = sum_k wx_k c_k,
+    r_xx = sum_k wxx_k c_k with c = (r(0), r_x(0), r(L), r_x(L)) of an element of length L at xi = x / L."""
     h, dh, ddh = hermite.h(xi), hermite.dh(xi), hermite.ddh(xi)
-    w = np.array([h[0], L * h[1], h[2], L * h[3]])
-    wx = np.array([dh[0] / L, dh[1], dh[2] / L, dh[3]])
-    wxx = np.array([ddh[0] / L**2, ddh[1] / L, ddh[2] / L**2, ddh[3] / L])
+    w = np.stack(np.broadcast_arrays(h[0], L * h[1], h[2], L * h[3]))
+    wx = np.stack(np.broadcast_arrays(dh[0] / L, dh[1], dh[2] / L, dh[3]))
+    wxx = np.stack(np.broadcast_arrays(ddh[0] / L**2, ddh[1] / L, ddh[2] / L**2, ddh[3] / L))
     return w, wx, wxx
 
 
@@ -23,7 +27,7 @@ class Probe:
     """Linear maps from the full coordinates x to r, r_x, r_xx at material coordinate s of a member: idx (dim, 4)
     global coordinates (r(0), r_x(0), r(L), r_x(L) per component) and the weights w, wx, wxx (4,)."""
 
-    def __init__(self, mm: MemberMesh, s: float, dim: int):
+    def __init__(self, mm: "MemberMesh", s: float, dim: int):
         e, xi = mm.locate(s)
         n0, n1 = mm.elem_nodes[e]
         ns = mm.node_size
