@@ -17,10 +17,11 @@ def weights(xi, L) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(w, wx, wxx), each (4,) + the broadcast shape of xi and L: r = sum_k w_k c_k, r_x = sum_k wx_k c_k,
     r_xx = sum_k wxx_k c_k with c = (r(0), r_x(0), r(L), r_x(L)) of an element of length L at xi = x / L."""
     h, dh, ddh = hermite.h(xi), hermite.dh(xi), hermite.ddh(xi)
-    w = np.stack(np.broadcast_arrays(h[0], L * h[1], h[2], L * h[3]))
-    wx = np.stack(np.broadcast_arrays(dh[0] / L, dh[1], dh[2] / L, dh[3]))
-    wxx = np.stack(np.broadcast_arrays(ddh[0] / L**2, ddh[1] / L, ddh[2] / L**2, ddh[3] / L))
-    return w, wx, wxx
+    parts = ((h[0], L * h[1], h[2], L * h[3]), (dh[0] / L, dh[1], dh[2] / L, dh[3]),
+             (ddh[0] / L**2, ddh[1] / L, ddh[2] / L**2, ddh[3] / L))
+    if np.ndim(xi) == 0 and np.ndim(L) == 0:  # one point (probes, output-time interpolation): no broadcasting work
+        return tuple(np.array(p, dtype=float) for p in parts)
+    return tuple(np.stack(np.broadcast_arrays(*p)) for p in parts)
 
 
 class Probe:
