@@ -205,22 +205,24 @@ def bench_case(name, c, repeats, exudyn_modes, exudyn_tols, ancf_no_energies, an
     return rows
 
 
-def scaling(ns, repeats, steps=20, exudyn=True):
-    """Time per step and set-up against n (pendulum released horizontal, `steps` steps of 1 ms): ancf_sym's
-    loop CPU per step (its set-up apart, first run of the structure) and Exudyn's SolveDynamic per step."""
+def scaling(ns, repeats, case="rope", steps=20, exudyn=True):
+    """Time per step, per Newton iteration and set-up against n (the case released horizontal, `steps` steps of
+    1 ms): ancf_sym's loop CPU (its set-up apart, first run of the structure) and Exudyn's SolveDynamic."""
     rows = []
     for n in ns:
-        c = dict(CASES["pendulum"], n=n, T=steps * 1e-3)
+        c = dict(CASES[case], n=n, T=steps * 1e-3)
         a, e = [], []
         for _ in range(repeats):
             a.append(ancf_run(c, energies=False, sensors=False))
             if exudyn:
                 e.append(exudyn_run(c, rel_tol=1e-4))
         row = {"n": n, "steps": a[0]["steps"], "ancf_step_ms_min": 1e3 * min(r["cpu"] for r in a) / a[0]["steps"],
-               "ancf_setup_s_min": min(r["setup"] for r in a), "ancf_newton": a[0]["newton"]}
+               "ancf_setup_s_min": min(r["setup"] for r in a), "ancf_newton": a[0]["newton"],
+               "ancf_iteration_ms_min": 1e3 * min(r["cpu"] for r in a) / a[0]["newton"]}
         if exudyn:
             row.update({"exudyn_step_ms_min": 1e3 * min(r["cpu"] for r in e) / e[0]["steps"],
-                        "exudyn_setup_s_min": min(r["setup"] for r in e), "exudyn_newton": e[0]["newton"]})
+                        "exudyn_setup_s_min": min(r["setup"] for r in e), "exudyn_newton": e[0]["newton"],
+                        "exudyn_iteration_ms_min": 1e3 * min(r["cpu"] for r in e) / e[0]["newton"]})
             row["ratio_step"] = row["ancf_step_ms_min"] / row["exudyn_step_ms_min"]
         rows.append(row)
         print("  ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in row.items()), flush=True)
@@ -236,8 +238,8 @@ def second_run(name, repeats):
     for _ in range(repeats):
         ancf_run(dict(c, n=c["n"] + 1, T=0.01))  # loads the kernels: what follows pays only for graphs
         clear_graph_cache()
-        first = ancf_run(dict(c, T=0.05), cold=False)
-        c2 = dict(c, E=2 * c["E"], T=0.05)
+        first = ancf_run(dict(c, T=0.2), cold=False)
+        c2 = dict(c, E=2 * c["E"], T=0.2)  # (200 and 400 steps: chunks of 50 both)
         second = _run_with(c2, dt=c["dt"] / 2, gravity=1.5 * G, v_tip=0.1)
         rows.append({"first_setup_s": first["setup"], "second_setup_s": second["setup"],
                      "ratio": second["setup"] / first["setup"]})
@@ -329,7 +331,7 @@ def main(argv=None):
         sys.exit("exudyn is not installed: pip install exudyn (a bench extra, never needed by ancf_sym)")
     extra = {}
     if a.scaling:
-        extra["scaling"] = scaling(a.scaling, a.repeats)
+        extra["scaling"] = scaling(a.scaling, a.repeats, (a.cases or ["rope"])[0])
     if a.second_run:
         extra["second_run"] = {k: second_run(k, a.repeats) for k in (a.cases or ["pendulum", "rope"])}
     if a.cluster_study:
