@@ -1261,12 +1261,13 @@ class AlphaIntegrator:
         return first, final
 
     def _later_control_function(self) -> ca.Function:
-        """Convergence after a third or later full Newton iteration (the criteria of `newton`, with the step's
-        update tolerance): (ok, iterations, last |dz|) updated by the norms of the iteration (zeros if skipped)."""
+        """Convergence after a third or later full Newton iteration (the criteria and tolerances of `newton`, which
+        took these steps before): (ok, iterations, last |dz|) updated by the norms of the iteration (zeros if
+        skipped)."""
         sx, tiny = ca.SX.sym, 1e-300
         V, N, A, T = sx("lv", 3), sx("n", 5), sx("a", 4), sx("tols", 2)
         ok, iters, d_prev = V[0], V[1], V[2]
-        tq, tolx = A[1], A[2]
+        tq, tolx = A[1], T[1]  # (the absolute update tolerance, as `newton`: a hard step converges fully)
         ran = ok == 0
         d = ca.fmax(N[2], N[3])
         th = d / ca.fmax(d_prev, tiny)
