@@ -205,12 +205,12 @@ def bench_case(name, c, repeats, exudyn_modes, exudyn_tols, ancf_no_energies, an
     return rows
 
 
-def scaling(ns, repeats, case="rope", steps=20, exudyn=True):
+def scaling(ns, repeats, case="rope", steps=20, exudyn=True, dt=1e-3):
     """Time per step, per Newton iteration and set-up against n (the case released horizontal, `steps` steps of
-    1 ms): ancf_sym's loop CPU (its set-up apart, first run of the structure) and Exudyn's SolveDynamic."""
+    dt): ancf_sym's loop CPU (its set-up apart, first run of the structure) and Exudyn's SolveDynamic."""
     rows = []
     for n in ns:
-        c = dict(CASES[case], n=n, T=steps * 1e-3)
+        c = dict(CASES[case], n=n, T=steps * dt, dt=dt)
         a, e = [], []
         for _ in range(repeats):
             a.append(ancf_run(c, energies=False, sensors=False))
@@ -319,6 +319,7 @@ def main(argv=None):
                         "run of the structure); the default runs each build everything (first run)")
     p.add_argument("--scaling", type=int, nargs="*", metavar="N",
                    help="time per step and set-up against n (e.g. 100 1000 10000) instead of the cases")
+    p.add_argument("--scaling-dt", type=float, default=1e-3, help="time step of --scaling (20 steps)")
     p.add_argument("--second-run", action="store_true",
                    help="set-up of a second run of the same structure with other values vs the first")
     p.add_argument("--cluster-study", metavar="STUDY",
@@ -331,7 +332,7 @@ def main(argv=None):
         sys.exit("exudyn is not installed: pip install exudyn (a bench extra, never needed by ancf_sym)")
     extra = {}
     if a.scaling:
-        extra["scaling"] = scaling(a.scaling, a.repeats, (a.cases or ["rope"])[0])
+        extra["scaling"] = scaling(a.scaling, a.repeats, (a.cases or ["rope"])[0], dt=a.scaling_dt)
     if a.second_run:
         extra["second_run"] = {k: second_run(k, a.repeats) for k in (a.cases or ["pendulum", "rope"])}
     if a.cluster_study:
