@@ -109,7 +109,7 @@ def stage_function(system: StepSystem, tab: Tableau, linsol: str = "qr") -> dict
     rows, blocks_diag, dfv = [], [], []
     phis = []
     for i in range(s):
-        g, K = S.forces_f(Q[:, i], ca.DM(S.par))[:2]
+        g, K = S.forces_f(Q[:, i])[:2]
         Ri = ca.mtimes(MdQ, ca.DM(W2[i])) / h**2 - w1[i] / h * Mv + g - F[:, i]
         if CdQ is not None:
             Ri += ca.mtimes(CdQ, ca.DM(W[i])) / h

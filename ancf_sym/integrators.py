@@ -347,8 +347,26 @@ class StepSystem:
         self._setup_buffers(self.kel_sparsity is not None)
 
     # compiled functions and what describes them: built once per structure key and shared by later StepSystems
-    _GRAPH_ATTRS = ("kel_sparsity", "forces_f", "grad_f", "energy_labels", "energy_f", "_energy_kin_labels",
+    _GRAPH_ATTRS = ("kel_sparsity", "forces_pf", "grad_pf", "energy_labels", "energy_f", "_energy_kin_labels",
                     "_energy_kin_f", "damp_f", "damp_force_f", "kkt_sparsity", "iter_f", "res_f", "jac_f")
+
+    @property
+    def forces_f(self) -> ca.Function:
+        """forces(x) -> (g, K[, kel]) with this scene's element parameters (forces_pf takes them as an input)."""
+        if "forces_f" not in self.__dict__:
+            xf = ca.MX.sym("x", self.nf)
+            out = self.forces_pf(xf, ca.DM(self.par))
+            self.__dict__["forces_f"] = ca.Function("forces", [xf], list(out), ["x"],
+                                                    [self.forces_pf.name_out(i) for i in range(len(out))])
+        return self.__dict__["forces_f"]
+
+    @property
+    def grad_f(self) -> ca.Function:
+        """gradient(x) -> g with this scene's element parameters (grad_pf takes them as an input)."""
+        if "grad_f" not in self.__dict__:
+            xf = ca.MX.sym("x", self.nf)
+            self.__dict__["grad_f"] = ca.Function("gradient", [xf], [self.grad_pf(xf, ca.DM(self.par))], ["x"], ["g"])
+        return self.__dict__["grad_f"]
 
     def _structure_key(self) -> str:
         """What the compiled graphs bake in: the pattern of the equations (elements, kernels, gathers, sparsity),
@@ -454,8 +472,8 @@ class StepSystem:
             outs[0] = outs[0] + ca.gradient(pen, xf)
             outs[1] = outs[1] + ca.hessian(pen, xf)[0]
             energies.append(("penalty", pen))
-        self.forces_f = ca.Function("forces", [xf, par], outs, ["x", "par"],
-                                    ["g", "K"] + (["kel"] if kel_vals else []))
+        self.forces_pf = ca.Function("forces", [xf, par], outs, ["x", "par"],
+                                     ["g", "K"] + (["kel"] if kel_vals else []))
         # the gradient alone from the (energy, gradient) companions: no Hessian work (residuals of modified Newton)
         ggroups: dict = {}
         for ft, Pk in zip(self.force_terms, Pft):
@@ -468,7 +486,7 @@ class StepSystem:
             if ggroups else ca.MX.zeros(nf)
         if asm.penalty is not None:
             gg += ca.gradient(pen, xf)
-        self.grad_f = ca.Function("gradient", [xf, par], [gg], ["x", "par"], ["g"])
+        self.grad_pf = ca.Function("gradient", [xf, par], [gg], ["x", "par"], ["g"])
         # energies for the outputs from the energy-only compiled functions (no gradient, no Hessian)
         elist = []
         for mk, Pk in zip(self.nonlinear, Pmk):
@@ -593,7 +611,7 @@ class StepSystem:
         # iteration and none in the step's predictor; other callers pass y = 0 and M y in p)
         y = ca.MX.sym("y", nf)
         par = ca.MX.sym("par", self.par.size)
-        out = self.forces_f(xf, par)
+        out = self.forces_pf(xf, par)
         g, K = out[0], out[1]
         Mdm = _dm(self.M)
         Cx, C = self.damping_mx(xf, kel)
@@ -608,7 +626,7 @@ class StepSystem:
             r_q += fd
             S = S + dfx + cc * dfv
         # the same residual from the gradient-only kernels (modified Newton: no Hessian work)
-        r_g = ca.mtimes(Mdm, cm * xf + y) + cc * Cx + self.grad_f(xf, par) + p
+        r_g = ca.mtimes(Mdm, cm * xf + y) + cc * Cx + self.grad_pf(xf, par) + p
         if self.damp_f is not None:
             r_g += self.damp_force_f(xf, vc + cc * xf)
         if mc:
@@ -761,7 +779,7 @@ class StepSystem:
 
     def forces(self, xf: np.ndarray) -> tuple[np.ndarray, sp.csc_matrix, np.ndarray | None]:
         """(gradient of the nonlinear potential, its Hessian, K_el values or None) at free coordinates xf."""
-        out = self.forces_f(xf, self.par)
+        out = self.forces_pf(xf, self.par)
         g = np.asarray(out[0]).ravel()
         K = out[1].sparse() if hasattr(out[1], "sparse") else sp.csc_matrix(np.asarray(out[1]))
         kel = np.asarray(out[2]).ravel() if len(out) > 2 else None
@@ -832,7 +850,7 @@ class StiffnessDamping:
         self.f = None
         if system.kel_sparsity is not None:
             xf = ca.MX.sym("x", system.nf)
-            self.f = ca.Function("kel", [xf], [system.forces_f(xf, ca.DM(system.par))[2]])
+            self.f = ca.Function("kel", [xf], [system.forces_pf(xf, ca.DM(system.par))[2]])
 
     @property
     def active(self) -> bool:
@@ -1037,7 +1055,7 @@ def _newton_modified(system, factor, key, opts, counters, tol_q, tol_x) -> Newto
 
 def initial_acceleration(S: StepSystem, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray, C=None):
     """Consistent initial acceleration and multipliers: [M J^T; J 0][a; lam] = [f - C v - g; -phi_vv]."""
-    g = np.asarray(S.grad_f(q0, S.par)).ravel()  # (the gradient-only graph: no Hessian to compute and convert)
+    g = np.asarray(S.grad_pf(q0, S.par)).ravel()  # (the gradient-only graph: no Hessian to compute and convert)
     f = S.f_lin + Q0 - g
     if C is not None:
         f = f - C @ v0

@@ -75,7 +75,7 @@ def test_same_structure_reuses_the_compiled_graphs():
     clear_graph_cache()
     S1 = StepSystem(Assembly(pendulum()))
     S2 = StepSystem(Assembly(pendulum(E=4e9, g=5.0)))
-    assert S2.graph_key == S1.graph_key and S2.iter_f is S1.iter_f and S2.forces_f is S1.forces_f
+    assert S2.graph_key == S1.graph_key and S2.iter_f is S1.iter_f and S2.forces_pf is S1.forces_pf
     assert StepSystem(Assembly(pendulum(rho=2000.0))).graph_key != S1.graph_key
     v0 = np.zeros(S2.asm.n)
     v0[1::4] = np.linspace(0.0, 0.2, S2.asm.n // 4)
