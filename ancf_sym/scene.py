@@ -212,6 +212,7 @@ class Scene:
     loads: list[Load] = field(default_factory=list)
     name: str = "scene"
     dampings: list[Damping] = field(default_factory=list)
+    contacts: list = field(default_factory=list)  # ancf_sym.contact declarations
 
     def __post_init__(self):
         if self.dim not in (2, 3):
@@ -298,6 +299,17 @@ class Scene:
         m = self.member(name, pts, int(elements), material, section, **options)
         m.tangents, m.loop_length = tans, total
         return m
+
+    def contact_ground(self, member: str, **options: Any):
+        """Contact of `member`'s centre line with the ground half-space {normal . r >= level} (default: y >= 0 in
+        2D, z >= 0 in 3D). Options (ancf_sym.contact.ground): stiffness (linear penalty, N/m^2) and/or hertz
+        (k_h delta^1.5 per unit length), thickness (default: a cable's round radius, h/2 of a beam3d section), damping,
+        mu and eps (friction regularisation velocity), gauss (contact points per element: 3, 5, 7)."""
+        from . import contact
+
+        c = contact.ground(self, member, **options)
+        self.contacts.append(c)
+        return c
 
     # -- supports and joints -----------------------------------------------------------------------------------
     def _support(self, kind: str, member: str, at: Any, method: str, penalty: float | None) -> Support:
