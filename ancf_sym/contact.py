@@ -37,10 +37,11 @@ class GroundContact:
     mu: float
     eps: float
     gauss: int
+    method: str = "penalty"  # "exact": statics with unilateral constraints g >= 0 at the contact points
 
     @property
     def dissipative(self) -> bool:
-        return self.damping > 0 or self.mu > 0
+        return self.method == "penalty" and (self.damping > 0 or self.mu > 0)
 
 
 def _nonnegative(name: str, value: Any) -> float:
@@ -55,14 +56,21 @@ def _nonnegative(name: str, value: Any) -> float:
 
 def ground(scene, member: str, stiffness: float = 0.0, hertz: float = 0.0, normal: Sequence[float] | None = None,
            level: float = 0.0, thickness: float | None = None, damping: float = 0.0, mu: float = 0.0,
-           eps: float = 1e-3, gauss: int = 5) -> GroundContact:
+           eps: float = 1e-3, gauss: int = 5, method: str = "penalty") -> GroundContact:
     """Validated GroundContact of a scene member (see Scene.contact_ground)."""
     f = f"contact_ground(member={member!r})"
     if member not in scene.members:
         raise SceneError(f"{f}: member {member!r} does not exist; members: {sorted(scene.members)}")
     m = scene.members[member]
+    if method not in ("penalty", "exact"):
+        raise SceneError(f"{f}: method must be 'penalty' or 'exact', got {method!r}")
     k, kh = _nonnegative(f"{f}: stiffness", stiffness), _nonnegative(f"{f}: hertz", hertz)
-    if k == 0 and kh == 0:
+    if method == "exact":
+        if k or kh or float(damping) or float(mu):
+            raise SceneError(f"{f}: method='exact' is frictionless unilateral contact without a stiffness: leave "
+                             f"stiffness, hertz, damping and mu at 0 (got {stiffness!r}, {hertz!r}, {damping!r}, "
+                             f"{mu!r})")
+    elif k == 0 and kh == 0:
         raise SceneError(f"{f}: give a positive stiffness (linear penalty, N/m^2) or hertz (N/m^2.5 per m)")
     n = np.zeros(scene.dim)
     n[1 if scene.dim == 2 else 2] = 1.0
@@ -86,7 +94,7 @@ def ground(scene, member: str, stiffness: float = 0.0, hertz: float = 0.0, norma
         raise SceneError(f"{f}: eps (friction regularisation velocity, m/s) must be > 0 with friction, got {eps!r}")
     if gauss not in (3, 5, 7):
         raise SceneError(f"{f}: gauss must be 3, 5 or 7, got {gauss!r}")
-    return GroundContact(member, n, lvl, k, kh, t, c, mu_, e if e > 0 else 1e-3, int(gauss))
+    return GroundContact(member, n, lvl, k, kh, t, c, mu_, e if e > 0 else 1e-3, int(gauss), method)
 
 
 def _params(c: GroundContact, L: np.ndarray, friction: bool) -> np.ndarray:
@@ -100,6 +108,8 @@ def _params(c: GroundContact, L: np.ndarray, friction: bool) -> np.ndarray:
 def energy_terms(terms: dict, mesh, add) -> None:
     """The normal-law terms of the scene's contacts (terms.scene_terms calls this; `add` is terms._add)."""
     for c in getattr(mesh.scene, "contacts", ()):
+        if c.method != "penalty":
+            continue
         mm = mesh.members[c.member]
         add(terms, LABEL, mm.member.element, "contact_ground", c.gauss, mm.elem_dofs(),
             _params(c, mm.elem_length, False))
@@ -119,6 +129,10 @@ def dissipation_mx(S, X: ca.MX, V: ca.MX):
     """(f, df/dx, df/dv) on the unknowns of step system S, for full coordinates X and velocities V (MX in S's
     unknowns x, v), or None without dissipative contact. Assembled from the kernels' gradient (v-part) and Hessian
     blocks: exact tangents, no differentiation through the compiled calls."""
+    exact = [c.member for c in getattr(S.asm.scene, "contacts", ()) if c.method == "exact"]
+    if exact:
+        raise SceneError(f"contact_ground(member={exact[0]!r}): method='exact' (unilateral constraints) is for "
+                         "statics; dynamics needs method='penalty' (a stiffness or hertz law)")
     calls = dissipation_calls(S.asm.mesh)
     if not calls:
         return None
@@ -158,6 +172,8 @@ def report(asm, x: np.ndarray) -> list[dict]:
     normal law's gradient along the normal)."""
     out = []
     for c in getattr(asm.scene, "contacts", ()):
+        if c.method != "penalty":
+            continue
         mm = asm.mesh.members[c.member]
         X = asm.member_coordinates(x, c.member)
         gaps = X[:, :asm.scene.dim] @ c.normal - c.level - c.thickness
@@ -168,3 +184,49 @@ def report(asm, x: np.ndarray) -> list[dict]:
         force = float(-(G.reshape(len(idx), -1, d)[:, ::per_node, :] @ c.normal).sum())
         out.append({"member": c.member, "min_gap": float(gaps.min()), "normal_force": force})
     return out
+
+
+# -- statics with exact frictionless contact: unilateral constraints g(x) = A x - b >= 0 --------------------------
+
+def _position_rows(element: str, L: float, xi: float, dim: int) -> np.ndarray:
+    """(dim, nd) matrix S with r(xi) = S q_e (cubic Hermite centre line; beam3d: the r and r_x blocks)."""
+    from .elements import hermite  # plain polynomials of xi: numbers in, numbers out
+    from .registry import ELEMENTS
+
+    h = hermite.h(xi)
+    nd = ELEMENTS[element].ndof
+    S = np.zeros((dim, nd))
+    node = nd // 2
+    eye = np.eye(dim)
+    for k, (off, coef) in enumerate(((0, h[0]), (dim, L * h[1]), (node, h[2]), (node + dim, L * h[3]))):
+        S[:, off:off + dim] += coef * eye
+    return S
+
+
+def unilateral(asm) -> tuple | None:
+    """(A (m x n sparse), b, labels) of the exact contacts' rows n.r(xi_k) - level - t >= 0 at the Gauss points of
+    every element (the points where the penalty law is evaluated), or None. Linear in x: no Hessian term."""
+    from .elements.quadrature import gauss01
+
+    rows, cols, vals, b, labels = [], [], [], [], []
+    m = 0
+    for c in getattr(asm.scene, "contacts", ()):
+        if c.method != "exact":
+            continue
+        mm = asm.mesh.members[c.member]
+        d = asm.scene.dim
+        for e, (idx, L) in enumerate(zip(mm.elem_dofs(), mm.elem_length)):
+            for xi in gauss01(c.gauss)[0]:
+                a = c.normal @ _position_rows(mm.member.element, L, float(xi), d)
+                nz = np.flatnonzero(a)
+                rows += [m] * len(nz)
+                cols += idx[nz].tolist()
+                vals += a[nz].tolist()
+                b.append(c.level + c.thickness)
+                labels.append((c.member, e, float(xi)))
+                m += 1
+    if not m:
+        return None
+    import scipy.sparse as sp
+
+    return sp.csr_matrix((vals, (rows, cols)), shape=(m, asm.n)), np.array(b), labels

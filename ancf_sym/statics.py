@@ -18,7 +18,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from . import fields
+from . import contact, fields
 from .assembly import Assembly
 from .mesh import check_stretch
 from .scene import Scene, SceneError
@@ -106,6 +106,13 @@ class StaticProblem:
         a = self.asm
         x, lam = ca.MX.sym("x", a.n), ca.MX.sym("load_factor")
         f, grad, hess, g = a.casadi_parts(x, lam)
+        # exact frictionless contact (ancf_sym.contact): linear rows A x - b >= 0 after the equality rows
+        self.contact = contact.unilateral(a)
+        if self.contact is not None:
+            A = self.contact[0].tocsc()
+            A.sort_indices()
+            g = ca.vertcat(g, ca.mtimes(ca.DM(ca.Sparsity(A.shape[0], A.shape[1], A.indptr.tolist(),
+                                                          A.indices.tolist()), A.data), x))
         lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", g.shape[0])
         hl = lam_f * hess
         if g.shape[0] and len(a.exact.qrow):
@@ -150,6 +157,9 @@ class StaticProblem:
         S = self.solver(line_search, opts)
         m = self.asm.exact.m
         args = {"x0": x0, "p": load, "lbg": np.zeros(m), "ubg": np.zeros(m)}
+        if self.contact is not None:  # unilateral contact rows: b <= A x < inf
+            args["lbg"] = np.r_[args["lbg"], self.contact[1]]
+            args["ubg"] = np.r_[args["ubg"], np.full(len(self.contact[1]), np.inf)]
         if lam_g0 is not None:
             args["lam_g0"] = lam_g0
         sol = S(**args)
@@ -201,7 +211,7 @@ class StaticProblem:
             else:
                 ok, x, lam_g = True, xk, lgk
         stable = None
-        if ok:
+        if ok and self.contact is None:  # the polish knows equality rows only (not an active contact set)
             x, lam_g, worst = self._polish(x, lam_g, attempts)
             if worst > UNRESOLVED:  # some rows far above their own round-off: not an equilibrium, say so
                 ok, status = False, "Unresolved_Residual"
@@ -288,7 +298,13 @@ class StaticProblem:
         a = self.asm
         if a.exact.m and np.max(np.abs(a.exact.value(x))) > 1e-9 * self._length_scale():
             return np.inf
+        if self.contact is not None and np.any(self.contact[0] @ x < self.contact[1]):
+            return np.inf
         return a.energy(x) + 10 * self.floor * self._length_scale()
+
+    def _contact_forces(self, lam_g: np.ndarray) -> np.ndarray:
+        """Contact forces of the unilateral rows [N]: IPOPT's multiplier of an active lower bound is negative."""
+        return np.maximum(-np.asarray(lam_g, float)[self.asm.exact.m:], 0.0)
 
     def _length_scale(self) -> float:
         return max(mm.member.length for mm in self.asm.mesh.members.values())
@@ -304,9 +320,12 @@ class StaticProblem:
             return None, None
         H = a.evaluate(x).hessian.toarray()
         if lam_g is not None and a.exact.m and len(a.exact.qrow):
-            H += a.exact.hessian(np.asarray(lam_g, float)).toarray()
-        if a.exact.m:
-            J = a.exact.jacobian(x).toarray()
+            H += a.exact.hessian(np.asarray(lam_g, float)[:a.exact.m]).toarray()
+        J = a.exact.jacobian(x).toarray() if a.exact.m else np.zeros((0, a.n))
+        if self.contact is not None and lam_g is not None:  # active contact rows hold like equalities
+            active = self._contact_forces(lam_g) > 0
+            J = np.vstack([J, self.contact[0][active].toarray()])
+        if J.shape[0]:
             Z = sla.null_space(J)
         else:
             Z = np.eye(a.n)
@@ -329,11 +348,15 @@ class StaticProblem:
         if lam_g is not None and a.exact.m:
             for lbl, v in zip(a.exact.labels, lam_g):
                 forces.setdefault(lbl, []).append(float(v))
+        if lam_g is not None and self.contact is not None:  # contact force at each contact point [N]
+            forces["contact"] = self._contact_forces(lam_g).tolist()
         if a.penalty is not None:
             c = a.penalty.value(x)
             for lbl, k, cv in zip(a.penalty.labels, a.penalty.k, c):
                 forces.setdefault(lbl, []).append(float(k * cv))
         viol = float(np.max(np.abs(a.constraints.value(x)))) if a.constraints.m else 0.0
+        if self.contact is not None:
+            viol = max(viol, float(np.max(self.contact[1] - self.contact[0] @ x, initial=0.0)))
         return StaticResult(status, ok, iters, wall, x, ev.energies, forces, viol, stable, attempts, a)
 
 
