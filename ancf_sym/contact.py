@@ -97,6 +97,28 @@ def ground(scene, member: str, stiffness: float = 0.0, hertz: float = 0.0, norma
     return GroundContact(member, n, lvl, k, kh, t, c, mu_, e if e > 0 else 1e-3, int(gauss), method)
 
 
+TOML_KEYS = ("type", "member", "stiffness", "hertz", "normal", "level", "thickness", "damping", "mu", "eps", "gauss",
+             "method")
+
+
+def from_toml(scene, d: dict) -> GroundContact:
+    """A [[contacts]] table: type = "ground" and the keyword arguments of Scene.contact_ground."""
+    unknown = sorted(set(d) - set(TOML_KEYS))
+    if unknown:
+        raise SceneError(f"unknown key {unknown[0]!r} (allowed: {', '.join(TOML_KEYS)})")
+    if d.get("type", "ground") != "ground":
+        raise SceneError(f"type must be 'ground', got {d.get('type')!r}")
+    if "member" not in d:
+        raise SceneError("member: missing (the member whose centre line touches the ground)")
+    for k, v in d.items():
+        if k not in ("type", "member", "normal", "method") and (isinstance(v, bool) or not isinstance(v, (int, float))):
+            raise SceneError(f"{k} must be a number, got {v!r}")
+    kw = {k: v for k, v in d.items() if k != "type"}
+    if "gauss" in kw and isinstance(kw["gauss"], float) and kw["gauss"].is_integer():
+        kw["gauss"] = int(kw["gauss"])
+    return scene.contact_ground(**kw)
+
+
 def _params(c: GroundContact, L: np.ndarray, friction: bool) -> np.ndarray:
     one = np.ones_like(L)
     cols = [L, c.stiffness * one, c.hertz * one, c.thickness * one, *(v * one for v in c.normal), c.level * one]

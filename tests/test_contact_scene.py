@@ -59,3 +59,51 @@ def test_exact_contact_carries_the_weight():
     pin = r.constraint_forces["pin rope@start"]
     assert np.all(f >= 0) and r.constraint_violation < 1e-9
     assert f.sum() - pin[1] == pytest.approx(W, rel=1e-6)  # the pin force on the rope is minus its multiplier
+
+
+TOML = """
+[scene]
+dim = 2
+gravity = [0, -9.81]
+[materials.rope]
+E = 2e9
+density = 1000
+[sections.d10]
+shape = "circle"
+diameter = 0.01
+[[members]]
+name = "rope"
+points = [[0, 0.05], [1, 0.05]]
+elements = 20
+material = "rope"
+section = "d10"
+[[contacts]]
+type = "ground"
+member = "rope"
+stiffness = 1e4
+damping = 3e4
+mu = 0.3
+eps = 0.01
+[analysis]
+type = "dynamics"
+"""
+
+
+def test_toml_contacts(tmp_path):
+    from ancf_sym.scene_toml import load_scene
+
+    f = tmp_path / "drop.toml"
+    f.write_text(TOML)
+    sc, _ = load_scene(f)
+    (c,) = sc.contacts
+    assert (c.member, c.stiffness, c.damping, c.mu, c.eps) == ("rope", 1e4, 3e4, 0.3, 0.01)
+    for bad, pattern in (("mu = 0.3", r"contacts\[0\].*mu must be finite and >= 0, got -0.3"),
+                         ('member = "rope"', r"contacts\[0\].*member 'rop' does not exist"),
+                         ("stiffness = 1e4", r"contacts\[0\].*stiffness must be a number")):
+        f.write_text(TOML.replace(bad, {"mu = 0.3": "mu = -0.3", 'member = "rope"': 'member = "rop"',
+                                        "stiffness = 1e4": 'stiffness = "stiff"'}[bad]))
+        with pytest.raises(SceneError, match=pattern):
+            load_scene(f)
+    f.write_text(TOML.replace("eps = 0.01", "eps = 0.01\nfriction = 1"))
+    with pytest.raises(SceneError, match=r"contacts\[0\].*unknown key 'friction'"):
+        load_scene(f)
