@@ -21,6 +21,7 @@ import pytest
 from ancf_sym import contact
 from ancf_sym.assembly import Assembly
 from ancf_sym.dynamics import DynamicOptions, simulate
+from ancf_sym.integrators import StepSystem
 from ancf_sym.scene import Material, Scene, Section
 
 G, K, RHO, D = 9.81, 1e4, 1000.0, 0.01
@@ -70,3 +71,5 @@ def test_scene_without_contact_has_no_contact_terms():
     asm = Assembly(sc)
     assert not [t for t in asm.terms if t.label == contact.LABEL]
     assert contact.dissipation_calls(asm.mesh) == []
+    S = StepSystem(asm)
+    assert S.damp_f is None and S.linsol == "ldl"  # the step graph of a scene without contact is unchanged
