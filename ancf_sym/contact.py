@@ -147,14 +147,18 @@ def dissipation_calls(mesh) -> list[tuple[str, int, np.ndarray, np.ndarray]]:
     return out
 
 
+def check_dynamics(asm) -> None:
+    """Exact contact is a statics method: refuse it in a dynamic run, before any work."""
+    exact = [c.member for c in getattr(asm.scene, "contacts", ()) if c.method == "exact"]
+    if exact:
+        raise SceneError(f"contact_ground(member={exact[0]!r}): method='exact' (unilateral constraints) is for "
+                         "statics; dynamics needs method='penalty' (a stiffness or hertz law)")
+
+
 def dissipation_mx(S, X: ca.MX, V: ca.MX):
     """(f, df/dx, df/dv) on the unknowns of step system S, for full coordinates X and velocities V (MX in S's
     unknowns x, v), or None without dissipative contact. Assembled from the kernels' gradient (v-part) and Hessian
     blocks: exact tangents, no differentiation through the compiled calls."""
-    exact = [c.member for c in getattr(S.asm.scene, "contacts", ()) if c.method == "exact"]
-    if exact:
-        raise SceneError(f"contact_ground(member={exact[0]!r}): method='exact' (unilateral constraints) is for "
-                         "statics; dynamics needs method='penalty' (a stiffness or hertz law)")
     calls = dissipation_calls(S.asm.mesh)
     if not calls:
         return None
