@@ -404,6 +404,7 @@ class StepSystem:
         r = self.rayleigh
         add(None if r is None else (r.alpha, r.beta, {k: np.asarray(v, float) for k, v in r.element_weight.items()}))
         add(self.strain_rate, asm.penalty, self.cons)
+        add(contact.dissipation_calls(asm.mesh))  # contact damping/friction: parameters baked into the graph
         return h.hexdigest()
 
     # -- symbolic assembly (once per scene) -------------------------------------------------------------------

@@ -73,3 +73,14 @@ def test_scene_without_contact_has_no_contact_terms():
     assert contact.dissipation_calls(asm.mesh) == []
     S = StepSystem(asm)
     assert S.damp_f is None and S.linsol == "ldl"  # the step graph of a scene without contact is unchanged
+
+
+def test_friction_coefficient_is_not_shared_between_cached_graphs():
+    """Step graphs are cached by structure; the friction parameters are baked into the dissipation graph, so two
+    scenes that differ only in mu must not share it: each decelerates at its own mu g (1e-2, as above)."""
+    for mu in (0.3, 0.1):
+        asm = Assembly(_rope(D / 2 - W / K, mu=mu, eps=1e-3))
+        v = np.zeros(asm.n)
+        v[0::4] = 1.0
+        res = simulate(asm, DynamicOptions(dt=1e-3, t_end=0.2, integrator="generalized_alpha", v0=v))
+        assert np.mean(res.v[0::4]) == pytest.approx(1.0 - mu * G * 0.2, rel=1e-2)
