@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import contact
 from .statics import StaticResult
 
 FORMAT = "ancf_sym.statics/1"
@@ -66,6 +67,7 @@ def static_result_dict(result: StaticResult, scene_file: str | Path | None = Non
         "solver": {"iterations": result.iterations, "attempts": result.attempts, "stable": result.stable},
         "constraint_violation": result.constraint_violation,
         "constraint_forces": base["constraint_forces"],
+        "contacts": contact.report(asm, result.x),  # per penalty contact: min_gap [m], normal_force [N]
         "members": {name: {**v, "tip": v["nodes"][-1]} for name, v in base["members"].items()},
         "kernels": [{"label": t.label, "element": t.element, "effect": t.effect, "gauss": t.gauss,
                      "elements": int(t.idx.shape[0])} for t in asm.terms],

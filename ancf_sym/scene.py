@@ -311,6 +311,16 @@ class Scene:
         self.contacts.append(c)
         return c
 
+    def contact_drum(self, member: str, centre: Any, radius: float, **options: Any):
+        """Contact of `member`'s centre line with a fixed drum it lies outside of: a circle of `centre` and `radius`
+        (2D) or a cylinder of unit `axis` (3D, default z). Options as contact_ground (stiffness and/or hertz,
+        thickness, damping, mu, eps, gauss); method 'penalty' only (ancf_sym.contact.drum)."""
+        from . import contact
+
+        c = contact.drum(self, member, centre, radius, **options)
+        self.contacts.append(c)
+        return c
+
     # -- supports and joints -----------------------------------------------------------------------------------
     def _support(self, kind: str, member: str, at: Any, method: str, penalty: float | None) -> Support:
         self.check_at(member, at, node_only=True, field_name=f"{kind}.at")
