@@ -32,7 +32,7 @@ from .mesh import check_stretch
 from .scene import Scene, SceneError
 
 from .inertia import reduced_inertia
-from .statics_newton import NewtonRun, NewtonStatics
+from .statics_newton import AssemblyNewton, NewtonRun, NewtonStatics, Reduction
 
 SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 INTERRUPTED = ("User_Requested_Stop", "User_Interrupt")  # IPOPT swallows SIGINT and returns one of these
@@ -130,11 +130,31 @@ class StaticProblem:
 
     def __init__(self, scene_or_assembly: Scene | Assembly):
         self.asm = scene_or_assembly if isinstance(scene_or_assembly, Assembly) else Assembly(scene_or_assembly)
-        self.newton = NewtonStatics(self.asm)
-        self.S = self.newton.S
-        self.work = self.newton.load_work(self.asm.x0)  # the loads' energy scale W [J]
+        self.S = Reduction(self.asm)  # free coordinates (the graph's StepSystem has the same)
+        self.light = AssemblyNewton(self.asm, self.S) if self.S.mc == 0 else None
+        self._graph: NewtonStatics | None = None
+        self.newton = self.light or self.graph
+        self.solves = 0
         self._nlp = None
         self._solvers: dict = {}
+        self.work = self.newton.load_work(self.asm.x0)  # the loads' energy scale W [J]
+
+    @property
+    def graph(self) -> NewtonStatics:
+        """The compiled Newton iteration (built on first use)."""
+        if self._graph is None:
+            self._graph = NewtonStatics(self.asm)
+        return self._graph
+
+    def _engine(self) -> NewtonStatics:
+        """Which evaluation runs the Newton iterations (measured, bench/STATICS_RESULTS.md): building the graph costs
+        ~35 ms at 60 elements and ~120 ms at 600, an iteration on it ~50 us / ~1.4 ms, one on the assembly
+        ~0.3 ms / ~3 ms: the assembly wins a first solve at every size measured (60 - 6000 elements); a problem
+        solved again (a study, a parameter sweep, warm starts) builds the graph once and runs on it from then on.
+        Scenes with multiplier rows always run on the graph."""
+        if self.light is None or self.solves > 1 or self._graph is not None:
+            return self.graph
+        return self.light
 
     # -- IPOPT --------------------------------------------------------------------------------------------------
     def _build_nlp(self) -> None:
@@ -210,6 +230,8 @@ class StaticProblem:
         opts = opts or StaticOptions()
         a = self.asm
         t0 = time.perf_counter()
+        self.solves += 1
+        self.newton = self._engine()
         x = a.x0.copy() if x0 is None else np.asarray(x0, float).copy()
         if x.shape != (a.n,) or not np.all(np.isfinite(x)):
             raise SceneError(f"warm start x0 must be {a.n} finite numbers, got shape {np.shape(x0)}")
@@ -408,7 +430,11 @@ class StaticProblem:
         row (default: from the gradient), for the curvature of the bilinear (rigid-joint) constraints.
 
         Returns (stable, direction of most negative curvature in full coordinates, max-norm 1)."""
-        S = self.S
+        if self.light is not None:  # no multiplier rows: the reduced Hessian from the assembly
+            inertia = reduced_inertia(self.light.tangent(x)[2])
+            d = None if inertia.direction is None else self.S.full_v(inertia.direction)
+            return inertia.stable, (d / np.max(np.abs(d)) if d is not None and np.any(d) else None)
+        S = self.graph.S
         if S.mc:
             lam = self.multipliers(x) if lam_g is None else np.asarray(lam_g, float)
             S.lam[:] = lam[S.part.rows]
