@@ -43,7 +43,7 @@ from .inertia import BAND_LIMIT, banded_cholesky, banded_solve
 from .sparsity import csc_pattern
 from .integrators import StepSystem, partition
 
-STALL = 0.5  # updates contracting by less than this factor are no longer Newton's quadratic phase
+STALL = 0.75  # updates contracting by less than this factor make no progress (the 2/3 of a quartic Green energy far out does)
 STALL_COUNT = 3  # that many in a row: the updates are round-off
 ROUND_OFF = 100.0  # a residual within this factor of eps x max|K| x span is at round-off
 NO_PROGRESS = 4  # converging runs set a new smallest update at least every 3 iterations (measured, zig-zags included)
