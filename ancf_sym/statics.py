@@ -15,6 +15,7 @@ element count while the nodal loads shrink.
 """
 from __future__ import annotations
 
+import copy
 import hashlib
 import pickle
 import time
@@ -40,6 +41,9 @@ NEWTON_MAX_ITER = 30  # full steps before load steps take over (a cantilever nee
 STEP_TOL = 1e-2  # relative tolerance at intermediate load factors (a start inside the next basin is enough)
 STEP_MAX_ITER = 15  # Newton iterations per load step (from a nearby converged load a few suffice)
 MIN_LOAD_STEP = 1.0 / 4096  # smaller load steps than this: hand over to IPOPT
+BIOT_TOL = 1e-6  # tolerance of the Biot solve that only gives the start (Newton's last steps are quadratic)
+BIOT_MAX_ITER = 12  # Biot converges in 8-10 on fine meshes: give up early where it does not
+BIOT_MIN_ELEMENTS = 10  # measured: on 3 and 6 elements Newton wanders with any strain, Biot too (no start gained)
 CACHE_SIZE = 8  # problems kept per process, by scene fingerprint
 
 
@@ -137,6 +141,7 @@ class StaticProblem:
         self.solves = 0
         self._nlp = None
         self._solvers: dict = {}
+        self._biot: StaticProblem | bool | None = None  # the same scene with Biot strain (a start), False: none
         self.work = self.newton.load_work(self.asm.x0)  # the loads' energy scale W [J]
 
     @property
@@ -247,9 +252,19 @@ class StaticProblem:
             return self._result(True, "Solve_Succeeded", 0, time.perf_counter() - t0, x, stable, attempts, "start",
                                 None)
         ceiling = self._start_ceiling(x, work, opts.tol)
-        run = self.newton.solve(x, opts.tol, min(NEWTON_MAX_ITER, int(opts.max_iter)), work)
+        biot = self._biot_start(x, opts, work) if x0 is None else None
+        run, used, iters = None, False, 0
+        if biot is not None and biot.converged:  # Newton from the Biot solution
+            run = self.newton.solve(biot.x, opts.tol, min(NEWTON_MAX_ITER, int(opts.max_iter)), work)
+            used, iters = run.converged, run.iterations
+        if not used:
+            run = self.newton.solve(x, opts.tol, min(NEWTON_MAX_ITER, int(opts.max_iter)), work)
         attempts.append(self._newton_attempt("newton", run))
-        iters, path = run.iterations, "newton"
+        if biot is not None:
+            attempts[-1]["biot_start"] = {"status": biot.status, "iterations": biot.iterations,
+                                          "used": used}
+        iters += run.iterations + (biot.iterations if biot is not None else 0)
+        path = "newton"
         ev = a.evaluate(run.x, hessian=False) if run.converged else None
         ok = run.converged and ev.energy <= ceiling
         if run.converged and not ok:
@@ -262,8 +277,9 @@ class StaticProblem:
             if self._unresolvable(attempts):
                 return self._result(False, "Round_Off_Floor_Above_Loads", iters, time.perf_counter() - t0, x, None,
                                     attempts, "", None)
+            n_before = len(attempts)
             ok, xs, lg, path = self._ipopt(x, opts, attempts, ceiling)
-            iters += sum(at["iterations"] for at in attempts[1:])
+            iters += sum(at["iterations"] for at in attempts[n_before:])
             if ok:
                 run = self._finish(xs, lg, opts, work, attempts)
                 iters += run.iterations
@@ -281,6 +297,31 @@ class StaticProblem:
                     ev = None
         return self._result(ok, status, iters, time.perf_counter() - t0, x_out, stable, attempts, path,
                             run if ok else None, ev if ok else None)
+
+    def _biot_start(self, x, opts, work) -> NewtonRun | None:
+        """The Biot-strain solution of the same scene (a start for cables with Green or decoupled strain, to
+        BIOT_TOL); None without such cables or on a coarse mesh. Measured (bench/STATICS_RESULTS.md): Biot Newton
+        converges in 8-10 iterations on paper 000's cantilever where Green needs 19-24 from the straight beam, and
+        Green then needs 2-3 more from Biot's answer (the strain measures differ by O(strain^2))."""
+        if self._biot is False:
+            return None
+        if self._biot is None:
+            scene = copy.deepcopy(self.asm.scene)
+            cables = [m for m in scene.members.values() if getattr(m, "axial", None) in ("green", "decoupled")]
+            for m in cables:
+                m.axial = "biot"
+            coarse = any(m.elements < BIOT_MIN_ELEMENTS for m in cables)
+            self._biot = StaticProblem(scene) if cables and not coarse else False
+            if self._biot and self._biot.asm.n != self.asm.n:
+                self._biot = False
+            if not self._biot:
+                return None
+            self._biot.solves = self.solves
+        b = self._biot
+        b.solves += 1
+        b.newton = b._engine()
+        rb = b.newton.solve(x, max(opts.tol, BIOT_TOL), min(BIOT_MAX_ITER, int(opts.max_iter)), work)
+        return rb
 
     def _newton_load_steps(self, x, opts, work, ceiling, attempts):
         """Full-step Newton along the load factor with an adaptive step (as Exudyn's static solver adapts its load
