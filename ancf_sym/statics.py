@@ -316,9 +316,8 @@ class StaticProblem:
                 self._biot = False
             if not self._biot:
                 return None
-            self._biot.solves = self.solves
         b = self._biot
-        b.solves += 1
+        b.solves = self.solves  # the same path as this problem: assembly on a first solve, then the graph
         b.newton = b._engine()
         rb = b.newton.solve(x, max(opts.tol, BIOT_TOL), min(BIOT_MAX_ITER, int(opts.max_iter)), work)
         return rb
