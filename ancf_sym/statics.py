@@ -20,6 +20,7 @@ from scipy.sparse.linalg import splu
 
 from . import fields
 from .assembly import Assembly
+from .interrupts import check_stop, interruptible
 from .mesh import check_stretch
 from .scene import Scene, SceneError
 
@@ -152,8 +153,10 @@ class StaticProblem:
         args = {"x0": x0, "p": load, "lbg": np.zeros(m), "ubg": np.zeros(m)}
         if lam_g0 is not None:
             args["lam_g0"] = lam_g0
-        sol = S(**args)
+        with interruptible():  # Ctrl-C / SIGTERM inside IPOPT: raised here, not tried again as a failed attempt
+            sol = S(**args)
         st = S.stats()
+        check_stop(st["return_status"])
         x = np.asarray(sol["x"]).ravel()
         ok = st["return_status"] in SUCCESS and np.all(np.isfinite(x))
         return ok, st["return_status"], int(st["iter_count"]), x, np.asarray(sol["lam_g"]).ravel()
