@@ -338,7 +338,7 @@ static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   casadi_real a1080, a1081, a1082, a1083, a1084, a1085, a1086, a1087, a1088, a1089, a1090, a1091;
   casadi_real a1092, a1093, a1094, a1095, a1096, a1097, a1098, a1099, a1100, a1101, a1102, a1103;
   casadi_real a1104, a1105, a1106, a1107, a1108, a1109, a1110, a1111, a1112, a1113, a1114;
-  a0000=7.7160493827160531e-02;
+  a0000=7.7160493827160503e-02;
   a0001=arg[3]? arg[3][0] : 0;
   a0002=(a0000*a0001);
   a0003=arg[1]? arg[1][0] : 0;
@@ -557,7 +557,7 @@ static int casadi_f1(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   a0050=(a0067*a0050);
   a0066=(a0066+a0050);
   a0066=(a0002*a0066);
-  a0050=1.2345679012345681e-01;
+  a0050=1.2345679012345678e-01;
   a0065=(a0050*a0001);
   a0065=(a0065*a0003);
   a0065=(a0065*a0004);
@@ -17407,9 +17407,9 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w01);
   /* #2: @2 = 0.0469101 */
-  w02 = 4.6910077030668018e-02;
+  w02 = 4.6910077030668004e-02;
   /* #3: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #4: {@4, @5, @6} = beam3d_continuum_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -17422,7 +17422,7 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #5: @2 = 0.230765 */
   w02 = 2.3076534494715845e-01;
   /* #6: @3 = 0.239314 */
-  w03 = 2.3931433524968315e-01;
+  w03 = 2.3931433524968324e-01;
   /* #7: {@7, @8, @9} = beam3d_continuum_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -17437,7 +17437,7 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #9: @7 = 0.5 */
   w07 = 5.0000000000000000e-01;
   /* #10: @2 = 0.284444 */
-  w02 = 2.8444444444444433e-01;
+  w02 = 2.8444444444444444e-01;
   /* #11: {@3, @10, @11} = beam3d_continuum_point(@0, @1, @7, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -17452,7 +17452,7 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #13: @3 = 0.769235 */
   w03 = 7.6923465505284150e-01;
   /* #14: @7 = 0.239314 */
-  w07 = 2.3931433524968315e-01;
+  w07 = 2.3931433524968324e-01;
   /* #15: {@2, @12, @13} = beam3d_continuum_point(@0, @1, @3, @7) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -17465,9 +17465,9 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #16: @4 = (@4+@2) */
   w04 += w02;
   /* #17: @2 = 0.95309 */
-  w02 = 9.5308992296933193e-01;
+  w02 = 9.5308992296933204e-01;
   /* #18: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #19: {@7, @14, @15} = beam3d_continuum_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -17602,7 +17602,7 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   casadi_real a24, a25, a26, a27, a28, a29, a30, a31, a32, a33, a34, a35;
   casadi_real a36, a37, a38, a39, a40, a41, a42, a43, a44, a45, a46, a47;
   casadi_real a48, a49, a50, a51, a52, a53, a54, a55, a56, a57, a58, a59;
-  a00=7.7160493827160531e-02;
+  a00=7.7160493827160503e-02;
   a01=arg[3]? arg[3][0] : 0;
   a02=(a00*a01);
   a03=arg[1]? arg[1][0] : 0;
@@ -17821,7 +17821,7 @@ static int casadi_f3(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   a50=(a50*a30);
   a08=(a08+a50);
   a02=(a02*a08);
-  a08=1.2345679012345681e-01;
+  a08=1.2345679012345678e-01;
   a50=(a08*a01);
   a50=(a50*a03);
   a50=(a50*a04);
@@ -19214,9 +19214,9 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w1);
   /* #2: @2 = 0.0469101 */
-  w2 = 4.6910077030668018e-02;
+  w2 = 4.6910077030668004e-02;
   /* #3: @3 = 0.118463 */
-  w3 = 1.1846344252809464e-01;
+  w3 = 1.1846344252809454e-01;
   /* #4: @4 = beam3d_continuum_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -19227,7 +19227,7 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #5: @2 = 0.230765 */
   w2 = 2.3076534494715845e-01;
   /* #6: @3 = 0.239314 */
-  w3 = 2.3931433524968315e-01;
+  w3 = 2.3931433524968324e-01;
   /* #7: @5 = beam3d_continuum_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -19240,7 +19240,7 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #9: @5 = 0.5 */
   w5 = 5.0000000000000000e-01;
   /* #10: @2 = 0.284444 */
-  w2 = 2.8444444444444433e-01;
+  w2 = 2.8444444444444444e-01;
   /* #11: @3 = beam3d_continuum_point_e(@0, @1, @5, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -19253,7 +19253,7 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #13: @3 = 0.769235 */
   w3 = 7.6923465505284150e-01;
   /* #14: @5 = 0.239314 */
-  w5 = 2.3931433524968315e-01;
+  w5 = 2.3931433524968324e-01;
   /* #15: @2 = beam3d_continuum_point_e(@0, @1, @3, @5) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -19264,9 +19264,9 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #16: @4 = (@4+@2) */
   w4 += w2;
   /* #17: @2 = 0.95309 */
-  w2 = 9.5308992296933193e-01;
+  w2 = 9.5308992296933204e-01;
   /* #18: @3 = 0.118463 */
-  w3 = 1.1846344252809464e-01;
+  w3 = 1.1846344252809454e-01;
   /* #19: @5 = beam3d_continuum_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -19529,7 +19529,7 @@ static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   a064=(a004+a063);
   a064=(2.*a064);
   a065=(a062/a064);
-  a066=7.7160493827160531e-02;
+  a066=7.7160493827160503e-02;
   a067=arg[3]? arg[3][0] : 0;
   a068=(a066*a067);
   a069=(a068*a014);
@@ -19692,7 +19692,7 @@ static int casadi_f5(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   a124=(a004+a063);
   a124=(2.*a124);
   a125=(a062/a124);
-  a126=1.2345679012345681e-01;
+  a126=1.2345679012345678e-01;
   a127=(a126*a067);
   a128=(a127*a014);
   a129=(a128*a024);
@@ -23797,9 +23797,9 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w01);
   /* #2: @2 = 0.95309 */
-  w02 = 9.5308992296933193e-01;
+  w02 = 9.5308992296933204e-01;
   /* #3: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #4: @4 = 00 */
   /* #5: @5 = input[3][0] */
   w05 = arg[3] ? arg[3][0] : 0;
@@ -23818,7 +23818,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #7: @2 = 0.769235 */
   w02 = 7.6923465505284150e-01;
   /* #8: @3 = 0.239314 */
-  w03 = 2.3931433524968315e-01;
+  w03 = 2.3931433524968324e-01;
   /* #9: @4 = 00 */
   /* #10: {@8, @9, NULL, NULL} = adj1_beam3d_continuum_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -23837,7 +23837,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #12: @2 = 0.5 */
   w02 = 5.0000000000000000e-01;
   /* #13: @3 = 0.284444 */
-  w03 = 2.8444444444444433e-01;
+  w03 = 2.8444444444444444e-01;
   /* #14: @4 = 00 */
   /* #15: {@8, @10, NULL, NULL} = adj1_beam3d_continuum_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -23856,7 +23856,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #17: @2 = 0.230765 */
   w02 = 2.3076534494715845e-01;
   /* #18: @3 = 0.239314 */
-  w03 = 2.3931433524968315e-01;
+  w03 = 2.3931433524968324e-01;
   /* #19: @4 = 00 */
   /* #20: {@8, @11, NULL, NULL} = adj1_beam3d_continuum_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -23873,9 +23873,9 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #21: @6 = (@6+@8) */
   for (i=0, rr=w06, cs=w08; i<24; ++i) (*rr++) += (*cs++);
   /* #22: @2 = 0.0469101 */
-  w02 = 4.6910077030668018e-02;
+  w02 = 4.6910077030668004e-02;
   /* #23: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #24: @4 = 00 */
   /* #25: {@8, @12, NULL, NULL} = adj1_beam3d_continuum_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -24011,7 +24011,7 @@ static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   casadi_real a252, a253, a254, a255, a256, a257, a258, a259, a260, a261, a262, a263;
   casadi_real a264, a265, a266, a267, a268, a269, a270, a271, a272, a273, a274, a275;
   casadi_real a276, a277, a278, a279, a280, a281;
-  a000=7.7160493827160531e-02;
+  a000=7.7160493827160503e-02;
   a001=arg[3]? arg[3][0] : 0;
   a002=(a000*a001);
   a003=arg[1]? arg[1][0] : 0;
@@ -24230,7 +24230,7 @@ static int casadi_f7(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   a050=(a067*a050);
   a066=(a066+a050);
   a066=(a002*a066);
-  a050=1.2345679012345681e-01;
+  a050=1.2345679012345678e-01;
   a065=(a050*a001);
   a065=(a065*a003);
   a065=(a065*a004);
@@ -27326,9 +27326,9 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w01);
   /* #2: @2 = 0.0469101 */
-  w02 = 4.6910077030668018e-02;
+  w02 = 4.6910077030668004e-02;
   /* #3: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #4: {@4, @5} = beam3d_continuum_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -27340,7 +27340,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #5: @2 = 0.230765 */
   w02 = 2.3076534494715845e-01;
   /* #6: @3 = 0.239314 */
-  w03 = 2.3931433524968315e-01;
+  w03 = 2.3931433524968324e-01;
   /* #7: {@6, @7} = beam3d_continuum_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -27354,7 +27354,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #9: @6 = 0.5 */
   w06 = 5.0000000000000000e-01;
   /* #10: @2 = 0.284444 */
-  w02 = 2.8444444444444433e-01;
+  w02 = 2.8444444444444444e-01;
   /* #11: {@3, @8} = beam3d_continuum_point_eg(@0, @1, @6, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -27368,7 +27368,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #13: @3 = 0.769235 */
   w03 = 7.6923465505284150e-01;
   /* #14: @6 = 0.239314 */
-  w06 = 2.3931433524968315e-01;
+  w06 = 2.3931433524968324e-01;
   /* #15: {@2, @9} = beam3d_continuum_point_eg(@0, @1, @3, @6) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -27380,9 +27380,9 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #16: @4 = (@4+@2) */
   w04 += w02;
   /* #17: @2 = 0.95309 */
-  w02 = 9.5308992296933193e-01;
+  w02 = 9.5308992296933204e-01;
   /* #18: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #19: {@6, @10} = beam3d_continuum_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;

@@ -1899,9 +1899,9 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w01);
   /* #2: @2 = 0.0469101 */
-  w02 = 4.6910077030668018e-02;
+  w02 = 4.6910077030668004e-02;
   /* #3: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #4: {@4, @5, @6} = beam3d_line_strain_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -1914,7 +1914,7 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #5: @2 = 0.230765 */
   w02 = 2.3076534494715845e-01;
   /* #6: @3 = 0.239314 */
-  w03 = 2.3931433524968315e-01;
+  w03 = 2.3931433524968324e-01;
   /* #7: {@7, @8, @9} = beam3d_line_strain_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -1929,7 +1929,7 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #9: @7 = 0.5 */
   w07 = 5.0000000000000000e-01;
   /* #10: @2 = 0.284444 */
-  w02 = 2.8444444444444433e-01;
+  w02 = 2.8444444444444444e-01;
   /* #11: {@3, @10, @11} = beam3d_line_strain_point(@0, @1, @7, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -1944,7 +1944,7 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #13: @3 = 0.769235 */
   w03 = 7.6923465505284150e-01;
   /* #14: @7 = 0.239314 */
-  w07 = 2.3931433524968315e-01;
+  w07 = 2.3931433524968324e-01;
   /* #15: {@2, @12, @13} = beam3d_line_strain_point(@0, @1, @3, @7) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -1957,9 +1957,9 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #16: @4 = (@4+@2) */
   w04 += w02;
   /* #17: @2 = 0.95309 */
-  w02 = 9.5308992296933193e-01;
+  w02 = 9.5308992296933204e-01;
   /* #18: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #19: {@7, @14, @15} = beam3d_line_strain_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -2297,9 +2297,9 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w1);
   /* #2: @2 = 0.0469101 */
-  w2 = 4.6910077030668018e-02;
+  w2 = 4.6910077030668004e-02;
   /* #3: @3 = 0.118463 */
-  w3 = 1.1846344252809464e-01;
+  w3 = 1.1846344252809454e-01;
   /* #4: @4 = beam3d_line_strain_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -2310,7 +2310,7 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #5: @2 = 0.230765 */
   w2 = 2.3076534494715845e-01;
   /* #6: @3 = 0.239314 */
-  w3 = 2.3931433524968315e-01;
+  w3 = 2.3931433524968324e-01;
   /* #7: @5 = beam3d_line_strain_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -2323,7 +2323,7 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #9: @5 = 0.5 */
   w5 = 5.0000000000000000e-01;
   /* #10: @2 = 0.284444 */
-  w2 = 2.8444444444444433e-01;
+  w2 = 2.8444444444444444e-01;
   /* #11: @3 = beam3d_line_strain_point_e(@0, @1, @5, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -2336,7 +2336,7 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #13: @3 = 0.769235 */
   w3 = 7.6923465505284150e-01;
   /* #14: @5 = 0.239314 */
-  w5 = 2.3931433524968315e-01;
+  w5 = 2.3931433524968324e-01;
   /* #15: @2 = beam3d_line_strain_point_e(@0, @1, @3, @5) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -2347,9 +2347,9 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #16: @4 = (@4+@2) */
   w4 += w2;
   /* #17: @2 = 0.95309 */
-  w2 = 9.5308992296933193e-01;
+  w2 = 9.5308992296933204e-01;
   /* #18: @3 = 0.118463 */
-  w3 = 1.1846344252809464e-01;
+  w3 = 1.1846344252809454e-01;
   /* #19: @5 = beam3d_line_strain_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -2932,9 +2932,9 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w01);
   /* #2: @2 = 0.95309 */
-  w02 = 9.5308992296933193e-01;
+  w02 = 9.5308992296933204e-01;
   /* #3: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #4: @4 = 00 */
   /* #5: @5 = input[3][0] */
   w05 = arg[3] ? arg[3][0] : 0;
@@ -2953,7 +2953,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #7: @2 = 0.769235 */
   w02 = 7.6923465505284150e-01;
   /* #8: @3 = 0.239314 */
-  w03 = 2.3931433524968315e-01;
+  w03 = 2.3931433524968324e-01;
   /* #9: @4 = 00 */
   /* #10: {@8, @9, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -2972,7 +2972,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #12: @2 = 0.5 */
   w02 = 5.0000000000000000e-01;
   /* #13: @3 = 0.284444 */
-  w03 = 2.8444444444444433e-01;
+  w03 = 2.8444444444444444e-01;
   /* #14: @4 = 00 */
   /* #15: {@8, @10, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -2991,7 +2991,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #17: @2 = 0.230765 */
   w02 = 2.3076534494715845e-01;
   /* #18: @3 = 0.239314 */
-  w03 = 2.3931433524968315e-01;
+  w03 = 2.3931433524968324e-01;
   /* #19: @4 = 00 */
   /* #20: {@8, @11, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -3008,9 +3008,9 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #21: @6 = (@6+@8) */
   for (i=0, rr=w06, cs=w08; i<24; ++i) (*rr++) += (*cs++);
   /* #22: @2 = 0.0469101 */
-  w02 = 4.6910077030668018e-02;
+  w02 = 4.6910077030668004e-02;
   /* #23: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #24: @4 = 00 */
   /* #25: {@8, @12, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -3502,9 +3502,9 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w01);
   /* #2: @2 = 0.0469101 */
-  w02 = 4.6910077030668018e-02;
+  w02 = 4.6910077030668004e-02;
   /* #3: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #4: {@4, @5} = beam3d_line_strain_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -3516,7 +3516,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #5: @2 = 0.230765 */
   w02 = 2.3076534494715845e-01;
   /* #6: @3 = 0.239314 */
-  w03 = 2.3931433524968315e-01;
+  w03 = 2.3931433524968324e-01;
   /* #7: {@6, @7} = beam3d_line_strain_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -3530,7 +3530,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #9: @6 = 0.5 */
   w06 = 5.0000000000000000e-01;
   /* #10: @2 = 0.284444 */
-  w02 = 2.8444444444444433e-01;
+  w02 = 2.8444444444444444e-01;
   /* #11: {@3, @8} = beam3d_line_strain_point_eg(@0, @1, @6, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -3544,7 +3544,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #13: @3 = 0.769235 */
   w03 = 7.6923465505284150e-01;
   /* #14: @6 = 0.239314 */
-  w06 = 2.3931433524968315e-01;
+  w06 = 2.3931433524968324e-01;
   /* #15: {@2, @9} = beam3d_line_strain_point_eg(@0, @1, @3, @6) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -3556,9 +3556,9 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #16: @4 = (@4+@2) */
   w04 += w02;
   /* #17: @2 = 0.95309 */
-  w02 = 9.5308992296933193e-01;
+  w02 = 9.5308992296933204e-01;
   /* #18: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #19: {@6, @10} = beam3d_line_strain_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -3671,9 +3671,9 @@ static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w01);
   /* #2: @2 = 0.112702 */
-  w02 = 1.1270166537925830e-01;
+  w02 = 1.1270166537925831e-01;
   /* #3: @3 = 0.277778 */
-  w03 = 2.7777777777777785e-01;
+  w03 = 2.7777777777777779e-01;
   /* #4: {@4, @5, @6} = beam3d_line_strain_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -3701,7 +3701,7 @@ static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #9: @7 = 0.887298 */
   w07 = 8.8729833462074170e-01;
   /* #10: @2 = 0.277778 */
-  w02 = 2.7777777777777785e-01;
+  w02 = 2.7777777777777779e-01;
   /* #11: {@3, @10, @11} = beam3d_line_strain_point(@0, @1, @7, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -3830,9 +3830,9 @@ static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w1);
   /* #2: @2 = 0.112702 */
-  w2 = 1.1270166537925830e-01;
+  w2 = 1.1270166537925831e-01;
   /* #3: @3 = 0.277778 */
-  w3 = 2.7777777777777785e-01;
+  w3 = 2.7777777777777779e-01;
   /* #4: @4 = beam3d_line_strain_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -3856,7 +3856,7 @@ static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #9: @5 = 0.887298 */
   w5 = 8.8729833462074170e-01;
   /* #10: @2 = 0.277778 */
-  w2 = 2.7777777777777785e-01;
+  w2 = 2.7777777777777779e-01;
   /* #11: @3 = beam3d_line_strain_point_e(@0, @1, @5, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -3956,7 +3956,7 @@ static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #2: @2 = 0.887298 */
   w02 = 8.8729833462074170e-01;
   /* #3: @3 = 0.277778 */
-  w03 = 2.7777777777777785e-01;
+  w03 = 2.7777777777777779e-01;
   /* #4: @4 = 00 */
   /* #5: @5 = input[3][0] */
   w05 = arg[3] ? arg[3][0] : 0;
@@ -3992,9 +3992,9 @@ static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #11: @6 = (@6+@8) */
   for (i=0, rr=w06, cs=w08; i<24; ++i) (*rr++) += (*cs++);
   /* #12: @2 = 0.112702 */
-  w02 = 1.1270166537925830e-01;
+  w02 = 1.1270166537925831e-01;
   /* #13: @3 = 0.277778 */
-  w03 = 2.7777777777777785e-01;
+  w03 = 2.7777777777777779e-01;
   /* #14: @4 = 00 */
   /* #15: {@8, @10, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -4110,9 +4110,9 @@ static int casadi_f11(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w1);
   /* #2: @2 = 0.112702 */
-  w2 = 1.1270166537925830e-01;
+  w2 = 1.1270166537925831e-01;
   /* #3: @3 = 0.277778 */
-  w3 = 2.7777777777777785e-01;
+  w3 = 2.7777777777777779e-01;
   /* #4: {@4, @5} = beam3d_line_strain_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4138,7 +4138,7 @@ static int casadi_f11(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #9: @6 = 0.887298 */
   w6 = 8.8729833462074170e-01;
   /* #10: @2 = 0.277778 */
-  w2 = 2.7777777777777785e-01;
+  w2 = 2.7777777777777779e-01;
   /* #11: {@3, @8} = beam3d_line_strain_point_eg(@0, @1, @6, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4249,7 +4249,7 @@ static int casadi_f12(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #2: @2 = 0.0694318 */
   w02 = 6.9431844202973714e-02;
   /* #3: @3 = 0.173927 */
-  w03 = 1.7392742256872679e-01;
+  w03 = 1.7392742256872692e-01;
   /* #4: {@4, @5, @6} = beam3d_line_strain_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4262,7 +4262,7 @@ static int casadi_f12(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #5: @2 = 0.330009 */
   w02 = 3.3000947820757187e-01;
   /* #6: @3 = 0.326073 */
-  w03 = 3.2607257743127321e-01;
+  w03 = 3.2607257743127305e-01;
   /* #7: {@7, @8, @9} = beam3d_line_strain_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4277,7 +4277,7 @@ static int casadi_f12(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #9: @7 = 0.669991 */
   w07 = 6.6999052179242813e-01;
   /* #10: @2 = 0.326073 */
-  w02 = 3.2607257743127321e-01;
+  w02 = 3.2607257743127305e-01;
   /* #11: {@3, @10, @11} = beam3d_line_strain_point(@0, @1, @7, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4290,9 +4290,9 @@ static int casadi_f12(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #12: @4 = (@4+@3) */
   w04 += w03;
   /* #13: @3 = 0.930568 */
-  w03 = 9.3056815579702623e-01;
+  w03 = 9.3056815579702634e-01;
   /* #14: @7 = 0.173927 */
-  w07 = 1.7392742256872679e-01;
+  w07 = 1.7392742256872692e-01;
   /* #15: {@2, @12, @13} = beam3d_line_strain_point(@0, @1, @3, @7) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4427,7 +4427,7 @@ static int casadi_f13(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #2: @2 = 0.0694318 */
   w2 = 6.9431844202973714e-02;
   /* #3: @3 = 0.173927 */
-  w3 = 1.7392742256872679e-01;
+  w3 = 1.7392742256872692e-01;
   /* #4: @4 = beam3d_line_strain_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4438,7 +4438,7 @@ static int casadi_f13(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #5: @2 = 0.330009 */
   w2 = 3.3000947820757187e-01;
   /* #6: @3 = 0.326073 */
-  w3 = 3.2607257743127321e-01;
+  w3 = 3.2607257743127305e-01;
   /* #7: @5 = beam3d_line_strain_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4451,7 +4451,7 @@ static int casadi_f13(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #9: @5 = 0.669991 */
   w5 = 6.6999052179242813e-01;
   /* #10: @2 = 0.326073 */
-  w2 = 3.2607257743127321e-01;
+  w2 = 3.2607257743127305e-01;
   /* #11: @3 = beam3d_line_strain_point_e(@0, @1, @5, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4462,9 +4462,9 @@ static int casadi_f13(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #12: @4 = (@4+@3) */
   w4 += w3;
   /* #13: @3 = 0.930568 */
-  w3 = 9.3056815579702623e-01;
+  w3 = 9.3056815579702634e-01;
   /* #14: @5 = 0.173927 */
-  w5 = 1.7392742256872679e-01;
+  w5 = 1.7392742256872692e-01;
   /* #15: @2 = beam3d_line_strain_point_e(@0, @1, @3, @5) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4562,9 +4562,9 @@ static int casadi_f14(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w01);
   /* #2: @2 = 0.930568 */
-  w02 = 9.3056815579702623e-01;
+  w02 = 9.3056815579702634e-01;
   /* #3: @3 = 0.173927 */
-  w03 = 1.7392742256872679e-01;
+  w03 = 1.7392742256872692e-01;
   /* #4: @4 = 00 */
   /* #5: @5 = input[3][0] */
   w05 = arg[3] ? arg[3][0] : 0;
@@ -4583,7 +4583,7 @@ static int casadi_f14(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #7: @2 = 0.669991 */
   w02 = 6.6999052179242813e-01;
   /* #8: @3 = 0.326073 */
-  w03 = 3.2607257743127321e-01;
+  w03 = 3.2607257743127305e-01;
   /* #9: @4 = 00 */
   /* #10: {@8, @9, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -4602,7 +4602,7 @@ static int casadi_f14(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #12: @2 = 0.330009 */
   w02 = 3.3000947820757187e-01;
   /* #13: @3 = 0.326073 */
-  w03 = 3.2607257743127321e-01;
+  w03 = 3.2607257743127305e-01;
   /* #14: @4 = 00 */
   /* #15: {@8, @10, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -4621,7 +4621,7 @@ static int casadi_f14(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #17: @2 = 0.0694318 */
   w02 = 6.9431844202973714e-02;
   /* #18: @3 = 0.173927 */
-  w03 = 1.7392742256872679e-01;
+  w03 = 1.7392742256872692e-01;
   /* #19: @4 = 00 */
   /* #20: {@8, @11, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -4741,7 +4741,7 @@ static int casadi_f15(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #2: @2 = 0.0694318 */
   w2 = 6.9431844202973714e-02;
   /* #3: @3 = 0.173927 */
-  w3 = 1.7392742256872679e-01;
+  w3 = 1.7392742256872692e-01;
   /* #4: {@4, @5} = beam3d_line_strain_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4753,7 +4753,7 @@ static int casadi_f15(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #5: @2 = 0.330009 */
   w2 = 3.3000947820757187e-01;
   /* #6: @3 = 0.326073 */
-  w3 = 3.2607257743127321e-01;
+  w3 = 3.2607257743127305e-01;
   /* #7: {@6, @7} = beam3d_line_strain_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4767,7 +4767,7 @@ static int casadi_f15(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #9: @6 = 0.669991 */
   w6 = 6.6999052179242813e-01;
   /* #10: @2 = 0.326073 */
-  w2 = 3.2607257743127321e-01;
+  w2 = 3.2607257743127305e-01;
   /* #11: {@3, @8} = beam3d_line_strain_point_eg(@0, @1, @6, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4779,9 +4779,9 @@ static int casadi_f15(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #12: @4 = (@4+@3) */
   w4 += w3;
   /* #13: @3 = 0.930568 */
-  w3 = 9.3056815579702623e-01;
+  w3 = 9.3056815579702634e-01;
   /* #14: @6 = 0.173927 */
-  w6 = 1.7392742256872679e-01;
+  w6 = 1.7392742256872692e-01;
   /* #15: {@2, @9} = beam3d_line_strain_point_eg(@0, @1, @3, @6) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4892,9 +4892,9 @@ static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w01);
   /* #2: @2 = 0.025446 */
-  w02 = 2.5446043828620701e-02;
+  w02 = 2.5446043828620736e-02;
   /* #3: @3 = 0.0647425 */
-  w03 = 6.4742483084434865e-02;
+  w03 = 6.4742483084434851e-02;
   /* #4: {@4, @5, @6} = beam3d_line_strain_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4907,7 +4907,7 @@ static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #5: @2 = 0.129234 */
   w02 = 1.2923440720030277e-01;
   /* #6: @3 = 0.139853 */
-  w03 = 1.3985269574463843e-01;
+  w03 = 1.3985269574463832e-01;
   /* #7: {@7, @8, @9} = beam3d_line_strain_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4922,7 +4922,7 @@ static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #9: @7 = 0.297077 */
   w07 = 2.9707742431130141e-01;
   /* #10: @2 = 0.190915 */
-  w02 = 1.9091502525255935e-01;
+  w02 = 1.9091502525255946e-01;
   /* #11: {@3, @10, @11} = beam3d_line_strain_point(@0, @1, @7, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4937,7 +4937,7 @@ static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #13: @3 = 0.5 */
   w03 = 5.0000000000000000e-01;
   /* #14: @7 = 0.20898 */
-  w07 = 2.0897959183673465e-01;
+  w07 = 2.0897959183673470e-01;
   /* #15: {@2, @12, @13} = beam3d_line_strain_point(@0, @1, @3, @7) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4952,7 +4952,7 @@ static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #17: @2 = 0.702923 */
   w02 = 7.0292257568869854e-01;
   /* #18: @3 = 0.190915 */
-  w03 = 1.9091502525255935e-01;
+  w03 = 1.9091502525255946e-01;
   /* #19: {@7, @14, @15} = beam3d_line_strain_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4967,7 +4967,7 @@ static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #21: @7 = 0.870766 */
   w07 = 8.7076559279969723e-01;
   /* #22: @2 = 0.139853 */
-  w02 = 1.3985269574463843e-01;
+  w02 = 1.3985269574463832e-01;
   /* #23: {@3, @16, @17} = beam3d_line_strain_point(@0, @1, @7, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4982,7 +4982,7 @@ static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #25: @3 = 0.974554 */
   w03 = 9.7455395617137930e-01;
   /* #26: @7 = 0.0647425 */
-  w07 = 6.4742483084434865e-02;
+  w07 = 6.4742483084434851e-02;
   /* #27: {@2, @18, @19} = beam3d_line_strain_point(@0, @1, @3, @7) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -5127,9 +5127,9 @@ static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w1);
   /* #2: @2 = 0.025446 */
-  w2 = 2.5446043828620701e-02;
+  w2 = 2.5446043828620736e-02;
   /* #3: @3 = 0.0647425 */
-  w3 = 6.4742483084434865e-02;
+  w3 = 6.4742483084434851e-02;
   /* #4: @4 = beam3d_line_strain_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -5140,7 +5140,7 @@ static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #5: @2 = 0.129234 */
   w2 = 1.2923440720030277e-01;
   /* #6: @3 = 0.139853 */
-  w3 = 1.3985269574463843e-01;
+  w3 = 1.3985269574463832e-01;
   /* #7: @5 = beam3d_line_strain_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -5153,7 +5153,7 @@ static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #9: @5 = 0.297077 */
   w5 = 2.9707742431130141e-01;
   /* #10: @2 = 0.190915 */
-  w2 = 1.9091502525255935e-01;
+  w2 = 1.9091502525255946e-01;
   /* #11: @3 = beam3d_line_strain_point_e(@0, @1, @5, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -5166,7 +5166,7 @@ static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #13: @3 = 0.5 */
   w3 = 5.0000000000000000e-01;
   /* #14: @5 = 0.20898 */
-  w5 = 2.0897959183673465e-01;
+  w5 = 2.0897959183673470e-01;
   /* #15: @2 = beam3d_line_strain_point_e(@0, @1, @3, @5) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -5179,7 +5179,7 @@ static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #17: @2 = 0.702923 */
   w2 = 7.0292257568869854e-01;
   /* #18: @3 = 0.190915 */
-  w3 = 1.9091502525255935e-01;
+  w3 = 1.9091502525255946e-01;
   /* #19: @5 = beam3d_line_strain_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -5192,7 +5192,7 @@ static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #21: @5 = 0.870766 */
   w5 = 8.7076559279969723e-01;
   /* #22: @2 = 0.139853 */
-  w2 = 1.3985269574463843e-01;
+  w2 = 1.3985269574463832e-01;
   /* #23: @3 = beam3d_line_strain_point_e(@0, @1, @5, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -5205,7 +5205,7 @@ static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #25: @3 = 0.974554 */
   w3 = 9.7455395617137930e-01;
   /* #26: @5 = 0.0647425 */
-  w5 = 6.4742483084434865e-02;
+  w5 = 6.4742483084434851e-02;
   /* #27: @2 = beam3d_line_strain_point_e(@0, @1, @3, @5) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -5306,7 +5306,7 @@ static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #2: @2 = 0.974554 */
   w02 = 9.7455395617137930e-01;
   /* #3: @3 = 0.0647425 */
-  w03 = 6.4742483084434865e-02;
+  w03 = 6.4742483084434851e-02;
   /* #4: @4 = 00 */
   /* #5: @5 = input[3][0] */
   w05 = arg[3] ? arg[3][0] : 0;
@@ -5325,7 +5325,7 @@ static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #7: @2 = 0.870766 */
   w02 = 8.7076559279969723e-01;
   /* #8: @3 = 0.139853 */
-  w03 = 1.3985269574463843e-01;
+  w03 = 1.3985269574463832e-01;
   /* #9: @4 = 00 */
   /* #10: {@8, @9, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -5344,7 +5344,7 @@ static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #12: @2 = 0.702923 */
   w02 = 7.0292257568869854e-01;
   /* #13: @3 = 0.190915 */
-  w03 = 1.9091502525255935e-01;
+  w03 = 1.9091502525255946e-01;
   /* #14: @4 = 00 */
   /* #15: {@8, @10, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -5363,7 +5363,7 @@ static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #17: @2 = 0.5 */
   w02 = 5.0000000000000000e-01;
   /* #18: @3 = 0.20898 */
-  w03 = 2.0897959183673465e-01;
+  w03 = 2.0897959183673470e-01;
   /* #19: @4 = 00 */
   /* #20: {@8, @11, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -5382,7 +5382,7 @@ static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #22: @2 = 0.297077 */
   w02 = 2.9707742431130141e-01;
   /* #23: @3 = 0.190915 */
-  w03 = 1.9091502525255935e-01;
+  w03 = 1.9091502525255946e-01;
   /* #24: @4 = 00 */
   /* #25: {@8, @12, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -5401,7 +5401,7 @@ static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #27: @2 = 0.129234 */
   w02 = 1.2923440720030277e-01;
   /* #28: @3 = 0.139853 */
-  w03 = 1.3985269574463843e-01;
+  w03 = 1.3985269574463832e-01;
   /* #29: @4 = 00 */
   /* #30: {@8, @13, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -5418,9 +5418,9 @@ static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #31: @6 = (@6+@8) */
   for (i=0, rr=w06, cs=w08; i<24; ++i) (*rr++) += (*cs++);
   /* #32: @2 = 0.025446 */
-  w02 = 2.5446043828620701e-02;
+  w02 = 2.5446043828620736e-02;
   /* #33: @3 = 0.0647425 */
-  w03 = 6.4742483084434865e-02;
+  w03 = 6.4742483084434851e-02;
   /* #34: @4 = 00 */
   /* #35: {@8, @14, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -5545,9 +5545,9 @@ static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w01);
   /* #2: @2 = 0.025446 */
-  w02 = 2.5446043828620701e-02;
+  w02 = 2.5446043828620736e-02;
   /* #3: @3 = 0.0647425 */
-  w03 = 6.4742483084434865e-02;
+  w03 = 6.4742483084434851e-02;
   /* #4: {@4, @5} = beam3d_line_strain_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -5559,7 +5559,7 @@ static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #5: @2 = 0.129234 */
   w02 = 1.2923440720030277e-01;
   /* #6: @3 = 0.139853 */
-  w03 = 1.3985269574463843e-01;
+  w03 = 1.3985269574463832e-01;
   /* #7: {@6, @7} = beam3d_line_strain_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -5573,7 +5573,7 @@ static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #9: @6 = 0.297077 */
   w06 = 2.9707742431130141e-01;
   /* #10: @2 = 0.190915 */
-  w02 = 1.9091502525255935e-01;
+  w02 = 1.9091502525255946e-01;
   /* #11: {@3, @8} = beam3d_line_strain_point_eg(@0, @1, @6, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -5587,7 +5587,7 @@ static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #13: @3 = 0.5 */
   w03 = 5.0000000000000000e-01;
   /* #14: @6 = 0.20898 */
-  w06 = 2.0897959183673465e-01;
+  w06 = 2.0897959183673470e-01;
   /* #15: {@2, @9} = beam3d_line_strain_point_eg(@0, @1, @3, @6) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -5601,7 +5601,7 @@ static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #17: @2 = 0.702923 */
   w02 = 7.0292257568869854e-01;
   /* #18: @3 = 0.190915 */
-  w03 = 1.9091502525255935e-01;
+  w03 = 1.9091502525255946e-01;
   /* #19: {@6, @10} = beam3d_line_strain_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -5615,7 +5615,7 @@ static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #21: @6 = 0.870766 */
   w06 = 8.7076559279969723e-01;
   /* #22: @2 = 0.139853 */
-  w02 = 1.3985269574463843e-01;
+  w02 = 1.3985269574463832e-01;
   /* #23: {@3, @11} = beam3d_line_strain_point_eg(@0, @1, @6, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -5629,7 +5629,7 @@ static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #25: @3 = 0.974554 */
   w03 = 9.7455395617137930e-01;
   /* #26: @6 = 0.0647425 */
-  w06 = 6.4742483084434865e-02;
+  w06 = 6.4742483084434851e-02;
   /* #27: {@2, @12} = beam3d_line_strain_point_eg(@0, @1, @3, @6) */
   arg1[0]=wr00;
   arg1[1]=w01;
