@@ -20,9 +20,11 @@ from scipy.sparse.linalg import splu
 
 from . import fields
 from .assembly import Assembly
+from .checks import check_fields
 from .interrupts import check_stop, interruptible
 from .mesh import check_stretch
 from .scene import Scene, SceneError
+from .schema import STATIC_OPTIONS
 
 SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 RESOLVABLE = 0.1  # a round-off floor above this fraction of the largest applied force cannot resolve the loads
@@ -39,12 +41,7 @@ class StaticOptions:
     print_level: int = 0
 
     def __post_init__(self):
-        if self.tol is not None and not (np.isfinite(self.tol) and self.tol > 0):
-            raise SceneError(f"tol must be positive and finite, got {self.tol!r}")
-        if int(self.max_iter) < 1:
-            raise SceneError(f"max_iter must be >= 1, got {self.max_iter!r}")
-        if int(self.load_steps) < 1:
-            raise SceneError(f"load_steps must be >= 1, got {self.load_steps!r}")
+        check_fields(self, STATIC_OPTIONS, "analysis")  # types and ranges as declared in ancf_sym.schema
 
 
 @dataclass
