@@ -237,8 +237,8 @@ class Scene:
             if not isinstance(v, (bool, np.bool_)):
                 raise fail(f"{at}.{flag}", "must be true or false", v)
         # keys that only mean something for beam3d are refused elsewhere, not silently ignored
-        for key, v in (("beam_method", beam_method), ("y_axis", y_axis)):
-            if v is not None and element != "beam3d":
+        for key, v in (("beam_method", beam_method), ("y_axis", y_axis), ("torsion", torsion or None)):
+            if v is not None and element != "beam3d":  # (a cable has no section orientation)
                 raise fail(f"{at}.{key}", f"applies to beam3d members only, not {element}", v)
         beam_method = "continuum" if beam_method is None else beam_method
         if beam_method not in BEAM_METHODS:

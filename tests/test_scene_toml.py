@@ -185,7 +185,7 @@ BAD = [  # (mutation of t_frame.toml, field path expected at the start of the me
     (_set("members.0.points", [[0.0, 0.0], [0.0, 0.0]]), "members[0].points", "distinct"),
     (_set("members.0.bending", "true"), "members[0].bending", "true or false, got 'true'"),
     (_set("members.0.gauss", 6), "members[0].gauss", "3, 4, 5, 7"),
-    (_set("members.0.torsion", True), "members", "torsion needs element 'beam3d'"),
+    (_set("members.0.torsion", True), "members[0].torsion", "beam3d members only, not cable2d"),
     (_set("materials.steel.E", math.inf), "materials.steel.E", "finite, got inf"),
     (_set("materials.steel.E", -1.0), "materials.steel.E", "positive, got -1.0"),
     (_set("materials.steel.density", "heavy"), "materials.steel.density", "number, got 'heavy'"),
