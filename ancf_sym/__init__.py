@@ -1,6 +1,6 @@
 """ancf_sym: ANCF cables and beams with symbolic energies, exact derivatives and compiled C kernels.
 
-Pipeline (see DESIGN in the README): scene -> mesh -> terms (only the effects asked for) -> assembly over
+Pipeline (the README's layout): scene -> mesh -> terms (only the effects asked for) -> assembly over
 mapped compiled kernels -> solvers (statics: IPOPT; dynamics) -> results.
 """
 import os

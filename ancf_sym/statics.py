@@ -1,6 +1,6 @@
 """Static equilibrium: minimise the total potential with IPOPT (exact sparse Hessian from the kernels).
 
-Strategy, from measurements (DESIGN.md): IPOPT's line search creeps along the narrow valley that a large EA/EI
+Strategy, from measurements (docs/statics.md): IPOPT's line search creeps along the narrow valley that a large EA/EI
 makes, while full Newton steps converge in a few iterations. So the first attempt accepts every trial step
 (IPOPT's inertia correction still keeps the steps descent directions); if it fails, IPOPT runs again with its
 line search; if that fails, the loads are stepped up (continuation) from the last good point. Termination is

@@ -1,4 +1,4 @@
-"""Issue 2 benchmark: how long the kernels take to compile, and how long a whole `pip install .` takes.
+"""Benchmark: how long the kernels take to compile, and how long a whole `pip install .` takes.
 
     python bench/compile_times.py                 # every generated/*.c, one at a time, flags from the manifest
     python bench/compile_times.py --setuptools    # ... with the flags setuptools really adds (python's CFLAGS)

@@ -1,4 +1,4 @@
-"""Issue 5 benchmark: build and solve the crane problem of examples/crane_ocp.py (minimum effort, 2 m in 4 s, Radau
+"""Benchmark: build and solve the crane problem of examples/crane_ocp.py (minimum effort, 2 m in 4 s, Radau
 IIA with 3 stages) at two sizes; IPOPT iterations and where the time goes.
 
 Run from OUTSIDE the project root, so that `import ancf_sym` is the installed package with the compiled libraries:

@@ -1,4 +1,4 @@
-"""Issue 3 benchmark: what each effect costs. Time of Assembly.evaluate (energy + gradient + sparse Hessian) of a
+"""Benchmark: what each effect costs. Time of Assembly.evaluate (energy + gradient + sparse Hessian) of a
 cable of --n elements (default 1000) with the effects switched on one by one, the three axial strain measures,
 and the planar (cable2d, 8 DOF) against the spatial (cable3d, 12 DOF) element.
 

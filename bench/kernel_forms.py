@@ -1,4 +1,4 @@
-"""Issue 2 investigation: why cable3d axial_green + bending costs what it does, and which kernel form is faster.
+"""Investigation: why cable3d axial_green + bending costs what it does, and which kernel form is faster.
 
     cd /tmp && python /path/to/main/bench/kernel_forms.py parts            # operation counts per part
     cd /tmp && python /path/to/main/bench/kernel_forms.py forms --dim 3    # form x gcc flags, axial_green+bending

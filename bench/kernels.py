@@ -1,4 +1,4 @@
-"""Issue 2 benchmark: time per element of every compiled kernel (energy + gradient + Hessian in one call).
+"""Benchmark: time per element of every compiled kernel (energy + gradient + Hessian in one call).
 
 Run from OUTSIDE the project root, so that `import ancf_sym` is the installed package with the compiled libraries:
 

@@ -2,8 +2,8 @@
 
 Test command (from the project root, after `pip install .` of the current tree), either of:
 
-    cd /work/main && /work/venv_a/bin/python -m pytest -p no:cacheprovider tests
-    cd /work/main && .venv/bin/pytest                  (the README's / CI's form, the venv's pytest script)
+    .venv/bin/pytest                                   (the README's / CI's form, the venv's pytest script)
+    .venv/bin/python -m pytest -p no:cacheprovider tests
 
 (any venv works: `<venv>/bin/pip install . && <venv>/bin/python -m pytest -p no:cacheprovider tests`).
 Re-run `pip install .` after any change under ancf_sym/ or generated/: the tests load the compiled libraries from

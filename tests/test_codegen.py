@@ -1,4 +1,4 @@
-"""The committed C in generated/ is what the current symbolic code generates (the drift test of DESIGN.md), and the
+"""The committed C in generated/ is what the current symbolic code generates (the drift test: docs/kernels.md), and the
 check notices a changed file and names it.
 
 Runs `python -m ancf_sym.codegen --check` in a subprocess with the project root as working directory, so the

@@ -1,4 +1,4 @@
-"""A scene pays only for the effects it names (DESIGN.md): no bending kernel for a cable without bending, no term
+"""A scene pays only for the effects it names (docs/performance.md): no bending kernel for a cable without bending, no term
 for a zero-stiffness effect, the planar element (8 DOF) for a planar scene. The cost of each effect is measured by
 bench/effects.py."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The hard-case suite (issue 6): states and parameters where slender-structure codes quietly go wrong. Every case
+"""The hard-case suite: states and parameters where slender-structure codes quietly go wrong. Every case
 asserts a correct, finite result against a stated reference, with a tolerance taken from the reference's known error
 or from a convergence measurement (quoted next to it); failure messages name the physical quantity that drifted.
 

@@ -1,7 +1,7 @@
 """The states where naive formulas break: every kernel stays finite in them.
 
 - straight (zero curvature): any curvature with |r_xx| (or |r_x x r_xx|) in a denominator or under a square root is
-  singular there; the kernels use squared forms (DESIGN.md, numerical traps).
+  singular there; the kernels use squared forms (docs/kernels.md).
 - a 180-degree bend inside one element (paper 000, Table 1's last row): tangents at +-90 deg to the chord, |r_x| = 1
   at the nodes, chord 0.7488 L (the deformed length is then L).
 Energy, gradient and Hessian must be finite; beyond that, facts that hold exactly in these states.

@@ -1,4 +1,4 @@
-"""The kernel-level study (issue 6): compiled vs CasADi SX virtual machine, fused vs per-effect kernels.
+"""The kernel-level study: compiled vs CasADi SX virtual machine, fused vs per-effect kernels.
 
 Every form evaluates the same element energy, gradient and Hessian; they differ only in the order of the floating
 point operations (the fused kernel sums the axial and bending densities before differentiating, the per-effect

@@ -1,4 +1,4 @@
-"""Kernel-level study (issue 6): what one element evaluation (energy + gradient + Hessian) costs in each form of
+"""Kernel-level study: what one element evaluation (energy + gradient + Hessian) costs in each form of
 the same kernel, and that every form computes the same numbers (round-off only).
 
 Forms (axis `form`):
