@@ -350,8 +350,8 @@ class Scene:
         else:
             value = _vector("moment.moment", moment, 3)
             if m.element == "beam3d" and abs(value[0]) > 0:
-                raise SceneError(f"moment.moment: beam3d takes moments about the section axes y and z only, got x "
-                                 f"component {value[0]!r}")
+                raise fail("moment.moment", "beam3d takes moments about the section axes y and z only; x component",
+                           value[0])
         return self._add_load(Load("moment", member, at, value))
 
     def tension(self, member: str, at: Any, tension: float) -> Load:
@@ -398,24 +398,24 @@ class Scene:
 
     # -- checks ------------------------------------------------------------------------------------------------
     def _member(self, name: str, field_name: str) -> Member:
-        if name not in self.members:
-            raise SceneError(f"{field_name}={name!r} names no member; members: {sorted(self.members)}")
+        if not isinstance(name, str) or name not in self.members:
+            raise fail(field_name, f"names no member; members: {sorted(self.members)}", name)
         return self.members[name]
 
     def _check_at(self, member: str, at: Any, node_only: bool, field_name: str) -> None:
         m = self._member(member, f"{field_name} member")
-        if at in ("start", "end"):
+        if isinstance(at, str) and at in ("start", "end"):
             return
-        if isinstance(at, (int, np.integer)) and not isinstance(at, bool):
+        if isinstance(at, (int, np.integer)) and not isinstance(at, (bool, np.bool_)):
             if not -m.n_nodes <= at < m.n_nodes:
-                raise SceneError(f"{field_name}={at!r}: member {member!r} has nodes 0..{m.n_nodes - 1}")
+                raise fail(field_name, f"member {member!r} has nodes 0..{m.n_nodes - 1}", at)
             return
-        if not node_only and isinstance(at, float):
+        if not node_only and isinstance(at, (float, np.floating)):
             if not (math.isfinite(at) and 0 <= at <= m.length):
-                raise SceneError(f"{field_name}={at!r}: material coordinate must lie in [0, {m.length}] m")
+                raise fail(field_name, f"material coordinate must lie in [0, {m.length:g}] m", at)
             return
-        raise SceneError(f"{field_name}={at!r}: expected 'start', 'end', a node index"
-                         + ("" if node_only else " or a material coordinate in metres (float)"))
+        raise fail(field_name, "expected 'start', 'end', a node index"
+                   + ("" if node_only else " or a material coordinate in metres (float)"), at)
 
     def validate_for_statics(self) -> None:
         """Refuse scenes with a free rigid-body motion: every connected group of members needs a support."""

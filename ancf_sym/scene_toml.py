@@ -184,7 +184,7 @@ def _support(scene: Scene, path: str, d: dict) -> None:
     at = _at(f"{path}.at", d.get("at", "start"), node_only=True)
     kw = _method(path, d)
     call = {"clamp": scene.clamp, "pin": scene.pin, "slope": scene.fix_slope}[kind]
-    _api(f"{path}.at", call, member, at, **kw)  # the API checks the node range
+    _api(f"{path}.at", call, member, at, root=f"{kind}.at", **kw)  # the API checks the node range
 
 
 def _joint_end(scene: Scene, path: str, v: Any) -> tuple[str, Any]:
@@ -198,7 +198,7 @@ def _joint(scene: Scene, path: str, d: dict) -> None:
     _keys(path, d, ("type", "a", "b", "method", "penalty"), ("type", "a", "b"))
     kind = _str(f"{path}.type", d["type"], JOINT_TYPES)
     a, b = _joint_end(scene, f"{path}.a", d["a"]), _joint_end(scene, f"{path}.b", d["b"])
-    _api(path, scene.hinge if kind == "hinge" else scene.rigid, a, b, **_method(path, d))
+    _api(path, scene.hinge if kind == "hinge" else scene.rigid, a, b, root=kind, **_method(path, d))
 
 
 def _load(scene: Scene, path: str, d: dict) -> None:
@@ -220,7 +220,14 @@ def _load(scene: Scene, path: str, d: dict) -> None:
         value = _number(vpath, v)
     call = {"force": scene.force, "moment": scene.moment, "tension": scene.tension}[kind]
     # the API checks the node range / material coordinate (and, for moments, the components it can carry)
-    _api(path if kind == "moment" else f"{path}.at", call, member, at, value)
+    if kind == "moment":  # the API's moment.at / moment.moment are this table's at / value
+        try:
+            call(member, at, value)
+        except SceneError as exc:
+            raise (exc.rerooted("moment.moment", vpath) if (exc.path or "").startswith("moment.moment")
+                   else exc.rerooted("moment", path)) from None
+    else:
+        _api(f"{path}.at", call, member, at, value, root=f"{kind}.at")
 
 
 def _damping(scene: Scene, path: str, d: dict) -> None:
