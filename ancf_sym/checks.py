@@ -35,6 +35,8 @@ class SceneError(ValueError):
         if self.path is not None and (self.path == root or self.path.startswith((root + ".", root + "["))):
             path = new_root + self.path[len(root):]
             return SceneError(f"{path}: {self.detail}", path, self.detail)
+        if self.path is None and root and str(self).startswith((root + ".", root + "[", root + ":")):
+            return SceneError(new_root + str(self)[len(root):])  # a message that names its field in the text
         return SceneError(f"{new_root}: {self}", new_root, str(self))
 
 

@@ -265,6 +265,7 @@ def cmd_study(args) -> int:
         _fail(str(exc))
         return 2
     except KeyboardInterrupt:
+        _fail(f"study {args.name}: interrupted (Ctrl-C); finished settings are kept in {args.out} (run again to resume)")
         return 130
     failed = sum(1 for r in report.records if not r.get("success"))
     if not args.quiet:

@@ -20,6 +20,7 @@ potential): the energy the integrator itself removed (positive) or added (negati
 from __future__ import annotations
 
 import math
+import re
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
@@ -77,7 +78,7 @@ class Sensor:
             raise SceneError(f"sensors[{index}]: unknown field(s) {sorted(unknown)}; known: name, kind, member, at")
         kind = d.get("kind")
         if kind not in SENSOR_KINDS:
-            raise SceneError(f"sensors[{index}].kind must be one of {SENSOR_KINDS}, got {kind!r}")
+            raise fail(f"sensors[{index}].kind", f"must be one of {' | '.join(SENSOR_KINDS)}", kind)
         member = d.get("member")
         at = d.get("at", "end")
         name = d.get("name") or f"{kind}_{member}_{at}"
@@ -848,7 +849,14 @@ def options_from_dict(analysis: dict) -> DynamicOptions:
         raise SceneError(f"analysis.type must be 'dynamics' here, got {analysis.get('type')!r}")
     check_keys("analysis", analysis, ("type", *DYNAMIC_OPTIONS), ("dt", "t_end"))
     kw = {k: v for k, v in analysis.items() if k != "type"}
-    return DynamicOptions(**kw)
+    try:
+        return DynamicOptions(**kw)
+    except SceneError as exc:  # sub-tables (newton, sensors, loads) name their field from inside the table
+        msg = str(exc)
+        if msg.startswith("analysis"):
+            raise
+        head = re.match(r"(newton|sensors|loads)\b[.\[:]?", msg)
+        raise SceneError(f"analysis.{msg}" if head else f"analysis: {msg}") from None
 
 
 def run_dynamics(scene: Scene | Assembly, analysis: dict | DynamicOptions,

@@ -788,15 +788,15 @@ class NewtonOptions:
     def __post_init__(self):
         if isinstance(self.lte_fraction, bool) or not isinstance(self.lte_fraction, (int, float)) or \
                 not math.isfinite(self.lte_fraction) or self.lte_fraction < 0:
-            raise SceneError(f"newton.lte_fraction must be a non-negative finite number, got {self.lte_fraction!r}")
+            raise fail("newton.lte_fraction", "must be a non-negative finite number", self.lte_fraction)
         for name in ("tol", "xtol", "contraction"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise SceneError(f"newton.{name} must be a positive finite number, got {v!r}")
+                raise fail(f"newton.{name}", "must be a positive finite number", v)
         for name in ("max_iter", "max_modified"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-                raise SceneError(f"newton.{name} must be a positive integer, got {v!r}")
+                raise fail(f"newton.{name}", "must be a positive integer", v)
         if self.contraction >= 1:
             raise SceneError(f"newton.contraction must be below 1, got {self.contraction!r}")
         for name in ("modified", "single"):

@@ -174,6 +174,10 @@ BAD = [  # (mutation of t_frame.toml, field path expected at the start of the me
      "analysis.output_times[0]", "number, got '0.5'"),
     (_set("analysis", {"type": "dynamics", "dt": 1e-3, "t_end": 1.0, "rho_inf": 1.5}), "analysis.rho_inf", "[0, 1]"),
     (_set("analysis", {"type": "dynamics", "dt": 1e-3}), "analysis.t_end", "missing"),
+    (_set("analysis", {"type": "dynamics", "dt": 1e-3, "t_end": 1.0, "newton": {"tol": "1e-8"}}),
+     "analysis.newton.tol", "got '1e-8'"),
+    (_set("analysis", {"type": "dynamics", "dt": 1e-3, "t_end": 1.0, "sensors": [{"kind": "x"}]}),
+     "analysis.sensors[0].kind", "got 'x'"),
     (_set("analysis", {"type": "dynamics", "dt": 1e-3, "t_end": 1.0, "dtt": 1}), "analysis.dtt", "unknown key"),
     # a step longer than the whole run is a typo, not a request
     (_set("analysis", {"type": "dynamics", "dt": 0.5, "t_end": 0.1}), "analysis.dt", "must not exceed t_end - t_start"),
