@@ -31,7 +31,7 @@ STATIC_OPTIONS = {
     "max_iter": Field("int", positive=True, doc="IPOPT iterations per attempt"),
     "load_steps": Field("int", positive=True, doc="continuation steps of the fallback"),
     "escape_saddle": Field("bool", doc="leave an unstable equilibrium along its negative mode"),
-    "print_level": Field("int", span=(0, 12), doc="IPOPT's print level (Python API)"),
+    "print_level": Field("int", span=(0, 12), doc="IPOPT's print level (Python API only)"),
 }
 
 # the fields DynamicOptions checks by kind; "any" fields are checked by DynamicOptions itself (integrator names,
@@ -39,7 +39,7 @@ STATIC_OPTIONS = {
 DYNAMIC_OPTIONS = {
     "dt": Field("number", "s", positive=True, doc="time step (adaptive: the first step)"),
     "t_end": Field("number", "s", doc="end time"),
-    "integrator": Field("str", doc="generalized_alpha | hht | newmark | radau | gauss (and aliases)"),
+    "integrator": Field("str", doc="generalized_alpha, hht, newmark, radau or gauss (and aliases)"),
     "t_start": Field("number", "s", doc="start time"),
     "rho_inf": Field("number", doc="generalized-alpha spectral radius at infinite frequency, in [0, 1]"),
     "alpha": Field("number", doc="HHT alpha, in [-1/3, 0]"),
@@ -60,3 +60,19 @@ DYNAMIC_OPTIONS = {
     "q0": Field("any", optional=True, doc="initial coordinates (Python API)"),
     "v0": Field("any", optional=True, doc="initial velocities (Python API)"),
 }
+
+
+def _kind(f: Field) -> str:
+    k = {"number": "number", "int": "integer", "bool": "true/false", "str": "string", "any": "table/array"}[f.kind]
+    lim = [("> 0" if f.kind == "number" else ">= 1")] if f.positive else []
+    lim += [f"in ({f.between[0]:g}, {f.between[1]:g})"] if f.between else []
+    lim += [f"{f.span[0]}..{f.span[1]}"] if f.span else []
+    return k + (" " + ", ".join(lim) if lim else "") + (", optional" if f.optional else "")
+
+
+def analysis_table() -> str:
+    """The [analysis] keys as the markdown table in docs/scenes.md (a test keeps the page equal to this)."""
+    rows = ["| key | analysis | type | unit | meaning |", "|---|---|---|---|---|"]
+    for kind, table in (("statics", STATIC_OPTIONS), ("dynamics", DYNAMIC_OPTIONS)):
+        rows += [f"| `{k}` | {kind} | {_kind(f)} | {f.unit or '-'} | {f.doc} |" for k, f in table.items()]
+    return "\n".join(rows) + "\n"

@@ -99,3 +99,12 @@ def test_support_forces_are_the_forces_on_the_supports(method):
     doc = static_result_dict(r)
     assert doc["constraint_forces"]["clamp beam@start"][:2] == [fx, fy]
     assert "ON the support" in doc["constraint_forces_sign"]
+
+
+def test_docs_list_the_declared_analysis_options():
+    """docs/scenes.md shows the options table generated from the declaration: a field added, renamed or re-typed
+    without the page following fails here."""
+    from pathlib import Path
+    from ancf_sym.schema import analysis_table
+    page = (Path(__file__).resolve().parents[1] / "docs" / "scenes.md").read_text()
+    assert analysis_table() in page
