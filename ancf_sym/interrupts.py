@@ -4,12 +4,14 @@ when they arrive inside C code that swallows Python exceptions.
 CasADi's IPOPT interface checks for signals between iterations, catches the KeyboardInterrupt that Python's SIGINT
 handler raises, and returns a failed status ("NonIpopt_Exception_Thrown"; IPOPT's own handler answers
 "User_Requested_Stop"); a solver that then tries its next strategy would ignore the user. `interruptible()` around
-such a call records the exception raised by the signal handler and raises it again once the call returns.
+such a call records the exception raised by the signal handler and raises it again once the call returns (and
+drops CasADi's warning line about it, so that the interrupt is reported once, by the caller).
 """
 from __future__ import annotations
 
 import contextlib
 import signal
+import sys
 import threading
 from typing import Iterator
 
@@ -51,6 +53,22 @@ class _Recorder:
         return handler
 
 
+class _WithoutInterruptNotice:
+    """sys.stderr minus CasADi's warning about the exception it caught: the caller reports the interrupt itself,
+    in one line (CasADi writes its warnings through Python's sys.stderr)."""
+
+    def __init__(self, stream, rec: _Recorder):
+        self.stream, self.rec = stream, rec
+
+    def write(self, text: str) -> int:
+        if self.rec.exc is not None and "KeyboardInterruptException" in text:
+            return len(text)
+        return self.stream.write(text)
+
+    def __getattr__(self, name):
+        return getattr(self.stream, name)
+
+
 @contextlib.contextmanager
 def interruptible() -> Iterator[_Recorder]:
     """Around a C call that may swallow signal exceptions: after it returns, the exception a SIGINT/SIGTERM handler
@@ -66,9 +84,11 @@ def interruptible() -> Iterator[_Recorder]:
         if callable(prev):
             saved[sig] = prev
             signal.signal(sig, rec.wrap(prev))
+    stderr, sys.stderr = sys.stderr, _WithoutInterruptNotice(sys.stderr, rec)
     try:
         yield rec
     finally:
+        sys.stderr = stderr
         for sig, prev in saved.items():
             signal.signal(sig, prev)
     if rec.exc is not None:
