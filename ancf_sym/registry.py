@@ -94,8 +94,10 @@ def _cable_effects(el: str, dim: int) -> list[Effect]:
 
 def _beam_effects() -> list[Effect]:
     return [
-        Effect("beam3d", "continuum", ("L", "b", "h", "E", "nu"),
-               "continuum mechanics method: St. Venant-Kirchhoff on Green-Lagrange E=(J^T J-I)/2, 5x3x3 Gauss", (5,)),
+        Effect("beam3d", "continuum", ("L", "b", "h", "E", "nu", "J"),
+               "continuum mechanics method, enhanced (locking-free): St. Venant-Kirchhoff on Green-Lagrange "
+               "E=(J^T J-I)/2 with the Poisson coupling on the centreline only and the section shear scaled to "
+               "torsion G J; 5x2x2 + 5 axis Gauss points", (5,)),
         Effect("beam3d", "line_strain", ("L", "b", "h", "E", "nu"),
                "elastic-line method: Green-Lagrange strains of the centreline (eps011, eps22, eps33, gamma012, "
                "gamma013, gamma23) times the section area", _G),

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .mesh import Mesh, MemberMesh
-from .scene import SceneError
+from .scene import SceneError, Section
 
 
 @dataclass
@@ -51,7 +51,10 @@ def member_terms(terms: dict, mm: MemberMesh, gravity: np.ndarray) -> None:
         if m.beam_method == "continuum":
             if m.gauss not in (None, 5):
                 raise SceneError(f"member {m.name!r}: the continuum beam is generated for gauss=5 only, got {m.gauss}")
-            _add(terms, "continuum", "beam3d", "continuum", None, idx, np.c_[L, b * one, h * one, E * one, nu * one])
+            # St. Venant's torsion constant: the section's J, else that of the b x h rectangle
+            J = m.section.J if m.section.J is not None else Section.rectangle(b, h).J
+            _add(terms, "continuum", "beam3d", "continuum", None, idx,
+                 np.c_[L, b * one, h * one, E * one, nu * one, J * one])
         else:
             _add(terms, "axial", "beam3d", "line_strain", gauss, idx, np.c_[L, b * one, h * one, E * one, nu * one])
             if m.bending:

@@ -36,7 +36,7 @@ if (Path.cwd() / "ancf_sym").is_dir():
 
 from ancf_sym import kernels, registry  # noqa: E402
 
-PARAM_DEFAULTS = {"L": 0.5, "xi": 0.5, "nu": 0.3, "E": 2e11, "b": 0.02, "h": 0.03, "EA": 1.6e7, "EI": 1e2,
+PARAM_DEFAULTS = {"L": 0.5, "xi": 0.5, "nu": 0.3, "E": 2e11, "b": 0.02, "h": 0.03, "J": 4.7e-8, "EA": 1.6e7, "EI": 1e2,
                   "nx": 0.0, "ny": 0.0, "nz": 1.0, "t0x": 1.0, "t0y": 0.0, "t0z": 0.0,
                   "ref1": 1.0, "ref2": 0.0, "ref3": 0.0, "gx": 0.0, "gy": -9.81, "gz": 0.0}
 

@@ -34,7 +34,7 @@ int beam3d_continuum_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_i
 #define beam3d_continuum_SZ_ARG 6
 #define beam3d_continuum_SZ_RES 6
 #define beam3d_continuum_SZ_IW 25
-#define beam3d_continuum_SZ_W 3892
+#define beam3d_continuum_SZ_W 3279
 int beam3d_continuum_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int beam3d_continuum_energy_checkout(void);
 void beam3d_continuum_energy_release(int mem);
@@ -52,7 +52,7 @@ int beam3d_continuum_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, c
 #define beam3d_continuum_energy_SZ_ARG 6
 #define beam3d_continuum_energy_SZ_RES 2
 #define beam3d_continuum_energy_SZ_IW 0
-#define beam3d_continuum_energy_SZ_W 65
+#define beam3d_continuum_energy_SZ_W 63
 int adj1_beam3d_continuum_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int adj1_beam3d_continuum_energy_checkout(void);
 void adj1_beam3d_continuum_energy_release(int mem);
@@ -70,7 +70,7 @@ int adj1_beam3d_continuum_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz_r
 #define adj1_beam3d_continuum_energy_SZ_ARG 10
 #define adj1_beam3d_continuum_energy_SZ_RES 6
 #define adj1_beam3d_continuum_energy_SZ_IW 0
-#define adj1_beam3d_continuum_energy_SZ_W 714
+#define adj1_beam3d_continuum_energy_SZ_W 388
 int beam3d_continuum_grad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int beam3d_continuum_grad_checkout(void);
 void beam3d_continuum_grad_release(int mem);
@@ -88,7 +88,7 @@ int beam3d_continuum_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, cas
 #define beam3d_continuum_grad_SZ_ARG 6
 #define beam3d_continuum_grad_SZ_RES 4
 #define beam3d_continuum_grad_SZ_IW 0
-#define beam3d_continuum_grad_SZ_W 407
+#define beam3d_continuum_grad_SZ_W 262
 void beam3d_continuum_casadi_version(int* major, int* minor, int* patch);
 int beam3d_continuum_casadi_int_size(void);
 int beam3d_continuum_casadi_real_size(void);

@@ -34,7 +34,7 @@ int beam3d_line_strain_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi
 #define beam3d_line_strain_SZ_ARG 6
 #define beam3d_line_strain_SZ_RES 6
 #define beam3d_line_strain_SZ_IW 25
-#define beam3d_line_strain_SZ_W 2898
+#define beam3d_line_strain_SZ_W 2892
 int beam3d_line_strain_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int beam3d_line_strain_energy_checkout(void);
 void beam3d_line_strain_energy_release(int mem);
@@ -70,7 +70,7 @@ int adj1_beam3d_line_strain_energy_work_bytes(casadi_int *sz_arg, casadi_int* sz
 #define adj1_beam3d_line_strain_energy_SZ_ARG 10
 #define adj1_beam3d_line_strain_energy_SZ_RES 6
 #define adj1_beam3d_line_strain_energy_SZ_IW 0
-#define adj1_beam3d_line_strain_energy_SZ_W 173
+#define adj1_beam3d_line_strain_energy_SZ_W 166
 int beam3d_line_strain_grad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int beam3d_line_strain_grad_checkout(void);
 void beam3d_line_strain_grad_release(int mem);
@@ -88,7 +88,7 @@ int beam3d_line_strain_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, c
 #define beam3d_line_strain_grad_SZ_ARG 6
 #define beam3d_line_strain_grad_SZ_RES 4
 #define beam3d_line_strain_grad_SZ_IW 0
-#define beam3d_line_strain_grad_SZ_W 160
+#define beam3d_line_strain_grad_SZ_W 157
 int beam3d_line_strain_g3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int beam3d_line_strain_g3_checkout(void);
 void beam3d_line_strain_g3_release(int mem);
@@ -106,7 +106,7 @@ int beam3d_line_strain_g3_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, cas
 #define beam3d_line_strain_g3_SZ_ARG 6
 #define beam3d_line_strain_g3_SZ_RES 6
 #define beam3d_line_strain_g3_SZ_IW 25
-#define beam3d_line_strain_g3_SZ_W 2250
+#define beam3d_line_strain_g3_SZ_W 2244
 int beam3d_line_strain_g3_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int beam3d_line_strain_g3_energy_checkout(void);
 void beam3d_line_strain_g3_energy_release(int mem);
@@ -142,7 +142,7 @@ int adj1_beam3d_line_strain_g3_energy_work_bytes(casadi_int *sz_arg, casadi_int*
 #define adj1_beam3d_line_strain_g3_energy_SZ_ARG 10
 #define adj1_beam3d_line_strain_g3_energy_SZ_RES 6
 #define adj1_beam3d_line_strain_g3_energy_SZ_IW 0
-#define adj1_beam3d_line_strain_g3_energy_SZ_W 163
+#define adj1_beam3d_line_strain_g3_energy_SZ_W 156
 int beam3d_line_strain_g3_grad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int beam3d_line_strain_g3_grad_checkout(void);
 void beam3d_line_strain_g3_grad_release(int mem);
@@ -160,7 +160,7 @@ int beam3d_line_strain_g3_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res
 #define beam3d_line_strain_g3_grad_SZ_ARG 6
 #define beam3d_line_strain_g3_grad_SZ_RES 4
 #define beam3d_line_strain_g3_grad_SZ_IW 0
-#define beam3d_line_strain_g3_grad_SZ_W 112
+#define beam3d_line_strain_g3_grad_SZ_W 109
 int beam3d_line_strain_g4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int beam3d_line_strain_g4_checkout(void);
 void beam3d_line_strain_g4_release(int mem);
@@ -178,7 +178,7 @@ int beam3d_line_strain_g4_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, cas
 #define beam3d_line_strain_g4_SZ_ARG 6
 #define beam3d_line_strain_g4_SZ_RES 6
 #define beam3d_line_strain_g4_SZ_IW 25
-#define beam3d_line_strain_g4_SZ_W 2574
+#define beam3d_line_strain_g4_SZ_W 2568
 int beam3d_line_strain_g4_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int beam3d_line_strain_g4_energy_checkout(void);
 void beam3d_line_strain_g4_energy_release(int mem);
@@ -214,7 +214,7 @@ int adj1_beam3d_line_strain_g4_energy_work_bytes(casadi_int *sz_arg, casadi_int*
 #define adj1_beam3d_line_strain_g4_energy_SZ_ARG 10
 #define adj1_beam3d_line_strain_g4_energy_SZ_RES 6
 #define adj1_beam3d_line_strain_g4_energy_SZ_IW 0
-#define adj1_beam3d_line_strain_g4_energy_SZ_W 168
+#define adj1_beam3d_line_strain_g4_energy_SZ_W 161
 int beam3d_line_strain_g4_grad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int beam3d_line_strain_g4_grad_checkout(void);
 void beam3d_line_strain_g4_grad_release(int mem);
@@ -232,7 +232,7 @@ int beam3d_line_strain_g4_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res
 #define beam3d_line_strain_g4_grad_SZ_ARG 6
 #define beam3d_line_strain_g4_grad_SZ_RES 4
 #define beam3d_line_strain_g4_grad_SZ_IW 0
-#define beam3d_line_strain_g4_grad_SZ_W 136
+#define beam3d_line_strain_g4_grad_SZ_W 133
 int beam3d_line_strain_g7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int beam3d_line_strain_g7_checkout(void);
 void beam3d_line_strain_g7_release(int mem);
@@ -250,7 +250,7 @@ int beam3d_line_strain_g7_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, cas
 #define beam3d_line_strain_g7_SZ_ARG 6
 #define beam3d_line_strain_g7_SZ_RES 6
 #define beam3d_line_strain_g7_SZ_IW 25
-#define beam3d_line_strain_g7_SZ_W 3546
+#define beam3d_line_strain_g7_SZ_W 3540
 int beam3d_line_strain_g7_energy(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int beam3d_line_strain_g7_energy_checkout(void);
 void beam3d_line_strain_g7_energy_release(int mem);
@@ -286,7 +286,7 @@ int adj1_beam3d_line_strain_g7_energy_work_bytes(casadi_int *sz_arg, casadi_int*
 #define adj1_beam3d_line_strain_g7_energy_SZ_ARG 10
 #define adj1_beam3d_line_strain_g7_energy_SZ_RES 6
 #define adj1_beam3d_line_strain_g7_energy_SZ_IW 0
-#define adj1_beam3d_line_strain_g7_energy_SZ_W 183
+#define adj1_beam3d_line_strain_g7_energy_SZ_W 176
 int beam3d_line_strain_g7_grad(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int beam3d_line_strain_g7_grad_checkout(void);
 void beam3d_line_strain_g7_grad_release(int mem);
@@ -304,7 +304,7 @@ int beam3d_line_strain_g7_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res
 #define beam3d_line_strain_g7_grad_SZ_ARG 6
 #define beam3d_line_strain_g7_grad_SZ_RES 4
 #define beam3d_line_strain_g7_grad_SZ_IW 0
-#define beam3d_line_strain_g7_grad_SZ_W 208
+#define beam3d_line_strain_g7_grad_SZ_W 205
 void beam3d_line_strain_casadi_version(int* major, int* minor, int* patch);
 int beam3d_line_strain_casadi_int_size(void);
 int beam3d_line_strain_casadi_real_size(void);

@@ -93,7 +93,7 @@ def perturbed_state(element: str, rng: np.random.Generator, L: float = L0, ampli
 # Moderate, distinct magnitudes: a wrong parameter index changes results, and no term drowns the others.
 PARAM_VALUES = {
     "EA": 3.0e3, "EI": 7.0, "rhoA": 2.5, "gx": 0.3, "gy": -9.81, "gz": 1.7,
-    "b": 0.05, "h": 0.08, "E": 2.1e5, "nu": 0.3, "EIy": 5.0, "EIz": 9.0, "GIp": 4.0,
+    "b": 0.05, "h": 0.08, "E": 2.1e5, "nu": 0.3, "EIy": 5.0, "EIz": 9.0, "GIp": 4.0, "J": 2.0e-6,
     "xi": 0.35, "M": 2.0,
 }
 

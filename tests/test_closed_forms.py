@@ -57,9 +57,27 @@ def test_uniform_stretch_beam_continuum_and_line_strain():
     for s in (-0.05, 0.1):
         q = stretched("beam3d", s)
         exact = E / 2 * (((1 + s) ** 2 - 1) / 2) ** 2 * b * h * L0
-        for effect in ("continuum", "line_strain"):
-            e = evaluate(kernels.load("beam3d", effect), q, [L0, b, h, E, 0.0])[0]
+        for effect, p in (("continuum", [L0, b, h, E, 0.0, 1e-6]), ("line_strain", [L0, b, h, E, 0.0])):
+            e = evaluate(kernels.load("beam3d", effect), q, p)[0]
             assert abs(e / exact - 1) < 1e-12, f"{effect}: {e} vs {exact}"
+
+
+def test_uniaxial_stress_beam_continuum_and_line_strain():
+    """Beam, nu = 0.3, uniform stretch with the section contracted to uniaxial stress: Green strains E_xx = e,
+    E_yy = E_zz = -nu e (St. Venant-Kirchhoff's S_yy = lambda tr E + 2 G E_yy = 0), so U = E e^2 / 2 * b h L exactly:
+    the enhanced continuum form keeps the full 3D law on the centreline, where the Poisson coupling acts.
+    1e-12: one quadrature of a constant density, round-off only."""
+    b, h, E, nu = 0.05, 0.08, 2.1e5, 0.3
+    for s in (-0.05, 0.1):
+        e = ((1 + s) ** 2 - 1) / 2
+        c = np.sqrt(1 - 2 * nu * e)  # |r_y| = |r_z| with (|r_y|^2 - 1)/2 = -nu e
+        q = stretched("beam3d", s)
+        for node in (0, 12):
+            q[node + 6:node + 12] *= c
+        exact = E / 2 * e**2 * b * h * L0
+        for effect, p in (("continuum", [L0, b, h, E, nu, 1e-6]), ("line_strain", [L0, b, h, E, nu])):
+            got = evaluate(kernels.load("beam3d", effect), q, p)[0]
+            assert abs(got / exact - 1) < 1e-12, f"{effect}: {got} vs {exact}"
 
 
 # Circular arc -------------------------------------------------------------------------------------------------

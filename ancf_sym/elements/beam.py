@@ -1,5 +1,10 @@
 """Fully parameterised 3D ANCF beam (paper 001, 24 DOF): kinematics and one energy per effect.
 
+Continuum form: the enhanced continuum mechanics split of the St. Venant-Kirchhoff energy (Nachbagauer, Gruber,
+Gerstmayr, J. Comput. Nonlinear Dyn. 8 (2013) 021004; the form of Chrono's ANCF 3243 beam with its
+ChMaterialBeamANCF): the Poisson coupling acts on the centreline only, so the section field, linear in y and z,
+does not Poisson-lock in bending; a torsion factor on the section's shear terms gives St. Venant's G J.
+
 Per node k: r, r_x, r_y, r_z (3-vectors). Material coordinates x in [0, L], y in [-b/2, b/2], z in [-h/2, h/2].
 Shape functions (paper 001 eq. 4, with its misprinted s6 corrected to L(-xi^2 + xi^3)):
 r = s1 rA + s2 r_xA + s3 r_yA + s4 r_zA + s5 rB + s6 r_xB + s7 r_yB + s8 r_zB.
@@ -47,12 +52,52 @@ def lame(E, nu):
     return E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
 
 
+def green_strains(rx, ry, rz):
+    """Green-Lagrange E = (J^T J - I)/2 of J = [r_x r_y r_z] as (Exx, Eyy, Ezz, Exy, Exz, Eyz)."""
+    return ((ca.dot(rx, rx) - 1) / 2, (ca.dot(ry, ry) - 1) / 2, (ca.dot(rz, rz) - 1) / 2,
+            ca.dot(rx, ry) / 2, ca.dot(rx, rz) / 2, ca.dot(ry, rz) / 2)
+
+
+def torsion_factor(b, h, J):
+    """k_t = J / I_p with I_p = b h (b^2 + h^2) / 12 the polar moment of the b x h rectangle.
+
+    The section field is linear in y and z, so a twist rate tau gives the shear strains 2 E_xy = -z tau and
+    2 E_xz = y tau and no warping: G int (y^2 + z^2) dA tau^2 / 2 = G I_p tau^2 / 2 instead of St. Venant's
+    G J tau^2 / 2 (I_p / J = 1.82 for a 2:1 rectangle, 1.69 for a square). Scaling the section-varying part of
+    E_xy, E_xz by k_t gives G J exactly; their section mean (transverse shear) is restored on the axis.
+    """
+    return 12 * J / (b * h * (b**2 + h**2))
+
+
+def ecm_section_density(rx, ry, rz, E, nu, kt):
+    """Enhanced continuum mechanics, section part (integrated over the b x h section): the strains that vary over
+    the section without the Poisson coupling, E/2 E_xx^2 (axial + bending: E I, not the locked
+    (lambda + 2 G) I) and 2 k_t G (E_xy^2 + E_xz^2) (torsion G J, see torsion_factor)."""
+    exx, _, _, exy, exz, _ = green_strains(rx, ry, rz)
+    G = E / (2 * (1 + nu))
+    return E / 2 * exx**2 + 2 * kt * G * (exy**2 + exz**2)
+
+
+def ecm_axis_density(rx, ry, rz, E, nu, kt):
+    """Enhanced continuum mechanics, axis part (on the centreline, times the area): the rest of St. Venant-Kirchhoff.
+
+    With D the isotropic normal-strain block and D0 = E I its Poisson-free part already in the section term, this
+    adds 1/2 e^T (D - D0) e of the centreline normal strains e = (E_xx, E_yy, E_zz), i.e. lambda/2 (tr e)^2 + G |e|^2
+    - E/2 E_xx^2 (the section strains E_yy, E_zz, E_yz are constant over the section, so they live here whole),
+    2 G E_yz^2, and the transverse shear's share (1 - k_t) 2 G (E_xy^2 + E_xz^2) that the section term scaled away.
+    Uniform stretch thus sees the full 3D law (lateral contraction nu), bending and torsion see E I and G J.
+    """
+    exx, eyy, ezz, exy, exz, eyz = green_strains(rx, ry, rz)
+    lam, G = lame(E, nu)
+    return (lam / 2 * (exx + eyy + ezz)**2 + G * (eyy**2 + ezz**2) + (G - E / 2) * exx**2 + 2 * G * eyz**2
+            + 2 * (1 - kt) * G * (exy**2 + exz**2))
+
+
 def svk_density(rx, ry, rz, E, nu):
     """St. Venant-Kirchhoff: lambda/2 (tr E)^2 + G tr(E^2), E = (J^T J - I)/2 with J = [r_x r_y r_z]."""
+    exx, eyy, ezz, exy, exz, eyz = green_strains(rx, ry, rz)
     lam, G = lame(E, nu)
-    J = ca.horzcat(rx, ry, rz)
-    Eg = (ca.mtimes(J.T, J) - ca.SX.eye(3)) / 2
-    return lam / 2 * ca.trace(Eg)**2 + G * ca.sumsqr(Eg)
+    return lam / 2 * (exx + eyy + ezz)**2 + G * (exx**2 + eyy**2 + ezz**2 + 2 * (exy**2 + exz**2 + eyz**2))
 
 
 def line_bending_density(rx, ry, rz, rxx, EIy, EIz):

@@ -45,7 +45,8 @@ ROUND_OFF_BOUND = 1e-12
 _L, _E, _NU, _B, _H = 0.5, 2e11, 0.3, 0.02, 0.03
 _G = _E / (2 * (1 + _NU))
 PARAMS = {"L": _L, "E": _E, "nu": _NU, "b": _B, "h": _H, "EA": _E * _B * _H, "EI": _E * _H * _B**3 / 12,
-          "EIy": _E * _B * _H**3 / 12, "EIz": _E * _H * _B**3 / 12, "GIp": _G * _B * _H * (_B**2 + _H**2) / 12}
+          "EIy": _E * _B * _H**3 / 12, "EIz": _E * _H * _B**3 / 12, "GIp": _G * _B * _H * (_B**2 + _H**2) / 12,
+          "J": 4.7e-8}  # J: St. Venant's torsion constant of the 20 x 30 mm rectangle
 BEAM_FUSED_PARAMS = ("L", "b", "h", "E", "nu", "EIy", "EIz", "GIp")
 
 # Batches short enough that some run without preemption on a shared machine, many of them (the min is kept).
