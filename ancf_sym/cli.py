@@ -148,6 +148,11 @@ def _fail(msg: str) -> None:
 
 
 def cmd_run(args) -> int:
+    with terminate_raises():  # SIGTERM unwinds like Ctrl-C: the temporary directory is removed
+        return _cmd_run(args)
+
+
+def _cmd_run(args) -> int:
     from .scene_toml import load_scene
 
     t_start = time.perf_counter()
@@ -298,9 +303,8 @@ def main(argv: list[str] | None = None) -> int:
     st.set_defaults(func=cmd_study)
     args = parser.parse_args(argv)
     try:
-        with terminate_raises():
-            return args.func(args)
-    except (KeyboardInterrupt, Terminated) as exc:  # outside a run's own handling (e.g. while reading the scene)
+        return args.func(args)
+    except (KeyboardInterrupt, Terminated) as exc:  # outside a command's own handling (e.g. while importing)
         _fail(_stop_reason(exc))
         return _stop_code(exc)
     except BrokenPipeError:  # e.g. `ancf-sym kernels | head`
