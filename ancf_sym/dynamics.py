@@ -29,10 +29,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from .assembly import Assembly
-from .elements import hermite
+from .interpolation import Probe, weights
 from .integrators import (LINEAR_EFFECTS, AlphaIntegrator, Counters, NewtonOptions, RayleighData, Scheme,
                           StepSystem, StrainRateData)
-from .mesh import MemberMesh, check_stretch
+from .mesh import check_stretch
 from .checks import check_fields, check_keys, fail, number
 from .scene import Scene, SceneError
 from .schema import DYNAMIC_OPTIONS
@@ -85,33 +85,6 @@ class Sensor:
         return cls(str(name), kind, member, at)
 
 
-class _Probe:
-    """Linear maps from full coordinates to r, r_x, r_xx at a material point (one element's 2 nodes)."""
-
-    def __init__(self, mm: MemberMesh, s: float, dim: int):
-        e, xi = mm.locate(s)
-        L = mm.elem_length[e]
-        n0, n1 = mm.elem_nodes[e]
-        h, dh, ddh = hermite.h(xi), hermite.dh(xi), hermite.ddh(xi)
-        ns = mm.node_size
-        self.dim = dim
-        base0, base1 = mm.offset + n0 * ns, mm.offset + n1 * ns
-        # r = h0 r0 + L h1 rx0 + h2 r1 + L h3 rx1 (per component)
-        self.idx = np.array([[base0 + k, base0 + dim + k, base1 + k, base1 + dim + k] for k in range(dim)])
-        self.w = np.array([h[0], L * h[1], h[2], L * h[3]])
-        self.wx = np.array([dh[0] / L, dh[1], dh[2] / L, dh[3]])
-        self.wxx = np.array([ddh[0] / L**2, ddh[1] / L, ddh[2] / L**2, ddh[3] / L])
-
-    def r(self, x):
-        return x[self.idx] @ self.w
-
-    def rx(self, x):
-        return x[self.idx] @ self.wx
-
-    def rxx(self, x):
-        return x[self.idx] @ self.wxx
-
-
 class _SensorEval:
     def __init__(self, sensor: Sensor, asm: Assembly, index: int):
         scene = asm.scene
@@ -119,7 +92,7 @@ class _SensorEval:
             raise SceneError(f"sensors[{index}].member={sensor.member!r} names no member; members: "
                              f"{sorted(asm.mesh.members)}")
         try:
-            scene._check_at(sensor.member, sensor.at, node_only=sensor.kind == "coordinates",
+            scene.check_at(sensor.member, sensor.at, node_only=sensor.kind == "coordinates",
                             field_name=f"sensors[{index}].at")
         except SceneError:
             raise
@@ -129,8 +102,7 @@ class _SensorEval:
             self.dofs = mm.node_dofs(mm.node(sensor.at))
             self.probe = None
         else:
-            s = float(sensor.at) if isinstance(sensor.at, float) else float(mm.s_node[mm.node(sensor.at)])
-            self.probe = _Probe(mm, s, scene.dim)
+            self.probe = Probe(mm, mm.coordinate(sensor.at), scene.dim)
             self.r0 = self.probe.r(asm.x0)
 
     def __call__(self, x: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -186,7 +158,7 @@ class _LoadSum:
         from .scene import _vector
         self.vecs, self.hist = [], []
         for i, ld in enumerate(loads):
-            asm.scene._check_at(ld.member, ld.at, node_only=False, field_name=f"loads[{i}].at")
+            asm.scene.check_at(ld.member, ld.at, node_only=False, field_name=f"loads[{i}].at")
             F = _vector(f"loads[{i}].force", ld.force, asm.scene.dim)
             try:
                 H = np.asarray(ld.history, dtype=float)
@@ -196,8 +168,7 @@ class _LoadSum:
                 raise SceneError(f"loads[{i}].history must be [t, factor] pairs with increasing finite times, got "
                                  f"{ld.history!r}")
             mm = asm.mesh.members[ld.member]
-            s = float(ld.at) if isinstance(ld.at, float) else float(mm.s_node[mm.node(ld.at)])
-            idx, val = point_force(mm, s, F)
+            idx, val = point_force(mm, mm.coordinate(ld.at), F)
             q = np.zeros(asm.n)
             np.add.at(q, idx, val)
             self.vecs.append(free.T @ q)
@@ -408,7 +379,6 @@ def strain_rate_data(asm: Assembly) -> StrainRateData | None:
     dim = asm.scene.dim
     xg, wg = np.polynomial.legendre.leggauss(5)
     xi, wq = (xg + 1) / 2, wg / 2
-    h1, h2 = np.array(hermite.dh(xi)), np.array(hermite.ddh(xi))  # (4, 5)
     rows_x, rows_xx, wl, ca_, cb_, green = [], [], [], [], [], []
     for name, (c_ax, c_be) in coef.items():
         mm = asm.mesh.members[name]
@@ -417,11 +387,10 @@ def strain_rate_data(asm: Assembly) -> StrainRateData | None:
         for e, (na, nb) in enumerate(mm.elem_nodes):
             L = mm.elem_length[e]
             da, db = mm.node_dofs(na), mm.node_dofs(nb)
+            _, wx, wxx = weights(xi, L)  # (4, 5)
             for k in range(5):
-                wx = [h1[0, k] / L, h1[1, k], h1[2, k] / L, h1[3, k]]
-                wxx = [h2[0, k] / L**2, h2[1, k] / L, h2[2, k] / L**2, h2[3, k] / L]
-                rows_x.append((da, db, wx))
-                rows_xx.append((da, db, wxx))
+                rows_x.append((da, db, list(wx[:, k])))
+                rows_xx.append((da, db, list(wxx[:, k])))
                 wl.append(wq[k] * L)
                 ca_.append(c_ax)
                 cb_.append(c_be)
@@ -455,13 +424,9 @@ def _collect_outputs(opts: DynamicOptions) -> np.ndarray | None:
 
 
 def _hermite(t0, t1, q0, v0, q1, v1, tau):
-    h = t1 - t0
-    s = (tau - t0) / h
-    h00, h10, h01, h11 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s, -2 * s**3 + 3 * s**2, s**3 - s**2
-    q = h00 * q0 + h10 * h * v0 + h01 * q1 + h11 * h * v1
-    d00, d10, d01, d11 = 6 * s**2 - 6 * s, 3 * s**2 - 4 * s + 1, -6 * s**2 + 6 * s, 3 * s**2 - 2 * s
-    v = (d00 * q0 + d01 * q1) / h + d10 * v0 + d11 * v1
-    return q, v
+    """q and q' at tau of the cubic through (q0, v0) at t0 and (q1, v1) at t1: interpolation.weights in time."""
+    w, wx, _ = weights((tau - t0) / (t1 - t0), t1 - t0)
+    return w[0] * q0 + w[1] * v0 + w[2] * q1 + w[3] * v1, wx[0] * q0 + wx[1] * v0 + wx[2] * q1 + wx[3] * v1
 
 
 class _Recorder:

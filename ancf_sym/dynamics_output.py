@@ -18,6 +18,7 @@ from matplotlib.figure import Figure
 
 from . import fields
 from .output_json import _clean, write_json
+from .vtk_out import section_point_data
 
 FRAME_PREFIX = "__node"
 
@@ -83,6 +84,7 @@ def write_series(result, directory: Path, per_element: int = 8) -> Path:
     frames.mkdir()
     states = {name: _member_states(result, name) for name in result.assembly.mesh.members}
     entries = []
+    section_data = section_point_data(result.assembly.mesh, per_element)
     for k, t in enumerate(result.t):
         pts, cells, s_all, strain, curv, member = [], [], [], [], [], []
         n0 = 0
@@ -98,7 +100,7 @@ def write_series(result, directory: Path, per_element: int = 8) -> Path:
             n0 += len(r)
         mesh = meshio.Mesh(np.vstack(pts), cells, point_data={
             "s": np.concatenate(s_all), "strain": np.concatenate(strain), "curvature": np.concatenate(curv),
-            "member": np.concatenate(member)})
+            "member": np.concatenate(member), **section_data})
         fn = frames / f"frame_{k:05d}.vtu"
         meshio.write(fn, mesh, file_format="vtu")
         entries.append(f'    <DataSet timestep={quoteattr(repr(float(t)))} part="0" file="frames/{fn.name}"/>')

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .elements import hermite
+from .interpolation import weights
 from .mesh import MemberMesh
 
 
@@ -14,14 +14,12 @@ def sample(mm: MemberMesh, xn: np.ndarray, per_element: int = 8) -> dict:
     """
     dim = mm.member.points.shape[1]
     xi = np.linspace(0.0, 1.0, per_element + 1)
-    h, dh, ddh = (np.array(f(xi)) for f in (hermite.h, hermite.dh, hermite.ddh))  # (4, k)
     s_all, r_all, rx_all, rxx_all = [], [], [], []
     for e, (a, b) in enumerate(mm.elem_nodes):
         L = mm.elem_length[e]
-        ra, ta, rb, tb = xn[a][:dim], xn[a][dim:2 * dim], xn[b][:dim], xn[b][dim:2 * dim]
-        r = np.outer(h[0], ra) + L * np.outer(h[1], ta) + np.outer(h[2], rb) + L * np.outer(h[3], tb)
-        rx = (np.outer(dh[0], ra) + np.outer(dh[2], rb)) / L + np.outer(dh[1], ta) + np.outer(dh[3], tb)
-        rxx = (np.outer(ddh[0], ra) + np.outer(ddh[2], rb)) / L**2 + (np.outer(ddh[1], ta) + np.outer(ddh[3], tb)) / L
+        c = np.stack([xn[a][:dim], xn[a][dim:2 * dim], xn[b][:dim], xn[b][dim:2 * dim]])  # (4, dim)
+        w, wx, wxx = weights(xi, L)  # (4, k)
+        r, rx, rxx = w.T @ c, wx.T @ c, wxx.T @ c
         keep = slice(0 if e == 0 else 1, None)
         s_all.append(mm.s_node[a] + xi[keep] * L)
         r_all.append(r[keep]); rx_all.append(rx[keep]); rxx_all.append(rxx[keep])

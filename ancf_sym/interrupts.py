@@ -15,9 +15,6 @@ import sys
 import threading
 from typing import Iterator
 
-STOP_STATUSES = ("User_Requested_Stop",)  # IPOPT statuses that mean "stopped on request"
-
-
 class Terminated(BaseException):
     """SIGTERM received (BaseException, like KeyboardInterrupt: `except Exception` does not swallow it)."""
 
@@ -93,9 +90,3 @@ def interruptible() -> Iterator[_Recorder]:
             signal.signal(sig, prev)
     if rec.exc is not None:
         raise rec.exc
-
-
-def check_stop(status: str) -> None:
-    """Raise KeyboardInterrupt for a solver status that means the user asked to stop."""
-    if status in STOP_STATUSES:
-        raise KeyboardInterrupt(status)

@@ -3,25 +3,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from .elements import hermite
+from .interpolation import Probe
 from .mesh import Mesh, MemberMesh
 
 
 def point_force(mm: MemberMesh, s: float, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(indices, values) of Q = S(x)^T F for a force F at material coordinate s."""
-    e, xi = mm.locate(s)
-    L = mm.elem_length[e]
-    h = hermite.h(xi)
-    w = [h[0], L * h[1], h[2], L * h[3]]  # weights of r(0), r_x(0), r(L), r_x(L)
-    d = len(F)
-    ns = mm.node_size
-    n0, n1 = mm.elem_nodes[e]
-    idx, val = [], []
-    for node, (wr, wt) in ((n0, (w[0], w[1])), (n1, (w[2], w[3]))):
-        base = mm.offset + node * ns
-        idx += list(base + np.arange(d)) + list(base + d + np.arange(d))
-        val += list(wr * F) + list(wt * F)
-    return np.array(idx), np.array(val)
+    p = Probe(mm, s, len(F))  # r(s) = idx @ w: r(0), r_x(0), r(L), r_x(L) per component
+    return p.idx.T.ravel(), np.outer(p.w, F).ravel()
 
 
 def load_vector(mesh: Mesh) -> np.ndarray:
@@ -30,7 +19,7 @@ def load_vector(mesh: Mesh) -> np.ndarray:
     for load in mesh.scene.loads:
         mm = mesh.members[load.member]
         if load.kind == "force":
-            s = float(load.at) if isinstance(load.at, float) else float(mm.s_node[mm.node(load.at)])
+            s = mm.coordinate(load.at)
             idx, val = point_force(mm, s, np.asarray(load.value, float))
             np.add.at(Q, idx, val)
         elif load.kind == "tension":

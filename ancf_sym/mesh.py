@@ -9,8 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .elements import hermite
 from .elements.quadrature import gauss01
+from .interpolation import weights
 from .registry import ELEMENTS
 from .scene import Member, Scene, SceneError
 
@@ -55,6 +55,11 @@ class MemberMesh:
         if at == "end":
             return self.n_nodes - 1
         return int(self.public_nodes[at])
+
+    def coordinate(self, at) -> float:
+        """Material coordinate s [m] of a location: a float is s itself; 'start', 'end' or a public node index give
+        that node's coordinate (check the location first: Scene.check_at)."""
+        return float(at) if isinstance(at, float) else float(self.s_node[self.node(at)])
 
     def locate(self, s: float) -> tuple[int, float]:
         """(element, xi) of material coordinate s [m]."""
@@ -125,15 +130,14 @@ def check_stretch(mesh: "Mesh", x: np.ndarray, what: str) -> None:
     node or, for cables, at one of 5 Gauss points. No material compresses to 0.1 % of its length, and the kernels'
     1/|r_x| (Biot, decoupled strain) and |r_x|^-6 (curvature) factors make such a state a numerical singularity."""
     xi = np.concatenate([[0.0], gauss01(5)[0], [1.0]])
-    dh = [np.asarray(f)[None, :, None] for f in hermite.dh(xi)]  # (1, points, 1) each
     d = mesh.scene.dim
     for name, mm in mesh.members.items():
         X = np.asarray(x[mm.offset:mm.offset + mm.x0.size], float).reshape(mm.n_nodes, mm.node_size)
         a, b = mm.elem_nodes[:, 0], mm.elem_nodes[:, 1]
         if mm.member.element.startswith("cable"):  # r_x(xi) of the cubic Hermite interpolation
-            L = mm.elem_length[:, None, None]
-            rx = (dh[0] / L * X[a, None, :d] + dh[1] * X[a, None, d:2 * d] + dh[2] / L * X[b, None, :d]
-                  + dh[3] * X[b, None, d:2 * d])
+            wx = weights(xi[None, :, None], mm.elem_length[:, None, None])[1]  # (4, n_el, points, 1)
+            rx = (wx[0] * X[a, None, :d] + wx[1] * X[a, None, d:2 * d] + wx[2] * X[b, None, :d]
+                  + wx[3] * X[b, None, d:2 * d])
         else:
             rx = np.stack([X[a, d:2 * d], X[b, d:2 * d]], axis=1)
         nrm = np.linalg.norm(rx, axis=2)  # (n_el, points)

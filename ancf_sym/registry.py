@@ -63,7 +63,8 @@ ELEMENTS: dict[str, Element] = {
     "beam3d": Element("beam3d", 3, 24, _beam_dofs(), "fully parameterised ANCF beam (paper 001), b x h section"),
 }
 
-_G = (3, 4, 5, 7)
+GAUSS_ORDERS = (3, 4, 5, 7)  # Gauss points per element every quadrature kernel is generated for
+_G = GAUSS_ORDERS  # short name for the tables below
 # Axial strains whose quadrature kernel also exists fused with bending (elastic_<strain>: p = L, EA, EI): one
 # B^T f_uu B per Gauss point, one accumulation and one mirror instead of two (bench/kernel_forms.py). The step
 # graphs use it where a cable member has both effects at the same Gauss order (assembly.force_terms).

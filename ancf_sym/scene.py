@@ -273,7 +273,7 @@ class Scene:
 
     # -- supports and joints -----------------------------------------------------------------------------------
     def _support(self, kind: str, member: str, at: Any, method: str, penalty: float | None) -> Support:
-        self._check_at(member, at, node_only=True, field_name=f"{kind}.at")
+        self.check_at(member, at, node_only=True, field_name=f"{kind}.at")
         self._check_method(kind, method, penalty)
         s = Support(kind, member, at, method, penalty)
         self.supports.append(s)
@@ -303,7 +303,7 @@ class Scene:
         for label, end in (("a", a), ("b", b)):
             if not isinstance(end, (tuple, list)) or len(end) != 2:
                 raise SceneError(f"{kind}.{label} must be (member, at), got {end!r}")
-            self._check_at(end[0], end[1], node_only=True, field_name=f"{kind}.{label}")
+            self.check_at(end[0], end[1], node_only=True, field_name=f"{kind}.{label}")
         if a[0] == b[0]:
             raise SceneError(f"{kind}: a and b must be different members, got {a!r} and {b!r}")
         if kind == "rigid" and self.members[a[0]].element == "cable3d":
@@ -332,7 +332,7 @@ class Scene:
     # -- loads -------------------------------------------------------------------------------------------------
     def force(self, member: str, at: Any, force: Sequence[float]) -> Load:
         """Dead point force [N] at a node or at a material coordinate s [m] (float)."""
-        self._check_at(member, at, node_only=False, field_name="force.at")
+        self.check_at(member, at, node_only=False, field_name="force.at")
         return self._add_load(Load("force", member, at, _vector("force.force", force, self.dim)))
 
     def distributed(self, member: str, force_per_length: Sequence[float]) -> Load:
@@ -344,7 +344,7 @@ class Scene:
     def moment(self, member: str, at: Any, moment: Any) -> Load:
         """Moment [N m] at a node: scalar (about z) in 2D; a 3-vector in 3D (beam3d: y and z components)."""
         m = self._member(member, "moment.member")
-        self._check_at(member, at, node_only=True, field_name="moment.at")
+        self.check_at(member, at, node_only=True, field_name="moment.at")
         if self.dim == 2:
             value = _finite("moment.moment", moment)
         else:
@@ -356,7 +356,7 @@ class Scene:
 
     def tension(self, member: str, at: Any, tension: float) -> Load:
         """Prescribed tension [N]: a dead force along the member's outward reference axis at that end."""
-        self._check_at(member, at, node_only=True, field_name="tension.at")
+        self.check_at(member, at, node_only=True, field_name="tension.at")
         return self._add_load(Load("tension", member, at, _finite("tension.tension", tension)))
 
     def rayleigh(self, alpha: float = 0.0, beta: float = 0.0, members: Sequence[str] | None = None) -> Damping:
@@ -402,7 +402,9 @@ class Scene:
             raise fail(field_name, f"names no member; members: {sorted(self.members)}", name)
         return self.members[name]
 
-    def _check_at(self, member: str, at: Any, node_only: bool, field_name: str) -> None:
+    def check_at(self, member: str, at: Any, node_only: bool, field_name: str) -> None:
+        """Refuse a location on a member unless it is 'start', 'end', a node index or (node_only=False) a material
+        coordinate in [0, length] m; the message names field_name. MemberMesh.coordinate turns it into s [m]."""
         m = self._member(member, f"{field_name} member")
         if isinstance(at, str) and at in ("start", "end"):
             return

@@ -26,8 +26,8 @@ SECTION = {
 }
 
 STATIC_OPTIONS = {
-    "tol": Field("number", "N", positive=True, optional=True,
-                 doc="IPOPT tolerance (default: twice the gradient's round-off floor)"),
+    "tol": Field("number", between=(0.0, 1.0), optional=True,
+                 doc="relative convergence tolerance (docs/statics.md; default 1e-10)"),
     "max_iter": Field("int", positive=True, doc="IPOPT iterations per attempt"),
     "load_steps": Field("int", positive=True, doc="continuation steps of the fallback"),
     "escape_saddle": Field("bool", doc="leave an unstable equilibrium along its negative mode"),

@@ -1,62 +1,86 @@
-"""Static equilibrium: minimise the total potential with IPOPT (exact sparse Hessian from the kernels).
+"""Static equilibrium: full-step Newton first, IPOPT where Newton alone is not enough. User guide: docs/statics.md.
 
-Strategy, from measurements (docs/statics.md): IPOPT's line search creeps along the narrow valley that a large EA/EI
-makes, while full Newton steps converge in a few iterations. So the first attempt accepts every trial step
-(IPOPT's inertia correction still keeps the steps descent directions); if it fails, IPOPT runs again with its
-line search; if that fails, the loads are stepped up (continuation) from the last good point. Termination is
-relative to the gradient's round-off floor, which grows with the element count. A stationary point with a
-negative-curvature direction (e.g. a straight column past the Euler load) is left along that direction.
+1. Newton (statics_newton.py): full steps on the exact tangent, one CasADi call per iteration, from the start
+   point. Measured (bench/STATICS_RESULTS.md) it converges in 8 (Biot) to 18 (Green) iterations on a cantilever at any mesh size,
+   where a line search creeps along the narrow valley that a large EA/EI makes.
+2. If Newton does not converge cleanly (diverges, stalls, exceeds its iterations), Newton again along the load
+   factor in adaptive steps; if that fails too (or a result lies above the start's potential), IPOPT minimises: first accepting every trial step, then with its line search, then stepping the loads up; Newton
+   finishes from IPOPT's point, so every answer passes the same convergence test.
+3. The reduced Hessian's inertia (inertia.py, one sparse factorisation) says whether the point is stable; a
+   saddle (a straight column past its Euler load) is left along its negative-curvature direction.
+
+Convergence is relative (tol): the Newton increment in units of the structure's length and the energy decrement in
+units of the load work (statics_newton.py), not an absolute residual, whose round-off floor grows with the
+element count while the nodal loads shrink.
 """
 from __future__ import annotations
 
+import hashlib
+import pickle
 import time
+from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from . import fields
-from .assembly import Assembly
+from .assembly import LOAD_LABELS, Assembly
 from .checks import check_fields
-from .interrupts import check_stop, interruptible
+from .interrupts import interruptible
 from .mesh import check_stretch
 from .scene import Scene, SceneError
 from .schema import STATIC_OPTIONS
 
+from .inertia import reduced_inertia
+from .statics_newton import NewtonRun, NewtonStatics
+
 SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
-RESOLVABLE = 0.1  # a round-off floor above this fraction of the largest applied force cannot resolve the loads
-UNRESOLVED = 1e4  # largest residual / row round-off floor accepted after the Newton polish (measured <= 80 when right)
-STABILITY_EPS = 100 * np.finfo(float).eps  # negative-curvature threshold, relative to the reduced Hessian's norm
+INTERRUPTED = ("User_Requested_Stop", "User_Interrupt")  # IPOPT swallows SIGINT and returns one of these
+NEWTON_MAX_ITER = 25  # full steps before load steps take over (a cantilever needs 8-20 at any mesh size)
+STEP_TOL = 1e-2  # relative tolerance at intermediate load factors (a start inside the next basin is enough)
+STEP_MAX_ITER = 15  # Newton iterations per load step (from a nearby converged load a few suffice)
+MIN_LOAD_STEP = 1.0 / 4096  # smaller load steps than this: hand over to IPOPT
+CACHE_SIZE = 8  # problems kept per process, by scene fingerprint
 
 
 @dataclass
 class StaticOptions:
-    tol: float | None = None  # IPOPT tol; default relative to the gradient round-off floor
-    max_iter: int = 500
+    """tol: relative convergence tolerance (docs/statics.md): the last Newton update, positions in units of the
+    structure's length and slopes as they are, and the energy decrement in units of the load work, both <= tol.
+    The answer then lies within about tol^2 L of the discrete equilibrium."""
+    tol: float = 1e-10
+    max_iter: int = 500  # iterations per attempt (Newton runs stop at min(this, 60))
     load_steps: int = 8  # continuation steps if the direct solves fail
     escape_saddle: bool = True
     print_level: int = 0
 
     def __post_init__(self):
         check_fields(self, STATIC_OPTIONS, "analysis")  # types and ranges as declared in ancf_sym.schema
+        if self.tol is None:
+            self.tol = 1e-10
 
 
 @dataclass
 class StaticResult:
     status: str
     success: bool
-    iterations: int
+    iterations: int  # Newton + IPOPT iterations, all attempts
     wall_s: float
     x: np.ndarray
     energies: dict
     constraint_forces: dict  # label -> multipliers (exact constraints) or penalty forces
     constraint_violation: float
-    stable: bool | None  # smallest eigenvalue of the reduced Hessian > 0 (None if not checked)
+    stable: bool | None  # reduced Hessian positive definite (inertia of a sparse factorisation); None if unknown
     attempts: list = field(default_factory=list)  # what was tried, in order
     assembly: Assembly | None = None
+    path: str = ""  # what solved it: "start" (nothing loads it), "newton", "ipopt+newton", "ipopt load steps+newton"
+    increment: float = float("nan")  # last Newton update, relative to the structure's length
+    energy_decrement: float = float("nan")  # last -r.dz, relative to the load work
+    residual: float = float("nan")  # max |residual| at the last evaluated point [N]
+    residual_floor: float = float("nan")  # its round-off level, eps x max |K| x span [N]
 
     @property
     def potential(self) -> float:
@@ -90,6 +114,8 @@ class StaticResult:
             "status": self.status, "success": self.success, "iterations": self.iterations, "wall_s": self.wall_s,
             "energies": self.energies, "potential": self.potential if self.success else None,
             "constraint_violation": self.constraint_violation, "stable": self.stable, "attempts": self.attempts,
+            "path": self.path, "increment": self.increment, "energy_decrement": self.energy_decrement,
+            "residual": self.residual, "residual_floor": self.residual_floor,
             "members": {name: {"nodes": self.nodes(name).tolist(), "slopes": self.slopes(name).tolist()}
                         for name in self.assembly.mesh.members},
             "constraint_forces": {k: np.asarray(v).tolist() for k, v in self.constraint_forces.items()},
@@ -97,10 +123,19 @@ class StaticResult:
 
 
 class StaticProblem:
-    """The IPOPT problem of a scene, built once (load factor as a parameter) and solved as often as needed."""
+    """A scene's static problem, built once: the Newton iteration now, IPOPT's problem on first need (load factor
+    as a parameter); solved as often as needed."""
 
     def __init__(self, scene_or_assembly: Scene | Assembly):
         self.asm = scene_or_assembly if isinstance(scene_or_assembly, Assembly) else Assembly(scene_or_assembly)
+        self.newton = NewtonStatics(self.asm)
+        self.S = self.newton.S
+        self.work = self.newton.load_work(self.asm.x0)  # the loads' energy scale W [J]
+        self._nlp = None
+        self._solvers: dict = {}
+
+    # -- IPOPT --------------------------------------------------------------------------------------------------
+    def _build_nlp(self) -> None:
         a = self.asm
         x, lam = ca.MX.sym("x", a.n), ca.MX.sym("load_factor")
         f, grad, hess, g = a.casadi_parts(x, lam)
@@ -108,38 +143,28 @@ class StaticProblem:
         hl = lam_f * hess
         if g.shape[0] and len(a.exact.qrow):
             hl += ca.triu(ca.hessian(ca.dot(lam_g, g), x)[0])
-        self.nlp = {"x": x, "p": lam, "f": f, "g": g}
+        self._nlp = {"x": x, "p": lam, "f": f, "g": g}
         self.grad_f = ca.Function("nlp_grad_f", [x, lam], [f, grad], ["x", "p"], ["f", "grad_f_x"])
         self.hess_lag = ca.Function("nlp_hess_l", [x, lam, lam_f, lam_g], [hl],
                                     ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
-        self.floor = self._roundoff_floor()
-        self._solvers: dict = {}
-
-    def _roundoff_floor(self) -> float:
-        """Gradient round-off floor [N]: machine eps x largest stiffness entry x size of the coordinates.
-
-        Measured on the 3 m cantilever (60..6000 elements) IPOPT's achievable residual sat at 0.4-0.8 of this."""
-        ev = self.asm.evaluate(self.asm.x0)  # penalty springs included: their round-off is as real as the kernels'
+        ev = a.evaluate(a.x0)  # penalty springs included: their round-off is as real as the kernels'
         kmax = float(abs(ev.hessian).max()) if ev.hessian.nnz else 1.0
-        # largest generalized force at the start: IPOPT stops at once if its tolerance is above it
-        self.load_scale = float(np.max(np.abs(ev.gradient))) if ev.gradient.size else 0.0
-        span = float(np.max(np.abs(self.asm.x0))) + 1.0
-        return float(np.finfo(float).eps * kmax * span)
-
-    def tolerance(self, opts: StaticOptions) -> float:
-        """IPOPT tol [N] (unscaled problem): the user's, else twice the round-off floor."""
-        return float(opts.tol) if opts.tol is not None else max(2.0 * self.floor, 1e-14)
+        self.floor = float(np.finfo(float).eps * kmax * (float(np.max(np.abs(a.x0))) + 1.0))
 
     def solver(self, line_search: bool, opts: StaticOptions):
-        key = (line_search, opts.tol, opts.max_iter, opts.print_level)
+        """IPOPT, tolerance at twice the gradient's round-off floor (absolute): it only has to bring the point into
+        Newton's reach; the Newton finish then applies the relative test."""
+        if self._nlp is None:
+            self._build_nlp()
+        key = (line_search, opts.max_iter, opts.print_level)
         if key not in self._solvers:
-            tol = self.tolerance(opts)
+            tol = max(2.0 * self.floor, 1e-14)
             ipopt = {"tol": tol, "dual_inf_tol": tol, "acceptable_tol": 10 * tol, "acceptable_dual_inf_tol": 10 * tol,
                      "acceptable_iter": 3, "max_iter": int(opts.max_iter), "constr_viol_tol": 1e-10,
                      "nlp_scaling_method": "none", "print_level": opts.print_level, "sb": "yes"}
             if not line_search:
                 ipopt["accept_every_trial_step"] = "yes"
-            self._solvers[key] = ca.nlpsol("statics", "ipopt", self.nlp, {
+            self._solvers[key] = ca.nlpsol("statics", "ipopt", self._nlp, {
                 "ipopt": ipopt, "print_time": False, "grad_f": self.grad_f, "hess_lag": self.hess_lag,
                 "error_on_fail": False})
         return self._solvers[key]
@@ -153,11 +178,33 @@ class StaticProblem:
         with interruptible():  # Ctrl-C / SIGTERM inside IPOPT: raised here, not tried again as a failed attempt
             sol = S(**args)
         st = S.stats()
-        check_stop(st["return_status"])
+        if st["return_status"] in INTERRUPTED:  # Ctrl-C during IPOPT: stop, never try the next attempt
+            raise KeyboardInterrupt
         x = np.asarray(sol["x"]).ravel()
         ok = st["return_status"] in SUCCESS and np.all(np.isfinite(x))
         return ok, st["return_status"], int(st["iter_count"]), x, np.asarray(sol["lam_g"]).ravel()
 
+    def _ipopt(self, x, opts, attempts, ceiling):
+        """IPOPT's attempts: full steps, line search, load steps. (ok, x, lam_g, path)."""
+        for line_search in (False, True):
+            ok, status, it, xs, lg = self._run(x, None, 1.0, line_search, opts)
+            attempts.append({"method": "ipopt " + ("line search" if line_search else "full steps"),
+                             "status": status, "iterations": it})
+            if ok and self.asm.energy(xs) > ceiling:  # full steps can jump into another basin and converge there
+                ok = False
+                attempts[-1]["rejected"] = "potential above that of the feasible start point"
+            if ok:
+                return True, xs, lg, "ipopt+newton"
+        xk, lgk = x, None  # continuation from the last converged load level
+        for k in range(1, opts.load_steps + 1):
+            okk, status, it, xs, lg = self._run(xk, lgk, k / opts.load_steps, True, opts)
+            attempts.append({"method": f"ipopt load step {k}/{opts.load_steps}", "status": status, "iterations": it})
+            if not okk:
+                return False, x, None, "ipopt load steps"
+            xk, lgk = xs, lg
+        return True, xk, lgk, "ipopt load steps+newton"
+
+    # -- the solve ----------------------------------------------------------------------------------------------
     def solve(self, opts: StaticOptions | None = None, x0: np.ndarray | None = None) -> StaticResult:
         opts = opts or StaticOptions()
         a = self.asm
@@ -167,174 +214,254 @@ class StaticProblem:
             raise SceneError(f"warm start x0 must be {a.n} finite numbers, got shape {np.shape(x0)}")
         if x0 is not None:
             check_stretch(a.mesh, x, "warm start x0")
-        attempts, iters = [], 0
-        ok, status, lam_g = False, "not run", None
-        if opts.tol is None and self.floor > RESOLVABLE * self.load_scale > 0:
-            # e.g. a penalty factor so large that eps x its stiffness exceeds the loads: IPOPT would stop at once
-            # (or wander) and call the reference state an equilibrium; refuse to pretend.
-            attempts.append({"method": "none", "status": "Round_Off_Floor_Above_Loads", "iterations": 0,
-                             "detail": f"gradient round-off floor {self.floor:.3g} N exceeds {RESOLVABLE:g} x the "
-                                       f"largest applied force {self.load_scale:.3g} N: stiffness (or penalty factor)"
-                                       f" too large for double precision at these loads"})
-            return self._result(False, "Round_Off_Floor_Above_Loads", 0, time.perf_counter() - t0, x, None, None,
-                                attempts)
-        ceiling = self._start_ceiling(x)
-        for line_search in (False, True):
-            ok, status, it, xs, lg = self._run(x, None, 1.0, line_search, opts)
-            iters += it
-            attempts.append({"method": "full steps" if not line_search else "line search", "status": status, "iterations": it})
-            if ok and a.energy(xs) > ceiling:  # full steps can jump into another basin and converge there
-                ok = False
-                attempts[-1]["rejected"] = "potential above that of the feasible start point"
+            x = self.S.full(self.S.reduce(x))  # supports and hinges that fix or identify coordinates hold exactly
+        attempts: list = []
+        work = self.work if self.work > 0 else self.newton.load_work(x)
+        if work == 0.0 or self._unloaded_at_rest(x):  # the start is the equilibrium
+            attempts.append({"method": "none", "status": "Solve_Succeeded", "iterations": 0,
+                             "detail": "no load and no residual force at the start: solved at the start shape"})
+            stable, _ = self.stability(x)
+            return self._result(True, "Solve_Succeeded", 0, time.perf_counter() - t0, x, stable, attempts, "start",
+                                None)
+        ceiling = self._start_ceiling(x, work, opts.tol)
+        run = self.newton.solve(x, opts.tol, min(NEWTON_MAX_ITER, int(opts.max_iter)), work)
+        attempts.append(self._newton_attempt("newton", run))
+        iters, path = run.iterations, "newton"
+        ev = a.evaluate(run.x, hessian=False) if run.converged else None
+        ok = run.converged and ev.energy <= ceiling
+        if run.converged and not ok:
+            attempts[-1]["rejected"] = "potential above that of the feasible start point"
+        if not ok and run.status in ("diverged", "stalled", "max_iter", "not_finite"):
+            run, ev, ok = self._newton_load_steps(x, opts, work, ceiling, attempts)
+            iters += attempts[-1]["iterations"]
+            path = "newton load steps"
+        if not ok and run.status != "round_off":
+            if self._unresolvable(attempts):
+                return self._result(False, "Round_Off_Floor_Above_Loads", iters, time.perf_counter() - t0, x, None,
+                                    attempts, "", None)
+            ok, xs, lg, path = self._ipopt(x, opts, attempts, ceiling)
+            iters += sum(at["iterations"] for at in attempts[1:])
             if ok:
-                x, lam_g = xs, lg
-                break
-        if not ok:  # continuation from the last converged load level
-            xk, lgk = x, None
-            for k in range(1, opts.load_steps + 1):
-                okk, status, it, xs, lg = self._run(xk, lgk, k / opts.load_steps, True, opts)
-                iters += it
-                attempts.append({"method": f"load step {k}/{opts.load_steps}", "status": status, "iterations": it})
-                if not okk:
-                    break
-                xk, lgk = xs, lg
-            else:
-                ok, x, lam_g = True, xk, lgk
+                run = self._finish(xs, lg, opts, work, attempts)
+                iters += run.iterations
+                ok = run.converged
+                ev = None
+        status = "Solve_Succeeded" if ok else self._failure(run, attempts, opts)
+        x_out = run.x if ok else x
         stable = None
         if ok:
-            x, lam_g, worst = self._polish(x, lam_g, attempts)
-            if worst > UNRESOLVED:  # some rows far above their own round-off: not an equilibrium, say so
-                ok, status = False, "Unresolved_Residual"
-                attempts.append({"method": "newton polish", "status": status, "iterations": 0,
-                                 "detail": f"after IPOPT and Newton polishing a residual is {worst:.3g} x its row's "
-                                           f"round-off floor (limit {UNRESOLVED:g}): stiffnesses too far apart (e.g. "
-                                           "a penalty factor too large) for double precision at these loads"})
-        if ok:
-            stable, direction = self.stability(x, lam_g)
+            stable, direction = self.stability(x_out)
             if stable is False and opts.escape_saddle:
-                x, lam_g, status, stable, iters = self._leave_saddle(x, lam_g, status, direction, iters, attempts, opts)
-        wall = time.perf_counter() - t0
-        return self._result(ok, status, iters, wall, x, lam_g, stable, attempts)
+                x_out, status, stable, it = self._leave_saddle(x_out, direction, status, opts, work, attempts)
+                iters += it
+                if direction is not None:
+                    ev = None
+        return self._result(ok, status, iters, time.perf_counter() - t0, x_out, stable, attempts, path,
+                            run if ok else None, ev if ok else None)
 
-    def _kkt_residual(self, x, lam):
-        """(residual of grad f + J^T lam and c(x), KKT matrix, per-row round-off floor) at (x, lam)."""
+    def _newton_load_steps(self, x, opts, work, ceiling, attempts):
+        """Full-step Newton along the load factor with an adaptive step (as Exudyn's static solver adapts its load
+        steps): a converged step doubles the next one, a failed one is retried at a quarter. Intermediate loads only
+        need a point inside the next one's basin (tol STEP_TOL); a Newton iteration costs ~50 us at 60 elements,
+        so even a hundred of them undercut one IPOPT run. (run, evaluation, ok)."""
+        done, step, run, n_runs, its = 0.0, 0.5, None, 0, 0
+        while done < 1.0:
+            target = min(1.0, done + step)
+            final = target >= 1.0
+            run = self.newton.solve(x, opts.tol if final else max(opts.tol, STEP_TOL),
+                                    min(STEP_MAX_ITER, int(opts.max_iter)), work, load=target)
+            n_runs += 1
+            its += run.iterations
+            if run.converged:
+                x, done, step = run.x, target, 2.0 * step
+            else:
+                step *= 0.25
+                if step < MIN_LOAD_STEP:
+                    break
+        attempts.append({"method": "newton load steps", "status": run.status if done < 1.0 else "converged",
+                         "iterations": its, "runs": n_runs, "load_reached": done,
+                         "increment": run.increment, "energy_decrement": run.energy_decrement})
+        if done < 1.0:
+            return run, None, False
+        ev = self.asm.evaluate(run.x, hessian=False)
+        if ev.energy > ceiling:
+            attempts[-1]["rejected"] = "potential above that of the feasible start point"
+            return run, None, False
+        return run, ev, True
+
+    def _unloaded_at_rest(self, x: np.ndarray) -> bool:
+        """No load term (gravity, forces, moments) in the scene and the start's residual at its round-off level
+        (eps x max|K| x span): nothing loads it and nothing is strained."""
         a = self.asm
+        if np.any(self.S.f_lin) or np.any(a.Q) or any(mk.term.label in LOAD_LABELS for mk in a.mapped):
+            return False
         ev = a.evaluate(x)
-        H, r = ev.hessian.tocsc(), ev.gradient.copy()
-        span = float(np.max(np.abs(x))) + 1.0
-        floor = np.finfo(float).eps * span * np.maximum(abs(H).max(axis=1).toarray().ravel(), 1e-300)
-        if not a.exact.m:
-            return r, H, floor
-        J = a.exact.jacobian(x)
-        r = np.concatenate([r + J.T @ lam, a.exact.value(x)])
-        if len(a.exact.qrow):
-            H = H + a.exact.hessian(lam)
-        K = sp.bmat([[H, J.T], [J, None]], format="csc")
-        cfloor = np.finfo(float).eps * span * np.maximum(abs(J).max(axis=1).toarray().ravel(), 1e-300)
-        return r, K, np.concatenate([floor, cfloor])
+        r = self.S.reduce_force(ev.gradient)
+        kmax = float(abs(ev.hessian).max()) if ev.hessian.nnz else 0.0
+        return float(np.max(np.abs(r), initial=0.0)) <= 100 * np.finfo(float).eps * kmax * self.S.span
 
-    def _polish(self, x, lam_g, attempts, steps: int = 4):
-        """Newton steps on the KKT system from IPOPT's point. IPOPT has one absolute tolerance, twice the round-off
-        floor of the STIFFEST row; rows many orders softer (bending next to a 1e10 EA/L penalty clamp) can stay
-        unresolved: a 10 N transverse tip load below that tolerance came back as Solve_Succeeded 0.87 mm off.
-        A step is kept only while it lowers the worst residual measured against each row's own round-off floor."""
-        a = self.asm
-        n = a.n
-        lam = np.zeros(a.exact.m) if lam_g is None else np.asarray(lam_g, float).ravel()
-        try:
-            r, K, floor = self._kkt_residual(x, lam)
-            worst = float(np.max(np.abs(r) / floor)) if r.size else 0.0
-            moved, k = 0.0, 0
-            for k in range(steps):
-                if worst <= 10.0:
-                    break
-                d = splu(K).solve(-r)
-                if not np.all(np.isfinite(d)):
-                    break
-                xn, ln = x + d[:n], lam + d[n:]
-                rn, Kn, fn = self._kkt_residual(xn, ln)
-                wn = float(np.max(np.abs(rn) / fn))
-                if not wn < worst:
-                    break
-                moved = max(moved, float(np.max(np.abs(d[:n]))))
-                x, lam, r, K, floor, worst = xn, ln, rn, Kn, fn, wn
-        except (RuntimeError, ValueError):  # singular KKT matrix (redundant constraints): keep the last point
-            return x, (lam if lam_g is not None else None), 0.0
-        if moved > 1e-12 * self._length_scale():
-            attempts[-1]["polish"] = {"newton_steps": k, "max_move": moved, "residual_over_floor": worst}
-        return x, (lam if lam_g is not None else None), worst
+    def _unresolvable(self, attempts: list) -> bool:
+        """Newton failed and IPOPT's absolute tolerance (twice the gradient's round-off floor, which it cannot go
+        below) lies above a tenth of the largest start residual: IPOPT would stop at once (or wander) and call the
+        start an equilibrium. Refuse, with the reason."""
+        if self._nlp is None:
+            self._build_nlp()
+        start = self.S.reduce_force(self.asm.evaluate(self.asm.x0, hessian=False).gradient)
+        load = float(np.max(np.abs(start))) if start.size else 0.0
+        if not self.floor > 0.1 * load:
+            return False
+        attempts.append({"method": "none", "status": "Round_Off_Floor_Above_Loads", "iterations": 0,
+                         "detail": f"Newton did not converge and the gradient's round-off floor {self.floor:.3g} N "
+                                   f"exceeds a tenth of the largest applied force {load:.3g} N: IPOPT cannot resolve "
+                                   "these loads (stiffness or penalty factor too large for double precision)"})
+        return True
 
-    def _leave_saddle(self, x, lam_g, status, direction, iters, attempts, opts):
-        """Restart from x nudged along the negative-curvature direction (full steps first, then line search);
-        keep the first converged point of lower potential."""
+    def _newton_attempt(self, method: str, run: NewtonRun) -> dict:
+        return {"method": method, "status": run.status, "iterations": run.iterations,
+                "increment": run.increment, "energy_decrement": run.energy_decrement}
+
+    def _finish(self, x, lam_g, opts, work, attempts) -> NewtonRun:
+        """Newton from IPOPT's point (with its multipliers of the rows Newton keeps) to the relative test."""
+        lam = np.asarray(lam_g)[self.S.part.rows] if lam_g is not None and self.S.mc else None
+        run = self.newton.solve(x, opts.tol, min(NEWTON_MAX_ITER, int(opts.max_iter)), work, lam=lam)
+        attempts.append(self._newton_attempt("newton finish", run))
+        return run
+
+    def _failure(self, run: NewtonRun, attempts: list, opts: StaticOptions) -> str:
+        """Status of a failed solve; Newton's updates stalled above tol mean round-off, not a lack of effort."""
+        if run.status == "round_off":
+            attempts.append({"method": "none", "status": "Round_Off_Floor_Above_Loads", "iterations": 0,
+                             "detail": f"Newton's updates stopped contracting at {run.increment:.3g} L (tol "
+                                       f"{opts.tol:g}): the solution's round-off floor lies above the tolerance; the "
+                                       f"residual {run.residual:.3g} N against its round-off level "
+                                       f"{run.residual_floor:.3g} N: stiffness (or penalty factor) too large for "
+                                       "double precision at these loads"})
+            return "Round_Off_Floor_Above_Loads"
+        last = attempts[-1]["status"]
+        return last if last not in ("converged", "max_iter", "diverged", "not_finite", "stalled") else "Unresolved_Residual"
+
+    def _leave_saddle(self, x, direction, status, opts, work, attempts):
+        """Restart from x nudged along the negative-curvature direction (IPOPT full steps, then line search, then
+        the Newton finish); keep the first converged point of lower potential. (x, status, stable, iterations)."""
         a = self.asm
         e0 = a.energy(x)
+        iters = 0
+        if direction is None:
+            return x, status, False, 0
         for scale in (1e-3, 1e-2, 1e-1):
             xp = x + scale * self._length_scale() * direction
             for line_search in (False, True):
-                ok, st, it, xs, lg = self._run(xp, lam_g, 1.0, line_search, opts)
+                ok, st, it, xs, lg = self._run(xp, None, 1.0, line_search, opts)
                 iters += it
                 attempts.append({"method": f"leave saddle ({scale:g} L, {'line search' if line_search else 'full steps'})",
                                  "status": st, "iterations": it})
                 if ok and a.energy(xs) < e0 - 1e-12 * abs(e0):
-                    stable, _ = self.stability(xs, lg)
-                    return xs, lg, st, stable, iters
-        return x, lam_g, status, False, iters
+                    run = self._finish(xs, lg, opts, work, attempts)
+                    iters += run.iterations
+                    if run.converged and a.energy(run.x) < e0 - 1e-12 * abs(e0):
+                        stable, _ = self.stability(run.x)
+                        return run.x, st if st == "Solve_Succeeded" else "Solve_Succeeded", stable, iters
+        return x, status, False, iters
 
-    def _start_ceiling(self, x: np.ndarray) -> float:
+    def _start_ceiling(self, x: np.ndarray, work: float, tol: float) -> float:
         """Highest potential an accepted solution may have: that of the start point, if it satisfies the exact
-        constraints (a minimiser started there cannot rightly end higher), plus the energy round-off
-        (gradient floor x length scale); +inf for an infeasible start."""
+        constraints (a minimiser started there cannot rightly end higher), plus tol x the load work; +inf for an
+        infeasible start."""
         a = self.asm
+        reference = np.array_equal(x, a.x0)
+        if reference and hasattr(self, "_e_ref"):
+            return self._e_ref + tol * work
         if a.exact.m and np.max(np.abs(a.exact.value(x))) > 1e-9 * self._length_scale():
-            return np.inf
-        return a.energy(x) + 10 * self.floor * self._length_scale()
+            e = np.inf
+        else:
+            e = a.energy(x)
+        if reference:
+            self._e_ref = e
+        return e + tol * work
 
     def _length_scale(self) -> float:
         return max(mm.member.length for mm in self.asm.mesh.members.values())
 
-    def stability(self, x: np.ndarray, lam_g: np.ndarray | None = None,
-                  dense_limit: int = 1500) -> tuple[bool | None, np.ndarray | None]:
-        """Is the reduced Hessian of the Lagrangian (on the tangent space of the exact constraints) positive definite?
-        lam_g: IPOPT's constraint multipliers, for the curvature of the bilinear (rigid-joint) constraints.
-
-        Returns (stable, direction of most negative curvature in full coordinates)."""
+    def multipliers(self, x: np.ndarray, gradient: np.ndarray | None = None) -> np.ndarray:
+        """Lagrange multipliers of every exact constraint row at an equilibrium x: J^T lam = -grad Pi, least squares
+        on the coordinates the rows touch (exact at an equilibrium; minimum norm for dependent rows)."""
         a = self.asm
-        if a.n > dense_limit:
-            return None, None
-        H = a.evaluate(x).hessian.toarray()
-        if lam_g is not None and a.exact.m and len(a.exact.qrow):
-            H += a.exact.hessian(np.asarray(lam_g, float)).toarray()
-        if a.exact.m:
-            J = a.exact.jacobian(x).toarray()
-            Z = sla.null_space(J)
-        else:
-            Z = np.eye(a.n)
-        Hr = Z.T @ H @ Z
-        w, V = np.linalg.eigh(0.5 * (Hr + Hr.T))
-        scale = max(abs(w).max(), 1e-300)
-        d = Z @ V[:, 0]
-        # Negative beyond the eigenvalues' round-off floor eps ||Hr||: an exactly zero mode (a free rotation about a
-        # pin) computed within 0.2 eps ||Hr|| for EA L^2/EI = 1e5..1e10 and 8..300 elements, while a column past its
-        # Euler load has an eigenvalue of only -4e-11 ||Hr|| (EA L^2/EI = 1e5, 32 elements, 1.01 P_cr) down to
-        # -4e-14 ||Hr|| (1e8, 32 elements): the old threshold -1e-10 ||Hr|| called those straight columns stable.
-        return bool(w[0] > -STABILITY_EPS * scale), d / np.max(np.abs(d))
+        if not a.exact.m:
+            return np.zeros(0)
+        g = a.evaluate(x, hessian=False).gradient if gradient is None else gradient
+        if not hasattr(self, "_mult_cols"):
+            self._mult_cols = np.unique(np.r_[a.exact.A.tocsr().indices, a.exact.qi, a.exact.qj]).astype(np.int64)
+            self._mult_J = a.exact.A.tocsc()[:, self._mult_cols].toarray() if not len(a.exact.qrow) else None
+        cols = self._mult_cols
+        Jd = self._mult_J if self._mult_J is not None else a.exact.jacobian(x).tocsc()[:, cols].toarray()
+        if Jd.size > 4e6:  # many rows: sparse least squares
+            return sp.linalg.lsqr(a.exact.jacobian(x).T, -g, atol=1e-15, btol=1e-15)[0]
+        try:  # normal equations (m x m): the rows of supports and joints are independent
+            return np.linalg.solve(Jd @ Jd.T, -(Jd @ g[cols]))
+        except np.linalg.LinAlgError:  # dependent rows: the minimum-norm multipliers
+            return np.linalg.lstsq(Jd.T, -g[cols], rcond=None)[0]
 
-    def _result(self, ok, status, iters, wall, x, lam_g, stable, attempts) -> StaticResult:
+    def stability(self, x: np.ndarray, lam_g: np.ndarray | None = None) -> tuple[bool | None, np.ndarray | None]:
+        """Is the reduced Hessian of the Lagrangian (on the tangent space of the exact constraints) positive definite?
+        From the inertia of one sparse factorisation (inertia.py), at every size. lam_g: multipliers of every exact
+        row (default: from the gradient), for the curvature of the bilinear (rigid-joint) constraints.
+
+        Returns (stable, direction of most negative curvature in full coordinates, max-norm 1)."""
+        S = self.S
+        if S.mc:
+            lam = self.multipliers(x) if lam_g is None else np.asarray(lam_g, float)
+            S.lam[:] = lam[S.part.rows]
+        S.x[:] = S.reduce(x)
+        S.p[:] = -S.f_lin
+        S.cm[:], S.cc[:], S.kc[:] = 0.0, 0.0, 1.0
+        K = S.jacobian()
+        nf = S.nf
+        H, J = (K[:nf, :nf], K[nf:, :nf]) if S.mc else (K, None)
+        inertia = reduced_inertia(H, J)
+        d = None if inertia.direction is None else S.full_v(inertia.direction)
+        return inertia.stable, (d / np.max(np.abs(d)) if d is not None and np.any(d) else None)
+
+    def _result(self, ok, status, iters, wall, x, stable, attempts, path, run, ev=None) -> StaticResult:
         a = self.asm
         if not ok:  # never hand NaN to the caller: report the start point's energies with the failure
             x = x if np.all(np.isfinite(x)) else a.x0
-        ev = a.evaluate(x, hessian=False)
+        ev = ev or a.evaluate(x, hessian=False)
         forces: dict[str, list] = {}
-        if lam_g is not None and a.exact.m:
-            for lbl, v in zip(a.exact.labels, lam_g):
+        if ok and a.exact.m:
+            for lbl, v in zip(a.exact.labels, self.multipliers(x, ev.gradient)):
                 forces.setdefault(lbl, []).append(float(v))
         if a.penalty is not None:
             c = a.penalty.value(x)
             for lbl, k, cv in zip(a.penalty.labels, a.penalty.k, c):
                 forces.setdefault(lbl, []).append(float(k * cv))
         viol = float(np.max(np.abs(a.constraints.value(x)))) if a.constraints.m else 0.0
-        return StaticResult(status, ok, iters, wall, x, ev.energies, forces, viol, stable, attempts, a)
+        res = StaticResult(status, ok, iters, wall, x, ev.energies, forces, viol, stable, attempts, a,
+                           path if ok else "")
+        if run is not None:
+            res.increment, res.energy_decrement = run.increment, run.energy_decrement
+            res.residual, res.residual_floor = run.residual, run.residual_floor
+        return res
+
+
+_CACHE: "OrderedDict[str, StaticProblem]" = OrderedDict()
+
+
+def problem_for(scene: Scene) -> StaticProblem:
+    """The scene's StaticProblem, built once per scene content (fingerprint of the scene's data) and reused: a scene
+    rebuilt with the same members, supports and loads skips the assembly and the Newton graph."""
+    try:
+        key = hashlib.sha1(pickle.dumps(scene, protocol=4)).hexdigest()
+    except (pickle.PicklingError, TypeError, AttributeError):
+        return StaticProblem(scene)
+    prob = _CACHE.get(key)
+    if prob is None:
+        prob = StaticProblem(scene)
+        _CACHE[key] = prob
+        if len(_CACHE) > CACHE_SIZE:
+            _CACHE.popitem(last=False)
+    else:
+        _CACHE.move_to_end(key)
+    return prob
 
 
 def solve_static(scene: Scene | Assembly, options: StaticOptions | None = None,
@@ -345,4 +472,5 @@ def solve_static(scene: Scene | Assembly, options: StaticOptions | None = None,
         scene.validate_for_statics()
     opts = options or StaticOptions(**kw)
     x0 = warm_start.x if isinstance(warm_start, StaticResult) else warm_start
-    return StaticProblem(scene).solve(opts, x0)
+    prob = problem_for(scene) if isinstance(scene, Scene) else StaticProblem(scene)
+    return prob.solve(opts, x0)

@@ -4,7 +4,12 @@ Points: every member sampled along its deformed centreline (StaticResult.along, 
 in 3D (z = 0 for planar scenes). Cells: one block of 2-point line cells per member, chained in order (meshio has
 no poly-line type; ParaView draws the chain as the member's curve). Point data: s [m] (material coordinate),
 strain [-] (|r_x| - 1), curvature [1/m], displacement [m] (from the reference; "Warp By Vector" with factor -1
-shows the undeformed state), member (index in scene order). Cell data: member.
+shows the undeformed state), member (index in scene order), and the cross-section's size (section_size): radius,
+width, thickness [m]. Cell data: member.
+
+Members at their true size in ParaView: select the .vtu (or the dynamics series.pvd), add the Tube filter, set
+Scalars = radius and Vary Radius = By Absolute Scalar (Radius Factor is then ignored); Number of Sides 4 draws an
+equal-area square tube.
 """
 from __future__ import annotations
 
@@ -14,7 +19,28 @@ import meshio
 import numpy as np
 
 from .plots import reference
+from .mesh import Mesh
+from .scene import Member
 from .statics import StaticResult
+
+
+def section_size(member: Member, n: int) -> dict[str, np.ndarray]:
+    """Point data of a member's cross-section at its n sample points [m]: radius = sqrt(area / pi), the radius of the
+    round section of the same area (exact for a circle), which ParaView's Tube filter takes as an absolute radius;
+    width and thickness = the section's b and h where it gives them (Section.rectangle, beam3d sections;
+    Section.circle gives its equal-area square), else the round section's diameter."""
+    sec = member.section
+    radius = float(np.sqrt(sec.area / np.pi))
+    width = sec.b if sec.b is not None else 2 * radius
+    thickness = sec.h if sec.h is not None else 2 * radius
+    return {"radius": np.full(n, radius), "width": np.full(n, float(width)), "thickness": np.full(n, float(thickness))}
+
+
+def section_point_data(mesh: Mesh, per_element: int = 8) -> dict[str, np.ndarray]:
+    """section_size of every member at the points fields.sample gives (per_element per element, shared ends once),
+    members in mesh order: the same in every frame of a time series."""
+    parts = [section_size(mm.member, len(mm.elem_nodes) * per_element + 1) for mm in mesh.members.values()]
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
 def static_mesh(result: StaticResult, per_element: int = 8) -> meshio.Mesh:
@@ -36,6 +62,7 @@ def static_mesh(result: StaticResult, per_element: int = 8) -> meshio.Mesh:
         n0 += len(r)
     point_data = {k: np.concatenate(v) for k, v in data.items()}
     point_data["member"] = point_data["member"].astype(np.int32)
+    point_data.update(section_point_data(result.assembly.mesh, per_element))
     return meshio.Mesh(np.vstack(pts), cells, point_data=point_data,
                        cell_data={"member": [c.astype(np.int32) for c in cell_member]})
 

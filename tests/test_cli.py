@@ -38,7 +38,7 @@ def test_run_writes_json_png_vtu_then_a_failed_run_keeps_them(tmp_path):
     assert set(doc["energies"]) == {"axial", "bending", "gravity"}
     assert doc["potential"] == sum(doc["energies"].values())
     assert abs(doc["potential"] + 11.493) < 2e-3
-    assert doc["solver"]["iterations"] > 0 and doc["solver"]["attempts"][0]["method"] == "full steps"
+    assert doc["solver"]["iterations"] > 0 and doc["solver"]["attempts"][0]["method"] == "newton"
     assert 0 < doc["wall_s"]["solve"] <= doc["wall_s"]["total"] < 5.0
     assert doc["constraint_violation"] < 1e-9
     nodes = np.array(doc["members"]["beam"]["nodes"])

@@ -206,7 +206,7 @@ def test_straight_bar_under_tension_has_the_exact_elongation(axial, bending):
 def test_straight_beam_transverse_tip_load_from_the_first_iteration(axial, dim):
     """The first iteration starts in the exactly straight state, where a curvature with |r_xx| in a denominator
     would be 0/0: the assembled gradient and Hessian there are finite and the first attempt (full Newton steps)
-    converges. Tip load with P L^2/EI = 3e-3: the elastica gives w = P L^3/(3 EI) (1 - 1.03e-6) (examples/elastica.py,
+    converges (full Newton steps, the first path). Tip load with P L^2/EI = 3e-3: the elastica gives w = P L^3/(3 EI) (1 - 1.03e-6) (examples/elastica.py,
     agrees with the shooting reference to 1e-14); cubic elements are exact for the linear problem, the axial strain
     adds P/EA-order terms (1e-8 relative). Measured deviation from the elastica: < 3e-9 relative; bound 1e-7.
     cable3d: the load skew to the coordinate axes, (0, -0.6, 0.8) P; isotropic bending gives the same deflection."""
@@ -224,7 +224,7 @@ def test_straight_beam_transverse_tip_load_from_the_first_iteration(axial, dim):
     assert np.all(np.isfinite(ev.gradient)) and np.all(np.isfinite(ev.hessian.data)), \
         "non-finite force or tangent stiffness in the straight state"
     r = solve_static(a)
-    assert r.success and r.attempts[0]["method"] == "full steps" and r.attempts[0]["status"].startswith("Solve"), \
+    assert r.success and r.path == "newton" and r.attempts[0]["status"] == "converged", \
         r.attempts
     w_ref = el.elastica_elliptic(alpha)[0] * L2
     w = float(r.tip("c")[1:] @ direction[1:])  # deflection along the load
@@ -487,36 +487,41 @@ def penalty_sweep(kind: str, exponents=range(0, 17)) -> list[dict]:
 
 # kind: (compliance constant C [m] with its bounds, factors that must converge to C / factor, last converging factor)
 PENALTY_LAW = {
-    # clamp: (clamp moment 10 N m / EI) x L + 1e4 N / EA ~ 1.2e-3 m; measured 1.110e-3 .. 1.187e-3 for 1e2 .. 1e11
-    # (at 1e0, 1e1 the clamp's give is still geometrically nonlinear: 0.64e-3, 0.81e-3)
-    "clamp": ((1.0e-3, 1.3e-3), (1e2, 1e11), 1e11),
-    # hinge: the joint gap |F| / (factor EA) = 6.366e-4 m / factor; measured 6.354e-4 .. 6.366e-4 for 1e0 .. 1e10
-    "hinge": ((6.30e-4, 6.40e-4), (1e0, 1e10), 1e10),
+    # clamp: (clamp moment 10 N m / EI) x L + 1e4 N / EA ~ 1.2e-3 m; measured 1.110e-3 .. 1.191e-3 for 1e2 .. 1e11
+    # (at 1e0, 1e1 the clamp's give is still geometrically nonlinear: 0.64e-3, 0.81e-3). The penalty rows fix the
+    # clamped node's own coordinates: Newton resolves them at every factor up to 1e16.
+    "clamp": ((1.0e-3, 1.3e-3), (1e2, 1e16), 1e16),
+    # hinge: the joint gap |F| / (factor EA) = 6.366e-4 m / factor; measured 6.350e-4 .. 6.366e-4 for 1e0 .. 1e10
+    "hinge": ((6.30e-4, 6.40e-4), (1e0, 1e16), 1e11),
 }
+RESOLVED = 100 * np.finfo(float).eps * 1.0  # [m]: 100 x the spacing of doubles at the 1 m tip (see below)
+DEFAULT_TOL_L = 1e-10 * 1.0  # [m]: the default relative tol x the 1 m structure: what a success promises
 
 
 @pytest.mark.parametrize("kind", ["clamp", "hinge"])
 def test_penalty_error_falls_as_one_over_the_factor(kind):
-    """Where the penalty converges its error is the support's / joint's compliance, C / factor (PENALTY_LAW), over
-    ten decades. Beyond, the solver must refuse, never return a wrong success: from 1e12 the round-off floor
-    eps x penalty stiffness x span exceeds a tenth of the largest load (Round_Off_Floor_Above_Loads); the hinge at
-    1e11 ends Unresolved_Residual (IPOPT said Solved_To_Acceptable_Level 0.13 mm off; the Newton polish could not
-    resolve the soft rows). Before the polish after IPOPT (statics.py) the clamp at 1e10 and 1e11 came back
-    Solve_Succeeded 0.87 mm off: the 10 N transverse load lay below IPOPT's single absolute tolerance (2 x the
-    round-off floor of the stiffest, penalty row: 140 N at 1e10). Table: docs/hard_cases.md."""
+    """Where the penalty converges its error is the support's / joint's compliance, C / factor (PENALTY_LAW). The law
+    is checked wherever C / factor is at least 100 x the spacing of doubles at the tip (eps x 1 m): coordinates of a
+    1 m structure are represented to eps x 1 m, so round-off then moves the error by at most ~1 % (the law's band
+    is +-8 %). Beyond that a success must still lie within C / factor plus the solver's promise, tol x L, of the
+    exact joint. The clamp's penalty rows act on the clamped node alone: Newton resolves them at every factor. The
+    hinge from 1e12 is refused (Round_Off_Floor_Above_Loads): Newton's first step from the straight start, where
+    the hinged member's rotation has no stiffness yet, flies off (8e9 L), and IPOPT, the fallback, cannot go below
+    its absolute tolerance, twice eps x penalty stiffness x span (> a tenth of the 1e4 N load). Earlier bugs: a
+    success 0.87 mm off (clamp 1e10: IPOPT's tolerance above the 10 N load); a 1 % band on a 6.5e-14 m (round-off)
+    hinge error at 1e10 that failed on another x86-64 machine. Table: docs/hard_cases.md."""
     (lo, hi), (f0, f1), last = PENALTY_LAW[kind]
     for row in penalty_sweep(kind):
         f = row["factor"]
         if f <= last:
             assert row["success"], f"{kind} penalty factor {f:g} did not converge: {row}"
-        if f0 <= f <= f1:
+        if f0 <= f <= f1 and lo / f >= RESOLVED:
             assert lo < row["error_x_factor"] < hi, f"{kind} compliance (tip error x factor) at {f:g}: {row}"
-        if f >= 1e12:
+        if f > last:
             assert row["status"] == "Round_Off_Floor_Above_Loads", f"{kind} penalty factor {f:g}: {row}"
         if row["success"]:
-            assert row["tip_error_m"] < 2 * hi / f, f"{kind}: converged to a wrong tip position at factor {f:g}: {row}"
-        else:
-            assert row["status"] in ("Round_Off_Floor_Above_Loads", "Unresolved_Residual"), row
+            assert row["tip_error_m"] < 2 * hi / f + DEFAULT_TOL_L, \
+                f"{kind}: converged to a wrong tip position at factor {f:g}: {row}"
 
 
 # -- 8. a long Newmark run and HHT's dissipation ---------------------------------------------------------------------
@@ -692,12 +697,12 @@ def test_ten_thousand_element_catenary():
     assert err < 1e-9, f"10 000-element catenary off the elastic catenary by {err:.3g} m"
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "10 000-element cantilever WITH bending under gravity (paper 000's 3 m beam): refused with "
-    "Round_Off_Floor_Above_Loads; the gradient round-off floor eps x max|K| x span = 7.8e-3 N (max|K| ~ 12 EI/l^3 "
-    "grows like n^3) exceeds a tenth of the per-node weight 1.7e-3 N, so IPOPT's single absolute tolerance cannot "
-    "resolve the load (3000 elements converge in 17 iterations, potential -11.493124937 J)"))
 def test_ten_thousand_element_cantilever_with_bending():
+    """10 000-element cantilever WITH bending under gravity (paper 000's 3 m beam). Once refused: the gradient
+    round-off floor eps x max|K| x span (7.8e-3 N; max|K| ~ 12 EI/l^3 grows like n^3) exceeds the per-node weight
+    1.7e-3 N, so no absolute residual tolerance can be met. The relative test on Newton's increments converges.
+    Reference potential: 3000 elements, -11.493124937 J; the discretisation error at 3000 is below 1e-9 J
+    (fourth-order elements: 2.6e-6 J at 60), so 1e-8 J bounds the difference."""
     s = Scene(dim=2, gravity=(0, -G))
     s.member("beam", [(0, 0), (3, 0)], 10_000, axial="decoupled", **ZHANG)
     s.clamp("beam", "start")
@@ -709,7 +714,7 @@ def test_ten_thousand_element_cantilever_with_bending():
 if __name__ == "__main__":  # the penalty tables of docs/hard_cases.md: python tests/test_hard_cases.py
     for kind in ("clamp", "hinge"):
         print(f"\n{kind}:\n")
-        print("| penalty factor | status | IPOPT iterations | tip error [m] | error x factor [m] | violation [m] "
+        print("| penalty factor | status | iterations | tip error [m] | error x factor [m] | violation [m] "
               "| wall [s] |")
         print("|---|---|---|---|---|---|---|")
         for row in penalty_sweep(kind):

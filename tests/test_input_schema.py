@@ -32,7 +32,7 @@ def test_each_table_declares_exactly_its_class_fields(cls, table):
     (lambda: Material(E=1e9, density=1e3, poisson=np.float32(0.5)), "material.poisson", "(-1, 0.5), got 0.5"),
     (lambda: Material(E=1e9, density=1e3, G=1e8, poisson=0.3), "material", "G or poisson, not both"),
     (lambda: StaticOptions(max_iter="50"), "analysis.max_iter", "positive integer, got '50'"),
-    (lambda: StaticOptions(tol=np.float64(0.0)), "analysis.tol", "must be positive, got 0.0"),
+    (lambda: StaticOptions(tol=np.float64(1.0)), "analysis.tol", "must lie in (0, 1), got 1.0"),
     (lambda: StaticOptions(escape_saddle=1), "analysis.escape_saddle", "true or false, got 1"),
     (lambda: DynamicOptions(dt="1e-3", t_end=1.0), "analysis.dt", "must be a number, got '1e-3'"),
     (lambda: DynamicOptions(dt=1e-3, t_end="1"), "analysis.t_end", "must be a number, got '1'"),

@@ -221,7 +221,7 @@ BAD = [  # (mutation of t_frame.toml, field path expected at the start of the me
     (_set("loads.0.type", None), "loads[0].type", "missing"),
     (_set("loads.0.type", "pressure"), "loads[0].type", "force | distributed | moment | tension"),
     (_set("analysis.max_iter", 0), "analysis.max_iter", "positive integer, got 0"),
-    (_set("analysis.tol", -1e-3), "analysis.tol", "positive"),
+    (_set("analysis.tol", -1e-3), "analysis.tol", "(0, 1), got -0.001"),
     (_set("analysis.tolerance", 1e-3), "analysis.tolerance", "unknown key"),
     (_set("analysis.type", "modal"), "analysis.type", "statics | dynamics"),
     (_set("analysis", {"type": "dynamics", "dt": math.nan}), "analysis.dt", "finite"),

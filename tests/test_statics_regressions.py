@@ -48,28 +48,10 @@ def test_full_steps_landing_above_the_start_are_rejected():
     r = solve_static(s)
     assert r.success and r.potential < 0, (r.attempts, r.energies)
     assert r.potential == pytest.approx(-6.41, abs=0.01)
-    assert r.attempts[0].get("rejected") and r.attempts[-1]["method"] == "line search"
-
-
-def test_round_off_floor_above_the_loads_is_refused_not_reported_as_equilibrium():
-    """3 m cantilever under gravity with 6000 elements: the gradient round-off floor (eps x largest stiffness x span,
-    1.7e-3 N; bending stiffness grows as n^3) is 0.6 of the largest nodal load (2.8e-3 N). IPOPT's tolerance would
-    be above the start's residual and it stopped after 0 iterations calling the straight beam an equilibrium; now
-    the solve is refused with a status saying why. 3000 elements (floor 0.04 of the load) still converge."""
-    from ancf_sym import Material, Scene, Section, solve_static
-
-    def cantilever(n):
-        s = Scene(dim=2, gravity=(0, -9.81))
-        s.member("beam", [(0, 0), (3, 0)], n, Material(E=20e9, density=7200), Section(area=7.854e-5, I=4.909e-10),
-                 axial="biot")
-        s.clamp("beam", "start")
-        return solve_static(s)
-
-    r = cantilever(6000)
-    assert not r.success and r.status == "Round_Off_Floor_Above_Loads" and r.iterations == 0
-    assert "round-off floor" in r.attempts[-1]["detail"]
-    ok = cantilever(3000)
-    assert ok.success and abs(ok.tip("beam")[1] + 2.366986) < 1e-5
+    methods = [a["method"] for a in r.attempts]
+    full = r.attempts[methods.index("ipopt full steps")]
+    assert full.get("rejected") or full["status"] not in ("Solve_Succeeded", "Solved_To_Acceptable_Level"), r.attempts
+    assert "ipopt line search" in methods and r.path == "ipopt+newton", r.attempts
 
 
 def test_joint_penalty_takes_separate_position_and_slope_factors():

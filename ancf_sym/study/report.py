@@ -1,6 +1,6 @@
 """A study's report: results.csv, report.md (table, convergence rates, the cheapest setting reaching the target)
-and two figures: error vs wall time (log-log, Pareto front marked) and error vs the refinement axis with the
-observed convergence rate."""
+and the figures: error vs wall time (log-log; the Pareto front, the target, the answer and the reference's own error
+marked) and error vs the refinement axis with the observed convergence rate."""
 from __future__ import annotations
 
 import csv
@@ -98,37 +98,135 @@ def write_csv(path: Path, study: Study, records: list[dict]) -> list[str]:
     return cols
 
 
-def write_plots(out: Path, study: Study, records: list[dict], target: float, rates: dict) -> list[str]:
+def encodings(study: Study) -> dict[str, str]:
+    """Which axis each visual channel of error_vs_time.png shows: colour = the first categorical axis (integrator,
+    strain, method, element), marker = the refinement axis (n), then marker size and fill for the axes left (a study
+    with more axes folds the rest into the colour's label)."""
+    names = [a.name for a in study.axes]
+    colour = next((a.name for a in study.axes if a.kind is str and a.name != study.refine_axis), None)
+    marker = study.refine_axis if study.refine_axis in names else None
+    rest = [n for n in names if n not in (colour, marker)]
+    if colour is None and rest:
+        colour = rest.pop(0)
+    if marker is None and rest:
+        marker = rest.pop(0)
+    out = {"colour": colour, "marker": marker}
+    for channel in ("size", "fill"):
+        if rest:
+            out[channel] = rest.pop(0)
+    out["colour_extra"] = rest  # shown in the colour legend's labels
+    return {k: v for k, v in out.items() if v is not None}
+
+
+MARKERS = "osD^v<>phX*"
+SIZES = (5, 7, 9, 11, 13, 15)
+FILLS = ("full", "none", "left", "bottom")
+
+
+def _values(study: Study, axis: str, records: list[dict]) -> list:
+    """The axis' values present in the records, in the study's declared order."""
+    present = {r[axis] for r in records}
+    declared = [v for v in study.axis(axis).values if v in present]
+    return declared + sorted(present - set(declared), key=str)
+
+
+def _legend(ax, handles: list, title: str, y: float):
+    """A legend outside the axes on the right, its top at height y (axes fraction); returns it (kept on the axes)."""
+    leg = ax.legend(handles=handles, title=title, loc="upper left", bbox_to_anchor=(1.02, y), fontsize=7,
+                    title_fontsize=8, frameon=False, borderaxespad=0.0)
+    ax.add_artist(leg)
+    return leg
+
+
+def write_plots(out: Path, study: Study, records: list[dict], target: float, rates: dict, floor: float = 0.0,
+                answer: dict | None = None) -> list[str]:
+    """error_vs_time.png (each setting; colour, marker, size and fill per axis, one legend per meaning outside the
+    axes; the reference's own error as a grey band, the Pareto front, the target and the answer marked) and one
+    convergence figure per axis in `rates`."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+    from matplotlib.ticker import NullFormatter, ScalarFormatter
 
     ok = [r for r in records if _ok(r) and r["error"] > 0]
     files = []
-    groups = sorted({group_label(study, r) for r in ok})
-    colors = {g: plt.cm.tab10(i % 10) for i, g in enumerate(groups)}
-    markers = "osD^v<>phX*"
-    fig, ax = plt.subplots(figsize=(7.5, 5))
-    for i, g in enumerate(groups):
-        pts = [r for r in ok if group_label(study, r) == g]
-        ax.loglog([r["wall_s"] for r in pts], [r["error"] for r in pts], markers[i % len(markers)], color=colors[g],
-                  label=g, ms=5, alpha=0.85)
+    enc = encodings(study)
+    cax, extra = enc["colour"], enc["colour_extra"]
+
+    def colour_key(r):
+        return (r[cax], *(r[a] for a in extra))
+    ckeys = sorted({colour_key(r) for r in ok}, key=lambda k: (_values(study, cax, ok).index(k[0]), [str(v) for v in
+                                                                                                   k[1:]]))
+    colors = {k: plt.cm.tab10(i % 10) for i, k in enumerate(ckeys)}
+    chan = {c: (enc[c], _values(study, enc[c], ok)) for c in ("marker", "size", "fill") if c in enc}
+    style = {"marker": MARKERS, "size": SIZES, "fill": FILLS}
+
+    def pick(channel, r, default):
+        if channel not in chan:
+            return default
+        axis, vals = chan[channel]
+        if channel == "size" and len(vals) == 1:
+            return 7
+        return style[channel][vals.index(r[axis]) % len(style[channel])]
+    fig, ax = plt.subplots(figsize=(7.5, 5.2))
+    errs = [r["error"] for r in ok]
+    lo = min(errs + ([floor] if floor > 0 else [])) / 2
+    hi = max(errs + [target]) * 2
+    if floor > 0:
+        ax.axhspan(lo, floor, color="0.88", zorder=0, lw=0)
+    for r in ok:
+        c = colors[colour_key(r)]
+        fill = pick("fill", r, "full")
+        ax.loglog(r["wall_s"], r["error"], pick("marker", r, "o"), ms=pick("size", r, 6), color=c, fillstyle=fill,
+                  markerfacecoloralt="white" if fill not in ("full", "none") else "none", mec=c, alpha=0.85, zorder=3)
     front = [r for r in pareto_front(records) if r["error"] > 0]
     if front:
-        ax.loglog([r["wall_s"] for r in front], [r["error"] for r in front], "k-", lw=1.2, label="Pareto front",
-                  drawstyle="steps-post")
-    ax.axhline(target, color="0.4", ls=":", lw=1, label=f"target {target:g}")
+        ax.loglog([r["wall_s"] for r in front], [r["error"] for r in front], "k-", lw=1.2, drawstyle="steps-post",
+                  zorder=2)
+    ax.axhline(target, color="0.3", ls="--", lw=1)
+    if answer is not None and _ok(answer) and answer["error"] > 0:
+        ax.loglog(answer["wall_s"], answer["error"], "o", ms=18, mfc="none", mec="k", mew=1.6, zorder=4)
+        ax.annotate("answer", (answer["wall_s"], answer["error"]), xytext=(12, -14), textcoords="offset points",
+                    fontsize=8, zorder=4)
+    ax.set_ylim(lo, hi)
     ax.set_xlabel(study.extra.get("time_label", "wall time per setting [s]"))
     ax.set_ylabel(study.error_name)
     ax.set_title(textwrap.fill(f"{study.title}: error vs time", 70), fontsize=10)
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=7, ncol=2)
+    # legends, one per meaning, stacked outside the axes on the right
+    y = 1.0
+    heads = [Line2D([], [], ls="", marker="s", ms=7, color=colors[k], label=", ".join(map(str, k))) for k in ckeys]
+    legs = [(heads, ", ".join([cax, *extra]))]
+    for channel in ("marker", "size", "fill"):
+        if channel in chan:
+            axis, vals = chan[channel]
+            hs = [Line2D([], [], ls="", color="0.35", marker=style["marker"][i % len(MARKERS)] if channel == "marker"
+                         else "o", ms=(style["size"][i % len(SIZES)] if len(vals) > 1 else 7) if channel == "size"
+                         else 6,
+                         fillstyle=style["fill"][i % len(FILLS)] if channel == "fill" else "full",
+                         markerfacecoloralt="white", label=str(v)) for i, v in enumerate(vals)]
+            legs.append((hs, axis))
+    marks = [Line2D([], [], color="k", lw=1.2, label="Pareto front"),
+             Line2D([], [], color="0.3", ls="--", lw=1, label=f"target {target:g}")]
+    if answer is not None and _ok(answer):
+        marks.append(Line2D([], [], ls="", marker="o", ms=11, mfc="none", mec="k", mew=1.6, label="answer"))
+    if floor > 0:
+        marks.append(Patch(color="0.88", label=f"reference's own error (< {floor:.2g})"))
+    legs.append((marks, ""))
     fig.tight_layout()
-    fig.savefig(out / "error_vs_time.png", dpi=120)
+    placed = []
+    for hs, title in legs:
+        placed.append(_legend(ax, hs, title, y))
+        fig.canvas.draw()
+        y = placed[-1].get_window_extent().transformed(ax.transAxes.inverted()).y0 - 0.04
+    # the saved figure grows to hold the legends
+    fig.savefig(out / "error_vs_time.png", dpi=120, bbox_inches="tight", bbox_extra_artists=placed)
     plt.close(fig)
     files.append("error_vs_time.png")
     for axis, axis_rates in rates.items():
-        fig, ax = plt.subplots(figsize=(7.5, 5))
+        fig, ax = plt.subplots(figsize=(7.5, 5.2))
         sub = sorted(axis_rates) if axis == study.step_axis else sorted({group_label(study, r, axis) for r in ok})
         if not sub:
             plt.close(fig)
@@ -137,16 +235,25 @@ def write_plots(out: Path, study: Study, records: list[dict], target: float, rat
             pts = sorted((float(r[axis]), r["error"]) for r in ok if group_label(study, r, axis) == g)
             rate = axis_rates.get(g)
             lab = g + (f" (rate {rate:.2f})" if rate is not None else "")
-            ax.loglog([p[0] for p in pts], [p[1] for p in pts], markers[i % len(markers)] + "-",
+            ax.loglog([p[0] for p in pts], [p[1] for p in pts], MARKERS[i % len(MARKERS)] + "-",
                       color=plt.cm.tab10(i % 10), label=lab, ms=4, lw=1)
-        ax.axhline(target, color="0.4", ls=":", lw=1, label=f"target {target:g}")
+        ax.axhline(target, color="0.3", ls="--", lw=1, label=f"target {target:g}")
+        errs = [r["error"] for r in ok]
+        lo = min(errs + ([floor] if floor > 0 else [])) / 2
+        if floor > 0:
+            ax.axhspan(lo, floor, color="0.88", zorder=0, lw=0, label=f"reference's own error (< {floor:.2g})")
+        ax.set_ylim(lo, max(errs + [target]) * 2)
+        ticks = sorted({float(r[axis]) for r in ok})
+        ax.set_xticks(ticks)
+        ax.xaxis.set_major_formatter(ScalarFormatter())
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel(axis)
         ax.set_ylabel(study.error_name)
         ax.set_title(textwrap.fill(f"{study.title}: convergence in {axis}", 70), fontsize=10)
         ax.grid(alpha=0.3, which="both")
-        ax.legend(fontsize=7, ncol=2)
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False, borderaxespad=0.0)
         fig.tight_layout()
-        fig.savefig(out / f"error_vs_{axis}.png", dpi=120)
+        fig.savefig(out / f"error_vs_{axis}.png", dpi=120, bbox_inches="tight")
         plt.close(fig)
         files.append(f"error_vs_{axis}.png")
     return files
@@ -163,8 +270,8 @@ def write_report(out: Path, study: Study, records: list[dict], reference: dict, 
         finest = finest_mesh(study, records)
         rates[study.step_axis] = convergence_rates(study, finest, floor, study.step_axis, shrinks=True)
     cols = write_csv(out / "results.csv", study, records)
-    figures = write_plots(out, study, records, target, rates) if any(_ok(r) for r in records) else []
     best = cheapest(records, target)
+    figures = write_plots(out, study, records, target, rates, floor, best) if any(_ok(r) for r in records) else []
     if best:
         answer = (f"cheapest setting reaching {study.error_name} <= {target:g}: {setting_text(study, best)} "
                   f"(error {best['error']:.3g}, {best['wall_s']:.3g} s)")

@@ -1,0 +1,56 @@
+"""Optimal control of cable scenes by direct collocation, solved with IPOPT (exact sparse Hessian).
+
+    from ancf_sym.control import ControlProblem, SupportMotion, PointMass, Effort
+    ocp = ControlProblem(scene, controls=[SupportMotion("cable", "start", axes=(0,), name="trolley")],
+                         horizon=4.0, point_masses=[PointMass("cable", "end", 100.0)], cost=[Effort()],
+                         end={"trolley.position": 2.0}, bounds={"trolley.acceleration": (-2, 2)},
+                         intervals=20, stages=3, scheme="radau")
+    res = ocp.solve()                 # warm start: the collocation simulation of a quintic rest-to-rest motion
+    res.status, res.cost, res.iterations, res.wall_s
+    check = res.resimulate()          # the dynamics integrator on the optimal controls
+    check.mismatch_m, check.residual_swing_m
+
+Dynamics. The scene's free coordinates q (supports and hinges eliminated as in the dynamics module) obey
+
+    M_ff q'' + M_fc s'' + grad_f U(E q + c + B s) - f_lin - B_f F = 0
+
+where s are the displacements of controlled supports (states s, s'; control s'' = acceleration), F the magnitudes
+of controlled point forces, M the mass matrix with the point masses added and f_lin the constant forces (gravity of
+the cables and of the point masses, dead loads). Only grad U is nonlinear.
+
+Transcription. K intervals of length h = T/K, each an implicit Runge-Kutta step of Radau IIA or Gauss-Legendre
+with s stages (ancf_sym.collocation.tableau; equivalent to collocation with the polynomial through tau = 0 and the
+points c_j). Variables per interval: the start velocity v_k, the stage positions Q_kj (Radau: the last stage is the
+next interval's start position), the support states at the start and the stages, the controls at the stages (or
+one per interval, control_form="constant"). With W = A^-1 the stage velocities and accelerations are linear,
+V = W (Q - q_k) / h, a = W (V - v_k) / h, and per stage the dynamics residual above is a constraint; continuity of
+v (and, for Gauss, of q) by the quadrature weights b. This condensed form has about half the variables of the
+state-per-node form, and its KKT matrix factorises ~4x faster (measured fill 1.8M vs 6.8M at n = 8, K = 40).
+
+Warm start: the same collocation equations integrated interval by interval (Newton on their exact sparse Jacobian)
+for a quintic rest-to-rest support motion, so IPOPT starts with every dynamics row satisfied.
+
+Derivatives. grad U at all collocation points is one mapped call per energy term. IPOPT gets its Jacobian from the
+kernel Hessians and the Lagrangian Hessian from the kernels' third-derivative companions (load_hvp: d(H v)/dq with
+v = the multipliers of the dynamics rows mapped to element coordinates), both assembled through constant sparse
+matrices; everything else (collocation, continuity, costs, path constraints: linear or polynomial) is
+differentiated by CasADi. No finite differences.
+
+Package layout (one stage per module): ingredients (controls, payloads, costs, path constraints), model (the
+reduced coordinates, equilibria and modes), bounds (bounds, boundary values, costs and path constraints as NLP
+pieces), transcription (the collocation NLP and its exact derivatives), warm_start (the collocation simulation),
+problem (ControlProblem: checks and IPOPT), result (ControlResult), resimulation (the dynamics integrator on the
+optimal controls).
+"""
+from __future__ import annotations
+
+from .ingredients import (Effort, MinimumTime, PathConstraint, PointForce, PointMass, StateView, SupportMotion,
+                          Swing)
+from .model import ControlAssembly
+from .problem import ControlProblem
+from .resimulation import ResimulationReport, moving_frame_ok, resimulate_motion, tracked_point
+from .result import ControlResult
+
+__all__ = ["ControlProblem", "ControlResult", "ControlAssembly", "PointMass", "SupportMotion", "PointForce", "Effort",
+           "MinimumTime", "Swing", "PathConstraint", "StateView", "ResimulationReport", "resimulate_motion",
+           "moving_frame_ok", "tracked_point"]

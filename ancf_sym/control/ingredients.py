@@ -1,0 +1,103 @@
+"""What a control problem is made of: controls (support motions, point forces), payloads, costs, path
+constraints, and the view of one instant that path constraints are written against."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Callable, Sequence
+
+import casadi as ca
+import numpy as np
+
+from ..scene import SceneError
+
+if TYPE_CHECKING:
+    from .problem import ControlProblem
+
+
+@dataclass(frozen=True)
+class PointMass:
+    """A concentrated mass [kg] at a node of a member (e.g. a crane's payload); its weight follows scene.gravity."""
+    member: str
+    at: Any
+    mass: float
+
+
+@dataclass(frozen=True)
+class SupportMotion:
+    """Prescribed translation of a supported node (pin or clamp) along `axes` (0 = x, 1 = y, 2 = z).
+
+    Each axis is a channel named `name` (one axis) or `name_x`, `name_y`, ... with the states
+    `<channel>.position` (displacement from the reference [m]) and `<channel>.velocity` [m/s], and the control
+    `<channel>.acceleration` [m/s^2]."""
+    member: str
+    at: Any = "start"
+    axes: tuple = (0,)
+    name: str = "support"
+
+
+@dataclass(frozen=True)
+class PointForce:
+    """A controlled dead force of magnitude `<name>.force` [N] along the fixed `direction` at a node or material
+    coordinate s [m] (float)."""
+    member: str
+    at: Any
+    direction: Sequence[float]
+    name: str = "force"
+
+
+@dataclass(frozen=True)
+class Effort:
+    """Integral of sum_c w_c u_c^2 over the horizon; `weights` per control name (default 1 for all)."""
+    weight: float = 1.0
+    weights: dict | None = None
+
+
+@dataclass(frozen=True)
+class MinimumTime:
+    """weight * T: the horizon becomes a decision variable (give `horizon` as (lower, guess, upper))."""
+    weight: float = 1.0
+
+
+@dataclass(frozen=True)
+class Swing:
+    """Integral of the kinetic energy of the scene relative to the controlled supports' translation [J s]."""
+    weight: float = 1.0
+
+
+@dataclass(frozen=True)
+class PathConstraint:
+    """lower <= fn(view) <= upper at every collocation point. fn receives a `StateView` of CasADi expressions
+    (positions, velocities, support channels, controls) and returns an expression (scalar or vector); polynomial
+    expressions keep IPOPT's exact Hessian cheap (CasADi differentiates them)."""
+    fn: Callable
+    lower: Any = -np.inf
+    upper: Any = np.inf
+    name: str = "path"
+
+
+class StateView:
+    """The state at one instant as CasADi expressions, for path constraints: x, v (full coordinates and velocities),
+    point(member, at) / velocity(member, at) of a centreline point, and the support channels and controls by name."""
+
+    def __init__(self, prob: ControlProblem, x, v, chan_pos, chan_vel, u):
+        self._p, self.x, self.v = prob, x, v
+        self._cp, self._cv, self._u = chan_pos, chan_vel, u
+
+    def point(self, member: str, at: Any = "end"):
+        idx, w = self._p._probe(member, at)
+        return ca.vertcat(*[ca.dot(ca.DM(w), self.x[row.tolist()]) for row in idx])
+
+    def velocity(self, member: str, at: Any = "end"):
+        idx, w = self._p._probe(member, at)
+        return ca.vertcat(*[ca.dot(ca.DM(w), self.v[row.tolist()]) for row in idx])
+
+    def __getitem__(self, key: str):
+        name, _, what = key.rpartition(".")
+        p = self._p
+        if name in p.channels and what in ("position", "velocity", "acceleration"):
+            k = p.channels.index(name)
+            return {"position": self._cp, "velocity": self._cv, "acceleration": self._u}[what][
+                k if what != "acceleration" else p._acc_index[k]]
+        if name in p.force_names and what == "force":
+            return self._u[p._force_index[p.force_names.index(name)]]
+        raise SceneError(f"unknown state or control {key!r}; known: {p.variable_names()}")

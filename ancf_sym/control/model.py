@@ -1,0 +1,304 @@
+"""The reduced model a control problem moves: the scene's assembly with point masses, the free coordinates
+(supports and hinges eliminated), the controlled support channels and forces, the forces and tangent at one instant,
+static equilibria and vibration modes, and centreline probes."""
+from __future__ import annotations
+
+from typing import Any, Sequence
+
+import casadi as ca
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+
+from .. import registry
+from ..assembly import Assembly
+from ..checks import number as _num
+from ..interpolation import Probe
+from ..integrators import LINEAR_EFFECTS, partition
+from ..loads import point_force
+from ..scene import Scene, SceneError, _vector
+from ..sparsity import casadi_sparsity, csc_pattern
+from .ingredients import PointForce, PointMass, SupportMotion
+
+
+class ControlAssembly(Assembly):
+    """A scene's Assembly with point masses: their mass on the node's position coordinates, their weight (under
+    scene.gravity) among the dead loads Q. Also what the dynamics integrator runs for the re-simulation."""
+
+    def __init__(self, scene: Scene, point_masses: Sequence[PointMass] = ()):
+        super().__init__(scene)
+        self.point_masses = list(point_masses)
+        self._pm_dofs = []
+        dim = scene.dim
+        for i, pm in enumerate(self.point_masses):
+            if not isinstance(pm, PointMass):
+                raise SceneError(f"point_masses[{i}] must be a PointMass, got {pm!r}")
+            scene.check_at(pm.member, pm.at, node_only=True, field_name=f"point_masses[{i}].at")
+            m = _num(f"point_masses[{i}].mass", pm.mass, positive=True)
+            mm = self.mesh.members[pm.member]
+            dofs = mm.node_dofs(mm.node(pm.at))[:dim]
+            self._pm_dofs.append((dofs, m))
+            self.Q[dofs] += m * np.asarray(scene.gravity, float)
+
+    def mass_matrix(self) -> sp.csc_matrix:
+        M = super().mass_matrix().tolil()
+        for dofs, m in self._pm_dofs:
+            for d in dofs:
+                M[d, d] += m
+        return M.tocsc()
+
+
+def _dm(A) -> ca.DM:
+    A = sp.csc_matrix(A)
+    A.sum_duplicates()
+    A.sort_indices()
+    return ca.DM(ca.Sparsity(A.shape[0], A.shape[1], A.indptr.tolist(), A.indices.tolist()), A.data.tolist())
+
+
+def _scatter(n_rows: int, n_cols: int, rows: np.ndarray, cols: np.ndarray, n_entries: int, keep: np.ndarray,
+             values: ca.MX) -> ca.MX:
+    """Sparse MX (n_rows x n_cols) summing values[keep[i]] at (rows[i], cols[i])."""
+    indptr, indices, inv = csc_pattern(rows, cols, n_rows, n_cols)
+    spy = casadi_sparsity(n_rows, n_cols, indptr, indices)
+    A = sp.coo_matrix((np.ones(len(inv)), (inv, keep)), shape=(len(indices), n_entries))
+    return ca.MX(spy, ca.mtimes(_dm(A), values))
+
+
+class ModelMixin:
+    """ControlProblem's reduced model (see the module docstring)."""
+
+    def _check_scene(self) -> None:
+        sc = self.scene
+        for m in sc.members.values():
+            if not m.element.startswith("cable"):
+                raise SceneError(f"member {m.name!r}: optimal control is available for cable elements (cable2d, "
+                                 f"cable3d), got {m.element!r}")
+            if len(m.points) > 2:
+                raise SceneError(f"member {m.name!r}: polyline members (internal rigid joints) are not supported by "
+                                 "the control module; use straight members")
+        for ld in sc.loads:
+            if ld.kind == "moment":
+                raise SceneError("moment loads are not supported by the control module (their kernels have no "
+                                 "third-derivative companion)")
+        if getattr(sc, "dampings", None):
+            kinds = sorted({d.kind for d in sc.dampings})
+            raise SceneError(f"damping ({', '.join(kinds)}) is not supported by the control module yet")
+        for j in sc.joints:
+            if j.kind == "rigid":
+                raise SceneError(f"rigid joints are not supported by the control module (multipliers), got {j}")
+
+    def _setup_coordinates(self, controls) -> None:
+        a, sc = self.asm, self.scene
+        dim = sc.dim
+        if a.penalty is not None:
+            raise SceneError("penalty supports/joints are not supported by the control module; use method='exact'")
+        self.part = part = partition(a)
+        if len(part.rows):
+            raise SceneError("the control module needs every support and joint eliminated (pins, clamps of "
+                             "axis-aligned members, hinges); constraints with multipliers remain: "
+                             f"{[a.exact.labels[r] for r in part.rows]}")
+        self.n, self.nf = a.n, part.ny
+        self.pos = part.pos
+        self.E = part.E
+        if not isinstance(controls, (list, tuple)) or not controls:
+            raise SceneError("controls must be a non-empty list of SupportMotion / PointForce")
+        self.channels, self._chan_coord, self._chan_axis, self._chan_support = [], [], [], []
+        self.force_names, self._force_vecs = [], []
+        names = set()
+        for i, c in enumerate(controls):
+            if isinstance(c, SupportMotion):
+                if c.member not in sc.members:
+                    raise SceneError(f"controls[{i}]: member {c.member!r} does not exist; members: "
+                                     f"{sorted(sc.members)}")
+                sc.check_at(c.member, c.at, node_only=True, field_name=f"controls[{i}].at")
+                mm = a.mesh.members[c.member]
+                node = mm.node(c.at)
+                sup = [s for s in sc.supports if s.member == c.member and s.kind in ("pin", "clamp")
+                       and mm.node(s.at) == node]
+                if not sup:
+                    raise SceneError(f"controls[{i}] ({c.name!r}) moves a support at {c.member}@{c.at!r}, but there "
+                                     f"is no pin or clamp there; supports: "
+                                     f"{[(s.kind, s.member, s.at) for s in sc.supports] or 'none'}")
+                if any(s.method != "exact" for s in sup):
+                    raise SceneError(f"controls[{i}]: the support at {c.member}@{c.at!r} must be exact, not penalty")
+                for j in sc.joints:
+                    for end in (j.a, j.b):
+                        if end[0] == c.member and mm.node(end[1]) == node:
+                            raise SceneError(f"controls[{i}]: the moved node {c.member}@{c.at!r} is also a joint")
+                axes = tuple(c.axes) if isinstance(c.axes, (tuple, list)) else (c.axes,)
+                if not axes or any(isinstance(ax, bool) or ax not in range(dim) for ax in axes) or \
+                        len(set(axes)) != len(axes):
+                    raise SceneError(f"controls[{i}].axes must be distinct axes in 0..{dim - 1}, got {c.axes!r}")
+                dofs = mm.node_dofs(node)
+                for ax in axes:
+                    ch = c.name if len(axes) == 1 else f"{c.name}_{'xyz'[ax]}"
+                    if ch in names:
+                        raise SceneError(f"controls[{i}]: name {ch!r} used twice")
+                    names.add(ch)
+                    if self.pos[dofs[ax]] >= 0:
+                        raise SceneError(f"controls[{i}]: coordinate {ax} of {c.member}@{c.at!r} is not fixed")
+                    self.channels.append(ch)
+                    self._chan_coord.append(int(dofs[ax]))
+                    self._chan_axis.append(ax)
+                    self._chan_support.append((c.member, node))
+            elif isinstance(c, PointForce):
+                if c.member not in sc.members:
+                    raise SceneError(f"controls[{i}]: member {c.member!r} does not exist; members: "
+                                     f"{sorted(sc.members)}")
+                sc.check_at(c.member, c.at, node_only=False, field_name=f"controls[{i}].at")
+                d = _vector(f"controls[{i}].direction", c.direction, dim)
+                if np.linalg.norm(d) == 0:
+                    raise SceneError(f"controls[{i}].direction must not be zero")
+                if c.name in names:
+                    raise SceneError(f"controls[{i}]: name {c.name!r} used twice")
+                names.add(c.name)
+                mm = a.mesh.members[c.member]
+                s = mm.coordinate(c.at)
+                idx, val = point_force(mm, s, d / np.linalg.norm(d))
+                vec = np.zeros(self.n)
+                np.add.at(vec, idx, val)
+                self.force_names.append(c.name)
+                self._force_vecs.append(vec)
+            else:
+                raise SceneError(f"controls[{i}] must be SupportMotion or PointForce, got {c!r}")
+        self.controls = list(controls)
+        self.nc, self.nF = len(self.channels), len(self.force_names)
+        self.nu = self.nc + self.nF
+        self._acc_index = list(range(self.nc))
+        self._force_index = list(range(self.nc, self.nu))
+        B = np.zeros((self.n, self.nc))
+        for k, cd in enumerate(self._chan_coord):
+            B[cd, k] = 1.0
+        self.B = B
+        # rigid translation fields of each channel's axis (position coordinates of every node)
+        Tr = np.zeros((self.n, self.nc))
+        for mm in a.mesh.members.values():
+            for node in range(mm.n_nodes):
+                d = mm.node_dofs(node)
+                for k, ax in enumerate(self._chan_axis):
+                    Tr[d[ax], k] = 1.0
+        self.Tr = Tr
+        M = a.mass_matrix().tocsc()
+        self.M_full = M
+        self.Mff = (part.E.T @ M @ part.E).tocsc()
+        self.Mfc = (part.E.T @ M @ sp.csc_matrix(B)).tocsc()
+        # constant forces: linear energy terms (gravity, distributed dead loads) and dead point loads incl. weights
+        f_lin = a.Q.copy()
+        for mk in a.mapped:
+            if mk.term.effect in LINEAR_EFFECTS:
+                mk(a.x0)
+                f_lin -= np.bincount(mk.term.idx.ravel(), mk.G.ravel(), minlength=self.n)
+        self.f_lin_full = f_lin
+        self.f_lin = part.E.T @ f_lin
+        self.Bf = part.E.T @ np.column_stack(self._force_vecs) if self.nF else np.zeros((self.nf, 0))
+        self.nonlinear = [mk for mk in a.mapped if mk.term.effect not in LINEAR_EFFECTS]
+        for mk in self.nonlinear:
+            t = mk.term
+            if not registry.has_third_derivatives(t.element, t.effect, t.gauss):
+                raise SceneError(f"{t.element}/{t.effect} (gauss {t.gauss}) has no third-derivative kernel, which the "
+                                 f"exact Hessian needs; available: {list(registry.THIRD_DERIVATIVE_EFFECTS)} at the "
+                                 "default quadrature")
+        self.length_scale = max(float(mm.member.length) for mm in a.mesh.members.values())
+
+    def variable_names(self) -> list[str]:
+        out = []
+        for ch in self.channels:
+            out += [f"{ch}.position", f"{ch}.velocity", f"{ch}.acceleration"]
+        return out + [f"{f}.force" for f in self.force_names]
+
+    def _chan_vector(self, values: dict) -> np.ndarray:
+        return np.array([values[ch] for ch in self.channels], float)
+
+    def _translated(self, q: np.ndarray, ds: np.ndarray) -> np.ndarray:
+        """Free coordinates of the scene translated with the supports by ds (exact for single-support scenes)."""
+        return q + self.part.E.T @ (self.Tr @ ds) if self.nc else q.copy()
+
+    # -- point functions (one instant) -----------------------------------------------------------------------
+    def full(self, q: np.ndarray, s: np.ndarray) -> np.ndarray:
+        return self.part.E @ q + self.part.c + self.B @ s
+
+    def _build_point_functions(self) -> None:
+        """forces(q, s) -> (grad_f U, K_ff, K_fc) at one instant (Newton for the equilibria, modes)."""
+        nf, n = self.nf, self.n
+        q, s = ca.MX.sym("q", nf), ca.MX.sym("s", self.nc)
+        x = ca.mtimes(_dm(self.part.E), q) + ca.DM(self.part.c) + (ca.mtimes(ca.DM(self.B), s) if self.nc else 0)
+        g = ca.MX.zeros(n)
+        Ks = []
+        for mk in self.nonlinear:
+            t = mk.term
+            Xe = ca.reshape(x[t.idx.ravel().tolist()], mk.nd, mk.N)
+            _, G, H = mk.kernel.map(mk.N)(Xe, ca.DM(mk.P.T))
+            Ag = sp.coo_matrix((np.ones(t.idx.size), (t.idx.ravel(), np.arange(t.idx.size))), shape=(n, t.idx.size))
+            g += ca.mtimes(_dm(Ag), ca.vec(G))
+            ia = np.broadcast_to(t.idx[:, :, None], (mk.N, mk.nd, mk.nd)).ravel()
+            ib = np.broadcast_to(t.idx[:, None, :], (mk.N, mk.nd, mk.nd)).ravel()
+            Ks.append(_scatter(n, n, ib, ia, ia.size, np.arange(ia.size), ca.vec(H)))
+        K = sum(Ks[1:], Ks[0]) if Ks else ca.MX(n, n)
+        Ed = _dm(self.part.E)
+        gf = ca.mtimes(Ed.T, g)
+        Kff = ca.mtimes(ca.mtimes(Ed.T, K), Ed)
+        Kfc = ca.mtimes(ca.mtimes(Ed.T, K), ca.DM(self.B)) if self.nc else ca.MX(nf, 0)
+        self.forces_f = ca.Function("control_forces", [q, s], [gf, Kff, Kfc], ["q", "s"], ["g", "Kff", "Kfc"])
+
+    def forces(self, q: np.ndarray, s: np.ndarray):
+        g, Kff, Kfc = self.forces_f(q, s)
+        return np.asarray(g).ravel(), sp.csc_matrix(Kff.sparse()), np.asarray(Kfc)
+
+    def equilibrium(self, s: np.ndarray, guess: np.ndarray | None = None, max_iter: int = 60) -> np.ndarray:
+        """Static equilibrium of the free coordinates with the controlled supports displaced by s (Newton with
+        a backtracking line search on the residual; from the reference state unless a guess is given)."""
+        if guess is None:
+            q = self._translated(self.asm.x0[self.part.roots].copy(), s)
+        else:
+            q = np.asarray(guess, float).copy()
+        fscale = max(float(np.max(np.abs(self.f_lin))), 1e-300)
+        for it in range(max_iter):
+            g, K, _ = self.forces(q, s)
+            r = g - self.f_lin
+            rn = float(np.max(np.abs(r)))
+            if rn <= 1e-10 * fscale + 1e-12:
+                return q
+            try:
+                dq = sp.linalg.spsolve(K.tocsc(), -r)
+            except Exception:  # noqa: BLE001
+                dq = np.full_like(q, np.nan)
+            if not np.all(np.isfinite(dq)):
+                break
+            lam = 1.0
+            for _ in range(30):
+                qn = q + lam * dq
+                gn = self.forces(qn, s)[0]
+                if np.all(np.isfinite(gn)) and np.max(np.abs(gn - self.f_lin)) < (1 - 1e-4 * lam) * rn:
+                    break
+                lam *= 0.5
+            q = qn
+        g = self.forces(q, s)[0]
+        rn = float(np.max(np.abs(g - self.f_lin)))
+        if rn <= 1e-7 * fscale:
+            return q
+        raise SceneError(f"no static equilibrium found for support displacements {s.tolist()} (residual {rn:.3g} N "
+                         f"after {max_iter} Newton iterations): the start/end state cannot be at rest")
+
+    def _modes(self, q: np.ndarray, s: np.ndarray):
+        """Natural frequencies [rad/s] and M-orthonormal modes of the free coordinates about (q, s)."""
+        _, K, _ = self.forces(q, s)
+        Kd = K.toarray()
+        Kd = 0.5 * (Kd + Kd.T)
+        w2, Phi = sla.eigh(Kd, self.Mff.toarray())
+        return np.sqrt(np.maximum(w2, 0.0)), Phi
+
+    def end_mode_count(self) -> int:
+        omega = self.modes[0]
+        if self.end_modes is not None:
+            return min(int(self.end_modes), self.nf)
+        f_cut = self.end_frequency if self.end_frequency is not None else self.K / (4.0 * self.T_bounds[1])
+        return max(1, int(np.sum(omega < 2 * np.pi * f_cut)))
+
+    # -- probes -----------------------------------------------------------------------------------------------
+    def _probe(self, member: str, at: Any):
+        """(idx (dim, 4) global coordinates, weights (4,)) with r(s) = x[idx] @ w."""
+        sc = self.scene
+        sc.check_at(member, at, node_only=False, field_name="point.at")
+        mm = self.asm.mesh.members[member]
+        p = Probe(mm, mm.coordinate(at), sc.dim)
+        return p.idx, p.w

@@ -1,0 +1,151 @@
+"""The warm start: the problem's own collocation equations integrated interval by interval for a smooth
+rest-to-rest support motion, so that IPOPT starts with every dynamics row satisfied."""
+from __future__ import annotations
+
+import math
+from typing import Callable
+
+import numpy as np
+import scipy.sparse as sp
+
+from .transcription import _basis
+
+
+class WarmStartMixin:
+    """ControlProblem's initial guesses."""
+
+    def naive_motion(self, T: float):
+        """Smooth rest-to-rest support motion (quintic, zero velocity and acceleration at both ends): a function
+        of t giving (s, s', s'') arrays (len(t) x channels)."""
+        s0, sT = self._chan_vector(self.start_values), self._chan_vector(self.end_values)
+        d = sT - s0
+
+        def motion(t):
+            x = np.clip(np.atleast_1d(np.asarray(t, float)) / T, 0.0, 1.0)
+            p = 10 * x**3 - 15 * x**4 + 6 * x**5
+            dp = (30 * x**2 - 60 * x**3 + 30 * x**4) / T
+            ddp = (60 * x - 180 * x**2 + 120 * x**3) / T**2
+            return s0 + np.multiply.outer(p, d), np.multiply.outer(dp, d), np.multiply.outer(ddp, d)
+        return motion
+
+    def guess_from_trajectory(self, T: float, q_of_t: Callable, v_of_t: Callable, motion: Callable,
+                              forces: Callable | None = None) -> np.ndarray:
+        """Decision vector from free coordinates q_of_t(t) and velocities v_of_t(t) ((len(t), nf) arrays), the
+        support motion motion(t) -> (s, s', s'') and the controlled forces forces(t) -> (len(t), nF)."""
+        nf, nc = self.nf, self.nc
+        tn = self.node_times(T)
+        Z = np.zeros((self.Nn, self.nz))
+        Z[:, :nf], Z[:, nf:2 * nf] = q_of_t(tn), v_of_t(tn)
+        sp_, sv_, _ = motion(tn)
+        Z[:, 2 * nf:2 * nf + nc], Z[:, 2 * nf + nc:] = sp_, sv_
+        tp = self.point_times(T)
+        U = np.zeros((self.Pp, self.nu))
+        if nc:
+            U[:, :nc] = motion(tp)[2]
+        if self.nF and forces is not None:
+            U[:, nc:] = forces(tp)
+        return self.pack(Z, U, T)
+
+    def collocation_simulation(self, T: float, controls: np.ndarray, max_iter: int = 20):
+        """Integrate the scene with the OCP's own collocation equations for given point controls (Pp x nu), from
+        the start state: each interval's stage equations solved by Newton on their exact sparse Jacobian.
+        Returns (decision vector, converged?, message); the vector satisfies every dynamics row the NLP has."""
+        K, s, nf, nc = self.K, self.s, self.nf, self.nc
+        tab = self.tab
+        h = T / K
+        W = np.linalg.inv(tab.A)
+        W2, w1 = W @ W, W.sum(axis=1)
+        w21 = W2.sum(axis=1)
+        U = np.asarray(controls, float).reshape(self.Pp, self.nu)
+        Mff, Mfc = self.Mff, self.Mfc
+        Z = np.zeros((self.Nn, self.nz))
+        q, v = self.q_start.copy(), np.zeros(nf)
+        sc, svc = self._chan_vector(self.start_values), np.zeros(nc)
+        fscale = max(float(np.max(np.abs(self.f_lin))), 1e-300)
+        Qs = np.tile(q, (s, 1))
+        message = ""
+        ok_all = True
+        for k in range(K):
+            Uk = U[k * s:(k + 1) * s]
+            Ua, Uf = Uk[:, :nc], Uk[:, nc:]
+            SV = svc[None, :] + h * tab.A @ Ua
+            SP = sc[None, :] + h * tab.A @ SV
+            rhs_const = np.zeros((s, nf))
+            for j in range(s):
+                rhs_const[j] = Mff @ (-w21[j] * q / h**2 - w1[j] * v / h) - self.f_lin
+                if nc:
+                    rhs_const[j] += Mfc @ Ua[j]
+                if self.nF:
+                    rhs_const[j] -= self.Bf @ Uf[j]
+            if k == 0:
+                Qs = np.array([q + tab.c[j] * h * v for j in range(s)])
+            ok = False
+
+            def residual(Qs):
+                R = np.zeros((s, nf))
+                Ks = []
+                for j in range(s):
+                    g, Kj, _ = self.forces(Qs[j], SP[j])
+                    R[j] = rhs_const[j] + g + Mff @ (W2[j] @ Qs) / h**2
+                    Ks.append(Kj)
+                return R, Ks
+            R, Ks = residual(Qs)
+            rn = float(np.max(np.abs(R)))
+            for it in range(max_iter):
+                if not math.isfinite(rn):
+                    break
+                if rn <= 1e-9 * fscale:
+                    ok = True
+                    break
+                J = sp.bmat([[W2[j, m] / h**2 * Mff + (Ks[j] if j == m else 0 * Mff) for m in range(s)]
+                             for j in range(s)], format="csc")
+                try:
+                    dQ = sp.linalg.spsolve(J, -R.ravel()).reshape(s, nf)
+                except Exception:  # noqa: BLE001
+                    break
+                if not np.all(np.isfinite(dQ)):
+                    break
+                lam = 1.0
+                for _ in range(20):  # backtrack on the residual (rotations of a stiff cable overshoot)
+                    Rn, Kn = residual(Qs + lam * dQ)
+                    rnn = float(np.max(np.abs(Rn)))
+                    if math.isfinite(rnn) and rnn < (1 - 1e-4 * lam) * rn:
+                        break
+                    lam *= 0.5
+                Qs, R, Ks, rn = Qs + lam * dQ, Rn, Kn, rnn
+                if lam == 1.0 and float(np.max(np.abs(dQ))) <= 1e-12 * self.length_scale:
+                    ok = True
+                    break
+            if not ok:
+                ok_all = False
+                message = f"interval {k}: Newton did not converge (residual {rn:.3g} N)"
+                break
+            V = (W @ (Qs - q[None, :])) / h
+            Acc = (W @ (V - v[None, :])) / h
+            r = k * (s + 1)
+            Z[r] = np.r_[q, v, sc, svc]
+            for j in range(s):
+                Z[r + 1 + j] = np.r_[Qs[j], V[j], SP[j], SV[j]]
+            nodes_pos = np.r_[q[None, :], Qs]
+            q = Qs[-1].copy() if tab.stiffly_accurate else q + h * tab.b @ V
+            v = v + h * tab.b @ Acc
+            sc, svc = sc + h * tab.b @ SV, svc + h * tab.b @ Ua
+            Qs = _basis(self.tau, 1.0 + tab.c) @ nodes_pos  # the interval's polynomial, extrapolated
+        if ok_all:
+            Z[-1] = np.r_[q, v, sc, svc]
+        else:  # hold the last good state
+            last = k * (s + 1)
+            Z[last:] = np.r_[q, v, sc, svc]
+        return self.pack(Z, U, T), ok_all, message
+
+    def warm_start(self):
+        """A simulation of the naive (quintic rest-to-rest) support motion with the OCP's own collocation
+        equations: every dynamics row holds at the start, only the end conditions are off."""
+        T = self.T_guess
+        motion = self.naive_motion(T)
+        U = np.zeros((self.Pp, self.nu))
+        if self.nc:
+            U[:, :self.nc] = motion(self.point_times(T))[2]
+        w, ok, msg = self.collocation_simulation(T, U)
+        return w, {"method": "collocation simulation of a quintic rest-to-rest motion", "converged": ok,
+                   "message": msg}

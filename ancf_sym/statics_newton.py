@@ -1,0 +1,159 @@
+"""Full-step Newton for static equilibrium: one CasADi call per iteration, a convergence test in the solution's terms.
+
+The iteration runs on the free coordinates of the dynamics' StepSystem (supports that fix coordinates eliminated,
+hinges identified, the remaining exact rows with Lagrange multipliers): every energy term through its mapped
+compiled kernel, residual and KKT matrix assembled by constant gathers, sparse LDL^T (no multipliers) or QR
+(multipliers) factorisation and solve, all in one Function built once per scene. Python only loops over the
+iterations, so Ctrl-C stops a solve between two of them.
+
+Convergence (`tol`, relative, the same at any mesh size):
+- increment: the last applied Newton update, positions in units of the structure's length L and slopes
+  (dimensionless) as they are, max norm, <= tol;
+- energy decrement: -r . dz = dz^T K dz (twice the energy the update still gains), in units of the load work
+  W = sum |r_i(x0)| s_i (the start residual times the coordinate scales: the weight times L under gravity), <= tol.
+The answer is the point AFTER that update: Newton's error there is of the order of the update squared, so it lies
+within tol^2 L of the discrete solution, far below tol. The start state is never accepted while a load acts: its
+update is the (non-zero) response to the loads and it is applied before the test.
+Round-off: when the updates stop contracting (each more than half the previous) while the residual sits at its
+round-off level (within ROUND_OFF x eps x max|K| x span), they measure the round-off of the solution itself; above tol it cannot be resolved in double precision (e.g. a penalty factor so stiff that
+eps x its force swamps the loads) and the run says so.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from .assembly import Assembly
+from .integrators import StepSystem
+
+STALL = 0.5  # updates contracting by less than this factor are no longer Newton's quadratic phase
+STALL_COUNT = 3  # that many in a row: the updates are round-off
+ROUND_OFF = 100.0  # a residual within this factor of eps x max|K| x span is at round-off
+NO_PROGRESS = 4  # converging runs set a new smallest update at least every 3 iterations (measured, zig-zags included)
+WILD = 1e3  # an update of a thousand structure lengths left every physical equilibrium behind: hand over to IPOPT
+
+
+@dataclass
+class NewtonRun:
+    converged: bool
+    status: str  # "converged", "round_off", "stalled", "diverged", "not_finite", "max_iter"
+    iterations: int
+    x: np.ndarray  # full coordinates after the last applied update
+    lam: np.ndarray  # multipliers of the StepSystem's kept rows
+    increment: float  # last applied update, relative (see module docstring)
+    energy_decrement: float  # relative to the load work W
+    residual: float  # max |r| at the last evaluated point [N]
+    residual_floor: float  # its round-off level eps x max|K| x span [N]
+    history: list = field(default_factory=list)  # (increment, decrement) per iteration
+
+
+def coordinate_scales(asm: Assembly) -> np.ndarray:
+    """Per coordinate: the longest member length for positions [m], 1 for slopes and other gradients [-]."""
+    L = max(float(mm.member.length) for mm in asm.mesh.members.values())
+    s = np.ones(asm.n)
+    dim = asm.scene.dim
+    for mm in asm.mesh.members.values():
+        k = np.arange(mm.x0.size)
+        s[mm.offset + k[k % mm.node_size < dim]] = L
+    return s
+
+
+class NewtonStatics:
+    """Full-step Newton on a scene's free coordinates (StepSystem with no mass and no damping)."""
+
+    def __init__(self, asm: Assembly):
+        self.asm = asm
+        self.S = S = StepSystem(asm)
+        self.scale = coordinate_scales(asm)[S.part.roots]
+        nf, mc = S.nf, S.mc
+        xf, lam, p = ca.MX.sym("x", nf), ca.MX.sym("lam", mc), ca.MX.sym("p", nf)
+        g, K = S.forces_f(xf)[:2]
+        r_q = g + p
+        if mc:
+            phi = S.constraint_mx(xf)
+            Jx = ca.jacobian(phi, xf)
+            r_q = r_q + ca.mtimes(Jx.T, lam)
+            if len(S.cons.qrow):
+                K = K + ca.hessian(ca.dot(lam, phi), xf)[0]
+            r = ca.vertcat(r_q, phi)
+            KKT = ca.blockcat([[K, Jx.T], [Jx, ca.MX(mc, mc)]])
+            rc = ca.mmax(ca.fabs(phi))
+        else:
+            r, KKT, rc = r_q, K, ca.MX(0)
+        dz = -ca.solve(KKT, r, S.linsol)
+        inc = ca.mmax(ca.fabs(dz[:nf] / ca.DM(self.scale))) if nf else ca.MX(0)
+        kmax = ca.mmax(ca.fabs(KKT)) if nf else ca.MX(0)
+        norms = ca.vertcat(ca.mmax(ca.fabs(r_q)) if nf else ca.MX(0), rc, inc, -ca.dot(r, dz), kmax)
+        f = ca.Function("statics_newton", [xf, lam, p], [dz, norms], ["x", "lam", "p"], ["dz", "norms"])
+        self.x, self.lam, self.p = np.zeros(nf), np.zeros(mc), np.zeros(nf)
+        self.dz, self.norms = np.zeros(nf + mc), np.zeros(5)
+        self._buf, self._eval = f.buffer()
+        for i, a in enumerate((self.x, self.lam, self.p)):
+            self._buf.set_arg(i, memoryview(a))
+        for i, a in enumerate((self.dz, self.norms)):
+            self._buf.set_res(i, memoryview(a))
+        self.f = f
+        self.span = S.span
+
+    def load_work(self, x_full: np.ndarray, load: float = 1.0) -> float:
+        """W = sum |r_i| s_i of the residual at x_full without multipliers (free rows): the loads' energy scale
+        [J] (under gravity from the undeformed state: the weight times L)."""
+        S = self.S
+        r = np.asarray(S.grad_f(S.reduce(x_full))).ravel() - load * S.f_lin
+        return float(np.sum(np.abs(r) * self.scale))
+
+    def solve(self, x_full: np.ndarray, tol: float, max_iter: int, work: float, load: float = 1.0,
+              lam: np.ndarray | None = None, max_step: float = np.inf) -> NewtonRun:
+        """Newton from x_full (which must satisfy the eliminated supports and hinges) at the given load factor.
+
+        work: the load work W [J] for the energy decrement's scale."""
+        S = self.S
+        self.x[:] = S.reduce(x_full)
+        self.lam[:] = 0.0 if lam is None else lam
+        self.p[:] = -load * S.f_lin
+        nf = S.nf
+        W = max(work, np.finfo(float).tiny)
+        hist: list = []
+        status, inc, dec, stall, it = "max_iter", math.inf, math.inf, 0, 0
+        best, best_at = math.inf, 0
+        for it in range(1, max_iter + 1):
+            self._eval()
+            rq, rc, inc, dec, kmax = self.norms
+            floor = float(np.finfo(float).eps * kmax * self.span)
+            dec = abs(dec) / W
+            if not (math.isfinite(inc) and math.isfinite(rq) and math.isfinite(dec)):
+                status = "not_finite"
+                it -= 1
+                break
+            if inc > max_step:  # a step longer than max_step structure lengths is cut back along its direction
+                self.dz *= max_step / inc
+                inc, dec = max_step, dec * (max_step / inc)
+            self.x += self.dz[:nf]
+            if S.mc:
+                self.lam += self.dz[nf:]
+            hist.append((float(inc), float(dec)))
+            if inc < best:
+                best, best_at = inc, it
+            if inc <= tol and dec <= tol:
+                status = "converged"
+                break
+            if inc > WILD:
+                status = "diverged"
+                break
+            if len(hist) > 1:
+                stall = stall + 1 if inc > STALL * hist[-2][0] else 0
+                if hist[-1][0] > 1e8 * hist[0][0] + 1e8:
+                    status = "diverged"
+                    break
+                if stall >= STALL_COUNT and inc < 1e-3 and rq <= ROUND_OFF * floor:
+                    status = "round_off"
+                    break
+                if stall >= 2 * STALL_COUNT or it - best_at > NO_PROGRESS:  # cycling well above round-off, or no
+                    status = "stalled"  # new smallest update for NO_PROGRESS iterations: not in Newton's basin
+                    break
+        x = S.full(self.x)
+        return NewtonRun(status == "converged", status, it, x, self.lam.copy(), float(inc), float(dec),
+                         float(self.norms[0]), floor if it else 0.0, hist)

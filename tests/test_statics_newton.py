@@ -1,0 +1,95 @@
+"""The statics engine's convergence test: relative, the same at any mesh size, never the start state under load.
+
+Paper 000's cantilever (L = 3 m, E = 20 GPa, gravity, clamped). Before the relative test: from 3828 elements the
+solve was refused (an absolute residual tolerance tied to the gradient's round-off floor, which grows like n^3 while
+the nodal loads shrink like 1/n), and `tol=1e-2` at 6000 elements returned the straight start as an equilibrium.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ancf_sym import Material, Scene, Section, solve_static
+from ancf_sym.statics import StaticProblem
+
+L = 3.0
+
+
+def cantilever(n: int, axial: str = "biot", E: float = 20e9, gravity: bool = True) -> Scene:
+    s = Scene(dim=2, gravity=(0, -9.81) if gravity else (0, 0))
+    s.member("beam", [(0, 0), (L, 0)], n, Material(E=E, density=7200), Section(area=7.854e-5, I=4.909e-10),
+             axial=axial, gravity=gravity)
+    s.clamp("beam", "start")
+    return s
+
+
+def continued_tip(problem: StaticProblem, x: np.ndarray, steps: int = 4) -> np.ndarray:
+    """Tip after `steps` more full Newton steps (the discrete solution, to round-off)."""
+    run = problem.newton.solve(x, 1e-300, steps, problem.work)
+    return problem.S.full(problem.newton.x)[problem.asm.mesh.members["beam"].offset:][-4:-2] if run.iterations \
+        else x[-4:-2]
+
+
+@pytest.mark.parametrize("n", [60, 6000])
+def test_answer_is_the_discrete_solution_at_any_mesh_size(n):
+    """Newton converges on the first path at 60 and 6000 elements (6000 was refused before); the answer lies within
+    1e-9 m of the discrete solution (checked by continuing Newton: the promise of tol = 1e-10 is ~tol^2 L after the
+    last update, so 1e-9 m leaves room for round-off only). The tip is paper 000's, 1.5732 / -2.3670 m (Biot)."""
+    p = StaticProblem(cantilever(n))
+    r = p.solve()
+    assert r.success and r.path == "newton" and r.stable is True, (r.status, r.attempts)
+    assert r.increment <= 1e-10 and r.energy_decrement <= 1e-10
+    tip = r.tip("beam")
+    assert np.linalg.norm(continued_tip(p, r.x) - tip) < 1e-9
+    assert tip == pytest.approx([1.5732, -2.3670], abs=2e-4)
+
+
+@pytest.mark.parametrize("tol", [1e-2, 0.5])
+def test_a_loose_tol_never_accepts_the_start_state(tol):
+    """tol is relative: the last applied Newton update was at most tol L. The start's update is the loads' response
+    (5.7 m here) and is applied before any test, so the answer has moved; with the update <= tol L the answer is
+    within tol L of the solution (the updates contract from there)."""
+    ref = solve_static(cantilever(600)).tip("beam")
+    r = solve_static(cantilever(600), tol=tol)
+    assert r.success and r.iterations >= 1
+    assert np.linalg.norm(r.tip("beam") - ref) <= tol * L
+
+
+def test_nothing_loads_it_solved_at_the_start():
+    """No gravity, no load: the start shape is the equilibrium (was refused as 'round-off floor above loads')."""
+    s = cantilever(10, gravity=False)
+    r = solve_static(s)
+    assert r.success and r.path == "start" and r.iterations == 0 and r.stable is True
+    assert np.array_equal(r.x, r.assembly.x0)
+
+
+def test_stability_reported_above_1500_coordinates():
+    """A clamped column past its Euler load with 500 elements (2000 coordinates; the dense check stopped at 1500):
+    the straight state is a saddle (inertia: one negative eigenvalue), below the load it is stable."""
+    def column(lam):
+        s = Scene(dim=2)
+        s.member("c", [(0, 0), (0, 1)], 500, Material(E=1e7, density=1.0), Section(area=1e-2, I=1e-7),
+                 axial="decoupled", gravity=False)
+        s.clamp("c", "start")
+        s.force("c", "end", (0.0, -lam * np.pi**2 / 4))
+        return s
+    r = solve_static(column(2.0), escape_saddle=False)
+    assert r.success and r.stable is False
+    assert solve_static(column(0.9), escape_saddle=False).stable is True
+
+
+def test_interrupted_ipopt_raises_keyboard_interrupt(monkeypatch):
+    """IPOPT swallows SIGINT and returns 'User_Requested_Stop': the solve must stop (KeyboardInterrupt), not go on
+    to the next attempt as if IPOPT had merely failed."""
+    p = StaticProblem(cantilever(4))
+
+    class Stopped:
+        def __call__(self, **kw):
+            return {"x": p.asm.x0, "lam_g": np.zeros(p.asm.exact.m)}
+
+        def stats(self):
+            return {"return_status": "User_Requested_Stop", "iter_count": 3}
+
+    monkeypatch.setattr(p, "solver", lambda line_search, opts: Stopped())
+    with pytest.raises(KeyboardInterrupt):
+        p._run(p.asm.x0, None, 1.0, False, None)
