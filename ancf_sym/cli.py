@@ -2,7 +2,7 @@
 
     ancf-sym run SCENE.toml --out DIR [--quiet] [--samples N]   solve the scene's [analysis], write DIR/
     ancf-sym kernels [--json]                                   the compiled kernel catalogue
-    ancf-sym study NAME --out DIR [--quick] [--jobs N] [--sweep AXIS=V1,V2 ...] [--target E]
+    ancf-sym study NAME --out DIR [--quick] [--jobs N | --scheduler ADDRESS] [--sweep AXIS=V1,V2 ...] [--target E]
                                                                 what accuracy costs in time (ancf_sym.study)
     ancf-sym study --list                                       the studies
 
@@ -265,7 +265,8 @@ def cmd_study(args) -> int:
     command = "ancf-sym study " + " ".join(sys.argv[2:]) if sys.argv[1:2] == ["study"] else None
     try:
         report = run_study(args.name, args.out, quick=args.quick, jobs=args.jobs, sweep=args.sweep or None,
-                           target=args.target, progress=not args.quiet, command=command)
+                           target=args.target, progress=not args.quiet, command=command,
+                           scheduler=args.scheduler)
     except StudyError as exc:
         _fail(str(exc))
         return 2
@@ -299,6 +300,9 @@ def main(argv: list[str] | None = None) -> int:
     st.add_argument("--jobs", type=int, default=None, help="worker processes (default: the number of cores)")
     st.add_argument("--sweep", action="append", metavar="AXIS=V1,V2", help="replace an axis' values (repeatable)")
     st.add_argument("--target", type=float, default=None, help="error the answer aims at (default: the study's)")
+    st.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                    help="run the settings on a Dask cluster (a running dask.distributed scheduler, e.g. "
+                         "tcp://host:8786; needs pip install 'ancf_sym[cluster]')")
     st.add_argument("--quiet", action="store_true", help="no progress bar, no summary")
     st.set_defaults(func=cmd_study)
     args = parser.parse_args(argv)

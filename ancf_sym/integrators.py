@@ -34,6 +34,7 @@ alpha_f = rho/(rho + 1), gamma = 1/2 + alpha_f - alpha_m, beta = (gamma + 1/2)^2
 """
 from __future__ import annotations
 
+import hashlib
 import math
 from dataclasses import dataclass
 
@@ -42,7 +43,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from . import kernels
+from . import contact, kernels
 from .assembly import Assembly, force_terms, map_elements
 from .checks import fail
 from .scene import SceneError
@@ -234,6 +235,16 @@ def partition(asm: Assembly) -> Partition:
     return Partition(E, c, free_roots, pos, keep, np.flatnonzero(is_fixed), int(np.sum(~is_fixed) - len(free_roots)))
 
 
+# compiled graphs by structure key (StepSystem._structure_key): a process builds a scene structure's graphs once
+_GRAPHS: dict = {}
+
+
+def clear_graph_cache() -> None:
+    """Forget the compiled step graphs of this process (the next run of every structure builds them again)."""
+    _GRAPHS.clear()
+    AlphaIntegrator._GRAPHS.clear()
+
+
 @dataclass
 class StrainRateData:
     """Kelvin-Voigt damping of cables at Gauss points of the damped members: r_x = Bx x, r_xx = Bxx x (rows
@@ -288,7 +299,9 @@ class StepSystem:
         # sparse LDL^T without pivoting for the symmetric positive definite step matrix; sparse QR when multipliers
         # make the KKT matrix indefinite (LDL^T meets zero pivots) or strain-rate damping makes it unsymmetric
         # (d f_d / dq; LDL^T reads one triangle)
-        self.linsol = linsol if linsol != "auto" else ("qr" if (self.mc or strain_rate is not None) else "ldl")
+        # (contact friction likewise: d f / d q is unsymmetric)
+        unsym = strain_rate is not None or bool(contact.dissipation_calls(asm.mesh))
+        self.linsol = linsol if linsol != "auto" else ("qr" if (self.mc or unsym) else "ldl")
 
         M = asm.mass_matrix().tocsc()
         self.M_full = M
@@ -311,9 +324,89 @@ class StepSystem:
         self.f_lin = part.E.T @ f_lin
         self.length_scale = max(float(mm.member.length) for mm in asm.mesh.members.values())
         self.span = float(np.max(np.abs(asm.x0))) + 1.0
-        self._build_forces()
-        self._build_damping()
-        self._build_step()
+        # the kernel calls: a cable's axial and bending terms fused into one elastic_<strain> kernel where both
+        # are on (same elements, Gauss order and Rayleigh weight): one B^T f_uu B per point instead of two
+        weights = self.rayleigh.element_weight if (self.rayleigh is not None and self.rayleigh.beta) else {}
+        self.force_terms = force_terms([mk.term for mk in self.nonlinear], fuse=self.fuse, row_keys=weights)
+        # values that are inputs of the compiled graphs (not baked in): the kernels' element parameters (material,
+        # section, lengths) and the linear potentials' coefficients (gravity, dead loads) of the energy outputs
+        self.par = np.concatenate([ft.P.ravel() for ft in self.force_terms] +
+                                  [mk.P.ravel() for mk in self.nonlinear] + [np.zeros(0)])
+        self.lin = np.concatenate([np.bincount(idx, G, minlength=n) for idx, G, _, _ in self._lin_energy] +
+                                  [np.array([c for _, _, c, _ in self._lin_energy]), asm.Q])
+        self.graph_key = self._structure_key()
+        graphs = _GRAPHS.get(self.graph_key)
+        if graphs is None:
+            self._build_forces()
+            self._build_damping()
+            self._build_step()
+            graphs = {k: getattr(self, k) for k in self._GRAPH_ATTRS}
+            graphs["factor"] = {}
+            _GRAPHS[self.graph_key] = graphs
+        else:
+            for k in self._GRAPH_ATTRS:
+                setattr(self, k, graphs[k])
+        self._graphs = graphs
+        self._setup_buffers(self.kel_sparsity is not None)
+
+    # compiled functions and what describes them: built once per structure key and shared by later StepSystems
+    _GRAPH_ATTRS = ("kel_sparsity", "forces_pf", "grad_pf", "energy_labels", "energy_f", "_energy_kin_labels",
+                    "_energy_kin_f", "damp_f", "damp_force_f", "kkt_sparsity", "iter_f", "res_f", "jac_f")
+
+    @property
+    def forces_f(self) -> ca.Function:
+        """forces(x) -> (g, K[, kel]) with this scene's element parameters (forces_pf takes them as an input)."""
+        if "forces_f" not in self.__dict__:
+            xf = ca.MX.sym("x", self.nf)
+            out = self.forces_pf(xf, ca.DM(self.par))
+            self.__dict__["forces_f"] = ca.Function("forces", [xf], list(out), ["x"],
+                                                    [self.forces_pf.name_out(i) for i in range(len(out))])
+        return self.__dict__["forces_f"]
+
+    @property
+    def grad_f(self) -> ca.Function:
+        """gradient(x) -> g with this scene's element parameters (grad_pf takes them as an input)."""
+        if "grad_f" not in self.__dict__:
+            xf = ca.MX.sym("x", self.nf)
+            self.__dict__["grad_f"] = ca.Function("gradient", [xf], [self.grad_pf(xf, ca.DM(self.par))], ["x"], ["g"])
+        return self.__dict__["grad_f"]
+
+    def _structure_key(self) -> str:
+        """What the compiled graphs bake in: the pattern of the equations (elements, kernels, gathers, sparsity),
+        and the values that are constants of the graphs (mass matrix, fixed coordinates, Rayleigh and strain-rate
+        damping, penalties, constraints, scales). Element parameters (E, section, lengths), constant and time
+        loads, the step size and the initial state are inputs: runs that differ only in those share the graphs."""
+        h = hashlib.sha256()
+
+        def add(*xs):
+            for x in xs:
+                if isinstance(x, np.ndarray):
+                    h.update(repr((x.dtype.str, x.shape)).encode())
+                    h.update(np.ascontiguousarray(x).tobytes())
+                elif isinstance(x, (list, tuple)):
+                    h.update(b"[")
+                    add(*x)
+                    h.update(b"]")
+                elif isinstance(x, dict):
+                    add(*sorted(x.items(), key=lambda kv: repr(kv[0])))
+                elif hasattr(x, "__dict__") and not isinstance(x, type):
+                    add(type(x).__name__, dict(vars(x)))
+                elif sp.issparse(x):
+                    x = sp.csc_matrix(x)
+                    add(x.shape, x.indptr, x.indices, x.data)
+                else:
+                    h.update(repr(x).encode())
+        asm = self.asm
+        add(asm.n, self.nf, self.mc, self.linsol, self.fuse, self._gather, self.part.c, self.M, self.span,
+            self.length_scale, bool(np.any(asm.Q)), [lbl for *_, lbl in self._lin_energy])
+        add([(ft.element, ft.effect, ft.gauss, ft.idx, ft.P.shape, ft.labels, ft.sources) for ft in self.force_terms])
+        add([(mk.term.element, mk.term.effect, mk.term.gauss, mk.term.idx, mk.P.shape, mk.term.label)
+             for mk in self.nonlinear])
+        r = self.rayleigh
+        add(None if r is None else (r.alpha, r.beta, {k: np.asarray(v, float) for k, v in r.element_weight.items()}))
+        add(self.strain_rate, asm.penalty, self.cons)
+        add(contact.dissipation_calls(asm.mesh))  # contact damping/friction: parameters baked into the graph
+        return h.hexdigest()
 
     # -- symbolic assembly (once per scene) -------------------------------------------------------------------
     def x_full_mx(self, xf: ca.MX) -> ca.MX:
@@ -325,17 +418,20 @@ class StepSystem:
     def _build_forces(self) -> None:
         asm, nf, pos = self.asm, self.nf, self.pos
         xf = ca.MX.sym("x", nf)
+        par = ca.MX.sym("par", self.par.size)
         x = self.x_full_mx(xf)
         energies = []
         kel_vals, kel_rows, kel_cols = [], [], []
-        # the kernel calls: a cable's axial and bending terms fused into one elastic_<strain> kernel where both
-        # are on (same elements, Gauss order and Rayleigh weight): one B^T f_uu B per point instead of two
         weights = self.rayleigh.element_weight if (self.rayleigh is not None and self.rayleigh.beta) else {}
-        self.force_terms = force_terms([mk.term for mk in self.nonlinear], fuse=self.fuse, row_keys=weights)
+        Ps, o = [], 0  # each kernel call's parameters (n_p x N) from the input vector
+        for P in [ft.P for ft in self.force_terms] + [mk.P for mk in self.nonlinear]:
+            Ps.append(ca.reshape(par[o:o + P.size], P.shape[1], P.shape[0]))
+            o += P.size
+        Pft, Pmk = Ps[:len(self.force_terms)], Ps[len(self.force_terms):]
         groups: dict = {}  # calls on the same element coordinates: gradients and Hessians summed before the scatter
-        for ft in self.force_terms:
+        for ft, Pk in zip(self.force_terms, Pft):
             Xe = ca.reshape(x[ft.idx.ravel().tolist()], ft.nd, ft.N)
-            _, G, H = ft.mapped()(Xe, ca.DM(ft.P.T))
+            _, G, H = ft.mapped()(Xe, Pk)
             key = (ft.idx.shape, ft.idx.tobytes())
             if key in groups:
                 grp = groups[key]
@@ -380,12 +476,13 @@ class StepSystem:
             outs[0] = outs[0] + ca.gradient(pen, xf)
             outs[1] = outs[1] + ca.hessian(pen, xf)[0]
             energies.append(("penalty", pen))
-        self.forces_f = ca.Function("forces", [xf], outs, ["x"], ["g", "K"] + (["kel"] if kel_vals else []))
+        self.forces_pf = ca.Function("forces", [xf, par], outs, ["x", "par"],
+                                     ["g", "K"] + (["kel"] if kel_vals else []))
         # the gradient alone from the (energy, gradient) companions: no Hessian work (residuals of modified Newton)
         ggroups: dict = {}
-        for ft in self.force_terms:
+        for ft, Pk in zip(self.force_terms, Pft):
             Xe = ca.reshape(x[ft.idx.ravel().tolist()], ft.nd, ft.N)
-            G = ft.mapped_grad()(Xe, ca.DM(ft.P.T))[1]
+            G = ft.mapped_grad()(Xe, Pk)[1]
             key = (ft.idx.shape, ft.idx.tobytes())
             ggroups[key] = (ft.idx, ggroups[key][1] + G) if key in ggroups else (ft.idx, G)
         gg = _gather_sum([ca.vec(G) for _, G in ggroups.values()],
@@ -393,40 +490,49 @@ class StepSystem:
             if ggroups else ca.MX.zeros(nf)
         if asm.penalty is not None:
             gg += ca.gradient(pen, xf)
-        self.grad_f = ca.Function("gradient", [xf], [gg], ["x"], ["g"])
+        self.grad_pf = ca.Function("gradient", [xf, par], [gg], ["x", "par"], ["g"])
         # energies for the outputs from the energy-only compiled functions (no gradient, no Hessian)
         elist = []
-        for mk in self.nonlinear:
+        for mk, Pk in zip(self.nonlinear, Pmk):
             t = mk.term
             Xe = ca.reshape(x[t.idx.ravel().tolist()], mk.nd, mk.N)
             ef = map_elements(kernels.load_energy(t.element, t.effect, t.gauss),
                               kernels.load_batch(t.element, t.effect, t.gauss, "_energy"), mk.N)
-            elist.append((t.label, ca.sum2(ef(Xe, ca.DM(mk.P.T)))))
+            elist.append((t.label, ca.sum2(ef(Xe, Pk))))
         elist += [(lbl, e) for lbl, e in energies if lbl == "penalty"]
         self.energy_labels = [lbl for lbl, _ in elist]
-        self.energy_f = ca.Function("energies", [xf], [ca.vertcat(*[e for _, e in elist]) if elist
-                                                       else ca.MX(0, 1)])
-        # the outputs' energies in one call: the potentials (the linear ones, U = c + G.x, as dot products) and the
-        # kinetic energy
-        for idx, G, c, label in self._lin_energy:
-            elist.append((label, c + ca.dot(ca.DM(np.bincount(idx, G, minlength=asm.n)), x)))
+        self.energy_f = ca.Function("energies", [xf, par], [ca.vertcat(*[e for _, e in elist]) if elist
+                                                            else ca.MX(0, 1)])
+        # the outputs' energies in one call: the potentials (the linear ones, U = c + G.x, as dot products with the
+        # input `lin` = [G_1 .. G_k, c_1 .. c_k, Q]) and the kinetic energy
+        lin = ca.MX.sym("lin", self.lin.size)
+        n, k = asm.n, len(self._lin_energy)
+        for j, (_, _, _, label) in enumerate(self._lin_energy):
+            elist.append((label, lin[k * n + j] + ca.dot(lin[j * n:(j + 1) * n], x)))
         if np.any(asm.Q):
-            elist.append(("loads", -ca.dot(ca.DM(asm.Q), x)))
+            elist.append(("loads", -ca.dot(lin[k * n + k:], x)))
         self._energy_kin_labels = [lbl for lbl, _ in elist]
         vf = ca.MX.sym("v", nf)
-        self._energy_kin_f = ca.Function("energies_kinetic", [xf, vf], [
+        self._energy_kin_f = ca.Function("energies_kinetic", [xf, vf, par, lin], [
             ca.vertcat(*[e for _, e in elist], 0.5 * ca.dot(vf, ca.mtimes(_dm(self.M), vf)))])
 
     def _build_damping(self) -> None:
         """damp_f(x, v) -> (f_d, df_d/dx, df_d/dv) of the strain-rate dissipation D = 1/2 sum_points w L
         (c_axial eps_dot^2 + c_bending |kappa_dot|^2): exact derivatives by AD of one vectorized graph."""
-        self.damp_f = None
+        self.damp_f = self.damp_force_f = None
         sr = self.strain_rate
-        if sr is None:
-            return
-        nf, d = self.nf, sr.dim
+        nf = self.nf
         xf, vf = ca.MX.sym("x", nf), ca.MX.sym("v", nf)
         X, V = self.x_full_mx(xf), ca.mtimes(_dm(self.E), vf)
+        # contact damping and friction (ancf_sym.contact): force and exact tangents from the compiled kernels
+        dc = contact.dissipation_mx(self, X, V)
+        if sr is None:
+            if dc is not None:
+                self.damp_f = ca.Function("contact_dissipation", [xf, vf], list(dc), ["x", "v"],
+                                          ["f", "df_dx", "df_dv"])
+                self.damp_force_f = ca.Function("contact_force", [xf, vf], [dc[0]], ["x", "v"], ["f"])
+            return
+        d = sr.dim
         P = len(sr.wL)
         R, Rd, RR = ca.mtimes(_dm(sr.Bx), X), ca.mtimes(_dm(sr.Bx), V), ca.mtimes(_dm(sr.Bxx), X)
         rx = [R[k * P:(k + 1) * P] for k in range(d)]
@@ -448,8 +554,11 @@ class StepSystem:
             cb = ca.repmat(ca.DM(sr.c_bending) * wl, d if d == 3 else 1, 1)
             D += 0.5 * ca.dot(cb, kdot * kdot)
         fd = ca.gradient(D, vf)
-        self.damp_f = ca.Function("strain_rate_damping", [xf, vf], [fd, ca.jacobian(fd, xf), ca.jacobian(fd, vf)],
-                                  ["x", "v"], ["f", "df_dx", "df_dv"])
+        outs = [fd, ca.jacobian(fd, xf), ca.jacobian(fd, vf)]
+        if dc is not None:
+            outs = [a + b for a, b in zip(outs, dc)]
+            fd = outs[0]
+        self.damp_f = ca.Function("strain_rate_damping", [xf, vf], outs, ["x", "v"], ["f", "df_dx", "df_dv"])
         self.damp_force_f = ca.Function("strain_rate_force", [xf, vf], [fd], ["x", "v"], ["f"])
 
     def damping_force(self, xf: np.ndarray, vf: np.ndarray) -> np.ndarray | None:
@@ -515,7 +624,8 @@ class StepSystem:
         # y: inertia part of the constant residual, M (cm x + y) (the alpha step graph: one product with M per
         # iteration and none in the step's predictor; other callers pass y = 0 and M y in p)
         y = ca.MX.sym("y", nf)
-        out = self.forces_f(xf)
+        par = ca.MX.sym("par", self.par.size)
+        out = self.forces_pf(xf, par)
         g, K = out[0], out[1]
         Mdm = _dm(self.M)
         Cx, C = self.damping_mx(xf, kel)
@@ -530,7 +640,7 @@ class StepSystem:
             r_q += fd
             S = S + dfx + cc * dfv
         # the same residual from the gradient-only kernels (modified Newton: no Hessian work)
-        r_g = ca.mtimes(Mdm, cm * xf + y) + cc * Cx + self.grad_f(xf) + p
+        r_g = ca.mtimes(Mdm, cm * xf + y) + cc * Cx + self.grad_pf(xf, par) + p
         if self.damp_f is not None:
             r_g += self.damp_force_f(xf, vc + cc * xf)
         if mc:
@@ -547,8 +657,8 @@ class StepSystem:
         else:
             r, rg, KKT, rc = r_q, r_g, S, ca.MX(0)
         rq = ca.mmax(ca.fabs(r_q))
-        ins = [xf, lam, p, cm, cc, kc, vc] + ([kel] if kel is not None else []) + [y]
-        names = ["x", "lam", "p", "cm", "cc", "kc", "vc"] + (["kel"] if kel is not None else []) + ["y"]
+        ins = [xf, lam, p, cm, cc, kc, vc] + ([kel] if kel is not None else []) + [y, par]
+        names = ["x", "lam", "p", "cm", "cc", "kc", "vc"] + (["kel"] if kel is not None else []) + ["y", "par"]
         self.kkt_sparsity = KKT.sparsity()
         kkt_nz = _mx_sparse_nz(KKT)
         # largest entry (round-off floor): on the diagonal when the step matrix is positive definite
@@ -563,18 +673,21 @@ class StepSystem:
                                  ["r", "norms"])
         self.jac_f = ca.Function("step_jacobian", ins, [r, ca.vertcat(rq, rc, kmax), kkt_nz], names,
                                  ["r", "norms", "kkt"])
-        self.fact_f, self._factor_built = None, False  # built on demand (modified Newton): ensure_factor
-        self._setup_buffers(kel is not None)
+
 
     # largest LDL^T factorisation (operations of its SX graph) built for in-graph modified Newton
     MAX_FACTOR_OPS = 2_000_000
 
     def ensure_factor(self):
-        """fact_f, built on first use (None where the in-graph factor does not apply)."""
-        if not self._factor_built:
+        """fact_f, built on first use (None where the in-graph factor does not apply); shared like the graphs."""
+        fac = self._graphs["factor"]
+        if not fac:
             self._build_factor()
-            self._factor_built = True
-        return self.fact_f
+            fac.update({k: getattr(self, k) for k in ("fact_f", "ldl_perm", "ldl_sparsity", "factor_size")
+                        if hasattr(self, k)})
+        for k, v in fac.items():
+            setattr(self, k, v)
+        return fac["fact_f"]
 
     def _build_factor(self) -> None:
         """In-graph sparse LDL^T of the symmetric positive definite step matrix whose factor is a value (so a
@@ -624,7 +737,7 @@ class StepSystem:
         self.kkt = sp.csc_matrix((np.zeros(spk.nnz()), np.array(spk.row(), dtype=np.int32),
                                   np.array(spk.colind(), dtype=np.int32)), shape=(self.nz, self.nz))
         args = [self.x, self.lam, self.p, self.cm, self.cc, self.kc, self.vc] + ([self.kel] if has_kel else []) \
-            + [self.y]
+            + [self.y, self.par]
         self._bufs = []
         for f, outs in ((self.iter_f, (self.dz, self.norms)), (self.res_f, (self.r, self.norms[:2])),
                         (self.jac_f, (self.r, self._jac_norms, self.kkt.data))):
@@ -680,7 +793,7 @@ class StepSystem:
 
     def forces(self, xf: np.ndarray) -> tuple[np.ndarray, sp.csc_matrix, np.ndarray | None]:
         """(gradient of the nonlinear potential, its Hessian, K_el values or None) at free coordinates xf."""
-        out = self.forces_f(xf)
+        out = self.forces_pf(xf, self.par)
         g = np.asarray(out[0]).ravel()
         K = out[1].sparse() if hasattr(out[1], "sparse") else sp.csc_matrix(np.asarray(out[1]))
         kel = np.asarray(out[2]).ravel() if len(out) > 2 else None
@@ -699,6 +812,8 @@ class StepSystem:
             buf, ev = self._energy_kin_f.buffer()
             buf.set_arg(0, memoryview(self._e_x))
             buf.set_arg(1, memoryview(self._e_vel))
+            buf.set_arg(2, memoryview(self.par))
+            buf.set_arg(3, memoryview(self.lin))
             buf.set_res(0, memoryview(self._e_v))
             self._ebuf = (buf, ev)
         self._e_x[:] = xf
@@ -749,7 +864,7 @@ class StiffnessDamping:
         self.f = None
         if system.kel_sparsity is not None:
             xf = ca.MX.sym("x", system.nf)
-            self.f = ca.Function("kel", [xf], [system.forces_f(xf)[2]])
+            self.f = ca.Function("kel", [xf], [system.forces_pf(xf, ca.DM(system.par))[2]])
 
     @property
     def active(self) -> bool:
@@ -954,7 +1069,7 @@ def _newton_modified(system, factor, key, opts, counters, tol_q, tol_x) -> Newto
 
 def initial_acceleration(S: StepSystem, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray, C=None):
     """Consistent initial acceleration and multipliers: [M J^T; J 0][a; lam] = [f - C v - g; -phi_vv]."""
-    g = np.asarray(S.grad_f(q0)).ravel()  # (the gradient-only graph: no Hessian to compute and convert)
+    g = np.asarray(S.grad_pf(q0, S.par)).ravel()  # (the gradient-only graph: no Hessian to compute and convert)
     f = S.f_lin + Q0 - g
     if C is not None:
         f = f - C @ v0
@@ -976,6 +1091,23 @@ class StepOutcome:
     iterations: int
     reason: str = ""
     fast: bool = False  # converged within the fused two-iteration call
+
+
+def _map_steps(step: ca.Function, n: int, n_accum: int) -> ca.Function:
+    """n steps in one function, like step.mapaccum(n, n_accum): the first n_accum inputs carried from step to
+    step, the others given per step as columns; the outputs of every step as columns. Large states: the n calls
+    unrolled in one MX graph (mapaccum's nested construction took 3-5x longer to build at 1000 elements, with
+    the same evaluation time)."""
+    if step.nnz_in(0) < 2000:
+        return step.mapaccum(f"alpha_steps_{n}", n, n_accum)
+    ins = [ca.MX.sym(step.name_in(i), step.size1_in(i), 1 if i < n_accum else n) for i in range(step.n_in())]
+    acc, outs = ins[:n_accum], [[] for _ in range(step.n_out())]
+    for j in range(n):
+        r = step(*acc, *[a[:, j] for a in ins[n_accum:]])
+        acc = r[:n_accum]
+        for k in range(step.n_out()):
+            outs[k].append(r[k])
+    return ca.Function(f"alpha_steps_{n}", ins, [ca.horzcat(*o) for o in outs])
 
 
 class AlphaIntegrator:
@@ -1022,6 +1154,7 @@ class AlphaIntegrator:
     max_slots = 5  # modified Newton: iterations (refactorisations included) the step graph tries per step
     refactor_cost = 3.5  # modified Newton: a refactorisation's cost in iterations on a kept factor
     info_size = 7  # ok, iterations, factorisations, |dz0|, |dz1|, truncation error, max |KKT|
+    extra_iterations = 4  # full Newton: iterations the step graph tries after the second one
 
     def __init__(self, system: StepSystem, scheme: Scheme, newton_opts: NewtonOptions, tol_q: float,
                  tol_x: float, counters: Counters):
@@ -1044,9 +1177,16 @@ class AlphaIntegrator:
         self._new_ctl = self.ctl.copy()
         self._new_fac = [f.copy() for f in self.fac]
         self.kdamp = StiffnessDamping(system, counters)
-        self.step_f = self._build_modified() if self.modified_graph else self._build_full()
+        # the compiled step and chunk functions, shared by the integrators of one structure and settings
+        key = (system.graph_key, scheme, tuple(sorted(vars(newton_opts).items())), self.modified_graph)
+        self._graphs = self._GRAPHS.setdefault(key, {"chunks": {}})
+        if "step" not in self._graphs:
+            self._graphs["step"] = self._build_modified() if self.modified_graph else self._build_full()
+        self.step_f = self._graphs["step"]
         self._setup_step_buffers()
-        self._chunks: dict = {}
+        self._chunks: dict = {}  # this integrator's buffers of the chunk functions
+
+    _GRAPHS: dict = {}  # (structure key, scheme, Newton options, in-graph factor) -> step and chunk functions
 
     # -- the compiled step ------------------------------------------------------------------------------------
     @property
@@ -1083,7 +1223,8 @@ class AlphaIntegrator:
         tols = ca.MX.sym("tols", 2)  # force tolerance [N], update tolerance [m]
         pload = ca.MX.sym("pload", nf)  # -(f_lin + Q(t_n+1))
         kel = ca.MX.sym("kel", S.kel.size) if S.kel is not None else None
-        return st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel
+        par = ca.MX.sym("par", S.par.size)  # element parameters (StepSystem.par)
+        return st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel, par
 
     def _step_common(self, q, v, a, ab, ap, h, hp, pload, kel):
         """Predictor, constant part of the residual and the corrector of a step (MX)."""
@@ -1151,16 +1292,32 @@ class AlphaIntegrator:
                             [ca.vertcat(om_new, since_new), ca.vertcat(ok, iters, iters, d0, d1, L, N0[4])])
         return first, final
 
+    def _later_control_function(self) -> ca.Function:
+        """Convergence after a third or later full Newton iteration (the criteria and tolerances of `newton`, which
+        took these steps before): (ok, iterations, last |dz|) updated by the norms of the iteration (zeros if
+        skipped)."""
+        sx, tiny = ca.SX.sym, 1e-300
+        V, N, A, T = sx("lv", 3), sx("n", 5), sx("a", 4), sx("tols", 2)
+        ok, iters, d_prev = V[0], V[1], V[2]
+        tq, tolx = A[1], T[1]  # (the absolute update tolerance, as `newton`: a hard step converges fully)
+        ran = ok == 0
+        d = ca.fmax(N[2], N[3])
+        th = d / ca.fmax(d_prev, tiny)
+        conv = ca.logic_or(ca.logic_or(ca.logic_and(N[0] <= tq, N[1] <= T[1]), d <= 0.1 * tolx),
+                           ca.logic_and(th < 0.5, th / (1 - th) * d <= tolx))
+        return ca.Function("after_later", [V, N, A, T], [ca.vertcat(ca.logic_or(ok, ca.logic_and(ran, conv)),
+                                                                    iters + ran, ca.if_else(ran, d, d_prev))])
+
     def _build_full(self) -> ca.Function:
         """Full Newton: one iteration, then (in-graph switch) either acceptance or a second iteration."""
         S = self.S
         nf, mc = S.nf, S.mc
-        st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel = self._step_inputs()
+        st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel, par = self._step_inputs()
         c = self._step_common(q, v, a, ab, ap, h, hp, pload, kel)
         x0, p, cm, cc, kc, vc, y = c["x0"], c["p"], c["cm"], c["cc"], c["kc"], c["vc"], c["y"]
         l0 = lam / kc
         extra = [kel] if kel is not None else []
-        dz, n0 = S.iter_f(x0, l0, p, cm, cc, kc, vc, *extra, y)
+        dz, n0 = S.iter_f(x0, l0, p, cm, cc, kc, vc, *extra, y, par)
         x1 = x0 + dz[:nf]
         l1 = l0 + dz[nf:] if mc else l0
         lte = c["lte"](x1)
@@ -1170,16 +1327,32 @@ class AlphaIntegrator:
         xb, lb, pb = ca.MX.sym("xb", nf), ca.MX.sym("lb", mc), ca.MX.sym("pb", nf)
         cb, ccb, kb, vb = ca.MX.sym("cmb"), ca.MX.sym("ccb"), ca.MX.sym("kcb"), ca.MX.sym("vcb", nf)
         eb = [ca.MX.sym("kelb", S.kel.size)] if kel is not None else []
-        yb = ca.MX.sym("yb", nf)
-        dzb, nb = S.iter_f(xb, lb, pb, cb, ccb, kb, vb, *eb, yb)
-        f_keep = ca.Function("keep", [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb], [xb, lb, ca.DM.zeros(5)])
-        f_iter = ca.Function("second", [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb],
+        yb, parb = ca.MX.sym("yb", nf), ca.MX.sym("parb", S.par.size)
+        dzb, nb = S.iter_f(xb, lb, pb, cb, ccb, kb, vb, *eb, yb, parb)
+        f_keep = ca.Function("keep", [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb, parb], [xb, lb, ca.DM.zeros(5)])
+        f_iter = ca.Function("second", [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb, parb],
                              [xb + dzb[:nf], (lb + dzb[nf:]) if mc else lb, nb])
         switch = ca.Function.conditional("second_iteration", [f_keep], f_iter)
-        x2, l2, n1 = switch(a1[0], x1, l1, p, cm, cc, kc, vc, *extra, y)
+        x2, l2, n1 = switch(a1[0], x1, l1, p, cm, cc, kc, vc, *extra, y, par)
         ctl_new, info = final(ctl, n0, a1, n1, lte, tols)
+        # further iterations while not converged (hard transients: the step stays in the graph, and a chunk goes
+        # on); one switch per step, so that a step converged after two iterations pays one call for them
+        lv = ca.vertcat(info[0], info[1], ca.fmax(n1[2], n1[3]))
+        n_more = max(0, min(self.extra_iterations, self.opts.max_iter - 2))
+        if n_more:
+            later = self._later_control_function()
+            lvb, a1b, tb = ca.MX.sym("lv", 3), ca.MX.sym("a1", 4), ca.MX.sym("tols", 2)
+            ins = [xb, lb, lvb, a1b, tb, pb, cb, ccb, kb, vb] + eb + [yb, parb]
+            xk, lk, lk_v = xb, lb, lvb
+            for _ in range(n_more):
+                xk, lk, nk = switch(lk_v[0] == 0, xk, lk, pb, cb, ccb, kb, vb, *eb, yb, parb)
+                lk_v = later(lk_v, nk, a1b, tb)
+            more = ca.Function.conditional("further_iterations", [ca.Function("done", ins, [xb, lb, lvb])],
+                                           ca.Function("more", ins, [xk, lk, lk_v]))
+            x2, l2, lv = more(lv[0] == 0, x2, l2, lv, a1, tols, p, cm, cc, kc, vc, *extra, y, par)
+        info = ca.vertcat(lv[0], lv[1], lv[1], info[3:])
         new_state = ca.vertcat(c["block"](x2), l2 * kc, ctl_new)
-        return self._make_step_f([st], [h, hp, pload, tols] + extra, [new_state], info)
+        return self._make_step_f([st], [h, hp, pload, tols] + extra + [par], [new_state], info)
 
     # carried control vector of the modified step (SX functions between the iterations)
     _CV = ("conv", "tolx", "tq", "kmax", "iters", "nfull", "since_full", "d_prev", "last_full", "th", "mode",
@@ -1269,7 +1442,7 @@ class AlphaIntegrator:
         S = self.S
         nf = S.nf
         nD, nU, nUT = S.factor_size
-        st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel = self._step_inputs()
+        st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel, par = self._step_inputs()
         D0, U0, UT0 = ca.MX.sym("D", nD), ca.MX.sym("U", nU), ca.MX.sym("UT", nUT)
         c = self._step_common(q, v, a, ab, ap, h, hp, pload, kel)
         x0, p, cm, cc, vc, y = c["x0"], c["p"], c["cm"], c["cc"], c["vc"], c["y"]
@@ -1278,13 +1451,13 @@ class AlphaIntegrator:
         xs, Ds, Us, UTs = ca.MX.sym("x", nf), ca.MX.sym("D", nD), ca.MX.sym("U", nU), ca.MX.sym("UT", nUT)
         ps, cms, ccs, vcs = ca.MX.sym("p", nf), ca.MX.sym("cm"), ca.MX.sym("cc"), ca.MX.sym("vc", nf)
         ks = [ca.MX.sym("kel", S.kel.size)] if kel is not None else []
-        ys = ca.MX.sym("y", nf)
-        args = [xs, Ds, Us, UTs, ps, cms, ccs, vcs] + ks + [ys]
+        ys, pars = ca.MX.sym("y", nf), ca.MX.sym("par", S.par.size)
+        args = [xs, Ds, Us, UTs, ps, cms, ccs, vcs] + ks + [ys, pars]
         none = ca.MX(0, 1)
-        r, nr = S.res_f(xs, none, ps, cms, ccs, 1.0, vcs, *ks, ys)
+        r, nr = S.res_f(xs, none, ps, cms, ccs, 1.0, vcs, *ks, ys, pars)
         dz = -S.ldl_solve_mx(Ds, Us, UTs, r)
         f_mod = ca.Function("kept_factor", args, [xs + dz, Ds, Us, UTs, ca.vertcat(nr[0], ca.mmax(ca.fabs(dz)), 0)])
-        r, nj, knz = S.jac_f(xs, none, ps, cms, ccs, 1.0, vcs, *ks, ys)
+        r, nj, knz = S.jac_f(xs, none, ps, cms, ccs, 1.0, vcs, *ks, ys, pars)
         D2, U2, UT2 = S.fact_f(knz)
         dz = -S.ldl_solve_mx(D2, U2, UT2, r)
         f_full = ca.Function("refactorise", args,
@@ -1294,17 +1467,19 @@ class AlphaIntegrator:
         cf = self._control_functions()
         dm = cf["decide"](ctl, h)
         mode0, th0 = dm[0], dm[1]
-        x, Dk, Uk, UTk, n = slot(mode0, x0, D0, U0, UT0, p, cm, cc, vc, *extra, y)
+        x, Dk, Uk, UTk, n = slot(mode0, x0, D0, U0, UT0, p, cm, cc, vc, *extra, y, par)
         cv = cf["first"](ctl, n, c["lte"](x), tols, mode0, th0)
         for k in range(1, self.max_slots):
-            x, Dk, Uk, UTk, n = slot(cv[cf["mode"]], x, Dk, Uk, UTk, p, cm, cc, vc, *extra, y)
+            x, Dk, Uk, UTk, n = slot(cv[cf["mode"]], x, Dk, Uk, UTk, p, cm, cc, vc, *extra, y, par)
             cv = (cf["second"] if k == 1 else cf["later"])(cv, n)
         ctl_new, info = cf["final"](ctl, cv, c["lte"](x), h)
         new_state = ca.vertcat(c["block"](x), lam, ctl_new)
-        return self._make_step_f([st, D0, U0, UT0], [h, hp, pload, tols] + extra, [new_state, Dk, Uk, UTk], info)
+        return self._make_step_f([st, D0, U0, UT0], [h, hp, pload, tols] + extra + [par], [new_state, Dk, Uk, UTk],
+                                 info)
 
     def _make_step_f(self, accum_in, other_in, accum_out, info) -> ca.Function:
-        names = ["state", "D", "U", "UT"][:len(accum_in)] + ["h", "h_prev", "pload", "tols", "kel"][:len(other_in)]
+        names = ["state", "D", "U", "UT"][:len(accum_in)] + ["h", "h_prev", "pload", "tols"] + \
+            (["kel"] if len(other_in) == 6 else []) + ["par"]
         return ca.Function("alpha_step", accum_in + other_in, accum_out + [info], names,
                            ["next_" + nm for nm in names[:len(accum_out)]] + ["info"])
 
@@ -1315,7 +1490,7 @@ class AlphaIntegrator:
         self._f_out = [np.zeros(k) for k in self.fac_sizes]
         self._h, self._hp, self._pload, self._tols = np.zeros(1), np.zeros(1), np.zeros(nf), np.zeros(2)
         args = [self._s_in] + self.fac + [self._h, self._hp, self._pload, self._tols] + \
-            ([S.kel] if S.kel is not None else [])
+            ([S.kel] if S.kel is not None else []) + [S.par]
         outs = [self._s_out] + self._f_out + [self._info]
         buf, ev = self.step_f.buffer()
         for i, arr in enumerate(args):
@@ -1450,15 +1625,43 @@ class AlphaIntegrator:
         self.kdamp.update(self.q)
 
     # -- many steps in one call -------------------------------------------------------------------------------
+    def guarded_step(self) -> ca.Function:
+        """The step with a 'failed' flag appended to its state: a step the graph cannot accept (not converged, or a
+        non-finite state) sets the flag, and every later step of the chunk is a no-op that passes the state on
+        (a switch that evaluates only the branch taken), so a chunk costs the steps it accepts plus one."""
+        f = self.step_f
+        ins = [ca.MX.sym(f.name_in(i), f.sparsity_in(i)) for i in range(f.n_in())]
+        st = ca.MX.sym("state", self.state_size + 1)
+        outs = f(st[:self.state_size], *ins[1:])
+        new, info = outs[0], outs[-1]
+        finite = ca.fabs(ca.sum1(ca.vertcat(new, *outs[1:-1]))) < np.inf  # (false for NaN and inf)
+        failed = ca.logic_not(ca.logic_and(info[0] == 1, finite))
+        info = ca.vertcat(ca.logic_not(failed), info[1:])  # ok = converged and finite
+        run = ca.Function("step", [st] + ins[1:], [ca.vertcat(new, failed)] + list(outs[1:-1]) + [info])
+        keep = ca.Function("skip", [st] + ins[1:], [st] + ins[1:self.n_accum] + [ca.DM.zeros(self.info_size)])
+        g = ca.Function.conditional("guarded_step", [run], keep)  # flag 0: the step; 1: no-op
+        return ca.Function("alpha_step_guarded", [st] + ins[1:], g(st[-1], st, *ins[1:]),
+                           ["state"] + [f.name_in(i) for i in range(1, f.n_in())],
+                           ["next_state"] + [f.name_out(i) for i in range(1, f.n_out())])
+
     def chunk_function(self, n: int):
         if n not in self._chunks:
-            f = self.step_f.mapaccum(f"alpha_steps_{n}", n, self.n_accum)
+            g = self._graphs
+            if "guarded" not in g:
+                g["guarded"] = self.guarded_step()
+            if n not in g["chunks"]:
+                g["chunks"][n] = _map_steps(g["guarded"], n, self.n_accum)
+            f = g["chunks"][n]
             buf, ev = f.buffer()
             nf = self.S.nf
-            bufs = dict(s=np.zeros(self.state_size), h=np.zeros(n), hp=np.zeros(n), pload=np.zeros(nf * n),
-                        tols=np.zeros(2 * n), out=np.zeros(self.state_size * n), info=np.zeros(self.info_size * n),
+            ns = self.state_size + 1
+            bufs = dict(s=np.zeros(ns), h=np.zeros(n), hp=np.zeros(n), pload=np.zeros(nf * n),
+                        tols=np.zeros(2 * n), out=np.zeros(ns * n), info=np.zeros(self.info_size * n),
                         fac_out=[np.zeros(k * n) for k in self.fac_sizes])
-            args = [bufs["s"]] + self.fac + [bufs["h"], bufs["hp"], bufs["pload"], bufs["tols"]]
+            S = self.S
+            args = [bufs["s"]] + self.fac + [bufs["h"], bufs["hp"], bufs["pload"], bufs["tols"]] + \
+                ([np.tile(S.kel, n)] if S.kel is not None else []) + [np.tile(S.par, n)]
+            bufs["fixed"] = args[-1 - (S.kel is not None):]  # (kept alive: the buffer holds their memory)
             outs = [bufs["out"]] + bufs["fac_out"] + [bufs["info"]]
             for i, arr in enumerate(args):
                 buf.set_arg(i, memoryview(arr))
@@ -1473,7 +1676,8 @@ class AlphaIntegrator:
         converge (that step is then left to `attempt`). The integrator's state is advanced to the last of them."""
         n = ploads.shape[1]
         buf, ev, b = self.chunk_function(n)
-        b["s"][:] = self.pack()
+        b["s"][:-1] = self.pack()
+        b["s"][-1] = 0.0  # not failed
         b["h"][:] = h  # (mapaccum maps every input but the state over the steps)
         b["hp"][:] = h
         b["hp"][0] = self.h_prev if self.h_prev else 0.0
@@ -1483,8 +1687,8 @@ class AlphaIntegrator:
         b["tols"][0::2], b["tols"][1::2] = self.tol_q, self.tol_x
         ev()
         info = b["info"].reshape(n, self.info_size)
-        states = b["out"].reshape(n, self.state_size)
-        good = (info[:, 0] == 1) & np.all(np.isfinite(states), axis=1)
+        states = b["out"].reshape(n, self.state_size + 1)[:, :-1]
+        good = info[:, 0] == 1  # (the guard stops the chunk at the first unconverged or non-finite step)
         n_ok = n if good.all() else int(np.argmin(good))
         self._count(info[:min(n_ok + 1, n)].sum(axis=0))  # the failing step's work was spent too
         if n_ok:

@@ -11,6 +11,8 @@ The file mirrors the Python API (docs/scenes.md has the full schema and an annot
     [[joints]]           type = "hinge" | "rigid", a = [member, at], b = [member, at], method, penalty
     [[loads]]            type = "force" | "distributed" | "moment" | "tension", member, at, value
     [[dampings]]         type = "rayleigh" (alpha, beta, members) | "strain_rate" (axial, bending, members)
+    [[contacts]]         type = "ground", member, stiffness, hertz, normal, level, thickness, damping, mu, eps,
+                         gauss, method (ancf_sym.contact.from_toml)
     [analysis]           type = "statics" (tol, max_iter, load_steps, escape_saddle) | "dynamics" (passed through)
 
 Everything is checked before any solving. Every error is a SceneError whose message starts with the TOML path of
@@ -23,6 +25,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from . import contact
 from .checks import check_keys, fail, number, vector
 from .mesh import build_mesh
 from .scene import AXIAL, Material, Scene, SceneError, Section
@@ -35,7 +38,8 @@ try:
 except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
-TOP_KEYS = ("scene", "materials", "sections", "members", "supports", "joints", "loads", "dampings", "analysis")
+TOP_KEYS = ("scene", "materials", "sections", "members", "supports", "joints", "loads", "dampings", "contacts",
+            "analysis")
 SCENE_KEYS = ("name", "dim", "gravity")
 SECTION_KEYS = {None: tuple(SECTION), "circle": ("diameter",), "rectangle": ("b", "h")}
 MEMBER_KEYS = tuple(inspect.signature(Scene.member).parameters)[1:]  # the keywords of Scene.member
@@ -304,6 +308,8 @@ def scene_from_dict(doc: dict, default_name: str = "scene") -> tuple[Scene, dict
         _load(scene, f"loads[{i}]", d)
     for i, d in enumerate(_array_of_tables("dampings", doc.get("dampings", []))):
         _damping(scene, f"dampings[{i}]", d)
+    for i, d in enumerate(_array_of_tables("contacts", doc.get("contacts", []))):
+        _api(f"contacts[{i}]", contact.from_toml, scene, d)
 
     # dry run of the mesh and the energy terms (numpy only, no kernels): what they refuse, refuse now
     _api("members", lambda: scene_terms(build_mesh(scene)))

@@ -38,6 +38,7 @@ import numpy as np  # noqa: E402
 from ancf_sym import Material, Scene, Section  # noqa: E402
 from ancf_sym.assembly import Assembly  # noqa: E402
 from ancf_sym.dynamics import DynamicOptions, simulate, StepSystem  # noqa: E402
+from ancf_sym.integrators import clear_graph_cache  # noqa: E402
 from ancf_sym.dynamics import LINEAR_EFFECTS, rayleigh_data  # noqa: E402
 
 G = 9.81
@@ -46,6 +47,7 @@ CASES = {
     "rope": dict(L=1.2, A=0.0018, I=1.215e-8, rho=5540.0, E=0.7e6, n=32, dt=1e-3, T=1.0, support="pin"),
     "clamped_beam": dict(L=3.0, A=7.854e-5, I=4.909e-10, rho=7200.0, E=20e9, n=30, dt=1e-3, T=2.0, support="clamp"),
 }
+CASES["pendulum_1000"] = dict(CASES["pendulum"], n=1000, T=0.3)  # a hard transient on a fine mesh
 OUT_DT = 0.01
 
 
@@ -59,16 +61,20 @@ def ancf_scene(c):
     return s
 
 
-def ancf_run(c, dt=None, modified=False, energies=True):
+def ancf_run(c, dt=None, modified=False, energies=True, cold=True, sensors=True):
     """The time loop is timed by simulate itself (DynamicResult.cpu_s / wall_s: initial acceleration, steps,
-    outputs); set-up = Assembly + StepSystem + the integrator's step and chunk functions (DynamicResult.setup_s)."""
+    outputs); set-up = Assembly + StepSystem + the integrator's step and chunk functions (DynamicResult.setup_s).
+    cold: forget the compiled graphs first (a first run of its structure in the process: set-up builds them all);
+    else a structure run before in this process reuses them."""
+    if cold:
+        clear_graph_cache()
     c0, t0 = time.process_time(), time.perf_counter()
     asm = Assembly(ancf_scene(c))
     system = StepSystem(asm, rayleigh_data(asm, [mk for mk in asm.mapped if mk.term.effect not in LINEAR_EFFECTS]))
     setup = time.perf_counter() - t0
     opts = DynamicOptions(dt=dt or c["dt"], t_end=c["T"], integrator="generalized_alpha", rho_inf=0.9,
                           output_dt=OUT_DT, newton={"modified": modified}, energies=energies,
-                          sensors=[{"name": "tip", "kind": "position", "member": "m", "at": "end"}])
+                          sensors=[{"name": "tip", "kind": "position", "member": "m", "at": "end"}] if sensors else [])
     c1 = time.process_time()
     res = simulate(asm, opts, system=system)
     cpu_sim = time.process_time() - c1  # (the time this bench reported before: loop + the integrator's set-up)
@@ -76,7 +82,7 @@ def ancf_run(c, dt=None, modified=False, energies=True):
     assert res.status == "completed", res.message
     return {"cpu": res.cpu_s, "wall": res.wall_s, "setup": setup + res.setup_s, "cpu_total": cpu_total,
             "cpu_sim": cpu_sim,
-            "wall_total": wall_total, "t": res.t, "tip": res.sensors["tip"], "steps": res.steps,
+            "wall_total": wall_total, "t": res.t, "tip": res.sensors.get("tip"), "steps": res.steps,
             "newton": res.newton_iterations, "jacobians": res.counters["jacobians"],
             "factorizations": res.factorizations, "residuals": res.counters["residuals"],
             "rejected": len(res.rejected)}
@@ -148,11 +154,13 @@ def on_grid(run, times):
     return np.column_stack([np.interp(times, run["t"], run["tip"][:, k]) for k in range(2)])
 
 
-def bench_case(name, c, repeats, exudyn_modes, exudyn_tols, ancf_no_energies, ancf_modified=False):
+def bench_case(name, c, repeats, exudyn_modes, exudyn_tols, ancf_no_energies, ancf_modified=False, warm=False):
     times = np.round(np.arange(0.0, c["T"] + 1e-9, OUT_DT), 10)
     ref = ancf_run(c, dt=c["dt"] / 8)
     tip_ref = on_grid(ref, times)
     configs = [("ancf_sym", dict(modified=False))]
+    if warm:
+        configs.append(("ancf_sym (graphs reused)", dict(modified=False, cold=False)))
     if ancf_no_energies:
         configs.append(("ancf_sym (no energies)", dict(modified=False, energies=False)))
     if ancf_modified:
@@ -197,6 +205,102 @@ def bench_case(name, c, repeats, exudyn_modes, exudyn_tols, ancf_no_energies, an
     return rows
 
 
+def scaling(ns, repeats, case="rope", steps=20, exudyn=True, dt=1e-3):
+    """Time per step, per Newton iteration and set-up against n (the case released horizontal, `steps` steps of
+    dt): ancf_sym's loop CPU (its set-up apart, first run of the structure) and Exudyn's SolveDynamic."""
+    rows = []
+    for n in ns:
+        c = dict(CASES[case], n=n, T=steps * dt, dt=dt)
+        a, e = [], []
+        for _ in range(repeats):
+            a.append(ancf_run(c, energies=False, sensors=False))
+            if exudyn:
+                e.append(exudyn_run(c, rel_tol=1e-4))
+        row = {"n": n, "steps": a[0]["steps"], "ancf_step_ms_min": 1e3 * min(r["cpu"] for r in a) / a[0]["steps"],
+               "ancf_setup_s_min": min(r["setup"] for r in a), "ancf_newton": a[0]["newton"],
+               "ancf_iteration_ms_min": 1e3 * min(r["cpu"] for r in a) / a[0]["newton"]}
+        if exudyn:
+            row.update({"exudyn_step_ms_min": 1e3 * min(r["cpu"] for r in e) / e[0]["steps"],
+                        "exudyn_setup_s_min": min(r["setup"] for r in e), "exudyn_newton": e[0]["newton"],
+                        "exudyn_iteration_ms_min": 1e3 * min(r["cpu"] for r in e) / e[0]["newton"]})
+            row["ratio_step"] = row["ancf_step_ms_min"] / row["exudyn_step_ms_min"]
+        rows.append(row)
+        print("  ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in row.items()), flush=True)
+    return rows
+
+
+def second_run(name, repeats):
+    """Set-up of a first run of a structure (kernel libraries already loaded by a run of another structure) and
+    of a second run of the same structure with other values: E x 2, dt / 2, gravity x 1.5 (a constant load),
+    a different initial state (the member bent by a small vertical velocity)."""
+    c = dict(CASES[name])
+    rows = []
+    for _ in range(repeats):
+        ancf_run(dict(c, n=c["n"] + 1, T=0.01))  # loads the kernels: what follows pays only for graphs
+        clear_graph_cache()
+        first = ancf_run(dict(c, T=0.2), cold=False)
+        c2 = dict(c, E=2 * c["E"], T=0.2)  # (200 and 400 steps: chunks of 50 both)
+        second = _run_with(c2, dt=c["dt"] / 2, gravity=1.5 * G, v_tip=0.1)
+        rows.append({"first_setup_s": first["setup"], "second_setup_s": second["setup"],
+                     "ratio": second["setup"] / first["setup"]})
+    best = {k: min(r[k] for r in rows) for k in rows[0]}
+    best["ratio_of_minima"] = best["second_setup_s"] / best["first_setup_s"]
+    print(f"{name}: set-up first run {best['first_setup_s'] * 1e3:.2f} ms, second run (E x 2, dt / 2, gravity x 1.5, "
+          f"initial velocity) {best['second_setup_s'] * 1e3:.2f} ms: {100 * best['ratio_of_minima']:.1f} % "
+          f"(min over {repeats}; per-repeat ratios {', '.join('%.3f' % r['ratio'] for r in rows)})", flush=True)
+    return best
+
+
+def _run_with(c, dt, gravity, v_tip):
+    """A run of the case's structure with other values (graphs reused from the process's cache)."""
+    t0 = time.perf_counter()
+    s = Scene(dim=2, gravity=(0.0, -gravity))
+    s.member("m", [(0.0, 0.0), (c["L"], 0.0)], c["n"], Material(E=c["E"], density=c["rho"]),
+             Section(area=c["A"], I=c["I"]), axial="biot")
+    (s.clamp if c["support"] == "clamp" else s.pin)("m", "start")
+    asm = Assembly(s)
+    system = StepSystem(asm, rayleigh_data(asm, [mk for mk in asm.mapped if mk.term.effect not in LINEAR_EFFECTS]))
+    setup = time.perf_counter() - t0
+    v0 = np.zeros(asm.n)
+    v0[1::4] = v_tip * np.linspace(0.0, 1.0, asm.n // 4)  # vertical velocity growing along the member (pin: 0)
+    opts = DynamicOptions(dt=dt, t_end=c["T"], integrator="generalized_alpha", rho_inf=0.9, v0=v0, energies=False)
+    res = simulate(asm, opts, system=system)
+    assert res.status == "completed", res.message
+    return {"setup": setup + res.setup_s}
+
+
+def cluster_study(study, sweep, repeats):
+    """Wall time of a quick study run in this process (--jobs 1), with a local pool of 2 processes, and on a
+    2-worker Dask LocalCluster (cluster start-up apart); the records must be the same."""
+    import shutil
+    import tempfile
+
+    import distributed
+
+    from ancf_sym.study import run_study
+    out = {}
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None,
+                                  silence_logs=40) as cluster, distributed.Client(cluster) as client:
+        client.run(lambda: __import__("ancf_sym.study"))
+        for _ in range(repeats):
+            for label, kw in (("jobs 1", dict(jobs=1)), ("local pool, jobs 2", dict(jobs=2)),
+                              ("LocalCluster, 2 workers", dict(scheduler=client))):
+                d = tempfile.mkdtemp()
+                t0 = time.perf_counter()
+                rep = run_study(study, d, quick=True, progress=False, sweep=sweep, **kw)
+                w = time.perf_counter() - t0
+                shutil.rmtree(d)
+                out.setdefault(label, []).append(w)
+                out.setdefault(label + " records", [{k: v for k, v in r.items() if k != "wall_s"}
+                                                    for r in rep.records])
+    same = out["jobs 1 records"] == out["LocalCluster, 2 workers records"]
+    for label in ("jobs 1", "local pool, jobs 2", "LocalCluster, 2 workers"):
+        ws = out[label]
+        print(f"study {study} --quick: {label}: wall min {min(ws):.2f} s, median {statistics.median(ws):.2f} s")
+    print(f"LocalCluster records equal to --jobs 1 (timings apart): {same}")
+    return {k: v for k, v in out.items() if not k.endswith("records")} | {"same_records": same}
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     p.add_argument("--repeats", type=int, default=5)
@@ -210,17 +314,40 @@ def main(argv=None):
                    help="also time ancf_sym without the energy balance at the output times (Exudyn records none)")
     p.add_argument("--ancf-modified", action="store_true",
                    help="also time ancf_sym with modified Newton (newton.modified = true; no energies)")
+    p.add_argument("--warm", action="store_true",
+                   help="also time ancf_sym reusing the compiled graphs of the earlier repeats (set-up of a second "
+                        "run of the structure); the default runs each build everything (first run)")
+    p.add_argument("--scaling", type=int, nargs="*", metavar="N",
+                   help="time per step and set-up against n (e.g. 100 1000 10000) instead of the cases")
+    p.add_argument("--scaling-dt", type=float, default=1e-3, help="time step of --scaling (20 steps)")
+    p.add_argument("--second-run", action="store_true",
+                   help="set-up of a second run of the same structure with other values vs the first")
+    p.add_argument("--cluster-study", metavar="STUDY",
+                   help="wall time of a quick study: --jobs 1, a local pool and a 2-worker Dask LocalCluster")
     p.add_argument("--json", metavar="PATH")
     a = p.parse_args(argv)
     try:
         import exudyn  # noqa: F401  (only to check it is installed)
     except ImportError:
         sys.exit("exudyn is not installed: pip install exudyn (a bench extra, never needed by ancf_sym)")
+    extra = {}
+    if a.scaling:
+        extra["scaling"] = scaling(a.scaling, a.repeats, (a.cases or ["rope"])[0], dt=a.scaling_dt)
+    if a.second_run:
+        extra["second_run"] = {k: second_run(k, a.repeats) for k in (a.cases or ["pendulum", "rope"])}
+    if a.cluster_study:
+        extra["cluster_study"] = cluster_study(a.cluster_study, None, a.repeats)
+    if extra:
+        if a.json:
+            with open(a.json, "w") as f:
+                json.dump(extra, f, indent=1)
+        return extra
     modes = {"yes": [True], "no": [False], "both": [True, False]}[a.exudyn_modified]
     names = a.cases or (["pendulum", "rope"] + (["clamped_beam"] if a.clamp else []))
     rows = []
     for name in names:
-        rows += bench_case(name, CASES[name], a.repeats, modes, a.exudyn_tols, a.no_energies, a.ancf_modified)
+        rows += bench_case(name, CASES[name], a.repeats, modes, a.exudyn_tols, a.no_energies, a.ancf_modified,
+                           a.warm)
     cols = ["case", "code", "cpu_min_s", "cpu_median_s", "wall_median_s", "setup_s", "cpu_sim_median_s",
             "cpu_total_median_s", "steps",
             "newton_iterations", "factorizations", "steps_per_s", "newton_per_s", "factorizations_per_s",

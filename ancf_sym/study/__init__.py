@@ -1,7 +1,7 @@
 """What accuracy costs in time: sweeps of a setting space against a reference, with a report.
 
     from ancf_sym.study import run_study
-    report = run_study("zhang_cantilever", "out/study", jobs=2)
+    report = run_study("zhang_cantilever", "out/study", jobs=2)   # or scheduler="tcp://host:8786" (Dask)
     print(report.answer)                  # the cheapest setting reaching the study's target error
 
 Also `ancf-sym study NAME --out DIR`. Studies: see STUDIES (name -> one-line title) or `ancf-sym study --list`.
@@ -14,9 +14,11 @@ import shlex
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from .base import Study, StudyError, parse_sweep, setting_key
 from .runner import finished_records, load_reference, prepare_folder, run_settings
+from .sweep import run_sweep
 
 _MODULES = ("statics_studies", "dynamics_studies", "beam_studies", "kernel_studies")
 
@@ -58,11 +60,13 @@ class StudyReport:
 
 def run_study(name: str, out: str | Path, *, quick: bool = False, jobs: int | None = None,
               sweep: dict[str, list] | list[str] | None = None, target: float | None = None,
-              progress: bool = True, command: str | None = None) -> StudyReport:
+              progress: bool = True, command: str | None = None, scheduler: Any = None) -> StudyReport:
     """Run (or resume) the study `name` into `out` and write its report.
 
     quick: the small sweep of the test suite; jobs: worker processes (default: the number of cores);
     sweep: {axis: values} or ["axis=v1,v2", ...] replacing an axis' values; target: error the answer aims at.
+    scheduler: a Dask scheduler address ('tcp://host:8786') or a distributed.Client: the settings run on that
+    cluster's workers instead of the local pool (needs the cluster extra: pip install 'ancf_sym[cluster]').
     Bad input raises StudyError before any run; an interrupted study keeps its finished settings (rerun resumes).
     """
     study = get_study(name)
@@ -79,18 +83,23 @@ def run_study(name: str, out: str | Path, *, quick: bool = False, jobs: int | No
         raise StudyError(f"--jobs must be a positive integer, got {jobs!r}")
     if study.max_jobs is not None and jobs > study.max_jobs:
         jobs = study.max_jobs  # the study's timings need it (stated in the report)
+    if scheduler is not None:
+        from .sweep import _client
+        client, close = _client(scheduler)  # (bad address or a missing extra: refused before any run)
+        if close:
+            client.close()
     variant = "quick" if quick else "full"
     settings = study.settings(variant, sweep)
     out = Path(out)
     prepare_folder(out, study, variant)
     reference = load_reference(study, variant, out)
     target = float(target if target is not None else study.target)
-    meta = {"variant": variant, "jobs": jobs, "cores": cores, "date": datetime.date.today().isoformat(),
+    meta = {"variant": variant, "jobs": jobs if scheduler is None else "Dask cluster", "cores": cores, "date": datetime.date.today().isoformat(),
             "timing": study.extra.get("timing", "wall time of the run, min over repeats"),
             "command": command or f"ancf-sym study {name} --out {shlex.quote(str(out))}" + (" --quick" if quick else "")}
     from .report import write_report
     try:
-        records = run_settings(study, variant, settings, out, reference, jobs, progress)
+        records = run_settings(study, variant, settings, out, reference, jobs, progress, scheduler)
     except KeyboardInterrupt:
         done = finished_records(out)
         records = [done[setting_key(s)] for s in settings if setting_key(s) in done]
@@ -102,4 +111,4 @@ def run_study(name: str, out: str | Path, *, quick: bool = False, jobs: int | No
     return StudyReport(name, out, records, reference, answer, len(settings))
 
 
-__all__ = ["run_study", "studies", "get_study", "Study", "StudyError", "StudyReport"]
+__all__ = ["run_study", "run_sweep", "studies", "get_study", "Study", "StudyError", "StudyReport"]

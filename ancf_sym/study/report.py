@@ -289,18 +289,29 @@ def write_report(out: Path, study: Study, records: list[dict], reference: dict, 
         answer = (f"no setting reached {study.error_name} <= {target:g}" +
                   (f"; the smallest error was {closest['error']:.3g} with {setting_text(study, closest)} "
                    f"({closest['wall_s']:.3g} s)" if closest else ""))
+    if best and floor and best["error"] < floor:
+        answer += f" (an error below the reference's own, {floor:.2g}: at the reference's accuracy)"
+    ranked = [r["error"] for r in records if _ok(r) and r["error"] >= floor]
+    worth = (f" The smallest error ranked above it is {min(ranked) / floor:.3g}x the reference's error bound"
+             f" ({'at least' if min(ranked) >= 10 * floor else 'less than'} the 10x a ranking needs)."
+             if floor and ranked else "")
     front = pareto_front(records)
     lines = [f"# {study.title}", "", study.notes.strip(), "",
              f"Reference: {reference.get('how', '?')}" +
-             (f" (its own error is below {floor:.2g})" if floor else "") + ".", "",
+             (f" (its own error is below {floor:.2g})" if floor else "") + "." + worth, "",
              f"Error: {study.error_name}. Time: {meta['timing']}. Variant `{meta['variant']}`, "
              f"{len(records)} of {planned} settings finished, {meta['jobs']} worker process(es) on {meta['cores']} "
              f"core(s) ({meta['date']}; parallel workers on a shared machine inflate times: use `--jobs 1` for "
              "clean timings). Reproduce: `" + meta["command"] + "`.", "",
              "| " + " | ".join(cols) + " | Pareto |", "|" + "---|" * (len(cols) + 1)]
     front_ids = {id(r) for r in front}
+    def cell(r, c):  # an error below the reference's own is not a measured error: say so
+        if c == "error" and floor and _ok(r) and r["error"] < floor:
+            return f"{_fmt(r['error'])} (at the reference's accuracy)"
+        return _fmt(r.get(c))
+
     for r in records:
-        lines.append("| " + " | ".join(_fmt(r.get(c)) for c in cols) + f" | {'*' if id(r) in front_ids else ''} |")
+        lines.append("| " + " | ".join(cell(r, c) for c in cols) + f" | {'*' if id(r) in front_ids else ''} |")
     for axis, axis_rates in rates.items():
         if not axis_rates:  # nothing above the reference's error floor: no rate to state
             continue

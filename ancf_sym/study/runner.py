@@ -7,23 +7,19 @@ DIR/runs/*.json     one record per finished setting: a rerun skips these, so an 
 from __future__ import annotations
 
 import json
-import multiprocessing
 import os
-import tempfile
 import time
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from functools import partial
 from pathlib import Path
+from typing import Any
 
-from ..output_json import _clean
-from .base import Study, StudyError, setting_key
+from .base import Study, StudyError
+from .sweep import finished_records as _finished, run_sweep, write_json_atomic
 
 
-def write_json_atomic(path: Path, data) -> None:
-    """Write to a temporary sibling, then rename: a file is either the old one or the complete new one."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    with os.fdopen(fd, "w") as f:
-        json.dump(_clean(data), f, indent=1, allow_nan=False)  # NaN -> null: never a silent NaN
-    os.replace(tmp, path)
+def finished_records(out: Path) -> dict[str, dict]:
+    """The finished settings of the study folder `out` (out/runs/*.json) by setting key."""
+    return _finished(out / "runs")
 
 
 def prepare_folder(out: Path, study: Study, variant: str) -> None:
@@ -63,16 +59,6 @@ def load_reference(study: Study, variant: str, out: Path) -> dict:
     return ref
 
 
-def finished_records(out: Path) -> dict[str, dict]:
-    recs = {}
-    for p in sorted((out / "runs").glob("*.json")):
-        try:
-            recs[p.stem] = json.loads(p.read_text())
-        except (OSError, json.JSONDecodeError):
-            continue  # a torn file cannot exist (atomic writes), but never trust one: the setting runs again
-    return recs
-
-
 _WARM: set = set()  # studies that already ran once in this process
 
 
@@ -92,42 +78,13 @@ def _work(name: str, variant: str, setting: dict) -> dict:
 
 
 def run_settings(study: Study, variant: str, settings: list[dict], out: Path, reference: dict, jobs: int,
-                 progress: bool) -> list[dict]:
-    """Run the settings not finished yet; each record is written as soon as it is done."""
-    from tqdm import tqdm
+                 progress: bool, scheduler: Any = None) -> list[dict]:
+    """Run the settings not finished yet (local pool of `jobs` processes, or the Dask cluster at `scheduler`);
+    each record is written as soon as it is done."""
 
-    done = finished_records(out)
-    pending = [s for s in settings if setting_key(s) not in done]
-    bar = tqdm(total=len(settings), initial=len(settings) - len(pending), desc=study.name, unit="setting",
-               disable=not progress, dynamic_ncols=True)
+    def with_error(rec: dict) -> dict:
+        rec["error"] = study.error(rec, reference) if rec.get("success") else None
+        return rec
 
-    def store(rec: dict) -> None:
-        err = None
-        if rec.get("success"):
-            err = study.error(rec, reference)
-        rec["error"] = err
-        setting = {a.name: rec[a.name] for a in study.axes}
-        write_json_atomic(out / "runs" / f"{setting_key(setting)}.json", rec)
-        done[setting_key(setting)] = rec
-        bar.update(1)
-
-    try:
-        if jobs <= 1 or len(pending) <= 1:
-            for s in pending:
-                store(_work(study.name, variant, s))
-        else:
-            ctx = multiprocessing.get_context("fork" if "fork" in multiprocessing.get_all_start_methods() else None)
-            with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx) as pool:
-                futures = {pool.submit(_work, study.name, variant, s) for s in pending}
-                try:
-                    while futures:
-                        finished, futures = wait(futures, return_when=FIRST_COMPLETED)
-                        for f in finished:
-                            store(f.result())
-                except BaseException:
-                    for f in futures:
-                        f.cancel()
-                    raise
-    finally:
-        bar.close()
-    return [done[setting_key(s)] for s in settings if setting_key(s) in done]
+    return run_sweep(partial(_work, study.name, variant), settings, out=out / "runs", jobs=jobs,
+                     scheduler=scheduler, progress=progress, desc=study.name, on_record=with_error)

@@ -1,0 +1,103 @@
+"""Compiled chunks stop at the first step they cannot accept, and compiled step graphs are reused by scenes of the
+same structure (other E, dt, loads, initial state)."""
+from __future__ import annotations
+
+import numpy as np
+from ancf_sym import Material, Scene, Section
+from ancf_sym.assembly import Assembly
+from ancf_sym.dynamics import DynamicOptions, simulate
+from ancf_sym.integrators import AlphaIntegrator, Counters, NewtonOptions, Scheme, StepSystem, clear_graph_cache
+
+
+def pendulum(n=6, E=2e9, rho=7200.0, g=9.81, L=1.0, A=1e-4, I=1e-9):
+    s = Scene(dim=2, gravity=(0.0, -g))
+    s.member("m", [(0.0, 0.0), (L, 0.0)], n, Material(E=E, density=rho), Section(area=A, I=I), axial="biot")
+    s.pin("m", "start")
+    return s
+
+
+def integrator(scene):
+    S = StepSystem(Assembly(scene))
+    integ = AlphaIntegrator(S, Scheme.generalized_alpha(0.9), NewtonOptions(), 0.0, 1e-10, Counters())
+    integ.initialize(S.reduce(S.asm.x0), np.zeros(S.nf), np.zeros(S.nf))
+    integ.tol_q = 1e-8 * float(np.max(np.abs(S.f_lin)))
+    return S, integ
+
+
+def test_a_chunk_stops_at_the_first_step_it_cannot_accept():
+    """A non-finite load at step 4 of an 8-step chunk: the chunk accepts steps 1-3 (the same states as three
+    single steps: the same compiled step), and steps 4-8 do no Newton iteration (the guard's no-op), so the
+    chunk's cost is that of the steps it took."""
+    S, integ = integrator(pendulum())
+    S1, one = integrator(pendulum())
+    h = 1e-3
+    pl = np.repeat(-S.f_lin[:, None], 8, axis=1)
+    pl[:, 3] = np.nan
+    states, n_ok = integ.run_chunk(h, pl)
+    assert n_ok == 3 and states.shape[0] == 3
+    info = integ._chunks[8][2]["info"].reshape(8, integ.info_size)
+    assert np.all(info[:3, 0] == 1) and np.all(info[:3, 1] >= 1)
+    assert info[3, 0] == 0  # the failing step
+    assert np.all(info[4:] == 0)  # no work after it
+    for _ in range(3):
+        assert one.attempt(0.0, h).converged
+        one.accept()
+    assert np.allclose(integ.q, one.q, rtol=0, atol=1e-14 * S.span)  # identical arithmetic: round-off only
+
+
+def test_hard_transient_stays_in_the_chunks(monkeypatch):
+    """Zhang's pendulum on a fine mesh released horizontal (early steps need 3-4 Newton iterations): every grid step is taken in
+    the compiled chunk (no single step left to `attempt`), and the run equals the same run step by step (the same
+    compiled step graph: round-off only, far below the 1e-9 m asked here)."""
+    opts = dict(dt=1e-3, t_end=0.064, integrator="generalized_alpha", rho_inf=0.9, output_dt=0.016, energies=False,
+                sensors=[{"name": "tip", "kind": "position", "member": "m", "at": "end"}])
+    import ancf_sym.dynamics as D
+    calls = []
+    attempt = AlphaIntegrator.attempt
+    monkeypatch.setattr(AlphaIntegrator, "attempt", lambda self, *a, **k: calls.append(1) or attempt(self, *a, **k))
+    zhang = dict(n=300, E=20e9, L=3.0, A=7.854e-5, I=4.909e-10)
+    chunked = simulate(pendulum(**zhang), DynamicOptions(**opts))
+    assert not calls
+    monkeypatch.setattr(D, "chunk_size", lambda n: 0)
+    stepwise = simulate(pendulum(**zhang), DynamicOptions(**opts))
+    assert len(calls) == 64
+    assert chunked.status == stepwise.status == "completed"
+    assert chunked.steps == 64 and not chunked.rejected
+    assert chunked.counters["newton_iterations"] > 1.5 * chunked.steps  # a hard transient
+    assert chunked.counters == stepwise.counters
+    assert np.max(np.abs(chunked.sensors["tip"] - stepwise.sensors["tip"])) < 1e-9
+
+
+def test_same_structure_reuses_the_compiled_graphs():
+    """A second scene with other E, gravity (a constant load), dt and initial velocity reuses the first one's
+    compiled functions (the same objects: no graph building), and its run equals a run whose graphs were built
+    afresh (same arithmetic: round-off only); another density (mass matrix baked in) builds new graphs."""
+    clear_graph_cache()
+    S1 = StepSystem(Assembly(pendulum()))
+    S2 = StepSystem(Assembly(pendulum(E=4e9, g=5.0)))
+    assert S2.graph_key == S1.graph_key and S2.iter_f is S1.iter_f and S2.forces_pf is S1.forces_pf
+    assert StepSystem(Assembly(pendulum(rho=2000.0))).graph_key != S1.graph_key
+    v0 = np.zeros(S2.asm.n)
+    v0[1::4] = np.linspace(0.0, 0.2, S2.asm.n // 4)
+    opts = DynamicOptions(dt=5e-4, t_end=0.05, integrator="generalized_alpha", v0=v0, output_dt=0.01,
+                          sensors=[{"name": "tip", "kind": "position", "member": "m", "at": "end"}])
+    cached = simulate(S2.asm, opts, system=S2)
+    clear_graph_cache()
+    fresh = simulate(pendulum(E=4e9, g=5.0), opts)
+    assert np.max(np.abs(cached.sensors["tip"] - fresh.sensors["tip"])) < 1e-12
+    for k in fresh.energies:
+        assert np.allclose(cached.energies[k], fresh.energies[k], rtol=1e-12, atol=1e-12)
+    other = simulate(pendulum(E=2e9, g=5.0), opts)  # the element parameters are inputs, not stale constants
+    assert np.max(np.abs(other.sensors["tip"] - fresh.sensors["tip"])) > 1e-7
+
+
+def test_integrators_of_one_structure_share_step_and_chunk_functions():
+    clear_graph_cache()
+    _, a = integrator(pendulum())
+    S = StepSystem(Assembly(pendulum(E=3e9)))
+    b = AlphaIntegrator(S, Scheme.generalized_alpha(0.9), NewtonOptions(), 0.0, 1e-10, Counters())
+    assert b.step_f is a.step_f
+    assert b.chunk_function(8) is not a.chunk_function(8)  # own buffers...
+    assert a._graphs["chunks"][8] is b._graphs["chunks"][8]  # ...on one compiled function
+    c = AlphaIntegrator(S, Scheme.generalized_alpha(0.5), NewtonOptions(), 0.0, 1e-10, Counters())
+    assert c.step_f is not a.step_f  # other scheme coefficients: another graph
