@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from ancf_sym.study import StudyError, get_study, run_study, studies
-from ancf_sym.study.references import clamped_rod
+from ancf_sym.study.references import ReferenceError, clamped_rod, rod_reference
 from ancf_sym.study.report import convergence_rates, pareto_front
 
 
@@ -31,6 +31,36 @@ def test_rod_reference_small_load_is_linear_theory():
     assert abs(-r.tip[1] / (1e-4 * 8 / 15) - 1) < 1e-6, "small-load deflection vs PL^3/3EI"
 
 
+@pytest.mark.parametrize("EA, EI, L", [(8.4e7, 2800.0, 1.0), (1570.8, 9.818, 3.0)])
+def test_rod_reference_methods_agree_on_stiff_and_soft_rods(EA, EI, L):
+    """The beam3d study's steel bar (EA L^2/EI = 3e4; solve_bvp at tol 1e-10 ran out of mesh nodes on it) and paper
+    000's soft cantilever: shooting (rtol 1e-11) and solve_bvp (tol 1e-8 on O(1) scaled equations, within its node
+    limit) are independent discretisations, so their tips must agree to about the looser one's tolerance (1e-7 of
+    the tip displacement allows a factor 10 over it)."""
+    P = EI / L**2
+    a = clamped_rod(L, EA, EI, tip_force=(0.0, -P))
+    b = clamped_rod(L, EA, EI, tip_force=(0.0, -P), tol=1e-8, method="bvp")
+    disp = np.hypot(a.tip[0] - L, a.tip[1])
+    assert np.linalg.norm(a.tip - b.tip) / disp < 1e-7, (a.tip, b.tip)
+    assert abs(a.potential - b.potential) < 1e-7 * abs(a.potential)
+
+
+def test_rod_reference_survives_a_failing_cross_check(monkeypatch):
+    """A solve_bvp that cannot converge within its node limit raises ReferenceError (not a bare RuntimeError from
+    deep inside); the study reference then skips that check, says so, and still returns the shooting result."""
+    with pytest.raises(ReferenceError, match="solve_bvp"):
+        clamped_rod(1.0, 8.4e7, 2800.0, tip_force=(0.0, -2800.0), tol=1e-12, method="bvp", max_nodes=250)
+    import ancf_sym.study.references as refs
+    real = refs.clamped_rod
+
+    def starved_bvp(*a, method="shooting", **kw):  # solve_bvp given too few nodes to converge
+        return real(*a, method=method, **({**kw, "tol": 1e-12, "max_nodes": 250} if method == "bvp" else kw))
+    monkeypatch.setattr(refs, "clamped_rod", starved_bvp)
+    ref = rod_reference(1.0, 8.4e7, 2800.0, tip_force=(0.0, -2800.0))
+    assert ref["success"] and abs(ref["tip_y"] + 0.3017) < 1e-3 and ref["error_bound"] < 1e-6, ref
+    assert "solve_bvp skipped" in ref["how"], ref["how"]
+
+
 def test_zhang_quick_study(tmp_path):
     rep = run_study("zhang_cantilever", tmp_path / "z", quick=True, jobs=1, progress=False)
     assert rep.complete and all(r["success"] for r in rep.records), [r["status"] for r in rep.records]
@@ -45,9 +75,14 @@ def test_zhang_quick_study(tmp_path):
     rates = convergence_rates(get_study("zhang_cantilever"), rep.records)
     assert 2.0 < rates["strain=decoupled, gauss=5"] < 5.0, f"decoupled convergence rate {rates}"
     text = (tmp_path / "z" / "report.md").read_text()
-    # the decoupled element reaches 1e-3 cheapest (n = 6 or 12: full Newton wanders on 6 coarse decoupled elements
-    # and needs load steps, so the two cost about the same; see bench/STATICS_RESULTS.md)
-    assert "## Answer" in text and "cheapest setting reaching" in text and "strain = decoupled" in rep.answer
+    # the report names the cheapest setting reaching the 1e-3 target; which one is cheapest is a wall time on this
+    # machine, so the test asserts what the physics fixes instead: the decoupled element (no locking) reaches the
+    # target at a smaller n than the coupled one (paper 000: decoupled 6 at ~6e-4, green 12 still at ~1.5e-3, a
+    # discretisation error with a margin of 1.5x on either side, not a round-off level)
+    assert "## Answer" in text and "cheapest setting reaching" in text
+    first = {s: min((n for n in (3, 6, 12) if by[(s, n)]["error"] <= 1e-3), default=np.inf)
+             for s in ("green", "decoupled")}
+    assert first["decoupled"] < first["green"], f"smallest n reaching 1e-3: {first}"
     for f in ("results.csv", "error_vs_time.png", "error_vs_n.png", "reference.json", "study.json"):
         assert (tmp_path / "z" / f).is_file(), f
     rows = list(csv.DictReader(open(tmp_path / "z" / "results.csv")))
