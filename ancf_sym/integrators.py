@@ -1334,17 +1334,21 @@ class AlphaIntegrator:
                 ca.MX.sym("tols", 2)
             lvb = ca.MX.sym("lv", 3)
             iter_ins = [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb, parb]
-            xk, lk, lk_v = xb, lb, lvb
-            for _ in range(n_more):
-                xk, lk, nk = switch(lk_v[0] == 0, xk, lk, pb, cb, ccb, kb, vb, *eb, yb, parb)
-                lk_v = later(lk_v, nk, a1b, tb)
-            ins = [xb, lb, lvb, a1b, tb, pb, cb, ccb, kb, vb] + eb + [yb, parb]
-            more = ca.Function.conditional("further_iterations", [ca.Function("done", ins, [xb, lb, lvb])],
-                                           ca.Function("more", ins, [xk, lk, lk_v]))
+            # one further iteration on z = (x, lam, (ok, iterations, last |dz|)), folded n_more times (one graph
+            # to build, not n_more)
+            xk, lk, nk = switch(lvb[0] == 0, xb, lb, pb, cb, ccb, kb, vb, *eb, yb, parb)
+            zb = ca.vertcat(xb, lb, lvb)
+            others = [a1b, tb, pb, cb, ccb, kb, vb] + eb + [yb, parb]
+            one = ca.Function("further_iteration", [zb] + others, [ca.vertcat(xk, lk, later(lvb, nk, a1b, tb))])
+            zin = ca.MX.sym("z", zb.numel())
+            folded = one.fold(n_more)(zin, *[ca.repmat(o, 1, n_more) for o in others])
+            more = ca.Function.conditional("further_iterations", [ca.Function("done", [zin] + others, [zin])],
+                                           ca.Function("more", [zin] + others, [folded]))
             x2b, l2b, n1b = f_iter(*iter_ins)
             info2 = final(cb_, n0b, a1b, n1b, lteb, tb)[1]
             lv2 = ca.vertcat(info2[0], info2[1], ca.fmax(n1b[2], n1b[3]))
-            x3, l3, lv3 = more(lv2[0] == 0, x2b, l2b, lv2, a1b, tb, pb, cb, ccb, kb, vb, *eb, yb, parb)
+            z3 = more(lv2[0] == 0, ca.vertcat(x2b, l2b, lv2), *others)
+            x3, l3, lv3 = z3[:nf], z3[nf:nf + mc], z3[nf + mc:]
             br_ins = iter_ins + [cb_, n0b, a1b, lteb, tb]
             f_keep = ca.Function("keep", br_ins, [xb, lb, ca.DM.zeros(5), ca.DM.zeros(3)])
             f_iter = ca.Function("second", br_ins, [x3, l3, n1b, ca.vertcat(lv2[0] == 0, lv3[0], lv3[1])])
