@@ -26,6 +26,9 @@ LOAD_LABELS = ("gravity", "loads")  # energy buckets scaled by a load factor in 
 LINEAR_EFFECTS = ("gravity",)  # potential linear in q: zero Hessian, never scattered
 
 
+_MAPPED: dict = {}  # (element, effect, Gauss order, elements) -> the kernel mapped over them (built once)
+
+
 class MappedKernel:
     """A compiled kernel mapped over a term's elements, called through CasADi's buffer interface."""
 
@@ -34,7 +37,10 @@ class MappedKernel:
         self.kernel = kernels.load(term.element, term.effect, term.gauss)
         self.N, self.nd = term.idx.shape
         self.linear = term.effect in LINEAR_EFFECTS
-        self.f = self.kernel.map(self.N)
+        key = (term.element, term.effect, term.gauss, self.N)
+        if key not in _MAPPED:
+            _MAPPED[key] = self.kernel.map(self.N)
+        self.f = _MAPPED[key]
         self.P = np.ascontiguousarray(term.P)
         self.X = np.zeros((self.N, self.nd))
         self.E = np.zeros(self.N)

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import weakref
 from dataclasses import dataclass
 
 import casadi as ca
@@ -1079,6 +1080,16 @@ class StepOutcome:
     fast: bool = False  # converged within the fused two-iteration call
 
 
+def _pooled_buffer(graphs: dict, key, f: ca.Function, owner) -> tuple:
+    """f.buffer() from the structure's pool (a buffer of a large graph takes ~10 ms to allocate at 1000 elements:
+    a second run of the structure reuses the buffer of a finished run); it returns to the pool when `owner` is
+    collected. The caller binds every argument and result anew."""
+    pool = graphs.setdefault("buffers", {}).setdefault(key, [])
+    be = pool.pop() if pool else f.buffer()
+    weakref.finalize(owner, pool.append, be)
+    return be
+
+
 UNROLL_STATE = 2000  # step states of this size or more: chunks unrolled, guarded from the start
 
 
@@ -1501,7 +1512,7 @@ class AlphaIntegrator:
         args = [self._s_in] + self.fac + [self._h, self._hp, self._pload, self._tols] + \
             ([S.kel] if S.kel is not None else []) + [S.par]
         outs = [self._s_out] + self._f_out + [self._info]
-        buf, ev = self.step_f.buffer()
+        buf, ev = _pooled_buffer(self._graphs, "step", self.step_f, self)
         for i, arr in enumerate(args):
             buf.set_arg(i, memoryview(arr))
         for i, arr in enumerate(outs):
@@ -1669,7 +1680,7 @@ class AlphaIntegrator:
             if (n, guard) not in g["chunks"]:  # (without the guard: the step itself over the steps)
                 g["chunks"][n, guard] = _map_steps(g["guarded"] if guard else self.step_f, n, self.n_accum)
             f = g["chunks"][n, guard]
-            buf, ev = f.buffer()
+            buf, ev = _pooled_buffer(g, (n, guard), f, self)
             nf = self.S.nf
             ns = self.state_size + guard
             bufs = dict(s=np.zeros(ns), h=np.zeros(n), hp=np.zeros(n), pload=np.zeros(nf * n),
