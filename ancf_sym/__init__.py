@@ -12,6 +12,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 from .scene import Material, Scene, SceneError, Section
 from .statics import StaticOptions, StaticResult, solve_static
 from .dynamics import DynamicOptions, DynamicResult, run_dynamics, simulate
+from . import initial
 
 __all__ = ["Material", "Scene", "SceneError", "Section", "StaticOptions", "StaticResult", "solve_static",
            "DynamicOptions", "DynamicResult", "run_dynamics", "simulate"]

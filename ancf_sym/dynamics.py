@@ -27,6 +27,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 import scipy.sparse as sp
 
+from . import contact
 from .assembly import Assembly
 from .interpolation import Probe, weights
 from .integrators import (LINEAR_EFFECTS, AlphaIntegrator, Counters, NewtonOptions, RayleighData, Scheme,
@@ -740,6 +741,7 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
     scene = asm.scene
     if not scene.members:
         raise SceneError("scene has no members")
+    contact.check_dynamics(asm)
     sensors = [_SensorEval(s, asm, i) for i, s in enumerate(opts.sensors)]
     if system is None:
         system = StepSystem(asm, rayleigh_data(asm, [mk for mk in asm.mapped if mk.term.effect not in LINEAR_EFFECTS]),

@@ -44,7 +44,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from . import kernels
+from . import contact, kernels
 from .assembly import Assembly, force_terms, map_elements
 from .scene import SceneError
 from .sparsity import casadi_sparsity, csc_pattern
@@ -299,7 +299,9 @@ class StepSystem:
         # sparse LDL^T without pivoting for the symmetric positive definite step matrix; sparse QR when multipliers
         # make the KKT matrix indefinite (LDL^T meets zero pivots) or strain-rate damping makes it unsymmetric
         # (d f_d / dq; LDL^T reads one triangle)
-        self.linsol = linsol if linsol != "auto" else ("qr" if (self.mc or strain_rate is not None) else "ldl")
+        # (contact friction likewise: d f / d q is unsymmetric)
+        unsym = strain_rate is not None or bool(contact.dissipation_calls(asm.mesh))
+        self.linsol = linsol if linsol != "auto" else ("qr" if (self.mc or unsym) else "ldl")
 
         M = asm.mass_matrix().tocsc()
         self.M_full = M
@@ -403,6 +405,7 @@ class StepSystem:
         r = self.rayleigh
         add(None if r is None else (r.alpha, r.beta, {k: np.asarray(v, float) for k, v in r.element_weight.items()}))
         add(self.strain_rate, asm.penalty, self.cons)
+        add(contact.dissipation_calls(asm.mesh))  # contact damping/friction: parameters baked into the graph
         return h.hexdigest()
 
     # -- symbolic assembly (once per scene) -------------------------------------------------------------------
@@ -518,11 +521,18 @@ class StepSystem:
         (c_axial eps_dot^2 + c_bending |kappa_dot|^2): exact derivatives by AD of one vectorized graph."""
         self.damp_f = self.damp_force_f = None
         sr = self.strain_rate
-        if sr is None:
-            return
-        nf, d = self.nf, sr.dim
+        nf = self.nf
         xf, vf = ca.MX.sym("x", nf), ca.MX.sym("v", nf)
         X, V = self.x_full_mx(xf), ca.mtimes(_dm(self.E), vf)
+        # contact damping and friction (ancf_sym.contact): force and exact tangents from the compiled kernels
+        dc = contact.dissipation_mx(self, X, V)
+        if sr is None:
+            if dc is not None:
+                self.damp_f = ca.Function("contact_dissipation", [xf, vf], list(dc), ["x", "v"],
+                                          ["f", "df_dx", "df_dv"])
+                self.damp_force_f = ca.Function("contact_force", [xf, vf], [dc[0]], ["x", "v"], ["f"])
+            return
+        d = sr.dim
         P = len(sr.wL)
         R, Rd, RR = ca.mtimes(_dm(sr.Bx), X), ca.mtimes(_dm(sr.Bx), V), ca.mtimes(_dm(sr.Bxx), X)
         rx = [R[k * P:(k + 1) * P] for k in range(d)]
@@ -544,8 +554,11 @@ class StepSystem:
             cb = ca.repmat(ca.DM(sr.c_bending) * wl, d if d == 3 else 1, 1)
             D += 0.5 * ca.dot(cb, kdot * kdot)
         fd = ca.gradient(D, vf)
-        self.damp_f = ca.Function("strain_rate_damping", [xf, vf], [fd, ca.jacobian(fd, xf), ca.jacobian(fd, vf)],
-                                  ["x", "v"], ["f", "df_dx", "df_dv"])
+        outs = [fd, ca.jacobian(fd, xf), ca.jacobian(fd, vf)]
+        if dc is not None:
+            outs = [a + b for a, b in zip(outs, dc)]
+            fd = outs[0]
+        self.damp_f = ca.Function("strain_rate_damping", [xf, vf], outs, ["x", "v"], ["f", "df_dx", "df_dv"])
         self.damp_force_f = ca.Function("strain_rate_force", [xf, vf], [fd], ["x", "v"], ["f"])
 
     def damping_force(self, xf: np.ndarray, vf: np.ndarray) -> np.ndarray | None:

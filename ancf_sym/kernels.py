@@ -69,7 +69,7 @@ def _as_numeric(x: Any, name: str = "input") -> np.ndarray | None:
 def check_inputs(element: str, effect: str, q: Any, p: Any) -> None:
     """Raise KernelError naming the argument if q or p has the wrong size, is not finite or has L <= 0."""
     eff = _check_names(element, effect)
-    nq, n_p = registry.ELEMENTS[element].ndof, len(eff.params)
+    nq, n_p = registry.input_size(element, effect), len(eff.params)
     for name, x, n in (("q", q, nq), ("p", p, n_p)):
         if isinstance(x, (ca.MX, ca.SX)):
             if x.numel() != n:
@@ -83,7 +83,8 @@ def check_inputs(element: str, effect: str, q: Any, p: Any) -> None:
                               f"got {a.size} (shape {a.shape})")
         if not np.all(np.isfinite(a)):
             bad = np.flatnonzero(~np.isfinite(a.ravel()))[0]
-            label = eff.params[bad] if name == "p" else registry.ELEMENTS[element].dof_names[bad]
+            dofs = registry.ELEMENTS[element].dof_names
+            label = eff.params[bad] if name == "p" else (dofs[bad] if bad < len(dofs) else f"input {bad}")
             raise KernelError(f"{name}[{bad}] ({label}) of {element}/{effect} is not finite: {a.ravel()[bad]}")
         if name == "p" and a.ravel()[eff.params.index("L")] <= 0:
             raise KernelError(f"p: element length L must be positive, got L={a.ravel()[eff.params.index('L')]}")
@@ -187,7 +188,7 @@ def catalogue() -> list[dict]:
             continue
         out.append({
             "name": k["name"], "element": k["element"], "effect": k["effect"], "gauss": k["gauss"],
-            "inputs": {"q": registry.ELEMENTS[k["element"]].ndof, "p": k["params"]},
+            "inputs": {"q": registry.input_size(k["element"], k["effect"]), "p": k["params"]},
             "outputs": ["energy", "gradient", "hessian"], "description": registry.EFFECTS[(k["element"], k["effect"])].description,
             "library": str(library_path(k["library"])), "cflags": k["cflags"], "functions": k["functions"],
         })

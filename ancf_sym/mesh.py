@@ -81,7 +81,26 @@ def _frame(t: np.ndarray, y_axis: np.ndarray | None) -> tuple[np.ndarray, np.nda
     return y, np.cross(t, y)
 
 
+def mesh_closed(m: Member, offset: int) -> MemberMesh:
+    """A loop: node k at points[k] with slope (1 + prestrain) tangents[k], element k from node k to node k+1 (the
+    last to node 0), all of reference length loop_length / (elements (1 + prestrain))."""
+    n, stretch = m.elements, 1.0 + m.prestrain
+    rows = []
+    for r, t in zip(m.points, m.tangents):
+        if m.element == "beam3d":
+            y, z = _frame(t, m.y_axis)
+            rows.append(np.concatenate([r, stretch * t, y, z]))
+        else:
+            rows.append(np.concatenate([r, stretch * t]))
+    le = m.loop_length / n / stretch
+    nodes = np.arange(n)
+    return MemberMesh(m, offset, node_size(m.element), np.array(rows), np.c_[nodes, (nodes + 1) % n],
+                      np.full(n, le), nodes, [], nodes * le)
+
+
 def mesh_member(m: Member, offset: int) -> MemberMesh:
+    if m.closed:
+        return mesh_closed(m, offset)
     pts = m.points
     seg_len = np.linalg.norm(np.diff(pts, axis=0), axis=1)
     nseg = len(seg_len)

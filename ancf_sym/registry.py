@@ -30,6 +30,8 @@ class Effect:
     gauss: tuple[int, ...] = ()  # quadrature orders emitted; () = exact/closed form, no quadrature choice
     elastic: bool = True  # elastic effects vanish under rigid-body motion
     parts: tuple[str, ...] = ()  # internal fused effect: the public effects it sums in one kernel (else ())
+    obstacle: int = 0  # contact: coordinates of the obstacle (drum centre [, angle]) appended to the element's q
+    rates: bool = False  # dissipation kernel: input [q; v] (coordinates and their velocities), see elements.contact
 
     @property
     def internal(self) -> bool:
@@ -115,10 +117,45 @@ def _beam_effects() -> list[Effect]:
     ]
 
 
+CONTACT_GAUSS = (3, 5, 7)  # contact points per element (Gauss points, weights w L)
+
+
+def _contact_effects(el: str, dim: int) -> list[Effect]:
+    """Centre line against the ground half-space n.r >= d and against a circle (2D) / cylinder of unit axis a (3D)
+    whose centre c (and angle, for friction) are coordinates of the scene (fixed, driven or a rigid body's).
+    Normal law k/2 delta^2 + 2/5 kh delta^2.5 per unit length; dissipation of damping c and regularised Coulomb
+    friction (mu, velocity eps): input [q; v], gradient's v-part = the force (elements.contact)."""
+    law = ("L", "k", "kh", "t")
+    normal = tuple(f"n{a}" for a in "xyz"[:dim]) + ("d",)
+    axis = ("R",) if dim == 2 else ("R", "ax", "ay", "az")
+    friction = ("c", "mu", "eps")
+    return [
+        Effect(el, "contact_ground", law + normal, "ground contact energy of the centre line (penalty/Hertz)",
+               CONTACT_GAUSS, elastic=False),
+        Effect(el, "contact_ground_friction", law + normal + friction,
+               "ground contact damping + regularised Coulomb friction: dissipation function of [q; v]",
+               CONTACT_GAUSS, elastic=False, rates=True),
+        Effect(el, "contact_circle", law + axis, "contact energy with a drum of centre c (appended to q)",
+               CONTACT_GAUSS, elastic=False, obstacle=dim),
+        Effect(el, "contact_circle_friction", law + axis + friction,
+               "drum contact damping + regularised Coulomb friction: dissipation of [q, c, angle; v, c', omega]",
+               CONTACT_GAUSS, elastic=False, obstacle=dim + 1, rates=True),
+    ]
+
+
 EFFECTS: dict[tuple[str, str], Effect] = {
     (e.element, e.name): e
     for e in _cable_effects("cable2d", 2) + _cable_effects("cable3d", 3) + _beam_effects()
+    + _contact_effects("cable2d", 2) + _contact_effects("cable3d", 3) + _contact_effects("beam3d", 3)
 }
+
+
+def input_size(element: str, effect: str) -> int:
+    """Length of a kernel's q: the element's coordinates, the obstacle's, and for dissipation kernels both again
+    as velocities."""
+    eff = EFFECTS[(element, effect)]
+    n = ELEMENTS[element].ndof + eff.obstacle
+    return 2 * n if eff.rates else n
 
 MASS_PARAMS: dict[str, tuple[str, ...]] = {
     "cable2d": ("L", "rhoA"),

@@ -140,15 +140,25 @@ class Member:
     gauss: int | None = None
     y_axis: np.ndarray | None = None  # beam3d section axis y (reference); z = x cross y
     prestrain: float = 0.0  # initial stretch |r_x| - 1: the polyline is the member stretched by 1 + prestrain
+    # closed member (Scene.loop, ancf_sym.closed): the points are its nodes, these their unit tangents, the last
+    # element ends on the first node; loop_length is the path's length (else None: an open polyline)
+    tangents: np.ndarray | None = None
+    loop_length: float | None = None
+
+    @property
+    def closed(self) -> bool:
+        return self.tangents is not None
 
     @property
     def length(self) -> float:
         """Unstretched (reference) length [m]: material coordinates run over [0, length]."""
+        if self.closed:
+            return self.loop_length / (1.0 + self.prestrain)
         return float(np.sum(np.linalg.norm(np.diff(self.points, axis=0), axis=1))) / (1.0 + self.prestrain)
 
     @property
     def n_nodes(self) -> int:
-        return self.elements + 1
+        return self.elements + (0 if self.closed else 1)
 
 
 @dataclass
@@ -202,6 +212,7 @@ class Scene:
     loads: list[Load] = field(default_factory=list)
     name: str = "scene"
     dampings: list[Damping] = field(default_factory=list)
+    contacts: list = field(default_factory=list)  # ancf_sym.contact declarations
 
     def __post_init__(self):
         if self.dim not in (2, 3):
@@ -273,6 +284,32 @@ class Scene:
                    bool(gravity), beam_method, gauss, ya, pre)
         self.members[name] = m
         return m
+
+    def loop(self, name: str, path: list, elements: int, material: Material, section: Section,
+             **options: Any) -> Member:
+        """Add a closed member (a belt, a track chain) along `path`, a loop of straight segments and arcs in the
+        x-y plane (ancf_sym.closed: pieces, or closed.belt_path(pulleys)), meshed into `elements` elements of equal
+        length whose last one ends on the first node. Options as `member` (prestrain: the path is the loop
+        stretched by 1 + prestrain, i.e. its unstretched length is the path's / (1 + prestrain))."""
+        from . import closed
+
+        if isinstance(elements, bool) or not isinstance(elements, (int, np.integer)) or elements < 3:
+            raise SceneError(f"loop {name!r}: elements must be an integer >= 3, got {elements!r}")
+        pts, tans, total = closed.sample(path, int(elements), self.dim)
+        m = self.member(name, pts, int(elements), material, section, **options)
+        m.tangents, m.loop_length = tans, total
+        return m
+
+    def contact_ground(self, member: str, **options: Any):
+        """Contact of `member`'s centre line with the ground half-space {normal . r >= level} (default: y >= 0 in
+        2D, z >= 0 in 3D). Options (ancf_sym.contact.ground): stiffness (linear penalty, N/m^2) and/or hertz
+        (k_h delta^1.5 per unit length), thickness (default: a cable's round radius, h/2 of a beam3d section), damping,
+        mu and eps (friction regularisation velocity), gauss (contact points per element: 3, 5, 7)."""
+        from . import contact
+
+        c = contact.ground(self, member, **options)
+        self.contacts.append(c)
+        return c
 
     # -- supports and joints -----------------------------------------------------------------------------------
     def _support(self, kind: str, member: str, at: Any, method: str, penalty: float | None) -> Support:

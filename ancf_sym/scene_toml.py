@@ -11,6 +11,8 @@ The file mirrors the Python API (docs/scenes.md has the full schema and an annot
     [[joints]]           type = "hinge" | "rigid", a = [member, at], b = [member, at], method, penalty
     [[loads]]            type = "force" | "distributed" | "moment" | "tension", member, at, value
     [[dampings]]         type = "rayleigh" (alpha, beta, members) | "strain_rate" (axial, bending, members)
+    [[contacts]]         type = "ground", member, stiffness, hertz, normal, level, thickness, damping, mu, eps,
+                         gauss, method (ancf_sym.contact.from_toml)
     [analysis]           type = "statics" (tol, max_iter, load_steps, escape_saddle) | "dynamics" (passed through)
 
 Everything is checked before any solving. Every error is a SceneError whose message starts with the TOML path of
@@ -22,6 +24,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from . import contact
 from .mesh import build_mesh
 from .scene import AXIAL, BEAM_METHODS, ELEMENT_KINDS, Material, Scene, SceneError, Section
 from .terms import scene_terms
@@ -31,7 +34,8 @@ try:
 except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
-TOP_KEYS = ("scene", "materials", "sections", "members", "supports", "joints", "loads", "dampings", "analysis")
+TOP_KEYS = ("scene", "materials", "sections", "members", "supports", "joints", "loads", "dampings", "contacts",
+            "analysis")
 SCENE_KEYS = ("name", "dim", "gravity")
 MATERIAL_KEYS = ("E", "density", "G", "poisson")
 SECTION_KEYS = {None: ("area", "I", "Iy", "Iz", "J", "b", "h"), "circle": ("diameter",), "rectangle": ("b", "h")}
@@ -358,6 +362,8 @@ def scene_from_dict(doc: dict, default_name: str = "scene") -> tuple[Scene, dict
         _load(scene, f"loads[{i}]", d)
     for i, d in enumerate(_array_of_tables("dampings", doc.get("dampings", []))):
         _damping(scene, f"dampings[{i}]", d)
+    for i, d in enumerate(_array_of_tables("contacts", doc.get("contacts", []))):
+        _api(f"contacts[{i}]", contact.from_toml, scene, d)
 
     # dry run of the mesh and the energy terms (numpy only, no kernels): what they refuse, refuse now
     _api("members", lambda: scene_terms(build_mesh(scene)))

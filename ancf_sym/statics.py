@@ -26,7 +26,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from . import fields
+from . import contact, fields, statics_contact
 from .assembly import LOAD_LABELS, Assembly
 from .mesh import check_stretch
 from .scene import Scene, SceneError
@@ -216,6 +216,8 @@ class StaticProblem:
         if x0 is not None:
             check_stretch(a.mesh, x, "warm start x0")
             x = self.S.full(self.S.reduce(x))  # supports and hinges that fix or identify coordinates hold exactly
+        if contact.unilateral(a) is not None:  # exact frictionless contact: IPOPT with inequality rows
+            return statics_contact.solve(self, x, opts, t0)
         attempts: list = []
         work = self.work if self.work > 0 else self.newton.load_work(x)
         if work == 0.0 or self._unloaded_at_rest(x):  # the start is the equilibrium

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import contact
 from .mesh import Mesh, MemberMesh
 from .scene import SceneError, Section
 
@@ -116,6 +117,7 @@ def scene_terms(mesh: Mesh) -> list[Term]:
             distributed_term(terms, mm, load.value)
         elif load.kind == "moment":
             moment_term(terms, mm, mm.node(load.at), load.value)
+    contact.energy_terms(terms, mesh, _add)
     out = list(terms.values())
     for t in out:
         t.idx, t.P = np.array(t.idx), np.array(t.P)

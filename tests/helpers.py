@@ -95,7 +95,36 @@ PARAM_VALUES = {
     "EA": 3.0e3, "EI": 7.0, "rhoA": 2.5, "gx": 0.3, "gy": -9.81, "gz": 1.7,
     "b": 0.05, "h": 0.08, "E": 2.1e5, "nu": 0.3, "EIy": 5.0, "EIz": 9.0, "GIp": 4.0, "J": 2.0e-6,
     "xi": 0.35, "M": 2.0,
+    "k": 2.0e3, "kh": 5.0e3, "t": 0.01, "c": 3.0, "mu": 0.4, "eps": 0.05,
 }
+
+
+def _midpoint_frame(element: str, q: np.ndarray, L: float):
+    """Centre-line point and unit tangent at xi = 1/2, a unit normal m and (3D) a unit binormal a."""
+    dim = registry.ELEMENTS[element].dim
+    step = 2 * dim if element.startswith("cable") else 4 * dim
+    r0, t0, r1, t1 = q[:dim], q[dim:2 * dim], q[step:step + dim], q[step + dim:step + 2 * dim]
+    r = 0.5 * (r0 + r1) + L / 8 * (t0 - t1)
+    t = 1.5 * (r1 - r0) / L - 0.25 * (t0 + t1)
+    t = t / np.linalg.norm(t)
+    if dim == 2:
+        return r, t, np.array([-t[1], t[0]]), None
+    m = np.cross(t, [0.3, 1.0, -0.2])
+    m /= np.linalg.norm(m)
+    return r, t, m, np.cross(t, m)
+
+
+def kernel_input(element: str, effect: str, q: np.ndarray, seed: int = 0, L: float = L0) -> np.ndarray:
+    """The kernel's input for element state q: contact kernels append the drum centre (0.5 m from the element's
+    midpoint, normal to it; and its angle) and, for dissipation kernels, random velocities of all of it."""
+    eff = registry.EFFECTS[(element, effect)]
+    z = np.asarray(q, float)
+    if eff.obstacle:
+        r, _, m, _ = _midpoint_frame(element, z, L)
+        z = np.concatenate([z, r + 0.5 * m, [0.3]][:2 if eff.obstacle == len(r) else 3])
+    if eff.rates:
+        z = np.concatenate([z, 0.3 * np.random.default_rng(seed).uniform(-1, 1, z.size)])
+    return z
 
 
 def params(element: str, effect: str, q: np.ndarray, L: float = L0, **overrides) -> np.ndarray:
@@ -105,6 +134,19 @@ def params(element: str, effect: str, q: np.ndarray, L: float = L0, **overrides)
     names = kernels.parameters(element, effect)
     vals = dict(PARAM_VALUES, L=L, **overrides)
     xi = vals["xi"]
+    if effect.startswith("contact_"):
+        # obstacles that cut the element (no Gauss point on the boundary, where the linear law's Hessian jumps): the
+        # ground plane tilted to the tangent, 0.02 m deep at the midpoint; the drum
+        # (centre from kernel_input) 0.05 m deep at the midpoint
+        r, t, m, a = _midpoint_frame(element, q, L)
+        if effect.startswith("contact_ground"):
+            n = (m + 0.5 * t) / np.linalg.norm(m + 0.5 * t)
+            vals.update(zip(("nx", "ny", "nz")[:len(n)], n), d=float(n @ r) - vals["t"] + 0.02)
+        else:
+            nd = registry.ELEMENTS[element].ndof
+            vals.update(R=float(np.linalg.norm(r - q[nd:nd + len(r)])) - vals["t"] + 0.05)
+            if a is not None:
+                vals.update(ax=a[0], ay=a[1], az=a[2])
     if effect == "moment":
         t = cable_slope(q, registry.ELEMENTS[element].dim, L, xi)
         if element == "cable3d":

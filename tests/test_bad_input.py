@@ -7,7 +7,7 @@ import pytest
 
 from ancf_sym import kernels
 
-from helpers import params, straight_state
+from helpers import kernel_input, params, straight_state
 
 CATALOGUE = [(k["element"], k["effect"], k["gauss"]) for k in kernels.catalogue()]
 IDS = [k["name"] for k in kernels.catalogue()]
@@ -42,7 +42,7 @@ def test_unknown_gauss_order():
 @pytest.mark.parametrize("element,effect,gauss", CATALOGUE, ids=IDS)
 def test_bad_q_and_p(element, effect, gauss):
     k = kernels.load(element, effect, gauss)
-    q = straight_state(element)
+    q = kernel_input(element, effect, straight_state(element))
     p = params(element, effect, q)
     iL = kernels.parameters(element, effect).index("L")
     bad_p = lambda i, v: np.concatenate([p[:i], [v], p[i + 1:]])

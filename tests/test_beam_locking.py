@@ -130,3 +130,83 @@ def test_large_deflection_end_moment_against_the_elastica(method):
     R = 2 * L / np.pi
     err = np.linalg.norm(r.nodes("beam")[-1] - [R, R, 0.0]) / L
     assert err < 1.5e-3, f"{method}: tip {r.nodes('beam')[-1]} vs ({R}, {R}, 0): {err:.2e} L"
+
+
+def _extensible_elastica_tip(M, EI, EA, length):
+    """Tip of a bar bent by an end moment with the elastic-line energy EI/2 kappa^2 + EA/2 E_xx^2 (Green strain):
+    uniform curvature kappa = M lam / EI and stretch lam with lam^2 = 1 + 2 M^2 / (EI EA), end angle M lam^2 L / EI.
+    The inextensible elastica (quarter circle) is this with EA -> infinity; at L/b = 25 the stretch moves the tip
+    by 5e-4 L, which is where the elastic line's error against the quarter circle levels off under refinement."""
+    lam = np.sqrt(1 + 2 * M**2 / (EI * EA))
+    theta = M * lam**2 * length / EI
+    return lam * length / theta * np.array([np.sin(theta), 1 - np.cos(theta), 0.0])
+
+
+def _continuum_uniform_bending_tip(M, nu, length):
+    """Tip of the continuum form's own limit under an end moment: a uniformly bent bar (centreline stretch lam,
+    section stretches mu_y, mu_z, section turning rate k) with the form's densities on its 2 x 2 section points and
+    axis, minimising (W - M k) per length by Newton. It differs from the quarter circle by the fibres' Green strain
+    and the Poisson terms (measured 1.2e-3 L at L/b = 25): the plateau the quarter circle showed past 16 elements."""
+    import casadi as ca
+    from ancf_sym.elements import beam
+    from ancf_sym.elements.quadrature import gauss01
+    v = ca.SX.sym("v", 4)
+    lam, my, mz, k = v[0], v[1], v[2], v[3]
+    t, n, ez = ca.DM([1, 0, 0]), ca.DM([0, 1, 0]), ca.DM([0, 0, 1])
+    kt = beam.torsion_factor(B, H, SEC.J)
+    ys, ws = gauss01(2)
+    W = B * H * beam.ecm_axis_density(lam * t, my * n, mz * ez, E, nu, kt)
+    for yy, wy in zip(ys, ws):
+        for wz in ws:  # the section term does not depend on z in this state
+            W += wy * wz * B * H * beam.ecm_section_density((lam - (yy - 0.5) * B * my * k) * t, my * n, mz * ez,
+                                                            E, nu, kt)
+    Pi = W - M * k
+    f = ca.Function("f", [v], [ca.gradient(Pi, v), ca.hessian(Pi, v)[0]])
+    x = np.array([1.0, 1.0, 1.0, M / (E * IZ)])
+    for _ in range(20):
+        g, Hx = f(x)
+        x = x - np.linalg.solve(np.array(Hx), np.array(g).ravel())
+    lam, _, _, k = x
+    return lam / k * np.array([np.sin(k * length), 1 - np.cos(k * length), 0.0])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method", METHODS)
+def test_end_moment_converges_under_refinement(method):
+    """Refinement 16, 32, 64 elements of the end-moment case against each form's own limit (the elastic line: the
+    extensible elastica; the continuum: its uniform-bending solution). Against the quarter circle both levelled off
+    past 16 elements (continuum 1.1e-3 L, elastic line 5e-4 L) because the quarter circle is not the models' limit.
+    The element's arc error falls about as 1 / n^2 (measured 1.0e-3, 1.2e-4, 2.5e-5 L continuum; 4.1e-4, 8.9e-5,
+    3.4e-5 L elastic line); each refinement must lower it and 64 elements must be within 1e-4 L (the 1 / n^2 decay
+    from 16 elements predicts <= 6e-5 L)."""
+    nu, k0 = 0.3, np.pi / (2 * L)
+    M = E * IZ * k0
+    if method == "elastic_line":
+        ref = _extensible_elastica_tip(M, E * IZ, E * B * H, L)
+    else:
+        ref = _continuum_uniform_bending_tip(M, nu, L)
+    errs = []
+    for n in (16, 32, 64):
+        s = Scene(dim=3, gravity=(0.0, 0.0, 0.0))
+        _member(s, "beam", [(0, 0, 0), (L, 0, 0)], n, method, nu, (0, 1, 0))
+        s.clamp("beam", at="start")
+        s.moment("beam", "end", (0.0, 0.0, M))
+        r = solve_static(s)
+        assert r.success, r.status
+        errs.append(np.linalg.norm(r.nodes("beam")[-1] - ref) / L)
+    assert errs[0] > errs[1] > errs[2] and errs[2] < 1e-4, errs
+
+
+@pytest.mark.xfail(strict=True, reason="open defect: the full-gradient rigid joint hands the other member's end moment to "
+                   "single section vectors, whose relative rotation the elements resist only over the end element; "
+                   "the frame softens as the mesh is refined (docs/kernels.md, beam3d section)")
+@pytest.mark.parametrize("method", METHODS)
+def test_frame_error_does_not_grow_under_refinement(method):
+    """Frame normal to its plane at 8, 16, 32 elements per member: a consistent joint gives an error that falls (or
+    settles at frame theory's neglected transverse shear, +4e-4) under refinement. Today it grows: +1.3e-3, +5.0e-3,
+    +9.1e-3 (continuum), +2e-5, +1.5e-3, +3.1e-3 (elastic line). Strict: passes as soon as the joint is fixed."""
+    nu, P, a, c = 0.3, 100.0, 0.5, 0.5
+    G = E / (2 * (1 + nu))
+    ref = P * a**3 / (3 * E * IY) + P * c**2 * a / (G * SEC.J) + P * c**3 / (3 * E * IY)
+    errs = [abs(solve_static(_frame(method, n, nu, P, a, c)).nodes("m2")[-1][2] / ref - 1) for n in (8, 16, 32)]
+    assert errs[2] <= max(errs[0], 1e-3), errs

@@ -7,6 +7,8 @@ import pytest
 
 from ancf_sym import kernels, registry
 
+from helpers import kernel_input
+
 
 def _state_and_params(element: str, effect: str, rng) -> tuple[np.ndarray, np.ndarray]:
     el = registry.ELEMENTS[element]
@@ -18,7 +20,7 @@ def _state_and_params(element: str, effect: str, rng) -> tuple[np.ndarray, np.nd
     nodes[:, dim] = 1.0  # r_x = e_x
     if element == "beam3d":
         nodes[:, 7], nodes[:, 11] = 1.0, 1.0  # r_y = e_y, r_z = e_z
-    q = ref + 0.05 * rng.standard_normal(el.ndof)
+    q = kernel_input(element, effect, ref + 0.05 * rng.standard_normal(el.ndof))
     p = np.array([{"L": 0.8, "xi": 0.0, "nu": 0.3, "nx": 0.0, "ny": 0.0, "nz": 1.0, "t0x": 1.0, "t0y": 0.0,
                    "t0z": 0.0, "ref1": 0.0, "ref2": 1.0, "ref3": 1.0}.get(n, 1.0 + 0.1 * i) for i, n in enumerate(params)])
     return q, p

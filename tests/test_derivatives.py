@@ -20,7 +20,7 @@ import pytest
 
 from ancf_sym import kernels
 
-from helpers import evaluate, params, perturbed_state
+from helpers import evaluate, kernel_input, params, perturbed_state
 
 KERNELS = [(k["element"], k["effect"], k["gauss"]) for k in kernels.catalogue()]
 IDS = [k["name"] for k in kernels.catalogue()]
@@ -30,11 +30,12 @@ GRAD_TOL = 1e-6
 HESS_TOL = 1e-5
 
 
-def _states(element: str, seed: int):
-    """Two random curved, stretched states (different stretch, perturbation size and orientation)."""
+def _states(element: str, seed: int, effect: str):
+    """Two random curved, stretched states (different stretch, perturbation size and orientation); contact kernels:
+    with the obstacle's coordinates (and velocities) appended (helpers.kernel_input)."""
     rng = np.random.default_rng(seed)
-    return [perturbed_state(element, rng, amplitude=0.1, stretch=0.05, angle=0.7),
-            perturbed_state(element, rng, amplitude=0.3, stretch=0.2, angle=-1.9)]
+    return [kernel_input(element, effect, perturbed_state(element, rng, amplitude=0.1, stretch=0.05, angle=0.7), seed),
+            kernel_input(element, effect, perturbed_state(element, rng, amplitude=0.3, stretch=0.2, angle=-1.9), seed)]
 
 
 def _fd_gradient(f, q, h):
@@ -49,7 +50,7 @@ def _fd_gradient(f, q, h):
 @pytest.mark.parametrize("element,effect,gauss", KERNELS, ids=IDS)
 def test_gradient_and_hessian_match_finite_differences(element, effect, gauss):
     k = kernels.load(element, effect, gauss)
-    for j, q in enumerate(_states(element, seed=zlib.crc32(f"{element}/{effect}/{gauss}".encode()))):
+    for j, q in enumerate(_states(element, zlib.crc32(f"{element}/{effect}/{gauss}".encode()), effect)):
         p = params(element, effect, q)
         e, g, H = evaluate(k, q, p)
         h = H_REL * np.maximum(1.0, np.abs(q))
@@ -82,7 +83,7 @@ def test_energy_function_and_reverse_companion_match_kernel(element, effect, gau
     companion adj1_<name>_energy gives the kernel's gradient: the same expressions, so to round-off (1e-12)."""
     k = kernels.load(element, effect, gauss)
     fe = kernels.load_energy(element, effect, gauss)
-    q = _states(element, seed=7)[1]
+    q = _states(element, 7, effect)[1]
     p = params(element, effect, q)
     e, g, _ = evaluate(k, q, p)
     assert abs(float(fe(q, p)) - e) <= 1e-12 * max(abs(e), 1e-300)
@@ -96,7 +97,9 @@ def test_energy_function_and_reverse_companion_match_kernel(element, effect, gau
 LINEAR_PARAM = {"axial_green": ("EA",), "axial_biot": ("EA",), "axial_decoupled": ("EA",), "bending": ("EI",),
                 "gravity": ("rhoA",), "moment": ("M",), "continuum": ("E",), "line_strain": ("E",),
                 "line_bending": ("EIy", "EIz"), "line_torsion": ("GIp",), "moment_z": ("M",), "moment_y": ("M",),
-                "elastic_green": ("EA", "EI"), "elastic_biot": ("EA", "EI")}  # fused axial + bending: both factors
+                "elastic_green": ("EA", "EI"), "elastic_biot": ("EA", "EI"),  # fused axial + bending: both factors
+                "contact_ground": ("k", "kh"), "contact_circle": ("k", "kh"),  # normal law: both stiffnesses
+                "contact_ground_friction": ("k", "kh", "c"), "contact_circle_friction": ("k", "kh", "c")}
 
 
 @pytest.mark.parametrize("element,effect,gauss", KERNELS, ids=IDS)
@@ -106,7 +109,7 @@ def test_outputs_are_linear_in_the_stiffness(element, effect, gauss):
     so it catches a constant added to an output even where the finite-difference test's relative tolerance would
     drown it under a large stiffness."""
     k = kernels.load(element, effect, gauss)
-    q = _states(element, seed=11)[0]
+    q = _states(element, 11, effect)[0]
     names = kernels.parameters(element, effect)
     p = params(element, effect, q)
     idx = [names.index(n) for n in LINEAR_PARAM[effect]]

@@ -13,7 +13,7 @@ import pytest
 
 from ancf_sym import kernels
 
-from helpers import L0, bent_state, evaluate, params, rotate_q, rotation, rotation2, straight_state
+from helpers import L0, bent_state, evaluate, kernel_input, params, rotate_q, rotation, rotation2, straight_state
 
 KERNELS = [(k["element"], k["effect"], k["gauss"]) for k in kernels.catalogue()]
 IDS = [k["name"] for k in kernels.catalogue()]
@@ -33,6 +33,7 @@ def hard_states(element):
 def test_finite_in_hard_states(element, effect, gauss):
     k = kernels.load(element, effect, gauss)
     for name, q in hard_states(element).items():
+        q = kernel_input(element, effect, q)
         p = params(element, effect, q)
         e, g, H = evaluate(k, q, p)
         assert np.isfinite(e) and np.all(np.isfinite(g)) and np.all(np.isfinite(H)), f"{name}: non-finite output"

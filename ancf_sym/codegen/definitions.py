@@ -4,7 +4,7 @@ from __future__ import annotations
 import casadi as ca
 
 from .. import registry
-from ..elements import beam, cable
+from ..elements import beam, cable, contact
 from ..elements.quadrature import gauss01
 from . import forms
 
@@ -71,10 +71,37 @@ def _beam_station(effect: str):
     return station
 
 
+def _contact_station(element: str, effect: str):
+    """Contact at a Gauss point: fields r - c (and r' - c', omega) are linear in [q, obstacle; v, rates]."""
+    el = registry.ELEMENTS[element]
+    nd, dim, eff = el.ndof, el.dim, registry.EFFECTS[(element, effect)]
+    n = nd + eff.obstacle
+    centre = cable.position if element.startswith("cable") else (lambda q, L, xi, dim: beam.centreline(q, L, xi))
+
+    def station(z, p, xi, w):
+        L = p[0]
+        r = centre(z[:nd], L, xi, dim)
+        c = z[nd:nd + dim] if eff.obstacle else 0
+        if not eff.rates:
+            dens = contact.ground_energy if effect == "contact_ground" else contact.circle_energy
+            yield r - c, lambda u, p: dens(u, p, dim), w * L
+            return
+        v = centre(z[n:n + nd], L, xi, dim)
+        if effect == "contact_ground_friction":
+            yield ca.vertcat(r, v), lambda u, p: contact.ground_dissipation(u[:dim], u[dim:], p, dim), w * L
+        else:
+            u = ca.vertcat(r - c, v - z[n + nd:n + nd + dim], z[n + nd + dim])
+            yield u, lambda u, p: contact.circle_dissipation(u[:dim], u[dim:2 * dim], u[2 * dim], p, dim), w * L
+    return station
+
+
+CONTACT = {ef for (el, ef), e in registry.EFFECTS.items() if ef.startswith("contact_")}
+
+
 # internal fused effects (registry Effect.parts): axial density of the strain measure + bending density
 FUSED = {f"elastic_{s}": {"green": cable.green_density, "biot": cable.biot_density}[s] for s in registry.FUSED_STRAINS}
 _QUADRATURE = {"axial_green", "axial_biot", "bending", "continuum", "line_strain", "line_bending", "line_torsion",
-               *FUSED}
+               *FUSED, *CONTACT}
 
 
 def _direct_energy(element: str, effect: str, gauss: int | None):
@@ -104,8 +131,12 @@ def point_function(element: str, effect: str) -> ca.Function:
     key = (element, effect)
     if key not in _POINT_CACHE:
         el, eff = registry.ELEMENTS[element], registry.EFFECTS[key]
-        station = _cable_station(effect, el.dim) if element.startswith("cable") else _beam_station(effect)
-        _POINT_CACHE[key] = forms.point_function(f"{element}_{effect}_point", el.ndof, len(eff.params), station)
+        if effect in CONTACT:
+            station = _contact_station(element, effect)
+        else:
+            station = _cable_station(effect, el.dim) if element.startswith("cable") else _beam_station(effect)
+        _POINT_CACHE[key] = forms.point_function(f"{element}_{effect}_point", registry.input_size(element, effect),
+                                                 len(eff.params), station)
     return _POINT_CACHE[key]
 
 
@@ -119,7 +150,8 @@ def kernel(element: str, effect: str, gauss: int | None = None) -> ca.Function:
         # Small kernels run 1.6-3x faster as one straight-line SX function (no per-point calls, the Hessian mirror
         # is free); the big beam kernels keep the calls: expanded they compile 4-7x longer for no gain
         # (bench/kernel_forms.py, bench/RESULTS.md).
-        return k.expand(name, {}) if element.startswith("cable") or effect == "line_torsion" else k
+        small = element.startswith("cable") or effect == "line_torsion" or effect in CONTACT
+        return k.expand(name, {}) if small else k
     return forms.direct_kernel(name, el.ndof, len(eff.params), _direct_energy(element, effect, gauss))
 
 

@@ -1,0 +1,79 @@
+"""Initial velocities a user can write: per member a uniform velocity, a rigid rotation about a point, or a velocity
+field along the member; the result is the full vector v0 of DynamicOptions (whose layout the user need not know).
+
+For the nodal coordinates [r, r_x (, r_y, r_z)] of a node at material coordinate s:
+- uniform v:                 r' = v,                        r_x' = r_y' = r_z' = 0
+- rotation omega about c:    r' = omega x (r - c),          r_x' = omega x r_x (likewise r_y, r_z): no strain rate
+- field v(s) with dv/ds:     r' = v(s),                     r_x' = dv/ds(s) (cables; the derivative is the user's)
+In 2D omega is the scalar rate about z. Members not named keep zero velocity; later entries overwrite earlier ones.
+A start from a static result is DynamicOptions(q0=static_result.x) (with these velocities or at rest).
+"""
+from __future__ import annotations
+
+from typing import Callable, Sequence
+
+import numpy as np
+
+from .scene import SceneError
+
+
+def _cross(omega, r: np.ndarray) -> np.ndarray:
+    """omega x r for rows of r (2D: omega scalar about z)."""
+    if r.shape[-1] == 2:
+        return float(omega) * np.stack([-r[..., 1], r[..., 0]], axis=-1)
+    return np.cross(np.asarray(omega, float), r)
+
+
+def _member(asm, name: str):
+    if name not in asm.mesh.members:
+        raise SceneError(f"initial velocity: member {name!r} does not exist; members: {sorted(asm.mesh.members)}")
+    return asm.mesh.members[name]
+
+
+def _vector(what: str, v, n: int) -> np.ndarray:
+    a = np.asarray(v, float).ravel()
+    if a.shape != (n,) or not np.all(np.isfinite(a)):
+        raise SceneError(f"initial velocity: {what} must be {n} finite numbers, got {v!r}")
+    return a
+
+
+def velocities(asm, x: np.ndarray | None = None, uniform: dict | None = None, rotation: dict | None = None,
+               field: dict | None = None) -> np.ndarray:
+    """v0 (full coordinates) for the configuration x (default the reference state).
+
+    uniform: {member: v}; rotation: {member: (omega, centre)}; field: {member: (v(s), dv/ds(s))}, callables of the
+    material coordinate s [m] returning dim-vectors."""
+    d = asm.scene.dim
+    x = asm.x0 if x is None else np.asarray(x, float)
+    v = np.zeros(asm.n)
+    for name, vel in (uniform or {}).items():
+        mm = _member(asm, name)
+        V = np.zeros((mm.n_nodes, mm.node_size))
+        V[:, :d] = _vector(f"uniform[{name!r}]", vel, d)
+        v[mm.offset:mm.offset + V.size] = V.ravel()
+    for name, spec in (rotation or {}).items():
+        mm = _member(asm, name)
+        if not isinstance(spec, (tuple, list)) or len(spec) != 2:
+            raise SceneError(f"initial velocity: rotation[{name!r}] must be (omega, centre), got {spec!r}")
+        omega = _vector(f"rotation[{name!r}] omega", spec[0], 1 if d == 2 else 3)
+        omega = omega[0] if d == 2 else omega
+        c = _vector(f"rotation[{name!r}] centre", spec[1], d)
+        X = asm.member_coordinates(x, name)
+        V = np.zeros_like(X)
+        V[:, :d] = _cross(omega, X[:, :d] - c)
+        for k in range(1, mm.node_size // d):  # gradient vectors turn with the body
+            V[:, k * d:(k + 1) * d] = _cross(omega, X[:, k * d:(k + 1) * d])
+        v[mm.offset:mm.offset + V.size] = V.ravel()
+    for name, spec in (field or {}).items():
+        mm = _member(asm, name)
+        if mm.member.element == "beam3d":
+            raise SceneError(f"initial velocity: field[{name!r}]: velocity fields are for cables (beam3d: use "
+                             "uniform or rotation)")
+        if not isinstance(spec, (tuple, list)) or len(spec) != 2 or not all(callable(f) for f in spec):
+            raise SceneError(f"initial velocity: field[{name!r}] must be (v(s), dv/ds(s)) callables, got {spec!r}")
+        V = np.zeros((mm.n_nodes, mm.node_size))
+        for i, s in enumerate(mm.s_node):
+            V[i, :d] = _vector(f"field[{name!r}] v({s:g})", spec[0](s), d)
+            V[i, d:2 * d] = _vector(f"field[{name!r}] dv/ds({s:g})", spec[1](s), d)
+        v[mm.offset:mm.offset + V.size] = V.ravel()
+    return v
