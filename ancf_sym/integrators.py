@@ -1195,7 +1195,10 @@ class AlphaIntegrator:
                self.extra_iterations)
         self._graphs = self._GRAPHS.setdefault(key, {"chunks": {}})
         if "step" not in self._graphs:
-            self._graphs["step"] = self._build_modified() if self.modified_graph else self._build_full()
+            # full Newton: the further iterations (3-6) in the step graph on large states; small states build them
+            # only for guarded chunks (after a hard transient showed up): ~2.5 ms of set-up for a rare need
+            self._graphs["step"] = self._build_modified() if self.modified_graph else \
+                self._build_full(self.extra_iterations if self.state_size >= UNROLL_STATE else 0)
         self.step_f = self._graphs["step"]
         self._setup_step_buffers()
         self._chunks: dict = {}  # this integrator's buffers of the chunk functions
@@ -1323,8 +1326,9 @@ class AlphaIntegrator:
         return ca.Function("after_later", [V, N, A, T], [ca.vertcat(ca.logic_or(ok, ca.logic_and(ran, conv)),
                                                                     iters + ran, ca.if_else(ran, d, d_prev))])
 
-    def _build_full(self) -> ca.Function:
-        """Full Newton: one iteration, then (in-graph switch) either acceptance or a second iteration."""
+    def _build_full(self, extra_iterations: int) -> ca.Function:
+        """Full Newton: one iteration, then (in-graph switch) either acceptance or a second iteration, and up to
+        extra_iterations more while not converged."""
         S = self.S
         nf, mc = S.nf, S.mc
         st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel, par = self._step_inputs()
@@ -1351,7 +1355,7 @@ class AlphaIntegrator:
         # further iterations while not converged after the second (hard transients: the step stays in the graph,
         # and a chunk goes on): a switch inside the second iteration's branch, so that the steps accepted after one
         # iteration (most of them) pay nothing for it; m = (ran, ok, iterations) of the further iterations
-        n_more = max(0, min(self.extra_iterations, self.opts.max_iter - 2))
+        n_more = max(0, min(extra_iterations, self.opts.max_iter - 2))
         if n_more:
             later = self._later_control_function()
             cb_, n0b, a1b, lteb, tb = ca.MX.sym("ctl", 2), ca.MX.sym("n0", 5), ca.MX.sym("a1", 4), ca.MX.sym("lte"), \
@@ -1663,6 +1667,9 @@ class AlphaIntegrator:
         non-finite state) sets the flag, and every later step of the chunk is a no-op that passes the state on
         (a switch that evaluates only the branch taken), so a chunk costs the steps it accepts plus one."""
         f = self.step_f
+        if not self.modified_graph and self.state_size < UNROLL_STATE:  # (the step with iterations 3-6)
+            f = self._graphs.setdefault("step_more", None) or self._build_full(self.extra_iterations)
+            self._graphs["step_more"] = f
         ins = [ca.MX.sym(f.name_in(i), f.sparsity_in(i)) for i in range(f.n_in())]
         st = ca.MX.sym("state", self.state_size + 1)
         outs = f(st[:self.state_size], *ins[1:])
