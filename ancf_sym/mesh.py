@@ -120,28 +120,25 @@ def mesh_member(m: Member, offset: int) -> MemberMesh:
     ns = node_size(m.element)
     stretch = 1.0 + m.prestrain  # geometric / reference length
     rows, elem_nodes, elem_len, public, pairs, s_nodes = [], [], [], [], [], []
-    s0 = 0.0
-    for k in range(nseg):
+    s0, first = 0.0, 0
+    for k in range(nseg):  # (whole segments at once: equal elements along a straight segment)
         t = (pts[k + 1] - pts[k]) / seg_len[k]
-        first = len(rows)
         if k > 0:
             pairs.append((first - 1, first))
-        for j in range(share[k] + 1):
-            r = pts[k] + t * seg_len[k] * j / share[k]
-            if m.element == "beam3d":
-                y, z = _frame(t, m.y_axis)
-                rows.append(np.concatenate([r, stretch * t, y, z]))
-            else:
-                rows.append(np.concatenate([r, stretch * t]))
-            s_nodes.append(s0 + seg_len[k] * j / share[k] / stretch)
-            if k == 0 or j > 0:
-                public.append(first + j)
-        for j in range(share[k]):
-            elem_nodes.append((first + j, first + j + 1))
-            elem_len.append(seg_len[k] / share[k] / stretch)
+        j = np.arange(share[k] + 1)
+        r = pts[k] + (t * seg_len[k])[None, :] * j[:, None] / share[k]
+        frame = [stretch * t] + (list(_frame(t, m.y_axis)) if m.element == "beam3d" else [])
+        rows.append(np.hstack([r] + [np.broadcast_to(f, (len(j), len(f))) for f in frame]))
+        s_nodes.append(s0 + seg_len[k] * j / share[k] / stretch)
+        public.append(first + (j if k == 0 else j[1:]))
+        e = np.arange(share[k])
+        elem_nodes.append(np.stack([first + e, first + e + 1], axis=1))
+        elem_len.append(np.full(share[k], seg_len[k] / share[k] / stretch))
         s0 += seg_len[k] / stretch
-    return MemberMesh(m, offset, ns, np.array(rows), np.array(elem_nodes), np.array(elem_len), np.array(public),
-                      pairs, np.array(s_nodes))
+        first += share[k] + 1
+    rows, elem_nodes, elem_len = np.vstack(rows), np.vstack(elem_nodes), np.concatenate(elem_len)
+    public, s_nodes = np.concatenate(public), np.concatenate(s_nodes)
+    return MemberMesh(m, offset, ns, rows, elem_nodes, elem_len, public, pairs, s_nodes)
 
 
 def check_stretch(mesh: "Mesh", x: np.ndarray, what: str) -> None:
