@@ -52,7 +52,7 @@ class NewtonRun:
 
 def coordinate_scales(asm: Assembly) -> np.ndarray:
     """Per coordinate: the longest member length for positions [m], 1 for slopes and other gradients [-]."""
-    L = max(float(mm.member.length) for mm in asm.mesh.members.values())
+    L = asm.mesh.length_scale
     s = np.ones(asm.n)
     dim = asm.scene.dim
     for mm in asm.mesh.members.values():
