@@ -120,6 +120,7 @@ class NewtonStatics:
         status, inc, dec, stall, it = "max_iter", math.inf, math.inf, 0, 0
         best, best_at = math.inf, 0
         for it in range(1, max_iter + 1):
+            self.norms[:] = np.nan  # a failed evaluation (e.g. a singular KKT matrix) writes nothing: not finite
             self._eval()
             rq, rc, inc, dec, kmax = self.norms
             floor = float(np.finfo(float).eps * kmax * self.span)
