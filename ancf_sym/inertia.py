@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.linalg.lapack import dpbtrf
+from scipy.linalg.lapack import dpbtrf, dpbtrs
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 from scipy.sparse.linalg import splu, spsolve_triangular
 
@@ -80,15 +80,21 @@ def reduced_inertia(H: sp.spmatrix, J: sp.spmatrix | None = None) -> Inertia:
 
 
 def _banded_positive_definite(H: sp.csc_matrix, sigma: float) -> bool:
-    """H + sigma I positive definite by a banded Cholesky (LAPACK dpbtrf) in the coordinates' own order, or in a
-    reverse Cuthill-McKee order when that is narrower: a 1D mesh numbered node by node is a band of width
-    2 x node size, so this is O(n) and cheaper than a general sparse factorisation. False: not positive definite,
-    or the band too wide to pay (the sparse LDL^T then counts)."""
+    """H + sigma I positive definite by a banded Cholesky (banded_cholesky)."""
+    return banded_cholesky(H, sigma) is not None
+
+
+def banded_cholesky(H: sp.csc_matrix, sigma: float = 0.0) -> tuple[np.ndarray, np.ndarray | None] | None:
+    """Upper banded Cholesky factor of H + sigma I (LAPACK dpbtrf) in the coordinates' own order, or in a reverse
+    Cuthill-McKee order when that is narrower: a 1D mesh numbered node by node is a band of width 2 x node size, so
+    this is O(n x band^2), cheaper than a general sparse factorisation. Returns (factor, order or None), or None
+    when H + sigma I is not positive definite or the band is too wide to pay (a sparse LDL^T or LU then serves)."""
     n = H.shape[0]
     rows, cols = H.indices, np.repeat(np.arange(n), np.diff(H.indptr))  # CSC entries (no format conversion)
     up = rows <= cols
     r, c, v = rows[up], cols[up], H.data[up]
     bw = int(np.max(c - r, initial=0))
+    perm = None
     if bw > BAND_LIMIT:
         perm = reverse_cuthill_mckee(sp.csr_matrix(H), symmetric_mode=True)
         inv = np.empty(n, dtype=np.int64)
@@ -98,12 +104,22 @@ def _banded_positive_definite(H: sp.csc_matrix, sigma: float) -> bool:
         r, c, v = r2[up], c2[up], H.data[up]
         bw = int(np.max(c - r, initial=0))
         if bw > BAND_LIMIT:
-            return False
+            return None
     ab = np.zeros((bw + 1, n))
-    ab[bw + r - c, c] = v  # (a CSC matrix holds each entry once)
+    ab[bw + r - c, c] = v  # (a canonical CSC matrix holds each entry once)
     ab[bw] += sigma
-    _, info = dpbtrf(ab, lower=0, overwrite_ab=1)
-    return info == 0
+    cb, info = dpbtrf(ab, lower=0, overwrite_ab=1)
+    return (cb, perm) if info == 0 else None
+
+
+def banded_solve(factor: tuple[np.ndarray, np.ndarray | None], b: np.ndarray) -> np.ndarray:
+    """Solve (H + sigma I) x = b with a factor from banded_cholesky."""
+    cb, perm = factor
+    if perm is None:
+        return dpbtrs(cb, b, lower=0)[0]
+    x = np.empty_like(b)
+    x[perm] = dpbtrs(cb, b[perm], lower=0)[0]
+    return x
 
 
 def _direction(H, J, lu, d) -> np.ndarray | None:

@@ -15,6 +15,7 @@ element count while the nodal loads shrink.
 """
 from __future__ import annotations
 
+import copy
 import hashlib
 import pickle
 import time
@@ -32,14 +33,17 @@ from .mesh import check_stretch
 from .scene import Scene, SceneError
 
 from .inertia import reduced_inertia
-from .statics_newton import NewtonRun, NewtonStatics
+from .statics_newton import AssemblyNewton, NewtonRun, NewtonStatics, Reduction
 
 SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 INTERRUPTED = ("User_Requested_Stop", "User_Interrupt")  # IPOPT swallows SIGINT and returns one of these
-NEWTON_MAX_ITER = 25  # full steps before load steps take over (a cantilever needs 8-20 at any mesh size)
+NEWTON_MAX_ITER = 30  # full steps before load steps take over (a cantilever needs 8-20 at any mesh size, 24 at E = 1 GPa Green)
 STEP_TOL = 1e-2  # relative tolerance at intermediate load factors (a start inside the next basin is enough)
 STEP_MAX_ITER = 15  # Newton iterations per load step (from a nearby converged load a few suffice)
 MIN_LOAD_STEP = 1.0 / 4096  # smaller load steps than this: hand over to IPOPT
+BIOT_TOL = 1e-6  # tolerance of the Biot solve that only gives the start (Newton's last steps are quadratic)
+BIOT_MAX_ITER = 12  # Biot converges in 8-10 on fine meshes: give up early where it does not
+BIOT_MIN_ELEMENTS = 10  # measured: on 3 and 6 elements Newton wanders with any strain, Biot too (no start gained)
 CACHE_SIZE = 8  # problems kept per process, by scene fingerprint
 
 
@@ -135,11 +139,32 @@ class StaticProblem:
 
     def __init__(self, scene_or_assembly: Scene | Assembly):
         self.asm = scene_or_assembly if isinstance(scene_or_assembly, Assembly) else Assembly(scene_or_assembly)
-        self.newton = NewtonStatics(self.asm)
-        self.S = self.newton.S
-        self.work = self.newton.load_work(self.asm.x0)  # the loads' energy scale W [J]
+        self.S = Reduction(self.asm)  # free coordinates (the graph's StepSystem has the same)
+        self.light = AssemblyNewton(self.asm, self.S) if self.S.mc == 0 else None
+        self._graph: NewtonStatics | None = None
+        self.newton = self.light or self.graph
+        self.solves = 0
         self._nlp = None
         self._solvers: dict = {}
+        self._biot: StaticProblem | bool | None = None  # the same scene with Biot strain (a start), False: none
+        self.work = self.newton.load_work(self.asm.x0)  # the loads' energy scale W [J]
+
+    @property
+    def graph(self) -> NewtonStatics:
+        """The compiled Newton iteration (built on first use)."""
+        if self._graph is None:
+            self._graph = NewtonStatics(self.asm)
+        return self._graph
+
+    def _engine(self) -> NewtonStatics:
+        """Which evaluation runs the Newton iterations (measured, bench/STATICS_RESULTS.md): building the graph costs
+        ~35 ms at 60 elements and ~120 ms at 600, an iteration on it ~50 us / ~1.4 ms, one on the assembly
+        ~0.3 ms / ~3 ms: the assembly wins a first solve at every size measured (60 - 6000 elements); a problem
+        solved again (a study, a parameter sweep, warm starts) builds the graph once and runs on it from then on.
+        Scenes with multiplier rows always run on the graph."""
+        if self.light is None or self.solves > 1 or self._graph is not None:
+            return self.graph
+        return self.light
 
     # -- IPOPT --------------------------------------------------------------------------------------------------
     def _build_nlp(self) -> None:
@@ -215,6 +240,8 @@ class StaticProblem:
         opts = opts or StaticOptions()
         a = self.asm
         t0 = time.perf_counter()
+        self.solves += 1
+        self.newton = self._engine()
         x = a.x0.copy() if x0 is None else np.asarray(x0, float).copy()
         if x.shape != (a.n,) or not np.all(np.isfinite(x)):
             raise SceneError(f"warm start x0 must be {a.n} finite numbers, got shape {np.shape(x0)}")
@@ -232,9 +259,19 @@ class StaticProblem:
             return self._result(True, "Solve_Succeeded", 0, time.perf_counter() - t0, x, stable, attempts, "start",
                                 None)
         ceiling = self._start_ceiling(x, work, opts.tol)
-        run = self.newton.solve(x, opts.tol, min(NEWTON_MAX_ITER, int(opts.max_iter)), work)
+        biot = self._biot_start(x, opts, work) if x0 is None else None
+        run, used, iters = None, False, 0
+        if biot is not None and biot.converged:  # Newton from the Biot solution
+            run = self.newton.solve(biot.x, opts.tol, min(NEWTON_MAX_ITER, int(opts.max_iter)), work)
+            used, iters = run.converged, run.iterations
+        if not used:
+            run = self.newton.solve(x, opts.tol, min(NEWTON_MAX_ITER, int(opts.max_iter)), work)
         attempts.append(self._newton_attempt("newton", run))
-        iters, path = run.iterations, "newton"
+        if biot is not None:
+            attempts[-1]["biot_start"] = {"status": biot.status, "iterations": biot.iterations,
+                                          "used": used}
+        iters += run.iterations + (biot.iterations if biot is not None else 0)
+        path = "newton"
         ev = a.evaluate(run.x, hessian=False) if run.converged else None
         ok = run.converged and ev.energy <= ceiling
         if run.converged and not ok:
@@ -247,8 +284,9 @@ class StaticProblem:
             if self._unresolvable(attempts):
                 return self._result(False, "Round_Off_Floor_Above_Loads", iters, time.perf_counter() - t0, x, None,
                                     attempts, "", None)
+            n_before = len(attempts)
             ok, xs, lg, path = self._ipopt(x, opts, attempts, ceiling)
-            iters += sum(at["iterations"] for at in attempts[1:])
+            iters += sum(at["iterations"] for at in attempts[n_before:])
             if ok:
                 run = self._finish(xs, lg, opts, work, attempts)
                 iters += run.iterations
@@ -266,6 +304,30 @@ class StaticProblem:
                     ev = None
         return self._result(ok, status, iters, time.perf_counter() - t0, x_out, stable, attempts, path,
                             run if ok else None, ev if ok else None)
+
+    def _biot_start(self, x, opts, work) -> NewtonRun | None:
+        """The Biot-strain solution of the same scene (a start for cables with Green or decoupled strain, to
+        BIOT_TOL); None without such cables or on a coarse mesh. Measured (bench/STATICS_RESULTS.md): Biot Newton
+        converges in 8-10 iterations on paper 000's cantilever where Green needs 19-24 from the straight beam, and
+        Green then needs 2-3 more from Biot's answer (the strain measures differ by O(strain^2))."""
+        if self._biot is False:
+            return None
+        if self._biot is None:
+            scene = copy.deepcopy(self.asm.scene)
+            cables = [m for m in scene.members.values() if getattr(m, "axial", None) in ("green", "decoupled")]
+            for m in cables:
+                m.axial = "biot"
+            coarse = any(m.elements < BIOT_MIN_ELEMENTS for m in cables)
+            self._biot = StaticProblem(scene) if cables and not coarse else False
+            if self._biot and self._biot.asm.n != self.asm.n:
+                self._biot = False
+            if not self._biot:
+                return None
+        b = self._biot
+        b.solves = self.solves  # the same path as this problem: assembly on a first solve, then the graph
+        b.newton = b._engine()
+        rb = b.newton.solve(x, max(opts.tol, BIOT_TOL), min(BIOT_MAX_ITER, int(opts.max_iter)), work)
+        return rb
 
     def _newton_load_steps(self, x, opts, work, ceiling, attempts):
         """Full-step Newton along the load factor with an adaptive step (as Exudyn's static solver adapts its load
@@ -415,7 +477,11 @@ class StaticProblem:
         row (default: from the gradient), for the curvature of the bilinear (rigid-joint) constraints.
 
         Returns (stable, direction of most negative curvature in full coordinates, max-norm 1)."""
-        S = self.S
+        if self.light is not None:  # no multiplier rows: the reduced Hessian from the assembly
+            inertia = reduced_inertia(self.light.tangent(x)[2])
+            d = None if inertia.direction is None else self.S.full_v(inertia.direction)
+            return inertia.stable, (d / np.max(np.abs(d)) if d is not None and np.any(d) else None)
+        S = self.graph.S
         if S.mc:
             lam = self.multipliers(x) if lam_g is None else np.asarray(lam_g, float)
             S.lam[:] = lam[S.part.rows]

@@ -14,6 +14,13 @@ Convergence (`tol`, relative, the same at any mesh size):
 The answer is the point AFTER that update: Newton's error there is of the order of the update squared, so it lies
 within tol^2 L of the discrete solution, far below tol. The start state is never accepted while a load acts: its
 update is the (non-zero) response to the loads and it is applied before the test.
+Two ways to evaluate one iteration (residual, tangent, update), one loop:
+- graph (NewtonStatics): the compiled StepSystem Function above, ~50 us per iteration at 60 elements, but ~35 ms
+  (60 elements) to ~120 ms (600) to build;
+- assembly (AssemblyNewton): the Assembly's mapped kernel calls, the sparse tangent reduced to the free coordinates
+  and a banded Cholesky (inertia.banded_cholesky; sparse LU where it is not positive definite): ~0.2-0.4 ms per
+  iteration at 60 elements, nothing to build. Only for scenes whose supports all eliminate coordinates (no
+  multiplier rows). statics.StaticProblem chooses by measurement (its docstring).
 Round-off: when the updates stop contracting (each more than half the previous) while the residual sits at its
 round-off level (within ROUND_OFF x eps x max|K| x span), they measure the round-off of the solution itself; above tol it cannot be resolved in double precision (e.g. a penalty factor so stiff that
 eps x its force swamps the loads) and the run says so.
@@ -26,10 +33,17 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from .assembly import Assembly
-from .integrators import StepSystem
+import scipy.sparse as sp
+from scipy.sparse.linalg import splu
 
-STALL = 0.5  # updates contracting by less than this factor are no longer Newton's quadratic phase
+from .assembly import LINEAR_EFFECTS, Assembly
+from scipy.linalg.lapack import dpbtrf, dpbtrs
+
+from .inertia import BAND_LIMIT, banded_cholesky, banded_solve
+from .sparsity import csc_pattern
+from .integrators import StepSystem, partition
+
+STALL = 0.75  # updates contracting by less than this factor make no progress (the 2/3 of a quartic Green energy far out does)
 STALL_COUNT = 3  # that many in a row: the updates are round-off
 ROUND_OFF = 100.0  # a residual within this factor of eps x max|K| x span is at round-off
 NO_PROGRESS = 4  # converging runs set a new smallest update at least every 3 iterations (measured, zig-zags included)
@@ -61,12 +75,38 @@ def coordinate_scales(asm: Assembly) -> np.ndarray:
     return s
 
 
+class Reduction:
+    """The StepSystem's free coordinates without its CasADi graph: supports that fix coordinates eliminated, hinges
+    identified (integrators.partition), and the constant generalized force of the linear terms (gravity, loads)."""
+
+    def __init__(self, asm: Assembly):
+        self.part = part = partition(asm)
+        self.E = part.E
+        self.nf = part.E.shape[1]
+        self.mc = len(part.rows)
+        self._gather = np.where(part.pos >= 0, part.pos, self.nf)
+        f_lin = asm.Q.copy()
+        for mk in asm.mapped:
+            if mk.term.effect in LINEAR_EFFECTS:
+                mk(asm.x0)
+                f_lin -= np.bincount(mk.term.idx.ravel(), mk.G.ravel(), minlength=asm.n)
+        self.f_lin_full = f_lin
+        self.f_lin = part.E.T @ f_lin
+        self.span = float(np.max(np.abs(asm.x0))) + 1.0
+
+    full = StepSystem.full
+    full_v = StepSystem.full_v
+    reduce = StepSystem.reduce
+    reduce_force = StepSystem.reduce_force
+
+
 class NewtonStatics:
     """Full-step Newton on a scene's free coordinates (StepSystem with no mass and no damping)."""
 
     def __init__(self, asm: Assembly):
         self.asm = asm
         self.S = S = StepSystem(asm)
+        self.energy = None  # potential at the last evaluated point (AssemblyNewton only)
         self.scale = coordinate_scales(asm)[S.part.roots]
         nf, mc = S.nf, S.mc
         xf, lam, p = ca.MX.sym("x", nf), ca.MX.sym("lam", mc), ca.MX.sym("p", nf)
@@ -101,9 +141,11 @@ class NewtonStatics:
     def load_work(self, x_full: np.ndarray, load: float = 1.0) -> float:
         """W = sum |r_i| s_i of the residual at x_full without multipliers (free rows): the loads' energy scale
         [J] (under gravity from the undeformed state: the weight times L)."""
-        S = self.S
-        r = np.asarray(S.grad_f(S.reduce(x_full))).ravel() - load * S.f_lin
-        return float(np.sum(np.abs(r) * self.scale))
+        return float(np.sum(np.abs(self.gradient(x_full) - load * self.S.f_lin) * self.scale))
+
+    def gradient(self, x_full: np.ndarray) -> np.ndarray:
+        """Gradient of the nonlinear potential on the free coordinates."""
+        return np.asarray(self.S.grad_f(self.S.reduce(x_full))).ravel()
 
     def solve(self, x_full: np.ndarray, tol: float, max_iter: int, work: float, load: float = 1.0,
               lam: np.ndarray | None = None, max_step: float = np.inf) -> NewtonRun:
@@ -114,6 +156,7 @@ class NewtonStatics:
         self.x[:] = S.reduce(x_full)
         self.lam[:] = 0.0 if lam is None else lam
         self.p[:] = -load * S.f_lin
+        self.load = load
         nf = S.nf
         W = max(work, np.finfo(float).tiny)
         hist: list = []
@@ -158,3 +201,78 @@ class NewtonStatics:
         x = S.full(self.x)
         return NewtonRun(status == "converged", status, it, x, self.lam.copy(), float(inc), float(dec),
                          float(self.norms[0]), floor if it else 0.0, hist)
+
+
+class AssemblyNewton(NewtonStatics):
+    """The same Newton loop with each iteration evaluated by the Assembly's mapped kernel calls (no graph to build).
+    Scenes without multiplier rows only (Reduction.mc == 0)."""
+
+    def __init__(self, asm: Assembly, reduction: Reduction):
+        assert reduction.mc == 0, "multiplier rows need the graph (NewtonStatics)"
+        self.asm, self.S = asm, reduction
+        self.scale = coordinate_scales(asm)[reduction.part.roots]
+        nf = reduction.nf
+        self.x, self.lam, self.p = np.zeros(nf), np.zeros(0), np.zeros(nf)
+        self.dz, self.norms = np.zeros(nf), np.zeros(5)
+        self.span = reduction.span
+        self.energy = None
+        self.load = 1.0
+        # the reduced tangent E^T H E as a gather of the assembly's Hessian values (a sparse product per iteration
+        # costs ~1 ms of SciPy overhead at 60 elements): every coordinate is one unknown or fixed
+        pos = reduction.part.pos
+        pr = pos[asm.h_indices]
+        pc = pos[np.repeat(np.arange(asm.n), np.diff(asm.h_indptr))]
+        self._keep = (pr >= 0) & (pc >= 0)
+        pr, pc = pr[self._keep], pc[self._keep]
+        self._k_indptr, self._k_indices, self._k_pos = csc_pattern(pr, pc, nf, nf)
+        self._k_nnz = len(self._k_indices)
+        kc = np.repeat(np.arange(nf), np.diff(self._k_indptr))
+        up = self._k_indices <= kc
+        bw = int(np.max(kc[up] - self._k_indices[up], initial=0))
+        # banded upper storage (LAPACK dpbtrf) written straight from the values where the band is narrow
+        self._band = (bw, up, (bw + self._k_indices[up] - kc[up]) * nf + kc[up]) if bw <= BAND_LIMIT else None
+
+    def _reduced_values(self, ev) -> np.ndarray:
+        return np.bincount(self._k_pos, ev.hessian.data[self._keep], minlength=self._k_nnz)
+
+    def _matrix(self, kdata: np.ndarray) -> sp.csc_matrix:
+        nf = self.S.nf
+        return sp.csc_matrix((kdata, self._k_indices, self._k_indptr), shape=(nf, nf))
+
+    def tangent(self, x_full: np.ndarray, hessian: bool = True):
+        """(evaluation, gradient of the nonlinear potential on the free coordinates, reduced Hessian or None)."""
+        R = self.S
+        ev = self.asm.evaluate(x_full, hessian=hessian)
+        g = R.reduce_force(ev.gradient + R.f_lin_full)
+        return ev, g, self._matrix(self._reduced_values(ev)) if hessian else None
+
+    def gradient(self, x_full: np.ndarray) -> np.ndarray:
+        return self.tangent(x_full, hessian=False)[1]
+
+    def _eval(self) -> None:
+        R = self.S
+        nf = R.nf
+        x_full = R.full(self.x)
+        ev = self.asm.evaluate(x_full)
+        r = R.reduce_force(ev.gradient + R.f_lin_full) + self.p
+        # potential at the load factor: the evaluation holds it at load 1, (1 - load) f_lin.x restores the rest
+        self.energy = ev.energy + (1.0 - self.load) * float(R.f_lin_full @ x_full)
+        kdata = self._reduced_values(ev)
+        done = False
+        if self._band is not None:
+            bw, up, flat = self._band
+            ab = np.bincount(flat, kdata[up], minlength=(bw + 1) * nf).reshape(bw + 1, nf)
+            cb, info = dpbtrf(ab, lower=0, overwrite_ab=1)
+            if info == 0:
+                self.dz[:] = -dpbtrs(cb, r, lower=0)[0]
+                done = True
+        if not done:  # not positive definite (or a wide band): banded Cholesky in another order, else sparse LU
+            K = self._matrix(kdata)
+            factor = banded_cholesky(K) if self._band is None else None
+            try:
+                self.dz[:] = -(banded_solve(factor, r) if factor is not None else splu(K).solve(r))
+            except RuntimeError:  # singular: the loop reads the NaN as not_finite
+                self.dz[:] = np.nan
+        kmax = float(np.max(np.abs(kdata), initial=0.0))
+        self.norms[:] = (np.max(np.abs(r), initial=0.0), 0.0, np.max(np.abs(self.dz / self.scale), initial=0.0),
+                         -float(r @ self.dz), kmax)

@@ -45,9 +45,14 @@ def test_zhang_quick_study(tmp_path):
     rates = convergence_rates(get_study("zhang_cantilever"), rep.records)
     assert 2.0 < rates["strain=decoupled, gauss=5"] < 5.0, f"decoupled convergence rate {rates}"
     text = (tmp_path / "z" / "report.md").read_text()
-    # the decoupled element reaches 1e-3 cheapest (n = 6 or 12: full Newton wanders on 6 coarse decoupled elements
-    # and needs load steps, so the two cost about the same; see bench/STATICS_RESULTS.md)
-    assert "## Answer" in text and "cheapest setting reaching" in text and "strain = decoupled" in rep.answer
+    # the report names the cheapest setting reaching the 1e-3 target; which one is cheapest is a wall time on this
+    # machine, so the test asserts what the physics fixes instead: the decoupled element (no locking) reaches the
+    # target at a smaller n than the coupled one (paper 000: decoupled 6 at ~6e-4, green 12 still at ~1.5e-3, a
+    # discretisation error with a margin of 1.5x on either side, not a round-off level)
+    assert "## Answer" in text and "cheapest setting reaching" in text
+    first = {s: min((n for n in (3, 6, 12) if by[(s, n)]["error"] <= 1e-3), default=np.inf)
+             for s in ("green", "decoupled")}
+    assert first["decoupled"] < first["green"], f"smallest n reaching 1e-3: {first}"
     for f in ("results.csv", "error_vs_time.png", "error_vs_n.png", "reference.json", "study.json"):
         assert (tmp_path / "z" / f).is_file(), f
     rows = list(csv.DictReader(open(tmp_path / "z" / "results.csv")))
