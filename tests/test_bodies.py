@@ -263,3 +263,21 @@ def test_body_initial_rotation_reaches_energy_amplitude():
     theta = r.sensors["b"][:, 2] + math.pi / 2
     assert abs(theta.max() - th_max) < 1e-3
     assert abs(r.sensors["b"][0, 3] - w0) < 1e-12 * w0
+
+
+def test_pendulum_under_side_force_statics():
+    """A rod on a revolute joint with a horizontal dead force F at its centre: equilibrium angle from the vertical
+    tan(theta) = F / (m g) (moment balance about the pivot, exact for a rigid body). Tolerance 1e-8 rad: only the
+    solver's tolerance separates them. The revolute rows' multipliers are (F, -m g): the joint pushes the body with
+-lambda = (-F, m g), the reaction that balances the loads (relative 1e-8 likewise)."""
+    m, F, d = 2.0, 7.0, 0.5
+    s = Scene(dim=2, gravity=(0, -G))
+    s.body("rod", m, m / 12, position=(0, -d), angle=-math.pi / 2, force=(F, 0))
+    s.revolute("rod", point=(0, 0))
+    r = solve_static(s)
+    assert r.success and r.stable
+    x, y, angle = r.body("rod")
+    theta = angle + math.pi / 2
+    assert abs(theta - math.atan2(F, m * G)) < 1e-8
+    assert abs(math.hypot(x, y) - d) < 1e-12
+    assert np.allclose(r.constraint_forces["revolute rod"], [F, -m * G], rtol=1e-8)
