@@ -7,10 +7,12 @@
     ancf-sym study --list                                       the studies
 
 `run` writes DIR/result.json, DIR/shape.png, DIR/fields.png, DIR/result.vtu and a copy of the scene as
-DIR/scene.toml. Everything is written into a temporary sibling directory first; DIR is replaced only when the
-solve succeeded, so a failed run never overwrites a previous good DIR: its status goes to DIR.failed/ instead.
-Exit codes: 0 success, 1 the solve failed (or an unexpected error, traceback in DIR.failed/traceback.txt),
-2 bad input (the scene's SceneError message, naming the TOML field; or an --out that is not a result directory).
+DIR/scene.toml. Everything is written into a temporary sibling directory first (ancf_sym.result_dir); DIR is
+replaced only when the solve succeeded, so a failed run never overwrites a previous good DIR: its status goes to
+DIR.failed/ instead. Exit codes: 0 success, 1 the solve failed (or an unexpected error, traceback in
+DIR.failed/traceback.txt; or finished results that could not replace DIR, kept beside it), 2 bad input (the scene's
+SceneError message, naming the TOML field; or an --out that is not a result directory), 130 Ctrl-C, 143 SIGTERM
+(stopped at once, nothing written, DIR as it was).
 Also runnable as `python -m ancf_sym.cli`.
 """
 from __future__ import annotations
@@ -18,15 +20,15 @@ from __future__ import annotations
 import argparse
 import os
 import shutil
+import signal
 import sys
-import tempfile
 import time
 import traceback
 from pathlib import Path
 
+from .interrupts import Terminated, terminate_raises
+from .result_dir import RESULT_FILE, ResultDir
 from .scene import Scene, SceneError
-
-RESULT_FILE = "result.json"
 
 
 class Progress:
@@ -139,46 +141,24 @@ def run_dynamics_cli(scene: Scene, analysis: dict, scene_file: Path, out: Path, 
 ANALYSES = {"statics": (run_statics, STATICS_STAGES), "dynamics": (run_dynamics_cli, DYNAMICS_STAGES)}
 
 
-# -- output directories ------------------------------------------------------------------------------------------
-
-def _check_out(path: Path) -> None:
-    """Refuse to replace anything that is not a previous result directory of this tool."""
-    if path.exists() and not path.is_dir():
-        raise SceneError(f"--out {path}: exists and is not a directory")
-    if path.is_dir() and any(path.iterdir()) and not (path / RESULT_FILE).is_file():
-        raise SceneError(f"--out {path}: exists, is not empty and holds no {RESULT_FILE}: "
-                         "not replacing it; choose another directory")
-
-
-def _replace_dir(src: Path, dst: Path) -> None:
-    """Put the finished directory src in place of dst (renames on one filesystem: dst is never half-written)."""
-    if not dst.exists():
-        os.rename(src, dst)
-        return
-    old = dst.with_name(f".{dst.name}.old-{os.getpid()}")
-    os.rename(dst, old)
-    try:
-        os.rename(src, dst)
-    except OSError:
-        os.rename(old, dst)
-        raise
-    shutil.rmtree(old, ignore_errors=True)
-
+# -- the run command ---------------------------------------------------------------------------------------------
 
 def _fail(msg: str) -> None:
     print(f"ancf-sym: {msg}", file=sys.stderr)
 
 
 def cmd_run(args) -> int:
+    with terminate_raises():  # SIGTERM unwinds like Ctrl-C: the temporary directory is removed
+        return _cmd_run(args)
+
+
+def _cmd_run(args) -> int:
     from .scene_toml import load_scene
 
     t_start = time.perf_counter()
     scene_file = Path(args.scene)
-    out = Path(args.out).absolute()
-    failed = out.with_name(out.name + ".failed")
     try:
-        _check_out(out)
-        _check_out(failed)
+        rd = ResultDir(Path(args.out))
         if args.samples < 1:
             raise SceneError(f"--samples must be a positive integer, got {args.samples}")
         scene, analysis = load_scene(scene_file)
@@ -191,51 +171,61 @@ def cmd_run(args) -> int:
         return 2
     runner, stages = ANALYSES[analysis["type"]]
     try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
-    except OSError as exc:
-        _fail(f"--out {out}: cannot create a directory beside it: {exc}")
+        with rd:  # whatever happens (also Ctrl-C, SIGTERM), no temporary directory is left behind
+            progress = Progress(stages, args.quiet)
+            progress.stage("read scene")
+            try:
+                return _run_in(rd, scene, analysis, scene_file, runner, progress, t_start, args)
+            finally:
+                progress.close()
+    except SceneError as exc:
+        _fail(str(exc))
         return 2
-    umask = os.umask(0)
-    os.umask(umask)
-    tmp.chmod(0o777 & ~umask)  # mkdtemp makes it private; the result directory gets the usual permissions
-    progress = Progress(stages, args.quiet)
-    progress.stage("read scene")
-    try:
-        return _run_in(tmp, out, failed, scene, analysis, scene_file, runner, progress, t_start, args)
-    finally:  # whatever happened (also Ctrl-C), no temporary directory is left behind
-        progress.close()
-        shutil.rmtree(tmp, ignore_errors=True)
+    except (KeyboardInterrupt, Terminated) as exc:
+        kept = f"; previous results in {rd.out} kept" if (rd.out / RESULT_FILE).is_file() else ""
+        _fail(f"{scene.name}: {_stop_reason(exc)}: stopped, nothing written{kept}")
+        return _stop_code(exc)
 
 
-def _run_in(tmp, out, failed, scene, analysis, scene_file, runner, progress, t_start, args) -> int:
-    """Run the analysis writing into tmp; move tmp to out (success) or to failed; the exit code."""
+def _run_in(rd: ResultDir, scene, analysis, scene_file, runner, progress, t_start, args) -> int:
+    """Run the analysis writing into rd.tmp; move it to out (success) or to out.failed; the exit code."""
+    tmp = rd.tmp
     try:
         shutil.copyfile(scene_file, tmp / "scene.toml")
         ok, summary = runner(scene, analysis, scene_file, tmp, progress, t_start, args.samples)
-    except SceneError as exc:  # a value only the assembly or solver could refuse
-        progress.close()
-        _fail(str(exc))
-        return 2
+    except SceneError:  # a value only the assembly or solver could refuse
+        raise
     except Exception as exc:  # noqa: BLE001 - one line to the user, the traceback into DIR.failed
         progress.close()
         (tmp / "traceback.txt").write_text(traceback.format_exc())
         from .output_json import write_json
         write_json(tmp / RESULT_FILE, {"status": "error", "success": False, "error": f"{type(exc).__name__}: {exc}",
                                        "scene": {"name": scene.name, "file": str(scene_file.resolve())}})
-        _replace_dir(tmp, failed)
-        _fail(f"{scene.name}: {type(exc).__name__}: {exc} (details in {failed}/traceback.txt)")
+        where, problem = rd.commit(False)
+        _fail(f"{scene.name}: {type(exc).__name__}: {exc} (details in {where}/traceback.txt"
+              + (f"; {problem}" if problem else "") + ")")
         return 1
     progress.close()
+    where, problem = rd.commit(ok)
+    if problem:  # finished, but the old directory could not be replaced
+        _fail(f"{summary}{'' if ok else ' FAILED'}; {problem}: this run's results are in {where}")
+        return 1
     if ok:
-        _replace_dir(tmp, out)
         if not args.quiet:
-            print(f"{summary} -> {out}")
+            print(f"{summary} -> {where}")
         return 0
-    _replace_dir(tmp, failed)
-    kept = f"previous results in {out} kept; " if (out / RESULT_FILE).is_file() else ""
-    _fail(f"{summary} FAILED; {kept}this run's status in {failed}")
+    kept = f"previous results in {rd.out} kept; " if (rd.out / RESULT_FILE).is_file() else ""
+    _fail(f"{summary} FAILED; {kept}this run's status in {where}")
     return 1
+
+
+def _stop_reason(exc: BaseException) -> str:
+    return "terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted (Ctrl-C)"
+
+
+def _stop_code(exc: BaseException) -> int:
+    """The shell's convention: 128 + the signal number."""
+    return 128 + (signal.SIGTERM if isinstance(exc, Terminated) else signal.SIGINT)
 
 
 def cmd_kernels(args) -> int:
@@ -281,6 +271,7 @@ def cmd_study(args) -> int:
         _fail(str(exc))
         return 2
     except KeyboardInterrupt:
+        _fail(f"study {args.name}: interrupted (Ctrl-C); finished settings are kept in {args.out} (run again to resume)")
         return 130
     failed = sum(1 for r in report.records if not r.get("success"))
     if not args.quiet:
@@ -317,6 +308,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return args.func(args)
+    except (KeyboardInterrupt, Terminated) as exc:  # outside a command's own handling (e.g. while importing)
+        _fail(_stop_reason(exc))
+        return _stop_code(exc)
     except BrokenPipeError:  # e.g. `ancf-sym kernels | head`
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0

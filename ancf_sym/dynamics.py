@@ -20,6 +20,7 @@ potential): the energy the integrator itself removed (positive) or added (negati
 from __future__ import annotations
 
 import math
+import re
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
@@ -33,8 +34,9 @@ from .interpolation import Probe, weights
 from .integrators import (LINEAR_EFFECTS, AlphaIntegrator, Counters, NewtonOptions, RayleighData, Scheme,
                           StepSystem, StrainRateData)
 from .mesh import check_stretch
-from .checks import number
+from .checks import check_fields, check_keys, fail, number
 from .scene import Scene, SceneError
+from .schema import DYNAMIC_OPTIONS
 
 INTEGRATORS = {"newmark": "newmark", "hht": "hht", "hht_alpha": "hht", "generalized_alpha": "generalized_alpha",
                "generalized-alpha": "generalized_alpha", "genalpha": "generalized_alpha",
@@ -78,7 +80,7 @@ class Sensor:
             raise SceneError(f"sensors[{index}]: unknown field(s) {sorted(unknown)}; known: name, kind, member, at")
         kind = d.get("kind")
         if kind not in SENSOR_KINDS:
-            raise SceneError(f"sensors[{index}].kind must be one of {SENSOR_KINDS}, got {kind!r}")
+            raise fail(f"sensors[{index}].kind", f"must be one of {' | '.join(SENSOR_KINDS)}", kind)
         member = d.get("member")
         at = d.get("at", "end")
         name = d.get("name") or f"{kind}_{member}_{at}"
@@ -220,53 +222,40 @@ class DynamicOptions:
     v0: np.ndarray | None = None  # initial velocities (full, default zero)
 
     def __post_init__(self):
-        self.dt = _pos("dt", self.dt)
-        self.t_start = _num("t_start", self.t_start)
-        self.t_end = _num("t_end", self.t_end)
+        check_fields(self, DYNAMIC_OPTIONS, "analysis")  # types and ranges as declared in ancf_sym.schema
         if self.t_end <= self.t_start:
-            raise SceneError(f"t_end must be greater than t_start={self.t_start!r}, got {self.t_end!r}")
+            raise fail("analysis.t_end", f"must be greater than t_start = {self.t_start:g}", self.t_end)
+        if self.dt > self.t_end - self.t_start:
+            raise fail("analysis.dt", f"must not exceed t_end - t_start = {self.t_end - self.t_start:g} s", self.dt)
         if self.integrator not in INTEGRATORS:
-            raise SceneError(f"integrator must be one of {sorted(set(INTEGRATORS.values()))} (aliases "
+            raise SceneError(f"analysis.integrator: must be one of {sorted(set(INTEGRATORS.values()))} (aliases "
                              f"{sorted(INTEGRATORS)}), got {self.integrator!r}")
         self.integrator = INTEGRATORS[self.integrator]
         self.scheme()  # checks rho_inf / alpha / beta, gamma
-        if self.stages is not None and (isinstance(self.stages, bool) or not isinstance(self.stages, (int, np.integer))
-                                        or not 1 <= self.stages <= 4):
-            raise SceneError(f"stages must be an integer in 1..4, got {self.stages!r}")
-        for name in ("adaptive", "energies"):
-            if not isinstance(getattr(self, name), bool):
-                raise SceneError(f"{name} must be true or false, got {getattr(self, name)!r}")
-        if self.tol is not None:
-            self.tol = _pos("tol", self.tol)
         if self.dt_min is not None:
-            self.dt_min = _pos("dt_min", self.dt_min)
             if self.dt_min > self.dt:
-                raise SceneError(f"dt_min={self.dt_min!r} must not exceed dt={self.dt!r}")
+                raise fail("analysis.dt_min", f"must not exceed dt = {self.dt:g}", self.dt_min)
         if self.dt_max is not None:
-            self.dt_max = _pos("dt_max", self.dt_max)
             if self.dt_max < self.dt:
-                raise SceneError(f"dt_max={self.dt_max!r} must not be below dt={self.dt!r}")
+                raise fail("analysis.dt_max", f"must not be below dt = {self.dt:g}", self.dt_max)
         given = [k for k in ("output_every", "output_dt", "output_times") if getattr(self, k) is not None]
         if len(given) > 1:
-            raise SceneError(f"give one of output_every, output_dt, output_times; got {given}")
+            raise fail("analysis", "give one of output_every, output_dt, output_times", given)
         if self.output_every is not None:
-            if isinstance(self.output_every, bool) or not isinstance(self.output_every, (int, np.integer)) \
-                    or self.output_every < 1:
-                raise SceneError(f"output_every must be a positive integer, got {self.output_every!r}")
             if self.adaptive:
-                raise SceneError("output_every needs fixed steps; with adaptive=true give output_dt or output_times")
-        if self.output_dt is not None:
-            self.output_dt = _pos("output_dt", self.output_dt)
+                raise fail("analysis.output_every", "needs fixed steps; with adaptive = true give output_dt or "
+                           "output_times")
         if self.output_times is not None:
-            try:
-                ot = np.asarray(self.output_times, dtype=float).ravel()
-            except (TypeError, ValueError):
-                raise SceneError(f"output_times must be a list of numbers, got {self.output_times!r}") from None
+            if isinstance(self.output_times, (str, bytes)) or not isinstance(self.output_times,
+                                                                             (list, tuple, np.ndarray)):
+                raise fail("analysis.output_times", "must be a list of numbers", self.output_times)
+            ot = np.array([number(f"analysis.output_times[{i}]", v)
+                           for i, v in enumerate(np.asarray(self.output_times, dtype=object).ravel())])
             eps = 1e-12 * max(1.0, abs(self.t_end))
             bad = ot[~np.isfinite(ot) | (ot < self.t_start - eps) | (ot > self.t_end + eps)]
             if len(bad):
-                raise SceneError(f"output_times must lie in [t_start, t_end] = [{self.t_start}, {self.t_end}], got "
-                                 f"{bad.tolist()}")
+                raise fail("analysis.output_times", f"must lie in [t_start, t_end] = [{self.t_start:g}, "
+                           f"{self.t_end:g}]", bad.tolist())
             self.output_times = np.unique(np.clip(ot, self.t_start, self.t_end))
         if isinstance(self.newton, dict):
             unknown = set(self.newton) - set(NewtonOptions.__dataclass_fields__)
@@ -828,9 +817,7 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
                          setup, cpu)
 
 
-ANALYSIS_KEYS = {"type", "integrator", "dt", "t_end", "t_start", "rho_inf", "alpha", "beta", "gamma", "stages",
-                 "adaptive", "tol", "dt_min", "dt_max", "output_every", "output_dt", "output_times", "newton",
-                 "sensors", "loads", "q0", "v0", "energies"}
+ANALYSIS_KEYS = {"type", *DYNAMIC_OPTIONS}
 
 
 def options_from_dict(analysis: dict) -> DynamicOptions:
@@ -839,14 +826,16 @@ def options_from_dict(analysis: dict) -> DynamicOptions:
         raise SceneError(f"analysis must be a table, got {analysis!r}")
     if analysis.get("type", "dynamics") != "dynamics":
         raise SceneError(f"analysis.type must be 'dynamics' here, got {analysis.get('type')!r}")
-    unknown = set(analysis) - ANALYSIS_KEYS
-    if unknown:
-        raise SceneError(f"analysis: unknown key(s) {sorted(unknown)}; known: {sorted(ANALYSIS_KEYS)}")
-    for k in ("dt", "t_end"):
-        if k not in analysis:
-            raise SceneError(f"analysis.{k} is required for dynamics")
+    check_keys("analysis", analysis, ("type", *DYNAMIC_OPTIONS), ("dt", "t_end"))
     kw = {k: v for k, v in analysis.items() if k != "type"}
-    return DynamicOptions(**kw)
+    try:
+        return DynamicOptions(**kw)
+    except SceneError as exc:  # sub-tables (newton, sensors, loads) name their field from inside the table
+        msg = str(exc)
+        if msg.startswith("analysis"):
+            raise
+        head = re.match(r"(newton|sensors|loads)\b[.\[:]?", msg)
+        raise SceneError(f"analysis.{msg}" if head else f"analysis: {msg}") from None
 
 
 def run_dynamics(scene: Scene | Assembly, analysis: dict | DynamicOptions,

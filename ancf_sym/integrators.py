@@ -45,6 +45,7 @@ import scipy.sparse.linalg as spla
 
 from . import contact, kernels
 from .assembly import Assembly, force_terms, map_elements
+from .checks import fail
 from .scene import SceneError
 from .sparsity import casadi_sparsity, csc_pattern
 
@@ -66,21 +67,21 @@ class Scheme:
     @classmethod
     def newmark(cls, beta: float = 0.25, gamma: float = 0.5) -> "Scheme":
         if not (0 < beta <= 0.5 and 0 < gamma <= 1):
-            raise SceneError(f"newmark beta, gamma must lie in (0, 1/2] x (0, 1], got {beta!r}, {gamma!r}")
+            raise fail("analysis.beta", "and gamma must lie in (0, 1/2] x (0, 1]", (beta, gamma))
         return cls("newmark", 0.0, 0.0, float(beta), float(gamma))
 
     @classmethod
     def hht(cls, alpha: float = -0.05) -> "Scheme":
         a = float(alpha)
         if not (math.isfinite(a) and -1.0 / 3.0 - 1e-12 <= a <= 0.0):
-            raise SceneError(f"hht alpha must lie in [-1/3, 0], got {alpha!r}")
+            raise fail("analysis.alpha", "must lie in [-1/3, 0] (HHT)", alpha)
         return cls("hht", 0.0, -a, (1 - a) ** 2 / 4, 0.5 - a)
 
     @classmethod
     def generalized_alpha(cls, rho_inf: float = 0.9) -> "Scheme":
         r = float(rho_inf)
         if not (math.isfinite(r) and 0.0 <= r <= 1.0):
-            raise SceneError(f"rho_inf must lie in [0, 1], got {rho_inf!r}")
+            raise fail("analysis.rho_inf", "must lie in [0, 1]", rho_inf)
         am, af = (2 * r - 1) / (r + 1), r / (r + 1)
         g = 0.5 + af - am
         return cls("generalized_alpha", am, af, 0.25 * (g + 0.5) ** 2, g)
@@ -902,15 +903,15 @@ class NewtonOptions:
     def __post_init__(self):
         if isinstance(self.lte_fraction, bool) or not isinstance(self.lte_fraction, (int, float)) or \
                 not math.isfinite(self.lte_fraction) or self.lte_fraction < 0:
-            raise SceneError(f"newton.lte_fraction must be a non-negative finite number, got {self.lte_fraction!r}")
+            raise fail("newton.lte_fraction", "must be a non-negative finite number", self.lte_fraction)
         for name in ("tol", "xtol", "contraction"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-                raise SceneError(f"newton.{name} must be a positive finite number, got {v!r}")
+                raise fail(f"newton.{name}", "must be a positive finite number", v)
         for name in ("max_iter", "max_modified"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-                raise SceneError(f"newton.{name} must be a positive integer, got {v!r}")
+                raise fail(f"newton.{name}", "must be a positive integer", v)
         if self.contraction >= 1:
             raise SceneError(f"newton.contraction must be below 1, got {self.contraction!r}")
         for name in ("modified", "single"):

@@ -6,7 +6,7 @@ Layout (all lengths in m, energies in J, forces in N):
      length, effects}}}, "analysis": {...}, "status", "success", "wall_s": {"solve", "total"},
      "energies": {axial, bending, gravity, loads, ...}, "potential", "strain_energy",
      "solver": {"iterations", "attempts": [{method, status, iterations}], "stable"},
-     "constraint_violation", "constraint_forces": {label: [...]},
+     "constraint_violation", "constraint_forces": {label: [...]}, "constraint_forces_sign": "...",
      "members": {name: {"nodes": [[x, y(, z)], ...], "slopes": [...], "tip": [...]}},
      "kernels": [{label, element, effect, gauss, elements}]}
 
@@ -23,6 +23,12 @@ import numpy as np
 from .statics import StaticResult
 
 FORMAT = "ancf_sym.statics/1"
+# written into result.json beside the values, so that the file says what its numbers mean (docs/scenes.md)
+CONSTRAINT_FORCES_SIGN = ("per label, one value per constraint row (position rows x, y(, z) first, then slope rows): "
+                          "the force [N] the structure exerts ON the support (the support's reaction on the "
+                          "structure is its negative); for a joint, the force member a exerts on member b; slope "
+                          "rows: the moment-like multiplier [N m] of the fixed slope direction. Exact constraints: "
+                          "the Lagrange multipliers; penalty: the penalty spring forces")
 
 
 def _clean(v):
@@ -66,6 +72,7 @@ def static_result_dict(result: StaticResult, scene_file: str | Path | None = Non
         "solver": {"iterations": result.iterations, "attempts": result.attempts, "stable": result.stable},
         "constraint_violation": result.constraint_violation,
         "constraint_forces": base["constraint_forces"],
+        "constraint_forces_sign": CONSTRAINT_FORCES_SIGN,
         "members": {name: {**v, "tip": v["nodes"][-1]} for name, v in base["members"].items()},
         "kernels": [{"label": t.label, "element": t.element, "effect": t.effect, "gauss": t.gauss,
                      "elements": int(t.idx.shape[0])} for t in asm.terms],

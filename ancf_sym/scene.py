@@ -19,11 +19,16 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from .checks import SceneError, number
+from .checks import SceneError, check_fields, fail, number, show, vector
+from .schema import MATERIAL, SECTION
 
 AXIAL = ("green", "biot", "decoupled")
 BEAM_METHODS = ("continuum", "elastic_line")
 ELEMENT_KINDS = ("cable2d", "cable3d", "beam3d")
+
+
+MAX_COORDINATE = 1e12  # [m] coordinates beyond this overflow squared lengths and energies long before any solve
+GAUSS_ORDERS = (3, 4, 5, 7)
 
 
 def _positive(field_name: str, value: Any) -> float:
@@ -31,18 +36,7 @@ def _positive(field_name: str, value: Any) -> float:
 
 
 _finite = number
-
-
-def _vector(field_name: str, value: Any, dim: int) -> np.ndarray:
-    try:
-        a = np.asarray(value, dtype=float).ravel()
-    except (TypeError, ValueError):
-        raise SceneError(f"{field_name} must be a vector of {dim} numbers, got {value!r}") from None
-    if a.size != dim:
-        raise SceneError(f"{field_name} must have {dim} components in a {dim}D scene, got {value!r}")
-    if not np.all(np.isfinite(a)):
-        raise SceneError(f"{field_name} must be finite, got {value!r}")
-    return a
+_vector = vector
 
 
 @dataclass(frozen=True)
@@ -54,14 +48,9 @@ class Material:
     poisson: float | None = None
 
     def __post_init__(self):
-        object.__setattr__(self, "E", _positive("material.E", self.E))
-        object.__setattr__(self, "density", _positive("material.density", self.density))
-        if self.G is not None:
-            object.__setattr__(self, "G", _positive("material.G", self.G))
-        if self.poisson is not None:
-            nu = _finite("material.poisson", self.poisson)
-            if not -1 < nu < 0.5:
-                raise SceneError(f"material.poisson must lie in (-1, 0.5), got {self.poisson!r}")
+        check_fields(self, MATERIAL, "material")
+        if self.G is not None and self.poisson is not None:
+            raise fail("material", "give G or poisson, not both", {"G": self.G, "poisson": self.poisson})
 
     @property
     def nu(self) -> float:
@@ -88,11 +77,7 @@ class Section:
     h: float | None = None
 
     def __post_init__(self):
-        object.__setattr__(self, "area", _positive("section.area", self.area))
-        for name in ("I", "Iy", "Iz", "J", "b", "h"):
-            v = getattr(self, name)
-            if v is not None:
-                object.__setattr__(self, name, _positive(f"section.{name}", v))
+        check_fields(self, SECTION, "section")
         if self.I is not None:
             if self.Iy is None:
                 object.__setattr__(self, "Iy", self.I)
@@ -217,71 +202,83 @@ class Scene:
     body_joints: list = field(default_factory=list)  # ancf_sym.bodies.BodyJoint
 
     def __post_init__(self):
-        if self.dim not in (2, 3):
-            raise SceneError(f"scene.dim must be 2 or 3, got {self.dim!r}")
+        if isinstance(self.dim, bool) or self.dim not in (2, 3):
+            raise fail("scene.dim", "must be 2 or 3", self.dim)
+        if not isinstance(self.name, str) or not self.name:
+            raise fail("scene.name", "must be a non-empty string", self.name)
         g = self.gravity if self.gravity is not None else [0.0] * self.dim
-        self.gravity = _vector("scene.gravity", g, self.dim)
+        self.gravity = vector("scene.gravity", g, self.dim)
 
     # -- members ---------------------------------------------------------------------------------------------
     def member(self, name: str, points: Sequence[Sequence[float]], elements: int, material: Material,
                section: Section, axial: str | None = "green", bending: bool = True, torsion: bool = False,
-               gravity: bool = True, element: str | None = None, beam_method: str = "continuum",
+               gravity: bool = True, element: str | None = None, beam_method: str | None = None,
                gauss: int | None = None, y_axis: Sequence[float] | None = None, prestrain: float = 0.0) -> Member:
         """Add a straight (2 points) or polyline member meshed into `elements` elements of one kind.
 
         axial: strain measure "green" | "biot" | "decoupled" (cables) or None for no axial stiffness.
-        element: "cable2d" (default in 2D), "cable3d" (default in 3D) or "beam3d" (beam_method "continuum" or
-        "elastic_line"). Polyline vertices become rigid joints between straight segments.
+        element: "cable2d" (default in 2D), "cable3d" (default in 3D) or "beam3d" (beam_method "continuum" (default)
+        or "elastic_line"; beam_method and y_axis are refused on cables). Polyline vertices become rigid joints between straight segments.
         prestrain: the points give the member stretched by 1 + prestrain (e.g. a taut string between two pins:
         prestrain = T/EA); its unstretched length is the polyline's divided by 1 + prestrain.
         """
         if not isinstance(name, str) or not name or name in self.members:
-            raise SceneError(f"member name must be a new non-empty string, got {name!r}")
-        pts = np.asarray(points, dtype=float)
-        if pts.ndim != 2 or pts.shape[1] != self.dim or pts.shape[0] < 2:
-            raise SceneError(f"member {name!r}: points must be a list of >= 2 points with {self.dim} coordinates, got {points!r}")
-        if not np.all(np.isfinite(pts)):
-            raise SceneError(f"member {name!r}: points must be finite, got {points!r}")
+            raise fail("members.name", "must be a new non-empty string", name)
+        at = f"members[{name!r}]"  # errors name the member's field; the TOML reader re-roots this to members[i]
+        if isinstance(points, (str, bytes)) or not isinstance(points, (list, tuple, np.ndarray)) or len(points) < 2:
+            raise fail(f"{at}.points", f"must be a list of >= 2 points with {self.dim} coordinates", points)
+        pts = np.array([vector(f"{at}.points[{i}]", p, self.dim) for i, p in enumerate(points)])
+        big = np.abs(pts).max()
+        if big > MAX_COORDINATE:
+            raise fail(f"{at}.points", f"coordinates must lie within +-{MAX_COORDINATE:g} m (lengths and energies "
+                       "would overflow); largest", big)
         seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
         if np.any(seg <= 0):
-            raise SceneError(f"member {name!r}: points must be distinct (segment length {seg.min()!r})")
+            raise fail(f"{at}.points", "must be distinct (a segment of length 0)", points)
         if isinstance(elements, bool) or not isinstance(elements, (int, np.integer)) or elements < 1:
-            raise SceneError(f"member {name!r}: elements must be a positive integer, got {elements!r}")
+            raise fail(f"{at}.elements", "must be a positive integer", elements)
         if len(pts) > 2 and elements < len(pts) - 1:
-            raise SceneError(f"member {name!r}: elements={elements} is fewer than its {len(pts) - 1} segments")
+            raise fail(f"{at}.elements", f"must be at least the {len(pts) - 1} segments of the polyline", elements)
         element = element or ("cable2d" if self.dim == 2 else "cable3d")
         if element not in ELEMENT_KINDS:
-            raise SceneError(f"member {name!r}: element must be one of {ELEMENT_KINDS}, got {element!r}")
+            raise fail(f"{at}.element", f"must be one of {' | '.join(ELEMENT_KINDS)}", element)
         if (element == "cable2d") != (self.dim == 2):
-            raise SceneError(f"member {name!r}: element {element!r} does not fit a {self.dim}D scene")
+            raise fail(f"{at}.element", f"does not fit a {self.dim}D scene", element)
         if axial is not None and axial not in AXIAL:
-            raise SceneError(f"member {name!r}: axial must be one of {AXIAL} or None, got {axial!r}")
+            raise fail(f"{at}.axial", f"must be one of {' | '.join(AXIAL)} or None", axial)
+        for flag, v in (("bending", bending), ("torsion", torsion), ("gravity", gravity)):
+            if not isinstance(v, (bool, np.bool_)):
+                raise fail(f"{at}.{flag}", "must be true or false", v)
+        # keys that only mean something for beam3d are refused elsewhere, not silently ignored
+        for key, v in (("beam_method", beam_method), ("y_axis", y_axis), ("torsion", torsion or None)):
+            if v is not None and element != "beam3d":  # (a cable has no section orientation)
+                raise fail(f"{at}.{key}", f"applies to beam3d members only, not {element}", v)
+        beam_method = "continuum" if beam_method is None else beam_method
         if beam_method not in BEAM_METHODS:
-            raise SceneError(f"member {name!r}: beam_method must be one of {BEAM_METHODS}, got {beam_method!r}")
+            raise fail(f"{at}.beam_method", f"must be one of {' | '.join(BEAM_METHODS)}", beam_method)
         if not isinstance(material, Material):
-            raise SceneError(f"member {name!r}: material must be a Material, got {material!r}")
+            raise fail(f"{at}.material", "must be a Material", material)
         if not isinstance(section, Section):
-            raise SceneError(f"member {name!r}: section must be a Section, got {section!r}")
+            raise fail(f"{at}.section", "must be a Section", section)
         if axial == "decoupled" and not bending:
             # the decoupled energy sees only the nodal stretches and the element's length: without bending stiffness
             # an element can fold at no cost (a hanging soft rope's end element folds into a hook, measured)
-            raise SceneError(f"member {name!r}: axial='decoupled' needs bending=True (without bending stiffness the "
-                             "decoupled strain leaves folding modes of an element unresisted); use 'green' or 'biot'")
+            raise fail(f"{at}.axial", "'decoupled' needs bending = true (without bending stiffness the decoupled "
+                       "strain leaves folding modes of an element unresisted); use 'green' or 'biot'", axial)
         if element.startswith("cable") and bending and section.bending_inertia is None:
-            raise SceneError(f"member {name!r}: bending=True needs section.I (or Iy/Iz)")
+            raise fail(f"{at}.section.I", "is required by bending = true (give I, or Iy/Iz)", None)
         if element == "beam3d":
             if section.b is None or section.h is None:
-                raise SceneError(f"member {name!r}: beam3d needs a section with b and h (Section.rectangle)")
+                raise fail(f"{at}.section.b", "beam3d needs a section with b and h (Section.rectangle)", section.b)
             if beam_method == "elastic_line" and (section.Iy is None or section.J is None):
-                raise SceneError(f"member {name!r}: elastic_line needs section Iy, Iz and J")
-        if gauss is not None and gauss not in (3, 4, 5, 7):
-            raise SceneError(f"member {name!r}: gauss must be one of 3, 4, 5, 7, got {gauss!r}")
-        ya = None
-        if y_axis is not None:
-            ya = _vector(f"member {name!r}: y_axis", y_axis, 3)
-        pre = _finite(f"member {name!r}: prestrain", prestrain)
+                raise fail(f"{at}.section.Iy", "elastic_line needs section Iy, Iz and J", section.Iy)
+        if gauss is not None and (not isinstance(gauss, (int, np.integer)) or isinstance(gauss, bool)
+                                  or gauss not in GAUSS_ORDERS):
+            raise fail(f"{at}.gauss", f"must be one of {', '.join(map(str, GAUSS_ORDERS))}", gauss)
+        ya = None if y_axis is None else vector(f"{at}.y_axis", y_axis, 3)
+        pre = number(f"{at}.prestrain", prestrain)
         if not -0.5 < pre < 1.0:
-            raise SceneError(f"member {name!r}: prestrain must lie in (-0.5, 1), got {prestrain!r}")
+            raise fail(f"{at}.prestrain", "must lie in (-0.5, 1)", prestrain)
         m = Member(name, pts, int(elements), material, section, element, axial, bool(bending), bool(torsion),
                    bool(gravity), beam_method, gauss, ya, pre)
         self.members[name] = m
@@ -422,8 +419,8 @@ class Scene:
         else:
             value = _vector("moment.moment", moment, 3)
             if m.element == "beam3d" and abs(value[0]) > 0:
-                raise SceneError(f"moment.moment: beam3d takes moments about the section axes y and z only, got x "
-                                 f"component {value[0]!r}")
+                raise fail("moment.moment", "beam3d takes moments about the section axes y and z only; x component",
+                           value[0])
         return self._add_load(Load("moment", member, at, value))
 
     def tension(self, member: str, at: Any, tension: float) -> Load:
@@ -470,26 +467,26 @@ class Scene:
 
     # -- checks ------------------------------------------------------------------------------------------------
     def _member(self, name: str, field_name: str) -> Member:
-        if name not in self.members:
-            raise SceneError(f"{field_name}={name!r} names no member; members: {sorted(self.members)}")
+        if not isinstance(name, str) or name not in self.members:
+            raise fail(field_name, f"names no member; members: {sorted(self.members)}", name)
         return self.members[name]
 
     def check_at(self, member: str, at: Any, node_only: bool, field_name: str) -> None:
         """Refuse a location on a member unless it is 'start', 'end', a node index or (node_only=False) a material
         coordinate in [0, length] m; the message names field_name. MemberMesh.coordinate turns it into s [m]."""
         m = self._member(member, f"{field_name} member")
-        if at in ("start", "end"):
+        if isinstance(at, str) and at in ("start", "end"):
             return
-        if isinstance(at, (int, np.integer)) and not isinstance(at, bool):
+        if isinstance(at, (int, np.integer)) and not isinstance(at, (bool, np.bool_)):
             if not -m.n_nodes <= at < m.n_nodes:
-                raise SceneError(f"{field_name}={at!r}: member {member!r} has nodes 0..{m.n_nodes - 1}")
+                raise fail(field_name, f"member {member!r} has nodes 0..{m.n_nodes - 1}", at)
             return
-        if not node_only and isinstance(at, float):
+        if not node_only and isinstance(at, (float, np.floating)):
             if not (math.isfinite(at) and 0 <= at <= m.length):
-                raise SceneError(f"{field_name}={at!r}: material coordinate must lie in [0, {m.length}] m")
+                raise fail(field_name, f"material coordinate must lie in [0, {m.length:g}] m", at)
             return
-        raise SceneError(f"{field_name}={at!r}: expected 'start', 'end', a node index"
-                         + ("" if node_only else " or a material coordinate in metres (float)"))
+        raise fail(field_name, "expected 'start', 'end', a node index"
+                   + ("" if node_only else " or a material coordinate in metres (float)"), at)
 
     def validate_for_statics(self) -> None:
         """Refuse scenes with a free rigid-body motion: every connected group of members needs a support."""

@@ -22,13 +22,17 @@ the offending field (array indices count from 0), e.g. "members[1].elements: mus
 """
 from __future__ import annotations
 
+import inspect
 import math
 from pathlib import Path
 from typing import Any
 
 from . import contact
+from .checks import check_keys, fail, number, vector
 from .mesh import build_mesh
-from .scene import AXIAL, BEAM_METHODS, ELEMENT_KINDS, Material, Scene, SceneError, Section
+from .scene import AXIAL, Material, Scene, SceneError, Section
+from .schema import MATERIAL, SECTION, STATIC_OPTIONS
+from .statics import StaticOptions
 from .terms import scene_terms
 
 try:
@@ -40,23 +44,20 @@ TOP_KEYS = ("scene", "materials", "sections", "members", "supports", "joints", "
             "bodies", "analysis")
 BODY_KEYS = ("name", "mass", "inertia", "position", "angle", "force", "revolute", "pin", "rigid")
 SCENE_KEYS = ("name", "dim", "gravity")
-MATERIAL_KEYS = ("E", "density", "G", "poisson")
-SECTION_KEYS = {None: ("area", "I", "Iy", "Iz", "J", "b", "h"), "circle": ("diameter",), "rectangle": ("b", "h")}
-MEMBER_KEYS = ("name", "points", "elements", "material", "section", "element", "axial", "bending", "torsion",
-               "gravity", "beam_method", "gauss", "y_axis", "prestrain")
+SECTION_KEYS = {None: tuple(SECTION), "circle": ("diameter",), "rectangle": ("b", "h")}
+MEMBER_KEYS = tuple(inspect.signature(Scene.member).parameters)[1:]  # the keywords of Scene.member
 SUPPORT_TYPES = ("clamp", "pin", "slope")
 JOINT_TYPES = ("hinge", "rigid")
 LOAD_TYPES = ("force", "distributed", "moment", "tension")
 DAMPING_FIELDS = {"rayleigh": ("alpha", "beta"), "strain_rate": ("axial", "bending")}
 METHODS = ("exact", "penalty")
 ANALYSIS_TYPES = ("statics", "dynamics")
-STATICS_OPTIONS = ("tol", "max_iter", "load_steps", "escape_saddle")
+STATICS_OPTIONS = tuple(k for k in STATIC_OPTIONS if k != "print_level")  # print_level: Python API only
 
 
 # -- typed readers: each names the TOML path of what it reads -------------------------------------------------------
 
-def _fail(path: str, msg: str, value: Any = None, show: bool = True) -> SceneError:
-    return SceneError(f"{path}: {msg}" + (f", got {value!r}" if show else ""))
+_fail = fail
 
 
 def _table(path: str, v: Any) -> dict:
@@ -71,39 +72,8 @@ def _array_of_tables(path: str, v: Any) -> list:
     return v
 
 
-def _keys(path: str, d: dict, allowed, required=()) -> None:
-    for k in d:
-        if k not in allowed:
-            raise _fail(f"{path}.{k}" if path else k, f"unknown key (allowed: {', '.join(allowed)})", d[k])
-    for k in required:
-        if k not in d:
-            raise _fail(f"{path}.{k}" if path else k, "missing (required)", show=False)
-
-
-def _is_number(v: Any) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool)
-
-
-def _number(path: str, v: Any, positive: bool = False) -> float:
-    if not _is_number(v):
-        raise _fail(path, "must be a number", v)
-    if not math.isfinite(v):
-        raise _fail(path, "must be finite", v)
-    if positive and v <= 0:
-        raise _fail(path, "must be positive", v)
-    return float(v)
-
-
-def _pos_int(path: str, v: Any) -> int:
-    if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-        raise _fail(path, "must be a positive integer", v)
-    return v
-
-
-def _bool(path: str, v: Any) -> bool:
-    if not isinstance(v, bool):
-        raise _fail(path, "must be true or false", v)
-    return v
+_keys = check_keys
+_number = number
 
 
 def _str(path: str, v: Any, choices=None) -> str:
@@ -114,10 +84,7 @@ def _str(path: str, v: Any, choices=None) -> str:
     return v
 
 
-def _vector(path: str, v: Any, n: int) -> list[float]:
-    if not isinstance(v, list) or len(v) != n:
-        raise _fail(path, f"must be an array of {n} numbers", v)
-    return [_number(f"{path}[{i}]", x) for i, x in enumerate(v)]
+_vector = vector
 
 
 def _at(path: str, v: Any, node_only: bool) -> Any:
@@ -142,25 +109,22 @@ def _check_finite(path: str, v: Any) -> None:
             _check_finite(f"{path}[{i}]", x)
 
 
-def _api(path: str, call, *args, **kw):
-    """Call the Scene API; its SceneError (already naming the value) is prefixed with the TOML path."""
+def _api(path: str, call, *args, root: str | None = None, **kw):
+    """Call the Python API, which checks the values (ancf_sym.schema); its SceneError names the field under the
+    API's name `root` (e.g. `material.E`), re-rooted here to the TOML path (`materials.steel.E`). Errors under
+    another root are prefixed with the path."""
     try:
         return call(*args, **kw)
     except SceneError as exc:
-        raise SceneError(f"{path}: {exc}") from None
+        raise exc.rerooted(root or "", path) from None
 
 
 # -- sections of the file --------------------------------------------------------------------------------------------
 
 def _material(path: str, d: Any) -> Material:
     d = _table(path, d)
-    _keys(path, d, MATERIAL_KEYS, ("E", "density"))
-    if "G" in d and "poisson" in d:
-        raise _fail(path, "give G or poisson, not both", {"G": d["G"], "poisson": d["poisson"]})
-    kw = {k: _number(f"{path}.{k}", d[k], positive=k != "poisson") for k in d}
-    if "poisson" in kw and not -1 < kw["poisson"] < 0.5:
-        raise _fail(f"{path}.poisson", "must lie in (-1, 0.5)", d["poisson"])
-    return _api(path, Material, **kw)
+    _keys(path, d, MATERIAL, ("E", "density"))
+    return _api(path, Material, root="material", **d)
 
 
 def _section(path: str, d: Any) -> Section:
@@ -171,12 +135,12 @@ def _section(path: str, d: Any) -> Section:
     allowed = SECTION_KEYS[shape] + (("shape",) if shape else ())
     required = {None: ("area",), "circle": ("diameter",), "rectangle": ("b", "h")}[shape]
     _keys(path, d, allowed, required)
-    kw = {k: _number(f"{path}.{k}", v, positive=True) for k, v in d.items() if k != "shape"}
+    kw = {k: v for k, v in d.items() if k != "shape"}
     if shape == "circle":
-        return _api(path, Section.circle, kw["diameter"])
+        return _api(path, Section.circle, kw["diameter"], root="section")
     if shape == "rectangle":
-        return _api(path, Section.rectangle, kw["b"], kw["h"])
-    return _api(path, Section, **kw)
+        return _api(path, Section.rectangle, kw["b"], kw["h"], root="section")
+    return _api(path, Section, root="section", **kw)
 
 
 def _named(path: str, v: Any, table: dict, what: str) -> Any:
@@ -187,39 +151,18 @@ def _named(path: str, v: Any, table: dict, what: str) -> Any:
 
 
 def _member(scene: Scene, path: str, d: dict, materials: dict, sections: dict) -> None:
+    """Names resolved here (material, section, axial = "none"); every value checked by Scene.member."""
     _keys(path, d, MEMBER_KEYS, ("name", "points", "elements", "material", "section"))
     name = _str(f"{path}.name", d["name"])
     if name in scene.members:
         raise _fail(f"{path}.name", "repeats an earlier member's name", name)
-    pts = d["points"]
-    if not isinstance(pts, list) or len(pts) < 2:
-        raise _fail(f"{path}.points", f"must be an array of >= 2 points of {scene.dim} numbers", pts)
-    points = [_vector(f"{path}.points[{i}]", p, scene.dim) for i, p in enumerate(pts)]
-    kw: dict[str, Any] = {
-        "elements": _pos_int(f"{path}.elements", d["elements"]),
-        "material": _named(f"{path}.material", d["material"], materials, "material ([materials.NAME])"),
-        "section": _named(f"{path}.section", d["section"], sections, "section ([sections.NAME])"),
-    }
-    if "element" in d:
-        kw["element"] = _str(f"{path}.element", d["element"], ELEMENT_KINDS)
+    kw = {k: v for k, v in d.items() if k not in ("name", "points")}
+    kw["material"] = _named(f"{path}.material", d["material"], materials, "material ([materials.NAME])")
+    kw["section"] = _named(f"{path}.section", d["section"], sections, "section ([sections.NAME])")
     if "axial" in d:
         axial = _str(f"{path}.axial", d["axial"], AXIAL + ("none",))
         kw["axial"] = None if axial == "none" else axial
-    for flag in ("bending", "torsion", "gravity"):
-        if flag in d:
-            kw[flag] = _bool(f"{path}.{flag}", d[flag])
-    if "beam_method" in d:
-        kw["beam_method"] = _str(f"{path}.beam_method", d["beam_method"], BEAM_METHODS)
-    if "gauss" in d:
-        g = _pos_int(f"{path}.gauss", d["gauss"])
-        if g not in (3, 4, 5, 7):
-            raise _fail(f"{path}.gauss", "must be one of 3, 4, 5, 7", g)
-        kw["gauss"] = g
-    if "y_axis" in d:
-        kw["y_axis"] = _vector(f"{path}.y_axis", d["y_axis"], 3)
-    if "prestrain" in d:
-        kw["prestrain"] = _number(f"{path}.prestrain", d["prestrain"])
-    _api(path, scene.member, name, points, **kw)
+    _api(path, scene.member, name, d["points"], root=f"members[{name!r}]", **kw)
 
 
 def _member_name(scene: Scene, path: str, v: Any) -> str:
@@ -248,7 +191,7 @@ def _support(scene: Scene, path: str, d: dict) -> None:
     at = _at(f"{path}.at", d.get("at", "start"), node_only=True)
     kw = _method(path, d)
     call = {"clamp": scene.clamp, "pin": scene.pin, "slope": scene.fix_slope}[kind]
-    _api(f"{path}.at", call, member, at, **kw)  # the API checks the node range
+    _api(f"{path}.at", call, member, at, root=f"{kind}.at", **kw)  # the API checks the node range
 
 
 def _joint_end(scene: Scene, path: str, v: Any) -> tuple[str, Any]:
@@ -262,7 +205,7 @@ def _joint(scene: Scene, path: str, d: dict) -> None:
     _keys(path, d, ("type", "a", "b", "method", "penalty"), ("type", "a", "b"))
     kind = _str(f"{path}.type", d["type"], JOINT_TYPES)
     a, b = _joint_end(scene, f"{path}.a", d["a"]), _joint_end(scene, f"{path}.b", d["b"])
-    _api(path, scene.hinge if kind == "hinge" else scene.rigid, a, b, **_method(path, d))
+    _api(path, scene.hinge if kind == "hinge" else scene.rigid, a, b, root=kind, **_method(path, d))
 
 
 def _body(scene: Scene, path: str, d: dict) -> None:
@@ -300,19 +243,26 @@ def _load(scene: Scene, path: str, d: dict) -> None:
         value = _number(vpath, v)
     call = {"force": scene.force, "moment": scene.moment, "tension": scene.tension}[kind]
     # the API checks the node range / material coordinate (and, for moments, the components it can carry)
-    _api(path if kind == "moment" else f"{path}.at", call, member, at, value)
+    if kind == "moment":  # the API's moment.at / moment.moment are this table's at / value
+        try:
+            call(member, at, value)
+        except SceneError as exc:
+            raise (exc.rerooted("moment.moment", vpath) if (exc.path or "").startswith("moment.moment")
+                   else exc.rerooted("moment", path)) from None
+    else:
+        _api(f"{path}.at", call, member, at, value, root=f"{kind}.at")
 
 
 def _damping(scene: Scene, path: str, d: dict) -> None:
     """Dynamics only: Scene.rayleigh (alpha [1/s], beta [s]) or Scene.strain_rate_damping (axial [N s],
     bending [N m^2 s]); members (default all) is a list of member names."""
     if "type" not in d:
-        raise _fail(f"{path}.type", "missing (required: rayleigh | strain_rate)", show=False)
+        raise _fail(f"{path}.type", "missing (required: rayleigh | strain_rate)")
     kind = _str(f"{path}.type", d["type"], tuple(DAMPING_FIELDS))
     fields = DAMPING_FIELDS[kind]
     _keys(path, d, ("type", "members") + fields, ("type",))
     if not any(f in d for f in fields):
-        raise _fail(path, f"give {' and/or '.join(fields)} (a {kind} damping without coefficients)", show=False)
+        raise _fail(path, f"give {' and/or '.join(fields)} (a {kind} damping without coefficients)")
     kw: dict[str, Any] = {}
     for f in fields:
         if f in d:
@@ -339,18 +289,14 @@ def _damping(scene: Scene, path: str, d: dict) -> None:
 def _analysis(d: Any) -> dict:
     d = _table("analysis", d)
     kind = _str("analysis.type", d.get("type", "statics"), ANALYSIS_TYPES)
-    if kind == "dynamics":  # the dynamics solver reads (and checks) its own options
+    if kind == "dynamics":  # checked now by the dynamics options (sensors and loads against the scene later)
+        from .dynamics import options_from_dict
+        _api("analysis", options_from_dict, d, root="analysis")
         return {**d, "type": "dynamics"}
     _keys("analysis", d, ("type",) + STATICS_OPTIONS)
-    out: dict[str, Any] = {"type": "statics"}
-    if "tol" in d:
-        out["tol"] = _number("analysis.tol", d["tol"], positive=True)
-    for k in ("max_iter", "load_steps"):
-        if k in d:
-            out[k] = _pos_int(f"analysis.{k}", d[k])
-    if "escape_saddle" in d:
-        out["escape_saddle"] = _bool("analysis.escape_saddle", d["escape_saddle"])
-    return out
+    opts = {k: v for k, v in d.items() if k != "type"}
+    _api("analysis", StaticOptions, root="analysis", **opts)  # checks the values (ancf_sym.schema)
+    return {"type": "statics", **opts}
 
 
 def scene_from_dict(doc: dict, default_name: str = "scene") -> tuple[Scene, dict]:
@@ -370,7 +316,7 @@ def scene_from_dict(doc: dict, default_name: str = "scene") -> tuple[Scene, dict
     sections = {k: _section(f"sections.{k}", v) for k, v in _table("sections", doc.get("sections", {})).items()}
     members = _array_of_tables("members", doc["members"])
     if not members:
-        raise _fail("members", "must define at least one [[members]] table", show=False)
+        raise _fail("members", "must define at least one [[members]] table")
     for i, d in enumerate(members):
         _member(scene, f"members[{i}]", d, materials, sections)
     for i, d in enumerate(_array_of_tables("supports", doc.get("supports", []))):

@@ -29,8 +29,11 @@ from scipy.sparse.linalg import splu
 
 from . import bodies, contact, fields, statics_contact
 from .assembly import LOAD_LABELS, Assembly
+from .checks import check_fields
+from .interrupts import interruptible
 from .mesh import check_stretch
 from .scene import Scene, SceneError
+from .schema import STATIC_OPTIONS
 
 from .inertia import reduced_inertia
 from .statics_newton import AssemblyNewton, NewtonRun, NewtonStatics, Reduction
@@ -59,14 +62,9 @@ class StaticOptions:
     print_level: int = 0
 
     def __post_init__(self):
+        check_fields(self, STATIC_OPTIONS, "analysis")  # types and ranges as declared in ancf_sym.schema
         if self.tol is None:
             self.tol = 1e-10
-        if isinstance(self.tol, bool) or not (np.isfinite(self.tol) and 0 < self.tol < 1):
-            raise SceneError(f"tol must be a relative tolerance in (0, 1), got {self.tol!r}")
-        if int(self.max_iter) < 1:
-            raise SceneError(f"max_iter must be >= 1, got {self.max_iter!r}")
-        if int(self.load_steps) < 1:
-            raise SceneError(f"load_steps must be >= 1, got {self.load_steps!r}")
 
 
 @dataclass
@@ -207,7 +205,8 @@ class StaticProblem:
         args = {"x0": x0, "p": load, "lbg": np.zeros(m), "ubg": np.zeros(m)}
         if lam_g0 is not None:
             args["lam_g0"] = lam_g0
-        sol = S(**args)
+        with interruptible():  # Ctrl-C / SIGTERM inside IPOPT: raised here, not tried again as a failed attempt
+            sol = S(**args)
         st = S.stats()
         if st["return_status"] in INTERRUPTED:  # Ctrl-C during IPOPT: stop, never try the next attempt
             raise KeyboardInterrupt

@@ -7618,9 +7618,9 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 6, w01);
   /* #2: @2 = 0.0469101 */
-  w02 = 4.6910077030668018e-02;
+  w02 = 4.6910077030668004e-02;
   /* #3: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #4: {@4, @5, @6} = beam3d_continuum_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -7633,7 +7633,7 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #5: @2 = 0.230765 */
   w02 = 2.3076534494715845e-01;
   /* #6: @3 = 0.239314 */
-  w03 = 2.3931433524968315e-01;
+  w03 = 2.3931433524968324e-01;
   /* #7: {@7, @8, @9} = beam3d_continuum_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -7648,7 +7648,7 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #9: @7 = 0.5 */
   w07 = 5.0000000000000000e-01;
   /* #10: @2 = 0.284444 */
-  w02 = 2.8444444444444433e-01;
+  w02 = 2.8444444444444444e-01;
   /* #11: {@3, @10, @11} = beam3d_continuum_point(@0, @1, @7, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -7663,7 +7663,7 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #13: @3 = 0.769235 */
   w03 = 7.6923465505284150e-01;
   /* #14: @7 = 0.239314 */
-  w07 = 2.3931433524968315e-01;
+  w07 = 2.3931433524968324e-01;
   /* #15: {@2, @12, @13} = beam3d_continuum_point(@0, @1, @3, @7) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -7676,9 +7676,9 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #16: @4 = (@4+@2) */
   w04 += w02;
   /* #17: @2 = 0.95309 */
-  w02 = 9.5308992296933193e-01;
+  w02 = 9.5308992296933204e-01;
   /* #18: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #19: {@7, @14, @15} = beam3d_continuum_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -8532,9 +8532,9 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 6, w1);
   /* #2: @2 = 0.0469101 */
-  w2 = 4.6910077030668018e-02;
+  w2 = 4.6910077030668004e-02;
   /* #3: @3 = 0.118463 */
-  w3 = 1.1846344252809464e-01;
+  w3 = 1.1846344252809454e-01;
   /* #4: @4 = beam3d_continuum_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -8545,7 +8545,7 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #5: @2 = 0.230765 */
   w2 = 2.3076534494715845e-01;
   /* #6: @3 = 0.239314 */
-  w3 = 2.3931433524968315e-01;
+  w3 = 2.3931433524968324e-01;
   /* #7: @5 = beam3d_continuum_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -8558,7 +8558,7 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #9: @5 = 0.5 */
   w5 = 5.0000000000000000e-01;
   /* #10: @2 = 0.284444 */
-  w2 = 2.8444444444444433e-01;
+  w2 = 2.8444444444444444e-01;
   /* #11: @3 = beam3d_continuum_point_e(@0, @1, @5, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -8571,7 +8571,7 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #13: @3 = 0.769235 */
   w3 = 7.6923465505284150e-01;
   /* #14: @5 = 0.239314 */
-  w5 = 2.3931433524968315e-01;
+  w5 = 2.3931433524968324e-01;
   /* #15: @2 = beam3d_continuum_point_e(@0, @1, @3, @5) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -8582,9 +8582,9 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #16: @4 = (@4+@2) */
   w4 += w2;
   /* #17: @2 = 0.95309 */
-  w2 = 9.5308992296933193e-01;
+  w2 = 9.5308992296933204e-01;
   /* #18: @3 = 0.118463 */
-  w3 = 1.1846344252809464e-01;
+  w3 = 1.1846344252809454e-01;
   /* #19: @5 = beam3d_continuum_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -10672,9 +10672,9 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 6, w01);
   /* #2: @2 = 0.95309 */
-  w02 = 9.5308992296933193e-01;
+  w02 = 9.5308992296933204e-01;
   /* #3: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #4: @4 = 00 */
   /* #5: @5 = input[3][0] */
   w05 = arg[3] ? arg[3][0] : 0;
@@ -10693,7 +10693,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #7: @2 = 0.769235 */
   w02 = 7.6923465505284150e-01;
   /* #8: @3 = 0.239314 */
-  w03 = 2.3931433524968315e-01;
+  w03 = 2.3931433524968324e-01;
   /* #9: @4 = 00 */
   /* #10: {@8, @9, NULL, NULL} = adj1_beam3d_continuum_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -10712,7 +10712,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #12: @2 = 0.5 */
   w02 = 5.0000000000000000e-01;
   /* #13: @3 = 0.284444 */
-  w03 = 2.8444444444444433e-01;
+  w03 = 2.8444444444444444e-01;
   /* #14: @4 = 00 */
   /* #15: {@8, @10, NULL, NULL} = adj1_beam3d_continuum_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -10731,7 +10731,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #17: @2 = 0.230765 */
   w02 = 2.3076534494715845e-01;
   /* #18: @3 = 0.239314 */
-  w03 = 2.3931433524968315e-01;
+  w03 = 2.3931433524968324e-01;
   /* #19: @4 = 00 */
   /* #20: {@8, @11, NULL, NULL} = adj1_beam3d_continuum_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -10748,9 +10748,9 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #21: @6 = (@6+@8) */
   for (i=0, rr=w06, cs=w08; i<24; ++i) (*rr++) += (*cs++);
   /* #22: @2 = 0.0469101 */
-  w02 = 4.6910077030668018e-02;
+  w02 = 4.6910077030668004e-02;
   /* #23: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #24: @4 = 00 */
   /* #25: {@8, @12, NULL, NULL} = adj1_beam3d_continuum_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -12189,9 +12189,9 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 6, w01);
   /* #2: @2 = 0.0469101 */
-  w02 = 4.6910077030668018e-02;
+  w02 = 4.6910077030668004e-02;
   /* #3: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #4: {@4, @5} = beam3d_continuum_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -12203,7 +12203,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #5: @2 = 0.230765 */
   w02 = 2.3076534494715845e-01;
   /* #6: @3 = 0.239314 */
-  w03 = 2.3931433524968315e-01;
+  w03 = 2.3931433524968324e-01;
   /* #7: {@6, @7} = beam3d_continuum_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -12217,7 +12217,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #9: @6 = 0.5 */
   w06 = 5.0000000000000000e-01;
   /* #10: @2 = 0.284444 */
-  w02 = 2.8444444444444433e-01;
+  w02 = 2.8444444444444444e-01;
   /* #11: {@3, @8} = beam3d_continuum_point_eg(@0, @1, @6, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -12231,7 +12231,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #13: @3 = 0.769235 */
   w03 = 7.6923465505284150e-01;
   /* #14: @6 = 0.239314 */
-  w06 = 2.3931433524968315e-01;
+  w06 = 2.3931433524968324e-01;
   /* #15: {@2, @9} = beam3d_continuum_point_eg(@0, @1, @3, @6) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -12243,9 +12243,9 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #16: @4 = (@4+@2) */
   w04 += w02;
   /* #17: @2 = 0.95309 */
-  w02 = 9.5308992296933193e-01;
+  w02 = 9.5308992296933204e-01;
   /* #18: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #19: {@6, @10} = beam3d_continuum_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;

@@ -3128,9 +3128,9 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 3, w01);
   /* #2: @2 = 0.0469101 */
-  w02 = 4.6910077030668018e-02;
+  w02 = 4.6910077030668004e-02;
   /* #3: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #4: {@4, @5, @6} = beam3d_line_bending_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -3143,7 +3143,7 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #5: @2 = 0.230765 */
   w02 = 2.3076534494715845e-01;
   /* #6: @3 = 0.239314 */
-  w03 = 2.3931433524968315e-01;
+  w03 = 2.3931433524968324e-01;
   /* #7: {@7, @8, @9} = beam3d_line_bending_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -3158,7 +3158,7 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #9: @7 = 0.5 */
   w07 = 5.0000000000000000e-01;
   /* #10: @2 = 0.284444 */
-  w02 = 2.8444444444444433e-01;
+  w02 = 2.8444444444444444e-01;
   /* #11: {@3, @10, @11} = beam3d_line_bending_point(@0, @1, @7, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -3173,7 +3173,7 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #13: @3 = 0.769235 */
   w03 = 7.6923465505284150e-01;
   /* #14: @7 = 0.239314 */
-  w07 = 2.3931433524968315e-01;
+  w07 = 2.3931433524968324e-01;
   /* #15: {@2, @12, @13} = beam3d_line_bending_point(@0, @1, @3, @7) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -3186,9 +3186,9 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #16: @4 = (@4+@2) */
   w04 += w02;
   /* #17: @2 = 0.95309 */
-  w02 = 9.5308992296933193e-01;
+  w02 = 9.5308992296933204e-01;
   /* #18: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #19: {@7, @14, @15} = beam3d_line_bending_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -3509,9 +3509,9 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 3, w1);
   /* #2: @2 = 0.0469101 */
-  w2 = 4.6910077030668018e-02;
+  w2 = 4.6910077030668004e-02;
   /* #3: @3 = 0.118463 */
-  w3 = 1.1846344252809464e-01;
+  w3 = 1.1846344252809454e-01;
   /* #4: @4 = beam3d_line_bending_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -3522,7 +3522,7 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #5: @2 = 0.230765 */
   w2 = 2.3076534494715845e-01;
   /* #6: @3 = 0.239314 */
-  w3 = 2.3931433524968315e-01;
+  w3 = 2.3931433524968324e-01;
   /* #7: @5 = beam3d_line_bending_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -3535,7 +3535,7 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #9: @5 = 0.5 */
   w5 = 5.0000000000000000e-01;
   /* #10: @2 = 0.284444 */
-  w2 = 2.8444444444444433e-01;
+  w2 = 2.8444444444444444e-01;
   /* #11: @3 = beam3d_line_bending_point_e(@0, @1, @5, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -3548,7 +3548,7 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #13: @3 = 0.769235 */
   w3 = 7.6923465505284150e-01;
   /* #14: @5 = 0.239314 */
-  w5 = 2.3931433524968315e-01;
+  w5 = 2.3931433524968324e-01;
   /* #15: @2 = beam3d_line_bending_point_e(@0, @1, @3, @5) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -3559,9 +3559,9 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #16: @4 = (@4+@2) */
   w4 += w2;
   /* #17: @2 = 0.95309 */
-  w2 = 9.5308992296933193e-01;
+  w2 = 9.5308992296933204e-01;
   /* #18: @3 = 0.118463 */
-  w3 = 1.1846344252809464e-01;
+  w3 = 1.1846344252809454e-01;
   /* #19: @5 = beam3d_line_bending_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4155,9 +4155,9 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 3, w01);
   /* #2: @2 = 0.95309 */
-  w02 = 9.5308992296933193e-01;
+  w02 = 9.5308992296933204e-01;
   /* #3: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #4: @4 = 00 */
   /* #5: @5 = input[3][0] */
   w05 = arg[3] ? arg[3][0] : 0;
@@ -4176,7 +4176,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #7: @2 = 0.769235 */
   w02 = 7.6923465505284150e-01;
   /* #8: @3 = 0.239314 */
-  w03 = 2.3931433524968315e-01;
+  w03 = 2.3931433524968324e-01;
   /* #9: @4 = 00 */
   /* #10: {@8, @9, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -4195,7 +4195,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #12: @2 = 0.5 */
   w02 = 5.0000000000000000e-01;
   /* #13: @3 = 0.284444 */
-  w03 = 2.8444444444444433e-01;
+  w03 = 2.8444444444444444e-01;
   /* #14: @4 = 00 */
   /* #15: {@8, @10, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -4214,7 +4214,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #17: @2 = 0.230765 */
   w02 = 2.3076534494715845e-01;
   /* #18: @3 = 0.239314 */
-  w03 = 2.3931433524968315e-01;
+  w03 = 2.3931433524968324e-01;
   /* #19: @4 = 00 */
   /* #20: {@8, @11, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -4231,9 +4231,9 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #21: @6 = (@6+@8) */
   for (i=0, rr=w06, cs=w08; i<24; ++i) (*rr++) += (*cs++);
   /* #22: @2 = 0.0469101 */
-  w02 = 4.6910077030668018e-02;
+  w02 = 4.6910077030668004e-02;
   /* #23: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #24: @4 = 00 */
   /* #25: {@8, @12, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -4731,9 +4731,9 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 3, w01);
   /* #2: @2 = 0.0469101 */
-  w02 = 4.6910077030668018e-02;
+  w02 = 4.6910077030668004e-02;
   /* #3: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #4: {@4, @5} = beam3d_line_bending_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4745,7 +4745,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #5: @2 = 0.230765 */
   w02 = 2.3076534494715845e-01;
   /* #6: @3 = 0.239314 */
-  w03 = 2.3931433524968315e-01;
+  w03 = 2.3931433524968324e-01;
   /* #7: {@6, @7} = beam3d_line_bending_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4759,7 +4759,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #9: @6 = 0.5 */
   w06 = 5.0000000000000000e-01;
   /* #10: @2 = 0.284444 */
-  w02 = 2.8444444444444433e-01;
+  w02 = 2.8444444444444444e-01;
   /* #11: {@3, @8} = beam3d_line_bending_point_eg(@0, @1, @6, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4773,7 +4773,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #13: @3 = 0.769235 */
   w03 = 7.6923465505284150e-01;
   /* #14: @6 = 0.239314 */
-  w06 = 2.3931433524968315e-01;
+  w06 = 2.3931433524968324e-01;
   /* #15: {@2, @9} = beam3d_line_bending_point_eg(@0, @1, @3, @6) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4785,9 +4785,9 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #16: @4 = (@4+@2) */
   w04 += w02;
   /* #17: @2 = 0.95309 */
-  w02 = 9.5308992296933193e-01;
+  w02 = 9.5308992296933204e-01;
   /* #18: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #19: {@6, @10} = beam3d_line_bending_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4900,9 +4900,9 @@ static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 3, w01);
   /* #2: @2 = 0.112702 */
-  w02 = 1.1270166537925830e-01;
+  w02 = 1.1270166537925831e-01;
   /* #3: @3 = 0.277778 */
-  w03 = 2.7777777777777785e-01;
+  w03 = 2.7777777777777779e-01;
   /* #4: {@4, @5, @6} = beam3d_line_bending_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4930,7 +4930,7 @@ static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #9: @7 = 0.887298 */
   w07 = 8.8729833462074170e-01;
   /* #10: @2 = 0.277778 */
-  w02 = 2.7777777777777785e-01;
+  w02 = 2.7777777777777779e-01;
   /* #11: {@3, @10, @11} = beam3d_line_bending_point(@0, @1, @7, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -5059,9 +5059,9 @@ static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 3, w1);
   /* #2: @2 = 0.112702 */
-  w2 = 1.1270166537925830e-01;
+  w2 = 1.1270166537925831e-01;
   /* #3: @3 = 0.277778 */
-  w3 = 2.7777777777777785e-01;
+  w3 = 2.7777777777777779e-01;
   /* #4: @4 = beam3d_line_bending_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -5085,7 +5085,7 @@ static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #9: @5 = 0.887298 */
   w5 = 8.8729833462074170e-01;
   /* #10: @2 = 0.277778 */
-  w2 = 2.7777777777777785e-01;
+  w2 = 2.7777777777777779e-01;
   /* #11: @3 = beam3d_line_bending_point_e(@0, @1, @5, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -5185,7 +5185,7 @@ static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #2: @2 = 0.887298 */
   w02 = 8.8729833462074170e-01;
   /* #3: @3 = 0.277778 */
-  w03 = 2.7777777777777785e-01;
+  w03 = 2.7777777777777779e-01;
   /* #4: @4 = 00 */
   /* #5: @5 = input[3][0] */
   w05 = arg[3] ? arg[3][0] : 0;
@@ -5221,9 +5221,9 @@ static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #11: @6 = (@6+@8) */
   for (i=0, rr=w06, cs=w08; i<24; ++i) (*rr++) += (*cs++);
   /* #12: @2 = 0.112702 */
-  w02 = 1.1270166537925830e-01;
+  w02 = 1.1270166537925831e-01;
   /* #13: @3 = 0.277778 */
-  w03 = 2.7777777777777785e-01;
+  w03 = 2.7777777777777779e-01;
   /* #14: @4 = 00 */
   /* #15: {@8, @10, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -5339,9 +5339,9 @@ static int casadi_f11(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 3, w1);
   /* #2: @2 = 0.112702 */
-  w2 = 1.1270166537925830e-01;
+  w2 = 1.1270166537925831e-01;
   /* #3: @3 = 0.277778 */
-  w3 = 2.7777777777777785e-01;
+  w3 = 2.7777777777777779e-01;
   /* #4: {@4, @5} = beam3d_line_bending_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -5367,7 +5367,7 @@ static int casadi_f11(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #9: @6 = 0.887298 */
   w6 = 8.8729833462074170e-01;
   /* #10: @2 = 0.277778 */
-  w2 = 2.7777777777777785e-01;
+  w2 = 2.7777777777777779e-01;
   /* #11: {@3, @8} = beam3d_line_bending_point_eg(@0, @1, @6, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -5478,7 +5478,7 @@ static int casadi_f12(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #2: @2 = 0.0694318 */
   w02 = 6.9431844202973714e-02;
   /* #3: @3 = 0.173927 */
-  w03 = 1.7392742256872679e-01;
+  w03 = 1.7392742256872692e-01;
   /* #4: {@4, @5, @6} = beam3d_line_bending_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -5491,7 +5491,7 @@ static int casadi_f12(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #5: @2 = 0.330009 */
   w02 = 3.3000947820757187e-01;
   /* #6: @3 = 0.326073 */
-  w03 = 3.2607257743127321e-01;
+  w03 = 3.2607257743127305e-01;
   /* #7: {@7, @8, @9} = beam3d_line_bending_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -5506,7 +5506,7 @@ static int casadi_f12(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #9: @7 = 0.669991 */
   w07 = 6.6999052179242813e-01;
   /* #10: @2 = 0.326073 */
-  w02 = 3.2607257743127321e-01;
+  w02 = 3.2607257743127305e-01;
   /* #11: {@3, @10, @11} = beam3d_line_bending_point(@0, @1, @7, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -5519,9 +5519,9 @@ static int casadi_f12(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #12: @4 = (@4+@3) */
   w04 += w03;
   /* #13: @3 = 0.930568 */
-  w03 = 9.3056815579702623e-01;
+  w03 = 9.3056815579702634e-01;
   /* #14: @7 = 0.173927 */
-  w07 = 1.7392742256872679e-01;
+  w07 = 1.7392742256872692e-01;
   /* #15: {@2, @12, @13} = beam3d_line_bending_point(@0, @1, @3, @7) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -5656,7 +5656,7 @@ static int casadi_f13(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #2: @2 = 0.0694318 */
   w2 = 6.9431844202973714e-02;
   /* #3: @3 = 0.173927 */
-  w3 = 1.7392742256872679e-01;
+  w3 = 1.7392742256872692e-01;
   /* #4: @4 = beam3d_line_bending_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -5667,7 +5667,7 @@ static int casadi_f13(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #5: @2 = 0.330009 */
   w2 = 3.3000947820757187e-01;
   /* #6: @3 = 0.326073 */
-  w3 = 3.2607257743127321e-01;
+  w3 = 3.2607257743127305e-01;
   /* #7: @5 = beam3d_line_bending_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -5680,7 +5680,7 @@ static int casadi_f13(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #9: @5 = 0.669991 */
   w5 = 6.6999052179242813e-01;
   /* #10: @2 = 0.326073 */
-  w2 = 3.2607257743127321e-01;
+  w2 = 3.2607257743127305e-01;
   /* #11: @3 = beam3d_line_bending_point_e(@0, @1, @5, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -5691,9 +5691,9 @@ static int casadi_f13(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #12: @4 = (@4+@3) */
   w4 += w3;
   /* #13: @3 = 0.930568 */
-  w3 = 9.3056815579702623e-01;
+  w3 = 9.3056815579702634e-01;
   /* #14: @5 = 0.173927 */
-  w5 = 1.7392742256872679e-01;
+  w5 = 1.7392742256872692e-01;
   /* #15: @2 = beam3d_line_bending_point_e(@0, @1, @3, @5) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -5791,9 +5791,9 @@ static int casadi_f14(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 3, w01);
   /* #2: @2 = 0.930568 */
-  w02 = 9.3056815579702623e-01;
+  w02 = 9.3056815579702634e-01;
   /* #3: @3 = 0.173927 */
-  w03 = 1.7392742256872679e-01;
+  w03 = 1.7392742256872692e-01;
   /* #4: @4 = 00 */
   /* #5: @5 = input[3][0] */
   w05 = arg[3] ? arg[3][0] : 0;
@@ -5812,7 +5812,7 @@ static int casadi_f14(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #7: @2 = 0.669991 */
   w02 = 6.6999052179242813e-01;
   /* #8: @3 = 0.326073 */
-  w03 = 3.2607257743127321e-01;
+  w03 = 3.2607257743127305e-01;
   /* #9: @4 = 00 */
   /* #10: {@8, @9, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -5831,7 +5831,7 @@ static int casadi_f14(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #12: @2 = 0.330009 */
   w02 = 3.3000947820757187e-01;
   /* #13: @3 = 0.326073 */
-  w03 = 3.2607257743127321e-01;
+  w03 = 3.2607257743127305e-01;
   /* #14: @4 = 00 */
   /* #15: {@8, @10, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -5850,7 +5850,7 @@ static int casadi_f14(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #17: @2 = 0.0694318 */
   w02 = 6.9431844202973714e-02;
   /* #18: @3 = 0.173927 */
-  w03 = 1.7392742256872679e-01;
+  w03 = 1.7392742256872692e-01;
   /* #19: @4 = 00 */
   /* #20: {@8, @11, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -5970,7 +5970,7 @@ static int casadi_f15(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #2: @2 = 0.0694318 */
   w2 = 6.9431844202973714e-02;
   /* #3: @3 = 0.173927 */
-  w3 = 1.7392742256872679e-01;
+  w3 = 1.7392742256872692e-01;
   /* #4: {@4, @5} = beam3d_line_bending_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -5982,7 +5982,7 @@ static int casadi_f15(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #5: @2 = 0.330009 */
   w2 = 3.3000947820757187e-01;
   /* #6: @3 = 0.326073 */
-  w3 = 3.2607257743127321e-01;
+  w3 = 3.2607257743127305e-01;
   /* #7: {@6, @7} = beam3d_line_bending_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -5996,7 +5996,7 @@ static int casadi_f15(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #9: @6 = 0.669991 */
   w6 = 6.6999052179242813e-01;
   /* #10: @2 = 0.326073 */
-  w2 = 3.2607257743127321e-01;
+  w2 = 3.2607257743127305e-01;
   /* #11: {@3, @8} = beam3d_line_bending_point_eg(@0, @1, @6, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -6008,9 +6008,9 @@ static int casadi_f15(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #12: @4 = (@4+@3) */
   w4 += w3;
   /* #13: @3 = 0.930568 */
-  w3 = 9.3056815579702623e-01;
+  w3 = 9.3056815579702634e-01;
   /* #14: @6 = 0.173927 */
-  w6 = 1.7392742256872679e-01;
+  w6 = 1.7392742256872692e-01;
   /* #15: {@2, @9} = beam3d_line_bending_point_eg(@0, @1, @3, @6) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -6121,9 +6121,9 @@ static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 3, w01);
   /* #2: @2 = 0.025446 */
-  w02 = 2.5446043828620701e-02;
+  w02 = 2.5446043828620736e-02;
   /* #3: @3 = 0.0647425 */
-  w03 = 6.4742483084434865e-02;
+  w03 = 6.4742483084434851e-02;
   /* #4: {@4, @5, @6} = beam3d_line_bending_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -6136,7 +6136,7 @@ static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #5: @2 = 0.129234 */
   w02 = 1.2923440720030277e-01;
   /* #6: @3 = 0.139853 */
-  w03 = 1.3985269574463843e-01;
+  w03 = 1.3985269574463832e-01;
   /* #7: {@7, @8, @9} = beam3d_line_bending_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -6151,7 +6151,7 @@ static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #9: @7 = 0.297077 */
   w07 = 2.9707742431130141e-01;
   /* #10: @2 = 0.190915 */
-  w02 = 1.9091502525255935e-01;
+  w02 = 1.9091502525255946e-01;
   /* #11: {@3, @10, @11} = beam3d_line_bending_point(@0, @1, @7, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -6166,7 +6166,7 @@ static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #13: @3 = 0.5 */
   w03 = 5.0000000000000000e-01;
   /* #14: @7 = 0.20898 */
-  w07 = 2.0897959183673465e-01;
+  w07 = 2.0897959183673470e-01;
   /* #15: {@2, @12, @13} = beam3d_line_bending_point(@0, @1, @3, @7) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -6181,7 +6181,7 @@ static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #17: @2 = 0.702923 */
   w02 = 7.0292257568869854e-01;
   /* #18: @3 = 0.190915 */
-  w03 = 1.9091502525255935e-01;
+  w03 = 1.9091502525255946e-01;
   /* #19: {@7, @14, @15} = beam3d_line_bending_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -6196,7 +6196,7 @@ static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #21: @7 = 0.870766 */
   w07 = 8.7076559279969723e-01;
   /* #22: @2 = 0.139853 */
-  w02 = 1.3985269574463843e-01;
+  w02 = 1.3985269574463832e-01;
   /* #23: {@3, @16, @17} = beam3d_line_bending_point(@0, @1, @7, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -6211,7 +6211,7 @@ static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #25: @3 = 0.974554 */
   w03 = 9.7455395617137930e-01;
   /* #26: @7 = 0.0647425 */
-  w07 = 6.4742483084434865e-02;
+  w07 = 6.4742483084434851e-02;
   /* #27: {@2, @18, @19} = beam3d_line_bending_point(@0, @1, @3, @7) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -6356,9 +6356,9 @@ static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 3, w1);
   /* #2: @2 = 0.025446 */
-  w2 = 2.5446043828620701e-02;
+  w2 = 2.5446043828620736e-02;
   /* #3: @3 = 0.0647425 */
-  w3 = 6.4742483084434865e-02;
+  w3 = 6.4742483084434851e-02;
   /* #4: @4 = beam3d_line_bending_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -6369,7 +6369,7 @@ static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #5: @2 = 0.129234 */
   w2 = 1.2923440720030277e-01;
   /* #6: @3 = 0.139853 */
-  w3 = 1.3985269574463843e-01;
+  w3 = 1.3985269574463832e-01;
   /* #7: @5 = beam3d_line_bending_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -6382,7 +6382,7 @@ static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #9: @5 = 0.297077 */
   w5 = 2.9707742431130141e-01;
   /* #10: @2 = 0.190915 */
-  w2 = 1.9091502525255935e-01;
+  w2 = 1.9091502525255946e-01;
   /* #11: @3 = beam3d_line_bending_point_e(@0, @1, @5, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -6395,7 +6395,7 @@ static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #13: @3 = 0.5 */
   w3 = 5.0000000000000000e-01;
   /* #14: @5 = 0.20898 */
-  w5 = 2.0897959183673465e-01;
+  w5 = 2.0897959183673470e-01;
   /* #15: @2 = beam3d_line_bending_point_e(@0, @1, @3, @5) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -6408,7 +6408,7 @@ static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #17: @2 = 0.702923 */
   w2 = 7.0292257568869854e-01;
   /* #18: @3 = 0.190915 */
-  w3 = 1.9091502525255935e-01;
+  w3 = 1.9091502525255946e-01;
   /* #19: @5 = beam3d_line_bending_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -6421,7 +6421,7 @@ static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #21: @5 = 0.870766 */
   w5 = 8.7076559279969723e-01;
   /* #22: @2 = 0.139853 */
-  w2 = 1.3985269574463843e-01;
+  w2 = 1.3985269574463832e-01;
   /* #23: @3 = beam3d_line_bending_point_e(@0, @1, @5, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -6434,7 +6434,7 @@ static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #25: @3 = 0.974554 */
   w3 = 9.7455395617137930e-01;
   /* #26: @5 = 0.0647425 */
-  w5 = 6.4742483084434865e-02;
+  w5 = 6.4742483084434851e-02;
   /* #27: @2 = beam3d_line_bending_point_e(@0, @1, @3, @5) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -6535,7 +6535,7 @@ static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #2: @2 = 0.974554 */
   w02 = 9.7455395617137930e-01;
   /* #3: @3 = 0.0647425 */
-  w03 = 6.4742483084434865e-02;
+  w03 = 6.4742483084434851e-02;
   /* #4: @4 = 00 */
   /* #5: @5 = input[3][0] */
   w05 = arg[3] ? arg[3][0] : 0;
@@ -6554,7 +6554,7 @@ static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #7: @2 = 0.870766 */
   w02 = 8.7076559279969723e-01;
   /* #8: @3 = 0.139853 */
-  w03 = 1.3985269574463843e-01;
+  w03 = 1.3985269574463832e-01;
   /* #9: @4 = 00 */
   /* #10: {@8, @9, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -6573,7 +6573,7 @@ static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #12: @2 = 0.702923 */
   w02 = 7.0292257568869854e-01;
   /* #13: @3 = 0.190915 */
-  w03 = 1.9091502525255935e-01;
+  w03 = 1.9091502525255946e-01;
   /* #14: @4 = 00 */
   /* #15: {@8, @10, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -6592,7 +6592,7 @@ static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #17: @2 = 0.5 */
   w02 = 5.0000000000000000e-01;
   /* #18: @3 = 0.20898 */
-  w03 = 2.0897959183673465e-01;
+  w03 = 2.0897959183673470e-01;
   /* #19: @4 = 00 */
   /* #20: {@8, @11, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -6611,7 +6611,7 @@ static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #22: @2 = 0.297077 */
   w02 = 2.9707742431130141e-01;
   /* #23: @3 = 0.190915 */
-  w03 = 1.9091502525255935e-01;
+  w03 = 1.9091502525255946e-01;
   /* #24: @4 = 00 */
   /* #25: {@8, @12, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -6630,7 +6630,7 @@ static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #27: @2 = 0.129234 */
   w02 = 1.2923440720030277e-01;
   /* #28: @3 = 0.139853 */
-  w03 = 1.3985269574463843e-01;
+  w03 = 1.3985269574463832e-01;
   /* #29: @4 = 00 */
   /* #30: {@8, @13, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -6647,9 +6647,9 @@ static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #31: @6 = (@6+@8) */
   for (i=0, rr=w06, cs=w08; i<24; ++i) (*rr++) += (*cs++);
   /* #32: @2 = 0.025446 */
-  w02 = 2.5446043828620701e-02;
+  w02 = 2.5446043828620736e-02;
   /* #33: @3 = 0.0647425 */
-  w03 = 6.4742483084434865e-02;
+  w03 = 6.4742483084434851e-02;
   /* #34: @4 = 00 */
   /* #35: {@8, @14, NULL, NULL} = adj1_beam3d_line_bending_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -6774,9 +6774,9 @@ static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 3, w01);
   /* #2: @2 = 0.025446 */
-  w02 = 2.5446043828620701e-02;
+  w02 = 2.5446043828620736e-02;
   /* #3: @3 = 0.0647425 */
-  w03 = 6.4742483084434865e-02;
+  w03 = 6.4742483084434851e-02;
   /* #4: {@4, @5} = beam3d_line_bending_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -6788,7 +6788,7 @@ static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #5: @2 = 0.129234 */
   w02 = 1.2923440720030277e-01;
   /* #6: @3 = 0.139853 */
-  w03 = 1.3985269574463843e-01;
+  w03 = 1.3985269574463832e-01;
   /* #7: {@6, @7} = beam3d_line_bending_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -6802,7 +6802,7 @@ static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #9: @6 = 0.297077 */
   w06 = 2.9707742431130141e-01;
   /* #10: @2 = 0.190915 */
-  w02 = 1.9091502525255935e-01;
+  w02 = 1.9091502525255946e-01;
   /* #11: {@3, @8} = beam3d_line_bending_point_eg(@0, @1, @6, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -6816,7 +6816,7 @@ static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #13: @3 = 0.5 */
   w03 = 5.0000000000000000e-01;
   /* #14: @6 = 0.20898 */
-  w06 = 2.0897959183673465e-01;
+  w06 = 2.0897959183673470e-01;
   /* #15: {@2, @9} = beam3d_line_bending_point_eg(@0, @1, @3, @6) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -6830,7 +6830,7 @@ static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #17: @2 = 0.702923 */
   w02 = 7.0292257568869854e-01;
   /* #18: @3 = 0.190915 */
-  w03 = 1.9091502525255935e-01;
+  w03 = 1.9091502525255946e-01;
   /* #19: {@6, @10} = beam3d_line_bending_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -6844,7 +6844,7 @@ static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #21: @6 = 0.870766 */
   w06 = 8.7076559279969723e-01;
   /* #22: @2 = 0.139853 */
-  w02 = 1.3985269574463843e-01;
+  w02 = 1.3985269574463832e-01;
   /* #23: {@3, @11} = beam3d_line_bending_point_eg(@0, @1, @6, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -6858,7 +6858,7 @@ static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #25: @3 = 0.974554 */
   w03 = 9.7455395617137930e-01;
   /* #26: @6 = 0.0647425 */
-  w06 = 6.4742483084434865e-02;
+  w06 = 6.4742483084434851e-02;
   /* #27: {@2, @12} = beam3d_line_bending_point_eg(@0, @1, @3, @6) */
   arg1[0]=wr00;
   arg1[1]=w01;

@@ -1658,9 +1658,9 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w01);
   /* #2: @2 = 0.0469101 */
-  w02 = 4.6910077030668018e-02;
+  w02 = 4.6910077030668004e-02;
   /* #3: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #4: {@4, @5, @6} = beam3d_line_strain_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -1673,7 +1673,7 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #5: @2 = 0.230765 */
   w02 = 2.3076534494715845e-01;
   /* #6: @3 = 0.239314 */
-  w03 = 2.3931433524968315e-01;
+  w03 = 2.3931433524968324e-01;
   /* #7: {@7, @8, @9} = beam3d_line_strain_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -1688,7 +1688,7 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #9: @7 = 0.5 */
   w07 = 5.0000000000000000e-01;
   /* #10: @2 = 0.284444 */
-  w02 = 2.8444444444444433e-01;
+  w02 = 2.8444444444444444e-01;
   /* #11: {@3, @10, @11} = beam3d_line_strain_point(@0, @1, @7, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -1703,7 +1703,7 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #13: @3 = 0.769235 */
   w03 = 7.6923465505284150e-01;
   /* #14: @7 = 0.239314 */
-  w07 = 2.3931433524968315e-01;
+  w07 = 2.3931433524968324e-01;
   /* #15: {@2, @12, @13} = beam3d_line_strain_point(@0, @1, @3, @7) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -1716,9 +1716,9 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #16: @4 = (@4+@2) */
   w04 += w02;
   /* #17: @2 = 0.95309 */
-  w02 = 9.5308992296933193e-01;
+  w02 = 9.5308992296933204e-01;
   /* #18: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #19: {@7, @14, @15} = beam3d_line_strain_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -2033,9 +2033,9 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w1);
   /* #2: @2 = 0.0469101 */
-  w2 = 4.6910077030668018e-02;
+  w2 = 4.6910077030668004e-02;
   /* #3: @3 = 0.118463 */
-  w3 = 1.1846344252809464e-01;
+  w3 = 1.1846344252809454e-01;
   /* #4: @4 = beam3d_line_strain_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -2046,7 +2046,7 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #5: @2 = 0.230765 */
   w2 = 2.3076534494715845e-01;
   /* #6: @3 = 0.239314 */
-  w3 = 2.3931433524968315e-01;
+  w3 = 2.3931433524968324e-01;
   /* #7: @5 = beam3d_line_strain_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -2059,7 +2059,7 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #9: @5 = 0.5 */
   w5 = 5.0000000000000000e-01;
   /* #10: @2 = 0.284444 */
-  w2 = 2.8444444444444433e-01;
+  w2 = 2.8444444444444444e-01;
   /* #11: @3 = beam3d_line_strain_point_e(@0, @1, @5, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -2072,7 +2072,7 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #13: @3 = 0.769235 */
   w3 = 7.6923465505284150e-01;
   /* #14: @5 = 0.239314 */
-  w5 = 2.3931433524968315e-01;
+  w5 = 2.3931433524968324e-01;
   /* #15: @2 = beam3d_line_strain_point_e(@0, @1, @3, @5) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -2083,9 +2083,9 @@ static int casadi_f2(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #16: @4 = (@4+@2) */
   w4 += w2;
   /* #17: @2 = 0.95309 */
-  w2 = 9.5308992296933193e-01;
+  w2 = 9.5308992296933204e-01;
   /* #18: @3 = 0.118463 */
-  w3 = 1.1846344252809464e-01;
+  w3 = 1.1846344252809454e-01;
   /* #19: @5 = beam3d_line_strain_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -2604,9 +2604,9 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w01);
   /* #2: @2 = 0.95309 */
-  w02 = 9.5308992296933193e-01;
+  w02 = 9.5308992296933204e-01;
   /* #3: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #4: @4 = 00 */
   /* #5: @5 = input[3][0] */
   w05 = arg[3] ? arg[3][0] : 0;
@@ -2625,7 +2625,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #7: @2 = 0.769235 */
   w02 = 7.6923465505284150e-01;
   /* #8: @3 = 0.239314 */
-  w03 = 2.3931433524968315e-01;
+  w03 = 2.3931433524968324e-01;
   /* #9: @4 = 00 */
   /* #10: {@8, @9, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -2644,7 +2644,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #12: @2 = 0.5 */
   w02 = 5.0000000000000000e-01;
   /* #13: @3 = 0.284444 */
-  w03 = 2.8444444444444433e-01;
+  w03 = 2.8444444444444444e-01;
   /* #14: @4 = 00 */
   /* #15: {@8, @10, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -2663,7 +2663,7 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #17: @2 = 0.230765 */
   w02 = 2.3076534494715845e-01;
   /* #18: @3 = 0.239314 */
-  w03 = 2.3931433524968315e-01;
+  w03 = 2.3931433524968324e-01;
   /* #19: @4 = 00 */
   /* #20: {@8, @11, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -2680,9 +2680,9 @@ static int casadi_f4(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #21: @6 = (@6+@8) */
   for (i=0, rr=w06, cs=w08; i<24; ++i) (*rr++) += (*cs++);
   /* #22: @2 = 0.0469101 */
-  w02 = 4.6910077030668018e-02;
+  w02 = 4.6910077030668004e-02;
   /* #23: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #24: @4 = 00 */
   /* #25: {@8, @12, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -3110,9 +3110,9 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w01);
   /* #2: @2 = 0.0469101 */
-  w02 = 4.6910077030668018e-02;
+  w02 = 4.6910077030668004e-02;
   /* #3: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #4: {@4, @5} = beam3d_line_strain_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -3124,7 +3124,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #5: @2 = 0.230765 */
   w02 = 2.3076534494715845e-01;
   /* #6: @3 = 0.239314 */
-  w03 = 2.3931433524968315e-01;
+  w03 = 2.3931433524968324e-01;
   /* #7: {@6, @7} = beam3d_line_strain_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -3138,7 +3138,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #9: @6 = 0.5 */
   w06 = 5.0000000000000000e-01;
   /* #10: @2 = 0.284444 */
-  w02 = 2.8444444444444433e-01;
+  w02 = 2.8444444444444444e-01;
   /* #11: {@3, @8} = beam3d_line_strain_point_eg(@0, @1, @6, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -3152,7 +3152,7 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #13: @3 = 0.769235 */
   w03 = 7.6923465505284150e-01;
   /* #14: @6 = 0.239314 */
-  w06 = 2.3931433524968315e-01;
+  w06 = 2.3931433524968324e-01;
   /* #15: {@2, @9} = beam3d_line_strain_point_eg(@0, @1, @3, @6) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -3164,9 +3164,9 @@ static int casadi_f6(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #16: @4 = (@4+@2) */
   w04 += w02;
   /* #17: @2 = 0.95309 */
-  w02 = 9.5308992296933193e-01;
+  w02 = 9.5308992296933204e-01;
   /* #18: @3 = 0.118463 */
-  w03 = 1.1846344252809464e-01;
+  w03 = 1.1846344252809454e-01;
   /* #19: {@6, @10} = beam3d_line_strain_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -3279,9 +3279,9 @@ static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w01);
   /* #2: @2 = 0.112702 */
-  w02 = 1.1270166537925830e-01;
+  w02 = 1.1270166537925831e-01;
   /* #3: @3 = 0.277778 */
-  w03 = 2.7777777777777785e-01;
+  w03 = 2.7777777777777779e-01;
   /* #4: {@4, @5, @6} = beam3d_line_strain_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -3309,7 +3309,7 @@ static int casadi_f8(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #9: @7 = 0.887298 */
   w07 = 8.8729833462074170e-01;
   /* #10: @2 = 0.277778 */
-  w02 = 2.7777777777777785e-01;
+  w02 = 2.7777777777777779e-01;
   /* #11: {@3, @10, @11} = beam3d_line_strain_point(@0, @1, @7, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -3438,9 +3438,9 @@ static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w1);
   /* #2: @2 = 0.112702 */
-  w2 = 1.1270166537925830e-01;
+  w2 = 1.1270166537925831e-01;
   /* #3: @3 = 0.277778 */
-  w3 = 2.7777777777777785e-01;
+  w3 = 2.7777777777777779e-01;
   /* #4: @4 = beam3d_line_strain_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -3464,7 +3464,7 @@ static int casadi_f9(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   /* #9: @5 = 0.887298 */
   w5 = 8.8729833462074170e-01;
   /* #10: @2 = 0.277778 */
-  w2 = 2.7777777777777785e-01;
+  w2 = 2.7777777777777779e-01;
   /* #11: @3 = beam3d_line_strain_point_e(@0, @1, @5, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -3564,7 +3564,7 @@ static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #2: @2 = 0.887298 */
   w02 = 8.8729833462074170e-01;
   /* #3: @3 = 0.277778 */
-  w03 = 2.7777777777777785e-01;
+  w03 = 2.7777777777777779e-01;
   /* #4: @4 = 00 */
   /* #5: @5 = input[3][0] */
   w05 = arg[3] ? arg[3][0] : 0;
@@ -3600,9 +3600,9 @@ static int casadi_f10(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #11: @6 = (@6+@8) */
   for (i=0, rr=w06, cs=w08; i<24; ++i) (*rr++) += (*cs++);
   /* #12: @2 = 0.112702 */
-  w02 = 1.1270166537925830e-01;
+  w02 = 1.1270166537925831e-01;
   /* #13: @3 = 0.277778 */
-  w03 = 2.7777777777777785e-01;
+  w03 = 2.7777777777777779e-01;
   /* #14: @4 = 00 */
   /* #15: {@8, @10, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -3718,9 +3718,9 @@ static int casadi_f11(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w1);
   /* #2: @2 = 0.112702 */
-  w2 = 1.1270166537925830e-01;
+  w2 = 1.1270166537925831e-01;
   /* #3: @3 = 0.277778 */
-  w3 = 2.7777777777777785e-01;
+  w3 = 2.7777777777777779e-01;
   /* #4: {@4, @5} = beam3d_line_strain_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -3746,7 +3746,7 @@ static int casadi_f11(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #9: @6 = 0.887298 */
   w6 = 8.8729833462074170e-01;
   /* #10: @2 = 0.277778 */
-  w2 = 2.7777777777777785e-01;
+  w2 = 2.7777777777777779e-01;
   /* #11: {@3, @8} = beam3d_line_strain_point_eg(@0, @1, @6, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -3857,7 +3857,7 @@ static int casadi_f12(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #2: @2 = 0.0694318 */
   w02 = 6.9431844202973714e-02;
   /* #3: @3 = 0.173927 */
-  w03 = 1.7392742256872679e-01;
+  w03 = 1.7392742256872692e-01;
   /* #4: {@4, @5, @6} = beam3d_line_strain_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -3870,7 +3870,7 @@ static int casadi_f12(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #5: @2 = 0.330009 */
   w02 = 3.3000947820757187e-01;
   /* #6: @3 = 0.326073 */
-  w03 = 3.2607257743127321e-01;
+  w03 = 3.2607257743127305e-01;
   /* #7: {@7, @8, @9} = beam3d_line_strain_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -3885,7 +3885,7 @@ static int casadi_f12(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #9: @7 = 0.669991 */
   w07 = 6.6999052179242813e-01;
   /* #10: @2 = 0.326073 */
-  w02 = 3.2607257743127321e-01;
+  w02 = 3.2607257743127305e-01;
   /* #11: {@3, @10, @11} = beam3d_line_strain_point(@0, @1, @7, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -3898,9 +3898,9 @@ static int casadi_f12(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #12: @4 = (@4+@3) */
   w04 += w03;
   /* #13: @3 = 0.930568 */
-  w03 = 9.3056815579702623e-01;
+  w03 = 9.3056815579702634e-01;
   /* #14: @7 = 0.173927 */
-  w07 = 1.7392742256872679e-01;
+  w07 = 1.7392742256872692e-01;
   /* #15: {@2, @12, @13} = beam3d_line_strain_point(@0, @1, @3, @7) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4035,7 +4035,7 @@ static int casadi_f13(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #2: @2 = 0.0694318 */
   w2 = 6.9431844202973714e-02;
   /* #3: @3 = 0.173927 */
-  w3 = 1.7392742256872679e-01;
+  w3 = 1.7392742256872692e-01;
   /* #4: @4 = beam3d_line_strain_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4046,7 +4046,7 @@ static int casadi_f13(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #5: @2 = 0.330009 */
   w2 = 3.3000947820757187e-01;
   /* #6: @3 = 0.326073 */
-  w3 = 3.2607257743127321e-01;
+  w3 = 3.2607257743127305e-01;
   /* #7: @5 = beam3d_line_strain_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4059,7 +4059,7 @@ static int casadi_f13(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #9: @5 = 0.669991 */
   w5 = 6.6999052179242813e-01;
   /* #10: @2 = 0.326073 */
-  w2 = 3.2607257743127321e-01;
+  w2 = 3.2607257743127305e-01;
   /* #11: @3 = beam3d_line_strain_point_e(@0, @1, @5, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4070,9 +4070,9 @@ static int casadi_f13(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #12: @4 = (@4+@3) */
   w4 += w3;
   /* #13: @3 = 0.930568 */
-  w3 = 9.3056815579702623e-01;
+  w3 = 9.3056815579702634e-01;
   /* #14: @5 = 0.173927 */
-  w5 = 1.7392742256872679e-01;
+  w5 = 1.7392742256872692e-01;
   /* #15: @2 = beam3d_line_strain_point_e(@0, @1, @3, @5) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4170,9 +4170,9 @@ static int casadi_f14(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w01);
   /* #2: @2 = 0.930568 */
-  w02 = 9.3056815579702623e-01;
+  w02 = 9.3056815579702634e-01;
   /* #3: @3 = 0.173927 */
-  w03 = 1.7392742256872679e-01;
+  w03 = 1.7392742256872692e-01;
   /* #4: @4 = 00 */
   /* #5: @5 = input[3][0] */
   w05 = arg[3] ? arg[3][0] : 0;
@@ -4191,7 +4191,7 @@ static int casadi_f14(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #7: @2 = 0.669991 */
   w02 = 6.6999052179242813e-01;
   /* #8: @3 = 0.326073 */
-  w03 = 3.2607257743127321e-01;
+  w03 = 3.2607257743127305e-01;
   /* #9: @4 = 00 */
   /* #10: {@8, @9, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -4210,7 +4210,7 @@ static int casadi_f14(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #12: @2 = 0.330009 */
   w02 = 3.3000947820757187e-01;
   /* #13: @3 = 0.326073 */
-  w03 = 3.2607257743127321e-01;
+  w03 = 3.2607257743127305e-01;
   /* #14: @4 = 00 */
   /* #15: {@8, @10, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -4229,7 +4229,7 @@ static int casadi_f14(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #17: @2 = 0.0694318 */
   w02 = 6.9431844202973714e-02;
   /* #18: @3 = 0.173927 */
-  w03 = 1.7392742256872679e-01;
+  w03 = 1.7392742256872692e-01;
   /* #19: @4 = 00 */
   /* #20: {@8, @11, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -4349,7 +4349,7 @@ static int casadi_f15(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #2: @2 = 0.0694318 */
   w2 = 6.9431844202973714e-02;
   /* #3: @3 = 0.173927 */
-  w3 = 1.7392742256872679e-01;
+  w3 = 1.7392742256872692e-01;
   /* #4: {@4, @5} = beam3d_line_strain_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4361,7 +4361,7 @@ static int casadi_f15(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #5: @2 = 0.330009 */
   w2 = 3.3000947820757187e-01;
   /* #6: @3 = 0.326073 */
-  w3 = 3.2607257743127321e-01;
+  w3 = 3.2607257743127305e-01;
   /* #7: {@6, @7} = beam3d_line_strain_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4375,7 +4375,7 @@ static int casadi_f15(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #9: @6 = 0.669991 */
   w6 = 6.6999052179242813e-01;
   /* #10: @2 = 0.326073 */
-  w2 = 3.2607257743127321e-01;
+  w2 = 3.2607257743127305e-01;
   /* #11: {@3, @8} = beam3d_line_strain_point_eg(@0, @1, @6, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4387,9 +4387,9 @@ static int casadi_f15(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #12: @4 = (@4+@3) */
   w4 += w3;
   /* #13: @3 = 0.930568 */
-  w3 = 9.3056815579702623e-01;
+  w3 = 9.3056815579702634e-01;
   /* #14: @6 = 0.173927 */
-  w6 = 1.7392742256872679e-01;
+  w6 = 1.7392742256872692e-01;
   /* #15: {@2, @9} = beam3d_line_strain_point_eg(@0, @1, @3, @6) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4500,9 +4500,9 @@ static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w01);
   /* #2: @2 = 0.025446 */
-  w02 = 2.5446043828620701e-02;
+  w02 = 2.5446043828620736e-02;
   /* #3: @3 = 0.0647425 */
-  w03 = 6.4742483084434865e-02;
+  w03 = 6.4742483084434851e-02;
   /* #4: {@4, @5, @6} = beam3d_line_strain_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4515,7 +4515,7 @@ static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #5: @2 = 0.129234 */
   w02 = 1.2923440720030277e-01;
   /* #6: @3 = 0.139853 */
-  w03 = 1.3985269574463843e-01;
+  w03 = 1.3985269574463832e-01;
   /* #7: {@7, @8, @9} = beam3d_line_strain_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4530,7 +4530,7 @@ static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #9: @7 = 0.297077 */
   w07 = 2.9707742431130141e-01;
   /* #10: @2 = 0.190915 */
-  w02 = 1.9091502525255935e-01;
+  w02 = 1.9091502525255946e-01;
   /* #11: {@3, @10, @11} = beam3d_line_strain_point(@0, @1, @7, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4545,7 +4545,7 @@ static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #13: @3 = 0.5 */
   w03 = 5.0000000000000000e-01;
   /* #14: @7 = 0.20898 */
-  w07 = 2.0897959183673465e-01;
+  w07 = 2.0897959183673470e-01;
   /* #15: {@2, @12, @13} = beam3d_line_strain_point(@0, @1, @3, @7) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4560,7 +4560,7 @@ static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #17: @2 = 0.702923 */
   w02 = 7.0292257568869854e-01;
   /* #18: @3 = 0.190915 */
-  w03 = 1.9091502525255935e-01;
+  w03 = 1.9091502525255946e-01;
   /* #19: {@7, @14, @15} = beam3d_line_strain_point(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4575,7 +4575,7 @@ static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #21: @7 = 0.870766 */
   w07 = 8.7076559279969723e-01;
   /* #22: @2 = 0.139853 */
-  w02 = 1.3985269574463843e-01;
+  w02 = 1.3985269574463832e-01;
   /* #23: {@3, @16, @17} = beam3d_line_strain_point(@0, @1, @7, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4590,7 +4590,7 @@ static int casadi_f16(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #25: @3 = 0.974554 */
   w03 = 9.7455395617137930e-01;
   /* #26: @7 = 0.0647425 */
-  w07 = 6.4742483084434865e-02;
+  w07 = 6.4742483084434851e-02;
   /* #27: {@2, @18, @19} = beam3d_line_strain_point(@0, @1, @3, @7) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -4735,9 +4735,9 @@ static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w1);
   /* #2: @2 = 0.025446 */
-  w2 = 2.5446043828620701e-02;
+  w2 = 2.5446043828620736e-02;
   /* #3: @3 = 0.0647425 */
-  w3 = 6.4742483084434865e-02;
+  w3 = 6.4742483084434851e-02;
   /* #4: @4 = beam3d_line_strain_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4748,7 +4748,7 @@ static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #5: @2 = 0.129234 */
   w2 = 1.2923440720030277e-01;
   /* #6: @3 = 0.139853 */
-  w3 = 1.3985269574463843e-01;
+  w3 = 1.3985269574463832e-01;
   /* #7: @5 = beam3d_line_strain_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4761,7 +4761,7 @@ static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #9: @5 = 0.297077 */
   w5 = 2.9707742431130141e-01;
   /* #10: @2 = 0.190915 */
-  w2 = 1.9091502525255935e-01;
+  w2 = 1.9091502525255946e-01;
   /* #11: @3 = beam3d_line_strain_point_e(@0, @1, @5, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4774,7 +4774,7 @@ static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #13: @3 = 0.5 */
   w3 = 5.0000000000000000e-01;
   /* #14: @5 = 0.20898 */
-  w5 = 2.0897959183673465e-01;
+  w5 = 2.0897959183673470e-01;
   /* #15: @2 = beam3d_line_strain_point_e(@0, @1, @3, @5) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4787,7 +4787,7 @@ static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #17: @2 = 0.702923 */
   w2 = 7.0292257568869854e-01;
   /* #18: @3 = 0.190915 */
-  w3 = 1.9091502525255935e-01;
+  w3 = 1.9091502525255946e-01;
   /* #19: @5 = beam3d_line_strain_point_e(@0, @1, @2, @3) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4800,7 +4800,7 @@ static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #21: @5 = 0.870766 */
   w5 = 8.7076559279969723e-01;
   /* #22: @2 = 0.139853 */
-  w2 = 1.3985269574463843e-01;
+  w2 = 1.3985269574463832e-01;
   /* #23: @3 = beam3d_line_strain_point_e(@0, @1, @5, @2) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4813,7 +4813,7 @@ static int casadi_f17(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #25: @3 = 0.974554 */
   w3 = 9.7455395617137930e-01;
   /* #26: @5 = 0.0647425 */
-  w5 = 6.4742483084434865e-02;
+  w5 = 6.4742483084434851e-02;
   /* #27: @2 = beam3d_line_strain_point_e(@0, @1, @3, @5) */
   arg1[0]=wr0;
   arg1[1]=w1;
@@ -4914,7 +4914,7 @@ static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #2: @2 = 0.974554 */
   w02 = 9.7455395617137930e-01;
   /* #3: @3 = 0.0647425 */
-  w03 = 6.4742483084434865e-02;
+  w03 = 6.4742483084434851e-02;
   /* #4: @4 = 00 */
   /* #5: @5 = input[3][0] */
   w05 = arg[3] ? arg[3][0] : 0;
@@ -4933,7 +4933,7 @@ static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #7: @2 = 0.870766 */
   w02 = 8.7076559279969723e-01;
   /* #8: @3 = 0.139853 */
-  w03 = 1.3985269574463843e-01;
+  w03 = 1.3985269574463832e-01;
   /* #9: @4 = 00 */
   /* #10: {@8, @9, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -4952,7 +4952,7 @@ static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #12: @2 = 0.702923 */
   w02 = 7.0292257568869854e-01;
   /* #13: @3 = 0.190915 */
-  w03 = 1.9091502525255935e-01;
+  w03 = 1.9091502525255946e-01;
   /* #14: @4 = 00 */
   /* #15: {@8, @10, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -4971,7 +4971,7 @@ static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #17: @2 = 0.5 */
   w02 = 5.0000000000000000e-01;
   /* #18: @3 = 0.20898 */
-  w03 = 2.0897959183673465e-01;
+  w03 = 2.0897959183673470e-01;
   /* #19: @4 = 00 */
   /* #20: {@8, @11, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -4990,7 +4990,7 @@ static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #22: @2 = 0.297077 */
   w02 = 2.9707742431130141e-01;
   /* #23: @3 = 0.190915 */
-  w03 = 1.9091502525255935e-01;
+  w03 = 1.9091502525255946e-01;
   /* #24: @4 = 00 */
   /* #25: {@8, @12, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -5009,7 +5009,7 @@ static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #27: @2 = 0.129234 */
   w02 = 1.2923440720030277e-01;
   /* #28: @3 = 0.139853 */
-  w03 = 1.3985269574463843e-01;
+  w03 = 1.3985269574463832e-01;
   /* #29: @4 = 00 */
   /* #30: {@8, @13, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -5026,9 +5026,9 @@ static int casadi_f18(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #31: @6 = (@6+@8) */
   for (i=0, rr=w06, cs=w08; i<24; ++i) (*rr++) += (*cs++);
   /* #32: @2 = 0.025446 */
-  w02 = 2.5446043828620701e-02;
+  w02 = 2.5446043828620736e-02;
   /* #33: @3 = 0.0647425 */
-  w03 = 6.4742483084434865e-02;
+  w03 = 6.4742483084434851e-02;
   /* #34: @4 = 00 */
   /* #35: {@8, @14, NULL, NULL} = adj1_beam3d_line_strain_point_e(@0, @1, @2, @3, @4, @5) */
   arg1[0]=wr00;
@@ -5153,9 +5153,9 @@ static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #1: @1 = input[1][0] */
   casadi_copy(arg[1], 5, w01);
   /* #2: @2 = 0.025446 */
-  w02 = 2.5446043828620701e-02;
+  w02 = 2.5446043828620736e-02;
   /* #3: @3 = 0.0647425 */
-  w03 = 6.4742483084434865e-02;
+  w03 = 6.4742483084434851e-02;
   /* #4: {@4, @5} = beam3d_line_strain_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -5167,7 +5167,7 @@ static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #5: @2 = 0.129234 */
   w02 = 1.2923440720030277e-01;
   /* #6: @3 = 0.139853 */
-  w03 = 1.3985269574463843e-01;
+  w03 = 1.3985269574463832e-01;
   /* #7: {@6, @7} = beam3d_line_strain_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -5181,7 +5181,7 @@ static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #9: @6 = 0.297077 */
   w06 = 2.9707742431130141e-01;
   /* #10: @2 = 0.190915 */
-  w02 = 1.9091502525255935e-01;
+  w02 = 1.9091502525255946e-01;
   /* #11: {@3, @8} = beam3d_line_strain_point_eg(@0, @1, @6, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -5195,7 +5195,7 @@ static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #13: @3 = 0.5 */
   w03 = 5.0000000000000000e-01;
   /* #14: @6 = 0.20898 */
-  w06 = 2.0897959183673465e-01;
+  w06 = 2.0897959183673470e-01;
   /* #15: {@2, @9} = beam3d_line_strain_point_eg(@0, @1, @3, @6) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -5209,7 +5209,7 @@ static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #17: @2 = 0.702923 */
   w02 = 7.0292257568869854e-01;
   /* #18: @3 = 0.190915 */
-  w03 = 1.9091502525255935e-01;
+  w03 = 1.9091502525255946e-01;
   /* #19: {@6, @10} = beam3d_line_strain_point_eg(@0, @1, @2, @3) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -5223,7 +5223,7 @@ static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #21: @6 = 0.870766 */
   w06 = 8.7076559279969723e-01;
   /* #22: @2 = 0.139853 */
-  w02 = 1.3985269574463843e-01;
+  w02 = 1.3985269574463832e-01;
   /* #23: {@3, @11} = beam3d_line_strain_point_eg(@0, @1, @6, @2) */
   arg1[0]=wr00;
   arg1[1]=w01;
@@ -5237,7 +5237,7 @@ static int casadi_f19(const casadi_real** arg, casadi_real** res, casadi_int* iw
   /* #25: @3 = 0.974554 */
   w03 = 9.7455395617137930e-01;
   /* #26: @6 = 0.0647425 */
-  w06 = 6.4742483084434865e-02;
+  w06 = 6.4742483084434851e-02;
   /* #27: {@2, @12} = beam3d_line_strain_point_eg(@0, @1, @3, @6) */
   arg1[0]=wr00;
   arg1[1]=w01;

@@ -86,6 +86,8 @@ mu = 0.3
 eps = 0.01
 [analysis]
 type = "dynamics"
+dt = 1e-3
+t_end = 0.1
 """
 
 

@@ -227,7 +227,7 @@ def test_result_and_resimulation_api():
 @pytest.mark.parametrize("kw,match", [
     ({"horizon": 0.0}, "horizon must be positive"),
     ({"horizon": -2.0}, "horizon must be positive"),
-    ({"horizon": float("nan")}, "horizon must be finite"),
+    ({"horizon": float("nan")}, "horizon: must be finite"),
     ({"horizon": (3.0, 2.0, 5.0)}, "horizon must be one number"),
     ({"horizon": 4.0, "cost": [MinimumTime()]}, r"needs horizon=\(lower, guess, upper\)"),
     ({"horizon": (0.0, 2.0, 5.0), "cost": [MinimumTime()]}, "0 < lower <= guess <= upper"),
@@ -246,7 +246,7 @@ def test_result_and_resimulation_api():
     ({"intervals": 0}, "intervals must be a positive integer"),
     ({"scheme": "euler"}, "scheme must be one of"),
     ({"stages": 7}, "stages must be an integer in 1..4"),
-    ({"point_masses": [PointMass("rope", "end", -1.0)]}, "mass must be positive"),
+    ({"point_masses": [PointMass("rope", "end", -1.0)]}, "mass: must be positive"),
     ({"path": [PathConstraint(_offset, 1.0, 0.0)]}, "infeasible"),
     ({"control_form": "spline"}, "control_form must be"),
     ({"terminal": [PathConstraint(lambda v: 1.0, 0.0, 0.0)]}, "does not depend on the state"),

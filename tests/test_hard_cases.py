@@ -410,7 +410,7 @@ def test_decoupled_strain_without_bending_is_refused():
     element's length): that state had a LOWER discrete potential (-73.25 J vs -72.49 J for the straight exact one),
     elongation 0.027 m vs 0.0515 m at n = 8. So the combination is refused before any work, naming the member."""
     s = Scene(dim=2, gravity=(0, -G))
-    with pytest.raises(SceneError, match=r"member 'r': axial='decoupled' needs bending=True"):
+    with pytest.raises(SceneError, match=r"members\['r'\]\.axial: 'decoupled' needs bending = true"):
         s.member("r", [(0, 0), (0, -L5)], 8, ROPE, ROPE_SEC, axial="decoupled", bending=False)
 
 

@@ -117,8 +117,11 @@ def test_analysis_options_and_dynamics_pass_through():
     doc = tomllib.loads((SCENES / "cantilever.toml").read_text())
     doc["analysis"] = {"type": "statics", "tol": 1e-6, "max_iter": 50, "load_steps": 4, "escape_saddle": False}
     assert scene_from_dict(doc)[1] == doc["analysis"]
-    doc["analysis"] = {"type": "dynamics", "dt": 1e-3, "t_end": 2.0, "integrator": {"name": "hht", "alpha": -0.1}}
+    doc["analysis"] = {"type": "dynamics", "dt": 1e-3, "t_end": 2.0, "integrator": "hht", "alpha": -0.1}
     assert scene_from_dict(doc)[1] == doc["analysis"]
+    doc["analysis"]["integrator"] = {"name": "hht"}  # dynamics options are checked when the file is read, too
+    with pytest.raises(SceneError, match=r"^analysis\.integrator: must be a non-empty string"):
+        scene_from_dict(doc)
     doc.pop("analysis")
     assert scene_from_dict(doc)[1] == {"type": "statics"}
 
@@ -154,9 +157,40 @@ BAD = [  # (mutation of t_frame.toml, field path expected at the start of the me
     (_set("members.0.section", 3), "members[0].section", "string"),
     (_set("members.0.name", None), "members[0].name", "missing"),
     (_set("members.1.name", "post"), "members[1].name", "repeats"),
-    (_set("members.1.element", "cable3d"), "members[1]", "does not fit a 2D scene"),
+    (_set("members.1.element", "cable3d"), "members[1].element", "does not fit a 2D scene, got 'cable3d'"),
+    # strings are never numbers, booleans neither: refused in every table (one declared schema)
+    (_set("materials.steel.E", "200e9"), "materials.steel.E", "must be a number, got '200e9'"),
+    (_set("members.0.prestrain", "0.1"), "members[0].prestrain", "must be a number, got '0.1'"),
+    (_set("loads.0.value", ["0", -500.0]), "loads[0].value[0]", "must be a number, got '0'"),
+    (_set("analysis.tol", "1e-6"), "analysis.tol", "must be a number, got '1e-6'"),
+    (_set("analysis.max_iter", True), "analysis.max_iter", "positive integer, got True"),
+    (_set("analysis", {"type": "dynamics", "dt": "1e-3", "t_end": 1.0}), "analysis.dt", "number, got '1e-3'"),
+    (_set("analysis", {"type": "dynamics", "dt": 1e-3, "t_end": "1"}), "analysis.t_end", "number, got '1'"),
+    (_set("analysis", {"type": "dynamics", "dt": 1e-3, "t_end": 1.0, "rho_inf": "0.5"}), "analysis.rho_inf",
+     "number, got '0.5'"),
+    (_set("analysis", {"type": "dynamics", "dt": 1e-3, "t_end": 1.0, "adaptive": 1}), "analysis.adaptive",
+     "true or false, got 1"),
+    (_set("analysis", {"type": "dynamics", "dt": 1e-3, "t_end": 1.0, "output_times": ["0.5"]}),
+     "analysis.output_times[0]", "number, got '0.5'"),
+    (_set("analysis", {"type": "dynamics", "dt": 1e-3, "t_end": 1.0, "rho_inf": 1.5}), "analysis.rho_inf", "[0, 1]"),
+    (_set("analysis", {"type": "dynamics", "dt": 1e-3}), "analysis.t_end", "missing"),
+    (_set("analysis", {"type": "dynamics", "dt": 1e-3, "t_end": 1.0, "newton": {"tol": "1e-8"}}),
+     "analysis.newton.tol", "got '1e-8'"),
+    (_set("analysis", {"type": "dynamics", "dt": 1e-3, "t_end": 1.0, "sensors": [{"kind": "x"}]}),
+     "analysis.sensors[0].kind", "got 'x'"),
+    (_set("analysis", {"type": "dynamics", "dt": 1e-3, "t_end": 1.0, "dtt": 1}), "analysis.dtt", "unknown key"),
+    # a step longer than the whole run is a typo, not a request
+    (_set("analysis", {"type": "dynamics", "dt": 0.5, "t_end": 0.1}), "analysis.dt", "must not exceed t_end - t_start"),
+    # keys that do not apply to the element are refused, not ignored
+    (_set("members.0.y_axis", [0.0, 1.0, 0.0]), "members[0].y_axis", "beam3d members only, not cable2d"),
+    (_set("members.0.beam_method", "elastic_line"), "members[0].beam_method", "beam3d members only"),
+    # what is wrong with the input, not a consequence of it (overflowing lengths, non-finite coordinates)
+    (_set("members.0.points", [[0.0, 0.0], [0.0, 1e300]]), "members[0].points", "within +-1e+12 m"),
+    (_set("members.0.points", [[0.0, 0.0], [0.0, 0.0]]), "members[0].points", "distinct"),
+    (_set("members.0.bending", "true"), "members[0].bending", "true or false, got 'true'"),
+    (_set("loads.1.value", "50"), "loads[1].value", "must be a number, got '50'"),
     (_set("members.0.gauss", 6), "members[0].gauss", "3, 4, 5, 7"),
-    (_set("members.0.torsion", True), "members", "torsion needs element 'beam3d'"),
+    (_set("members.0.torsion", True), "members[0].torsion", "beam3d members only, not cable2d"),
     (_set("materials.steel.E", math.inf), "materials.steel.E", "finite, got inf"),
     (_set("materials.steel.E", -1.0), "materials.steel.E", "positive, got -1.0"),
     (_set("materials.steel.density", "heavy"), "materials.steel.density", "number, got 'heavy'"),
@@ -173,12 +207,12 @@ BAD = [  # (mutation of t_frame.toml, field path expected at the start of the me
     (_set("supports.0.method", "lagrange"), "supports[0].method", "exact | penalty"),
     (_set("supports.0.penalty", -2.0), "supports[0].penalty", "positive"),
     (_set("supports", None), "supports", "free rigid-body motion"),
-    (_set("joints.0.b", ["crossbar", 11]), "joints[0]", "nodes 0..10"),
+    (_set("joints.0.b", ["crossbar", 11]), "joints[0].b", "nodes 0..10, got 11"),
     (_set("joints.0.b", ["crossbar"]), "joints[0].b", "[member, at]"),
     (_set("joints.0.a", ["mast", "end"]), "joints[0].a[0]", "names no member"),
     (_set("joints.0.type", "weld"), "joints[0].type", "hinge | rigid"),
     (_set("loads.0.member", "nope"), "loads[0].member", "names no member"),
-    (_set("loads.0.at", 7.5), "loads[0].at", "[0, 1.0]"),
+    (_set("loads.0.at", 7.5), "loads[0].at", "[0, 1] m, got 7.5"),
     (_set("loads.0.at", -12), "loads[0].at", "nodes 0..10"),
     (_set("loads.0.value", [1, 2, 3]), "loads[0].value", "2 numbers"),
     (_set("loads.0.value", [1, math.inf]), "loads[0].value[1]", "finite"),
@@ -187,7 +221,7 @@ BAD = [  # (mutation of t_frame.toml, field path expected at the start of the me
     (_set("loads.0.type", None), "loads[0].type", "missing"),
     (_set("loads.0.type", "pressure"), "loads[0].type", "force | distributed | moment | tension"),
     (_set("analysis.max_iter", 0), "analysis.max_iter", "positive integer, got 0"),
-    (_set("analysis.tol", -1e-3), "analysis.tol", "positive"),
+    (_set("analysis.tol", -1e-3), "analysis.tol", "(0, 1), got -0.001"),
     (_set("analysis.tolerance", 1e-3), "analysis.tolerance", "unknown key"),
     (_set("analysis.type", "modal"), "analysis.type", "statics | dynamics"),
     (_set("analysis", {"type": "dynamics", "dt": math.nan}), "analysis.dt", "finite"),

@@ -5,8 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import Axis, Study
-from .references import clamped_rod
-from .statics_studies import _timed_static, _tip_error, static_record
+from .statics_studies import _rod_reference, _timed_static, _tip_error, static_record
 
 BL, BB, BE, BLOAD = 1.0, 0.02, 210e9, 1.0  # square 20 mm steel bar, 1 m; PL^2/EI = 1
 BIZ = BB**4 / 12
@@ -24,18 +23,11 @@ def beam_scene(method: str, n: int, poisson: float):
 
 
 def beam_reference(variant: str) -> dict:
-    """The rod with the biot strain at tol 1e-10: with the green strain solve_bvp exceeds its node limit at that
-    tolerance on this load (scipy 1.17); the two strain measures' limits differ by O((P/EA)^2) ~ 1e-9, far below the
-    errors studied, and the bound compares with the green rod at tol 1e-8."""
-    EA, F = BE * BB * BB, (0.0, -BLOAD * BE * BIZ / BL**2)
-    fine = clamped_rod(BL, EA, BE * BIZ, tip_force=F, strain="biot", tol=1e-10)
-    others = [] if variant == "quick" else [clamped_rod(BL, EA, BE * BIZ, tip_force=F, strain="green", tol=1e-8)]
-    scale = float(np.hypot(fine.tip[0] - BL, fine.tip[1]))
-    bound = max([float(np.linalg.norm(o.tip - fine.tip)) / scale for o in others] + [1e-10])
-    return {"how": fine.how + ("" if variant == "quick" else "; error bound from the green rod at tol 1e-8")
-            + " (Euler-Bernoulli rod: no shear, no section deformation)",
-            "L": BL, "tip_x": float(fine.tip[0]), "tip_y": float(fine.tip[1]), "potential": fine.potential,
-            "error_bound": bound, "success": True}
+    """The rod reference (shooting, cross-checked by solve_bvp and the biot rod: references.rod_reference)."""
+    ref = _rod_reference(BL, BE * BB * BB, BE * BIZ, tip_force=(0.0, -BLOAD * BE * BIZ / BL**2),
+                         quick=variant == "quick")
+    ref["how"] += " (Euler-Bernoulli rod: no shear, no section deformation)"
+    return ref
 
 
 def beam_run(setting: dict, variant: str) -> dict:

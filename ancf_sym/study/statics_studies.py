@@ -9,7 +9,7 @@ import numpy as np
 from ..registry import GAUSS_ORDERS
 from ..scene import AXIAL
 from .base import Axis, Study
-from .references import clamped_rod
+from .references import rod_reference
 
 STRAINS = AXIAL  # the axial strain measures a member can use
 
@@ -37,16 +37,7 @@ def _tip_error(rec: dict, ref: dict) -> float:
 
 
 def _rod_reference(L, EA, EI, w=(0.0, 0.0), tip_force=(0.0, 0.0), quick=False) -> dict:
-    """Reference at tol 1e-10 (green); its error bound from tol 1e-8 and from the biot rod (the limits of the
-    three strain measures differ by O(strain^2))."""
-    fine = clamped_rod(L, EA, EI, w, tip_force, "green", tol=1e-10)
-    scale = float(np.hypot(fine.tip[0] - L, fine.tip[1]))
-    others = [] if quick else [clamped_rod(L, EA, EI, w, tip_force, "green", tol=1e-8),
-                               clamped_rod(L, EA, EI, w, tip_force, "biot", tol=1e-10)]
-    bound = max([float(np.linalg.norm(o.tip - fine.tip)) / scale for o in others] + [1e-10])
-    return {"how": fine.how + ("" if quick else "; error bound from tol 1e-8 and from the biot rod"),
-            "L": L, "tip_x": float(fine.tip[0]), "tip_y": float(fine.tip[1]), "potential": fine.potential,
-            "error_bound": bound, "success": True}
+    return rod_reference(L, EA, EI, w, tip_force, quick)
 
 
 # -- paper 000 cantilever ------------------------------------------------------------------------------------------
