@@ -323,7 +323,7 @@ class StepSystem:
                                      mk.term.label))
         self.f_lin_full = f_lin
         self.f_lin = part.E.T @ f_lin
-        self.length_scale = max(float(mm.member.length) for mm in asm.mesh.members.values())
+        self.length_scale = asm.mesh.length_scale
         self.span = float(np.max(np.abs(asm.x0))) + 1.0
         # the kernel calls: a cable's axial and bending terms fused into one elastic_<strain> kernel where both
         # are on (same elements, Gauss order and Rayleigh weight): one B^T f_uu B per point instead of two

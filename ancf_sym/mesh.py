@@ -5,10 +5,11 @@ duplicated and tied by internal rigid joints. Node coordinates: cables [r, r_x],
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from .bodies import BODY_SIZE, offsets
 from .elements.quadrature import gauss01
 from .interpolation import weights
 from .registry import ELEMENTS
@@ -171,13 +172,24 @@ class Mesh:
     scene: Scene
     members: dict[str, MemberMesh]
     n: int  # number of global coordinates
+    bodies: dict = field(default_factory=dict)  # body name -> offset of its (x, y, c, s) (after the members')
 
     @property
     def x0(self) -> np.ndarray:
         x = np.zeros(self.n)
         for mm in self.members.values():
             x[mm.offset:mm.offset + mm.x0.size] = mm.x0.ravel()
+        for name, o in self.bodies.items():
+            x[o:o + BODY_SIZE] = self.scene.bodies[name].q0
         return x
+
+    @property
+    def length_scale(self) -> float:
+        """The longest member's length [m]; in a scene of rigid bodies alone, their joints' reach (at least 1 m)."""
+        if self.members:
+            return max(float(mm.member.length) for mm in self.members.values())
+        reach = [float(np.linalg.norm(j.point - self.scene.bodies[j.body].position)) for j in self.scene.body_joints]
+        return max(reach + [1.0])
 
 
 def build_mesh(scene: Scene) -> Mesh:
@@ -186,4 +198,5 @@ def build_mesh(scene: Scene) -> Mesh:
         mm = mesh_member(m, offset)
         members[name] = mm
         offset += mm.x0.size
-    return Mesh(scene, members, offset)
+    body_offsets = offsets(scene, offset)  # empty without bodies: a scene without bodies keeps its unknowns
+    return Mesh(scene, members, offset + BODY_SIZE * len(body_offsets), body_offsets)
