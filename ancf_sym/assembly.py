@@ -11,7 +11,7 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from . import kernels
+from . import bodies, kernels
 from .constraints import Constraints, build_constraints
 from .loads import load_vector
 from .mesh import Mesh, build_mesh
@@ -26,6 +26,9 @@ LOAD_LABELS = ("gravity", "loads")  # energy buckets scaled by a load factor in 
 LINEAR_EFFECTS = ("gravity",)  # potential linear in q: zero Hessian, never scattered
 
 
+_MAPPED: dict = {}  # (element, effect, Gauss order, elements) -> the kernel mapped over them (built once)
+
+
 class MappedKernel:
     """A compiled kernel mapped over a term's elements, called through CasADi's buffer interface."""
 
@@ -34,7 +37,10 @@ class MappedKernel:
         self.kernel = kernels.load(term.element, term.effect, term.gauss)
         self.N, self.nd = term.idx.shape
         self.linear = term.effect in LINEAR_EFFECTS
-        self.f = self.kernel.map(self.N)
+        key = (term.element, term.effect, term.gauss, self.N)
+        if key not in _MAPPED:
+            _MAPPED[key] = self.kernel.map(self.N)
+        self.f = _MAPPED[key]
         self.P = np.ascontiguousarray(term.P)
         self.X = np.zeros((self.N, self.nd))
         self.E = np.zeros(self.N)
@@ -165,6 +171,7 @@ class Assembly:
         self.mapped = [MappedKernel(t) for t in self.terms]
         self.curved = [mk for mk in self.mapped if not mk.linear]  # terms whose Hessian is assembled
         self.Q = load_vector(self.mesh)  # dead point loads: potential -Q.x
+        bodies.add_loads(scene, self.mesh.bodies, self.Q)  # rigid bodies' gravity and forces: linear potentials
         self.constraints: Constraints = build_constraints(self.mesh)
         pen = np.flatnonzero(self.constraints.k > 0)
         self.penalty = self.constraints.subset(pen) if len(pen) else None
@@ -315,20 +322,22 @@ class Assembly:
     def mass_matrix(self) -> sp.csc_matrix:
         """Constant global mass matrix (sparse)."""
         rows, cols, vals = [], [], []
-        known: dict = {}  # element mass matrices by (element, parameters): equal elements computed once
         for mm in self.mesh.members.values():
             m = mm.member
             idx = mm.elem_dofs()
-            for e in range(len(idx)):
-                L = mm.elem_length[e]
-                p = [L, m.material.density * m.section.area] if m.element != "beam3d" else \
-                    [L, m.section.b, m.section.h, m.material.density]
-                key = (m.element, *map(float, p))
-                if key not in known:
-                    known[key] = kernels.mass_matrix(m.element, p)
-                Me = known[key]
-                rows.append(np.repeat(idx[e], len(idx[e])))
-                cols.append(np.tile(idx[e], len(idx[e])))
-                vals.append(Me.ravel())
+            L = np.asarray(mm.elem_length, dtype=float)
+            P = np.stack([L, np.full_like(L, m.material.density * m.section.area)], axis=1) if m.element != "beam3d" \
+                else np.stack([L] + [np.full_like(L, v) for v in (m.section.b, m.section.h, m.material.density)], 1)
+            # equal elements (the same parameters) computed once; entry (i, j) of element e at (idx[e,i], idx[e,j])
+            uniq, inv = np.unique(P, axis=0, return_inverse=True)
+            Me = np.stack([kernels.mass_matrix(m.element, list(map(float, p))) for p in uniq])[np.ravel(inv)]
+            nd = idx.shape[1]
+            rows.append(np.repeat(idx, nd, axis=1).ravel())
+            cols.append(np.tile(idx, (1, nd)).ravel())
+            vals.append(Me.reshape(len(idx), -1).ravel())
+        bi, bv = bodies.mass_entries(self.scene, self.mesh.bodies)  # diag(m, m, J, J) per rigid body
+        rows.append(bi)
+        cols.append(bi)
+        vals.append(bv)
         return sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                              shape=(self.n, self.n)).tocsc()

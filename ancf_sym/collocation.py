@@ -108,6 +108,11 @@ def stage_function(system: StepSystem, tab: Tableau, linsol: str = "qr") -> dict
     _, C = S.damping_mx(qn, kel)
     rows, blocks_diag, dfv = [], [], []
     phis = []
+    if mc:  # constraint, Jacobian and multiplier Hessian as a function of pure symbols (AD needs them)
+        qs, ls = ca.MX.sym("q", nf), ca.MX.sym("l", mc)
+        ph = S.constraint_mx(qs)
+        Hq = ca.hessian(ca.dot(ls, ph), qs)[0] if len(S.cons.qrow) else ca.MX(nf, nf)
+        cons_f = ca.Function("constraint_stage", [qs, ls], [ph, ca.jacobian(ph, qs), Hq])
     for i in range(s):
         g, K = S.forces_f(Q[:, i])[:2]
         Ri = ca.mtimes(MdQ, ca.DM(W2[i])) / h**2 - w1[i] / h * Mv + g - F[:, i]
@@ -120,11 +125,10 @@ def stage_function(system: StepSystem, tab: Tableau, linsol: str = "qr") -> dict
             Si = Si + dfx
             dfv.append(dfv_i)
         if mc:
-            phi = S.constraint_mx(Q[:, i])
-            Jx = ca.jacobian(phi, Q[:, i])
+            phi, Jx, Hl = cons_f(Q[:, i], lam[:, i])
             Ri += kc * ca.mtimes(Jx.T, lam[:, i])
             if len(S.cons.qrow):
-                Si = Si + ca.hessian(ca.dot(kc * lam[:, i], phi), Q[:, i])[0]
+                Si = Si + kc * Hl
             rows.append(ca.vertcat(Ri, kc * phi))
             phis.append(phi)
             blocks_diag.append((Si, Jx))

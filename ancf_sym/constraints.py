@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
+from . import bodies
 from .mesh import Mesh, MemberMesh
 
 
@@ -178,6 +179,7 @@ def build_constraints(mesh: Mesh) -> Constraints:
             start = len(rows.d)
             joint_rows(rows, dim, mm, a, mm, b, "rigid", f"vertex {name}#{a}")
             close(start, "exact", None, mm)
+    bodies.constraint_rows(rows, mesh)
     m = len(rows.d)
     lin = np.array(rows.lin, dtype=float).reshape(-1, 3)
     A = sp.coo_matrix((lin[:, 2], (lin[:, 0].astype(int), lin[:, 1].astype(int))), shape=(m, mesh.n)).tocsr()

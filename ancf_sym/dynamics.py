@@ -28,7 +28,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 import scipy.sparse as sp
 
-from . import contact
+from . import bodies, contact
 from .assembly import Assembly
 from .interpolation import Probe, weights
 from .integrators import (LINEAR_EFFECTS, AlphaIntegrator, Counters, NewtonOptions, RayleighData, Scheme,
@@ -42,7 +42,7 @@ INTEGRATORS = {"newmark": "newmark", "hht": "hht", "hht_alpha": "hht", "generali
                "generalized-alpha": "generalized_alpha", "genalpha": "generalized_alpha",
                "gen_alpha": "generalized_alpha", "radau": "radau", "radau_iia": "radau", "radauiia": "radau",
                "gauss": "gauss", "gauss_legendre": "gauss", "gauss-legendre": "gauss"}
-SENSOR_KINDS = ("position", "displacement", "velocity", "strain", "curvature", "coordinates")
+SENSOR_KINDS = ("position", "displacement", "velocity", "strain", "curvature", "coordinates", "body")
 
 
 def _pos(name: str, value: Any, allow_zero: bool = False) -> float:
@@ -60,7 +60,8 @@ class Sensor:
 
     kind: "position" | "displacement" (from the reference) | "velocity" of a centreline point;
     "strain" (|r_x| - 1) | "curvature" (|r_x x r_xx| / |r_x|^3) at a point; "coordinates" (all nodal
-    coordinates of a node). member and at ("start", "end", node index or material coordinate s [m]) name the
+    coordinates of a node); "body": a rigid body's (x, y, angle, angular velocity), `member` naming the body.
+    member and at ("start", "end", node index or material coordinate s [m]) name the
     point. Energies and the constraint violation are always recorded.
     """
     name: str
@@ -89,6 +90,13 @@ class Sensor:
 class _SensorEval:
     def __init__(self, sensor: Sensor, asm: Assembly, index: int):
         scene = asm.scene
+        self.sensor = sensor
+        if sensor.kind == "body":
+            if sensor.member not in asm.mesh.bodies:
+                raise SceneError(f"sensors[{index}].member={sensor.member!r} names no body; bodies: "
+                                 f"{sorted(asm.mesh.bodies)}")
+            self.offset = asm.mesh.bodies[sensor.member]
+            return
         if sensor.member not in asm.mesh.members:
             raise SceneError(f"sensors[{index}].member={sensor.member!r} names no member; members: "
                              f"{sorted(asm.mesh.members)}")
@@ -107,7 +115,11 @@ class _SensorEval:
             self.r0 = self.probe.r(asm.x0)
 
     def __call__(self, x: np.ndarray, v: np.ndarray) -> np.ndarray:
-        k, p = self.sensor.kind, self.probe
+        k = self.sensor.kind
+        if k == "body":  # angular velocity c s_dot - s c_dot of the unit vector (c, s)
+            o = self.offset
+            return np.array([*bodies.state(x, o), x[o + 2] * v[o + 3] - x[o + 3] * v[o + 2]])
+        p = self.probe
         if k == "coordinates":
             return x[self.dofs].copy()
         if k == "position":
@@ -728,8 +740,8 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
     opts = options
     asm = scene if isinstance(scene, Assembly) else Assembly(scene)
     scene = asm.scene
-    if not scene.members:
-        raise SceneError("scene has no members")
+    if not scene.members and not scene.bodies:
+        raise SceneError("scene has no members or bodies")
     contact.check_dynamics(asm)
     sensors = [_SensorEval(s, asm, i) for i, s in enumerate(opts.sensors)]
     if system is None:

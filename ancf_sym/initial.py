@@ -5,7 +5,8 @@ For the nodal coordinates [r, r_x (, r_y, r_z)] of a node at material coordinate
 - uniform v:                 r' = v,                        r_x' = r_y' = r_z' = 0
 - rotation omega about c:    r' = omega x (r - c),          r_x' = omega x r_x (likewise r_y, r_z): no strain rate
 - field v(s) with dv/ds:     r' = v(s),                     r_x' = dv/ds(s) (cables; the derivative is the user's)
-In 2D omega is the scalar rate about z. Members not named keep zero velocity; later entries overwrite earlier ones.
+In 2D omega is the scalar rate about z. Rigid bodies (planar: centre r, unit vector u = (cos, sin)) take uniform
+(r' = v, u' = 0) and rotation (r' = omega x (r - c), u' = omega x u) under their names. Members not named keep zero velocity; later entries overwrite earlier ones.
 A start from a static result is DynamicOptions(q0=static_result.x) (with these velocities or at rest).
 """
 from __future__ import annotations
@@ -25,6 +26,8 @@ def _cross(omega, r: np.ndarray) -> np.ndarray:
 
 
 def _member(asm, name: str):
+    if name in asm.mesh.bodies:
+        return None
     if name not in asm.mesh.members:
         raise SceneError(f"initial velocity: member {name!r} does not exist; members: {sorted(asm.mesh.members)}")
     return asm.mesh.members[name]
@@ -48,6 +51,10 @@ def velocities(asm, x: np.ndarray | None = None, uniform: dict | None = None, ro
     v = np.zeros(asm.n)
     for name, vel in (uniform or {}).items():
         mm = _member(asm, name)
+        if mm is None:  # a rigid body: its centre moves, its unit vector does not turn
+            o = asm.mesh.bodies[name]
+            v[o:o + 4] = [*_vector(f"uniform[{name!r}]", vel, d), 0.0, 0.0]
+            continue
         V = np.zeros((mm.n_nodes, mm.node_size))
         V[:, :d] = _vector(f"uniform[{name!r}]", vel, d)
         v[mm.offset:mm.offset + V.size] = V.ravel()
@@ -58,6 +65,11 @@ def velocities(asm, x: np.ndarray | None = None, uniform: dict | None = None, ro
         omega = _vector(f"rotation[{name!r}] omega", spec[0], 1 if d == 2 else 3)
         omega = omega[0] if d == 2 else omega
         c = _vector(f"rotation[{name!r}] centre", spec[1], d)
+        if mm is None:  # a rigid body turning about c
+            o = asm.mesh.bodies[name]
+            v[o:o + 2] = _cross(omega, x[o:o + 2] - c)
+            v[o + 2:o + 4] = _cross(omega, x[o + 2:o + 4])
+            continue
         X = asm.member_coordinates(x, name)
         V = np.zeros_like(X)
         V[:, :d] = _cross(omega, X[:, :d] - c)
@@ -66,6 +78,8 @@ def velocities(asm, x: np.ndarray | None = None, uniform: dict | None = None, ro
         v[mm.offset:mm.offset + V.size] = V.ravel()
     for name, spec in (field or {}).items():
         mm = _member(asm, name)
+        if mm is None:
+            raise SceneError(f"initial velocity: field[{name!r}]: {name!r} is a rigid body (use uniform or rotation)")
         if mm.member.element == "beam3d":
             raise SceneError(f"initial velocity: field[{name!r}]: velocity fields are for cables (beam3d: use "
                              "uniform or rotation)")

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import weakref
 from dataclasses import dataclass
 
 import casadi as ca
@@ -322,7 +323,7 @@ class StepSystem:
                                      mk.term.label))
         self.f_lin_full = f_lin
         self.f_lin = part.E.T @ f_lin
-        self.length_scale = max(float(mm.member.length) for mm in asm.mesh.members.values())
+        self.length_scale = asm.mesh.length_scale
         self.span = float(np.max(np.abs(asm.x0))) + 1.0
         # the kernel calls: a cable's axial and bending terms fused into one elastic_<strain> kernel where both
         # are on (same elements, Gauss order and Rayleigh weight): one B^T f_uu B per point instead of two
@@ -1093,12 +1094,25 @@ class StepOutcome:
     fast: bool = False  # converged within the fused two-iteration call
 
 
+def _pooled_buffer(graphs: dict, key, f: ca.Function, owner) -> tuple:
+    """f.buffer() from the structure's pool (a buffer of a large graph takes ~10 ms to allocate at 1000 elements:
+    a second run of the structure reuses the buffer of a finished run); it returns to the pool when `owner` is
+    collected. The caller binds every argument and result anew."""
+    pool = graphs.setdefault("buffers", {}).setdefault(key, [])
+    be = pool.pop() if pool else f.buffer()
+    weakref.finalize(owner, pool.append, be)
+    return be
+
+
+UNROLL_STATE = 2000  # step states of this size or more: chunks unrolled, guarded from the start
+
+
 def _map_steps(step: ca.Function, n: int, n_accum: int) -> ca.Function:
     """n steps in one function, like step.mapaccum(n, n_accum): the first n_accum inputs carried from step to
     step, the others given per step as columns; the outputs of every step as columns. Large states: the n calls
     unrolled in one MX graph (mapaccum's nested construction took 3-5x longer to build at 1000 elements, with
     the same evaluation time)."""
-    if step.nnz_in(0) < 2000:
+    if step.nnz_in(0) < UNROLL_STATE:
         return step.mapaccum(f"alpha_steps_{n}", n, n_accum)
     ins = [ca.MX.sym(step.name_in(i), step.size1_in(i), 1 if i < n_accum else n) for i in range(step.n_in())]
     acc, outs = ins[:n_accum], [[] for _ in range(step.n_out())]
@@ -1178,13 +1192,18 @@ class AlphaIntegrator:
         self._new_fac = [f.copy() for f in self.fac]
         self.kdamp = StiffnessDamping(system, counters)
         # the compiled step and chunk functions, shared by the integrators of one structure and settings
-        key = (system.graph_key, scheme, tuple(sorted(vars(newton_opts).items())), self.modified_graph)
+        key = (system.graph_key, scheme, tuple(sorted(vars(newton_opts).items())), self.modified_graph,
+               self.extra_iterations)
         self._graphs = self._GRAPHS.setdefault(key, {"chunks": {}})
         if "step" not in self._graphs:
-            self._graphs["step"] = self._build_modified() if self.modified_graph else self._build_full()
+            # full Newton: the further iterations (3-6) in the step graph on large states; small states build them
+            # only for guarded chunks (after a hard transient showed up): ~2.5 ms of set-up for a rare need
+            self._graphs["step"] = self._build_modified() if self.modified_graph else \
+                self._build_full(self.extra_iterations if self.state_size >= UNROLL_STATE else 0)
         self.step_f = self._graphs["step"]
         self._setup_step_buffers()
         self._chunks: dict = {}  # this integrator's buffers of the chunk functions
+        self._guard_on = False
 
     _GRAPHS: dict = {}  # (structure key, scheme, Newton options, in-graph factor) -> step and chunk functions
 
@@ -1308,8 +1327,9 @@ class AlphaIntegrator:
         return ca.Function("after_later", [V, N, A, T], [ca.vertcat(ca.logic_or(ok, ca.logic_and(ran, conv)),
                                                                     iters + ran, ca.if_else(ran, d, d_prev))])
 
-    def _build_full(self) -> ca.Function:
-        """Full Newton: one iteration, then (in-graph switch) either acceptance or a second iteration."""
+    def _build_full(self, extra_iterations: int) -> ca.Function:
+        """Full Newton: one iteration, then (in-graph switch) either acceptance or a second iteration, and up to
+        extra_iterations more while not converged."""
         S = self.S
         nf, mc = S.nf, S.mc
         st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel, par = self._step_inputs()
@@ -1333,24 +1353,42 @@ class AlphaIntegrator:
         f_iter = ca.Function("second", [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb, parb],
                              [xb + dzb[:nf], (lb + dzb[nf:]) if mc else lb, nb])
         switch = ca.Function.conditional("second_iteration", [f_keep], f_iter)
-        x2, l2, n1 = switch(a1[0], x1, l1, p, cm, cc, kc, vc, *extra, y, par)
-        ctl_new, info = final(ctl, n0, a1, n1, lte, tols)
-        # further iterations while not converged (hard transients: the step stays in the graph, and a chunk goes
-        # on); one switch per step, so that a step converged after two iterations pays one call for them
-        lv = ca.vertcat(info[0], info[1], ca.fmax(n1[2], n1[3]))
-        n_more = max(0, min(self.extra_iterations, self.opts.max_iter - 2))
+        # further iterations while not converged after the second (hard transients: the step stays in the graph,
+        # and a chunk goes on): a switch inside the second iteration's branch, so that the steps accepted after one
+        # iteration (most of them) pay nothing for it; m = (ran, ok, iterations) of the further iterations
+        n_more = max(0, min(extra_iterations, self.opts.max_iter - 2))
         if n_more:
             later = self._later_control_function()
-            lvb, a1b, tb = ca.MX.sym("lv", 3), ca.MX.sym("a1", 4), ca.MX.sym("tols", 2)
-            ins = [xb, lb, lvb, a1b, tb, pb, cb, ccb, kb, vb] + eb + [yb, parb]
-            xk, lk, lk_v = xb, lb, lvb
-            for _ in range(n_more):
-                xk, lk, nk = switch(lk_v[0] == 0, xk, lk, pb, cb, ccb, kb, vb, *eb, yb, parb)
-                lk_v = later(lk_v, nk, a1b, tb)
-            more = ca.Function.conditional("further_iterations", [ca.Function("done", ins, [xb, lb, lvb])],
-                                           ca.Function("more", ins, [xk, lk, lk_v]))
-            x2, l2, lv = more(lv[0] == 0, x2, l2, lv, a1, tols, p, cm, cc, kc, vc, *extra, y, par)
-        info = ca.vertcat(lv[0], lv[1], lv[1], info[3:])
+            cb_, n0b, a1b, lteb, tb = ca.MX.sym("ctl", 2), ca.MX.sym("n0", 5), ca.MX.sym("a1", 4), ca.MX.sym("lte"), \
+                ca.MX.sym("tols", 2)
+            lvb = ca.MX.sym("lv", 3)
+            iter_ins = [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb, parb]
+            # one further iteration on z = (x, lam, (ok, iterations, last |dz|)), folded n_more times (one graph
+            # to build, not n_more)
+            xk, lk, nk = switch(lvb[0] == 0, xb, lb, pb, cb, ccb, kb, vb, *eb, yb, parb)
+            zb = ca.vertcat(xb, lb, lvb)
+            others = [a1b, tb, pb, cb, ccb, kb, vb] + eb + [yb, parb]
+            one = ca.Function("further_iteration", [zb] + others, [ca.vertcat(xk, lk, later(lvb, nk, a1b, tb))])
+            zin = ca.MX.sym("z", zb.numel())
+            folded = one.fold(n_more)(zin, *[ca.repmat(o, 1, n_more) for o in others])
+            more = ca.Function.conditional("further_iterations", [ca.Function("done", [zin] + others, [zin])],
+                                           ca.Function("more", [zin] + others, [folded]))
+            x2b, l2b, n1b = f_iter(*iter_ins)
+            info2 = final(cb_, n0b, a1b, n1b, lteb, tb)[1]
+            lv2 = ca.vertcat(info2[0], info2[1], ca.fmax(n1b[2], n1b[3]))
+            z3 = more(lv2[0] == 0, ca.vertcat(x2b, l2b, lv2), *others)
+            x3, l3, lv3 = z3[:nf], z3[nf:nf + mc], z3[nf + mc:]
+            br_ins = iter_ins + [cb_, n0b, a1b, lteb, tb]
+            f_keep = ca.Function("keep", br_ins, [xb, lb, ca.DM.zeros(5), ca.DM.zeros(3)])
+            f_iter = ca.Function("second", br_ins, [x3, l3, n1b, ca.vertcat(lv2[0] == 0, lv3[0], lv3[1])])
+            x2, l2, n1, m = ca.Function.conditional("second_iteration_on", [f_keep], f_iter)(
+                a1[0], x1, l1, p, cm, cc, kc, vc, *extra, y, par, ctl, n0, a1, lte, tols)
+        else:
+            x2, l2, n1 = switch(a1[0], x1, l1, p, cm, cc, kc, vc, *extra, y, par)
+            m = ca.DM.zeros(3)
+        ctl_new, info = final(ctl, n0, a1, n1, lte, tols)
+        ok, iters = ca.if_else(m[0], m[1], info[0]), ca.if_else(m[0], m[2], info[1])
+        info = ca.vertcat(ok, iters, iters, info[3:])
         new_state = ca.vertcat(c["block"](x2), l2 * kc, ctl_new)
         return self._make_step_f([st], [h, hp, pload, tols] + extra + [par], [new_state], info)
 
@@ -1492,7 +1530,7 @@ class AlphaIntegrator:
         args = [self._s_in] + self.fac + [self._h, self._hp, self._pload, self._tols] + \
             ([S.kel] if S.kel is not None else []) + [S.par]
         outs = [self._s_out] + self._f_out + [self._info]
-        buf, ev = self.step_f.buffer()
+        buf, ev = _pooled_buffer(self._graphs, "step", self.step_f, self)
         for i, arr in enumerate(args):
             buf.set_arg(i, memoryview(arr))
         for i, arr in enumerate(outs):
@@ -1630,6 +1668,9 @@ class AlphaIntegrator:
         non-finite state) sets the flag, and every later step of the chunk is a no-op that passes the state on
         (a switch that evaluates only the branch taken), so a chunk costs the steps it accepts plus one."""
         f = self.step_f
+        if not self.modified_graph and self.state_size < UNROLL_STATE:  # (the step with iterations 3-6)
+            f = self._graphs.setdefault("step_more", None) or self._build_full(self.extra_iterations)
+            self._graphs["step_more"] = f
         ins = [ca.MX.sym(f.name_in(i), f.sparsity_in(i)) for i in range(f.n_in())]
         st = ca.MX.sym("state", self.state_size + 1)
         outs = f(st[:self.state_size], *ins[1:])
@@ -1637,27 +1678,35 @@ class AlphaIntegrator:
         finite = ca.fabs(ca.sum1(ca.vertcat(new, *outs[1:-1]))) < np.inf  # (false for NaN and inf)
         failed = ca.logic_not(ca.logic_and(info[0] == 1, finite))
         info = ca.vertcat(ca.logic_not(failed), info[1:])  # ok = converged and finite
+        names = (["state"] + [f.name_in(i) for i in range(1, f.n_in())],
+                 ["next_state"] + [f.name_out(i) for i in range(1, f.n_out())])
         run = ca.Function("step", [st] + ins[1:], [ca.vertcat(new, failed)] + list(outs[1:-1]) + [info])
         keep = ca.Function("skip", [st] + ins[1:], [st] + ins[1:self.n_accum] + [ca.DM.zeros(self.info_size)])
         g = ca.Function.conditional("guarded_step", [run], keep)  # flag 0: the step; 1: no-op
-        return ca.Function("alpha_step_guarded", [st] + ins[1:], g(st[-1], st, *ins[1:]),
-                           ["state"] + [f.name_in(i) for i in range(1, f.n_in())],
-                           ["next_state"] + [f.name_out(i) for i in range(1, f.n_out())])
+        return ca.Function("alpha_step_guarded", [st] + ins[1:], g(st[-1], st, *ins[1:]), *names)
 
-    def chunk_function(self, n: int):
-        if n not in self._chunks:
+    @property
+    def guard(self) -> bool:
+        """Chunks with the no-op guard after a failed step: on large states (the guard's switch costs nothing
+        against a step there), and on any state after a chunk has failed early (a hard transient: the steps after
+        a failure would be thrown away). Small states start without: the switch costs ~5 % of a 130-unknown step."""
+        return self._guard_on or self.state_size >= UNROLL_STATE
+
+    def chunk_function(self, n: int, guard: bool | None = None):
+        guard = self.guard if guard is None else guard
+        if (n, guard) not in self._chunks:
             g = self._graphs
-            if "guarded" not in g:
+            if guard and "guarded" not in g:
                 g["guarded"] = self.guarded_step()
-            if n not in g["chunks"]:
-                g["chunks"][n] = _map_steps(g["guarded"], n, self.n_accum)
-            f = g["chunks"][n]
-            buf, ev = f.buffer()
+            if (n, guard) not in g["chunks"]:  # (without the guard: the step itself over the steps)
+                g["chunks"][n, guard] = _map_steps(g["guarded"] if guard else self.step_f, n, self.n_accum)
+            f = g["chunks"][n, guard]
+            buf, ev = _pooled_buffer(g, (n, guard), f, self)
             nf = self.S.nf
-            ns = self.state_size + 1
+            ns = self.state_size + guard
             bufs = dict(s=np.zeros(ns), h=np.zeros(n), hp=np.zeros(n), pload=np.zeros(nf * n),
                         tols=np.zeros(2 * n), out=np.zeros(ns * n), info=np.zeros(self.info_size * n),
-                        fac_out=[np.zeros(k * n) for k in self.fac_sizes])
+                        fac_out=[np.zeros(k * n) for k in self.fac_sizes], guard=guard)
             S = self.S
             args = [bufs["s"]] + self.fac + [bufs["h"], bufs["hp"], bufs["pload"], bufs["tols"]] + \
                 ([np.tile(S.kel, n)] if S.kel is not None else []) + [np.tile(S.par, n)]
@@ -1667,8 +1716,8 @@ class AlphaIntegrator:
                 buf.set_arg(i, memoryview(arr))
             for i, arr in enumerate(outs):
                 buf.set_res(i, memoryview(arr))
-            self._chunks[n] = (buf, ev, bufs)
-        return self._chunks[n]
+            self._chunks[n, guard] = (buf, ev, bufs)
+        return self._chunks[n, guard]
 
     def run_chunk(self, h: float, ploads: np.ndarray) -> tuple[np.ndarray, int]:
         """Up to n = ploads.shape[1] steps of size h in one call (no time-dependent C). Returns the states after
@@ -1676,8 +1725,12 @@ class AlphaIntegrator:
         converge (that step is then left to `attempt`). The integrator's state is advanced to the last of them."""
         n = ploads.shape[1]
         buf, ev, b = self.chunk_function(n)
-        b["s"][:-1] = self.pack()
-        b["s"][-1] = 0.0  # not failed
+        ns = self.state_size
+        if b["guard"]:
+            b["s"][:-1] = self.pack()
+            b["s"][-1] = 0.0  # not failed
+        else:
+            b["s"][:] = self.pack()
         b["h"][:] = h  # (mapaccum maps every input but the state over the steps)
         b["hp"][:] = h
         b["hp"][0] = self.h_prev if self.h_prev else 0.0
@@ -1687,10 +1740,15 @@ class AlphaIntegrator:
         b["tols"][0::2], b["tols"][1::2] = self.tol_q, self.tol_x
         ev()
         info = b["info"].reshape(n, self.info_size)
-        states = b["out"].reshape(n, self.state_size + 1)[:, :-1]
-        good = info[:, 0] == 1  # (the guard stops the chunk at the first unconverged or non-finite step)
+        states = b["out"].reshape(n, ns + b["guard"])[:, :ns]
+        good = info[:, 0] == 1  # (guarded: the failed flag, set at the first unconverged or non-finite step)
+        if not b["guard"]:
+            good &= np.isfinite(states).all(axis=1)
         n_ok = n if good.all() else int(np.argmin(good))
-        self._count(info[:min(n_ok + 1, n)].sum(axis=0))  # the failing step's work was spent too
+        # the failing step's work was spent too (and without the guard, the later steps' work)
+        self._count(np.nan_to_num(info[:min(n_ok + 1, n) if b["guard"] else n], posinf=0, neginf=0).sum(axis=0))
+        if n_ok < n - 1:
+            self._guard_on = True  # a hard transient: the next chunks stop at their failing step
         if n_ok:
             self.a_prev[:] = states[n_ok - 2, 2 * self.S.nf:3 * self.S.nf] if n_ok > 1 else self.a
             u = self.unpack(states[n_ok - 1])

@@ -5,10 +5,11 @@ duplicated and tied by internal rigid joints. Node coordinates: cables [r, r_x],
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from .bodies import BODY_SIZE, offsets
 from .elements.quadrature import gauss01
 from .interpolation import weights
 from .registry import ELEMENTS
@@ -120,28 +121,25 @@ def mesh_member(m: Member, offset: int) -> MemberMesh:
     ns = node_size(m.element)
     stretch = 1.0 + m.prestrain  # geometric / reference length
     rows, elem_nodes, elem_len, public, pairs, s_nodes = [], [], [], [], [], []
-    s0 = 0.0
-    for k in range(nseg):
+    s0, first = 0.0, 0
+    for k in range(nseg):  # (whole segments at once: equal elements along a straight segment)
         t = (pts[k + 1] - pts[k]) / seg_len[k]
-        first = len(rows)
         if k > 0:
             pairs.append((first - 1, first))
-        for j in range(share[k] + 1):
-            r = pts[k] + t * seg_len[k] * j / share[k]
-            if m.element == "beam3d":
-                y, z = _frame(t, m.y_axis)
-                rows.append(np.concatenate([r, stretch * t, y, z]))
-            else:
-                rows.append(np.concatenate([r, stretch * t]))
-            s_nodes.append(s0 + seg_len[k] * j / share[k] / stretch)
-            if k == 0 or j > 0:
-                public.append(first + j)
-        for j in range(share[k]):
-            elem_nodes.append((first + j, first + j + 1))
-            elem_len.append(seg_len[k] / share[k] / stretch)
+        j = np.arange(share[k] + 1)
+        r = pts[k] + (t * seg_len[k])[None, :] * j[:, None] / share[k]
+        frame = [stretch * t] + (list(_frame(t, m.y_axis)) if m.element == "beam3d" else [])
+        rows.append(np.hstack([r] + [np.broadcast_to(f, (len(j), len(f))) for f in frame]))
+        s_nodes.append(s0 + seg_len[k] * j / share[k] / stretch)
+        public.append(first + (j if k == 0 else j[1:]))
+        e = np.arange(share[k])
+        elem_nodes.append(np.stack([first + e, first + e + 1], axis=1))
+        elem_len.append(np.full(share[k], seg_len[k] / share[k] / stretch))
         s0 += seg_len[k] / stretch
-    return MemberMesh(m, offset, ns, np.array(rows), np.array(elem_nodes), np.array(elem_len), np.array(public),
-                      pairs, np.array(s_nodes))
+        first += share[k] + 1
+    rows, elem_nodes, elem_len = np.vstack(rows), np.vstack(elem_nodes), np.concatenate(elem_len)
+    public, s_nodes = np.concatenate(public), np.concatenate(s_nodes)
+    return MemberMesh(m, offset, ns, rows, elem_nodes, elem_len, public, pairs, s_nodes)
 
 
 def check_stretch(mesh: "Mesh", x: np.ndarray, what: str) -> None:
@@ -174,13 +172,24 @@ class Mesh:
     scene: Scene
     members: dict[str, MemberMesh]
     n: int  # number of global coordinates
+    bodies: dict = field(default_factory=dict)  # body name -> offset of its (x, y, c, s) (after the members')
 
     @property
     def x0(self) -> np.ndarray:
         x = np.zeros(self.n)
         for mm in self.members.values():
             x[mm.offset:mm.offset + mm.x0.size] = mm.x0.ravel()
+        for name, o in self.bodies.items():
+            x[o:o + BODY_SIZE] = self.scene.bodies[name].q0
         return x
+
+    @property
+    def length_scale(self) -> float:
+        """The longest member's length [m]; in a scene of rigid bodies alone, their joints' reach (at least 1 m)."""
+        if self.members:
+            return max(float(mm.member.length) for mm in self.members.values())
+        reach = [float(np.linalg.norm(j.point - self.scene.bodies[j.body].position)) for j in self.scene.body_joints]
+        return max(reach + [1.0])
 
 
 def build_mesh(scene: Scene) -> Mesh:
@@ -189,4 +198,5 @@ def build_mesh(scene: Scene) -> Mesh:
         mm = mesh_member(m, offset)
         members[name] = mm
         offset += mm.x0.size
-    return Mesh(scene, members, offset)
+    body_offsets = offsets(scene, offset)  # empty without bodies: a scene without bodies keeps its unknowns
+    return Mesh(scene, members, offset + BODY_SIZE * len(body_offsets), body_offsets)

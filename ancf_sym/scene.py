@@ -198,6 +198,8 @@ class Scene:
     name: str = "scene"
     dampings: list[Damping] = field(default_factory=list)
     contacts: list = field(default_factory=list)  # ancf_sym.contact declarations
+    bodies: dict = field(default_factory=dict)  # ancf_sym.bodies.Body by name (planar rigid bodies)
+    body_joints: list = field(default_factory=list)  # ancf_sym.bodies.BodyJoint
 
     def __post_init__(self):
         if isinstance(self.dim, bool) or self.dim not in (2, 3):
@@ -317,6 +319,36 @@ class Scene:
         c = contact.drum(self, member, centre, radius, **options)
         self.contacts.append(c)
         return c
+
+    # -- rigid bodies (ancf_sym.bodies) -------------------------------------------------------------------------
+    def body(self, name: str, mass: float, inertia: float, position: Sequence[float], angle: float = 0.0,
+             force: Sequence[float] | None = None):
+        """A planar rigid body: mass [kg], inertia about its centre of mass [kg m^2], centre of mass `position` and
+        `angle` [rad] in the reference state, a dead `force` [N] at its centre; gravity acts on it."""
+        from . import bodies
+
+        b = bodies.make_body(self, name, mass, inertia, position, angle, force)
+        self.bodies[name] = b
+        return b
+
+    def revolute(self, body: str, point: Sequence[float] | None = None):
+        """The body turns about a ground point (world coordinates in the reference state; default its centre)."""
+        return self._body_joint("revolute", body, point=point)
+
+    def pin_body(self, body: str, member: str, at: Any = "end"):
+        """A member node tied to the body point where it lies in the reference state (free relative rotation)."""
+        return self._body_joint("pin", body, member=member, at=at)
+
+    def rigid_body(self, body: str, member: str, at: Any = "end"):
+        """As pin_body, and the member's slope at the node turns with the body (a clamp into the body)."""
+        return self._body_joint("rigid", body, member=member, at=at)
+
+    def _body_joint(self, kind: str, body: str, **kw: Any):
+        from . import bodies
+
+        j = bodies.make_joint(self, kind, body, **kw)
+        self.body_joints.append(j)
+        return j
 
     # -- supports and joints -----------------------------------------------------------------------------------
     def _support(self, kind: str, member: str, at: Any, method: str, penalty: float | None) -> Support:
@@ -468,7 +500,7 @@ class Scene:
 
     def validate_for_statics(self) -> None:
         """Refuse scenes with a free rigid-body motion: every connected group of members needs a support."""
-        if not self.members:
+        if not self.members and not self.bodies:
             raise SceneError("scene has no members")
         groups = {name: {name} for name in self.members}
         for j in self.joints:
@@ -477,7 +509,25 @@ class Scene:
                 ga |= gb
                 for n in gb:
                     groups[n] = ga
+        for j in self.body_joints:  # members tied to the same body move together
+            if j.member is not None:
+                for other in self.body_joints:
+                    if other.body == j.body and other.member is not None and groups[other.member] is not groups[j.member]:
+                        ga, gb = groups[j.member], groups[other.member]
+                        ga |= gb
+                        for n in gb:
+                            groups[n] = ga
+        from .bodies import connected_supported
         supported = {s.member for s in self.supports if s.kind in ("clamp", "pin")}
+        held = connected_supported(self)
+        supported |= held
+        for j in self.body_joints:  # a body pinned to a supported member is held
+            if j.member is not None and groups[j.member] & supported:
+                held.add(j.body)
+        for name in self.bodies:
+            if name not in held:
+                raise SceneError(f"body {name!r} has a free rigid-body motion: it needs a revolute joint or a pin "
+                                 "to a supported member")
         for name, g in groups.items():
             if not g & supported:
                 raise SceneError(f"member {name!r} has a free rigid-body motion: neither it nor a member joined to "

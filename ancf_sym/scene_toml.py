@@ -11,6 +11,8 @@ The file mirrors the Python API (docs/scenes.md has the full schema and an annot
     [[joints]]           type = "hinge" | "rigid", a = [member, at], b = [member, at], method, penalty
     [[loads]]            type = "force" | "distributed" | "moment" | "tension", member, at, value
     [[dampings]]         type = "rayleigh" (alpha, beta, members) | "strain_rate" (axial, bending, members)
+    [[bodies]]           name, mass, inertia, position, angle, force, revolute = [x, y] (ground pivot),
+                         pin = [[member, at], ...], rigid = [[member, at], ...] (planar rigid bodies)
     [[contacts]]         type = "ground" (normal, level) | "circle" (centre, radius, axis), member, stiffness, hertz,
                          thickness, damping, mu, eps, gauss, method (ancf_sym.contact.from_toml)
     [analysis]           type = "statics" (tol, max_iter, load_steps, escape_saddle) | "dynamics" (passed through)
@@ -39,7 +41,8 @@ except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
 TOP_KEYS = ("scene", "materials", "sections", "members", "supports", "joints", "loads", "dampings", "contacts",
-            "analysis")
+            "bodies", "analysis")
+BODY_KEYS = ("name", "mass", "inertia", "position", "angle", "force", "revolute", "pin", "rigid")
 SCENE_KEYS = ("name", "dim", "gravity")
 SECTION_KEYS = {None: tuple(SECTION), "circle": ("diameter",), "rectangle": ("b", "h")}
 MEMBER_KEYS = tuple(inspect.signature(Scene.member).parameters)[1:]  # the keywords of Scene.member
@@ -205,6 +208,22 @@ def _joint(scene: Scene, path: str, d: dict) -> None:
     _api(path, scene.hinge if kind == "hinge" else scene.rigid, a, b, root=kind, **_method(path, d))
 
 
+def _body(scene: Scene, path: str, d: dict) -> None:
+    """A rigid body and its joints: revolute to the ground at a point, pins and rigid ties to member nodes."""
+    _keys(path, d, BODY_KEYS, ("name", "mass", "inertia", "position"))
+    name = _str(f"{path}.name", d["name"])
+    _api(path, scene.body, name, d["mass"], d["inertia"], d["position"], d.get("angle", 0.0), d.get("force"))
+    if "revolute" in d:
+        _api(path, scene.revolute, name, _vector(f"{path}.revolute", d["revolute"], 2))
+    for kind, call in (("pin", scene.pin_body), ("rigid", scene.rigid_body)):
+        ends = d.get(kind, [])
+        if not isinstance(ends, list):
+            raise _fail(f"{path}.{kind}", "must be a list of [member, at]", ends)
+        for k, end in enumerate(ends):
+            member, at = _joint_end(scene, f"{path}.{kind}[{k}]", end)
+            _api(path, call, name, member, at)
+
+
 def _load(scene: Scene, path: str, d: dict) -> None:
     _keys(path, d, ("type", "member", "at", "value"), ("type",))
     kind = _str(f"{path}.type", d["type"], LOAD_TYPES)
@@ -310,6 +329,8 @@ def scene_from_dict(doc: dict, default_name: str = "scene") -> tuple[Scene, dict
         _damping(scene, f"dampings[{i}]", d)
     for i, d in enumerate(_array_of_tables("contacts", doc.get("contacts", []))):
         _api(f"contacts[{i}]", contact.from_toml, scene, d)
+    for i, d in enumerate(_array_of_tables("bodies", doc.get("bodies", []))):
+        _body(scene, f"bodies[{i}]", d)
 
     # dry run of the mesh and the energy terms (numpy only, no kernels): what they refuse, refuse now
     _api("members", lambda: scene_terms(build_mesh(scene)))

@@ -27,7 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from . import contact, fields, statics_contact
+from . import bodies, contact, fields, statics_contact
 from .assembly import LOAD_LABELS, Assembly
 from .checks import check_fields
 from .interrupts import interruptible
@@ -108,6 +108,10 @@ class StaticResult:
     def tip(self, member: str) -> np.ndarray:
         return self.nodes(member)[-1]
 
+    def body(self, name: str) -> tuple[float, float, float]:
+        """(x, y, angle) of a rigid body's centre of mass [m, m, rad]."""
+        return bodies.state(self.x, self.assembly.mesh.bodies[name])
+
     def along(self, member: str, per_element: int = 8) -> dict:
         """s, r, axial strain |r_x|-1 and curvature along the member."""
         mm = self.assembly.mesh.members[member]
@@ -122,6 +126,7 @@ class StaticResult:
             "residual": self.residual, "residual_floor": self.residual_floor,
             "members": {name: {"nodes": self.nodes(name).tolist(), "slopes": self.slopes(name).tolist()}
                         for name in self.assembly.mesh.members},
+            "bodies": {name: dict(zip(("x", "y", "angle"), self.body(name))) for name in self.assembly.mesh.bodies},
             "constraint_forces": {k: np.asarray(v).tolist() for k, v in self.constraint_forces.items()},
         }
 
@@ -444,7 +449,7 @@ class StaticProblem:
         return e + tol * work
 
     def _length_scale(self) -> float:
-        return max(mm.member.length for mm in self.asm.mesh.members.values())
+        return self.asm.mesh.length_scale
 
     def multipliers(self, x: np.ndarray, gradient: np.ndarray | None = None) -> np.ndarray:
         """Lagrange multipliers of every exact constraint row at an equilibrium x: J^T lam = -grad Pi, least squares

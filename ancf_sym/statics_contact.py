@@ -14,6 +14,7 @@ import casadi as ca
 import numpy as np
 
 from . import contact
+from .interrupts import interruptible
 
 SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 
@@ -56,7 +57,8 @@ def solve(problem, x: np.ndarray, opts, t0: float):
             ipopt["accept_every_trial_step"] = "yes"
         S = ca.nlpsol("statics_contact", "ipopt", nlp, {"ipopt": ipopt, "print_time": False, "grad_f": grad_f,
                                                          "hess_lag": hess_lag, "error_on_fail": False})
-        sol = S(x0=x, p=1.0, lbg=lbg, ubg=ubg)
+        with interruptible():  # Ctrl-C / SIGTERM inside IPOPT stop the solve, not only this attempt
+            sol = S(x0=x, p=1.0, lbg=lbg, ubg=ubg)
         st = S.stats()
         status, it = st["return_status"], int(st["iter_count"])
         iters += it

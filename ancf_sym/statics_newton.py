@@ -66,12 +66,14 @@ class NewtonRun:
 
 def coordinate_scales(asm: Assembly) -> np.ndarray:
     """Per coordinate: the longest member length for positions [m], 1 for slopes and other gradients [-]."""
-    L = max(float(mm.member.length) for mm in asm.mesh.members.values())
+    L = asm.mesh.length_scale
     s = np.ones(asm.n)
     dim = asm.scene.dim
     for mm in asm.mesh.members.values():
         k = np.arange(mm.x0.size)
         s[mm.offset + k[k % mm.node_size < dim]] = L
+    for o in asm.mesh.bodies.values():  # a rigid body's centre; its unit vector (cos, sin) keeps scale 1
+        s[o:o + 2] = L
     return s
 
 
@@ -163,6 +165,7 @@ class NewtonStatics:
         status, inc, dec, stall, it = "max_iter", math.inf, math.inf, 0, 0
         best, best_at = math.inf, 0
         for it in range(1, max_iter + 1):
+            self.norms[:] = np.nan  # a failed evaluation (e.g. a singular KKT matrix) writes nothing: not finite
             self._eval()
             rq, rc, inc, dec, kmax = self.norms
             floor = float(np.finfo(float).eps * kmax * self.span)

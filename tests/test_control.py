@@ -298,3 +298,30 @@ def test_resimulation_refused_without_moving_frame():
     assert res.success
     with pytest.raises(SceneError, match="only position support"):
         res.resimulate()
+
+
+def test_ctrl_c_inside_ipopt_stops_the_solve(monkeypatch):
+    """CasADi catches the KeyboardInterrupt that SIGINT raises inside IPOPT and returns a failed status; the control
+    solve must stop (KeyboardInterrupt), not report a failure or try its line-search attempt. The stand-in solver
+    swallows the interrupt as CasADi does, so the test fails without the re-raise."""
+    import os
+    import signal
+
+    ocp = crane()
+
+    class Swallowing:
+        def __call__(self, **kw):
+            try:
+                os.kill(os.getpid(), signal.SIGINT)
+                for _ in range(1000):  # Python runs the signal handler between bytecodes: give it some
+                    pass
+            except KeyboardInterrupt:
+                return {"x": kw["x0"], "lam_g": np.zeros(ocp.ng)}
+            raise AssertionError("SIGINT was not delivered")
+
+        def stats(self):
+            return {"return_status": "NonIpopt_Exception_Thrown"}
+
+    monkeypatch.setattr(ocp, "solver", lambda full_steps: Swallowing())
+    with pytest.raises(KeyboardInterrupt):
+        ocp.solve()

@@ -26,23 +26,32 @@ def integrator(scene):
 
 def test_a_chunk_stops_at_the_first_step_it_cannot_accept():
     """A non-finite load at step 4 of an 8-step chunk: the chunk accepts steps 1-3 (the same states as three
-    single steps: the same compiled step), and steps 4-8 do no Newton iteration (the guard's no-op), so the
-    chunk's cost is that of the steps it took."""
+    single steps: the same compiled step). A small state's first chunk runs unguarded (the later steps run on,
+    their results discarded); that early failure turns the guard on, and in a guarded chunk steps 4-8 do no Newton
+    iteration (the guard's no-op), so the chunk's cost is that of the steps it took."""
     S, integ = integrator(pendulum())
     S1, one = integrator(pendulum())
     h = 1e-3
     pl = np.repeat(-S.f_lin[:, None], 8, axis=1)
     pl[:, 3] = np.nan
+    assert not integ.guard
     states, n_ok = integ.run_chunk(h, pl)
     assert n_ok == 3 and states.shape[0] == 3
-    info = integ._chunks[8][2]["info"].reshape(8, integ.info_size)
+    for _ in range(3):
+        assert one.attempt(0.0, h).converged
+        one.accept()
+    assert np.allclose(integ.q, one.q, rtol=0, atol=1e-14 * S.span)  # identical arithmetic: round-off only
+    assert integ.guard  # an early failure: guarded chunks from now on
+    states, n_ok = integ.run_chunk(h, pl)
+    assert n_ok == 3
+    info = integ._chunks[8, True][2]["info"].reshape(8, integ.info_size)
     assert np.all(info[:3, 0] == 1) and np.all(info[:3, 1] >= 1)
     assert info[3, 0] == 0  # the failing step
     assert np.all(info[4:] == 0)  # no work after it
     for _ in range(3):
         assert one.attempt(0.0, h).converged
         one.accept()
-    assert np.allclose(integ.q, one.q, rtol=0, atol=1e-14 * S.span)  # identical arithmetic: round-off only
+    assert np.allclose(integ.q, one.q, rtol=0, atol=1e-14 * S.span)
 
 
 def test_hard_transient_stays_in_the_chunks(monkeypatch):
@@ -98,6 +107,6 @@ def test_integrators_of_one_structure_share_step_and_chunk_functions():
     b = AlphaIntegrator(S, Scheme.generalized_alpha(0.9), NewtonOptions(), 0.0, 1e-10, Counters())
     assert b.step_f is a.step_f
     assert b.chunk_function(8) is not a.chunk_function(8)  # own buffers...
-    assert a._graphs["chunks"][8] is b._graphs["chunks"][8]  # ...on one compiled function
+    assert a._graphs["chunks"][8, False] is b._graphs["chunks"][8, False]  # ...on one compiled function
     c = AlphaIntegrator(S, Scheme.generalized_alpha(0.5), NewtonOptions(), 0.0, 1e-10, Counters())
     assert c.step_f is not a.step_f  # other scheme coefficients: another graph

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..checks import number as _num
 from ..collocation import tableau
+from ..interrupts import interruptible
 from ..scene import Scene, SceneError
 from .bounds import BoundsMixin
 from .ingredients import Effort, MinimumTime, PathConstraint, PointMass, Swing
@@ -154,7 +155,8 @@ class ControlProblem(ModelMixin, BoundsMixin, TranscriptionMixin, WarmStartMixin
             args["lam_g0"] = lam_g0
         t0 = time.perf_counter()
         try:
-            sol = S(**args)
+            with interruptible():  # Ctrl-C / SIGTERM inside IPOPT stop the solve, not only this attempt
+                sol = S(**args)
             st = dict(S.stats())
             w = np.asarray(sol["x"]).ravel()
             lam = np.asarray(sol["lam_g"]).ravel()

@@ -1,0 +1,179 @@
+"""Planar rigid bodies and their joints, in natural coordinates.
+
+A body's unknowns are q_b = (x, y, c, s): its centre of mass and the unit vector u = (cos angle, sin angle) of its
+body-fixed x axis, tied by the exact constraint c^2 + s^2 = 1. This choice (natural coordinates) fits the scene's
+assembly without any new kernel:
+- kinetic energy 1/2 m |r_dot|^2 + 1/2 J (c_dot^2 + s_dot^2), and c_dot^2 + s_dot^2 = angle_dot^2 exactly: the mass
+  matrix diag(m, m, J, J) is constant, like the ANCF members' (no velocity-dependent inertia forces);
+- gravity and a force at the centre are linear in q_b: a constant generalized force (the dead-load vector);
+- a body point r_b + R(u) p (R = [[c, -s], [s, c]], p body-fixed) is linear in q_b, so a revolute joint to the
+  ground and a pin to a member node are linear constraint rows, and a rigid body-member joint (the member's slope
+  turns with the body) is bilinear: all exact, with exact constant Jacobian/Hessian structure, through the same
+  constraint layer as the supports (ancf_sym.constraints). No angle wraps or singular orientations.
+So plain numpy is their home: nothing here needs symbolic differentiation or generated code.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+
+from .checks import SceneError, number
+
+BODY_SIZE = 4  # x, y, cos(angle), sin(angle)
+
+
+@dataclass
+class Body:
+    name: str
+    mass: float  # [kg]
+    inertia: float  # about the centre of mass [kg m^2]
+    position: np.ndarray  # centre of mass in the reference state [m]
+    angle: float  # reference angle [rad]
+    force: np.ndarray  # dead force at the centre of mass [N]
+
+    @property
+    def q0(self) -> np.ndarray:
+        return np.array([*self.position, math.cos(self.angle), math.sin(self.angle)])
+
+    def local(self, point: np.ndarray) -> np.ndarray:
+        """Body-fixed coordinates of a world point given in the reference state."""
+        c, s = math.cos(self.angle), math.sin(self.angle)
+        d = np.asarray(point, float) - self.position
+        return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
+
+
+@dataclass
+class BodyJoint:
+    kind: str  # "revolute" (body-ground) | "pin" (body-member node) | "rigid" (pin + member slope turns with body)
+    body: str
+    point: np.ndarray  # world point of the joint in the reference state [m]
+    member: str | None = None
+    at: Any = None
+
+
+def _vec2(field_name: str, v: Any) -> np.ndarray:
+    try:
+        a = np.asarray(v, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise SceneError(f"{field_name} must be 2 numbers, got {v!r}") from None
+    if a.size != 2 or not np.all(np.isfinite(a)):
+        raise SceneError(f"{field_name} must be 2 finite numbers, got {v!r}")
+    return a
+
+
+def make_body(scene, name: str, mass: Any, inertia: Any, position: Any, angle: Any = 0.0,
+              force: Any = None) -> Body:
+    """A checked Body (refused before any work: no mass, non-positive inertia, a 3D scene, a taken name)."""
+    if scene.dim != 2:
+        raise SceneError(f"body {name!r}: rigid bodies are planar (x, y, angle); the scene is {scene.dim}D")
+    if not isinstance(name, str) or not name or name in scene.bodies or name in scene.members:
+        raise SceneError(f"body name must be a new non-empty string (not a member's), got {name!r}")
+    if mass is None:
+        raise SceneError(f"body {name!r}: mass is required (a body without mass has no dynamics)")
+    m = number(f"body {name!r}: mass", mass, positive=True)
+    if inertia is None:
+        raise SceneError(f"body {name!r}: inertia is required")
+    J = number(f"body {name!r}: inertia", inertia, positive=True)
+    pos = _vec2(f"body {name!r}: position", position)
+    ang = number(f"body {name!r}: angle", angle)
+    F = np.zeros(2) if force is None else _vec2(f"body {name!r}: force", force)
+    return Body(name, m, J, pos, ang, F)
+
+
+def make_joint(scene, kind: str, body: str, point: Any = None, member: str | None = None, at: Any = None) -> BodyJoint:
+    """A checked body joint. revolute: `point` (world, reference state; default the centre of mass) pinned to the
+    ground. pin / rigid: the member node `at` tied to the body point where the node lies in the reference state."""
+    if body not in scene.bodies:
+        raise SceneError(f"{kind}.body={body!r} names no body; bodies: {sorted(scene.bodies)}")
+    b = scene.bodies[body]
+    if kind == "revolute":
+        p = b.position.copy() if point is None else _vec2(f"{kind}.point", point)
+        return BodyJoint(kind, body, p)
+    if kind not in ("pin", "rigid"):
+        raise SceneError(f"body joint kind must be 'revolute', 'pin' or 'rigid', got {kind!r}")
+    scene.check_at(member, at, node_only=True, field_name=f"{kind}.at")
+    if kind == "rigid" and scene.members[member].element != "cable2d":
+        raise SceneError(f"rigid body joint on member {member!r}: planar cable members only")
+    return BodyJoint(kind, body, np.zeros(2), member, at)
+
+
+# -- coordinates -----------------------------------------------------------------------------------------------
+def offsets(scene, first: int) -> dict[str, int]:
+    """Global offset of each body's coordinates, numbered after the members' (from `first`)."""
+    return {name: first + BODY_SIZE * i for i, name in enumerate(scene.bodies)}
+
+
+def state(x: np.ndarray, offset: int) -> tuple[float, float, float]:
+    """(x, y, angle) of a body from the global coordinates (angle by atan2 of the unit vector: no wrap-around)."""
+    q = np.asarray(x[offset:offset + BODY_SIZE], float)
+    return float(q[0]), float(q[1]), float(math.atan2(q[3], q[2]))
+
+
+def mass_entries(scene, off: dict[str, int]) -> tuple[np.ndarray, np.ndarray]:
+    """(indices, values) of the diagonal mass matrix diag(m, m, J, J) of every body."""
+    idx, val = [], []
+    for name, b in scene.bodies.items():
+        idx.append(off[name] + np.arange(BODY_SIZE))
+        val.append([b.mass, b.mass, b.inertia, b.inertia])
+    if not idx:
+        return np.zeros(0, int), np.zeros(0)
+    return np.concatenate(idx), np.concatenate(val).astype(float)
+
+
+def add_loads(scene, off: dict[str, int], Q: np.ndarray) -> None:
+    """Gravity m g and the dead force at each centre of mass into the generalized force Q (potential -Q.x)."""
+    for name, b in scene.bodies.items():
+        Q[off[name]:off[name] + 2] += b.mass * np.asarray(scene.gravity, float) + b.force
+
+
+def _point_coefs(o: int, p: np.ndarray, k: int, sign: float) -> dict:
+    """Coefficients of sign * (component k of the body point r_b + R(u) p) on the body's coordinates."""
+    if k == 0:  # x + c p0 - s p1
+        return {o: sign, o + 2: sign * p[0], o + 3: -sign * p[1]}
+    return {o + 1: sign, o + 2: sign * p[1], o + 3: sign * p[0]}  # y + s p0 + c p1
+
+
+def constraint_rows(rows, mesh) -> None:
+    """Exact rows of every body: the unit vector's c^2 + s^2 = 1, then its joints (linear or bilinear)."""
+    scene = mesh.scene
+    for name, o in mesh.bodies.items():
+        rows.row({}, 1.0, f"unit {name}", "slope", [(o + 2, o + 2, 1.0), (o + 3, o + 3, 1.0)])
+        rows.k.append(0.0)
+    for j in scene.body_joints:
+        b, o = scene.bodies[j.body], mesh.bodies[j.body]
+        if j.kind == "revolute":
+            p = b.local(j.point)
+            for k in range(2):
+                rows.row(_point_coefs(o, p, k, 1.0), float(j.point[k]), f"revolute {j.body}", "position")
+                rows.k.append(0.0)
+            continue
+        mm = mesh.members[j.member]
+        node = mm.node(j.at)
+        dofs = mm.node_dofs(node)
+        r0 = mm.x0[node][:2]
+        p = b.local(r0)
+        label = f"{j.kind} {j.body}-{j.member}@{j.at}"
+        for k in range(2):  # r_node - (r_b + R p) = 0
+            coefs = _point_coefs(o, p, k, -1.0)
+            coefs[int(dofs[k])] = 1.0
+            rows.row(coefs, 0.0, label, "position")
+            rows.k.append(0.0)
+        if j.kind == "rigid":
+            # the slope r_x stays parallel to R(u) t, t its body-fixed reference direction: r_x x (R t) = 0,
+            # R t = (c t0 - s t1, s t0 + c t1), bilinear in (r_x, u)
+            t0 = mm.x0[node][2:4]
+            t = b.local(b.position + t0 / np.linalg.norm(t0))
+            ix, iy = int(dofs[2]), int(dofs[3])
+            quad = [(ix, o + 3, t[0]), (ix, o + 2, t[1]), (iy, o + 2, -t[0]), (iy, o + 3, t[1])]
+            rows.row({}, 0.0, label, "slope", quad)
+            rows.k.append(0.0)
+
+
+def connected_supported(scene) -> set[str]:
+    """Members and bodies held, through body joints, by a body on a revolute joint (for the statics check)."""
+    held = {j.body for j in scene.body_joints if j.kind == "revolute"}
+    held |= {j.member for j in scene.body_joints if j.kind != "revolute" and j.body in held}
+    return held
