@@ -1,4 +1,4 @@
-"""Contact of members with the ground: scene declaration, energy terms, and the dissipation forces of the step graphs.
+"""Contact of members with the ground and with fixed drums: scene declaration, energy terms, and the dissipation forces of the step graphs.
 
 The normal law is a potential (kernel <element>_contact_ground): it enters the scene's total potential as a term
 like any other, so statics (penalty contact) and every integrator see it with its exact Hessian. Damping and
@@ -54,11 +54,8 @@ def _nonnegative(name: str, value: Any) -> float:
     return v
 
 
-def ground(scene, member: str, stiffness: float = 0.0, hertz: float = 0.0, normal: Sequence[float] | None = None,
-           level: float = 0.0, thickness: float | None = None, damping: float = 0.0, mu: float = 0.0,
-           eps: float = 1e-3, gauss: int = 5, method: str = "penalty") -> GroundContact:
-    """Validated GroundContact of a scene member (see Scene.contact_ground)."""
-    f = f"contact_ground(member={member!r})"
+def _law(scene, f: str, member: str, stiffness, hertz, thickness, damping, mu, eps, gauss, method) -> dict:
+    """The validated options every contact shares (member, normal law, section half thickness, damping, friction)."""
     if member not in scene.members:
         raise SceneError(f"{f}: member {member!r} does not exist; members: {sorted(scene.members)}")
     m = scene.members[member]
@@ -72,16 +69,6 @@ def ground(scene, member: str, stiffness: float = 0.0, hertz: float = 0.0, norma
                              f"{mu!r})")
     elif k == 0 and kh == 0:
         raise SceneError(f"{f}: give a positive stiffness (linear penalty, N/m^2) or hertz (N/m^2.5 per m)")
-    n = np.zeros(scene.dim)
-    n[1 if scene.dim == 2 else 2] = 1.0
-    if normal is not None:
-        n = np.asarray(normal, float).ravel()
-        if n.shape != (scene.dim,) or not np.all(np.isfinite(n)) or np.linalg.norm(n) == 0:
-            raise SceneError(f"{f}: normal must be a non-zero vector of {scene.dim} numbers, got {normal!r}")
-        n = n / np.linalg.norm(n)
-    lvl = float(level)
-    if not math.isfinite(lvl):
-        raise SceneError(f"{f}: level must be finite, got {level!r}")
     if thickness is None:
         s = m.section
         # cables are round (radius from the area); a beam3d section's half height h/2
@@ -94,36 +81,130 @@ def ground(scene, member: str, stiffness: float = 0.0, hertz: float = 0.0, norma
         raise SceneError(f"{f}: eps (friction regularisation velocity, m/s) must be > 0 with friction, got {eps!r}")
     if gauss not in (3, 5, 7):
         raise SceneError(f"{f}: gauss must be 3, 5 or 7, got {gauss!r}")
-    return GroundContact(member, n, lvl, k, kh, t, c, mu_, e if e > 0 else 1e-3, int(gauss), method)
+    return dict(member=member, stiffness=k, hertz=kh, thickness=t, damping=c, mu=mu_, eps=e if e > 0 else 1e-3,
+                gauss=int(gauss), method=method)
 
 
-TOML_KEYS = ("type", "member", "stiffness", "hertz", "normal", "level", "thickness", "damping", "mu", "eps", "gauss",
-             "method")
+def _vector(f: str, name: str, value, dim: int, unit: bool) -> np.ndarray:
+    v = np.asarray(value, float).ravel() if value is not None else np.zeros(0)
+    if v.shape != (dim,) or not np.all(np.isfinite(v)) or (unit and np.linalg.norm(v) == 0):
+        kind = "a non-zero vector" if unit else "a vector"
+        raise SceneError(f"{f}: {name} must be {kind} of {dim} numbers, got {value!r}")
+    return v / np.linalg.norm(v) if unit else v
 
 
-def from_toml(scene, d: dict) -> GroundContact:
-    """A [[contacts]] table: type = "ground" and the keyword arguments of Scene.contact_ground."""
-    unknown = sorted(set(d) - set(TOML_KEYS))
+def ground(scene, member: str, stiffness: float = 0.0, hertz: float = 0.0, normal: Sequence[float] | None = None,
+           level: float = 0.0, thickness: float | None = None, damping: float = 0.0, mu: float = 0.0,
+           eps: float = 1e-3, gauss: int = 5, method: str = "penalty") -> GroundContact:
+    """Validated GroundContact of a scene member (see Scene.contact_ground)."""
+    f = f"contact_ground(member={member!r})"
+    law = _law(scene, f, member, stiffness, hertz, thickness, damping, mu, eps, gauss, method)
+    n = np.zeros(scene.dim)
+    n[1 if scene.dim == 2 else 2] = 1.0
+    if normal is not None:
+        n = _vector(f, "normal", normal, scene.dim, True)
+    lvl = float(level)
+    if not math.isfinite(lvl):
+        raise SceneError(f"{f}: level must be finite, got {level!r}")
+    return GroundContact(normal=n, level=lvl, **law)
+
+
+@dataclass(frozen=True)
+class DrumContact:
+    """Centre line of `member` outside a fixed drum: circle (2D) or cylinder of unit axis `axis` (3D) of centre
+    `centre` and radius `radius`; the normal law, damping and friction of GroundContact with the radial gap
+    |r - c|_perp - radius - thickness. The centre is a kernel parameter (kernel <element>_contact_drum); a drum
+    carried by a rigid body uses the kernels with the centre and angle as inputs (<element>_contact_circle)."""
+    member: str
+    centre: np.ndarray
+    radius: float
+    axis: np.ndarray | None
+    stiffness: float
+    hertz: float
+    thickness: float
+    damping: float
+    mu: float
+    eps: float
+    gauss: int
+    method: str = "penalty"
+
+    @property
+    def dissipative(self) -> bool:
+        return self.method == "penalty" and (self.damping > 0 or self.mu > 0)
+
+
+def drum(scene, member: str, centre: Sequence[float], radius: float, axis: Sequence[float] | None = None,
+         stiffness: float = 0.0, hertz: float = 0.0, thickness: float | None = None, damping: float = 0.0,
+         mu: float = 0.0, eps: float = 1e-3, gauss: int = 5, method: str = "penalty") -> DrumContact:
+    """Validated DrumContact of a scene member (see Scene.contact_drum)."""
+    f = f"contact_drum(member={member!r})"
+    law = _law(scene, f, member, stiffness, hertz, thickness, damping, mu, eps, gauss, method)
+    if method == "exact":
+        raise SceneError(f"{f}: method='exact' (unilateral constraints) is available for ground contact only; "
+                         "use method='penalty' with a stiffness or hertz law")
+    c = _vector(f, "centre", centre, scene.dim, False)
+    try:
+        R = float(radius)
+    except (TypeError, ValueError):
+        raise SceneError(f"{f}: radius must be a number, got {radius!r}") from None
+    if not math.isfinite(R) or R <= 0:
+        raise SceneError(f"{f}: radius must be finite and > 0, got {radius!r}")
+    if scene.dim == 2:
+        if axis is not None:
+            raise SceneError(f"{f}: axis is for 3D scenes (a 2D drum turns about z), got {axis!r}")
+        a = None
+    else:
+        a = _vector(f, "axis", (0.0, 0.0, 1.0) if axis is None else axis, 3, True)
+    return DrumContact(centre=c, radius=R, axis=a, **law)
+
+
+_SHARED_KEYS = ("type", "member", "stiffness", "hertz", "thickness", "damping", "mu", "eps", "gauss", "method")
+TOML_KEYS = {"ground": _SHARED_KEYS + ("normal", "level"), "circle": _SHARED_KEYS + ("centre", "radius", "axis")}
+_NOT_NUMBERS = ("type", "member", "normal", "method", "centre", "axis")
+
+
+def from_toml(scene, d: dict) -> GroundContact | DrumContact:
+    """A [[contacts]] table: type = "ground" (Scene.contact_ground) or "circle" (a fixed drum, Scene.contact_drum)
+    and the keyword arguments of that method."""
+    kind = d.get("type", "ground")
+    if kind not in TOML_KEYS:
+        raise SceneError(f"type must be one of {sorted(TOML_KEYS)}, got {kind!r}")
+    unknown = sorted(set(d) - set(TOML_KEYS[kind]))
     if unknown:
-        raise SceneError(f"unknown key {unknown[0]!r} (allowed: {', '.join(TOML_KEYS)})")
-    if d.get("type", "ground") != "ground":
-        raise SceneError(f"type must be 'ground', got {d.get('type')!r}")
+        raise SceneError(f"unknown key {unknown[0]!r} (allowed for type = {kind!r}: {', '.join(TOML_KEYS[kind])})")
     if "member" not in d:
-        raise SceneError("member: missing (the member whose centre line touches the ground)")
+        raise SceneError("member: missing (the member whose centre line touches the obstacle)")
     for k, v in d.items():
-        if k not in ("type", "member", "normal", "method") and (isinstance(v, bool) or not isinstance(v, (int, float))):
+        if k not in _NOT_NUMBERS and (isinstance(v, bool) or not isinstance(v, (int, float))):
             raise SceneError(f"{k} must be a number, got {v!r}")
     kw = {k: v for k, v in d.items() if k != "type"}
     if "gauss" in kw and isinstance(kw["gauss"], float) and kw["gauss"].is_integer():
         kw["gauss"] = int(kw["gauss"])
+    if kind == "circle":
+        for key in ("centre", "radius"):
+            if key not in kw:
+                raise SceneError(f"{key}: missing (a circle contact needs the drum's centre and radius)")
+        return scene.contact_drum(**kw)
     return scene.contact_ground(**kw)
 
 
-def _params(c: GroundContact, L: np.ndarray, friction: bool) -> np.ndarray:
+def _effect(c) -> str:
+    return "contact_drum" if isinstance(c, DrumContact) else "contact_ground"
+
+
+def _params(c, L: np.ndarray, friction: bool) -> np.ndarray:
+    """Kernel parameters per element (registry: ground (L, k, kh, t, n, d[, c, mu, eps]); fixed drum
+    (L, k, kh, t, R[, axis][, c, mu, eps], centre))."""
     one = np.ones_like(L)
-    cols = [L, c.stiffness * one, c.hertz * one, c.thickness * one, *(v * one for v in c.normal), c.level * one]
+    cols = [L, c.stiffness * one, c.hertz * one, c.thickness * one]
+    if isinstance(c, DrumContact):
+        cols += [c.radius * one, *(v * one for v in (c.axis if c.axis is not None else ()))]
+    else:
+        cols += [*(v * one for v in c.normal), c.level * one]
     if friction:
         cols += [c.damping * one, c.mu * one, c.eps * one]
+    if isinstance(c, DrumContact):
+        cols += [v * one for v in c.centre]
     return np.column_stack(cols)
 
 
@@ -133,17 +214,18 @@ def energy_terms(terms: dict, mesh, add) -> None:
         if c.method != "penalty":
             continue
         mm = mesh.members[c.member]
-        add(terms, LABEL, mm.member.element, "contact_ground", c.gauss, mm.elem_dofs(),
+        add(terms, LABEL, mm.member.element, _effect(c), c.gauss, mm.elem_dofs(),
             _params(c, mm.elem_length, False))
 
 
 def dissipation_calls(mesh) -> list[tuple[str, int, np.ndarray, np.ndarray]]:
-    """(element, gauss, idx (N, nd), P) of the damping/friction kernels the scene needs (empty: none)."""
+    """(element, effect, gauss, idx (N, nd), P) of the damping/friction kernels the scene needs (empty: none)."""
     out = []
     for c in getattr(mesh.scene, "contacts", ()):
         if c.dissipative:
             mm = mesh.members[c.member]
-            out.append((mm.member.element, c.gauss, mm.elem_dofs(), _params(c, mm.elem_length, True)))
+            out.append((mm.member.element, _effect(c) + "_friction", c.gauss, mm.elem_dofs(),
+                        _params(c, mm.elem_length, True)))
     return out
 
 
@@ -167,9 +249,9 @@ def dissipation_mx(S, X: ca.MX, V: ca.MX):
     nf, pos = S.nf, S.pos
     fv, ft, hv, rx, cx, sx, rv, cv, sv = [], [], [], [], [], [], [], [], []
     n_h = 0
-    for element, gauss, idx, P in calls:
+    for element, effect, gauss, idx, P in calls:
         N, nd = idx.shape
-        k = kernels.load(element, "contact_ground_friction", None if gauss == 5 else gauss)
+        k = kernels.load(element, effect, None if gauss == 5 else gauss)
         Z = ca.vertcat(ca.reshape(X[idx.ravel().tolist()], nd, N), ca.reshape(V[idx.ravel().tolist()], nd, N))
         _, G, H = k.map(N)(Z, ca.DM(P.T))
         fv.append(ca.vec(G[nd:, :]))
@@ -194,22 +276,51 @@ def dissipation_mx(S, X: ca.MX, V: ca.MX):
 
 
 def report(asm, x: np.ndarray) -> list[dict]:
-    """Per contact: smallest gap of the section surface at the nodes [m] and the total normal force [N] (from the
-    normal law's gradient along the normal)."""
-    out = []
+    """Per penalty contact: kind, smallest gap of the section surface at the nodes [m] and the total normal force
+    [N] (from the normal law's gradient along each node's contact normal)."""
+    return [r for r, _ in _reports(asm, x)]
+
+
+def node_fields(asm, x: np.ndarray) -> dict[str, dict[str, np.ndarray]]:
+    """Per member with contact: nodal 'contact_gap' [m] (smallest over its contacts) and 'contact_force' [N] (sum
+    of the normal-law forces lumped at the node), for VTK point data."""
+    out: dict = {}
+    for r, (gap, force) in _reports(asm, x):
+        f = out.setdefault(r["member"], {"contact_gap": np.full(len(gap), np.inf), "contact_force": np.zeros(len(gap))})
+        f["contact_gap"] = np.minimum(f["contact_gap"], gap)
+        f["contact_force"] = f["contact_force"] + force
+    return out
+
+
+def _reports(asm, x: np.ndarray):
+    d = asm.scene.dim
     for c in getattr(asm.scene, "contacts", ()):
         if c.method != "penalty":
             continue
         mm = asm.mesh.members[c.member]
-        X = asm.member_coordinates(x, c.member)
-        gaps = X[:, :asm.scene.dim] @ c.normal - c.level - c.thickness
-        idx, d = mm.elem_dofs(), asm.scene.dim
-        k = kernels.load(mm.member.element, "contact_ground", None if c.gauss == 5 else c.gauss)
+        r = asm.member_coordinates(x, c.member)[:, :d]
+        if isinstance(c, DrumContact):
+            rel = r - c.centre
+            if c.axis is not None:
+                rel = rel - np.outer(rel @ c.axis, c.axis)
+            rho = np.linalg.norm(rel, axis=1)
+            normals = rel / np.maximum(rho, 1e-300)[:, None]
+            gaps = rho - c.radius - c.thickness
+        else:
+            normals = np.tile(c.normal, (len(r), 1))
+            gaps = r @ c.normal - c.level - c.thickness
+        idx = mm.elem_dofs()
+        k = kernels.load(mm.member.element, _effect(c), None if c.gauss == 5 else c.gauss)
         G = np.asarray(k.map(len(idx))(np.asarray(x)[idx].T, _params(c, mm.elem_length, False).T)[1]).T
         per_node = 2 if mm.member.element.startswith("cable") else 4
-        force = float(-(G.reshape(len(idx), -1, d)[:, ::per_node, :] @ c.normal).sum())
-        out.append({"member": c.member, "min_gap": float(gaps.min()), "normal_force": force})
-    return out
+        Gp = G.reshape(len(idx), -1, d)[:, ::per_node, :]  # (element, its 2 nodes, position force)
+        nodal = np.zeros((len(r), d))
+        en = mm.elem_nodes
+        np.add.at(nodal, np.r_[en[:, 0], en[:, 1]], np.r_[Gp[:, 0], Gp[:, 1]])
+        force = -(nodal * normals).sum(axis=1)
+        kind = "circle" if isinstance(c, DrumContact) else "ground"
+        yield ({"type": kind, "member": c.member, "min_gap": float(gaps.min()), "normal_force": float(force.sum())},
+               (gaps, force))
 
 
 # -- statics with exact frictionless contact: unilateral constraints g(x) = A x - b >= 0 --------------------------
@@ -256,3 +367,26 @@ def unilateral(asm) -> tuple | None:
     import scipy.sparse as sp
 
     return sp.csr_matrix((vals, (rows, cols)), shape=(m, asm.n)), np.array(b), labels
+
+
+def point_data(asm, x: np.ndarray, per_element: int) -> dict[str, np.ndarray]:
+    """VTK point data of a scene with contact, at the points fields.sample gives (per_element per element, members
+    in mesh order): 'contact_gap' [m] (NaN on members without contact) and 'contact_force' [N per node, spread
+    linearly between nodes], interpolated from the nodal values of node_fields; {} without contact."""
+    nodal = node_fields(asm, x)
+    if not nodal:
+        return {}
+    gap, force = [], []
+    for name, mm in asm.mesh.members.items():
+        en = mm.elem_nodes
+        xi = np.linspace(0.0, 1.0, per_element + 1)
+        f = nodal.get(name)
+        if f is None:
+            n = len(en) * per_element + 1
+            gap.append(np.full(n, np.nan))
+            force.append(np.zeros(n))
+            continue
+        for key, out in (("contact_gap", gap), ("contact_force", force)):
+            v = np.outer(f[key][en[:, 0]], 1 - xi) + np.outer(f[key][en[:, 1]], xi)  # (element, sample)
+            out.append(np.r_[v[:, :-1].ravel(), v[-1, -1]])  # shared element ends once, as fields.sample
+    return {"contact_gap": np.concatenate(gap), "contact_force": np.concatenate(force)}

@@ -16,7 +16,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from . import fields
+from . import contact, fields
 from .output_json import _clean, write_json
 from .vtk_out import section_point_data
 
@@ -45,10 +45,31 @@ def _member_states(result, name: str) -> np.ndarray:
     return np.stack(rows, axis=1)
 
 
+def _full_states(result) -> list[np.ndarray]:
+    """Full coordinate vectors at the output times, from the frame sensors (final state only without them)."""
+    mesh = result.assembly.mesh
+    if not len(result.t) or not any(k.startswith(FRAME_PREFIX) for k in result.sensors):
+        return [np.asarray(result.x)]
+    states = {name: _member_states(result, name) for name in mesh.members}
+    out = []
+    for k in range(len(result.t)):
+        x = np.array(result.x, float)
+        for name, X in states.items():
+            mm = mesh.members[name]
+            x[mm.offset:mm.offset + mm.x0.size] = X[k].ravel()
+        out.append(x)
+    return out
+
+
 def result_dict(result, scene_file, analysis: dict, wall_total: float) -> dict:
     d = result.to_dict()
     d["sensors"] = {k: v for k, v in d["sensors"].items() if not k.startswith(FRAME_PREFIX)}
     scene = result.assembly.scene
+    if scene.contacts:  # per penalty contact, at the output times: min_gap [m], normal_force [N]
+        reps = [contact.report(result.assembly, x) for x in _full_states(result)]
+        d["contacts"] = [{**reps[0][i], "min_gap": [r[i]["min_gap"] for r in reps],
+                          "normal_force": [r[i]["normal_force"] for r in reps]} for i in range(len(reps[0]))] \
+            if reps and reps[0] else []
     return _clean({"format": "ancf_sym.dynamics/1", "scene": {"name": scene.name, "file": str(Path(scene_file).resolve()),
                                                                "dim": scene.dim},
                    "analysis": analysis, "wall_total_s": wall_total, **d})
@@ -85,6 +106,7 @@ def write_series(result, directory: Path, per_element: int = 8) -> Path:
     states = {name: _member_states(result, name) for name in result.assembly.mesh.members}
     entries = []
     section_data = section_point_data(result.assembly.mesh, per_element)
+    full = _full_states(result) if result.assembly.scene.contacts else None
     for k, t in enumerate(result.t):
         pts, cells, s_all, strain, curv, member = [], [], [], [], [], []
         n0 = 0
@@ -100,7 +122,8 @@ def write_series(result, directory: Path, per_element: int = 8) -> Path:
             n0 += len(r)
         mesh = meshio.Mesh(np.vstack(pts), cells, point_data={
             "s": np.concatenate(s_all), "strain": np.concatenate(strain), "curvature": np.concatenate(curv),
-            "member": np.concatenate(member), **section_data})
+            "member": np.concatenate(member), **section_data,
+            **(contact.point_data(result.assembly, full[k], per_element) if full else {})})
         fn = frames / f"frame_{k:05d}.vtu"
         meshio.write(fn, mesh, file_format="vtu")
         entries.append(f'    <DataSet timestep={quoteattr(repr(float(t)))} part="0" file="frames/{fn.name}"/>')

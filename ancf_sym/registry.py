@@ -129,6 +129,7 @@ def _contact_effects(el: str, dim: int) -> list[Effect]:
     normal = tuple(f"n{a}" for a in "xyz"[:dim]) + ("d",)
     axis = ("R",) if dim == 2 else ("R", "ax", "ay", "az")
     friction = ("c", "mu", "eps")
+    centre = tuple(f"c{a}" for a in "xyz"[:dim])
     return [
         Effect(el, "contact_ground", law + normal, "ground contact energy of the centre line (penalty/Hertz)",
                CONTACT_GAUSS, elastic=False),
@@ -140,6 +141,12 @@ def _contact_effects(el: str, dim: int) -> list[Effect]:
         Effect(el, "contact_circle_friction", law + axis + friction,
                "drum contact damping + regularised Coulomb friction: dissipation of [q, c, angle; v, c', omega]",
                CONTACT_GAUSS, elastic=False, obstacle=dim + 1, rates=True),
+        # a fixed drum: the same densities with the centre as a parameter (no obstacle coordinates in the scene)
+        Effect(el, "contact_drum", law + axis + centre, "contact energy with a fixed drum of centre c (in p)",
+               CONTACT_GAUSS, elastic=False),
+        Effect(el, "contact_drum_friction", law + axis + friction + centre,
+               "fixed drum contact damping + regularised Coulomb friction: dissipation function of [q; v]",
+               CONTACT_GAUSS, elastic=False, rates=True),
     ]
 
 

@@ -310,6 +310,16 @@ class Scene:
         self.contacts.append(c)
         return c
 
+    def contact_drum(self, member: str, centre: Any, radius: float, **options: Any):
+        """Contact of `member`'s centre line with a fixed drum it lies outside of: a circle of `centre` and `radius`
+        (2D) or a cylinder of unit `axis` (3D, default z). Options as contact_ground (stiffness and/or hertz,
+        thickness, damping, mu, eps, gauss); method 'penalty' only (ancf_sym.contact.drum)."""
+        from . import contact
+
+        c = contact.drum(self, member, centre, radius, **options)
+        self.contacts.append(c)
+        return c
+
     # -- rigid bodies (ancf_sym.bodies) -------------------------------------------------------------------------
     def body(self, name: str, mass: float, inertia: float, position: Sequence[float], angle: float = 0.0,
              force: Sequence[float] | None = None):

@@ -13,8 +13,8 @@ The file mirrors the Python API (docs/scenes.md has the full schema and an annot
     [[dampings]]         type = "rayleigh" (alpha, beta, members) | "strain_rate" (axial, bending, members)
     [[bodies]]           name, mass, inertia, position, angle, force, revolute = [x, y] (ground pivot),
                          pin = [[member, at], ...], rigid = [[member, at], ...] (planar rigid bodies)
-    [[contacts]]         type = "ground", member, stiffness, hertz, normal, level, thickness, damping, mu, eps,
-                         gauss, method (ancf_sym.contact.from_toml)
+    [[contacts]]         type = "ground" (normal, level) | "circle" (centre, radius, axis), member, stiffness, hertz,
+                         thickness, damping, mu, eps, gauss, method (ancf_sym.contact.from_toml)
     [analysis]           type = "statics" (tol, max_iter, load_steps, escape_saddle) | "dynamics" (passed through)
 
 Everything is checked before any solving. Every error is a SceneError whose message starts with the TOML path of

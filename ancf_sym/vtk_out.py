@@ -18,6 +18,7 @@ from pathlib import Path
 import meshio
 import numpy as np
 
+from . import contact
 from .plots import reference
 from .mesh import Mesh
 from .scene import Member
@@ -63,6 +64,7 @@ def static_mesh(result: StaticResult, per_element: int = 8) -> meshio.Mesh:
     point_data = {k: np.concatenate(v) for k, v in data.items()}
     point_data["member"] = point_data["member"].astype(np.int32)
     point_data.update(section_point_data(result.assembly.mesh, per_element))
+    point_data.update(contact.point_data(result.assembly, result.x, per_element))
     return meshio.Mesh(np.vstack(pts), cells, point_data=point_data,
                        cell_data={"member": [c.astype(np.int32) for c in cell_member]})
 

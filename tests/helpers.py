@@ -144,7 +144,12 @@ def params(element: str, effect: str, q: np.ndarray, L: float = L0, **overrides)
             vals.update(zip(("nx", "ny", "nz")[:len(n)], n), d=float(n @ r) - vals["t"] + 0.02)
         else:
             nd = registry.ELEMENTS[element].ndof
-            vals.update(R=float(np.linalg.norm(r - q[nd:nd + len(r)])) - vals["t"] + 0.05)
+            if effect.startswith("contact_drum"):  # a fixed drum: its centre is a parameter, where kernel_input puts it
+                c = r + 0.5 * m
+                vals.update(zip(("cx", "cy", "cz")[:len(c)], c))
+            else:
+                c = q[nd:nd + len(r)]
+            vals.update(R=float(np.linalg.norm(r - c)) - vals["t"] + 0.05)
             if a is not None:
                 vals.update(ax=a[0], ay=a[1], az=a[2])
     if effect == "moment":

@@ -61,10 +61,17 @@ def test_gradient_and_hessian_match_finite_differences(element, effect, gauss):
         err_g = np.max(np.abs(g - g_fd)) / scale_g
         assert err_g < GRAD_TOL, f"state {j}: gradient vs central differences, relative error {err_g:.2e}"
 
-        H_fd = np.column_stack([
-            (evaluate(k, q + dq, p)[1] - evaluate(k, q - dq, p)[1]) / (2 * hi)
-            for hi, dq in ((h[i], h[i] * np.eye(q.size)[i]) for i in range(q.size))])
+        def hessian_fd(h):
+            return np.column_stack([
+                (evaluate(k, q + dq, p)[1] - evaluate(k, q - dq, p)[1]) / (2 * hi)
+                for hi, dq in ((h[i], h[i] * np.eye(q.size)[i]) for i in range(q.size))])
+
+        H_fd = hessian_fd(h)
         scale_H = np.max(np.abs(H))
+        if effect.startswith("contact_") and np.max(np.abs(H - H_fd)) >= HESS_TOL * scale_H:
+            # a contact point just touching: the Hertz law's delta^1/2 terms vary fast there and the differences'
+            # truncation error O(h^2) exceeds the tolerance; a 10x smaller step must then close in on the exact one
+            H_fd = hessian_fd(h / 10)
         if effect == "gravity":
             # gravity is linear in q: its Hessian must be exactly zero, and the differences of gradients agree
             assert scale_H == 0.0 and np.max(np.abs(H_fd)) < 1e-9 * scale_g
@@ -99,7 +106,8 @@ LINEAR_PARAM = {"axial_green": ("EA",), "axial_biot": ("EA",), "axial_decoupled"
                 "line_bending": ("EIy", "EIz"), "line_torsion": ("GIp",), "moment_z": ("M",), "moment_y": ("M",),
                 "elastic_green": ("EA", "EI"), "elastic_biot": ("EA", "EI"),  # fused axial + bending: both factors
                 "contact_ground": ("k", "kh"), "contact_circle": ("k", "kh"),  # normal law: both stiffnesses
-                "contact_ground_friction": ("k", "kh", "c"), "contact_circle_friction": ("k", "kh", "c")}
+                "contact_ground_friction": ("k", "kh", "c"), "contact_circle_friction": ("k", "kh", "c"),
+                "contact_drum": ("k", "kh"), "contact_drum_friction": ("k", "kh", "c")}
 
 
 @pytest.mark.parametrize("element,effect,gauss", KERNELS, ids=IDS)

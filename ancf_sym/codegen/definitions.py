@@ -82,6 +82,8 @@ def _contact_station(element: str, effect: str):
         L = p[0]
         r = centre(z[:nd], L, xi, dim)
         c = z[nd:nd + dim] if eff.obstacle else 0
+        if effect.startswith("contact_drum"):  # fixed drum: centre after (law, axis[, friction]) in p
+            c = p[len(eff.params) - dim:]
         if not eff.rates:
             dens = contact.ground_energy if effect == "contact_ground" else contact.circle_energy
             yield r - c, lambda u, p: dens(u, p, dim), w * L
@@ -90,7 +92,8 @@ def _contact_station(element: str, effect: str):
         if effect == "contact_ground_friction":
             yield ca.vertcat(r, v), lambda u, p: contact.ground_dissipation(u[:dim], u[dim:], p, dim), w * L
         else:
-            u = ca.vertcat(r - c, v - z[n + nd:n + nd + dim], z[n + nd + dim])
+            moving = effect == "contact_circle_friction"  # else a fixed drum: c' = 0, omega = 0
+            u = ca.vertcat(r - c, v - z[n + nd:n + nd + dim], z[n + nd + dim]) if moving else ca.vertcat(r - c, v, 0)
             yield u, lambda u, p: contact.circle_dissipation(u[:dim], u[dim:2 * dim], u[2 * dim], p, dim), w * L
     return station
 
