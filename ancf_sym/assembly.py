@@ -319,6 +319,16 @@ class Assembly:
             out += ca.mtimes(S, x[c.qi.tolist()] * x[c.qj.tolist()])
         return out
 
+    def constant_force(self) -> np.ndarray:
+        """Generalized force that does not depend on q (full coordinates): dead point loads minus the gradients of
+        the linear energy terms (gravity, distributed dead loads), evaluated once at the start state."""
+        f = self.Q.copy()
+        for mk in self.mapped:
+            if mk.linear:
+                mk(self.x0)
+                f -= np.bincount(mk.term.idx.ravel(), mk.G.ravel(), minlength=self.n)
+        return f
+
     def mass_matrix(self) -> sp.csc_matrix:
         """Constant global mass matrix (sparse)."""
         rows, cols, vals = [], [], []

@@ -36,7 +36,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from .assembly import LINEAR_EFFECTS, Assembly
+from .assembly import Assembly
 from scipy.linalg.lapack import dpbtrf, dpbtrs
 
 from .inertia import BAND_LIMIT, banded_cholesky, banded_solve
@@ -87,12 +87,7 @@ class Reduction:
         self.nf = part.E.shape[1]
         self.mc = len(part.rows)
         self._gather = np.where(part.pos >= 0, part.pos, self.nf)
-        f_lin = asm.Q.copy()
-        for mk in asm.mapped:
-            if mk.term.effect in LINEAR_EFFECTS:
-                mk(asm.x0)
-                f_lin -= np.bincount(mk.term.idx.ravel(), mk.G.ravel(), minlength=asm.n)
-        self.f_lin_full = f_lin
+        self.f_lin_full = f_lin = asm.constant_force()
         self.f_lin = part.E.T @ f_lin
         self.span = float(np.max(np.abs(asm.x0))) + 1.0
 

@@ -183,12 +183,7 @@ class ModelMixin:
         self.Mff = (part.E.T @ M @ part.E).tocsc()
         self.Mfc = (part.E.T @ M @ sp.csc_matrix(B)).tocsc()
         # constant forces: linear energy terms (gravity, distributed dead loads) and dead point loads incl. weights
-        f_lin = a.Q.copy()
-        for mk in a.mapped:
-            if mk.term.effect in LINEAR_EFFECTS:
-                mk(a.x0)
-                f_lin -= np.bincount(mk.term.idx.ravel(), mk.G.ravel(), minlength=self.n)
-        self.f_lin_full = f_lin
+        self.f_lin_full = f_lin = a.constant_force()
         self.f_lin = part.E.T @ f_lin
         self.Bf = part.E.T @ np.column_stack(self._force_vecs) if self.nF else np.zeros((self.nf, 0))
         self.nonlinear = [mk for mk in a.mapped if mk.term.effect not in LINEAR_EFFECTS]
