@@ -23,13 +23,11 @@ LABEL = "contact"
 
 
 @dataclass(frozen=True)
-class GroundContact:
-    """Centre line of `member` against the half-space {n.r >= level}: normal law k/2 delta^2 + 2/5 kh delta^2.5
-    per unit length (delta: penetration of the section's surface, half thickness `thickness`), damping c delta (n.w),
-    regularised Coulomb friction mu f_n w_t / sqrt(|w_t|^2 + eps^2), at `gauss` points per element."""
+class ContactLaw:
+    """What every contact shares: the member, the normal law k/2 delta^2 + 2/5 kh delta^2.5 per unit length (delta:
+    penetration of the section's surface, half thickness `thickness`), damping c delta (n.w), regularised Coulomb
+    friction mu f_n w_t / sqrt(|w_t|^2 + eps^2), at `gauss` points per element."""
     member: str
-    normal: np.ndarray
-    level: float
     stiffness: float
     hertz: float
     thickness: float
@@ -44,6 +42,13 @@ class GroundContact:
         return self.method == "penalty" and (self.damping > 0 or self.mu > 0)
 
 
+@dataclass(frozen=True, kw_only=True)
+class GroundContact(ContactLaw):
+    """Centre line of `member` against the half-space {n.r >= level}, with the ContactLaw."""
+    normal: np.ndarray
+    level: float
+
+
 def _nonnegative(name: str, value: Any) -> float:
     try:
         v = float(value)
@@ -55,7 +60,7 @@ def _nonnegative(name: str, value: Any) -> float:
 
 
 def _law(scene, f: str, member: str, stiffness, hertz, thickness, damping, mu, eps, gauss, method) -> dict:
-    """The validated options every contact shares (member, normal law, section half thickness, damping, friction)."""
+    """The validated ContactLaw fields (member, normal law, section half thickness, damping, friction)."""
     if member not in scene.members:
         raise SceneError(f"{f}: member {member!r} does not exist; members: {sorted(scene.members)}")
     m = scene.members[member]
@@ -109,28 +114,15 @@ def ground(scene, member: str, stiffness: float = 0.0, hertz: float = 0.0, norma
     return GroundContact(normal=n, level=lvl, **law)
 
 
-@dataclass(frozen=True)
-class DrumContact:
+@dataclass(frozen=True, kw_only=True)
+class DrumContact(ContactLaw):
     """Centre line of `member` outside a fixed drum: circle (2D) or cylinder of unit axis `axis` (3D) of centre
-    `centre` and radius `radius`; the normal law, damping and friction of GroundContact with the radial gap
-    |r - c|_perp - radius - thickness. The centre is a kernel parameter (kernel <element>_contact_drum); a drum
-    carried by a rigid body uses the kernels with the centre and angle as inputs (<element>_contact_circle)."""
-    member: str
+    `centre` and radius `radius`; the ContactLaw with the radial gap |r - c|_perp - radius - thickness. The centre
+    is a kernel parameter (kernel <element>_contact_drum); a drum carried by a rigid body uses the kernels with the
+    centre and angle as inputs (<element>_contact_circle)."""
     centre: np.ndarray
     radius: float
     axis: np.ndarray | None
-    stiffness: float
-    hertz: float
-    thickness: float
-    damping: float
-    mu: float
-    eps: float
-    gauss: int
-    method: str = "penalty"
-
-    @property
-    def dissipative(self) -> bool:
-        return self.method == "penalty" and (self.damping > 0 or self.mu > 0)
 
 
 def drum(scene, member: str, centre: Sequence[float], radius: float, axis: Sequence[float] | None = None,
