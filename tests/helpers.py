@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -225,3 +227,10 @@ def pick(records: list[dict], **kw) -> dict:
     hits = [r for r in records if all(r.get(k) == v for k, v in kw.items())]
     assert len(hits) == 1, f"{len(hits)} records match {kw}"
     return hits[0]
+
+
+def cli(*args, cwd: Path) -> subprocess.CompletedProcess:
+    """`python -m ancf_sym.cli ARGS` in a subprocess, as a user runs it (outside the project root, so that the
+    installed package with its compiled kernels is imported)."""
+    return subprocess.run([sys.executable, "-m", "ancf_sym.cli", *map(str, args)], cwd=cwd, capture_output=True,
+                          text=True, timeout=300)

@@ -3,20 +3,15 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import meshio
 import numpy as np
 
+from helpers import cli
+
 ROOT = Path(__file__).resolve().parents[1]
 CANTILEVER = ROOT / "examples" / "scenes" / "cantilever.toml"
-
-
-def cli(*args, cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "ancf_sym.cli", *map(str, args)], cwd=cwd, capture_output=True,
-                          text=True, timeout=300)
 
 
 def scene_variant(tmp_path: Path, name: str, old: str, new: str) -> Path:

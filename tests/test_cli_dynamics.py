@@ -2,21 +2,16 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import meshio
 import numpy as np
 
+from helpers import cli
+
 ROOT = Path(__file__).resolve().parents[1]
 PENDULUM = ROOT / "examples" / "scenes" / "pendulum.toml"
-
-
-def cli(*args, cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "ancf_sym.cli", *map(str, args)], cwd=cwd, capture_output=True,
-                          text=True, timeout=300)
 
 
 def test_dynamics_scene_writes_series(tmp_path):

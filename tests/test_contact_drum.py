@@ -4,8 +4,6 @@ the penalty law balances the supports; every integrator runs a rope falling onto
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import meshio
@@ -14,6 +12,8 @@ import pytest
 
 from ancf_sym import Material, Scene, SceneError, Section, contact, solve_static
 from ancf_sym.dynamics import DynamicOptions, simulate
+
+from helpers import cli
 
 
 def _scene(gravity=(0.0, 0.0)):
@@ -130,8 +130,7 @@ def test_toml_circle_contact_and_results_report_gap_and_force(tmp_path):
             load_scene(f)
     f.write_text(TOML)
     out = tmp_path / "out"
-    r = subprocess.run([sys.executable, "-m", "ancf_sym.cli", "run", str(f), "--out", str(out)], cwd=tmp_path,
-                       capture_output=True, text=True, timeout=300)
+    r = cli("run", f, "--out", out, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     doc = json.loads((out / "result.json").read_text())
     (rep,) = doc["contacts"]
@@ -154,8 +153,7 @@ def test_dynamics_results_carry_contact_series(tmp_path):
                  + '[analysis]\ntype = "dynamics"\ndt = 1e-3\nt_end = 0.03\noutput_dt = 0.01\n')
     load_scene(f)
     out = tmp_path / "out"
-    r = subprocess.run([sys.executable, "-m", "ancf_sym.cli", "run", str(f), "--out", str(out)], cwd=tmp_path,
-                       capture_output=True, text=True, timeout=300)
+    r = cli("run", f, "--out", out, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     doc = json.loads((out / "result.json").read_text())
     (rep,) = doc["contacts"]
