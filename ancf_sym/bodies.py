@@ -22,7 +22,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from .affine_rows import Vec, body_sides, dot, equal
+from .affine_rows import Vec, body_sides, dot
 from .checks import SceneError, number
 
 BODY_SIZE = 4  # x, y, cos(angle), sin(angle)
@@ -156,13 +156,20 @@ def constraint_rows(rows, mesh) -> None:
         rows.k.append(0.0)
     for j in scene.body_joints:
         b, o = scene.bodies[j.body], mesh.bodies[j.body]
-        if j.other is not None or j.kind == "prismatic":
-            _pair_rows(rows, mesh, j)
+        if j.kind == "prismatic":
+            _prismatic_rows(rows, mesh, j)
             continue
         if j.kind == "revolute":
             p = b.local(j.point)
             for k in range(2):
-                rows.row(_point_coefs(o, p, k, 1.0), float(j.point[k]), f"revolute {j.body}", "position")
+                coefs = _point_coefs(o, p, k, 1.0)
+                if j.other is None:
+                    rows.row(coefs, float(j.point[k]), f"revolute {j.body}", "position")
+                else:  # the two bodies' points coincide: linear in both bodies' coordinates
+                    oo, bo = mesh.bodies[j.other], scene.bodies[j.other]
+                    for c, v in _point_coefs(oo, bo.local(j.point), k, -1.0).items():
+                        coefs[c] = coefs.get(c, 0.0) + v
+                    rows.row(coefs, 0.0, f"revolute {j.body}-{j.other}", "position")
                 rows.k.append(0.0)
             continue
         mm = mesh.members[j.member]
@@ -189,7 +196,7 @@ def constraint_rows(rows, mesh) -> None:
 
 def _point(o: int, p: np.ndarray) -> Vec:
     """World position of the body point p (body coordinates): r + R(u) p, affine in (x, y, c, s)."""
-    return Vec([{o: 1.0, o + 2: p[0], o + 3: -p[1]}, {o + 1: 1.0, o + 2: p[1], o + 3: p[0]}])
+    return Vec([_point_coefs(o, p, k, 1.0) for k in range(2)])
 
 
 def _direction(o: int, a: np.ndarray) -> Vec:
@@ -197,14 +204,10 @@ def _direction(o: int, a: np.ndarray) -> Vec:
     return Vec([{o + 2: a[0], o + 3: -a[1]}, {o + 2: a[1], o + 3: a[0]}])
 
 
-def _pair_rows(rows, mesh, j: BodyJoint) -> None:
-    """A revolute joint between two bodies, or a prismatic one to the ground or a body (ancf_sym.affine_rows)."""
+def _prismatic_rows(rows, mesh, j: BodyJoint) -> None:
+    """A prismatic joint to the ground or a body (ancf_sym.affine_rows): the body's x axis stays normal to the other
+    side's normal of it (no relative turn), and the joint point moves along the axis only: (p_a - p_b) . n_b = 0."""
     pa, pb, dir_a, dir_b, label = body_sides(mesh, j, _point, _direction)
-    if j.kind == "revolute":
-        equal(rows, pa, pb, label)
-        return
-    # prismatic: the body's x axis stays normal to the other side's normal of it (no relative turn), and the
-    # joint point moves along the axis only: (p_a - p_b) . n_b = 0
     u0 = np.array([math.cos(mesh.scene.bodies[j.body].angle), math.sin(mesh.scene.bodies[j.body].angle)])
     dot(rows, dir_a(u0), dir_b(np.array([-u0[1], u0[0]])), 0.0, label, "slope")
     dot(rows, pa - pb, dir_b(np.array([-j.axis[1], j.axis[0]])), 0.0, label, "position")

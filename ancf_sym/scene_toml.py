@@ -14,8 +14,11 @@ The file mirrors the Python API (docs/scenes.md has the full schema and an annot
     [[loops]]            name, path = [["line", a, b], ["arc", centre, radius, angle0, sweep], ...] or
                          pulleys = [[centre, radius], ...], elements, material, section, and the member keys
     [[bodies]]           name, mass, inertia, position, force, pin = [[member, at], ...], rigid = [...];
-                         2D: angle, revolute = [x, y] (ground pivot); 3D: axes, and revolute / spherical /
-                         prismatic = {point, axis, other} (or an array of such tables; spherical also [x, y, z])
+                         2D: angle, revolute = [x, y] (pivot; fixed to the body revolute_body = NAME instead of the
+                         ground); 3D: axes; revolute / prismatic (2D, 3D), spherical (3D) = {point, axis, other}
+                         (or an array of such tables; a ground point [x, y(, z)] for revolute in 2D and spherical)
+    [[drives]]           type = "angle" (body, angle | omega, relative_to, angle0) | "position" (member, at | body,
+                         position) | "torque" (body, torque); motions: numbers or [[t, [a0, a1, ...]], ...]
     [[contacts]]         type = "ground" (normal, level) | "circle" (centre, radius, axis), member, stiffness, hertz,
                          thickness, damping, mu, eps, gauss, method (ancf_sym.contact.from_toml)
     [analysis]           type = "statics" (tol, max_iter, load_steps, escape_saddle) | "dynamics" (passed through;
@@ -31,7 +34,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from . import contact
+from . import contact, drives
 from .checks import check_keys, fail, number, vector
 from .mesh import build_mesh
 from .scene import AXIAL, Material, Scene, SceneError, Section
@@ -45,7 +48,7 @@ except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
 TOP_KEYS = ("scene", "materials", "sections", "members", "loops", "supports", "joints", "loads", "dampings",
-            "contacts", "bodies", "analysis")
+            "contacts", "bodies", "drives", "analysis")
 SCENE_KEYS = ("name", "dim", "gravity")
 SECTION_KEYS = {None: tuple(SECTION), "circle": ("diameter",), "rectangle": ("b", "h")}
 MEMBER_KEYS = tuple(inspect.signature(Scene.member).parameters)[1:]  # the keywords of Scene.member
@@ -236,6 +239,13 @@ def _body_joints(scene: Scene, path: str, d: dict) -> None:
         raise _fail(f"{path}.angle", "is planar; a spatial body takes axes (3 rows x, y, z)", d["angle"])
     if scene.dim == 2 and "spherical" in d:
         raise _fail(f"{path}.spherical", "is for spatial bodies (3D scenes)", d["spherical"])
+    if "revolute_body" in d:  # (2D) the pivot fixed to that body: revolute = [x, y] or the body's centre
+        rev = d.get("revolute")
+        if scene.dim == 3 or isinstance(rev, dict) or (isinstance(rev, list) and rev and isinstance(rev[0], dict)):
+            raise _fail(f"{path}.revolute_body", "goes with a planar revolute = [x, y] (or write revolute = "
+                        "{point, other})", d["revolute_body"])
+        d = {**d, "revolute": {"other": _str(f"{path}.revolute_body", d["revolute_body"]),
+                               **({"point": d["revolute"]} if "revolute" in d else {})}}
     for kind in ("spherical", "revolute", "prismatic"):
         if kind not in d:
             continue
@@ -407,6 +417,8 @@ def scene_from_dict(doc: dict, default_name: str = "scene") -> tuple[Scene, dict
         _body(scene, f"bodies[{i}]", d)
     for i, d in enumerate(bodies):  # joints may name any body, earlier or later
         _body_joints(scene, f"bodies[{i}]", d)
+    for i, d in enumerate(_array_of_tables("drives", doc.get("drives", []))):
+        _api(f"drives[{i}]", drives.from_toml, scene, d)
 
     # dry run of the mesh and the energy terms (numpy only, no kernels): what they refuse, refuse now
     _api("members", lambda: scene_terms(build_mesh(scene)))

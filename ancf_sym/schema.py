@@ -76,6 +76,7 @@ BODY = {
     "force": Field("any", "N", optional=True, doc="dead force at the centre"),
     "revolute": Field("any", optional=True, doc="joint table(s) {point, other; 3D: axis}, or (2D) a ground pivot "
                       "[x, y] (m)"),
+    "revolute_body": Field("str", optional=True, doc="2D: the body the revolute point is fixed to (default: ground)"),
     "spherical": Field("any", optional=True, doc="3D: joint table(s) {point, other}, or a ground point [x, y, z] (m)"),
     "prismatic": Field("any", optional=True, doc="joint table(s) {axis, point, other}"),
     "pin": Field("any", optional=True, doc="[[member, at], ...]: member nodes pinned to the body"),
