@@ -100,7 +100,7 @@ class AlphaIntegrator:
         self._s_in, self._s_out, self._info = np.zeros(self.state_size), np.zeros(self.state_size), \
             np.zeros(self.info_size)
         self._f_out = [np.zeros(k) for k in self.fac_sizes]
-        self._h, self._hp, self._pload, self._tols = np.zeros(1), np.zeros(1), np.zeros(nf), np.zeros(2)
+        self._h, self._hp, self._pload, self._tols = np.zeros(1), np.zeros(1), np.zeros(nf + S.nw), np.zeros(2)
         args = [self._s_in] + self.fac + [self._h, self._hp, self._pload, self._tols] + \
             ([S.kel] if S.kel is not None else []) + [S.par]
         outs = [self._s_out] + self._f_out + [self._info]
@@ -111,11 +111,11 @@ class AlphaIntegrator:
             buf.set_res(i, memoryview(arr))
         self._step = (buf, ev, args, outs)
 
-    def initialize(self, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray) -> None:
+    def initialize(self, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray, t0: float = 0.0) -> None:
         self.q[:] = q0
         self.v[:] = v0
         self.kdamp.update(self.q)
-        a, lam = initial_acceleration(self.S, q0, v0, Q0, self.kdamp.matrix())
+        a, lam = initial_acceleration(self.S, q0, v0, Q0, self.kdamp.matrix(), t0)
         self.a[:], self.lam[:] = a, lam
         self.ab[:] = self.a
         self.a_prev[:] = self.a
@@ -134,6 +134,8 @@ class AlphaIntegrator:
         The candidate is in self.new; accept() commits it."""
         S = self.S
         pload = -S.f_lin if loads is None else -(S.f_lin + loads(t + h))
+        if S.nw:
+            pload = np.r_[pload, S.w(t + h)]
         self._h_try = h
         python_newton = self.opts
         if self.modified_graph or not self.opts.modified:
@@ -200,10 +202,11 @@ class AlphaIntegrator:
         qh = self.q + h * self.v + h * h * (0.5 - b) * self.ab
         vh = self.v + h * (1 - g) * self.ab
         cm, cc = sc.cm(h), sc.cc(h)
-        p = S.M @ ((am * self.ab - af * self.a) / (1 - af) - cm * qh) + pload
+        p = pload.copy()
+        p[:S.nf] += S.M @ ((am * self.ab - af * self.a) / (1 - af) - cm * qh)
         C = self.kdamp.matrix()
         if C is not None:
-            p += C @ (vh - cc * qh)
+            p[:S.nf] += C @ (vh - cc * qh)
         ap = self.a + ((self.a - self.a_prev) * h / self.h_prev if self.h_prev else 0.0)
         x = qh + b * h * h * ((1 - af) * ap + af * self.a - am * self.ab) / (1 - am)
         S.vc[:] = vh - cc * qh
@@ -264,7 +267,7 @@ class AlphaIntegrator:
             buf, ev = pooled_buffer(g, (n, guard), f, self)
             nf = self.S.nf
             ns = self.state_size + guard
-            bufs = dict(s=np.zeros(ns), h=np.zeros(n), hp=np.zeros(n), pload=np.zeros(nf * n),
+            bufs = dict(s=np.zeros(ns), h=np.zeros(n), hp=np.zeros(n), pload=np.zeros((nf + self.S.nw) * n),
                         tols=np.zeros(2 * n), out=np.zeros(ns * n), info=np.zeros(self.info_size * n),
                         fac_out=[np.zeros(k * n) for k in self.fac_sizes], guard=guard)
             S = self.S

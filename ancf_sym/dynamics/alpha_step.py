@@ -68,7 +68,7 @@ class AlphaStepGraphs:
         ctl = st[5 * nf + mc:]
         h, hp = ca.MX.sym("h"), ca.MX.sym("h_prev")  # h_prev <= 0: no previous step (constant predictor)
         tols = ca.MX.sym("tols", 2)  # force tolerance [N], update tolerance [m]
-        pload = ca.MX.sym("pload", nf)  # -(f_lin + Q(t_n+1))
+        pload = ca.MX.sym("pload", nf + S.nw)  # -(f_lin + Q(t_n+1)), then the drives' inputs w(t_n+1)
         kel = ca.MX.sym("kel", S.kel.size) if S.kel is not None else None
         par = ca.MX.sym("par", S.par.size)  # element parameters (StepSystem.par)
         return st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel, par
@@ -92,7 +92,7 @@ class AlphaStepGraphs:
         # a_n+1 = ((1 - am) ab_n+1 + am ab - af a) / (1 - af) = cm (x - qh) + k0, with x = qh + (b h^2) ab_n+1
         k0 = (am / (1 - af)) * ab - (af / (1 - af)) * a
         y = k0 - cm * qh  # the residual's inertia is M (cm x + y): no product with M here
-        p = Cvh + pload
+        p = Cvh + pload if not S.nw else ca.vertcat(Cvh + pload[:nf], pload[nf:])
         apred = a + ca.if_else(hp > 0, (a - ap) * (h / ca.fmax(hp, 1e-300)), ca.MX.zeros(nf))
         x0 = qh + (bhh / (1 - am)) * ((1 - af) * apred + af * a - am * ab)
         err_c = sc.error_constant()
@@ -172,7 +172,7 @@ class AlphaStepGraphs:
         first, final = self._full_control_functions()
         a1 = first(ctl, n0, lte, tols)
         # second iteration, evaluated only when needed
-        xb, lb, pb = ca.MX.sym("xb", nf), ca.MX.sym("lb", mc), ca.MX.sym("pb", nf)
+        xb, lb, pb = ca.MX.sym("xb", nf), ca.MX.sym("lb", mc), ca.MX.sym("pb", nf + S.nw)
         cb, ccb, kb, vb = ca.MX.sym("cmb"), ca.MX.sym("ccb"), ca.MX.sym("kcb"), ca.MX.sym("vcb", nf)
         eb = [ca.MX.sym("kelb", S.kel.size)] if kel is not None else []
         yb, parb = ca.MX.sym("yb", nf), ca.MX.sym("parb", S.par.size)
@@ -316,7 +316,7 @@ class AlphaStepGraphs:
         extra = [kel] if kel is not None else []
         # one Newton iteration of each kind, with the same signature: keep (converged), kept factor, refactorise
         xs, Ds, Us, UTs = ca.MX.sym("x", nf), ca.MX.sym("D", nD), ca.MX.sym("U", nU), ca.MX.sym("UT", nUT)
-        ps, cms, ccs, vcs = ca.MX.sym("p", nf), ca.MX.sym("cm"), ca.MX.sym("cc"), ca.MX.sym("vc", nf)
+        ps, cms, ccs, vcs = ca.MX.sym("p", nf + S.nw), ca.MX.sym("cm"), ca.MX.sym("cc"), ca.MX.sym("vc", nf)
         ks = [ca.MX.sym("kel", S.kel.size)] if kel is not None else []
         ys, pars = ca.MX.sym("y", nf), ca.MX.sym("par", S.par.size)
         args = [xs, Ds, Us, UTs, ps, cms, ccs, vcs] + ks + [ys, pars]

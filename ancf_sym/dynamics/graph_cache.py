@@ -68,6 +68,8 @@ def structure_key(S: "StepSystem") -> str:
     add(None if r is None else (r.alpha, r.beta, {k: np.asarray(v, float) for k, v in r.element_weight.items()}))
     add(S.strain_rate, asm.penalty, S.cons)
     add(contact.dissipation_calls(asm.mesh))  # contact damping/friction: parameters baked into the graph
+    d = S.drives  # drive rows' pattern (their time functions are inputs)
+    add(None if d is None else (d.nw, d.row, d.wk, d.i, d.j, d.coef, d.torques))
     return h.hexdigest()
 
 

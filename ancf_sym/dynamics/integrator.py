@@ -23,7 +23,7 @@ class StepOutcome:
 class Integrator(Protocol):
     """A one-step method on a StepSystem's unknowns, as the time loop (ancf_sym.dynamics.time_loop) drives it.
 
-    q, v, a: the accepted state (a: acceleration, for the residual's force scale); `new` holds the candidate of the
+    q, v, a, lam: the accepted state (a: acceleration, for the residual's force scale; lam: true multipliers); `new` holds the candidate of the
     last successful `attempt` ("q", "v"), committed by `accept`. tol_q: the force tolerance [N], set by the run
     once the force scale is known. order: of the local error estimate (step-size control exponent
     1/(order + 1)). `chunkable` true: the integrator is a ChunkedIntegrator too, and the loop runs stretches of
@@ -31,11 +31,12 @@ class Integrator(Protocol):
     q: np.ndarray
     v: np.ndarray
     a: np.ndarray
+    lam: np.ndarray
     new: dict
     tol_q: float
     order: int
 
-    def initialize(self, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray) -> None: ...
+    def initialize(self, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray, t0: float = 0.0) -> None: ...
 
     def attempt(self, t: float, h: float, loads: Callable[[float], np.ndarray] | None = None) -> StepOutcome: ...
 
@@ -61,10 +62,13 @@ class ChunkedIntegrator(Integrator, Protocol):
 
 
 def initial_acceleration(S: StepSystem, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray,
-                         C: sp.spmatrix | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Consistent initial acceleration and multipliers: [M J^T; J 0][a; lam] = [f - C v - g; -phi_vv]."""
+                         C: sp.spmatrix | None = None, t0: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Consistent initial acceleration and multipliers: [M J^T; J 0][a; lam] = [f - C v - g; -gamma] (gamma:
+    StepSystem.phi_vv; drives and torques at time t0)."""
     g = np.asarray(S.grad_pf(q0, S.par)).ravel()  # (the gradient-only graph: no Hessian to compute and convert)
     f = S.f_lin + Q0 - g
+    if S.drives is not None:
+        f = f + S.reduce_force(S.drives.torque_force(S.full(q0), S.w(t0)))
     if C is not None:
         f = f - C @ v0
     if S.damp_f is not None:
@@ -72,9 +76,9 @@ def initial_acceleration(S: StepSystem, q0: np.ndarray, v0: np.ndarray, Q0: np.n
     if not S.nf:
         return np.zeros(0), np.zeros(S.mc)
     if S.mc:
-        J = S.jac_phi(q0)
+        J = S.jac_phi(q0, t0)
         A = sp.bmat([[S.M, J.T], [J, None]], format="csc")
-        z = spla.spsolve(A, np.r_[f, -S.phi_vv(v0)])
+        z = spla.spsolve(A, np.r_[f, -S.phi_vv(v0, q0, t0)])
         return z[:S.nf], z[S.nf:]
     return spla.spsolve(S.M.tocsc(), f), np.zeros(0)
 

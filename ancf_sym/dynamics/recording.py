@@ -54,6 +54,7 @@ class Recorder:
         self.data: dict[str, list] = {s.sensor.name: [] for s in sensors}
         self.energies: dict[str, list] = {}
         self.viol: list[float] = []
+        self.reactions: dict[str, list] = {}
         self.E0 = None
         self.scale = 0.0  # running energy scale: |T| + sum |potentials| + |works| + |E0|
         self.blowup: tuple | None = None  # (t, energy created, scale) once the scheme has created energy
@@ -62,9 +63,12 @@ class Recorder:
         T, pot = self.S.energies(qf, vf)
         return T, pot, T + float(sum(pot.values()))
 
-    def record(self, t, qf, vf, damping_work, external_work):
+    def record(self, t, qf, vf, damping_work, external_work, lam=None):
         S = self.S
         x, v = S.full(qf), S.full_v(vf)
+        if S.drives is not None and S.drives.m and lam is not None:
+            for name, val in S.drives.reactions(x, lam[S.mc - S.drives.m:]).items():
+                self.reactions.setdefault(name, []).append(val)
         for s in self.sensors:
             self.data[s.sensor.name].append(s(x, v))
         if self.with_energies:
@@ -88,18 +92,21 @@ class Recorder:
             created = -algorithmic
             if self.blowup is None and created > ENERGY_CREATION_LIMIT * self.scale:
                 self.blowup = (float(t), created, self.scale)
-        self.viol.append(self._violation(x))
+        self.viol.append(self._violation(x, t))
         self.t.append(float(t))
 
-    def _violation(self, x: np.ndarray) -> float:
-        """max |Phi(x)| over all supports and joints (the linear rows as a small dense matrix when it is small)."""
+    def _violation(self, x: np.ndarray, t: float) -> float:
+        """max |Phi(x)| over all supports and joints (the linear rows as a small dense matrix when it is small),
+        and the drives' rows at time t."""
         cons = self.S.asm.constraints
+        d = self.S.drives
+        drive = float(np.abs(d.value(x, d.w(t))).max()) if d is not None and d.m else 0.0
         if not cons.m:
-            return 0.0
+            return drive
         if not hasattr(self, "_cA"):
             self._cA = cons.A.toarray() if cons.m * cons.A.shape[1] <= 200_000 else cons.A
         val = self._cA @ x - cons.d
         if len(cons.qrow):
             val += np.bincount(cons.qrow, cons.qcoef * x[cons.qi] * x[cons.qj], minlength=cons.m)
-        return float(np.abs(val).max())
+        return max(float(np.abs(val).max()), drive)
 

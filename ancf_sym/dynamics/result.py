@@ -1,7 +1,7 @@
 """The result of a dynamic run: status, outputs (times, sensors, energies, constraint violation), counters."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -32,6 +32,9 @@ class DynamicResult:
     h_max: float = float("nan")
     setup_s: float = 0.0  # building the compiled step functions (before the time loop; not in wall_s)
     cpu_s: float = 0.0  # CPU time of the time loop (process time: what other processes on the machine take counts less)
+    # per drive (ancf_sym.drives): what it applies at the output times, (len(t), k): an angle drive's torque on its
+    # body [N m], a position drive's force [N] (from the multipliers; linear in time between steps)
+    drive_reactions: dict = field(default_factory=dict)
 
     @property
     def newton_iterations(self) -> int:
@@ -66,5 +69,7 @@ class DynamicResult:
             "energies": {k: np.asarray(v).tolist() for k, v in self.energies.items()},
             "constraint_violation": self.constraint_violation.tolist(),
             "x": self.x.tolist(), "v": self.v.tolist(),
+            **({"drive_reactions": {k: np.asarray(v).tolist() for k, v in self.drive_reactions.items()}}
+               if self.drive_reactions else {}),
         }
 

@@ -42,6 +42,9 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
     if not scene.members and not scene.bodies:
         raise SceneError("scene has no members or bodies")
     contact.check_dynamics(asm)
+    if getattr(scene, "drives", None) and opts.integrator in ("radau", "gauss"):
+        raise SceneError(f"integrator={opts.integrator!r}: drives and torques (time-dependent constraints and "
+                         "forces) run with the alpha schemes (newmark, hht, generalized_alpha), not collocation")
     sensors = [SensorEval(s, asm, i) for i, s in enumerate(opts.sensors)]
     if system is None:
         system = StepSystem.for_scene(asm)
@@ -70,6 +73,17 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
         if vv.max() > 1e-8 * max(1.0, float(np.abs(v0).max())):
             k = int(np.argmax(vv))
             raise SceneError(f"v0 violates the velocity form of constraint {asm.exact.labels[k]!r} by {vv[k]:.3g}")
+    drv = S.drives
+    if drv is not None and drv.m:  # the drives at t_start: position and velocity
+        w0 = drv.w(opts.t_start)
+        viol = np.abs(drv.value(q0, w0))
+        vv = np.abs(drv.jacobian(q0, w0) @ v0 + drv.time_terms(q0, v0, opts.t_start)[0])
+        for what, arr, tol in (("q0", viol, cons_tol), ("v0 (velocity form)", vv, 1e-8 * max(1.0, float(np.abs(v0).max())))):
+            if arr.max() > tol:
+                k = int(np.argmax(arr))
+                raise SceneError(f"{what} violates drive {drv.labels[k]!r} at t_start = {opts.t_start:g} s by "
+                                 f"{arr[k]:.3g} (start the body or node where and as fast as the drive prescribes, "
+                                 "e.g. a motion that starts from rest)")
     outputs = output_grid(opts)
     every = opts.output_every
     if every is None and outputs is None:  # default: about DEFAULT_OUTPUTS intervals
@@ -91,7 +105,7 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
     t_wall, t_cpu = time.perf_counter(), time.process_time()
     qf, vf = S.reduce(q0), S.reduce(v0)
     Q0 = loads(opts.t_start) if loads else np.zeros(S.nf)
-    integ.initialize(qf, vf, Q0)
+    integ.initialize(qf, vf, Q0, opts.t_start)
     # force scale of the residual tolerance: constant loads (gravity, dead loads), inertia at t0, time loads
     fscale = max(float(np.max(np.abs(S.f_lin))), float(np.max(np.abs(S.M @ integ.a))),
                  float(np.max(np.abs(Q0)))) if S.nf else 0.0
@@ -110,7 +124,7 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
                          np.array(rec.viol), float(t), steps, rejected, counters.as_dict(), wall,
                          S.full(integ.q), S.full_v(integ.v), opts, asm,
                          float(min(h_used)) if h_used else float("nan"), float(max(h_used)) if h_used else float("nan"),
-                         setup, cpu)
+                         setup, cpu, {k: np.array(v) for k, v in rec.reactions.items()})
 
 
 def run_dynamics(scene: Scene | Assembly, analysis: dict | DynamicOptions,

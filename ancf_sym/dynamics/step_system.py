@@ -22,7 +22,7 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from .. import contact
+from .. import contact, drives
 from ..assembly import Assembly, force_terms
 from ..reduced import partition
 from ..sparsity import dm, mx_nonzeros
@@ -64,12 +64,20 @@ class StepSystem:
         self.E = part.E
         self.cons = asm.exact.subset(part.rows) if len(part.rows) else None
         self.mc = self.cons.m if self.cons is not None else 0
+        # drives and torques: rows and forces whose time functions w(t) are per-step inputs, appended to the step's
+        # constant vector p (and to the integrators' pload): p = [p (nf); w (nw)]
+        self.drives = drives.build(asm)
+        self.nw = self.drives.nw if self.drives is not None else 0
+        if self.drives is not None:
+            drives.check_free(self.drives, part.pos)
+            self.mc += self.drives.m
         self.rayleigh = rayleigh if (rayleigh is not None and (rayleigh.alpha or rayleigh.beta)) else None
         # sparse LDL^T without pivoting for the symmetric positive definite step matrix; sparse QR when multipliers
         # make the KKT matrix indefinite (LDL^T meets zero pivots) or strain-rate damping makes it unsymmetric
         # (d f_d / dq; LDL^T reads one triangle)
         # (contact friction likewise: d f / d q is unsymmetric)
-        unsym = strain_rate is not None or bool(contact.dissipation_calls(asm.mesh))
+        unsym = strain_rate is not None or bool(contact.dissipation_calls(asm.mesh)) or \
+            bool(self.drives is not None and self.drives.torques)  # (a torque's tangent is skew)
         self.linsol = linsol if linsol != "auto" else ("qr" if (self.mc or unsym) else "ldl")
 
         M = asm.mass_matrix().tocsc()
@@ -155,12 +163,35 @@ class StepSystem:
     def damped(self) -> bool:
         return self.rayleigh is not None or self.damp_f is not None
 
-    def constraint_mx(self, xf: ca.MX) -> ca.MX:
-        return Assembly._casadi_constraint(self.cons, self.x_full_mx(xf))
+    def constraint_mx(self, xf: ca.MX, w: ca.MX | None = None) -> ca.MX:
+        """The kept exact rows, then the drive rows at the time inputs w."""
+        x = self.x_full_mx(xf)
+        parts = [Assembly._casadi_constraint(self.cons, x)] if self.cons is not None else []
+        if self.drives is not None and self.drives.m:
+            parts.append(self.drives.mx(x, w))
+        return ca.vertcat(*parts)
+
+    @property
+    def bilinear(self) -> bool:
+        """Constraint rows with a Hessian (bilinear terms)."""
+        return (self.cons is not None and len(self.cons.qrow) > 0) or (self.drives is not None and self.drives.m > 0)
+
+    def torque_mx(self, xf: ca.MX, w: ca.MX) -> ca.MX | None:
+        """Generalized force of the applied torques on the unknowns, tau (-s, c) on a body's (c, s), or None."""
+        if self.drives is None or not self.drives.torques:
+            return None
+        vals, rows = [], []
+        for ic, is_, k in self.drives.torques:
+            uc, us = int(self.pos[ic]), int(self.pos[is_])
+            vals += [-w[k] * xf[us], w[k] * xf[uc]]
+            rows += [uc, us]
+        A = ca.DM(ca.Sparsity.triplet(self.nf, len(rows), rows, list(range(len(rows)))), 1.0)
+        return ca.mtimes(A, ca.vertcat(*vals))
 
     def _build_step(self) -> None:
         nf, mc = self.nf, self.mc
-        xf, lam, p = ca.MX.sym("x", nf), ca.MX.sym("lam", mc), ca.MX.sym("p", nf)
+        xf, lam, p_in = ca.MX.sym("x", nf), ca.MX.sym("lam", mc), ca.MX.sym("p", nf + self.nw)
+        p, w = (p_in[:nf], p_in[nf:]) if self.nw else (p_in, None)  # w: the drives' time inputs
         cm, cc, kc = ca.MX.sym("cm"), ca.MX.sym("cc"), ca.MX.sym("kc")
         kel = ca.MX.sym("kel", self.kel_sparsity.nnz()) if self.kel_sparsity is not None else None
         vc = ca.MX.sym("vc", nf)  # v_n+1 = vc + cc x (used by the strain-rate damping)
@@ -186,12 +217,17 @@ class StepSystem:
         r_g = ca.mtimes(Mdm, cm * xf + y) + cc * Cx + self.grad_pf(xf, par) + p
         if self.damp_f is not None:
             r_g += self.damp_force_f(xf, vc + cc * xf)
+        tq = self.torque_mx(xf, w)
+        if tq is not None:  # applied torques: force tau (-s, c), tangent -d/dx of it
+            r_q -= tq
+            r_g -= tq
+            S = S - ca.jacobian(tq, xf)
         if mc:
-            phi = self.constraint_mx(xf)
+            phi = self.constraint_mx(xf, w)
             Jx = ca.jacobian(phi, xf)
             r_q += kc * ca.mtimes(Jx.T, lam)
             r_g += kc * ca.mtimes(Jx.T, lam)
-            if len(self.cons.qrow):
+            if self.bilinear:
                 S = S + ca.hessian(ca.dot(kc * lam, phi), xf)[0]
             r = ca.vertcat(r_q, kc * phi)
             rg = ca.vertcat(r_g, kc * phi)
@@ -200,7 +236,7 @@ class StepSystem:
         else:
             r, rg, KKT, rc = r_q, r_g, S, ca.MX(0)
         rq = ca.mmax(ca.fabs(r_q))
-        ins = [xf, lam, p, cm, cc, kc, vc] + ([kel] if kel is not None else []) + [y, par]
+        ins = [xf, lam, p_in, cm, cc, kc, vc] + ([kel] if kel is not None else []) + [y, par]
         names = ["x", "lam", "p", "cm", "cc", "kc", "vc"] + (["kel"] if kel is not None else []) + ["y", "par"]
         self.kkt_sparsity = KKT.sparsity()
         kkt_nz = mx_nonzeros(KKT)
@@ -230,7 +266,7 @@ class StepSystem:
     def _setup_buffers(self, has_kel: bool) -> None:
         nf, mc = self.nf, self.mc
         self.nz = nf + mc
-        self.x, self.lam, self.p, self.vc = np.zeros(nf), np.zeros(mc), np.zeros(nf), np.zeros(nf)
+        self.x, self.lam, self.p, self.vc = np.zeros(nf), np.zeros(mc), np.zeros(nf + self.nw), np.zeros(nf)
         self.y = np.zeros(nf)  # (stays 0 here: p holds the whole constant part)
         self.cm, self.cc, self.kc = np.zeros(1), np.zeros(1), np.ones(1)
         self.kel = np.zeros(self.kel_sparsity.nnz()) if has_kel else None
@@ -329,19 +365,48 @@ class StepSystem:
             out[label] = out.get(label, 0.0) + v
         return vals[-1], out
 
-    def phi(self, xf: np.ndarray) -> np.ndarray:
-        return self.cons.value(self.full(xf)) if self.mc else np.zeros(0)
+    def phi(self, xf: np.ndarray, t: float = 0.0) -> np.ndarray:
+        x = self.full(xf)
+        parts = [self.cons.value(x)] if self.cons is not None else []
+        if self.drives is not None:
+            parts.append(self.drives.value(x, self.drives.w(t)))
+        return np.concatenate(parts) if parts else np.zeros(0)
 
-    def jac_phi(self, xf: np.ndarray) -> sp.csr_matrix:
-        return (self.cons.jacobian(self.full(xf)) @ self.E).tocsr()
+    def jac_phi(self, xf: np.ndarray, t: float = 0.0) -> sp.csr_matrix:
+        x = self.full(xf)
+        parts = [self.cons.jacobian(x)] if self.cons is not None else []
+        if self.drives is not None:
+            parts.append(self.drives.jacobian(x, self.drives.w(t)))
+        return (sp.vstack(parts) @ self.E).tocsr()
 
-    def phi_vv(self, vf: np.ndarray) -> np.ndarray:
-        """v^T Phi_qq v of the bilinear rows: the acceleration-level constraint is J a + phi_vv = 0."""
-        if not self.mc or not len(self.cons.qrow):
-            return np.zeros(self.mc)
+    def phi_vv(self, vf: np.ndarray, xf: np.ndarray | None = None, t: float = 0.0) -> np.ndarray:
+        """The acceleration-level constraint is J a + gamma = 0: gamma = v^T Phi_qq v of the bilinear rows, and for
+        the drive rows (at xf, time t) also their explicit time derivatives (drives.DriveSystem.time_terms)."""
         v = self.full_v(vf)
-        c = self.cons
-        return np.bincount(c.qrow, 2 * c.qcoef * v[c.qi] * v[c.qj], minlength=self.mc)
+        parts = []
+        if self.cons is not None:
+            c = self.cons
+            parts.append(np.bincount(c.qrow, 2 * c.qcoef * v[c.qi] * v[c.qj], minlength=c.m) if len(c.qrow)
+                         else np.zeros(c.m))
+        if self.drives is not None:
+            parts.append(self.drives.time_terms(self.full(xf), v, t)[1])
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    def w(self, t: float) -> np.ndarray:
+        """The drives' time inputs at t (empty without drives)."""
+        return self.drives.w(t) if self.drives is not None else np.zeros(0)
+
+    def drive_force(self, xf: np.ndarray, lam: np.ndarray, t: float) -> np.ndarray | None:
+        """Generalized force of the drives (their rows' reactions -J_D^T lam_D) and the torques on the unknowns at
+        time t (true multipliers lam), for the work they do; None without drives."""
+        d = self.drives
+        if d is None:
+            return None
+        x, w = self.full(xf), d.w(t)
+        f = d.torque_force(x, w)
+        if d.m:
+            f = f - d.jacobian(x, w).T @ lam[self.mc - d.m:]
+        return self.E.T @ f
 
     def stiffness_scale(self) -> float:
         """Largest diagonal entry of M (for the multiplier scale kc = cm * this)."""

@@ -51,16 +51,24 @@ class TimeLoop:
         self.h_min, self.h_max = math.inf, 0.0
         self.fd_prev = S.damping_force(integ.q, integ.v) if S.damped else None
         self.Qn = loads(opts.t_start) if loads else None
+        self.fD_prev = S.drive_force(integ.q, integ.lam, self.t)  # drives' and torques' force (their work: external)
+        self.lam_prev = integ.lam.copy()
         self.out_i = 0
         if outputs is None or outputs[0] <= self.t + self.eps_t:
-            rec.record(self.t, integ.q, integ.v, 0.0, 0.0)
+            rec.record(self.t, integ.q, integ.v, 0.0, 0.0, integ.lam)
             self.out_i = 1
 
     # -- bookkeeping ------------------------------------------------------------------------------------------
-    def _accepted(self, t_old, t_new, q_old, v_old, q_new, v_new, fd):
+    def _accepted(self, t_old, t_new, q_old, v_old, q_new, v_new, fd, lam_new=None):
         """Work of the scheme's own forces along the step, dq.(f_n + f_n+1)/2 (the trapezoidal rule's energy
         identity, exact for Newmark; f_n is the force of the equation that ended at t_n, with its damping matrix),
-        then the outputs in (t_old, t_new]."""
+        then the outputs in (t_old, t_new]. lam_new: the multipliers at t_new (drives' reactions)."""
+        lam_old = self.lam_prev
+        if self.fD_prev is not None:
+            fD = self.S.drive_force(q_new, lam_new, t_new)
+            self.W_ext += 0.5 * float((q_new - q_old) @ (self.fD_prev + fD))
+            self.fD_prev = fD
+            self.lam_prev = np.array(lam_new, float)
         if fd is not None or self.loads is not None:
             dq = q_new - q_old
             if fd is not None:
@@ -77,17 +85,18 @@ class TimeLoop:
         rec, out = self.rec, self.outputs
         if out is None:
             if self.steps % self.every == 0 or t_new >= self.opts.t_end - self.eps_t:
-                rec.record(t_new, q_new, v_new, self.W_d, self.W_ext)
+                rec.record(t_new, q_new, v_new, self.W_d, self.W_ext, lam_new)
                 if self.progress:
                     self.progress(t_new, self.opts.t_end)
             return
         while self.out_i < len(out) and out[self.out_i] <= t_new + self.eps_t:
             tau = out[self.out_i]
             if abs(tau - t_new) <= self.eps_t:
-                rec.record(tau, q_new, v_new, self.W_d, self.W_ext)
+                rec.record(tau, q_new, v_new, self.W_d, self.W_ext, lam_new)
             else:
                 qi, vi = hermite(t_old, t_new, q_old, v_old, q_new, v_new, tau)
-                rec.record(tau, qi, vi, self.W_d, self.W_ext)
+                li = None if lam_new is None else lam_old + (tau - t_old) / (t_new - t_old) * (lam_new - lam_old)
+                rec.record(tau, qi, vi, self.W_d, self.W_ext, li)
             self.out_i += 1
             if self.progress:
                 self.progress(tau, self.opts.t_end)
@@ -138,10 +147,12 @@ class TimeLoop:
                 pl.flags.writeable = False  # (run_chunk copies a read-only load array into its buffer once)
         else:
             pl = -np.column_stack([S.f_lin + self.loads(self.grid(k + j + 1)) for j in range(n)])
+        if S.nw:  # the drives' time inputs below the loads
+            pl = np.vstack([pl, np.column_stack([S.w(self.grid(k + j + 1)) for j in range(n)])])
         q_old, v_old = integ.q.copy(), integ.v.copy()
         states, n_ok = integ.run_chunk(o.dt, pl)
         t_old = self.t
-        if not S.damped and self.loads is None:  # no work to book per step: only the outputs
+        if not S.damped and self.loads is None and S.drives is None:  # no work to book per step: only the outputs
             self._accepted_many(k, n_ok, states, q_old, v_old)
             self._check_energy()
             return n_ok
@@ -149,7 +160,7 @@ class TimeLoop:
             t_new = self.grid(k + j + 1)
             q_new, v_new = states[j, :nf], states[j, nf:2 * nf]
             fd = S.damping_force(q_new, v_new) if S.damped else None
-            self._accepted(t_old, t_new, q_old, v_old, q_new, v_new, fd)
+            self._accepted(t_old, t_new, q_old, v_old, q_new, v_new, fd, states[j, 5 * nf:5 * nf + S.mc])
             t_old, q_old, v_old = t_new, q_new, v_new
         self._check_energy()
         return n_ok
@@ -234,7 +245,7 @@ class TimeLoop:
             q_new, v_new = integ.new["q"].copy(), integ.new["v"].copy()
             fd = self.S.damping_force(q_new, v_new) if self.S.damped else None  # (K_el of this step)
             integ.accept()
-            self._accepted(t, t_new, q_old, v_old, q_new, v_new, fd)
+            self._accepted(t, t_new, q_old, v_old, q_new, v_new, fd, integ.lam)
             self._check_energy()
             if o.adaptive:  # grow only with a clear margin (the estimate is noisy on stiff, slender members)
                 f = 0.8 * max(err_ratio, 1e-10) ** (-1.0 / (integ.order + 1))
