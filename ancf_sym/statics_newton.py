@@ -47,6 +47,8 @@ STALL = 0.75  # updates contracting by less than this factor make no progress (t
 STALL_COUNT = 3  # that many in a row: the updates are round-off
 ROUND_OFF = 100.0  # a residual within this factor of eps x max|K| x span is at round-off
 NO_PROGRESS = 4  # converging runs set a new smallest update at least every 3 iterations (measured, zig-zags included)
+SHIFT, SHIFT_MAX = 1e-4, 1e4  # shifts of an indefinite tangent's diagonal tried (relative to each entry)
+SHIFT_BELOW = 1e-3  # updates (relative) below which an indefinite tangent's plain Newton step is taken
 WILD = 1e3  # an update of a thousand structure lengths left every physical equilibrium behind: hand over to IPOPT
 
 
@@ -217,6 +219,7 @@ class KernelNewton(NewtonStatics):
         self.span = reduction.span
         self.energy = None
         self.load = 1.0
+        self._mu, self._prev_inc = 0.0, math.inf  # the last shift that made a step go downhill (the next try starts a tenth of it)
 
     def potential(self, x_full: np.ndarray, load: float = 1.0) -> float:
         """Total potential at x_full with the loads scaled by `load` [J] (linear terms: -load f_lin . x)."""
@@ -256,11 +259,13 @@ class KernelNewton(NewtonStatics):
         ab = ev.band()
         if ab is not None:
             kmax = float(np.max(np.abs(ab), initial=0.0))
-            cb, info = dpbtrf(ab, lower=0, overwrite_ab=1)
+            cb, info = dpbtrf(ab, lower=0)
             if info == 0:
                 self.dz[:] = -dpbtrs(cb, r, lower=0)[0]
                 done = True
-        if not done:  # not positive definite (or a wide band): banded Cholesky in another order, else sparse LU
+            elif self._prev_inc > SHIFT_BELOW:
+                done = self._shifted_step(ab, r)
+        if not done:  # a wide band (or no shift helped): banded Cholesky in another order, else sparse LU
             K = ev.matrix()
             kmax = float(np.max(np.abs(K.data), initial=0.0))
             factor = banded_cholesky(K) if ab is None else None
@@ -270,3 +275,32 @@ class KernelNewton(NewtonStatics):
                 self.dz[:] = np.nan
         self.norms[:] = (np.max(np.abs(r), initial=0.0), 0.0, np.max(np.abs(self.dz / self.scale), initial=0.0),
                          -float(r @ self.dz), kmax)
+        self._prev_inc = self.norms[2]
+
+    def solve(self, *args, **kw) -> NewtonRun:
+        self._mu, self._prev_inc = 0.0, math.inf
+        return super().solve(*args, **kw)
+
+    def _shifted_step(self, ab: np.ndarray, r: np.ndarray) -> bool:
+        """The tangent is not positive definite: a Newton step there need not go downhill (measured on coarse
+        cantilevers: it climbs out of the valley again and again, 35 iterations with load steps for 6 decoupled
+        elements). Solve (K + mu D) dz = -r instead (D = |diag K|, mu from SHIFT up by 10 until the factorisation
+        succeeds and the potential falls); near a stable equilibrium K is positive definite again and the full,
+        quadratically converging steps return. Only while the updates are above SHIFT_BELOW: closer in, the plain Newton
+        step converges to whatever equilibrium is there (a saddle too: the stability check reports it, and leaving
+        it is escape_saddle's decision). False if no shift up to SHIFT_MAX lowers the potential."""
+        d = np.abs(ab[-1]) + np.finfo(float).eps * float(np.max(np.abs(ab[-1]), initial=0.0))
+        mu = max(self._mu * 0.1, SHIFT)
+        while mu <= SHIFT_MAX:
+            shifted = ab.copy()
+            shifted[-1] += mu * d
+            cb, info = dpbtrf(shifted, lower=0, overwrite_ab=1)
+            if info == 0:
+                dz = -dpbtrs(cb, r, lower=0)[0]
+                x_try = self.S.full(self.x + dz)
+                if self.potential(x_try, self.load) < self.energy:
+                    self.dz[:] = dz
+                    self._mu = mu
+                    return True
+            mu *= 10.0
+        return False
