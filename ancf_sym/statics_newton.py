@@ -105,7 +105,7 @@ class NewtonStatics:
     def __init__(self, asm: Assembly):
         self.asm = asm
         self.S = S = StepSystem(asm)
-        self.energy = None  # potential at the last evaluated point (AssemblyNewton only)
+        self.energy = None  # potential at the last evaluated point (KernelNewton: what a shifted step must lower)
         self.scale = coordinate_scales(asm)[S.part.roots]
         nf, mc = S.nf, S.mc
         xf, lam, p = ca.MX.sym("x", nf), ca.MX.sym("lam", mc), ca.MX.sym("p", nf)
@@ -254,16 +254,16 @@ class KernelNewton(NewtonStatics):
         x_full = R.full(self.x)
         ev.evaluate(x_full)
         r = ev.g + self.p
-        self.energy = ev.energy - self.load * float(R.f_lin_full @ x_full)
         done = False
         ab = ev.band()
         if ab is not None:
-            kmax = float(np.max(np.abs(ab), initial=0.0))
+            kmax = float(abs(ab[-1]).max())  # the diagonal: no entry of a positive definite K is larger
             cb, info = dpbtrf(ab, lower=0)
             if info == 0:
                 self.dz[:] = -dpbtrs(cb, r, lower=0)[0]
                 done = True
             elif self._prev_inc > SHIFT_BELOW:
+                self.energy = ev.energy - self.load * float(R.f_lin_full @ x_full)
                 done = self._shifted_step(ab, r)
         if not done:  # a wide band (or no shift helped): banded Cholesky in another order, else sparse LU
             K = ev.matrix()
@@ -273,8 +273,7 @@ class KernelNewton(NewtonStatics):
                 self.dz[:] = -(banded_solve(factor, r) if factor is not None else splu(K).solve(r))
             except RuntimeError:  # singular: the loop reads the NaN as not_finite
                 self.dz[:] = np.nan
-        self.norms[:] = (np.max(np.abs(r), initial=0.0), 0.0, np.max(np.abs(self.dz / self.scale), initial=0.0),
-                         -float(r @ self.dz), kmax)
+        self.norms[:] = (abs(r).max(), 0.0, abs(self.dz / self.scale).max(), -float(r @ self.dz), kmax)
         self._prev_inc = self.norms[2]
 
     def solve(self, *args, **kw) -> NewtonRun:
