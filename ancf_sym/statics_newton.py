@@ -1,10 +1,17 @@
-"""Full-step Newton for static equilibrium: one CasADi call per iteration, a convergence test in the solution's terms.
+"""Full-step Newton for static equilibrium on the free coordinates, a convergence test in the solution's terms.
 
-The iteration runs on the free coordinates of the dynamics' StepSystem (supports that fix coordinates eliminated,
-hinges identified, the remaining exact rows with Lagrange multipliers): every energy term through its mapped
-compiled kernel, residual and KKT matrix assembled by constant gathers, sparse LDL^T (no multipliers) or QR
-(multipliers) factorisation and solve, all in one Function built once per scene. Python only loops over the
-iterations, so Ctrl-C stops a solve between two of them.
+The iteration runs on the free coordinates (supports that fix coordinates eliminated, hinges identified, the
+remaining exact rows with Lagrange multipliers). Two ways to evaluate one iteration (residual, tangent, update), one
+loop; which one depends on the scene, never on how often it is solved:
+- kernels (KernelNewton), every scene without multiplier rows: the compiled kernels called directly, their
+  gradients and Hessians scattered onto the free coordinates and LAPACK's band (statics_eval), a banded Cholesky
+  (dpbtrf): nothing to build; measured ~75 us per iteration at 60 elements, ~1.3 ms at 600, ~13.5 ms at 6000;
+- graph (NewtonStatics), scenes with multiplier rows (rigid joints, skew clamps): the dynamics' StepSystem with
+  every kernel, the KKT matrix and its sparse QR in one CasADi Function, ~35 ms (60 elements) to ~1 s (6000) to
+  build, then about as fast per iteration.
+Python only loops over the iterations, so Ctrl-C stops a solve between two of them.
+Where the tangent is not positive definite and the updates are still large, KernelNewton shifts its diagonal until
+the step lowers the potential (_shifted_step); full Newton steps everywhere else.
 
 Convergence (`tol`, relative, the same at any mesh size):
 - increment: the last applied Newton update, positions in units of the structure's length L and slopes
@@ -14,13 +21,6 @@ Convergence (`tol`, relative, the same at any mesh size):
 The answer is the point AFTER that update: Newton's error there is of the order of the update squared, so it lies
 within tol^2 L of the discrete solution, far below tol. The start state is never accepted while a load acts: its
 update is the (non-zero) response to the loads and it is applied before the test.
-Two ways to evaluate one iteration (residual, tangent, update), one loop:
-- graph (NewtonStatics): the compiled StepSystem Function above, ~50 us per iteration at 60 elements, but ~35 ms
-  (60 elements) to ~120 ms (600) to build;
-- assembly (AssemblyNewton): the Assembly's mapped kernel calls, the sparse tangent reduced to the free coordinates
-  and a banded Cholesky (inertia.banded_cholesky; sparse LU where it is not positive definite): ~0.2-0.4 ms per
-  iteration at 60 elements, nothing to build. Only for scenes whose supports all eliminate coordinates (no
-  multiplier rows). statics.StaticProblem chooses by measurement (its docstring).
 Round-off: when the updates stop contracting (each more than half the previous) while the residual sits at its
 round-off level (within ROUND_OFF x eps x max|K| x span), they measure the round-off of the solution itself; above tol it cannot be resolved in double precision (e.g. a penalty factor so stiff that
 eps x its force swamps the loads) and the run says so.
