@@ -13,22 +13,27 @@ the wrapped loop is exactly 64 l long (the track adjuster's job).
 Frames: the scene is x forward, y up, z lateral (the chain lies in the plane z = 0); the paper's axes are Y forward,
 Z up, X lateral, so paper (X, Y, Z) = scene (z, x, y). Records use the paper's names.
 
-This version holds the wheels fixed in space (fixed drums): the chain, released from its wrapped reference shape,
-settles on the wheels and the ground under gravity. What the driven vehicle adds (a chassis body, wheels on it, the
-sprocket's prescribed omega(t)) is listed in docs/vehicle.md. "Vehicle" displacement here is the chain's centre of
-mass.
+This version holds the wheels fixed in space (fixed drums): the chain rests on the wheels and the ground, started
+from its static equilibrium (`static_start`), or, with --speed V, running along its path at V from that shape (the
+ground's friction then brakes it: an energy bookkeeping case). What the driven vehicle adds (a chassis body carrying
+the wheels, the sprocket turned by the paper's omega(t)) is listed in docs/vehicle.md. "Vehicle" displacement and
+speed here are the chain's centre of mass.
 
 The steel band's bending stiffness is the paper's, E b h^3 / 12 = 5.08e4 N m^2: wrapped on the sprocket's pitch
 circle it carries a bending moment of EI / R = 2.1e5 N m, so the band wants to straighten and is held on the wheels
 only by its own tension (the loop is exactly as long as the wheels' convex hull); that tension, of order EI / R^2 =
-0.8 MN, presses it on the wheels with ~T / R = 3 MN/m. The wheel contacts are therefore much stiffer than the ground's.
+0.8 MN, presses it on the wheels with MN forces. The contact laws are therefore much stiffer than the chain's weight
+alone would need. Before the dynamics, `relax_sections` removes the spurious thickness strain of the curved
+elements and `static_start` finds the equilibrium (docs/vehicle.md says why both are needed).
 
 Records (one per output time, every 0.05 s): method, t, x, y, z (paper axes, centre of mass displacement from the
-start [m]), vy (forward speed [m/s]), wall_s (the run's wall time), and per run steps, newton iterations,
-factorisations, the cost per step, min gaps, the energies.
+start [m]), vy (forward speed [m/s]), wall_s (the run's wall time), contact gaps and forces, the largest distance
+of a node from the wrapped path and from its start, the mean stretch, the energies (kinetic, potential,
+damping_work, external_work, algorithmic), the run's steps, Newton iterations, CPU time and the static start's
+cost, and shape_diff_vs_other (CMM vs ELM: largest distance between the chains' nodes).
 
 Run: python examples/tracked_vehicle.py [--quick] [--methods continuum,elastic_line] [--t-end 5] [--json PATH]
-     [--out DIR]
+     [--out DIR] [--dt 2e-4] [--speed V]
 """
 from __future__ import annotations
 
@@ -67,6 +72,8 @@ ROAD_X = (-1.32, -0.66, 0.0, 0.66, 1.32)
 Y_ROAD = 2 * T + R_ROAD  # road wheels resting on the chain resting on the ground y = 0
 SPROCKET = (2.0, 0.62)
 Y_IDLER = 0.52
+QUICK_T = 0.02  # [s] the test's runs
+RUN_SPEED = 10 * R_PITCH  # [m/s] the paper's speed plateau without slip, omega = 10 rad/s on the pitch circle
 PIN_NODE = 8  # a node of the bottom span, under the middle road wheel (held for the static start only)
 # -- contact laws ------------------------------------------------------------------------------------------------
 # ground: Hertz; the band's bending presses it on the ground with ~0.3 MN near the end road wheels (measured at the
@@ -99,13 +106,14 @@ def chain_path(x_idler: float) -> list:
     return closed.belt_path(hull)
 
 
-def build_scene(method: str) -> Scene:
+def build_scene(method: str, ground_mu: float | None = None) -> Scene:
     sc = Scene(dim=3, gravity=(0.0, -G, 0.0), name=f"tracked_vehicle_{method}")
     xi = idler_x()
     # section y axis lateral (b = 0.381 m across the track), z in the chain's plane (h = 0.02 m thick)
     sc.loop("chain", chain_path(xi), N_EL, STEEL, Section.rectangle(b=B, h=H), element="beam3d",
             beam_method=method, y_axis=(0.0, 0.0, 1.0))
-    sc.contact_ground("chain", normal=(0.0, 1.0, 0.0), level=0.0, **GROUND)
+    sc.contact_ground("chain", normal=(0.0, 1.0, 0.0), level=0.0,
+                      **{**GROUND, **({} if ground_mu is None else {"mu": ground_mu})})
     for _, c, R in wheels(xi):
         sc.contact_drum("chain", (c[0], c[1], 0.0), R, **WHEEL)
     return sc
@@ -154,14 +162,34 @@ def static_start(method: str) -> tuple[np.ndarray, dict]:
                  "pin_force": float(np.linalg.norm(pin))}
 
 
+def circulating(asm: Assembly, speed: float, refine: int = 200) -> np.ndarray:
+    """v0 of the chain running along its wrapped path at `speed` [m/s] (counter-clockwise: forward on top, backward
+    on the ground; the sense of a vehicle driving backwards): r' = V t, r_x' = V dt/ds, r_y' = 0 (lateral),
+    r_z' = V dt/ds x y at each node. dt/ds (curvature vector) from the path sampled `refine` times finer than the
+    nodes (a central difference of the path's exact tangents across one fine interval: an initial condition, not a
+    solver derivative)."""
+    mm = asm.mesh.members["chain"]
+    pts, tans, total = closed.sample(chain_path(idler_x()), N_EL * refine, 3)
+    ds = total / (N_EL * refine)
+    v = np.zeros(asm.n)
+    y = np.array([0.0, 0.0, 1.0])
+    for k in range(mm.n_nodes):
+        i = k * refine
+        dtds = (tans[(i + 1) % len(tans)] - tans[i - 1]) / (2 * ds)
+        v[mm.node_dofs(k)] = speed * np.concatenate([tans[i], dtds, np.zeros(3), np.cross(dtds, y)])
+    return v
+
+
 def run(method: str, t_end: float, dt: float, integrator: str = "generalized_alpha", rho_inf: float = 0.5,
-        output_dt: float = 0.05) -> tuple[list[dict], dict]:
-    sc = build_scene(method)
+        output_dt: float = 0.05, speed: float = 0.0, ground_mu: float | None = None,
+        case: str = "rest") -> tuple[list[dict], dict]:
+    sc = build_scene(method, ground_mu)
     asm = Assembly(sc)
     q0, st = static_start(method)
+    v0 = circulating(asm, speed) if speed else None
     sensors = [Sensor(**s) for s in frame_sensors(sc)]
     opts = DynamicOptions(dt=dt, t_end=t_end, integrator=integrator, rho_inf=rho_inf, output_dt=output_dt,
-                          sensors=sensors, q0=q0)
+                          sensors=sensors, q0=q0, v0=v0)
     t0 = time.perf_counter()
     res = simulate(asm, opts)
     wall = time.perf_counter() - t0
@@ -180,7 +208,7 @@ def run(method: str, t_end: float, dt: float, integrator: str = "generalized_alp
         reps = contact.report(asm, x)
         r = states[k, :, :3]
         offset = np.sqrt(((r[:, None, :] - path[None, :, :]) ** 2).sum(axis=2).min(axis=1))
-        records.append({"method": method, "t": float(t[k]), "x": float(d[k, 2]), "y": float(d[k, 0]),
+        records.append({"case": case, "method": method, "t": float(t[k]), "x": float(d[k, 2]), "y": float(d[k, 0]),
                         "z": float(d[k, 1]), "vy": float(vel[k, 0]), "wall_s": wall, "status": res.status,
                         "ground_gap_min": reps[0]["min_gap"], "ground_force": reps[0]["normal_force"],
                         "wheel_gap_min": min(rp["min_gap"] for rp in reps[1:]),
@@ -189,7 +217,7 @@ def run(method: str, t_end: float, dt: float, integrator: str = "generalized_alp
                         "stretch_mean": float(np.linalg.norm(states[k, :, 3:6], axis=1).mean() - 1.0),
                         **{e: float(en[e][k]) for e in ("kinetic", "potential", "damping_work", "external_work",
                                                         "algorithmic")}})
-    summary = {"method": method, "status": res.status, "success": res.success, "t_reached": res.t_reached,
+    summary = {"case": case, "method": method, "status": res.status, "success": res.success, "t_reached": res.t_reached,
                "steps": res.steps, "rejected": len(res.rejected), "newton": res.newton_iterations,
                "factorizations": res.factorizations, "wall_s": wall, "setup_s": res.setup_s, "cpu_s": res.cpu_s,
                "ms_per_step": 1e3 * res.wall_s / max(res.steps, 1),
@@ -211,33 +239,44 @@ def main(argv=None):
     p.add_argument("--t-end", type=float, default=None, help="end time [s] (default 5, --quick 0.02)")
     p.add_argument("--dt", type=float, default=2e-4, help="time step [s]")
     p.add_argument("--integrator", default="generalized_alpha")
+    p.add_argument("--speed", type=float, default=0.0,
+                   help="start the chain running along its path at this speed [m/s] instead of at rest")
+    p.add_argument("--ground-mu", type=float, default=None, help=f"ground friction (default {GROUND['mu']})")
     a = p.parse_args(argv)
-    t_end = a.t_end if a.t_end is not None else (0.02 if a.quick else 5.0)
+    t_end = a.t_end if a.t_end is not None else (QUICK_T if a.quick else 5.0)
+    case = "running" if a.speed else "rest"
+    cases = [(case, m, a.speed, a.ground_mu) for m in a.methods.split(",")]
+    if a.quick:  # and the chain running at the speed plateau's 2.45 m/s on a frictionless ground (a belt on a stand)
+        cases.append(("running", "elastic_line", RUN_SPEED, 0.0))
     records, runs = [], []
-    for method in a.methods.split(","):
-        recs, data = run(method, t_end, a.dt, a.integrator)
+    for case, method, speed, mu in cases:
+        recs, data = run(method, t_end, a.dt, a.integrator, speed=speed, ground_mu=mu, case=case)
         records += recs
         runs.append(data)
-    if len(runs) == 2:  # CMM vs ELM: largest distance between the chains' nodes at each output time
-        A, B = runs[0]["states"], runs[1]["states"]
+    for c in {r["case"] for r in records}:  # CMM vs ELM: largest distance between the chains' nodes at each time
+        pair = [d for d in runs if d["summary"]["case"] == c]
+        if len(pair) != 2:
+            continue
+        A, B = pair[0]["states"], pair[1]["states"]
         n = min(len(A), len(B))
         diff = np.linalg.norm(A[:n, :, :3] - B[:n, :, :3], axis=2).max(axis=1)
-        for rs in ([r for r in records if r["method"] == d["summary"]["method"]] for d in runs):
+        for d in pair:
+            rs = [r for r in records if r["method"] == d["summary"]["method"] and r["case"] == c]
             for k, r in enumerate(rs[:n]):
                 r["shape_diff_vs_other"] = float(diff[k])
-    C.table([d["summary"] for d in runs], ["method", "status", "steps", "rejected", "newton", "factorizations",
-                                          "ms_per_step", "cpu_ms_per_step", "wall_s", "ground_gap_min",
-                                          "wheel_gap_min", "energy_error"])
+    C.table([d["summary"] for d in runs], ["case", "method", "status", "steps", "rejected", "newton",
+                                          "factorizations", "ms_per_step", "cpu_ms_per_step", "wall_s",
+                                          "ground_gap_min", "wheel_gap_min", "energy_error"])
 
     def plots(out):
         plt = C.pyplot()
         fig, axes = plt.subplots(2, 2, figsize=(11, 7))
         for d in runs:
-            m = d["summary"]["method"]
-            rs = [r for r in records if r["method"] == m]
+            m, c = d["summary"]["method"], d["summary"]["case"]
+            rs = [r for r in records if r["method"] == m and r["case"] == c]
             t = [r["t"] for r in rs]
             for ax, k in zip(axes.ravel(), ("x", "y", "z", "vy")):
-                ax.plot(t, [r[k] for r in rs], label=m)
+                ax.plot(t, [r[k] for r in rs], label=f"{c}, {m}")
                 ax.set_xlabel("t [s]"), ax.set_ylabel(k + (" [m/s]" if k == "vy" else " [m]"))
         axes[0, 0].legend()
         C.save(fig, out, "displacement_speed.png")
@@ -247,14 +286,14 @@ def main(argv=None):
             for k in sorted({0, len(S) // 2, len(S) - 1}):
                 r = S[k, :, :3]
                 ax.plot(np.r_[r[:, 0], r[:1, 0]], np.r_[r[:, 1], r[:1, 1]], ".-", ms=3,
-                        label=f"{d['summary']['method']} t = {d['t'][k]:.2f} s")
+                        label=f"{d['summary']['case']}, {d['summary']['method']}, t = {d['t'][k]:.2f} s")
         for name, c, R in wheels(idler_x()):
             ax.add_patch(plt.Circle(c, R, fill=False, color="0.5"))
         ax.axhline(0.0, color="k", lw=0.8)
         ax.set_aspect("equal"), ax.legend(fontsize=7), ax.set_xlabel("forward [m]"), ax.set_ylabel("up [m]")
         C.save(fig, out, "chain_shape.png")
         for d in runs:
-            dest = Path(out) / f"vtk_{d['summary']['method']}"
+            dest = Path(out) / f"vtk_{d['summary']['case']}_{d['summary']['method']}"
             tmp = Path(tempfile.mkdtemp(dir=out))
             write_series(d["result"], tmp)
             if dest.exists():
