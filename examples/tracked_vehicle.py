@@ -74,6 +74,7 @@ SPROCKET = (2.0, 0.62)
 Y_IDLER = 0.52
 QUICK_T = 0.02  # [s] the test's runs
 RUN_SPEED = 10 * R_PITCH  # [m/s] the paper's speed plateau without slip, omega = 10 rad/s on the pitch circle
+AXIS_LABELS = {"x": "X (lateral) [m]", "y": "Y (forward) [m]", "z": "Z (up) [m]", "vy": "forward speed [m/s]"}
 PIN_NODE = 8  # a node of the bottom span, under the middle road wheel (held for the static start only)
 # -- contact laws ------------------------------------------------------------------------------------------------
 # ground: Hertz; the band's bending presses it on the ground with ~0.3 MN near the end road wheels (measured at the
@@ -277,9 +278,20 @@ def main(argv=None):
             t = [r["t"] for r in rs]
             for ax, k in zip(axes.ravel(), ("x", "y", "z", "vy")):
                 ax.plot(t, [r[k] for r in rs], label=f"{c}, {m}")
-                ax.set_xlabel("t [s]"), ax.set_ylabel(k + (" [m/s]" if k == "vy" else " [m]"))
+                ax.set_xlabel("t [s]"), ax.set_ylabel(AXIS_LABELS[k])
         axes[0, 0].legend()
         C.save(fig, out, "displacement_speed.png")
+        fig, axes = plt.subplots(1, len(runs), figsize=(5 * len(runs), 3.6), squeeze=False)
+        for ax, d in zip(axes[0], runs):  # energy bookkeeping: E(0) = kinetic + potential + damping work + alg.
+            m, c = d["summary"]["method"], d["summary"]["case"]
+            rs = [r for r in records if r["method"] == m and r["case"] == c]
+            t = [r["t"] for r in rs]
+            for k, lab in (("kinetic", "kinetic"), ("potential", "potential - potential(0)"),
+                           ("damping_work", "contact damping + friction work"), ("algorithmic", "integrator")):
+                ax.plot(t, [r[k] - (rs[0][k] if k == "potential" else 0.0) for r in rs], label=lab)
+            ax.set_title(f"{c}, {m}", fontsize=9), ax.set_xlabel("t [s]"), ax.set_ylabel("energy [J]")
+        axes[0, 0].legend(fontsize=7)
+        C.save(fig, out, "energy.png")
         fig, ax = plt.subplots(figsize=(11, 3.5))
         for d in runs:
             S = d["states"]
