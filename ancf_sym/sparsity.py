@@ -1,8 +1,10 @@
-"""Sparse patterns from (row, col) triplets, merged in compressed-column order (SciPy's and CasADi's layout)."""
+"""Sparse patterns from (row, col) triplets, merged in compressed-column order (SciPy's and CasADi's layout), and
+the gathers and scatters that assemble compiled kernel results into global vectors and matrices inside CasADi graphs."""
 from __future__ import annotations
 
 import casadi as ca
 import numpy as np
+import scipy.sparse as sp
 
 
 def csc_pattern(rows: np.ndarray, cols: np.ndarray, n_rows: int,
@@ -17,3 +19,54 @@ def csc_pattern(rows: np.ndarray, cols: np.ndarray, n_rows: int,
 
 def casadi_sparsity(n_rows: int, n_cols: int, indptr: np.ndarray, indices: np.ndarray) -> ca.Sparsity:
     return ca.Sparsity(n_rows, n_cols, np.asarray(indptr).tolist(), np.asarray(indices).tolist())
+
+
+# -- assembling compiled kernel results in CasADi MX graphs (constant index maps, no products with 0/1 matrices) --
+
+def dm(A: sp.spmatrix) -> ca.DM:
+    """A SciPy sparse matrix as a CasADi DM with the same pattern."""
+    A = sp.csc_matrix(A)
+    A.sort_indices()
+    return ca.DM(ca.Sparsity(A.shape[0], A.shape[1], A.indptr.tolist(), A.indices.tolist()), A.data.tolist())
+
+
+def gather_sum(vals: list, target: np.ndarray, n_out: int) -> ca.MX:
+    """out[t] = sum of the entries k of vertcat(vals) with target[k] = t (target -1: dropped), as a few gathers
+    (one per multiplicity) and additions: cheaper in the MX virtual machine than a product with a 0/1 matrix."""
+    src = ca.vertcat(*vals, ca.MX.zeros(1))
+    n_src = src.shape[0] - 1
+    valid = np.flatnonzero(target >= 0)
+    t = target[valid]
+    order = valid[np.argsort(t, kind="stable")]
+    cnt = np.bincount(t, minlength=n_out)
+    if not len(order):
+        return ca.MX.zeros(n_out)
+    start = np.r_[0, np.cumsum(cnt)[:-1]]
+    out = None
+    for j in range(int(cnt.max())):
+        idx = np.where(cnt > j, order[np.minimum(start + j, len(order) - 1)], n_src)
+        term = src[idx.tolist()]
+        out = term if out is None else out + term
+    return out
+
+
+def scatter(vals: list, r: np.ndarray, c: np.ndarray, n: int, src: np.ndarray | None = None,
+            n_src: int | None = None) -> ca.MX:
+    """Sparse n x n MX summing the values at (r, c): entry k is vertcat(vals)[src[k]] (default: k)."""
+    indptr, indices, inv = csc_pattern(r, c, n, n)
+    spK = casadi_sparsity(n, n, indptr, indices)
+    if src is None:
+        src, n_src = np.arange(len(inv)), len(inv)
+    target = -np.ones(n_src, dtype=np.int64)
+    target[src] = inv
+    return ca.MX(spK, gather_sum(vals, target, len(indices)))
+
+
+def sx_nonzeros(A: ca.SX) -> ca.SX:
+    """Nonzeros of a sparse SX as a column."""
+    return ca.vertcat(*A.nonzeros()) if A.nnz() else ca.SX(0, 1)
+
+
+def mx_nonzeros(A: ca.MX) -> ca.MX:
+    """Nonzeros of a sparse MX as a column (no copy of the structure)."""
+    return ca.sparsity_cast(A, ca.Sparsity.dense(A.nnz(), 1))
