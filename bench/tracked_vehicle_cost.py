@@ -35,7 +35,7 @@ import tracked_vehicle as TV  # noqa: E402
 from ancf_sym import contact  # noqa: E402
 from ancf_sym.assembly import Assembly  # noqa: E402
 from ancf_sym.dynamics import DynamicOptions, simulate  # noqa: E402
-from ancf_sym.integrators import StepSystem  # noqa: E402
+from ancf_sym.dynamics import StepSystem  # noqa: E402
 from ancf_sym import kernels  # noqa: E402
 
 
