@@ -64,6 +64,7 @@ G = 9.81
 N_EL, L_EL, B, H = 64, 0.151624, 0.381, 0.02
 STEEL = Material(E=200e9, density=15.6e3, poisson=0.3)
 T = H / 2  # contact thickness: the band's half thickness
+CHAIN_MASS = N_EL * L_EL * B * H * STEEL.density  # 1153 kg
 # -- M113 wheel layout (scene frame: x forward, y up) -----------------------------------------------------------
 R_PITCH = L_EL / (2 * math.sin(math.pi / 10))  # 10-tooth sprocket: pins on the pitch circle
 R_SPROCKET = R_PITCH - T  # drum radius: the chain's centre line runs on the pitch circle
@@ -216,6 +217,7 @@ def run(method: str, t_end: float, dt: float, integrator: str = "generalized_alp
                         "wheel_force": sum(rp["normal_force"] for rp in reps[1:]),
                         "path_offset_max": float(offset.max()),
                         "stretch_mean": float(np.linalg.norm(states[k, :, 3:6], axis=1).mean() - 1.0),
+                        "chain_speed": float(np.sqrt(2 * max(en["kinetic"][k], 0.0) / CHAIN_MASS)),
                         **{e: float(en[e][k]) for e in ("kinetic", "potential", "damping_work", "external_work",
                                                         "algorithmic")}})
     summary = {"case": case, "method": method, "status": res.status, "success": res.success, "t_reached": res.t_reached,
@@ -225,7 +227,7 @@ def run(method: str, t_end: float, dt: float, integrator: str = "generalized_alp
                "cpu_ms_per_step": 1e3 * res.cpu_s / max(res.steps, 1),
                "ground_gap_min": min(r["ground_gap_min"] for r in records),
                "wheel_gap_min": min(r["wheel_gap_min"] for r in records),
-               "chain_weight": N_EL * L_EL * B * H * STEEL.density * G,
+               "chain_weight": CHAIN_MASS * G,
                "energy_error": res.energy_error(), **st}
     for k, r in enumerate(records):  # run-level figures in every record (flat records, as wall_s)
         r.update({k: summary[k] for k in ("steps", "rejected", "newton", "factorizations", "cpu_s",
@@ -278,6 +280,9 @@ def main(argv=None):
             t = [r["t"] for r in rs]
             for ax, k in zip(axes.ravel(), ("x", "y", "z", "vy")):
                 ax.plot(t, [r[k] for r in rs], label=f"{c}, {m}")
+            if c == "running":  # the chain runs round the wheels: its rms speed sqrt(2 T / m)
+                axes[1, 1].plot(t, [r["chain_speed"] for r in rs], "--", label=f"{c}, {m}: chain rms speed")
+                axes[1, 1].legend(fontsize=7)
                 ax.set_xlabel("t [s]"), ax.set_ylabel(AXIS_LABELS[k])
         axes[0, 0].legend()
         C.save(fig, out, "displacement_speed.png")
