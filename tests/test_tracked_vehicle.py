@@ -44,7 +44,7 @@ def _runs(records, case="rest"):
     return {m: [r for r in records if r["method"] == m and r["case"] == case] for m in ("continuum", "elastic_line")}
 
 
-def test_records_every_0_05_s_with_the_issue_fields(vehicle):
+def test_records_every_0_05_s_with_the_required_fields(vehicle):
     _, recs = vehicle
     for m, rs in _runs(recs).items():
         assert rs, m
