@@ -32,6 +32,7 @@ from .assembly import LOAD_LABELS, Assembly
 from .checks import check_fields
 from .interrupts import interruptible
 from .mesh import check_stretch
+from .member_effects import BIOT
 from .scene import Scene, SceneError
 from .schema import STATIC_OPTIONS
 
@@ -313,9 +314,9 @@ class StaticProblem:
             return None
         if self._biot is None:
             scene = copy.deepcopy(self.asm.scene)
-            cables = [m for m in scene.members.values() if getattr(m, "axial", None) in ("green", "decoupled")]
+            cables = [m for m in scene.members.values() if m.axial not in (None, BIOT)]
             for m in cables:
-                m.axial = "biot"
+                m.axial = BIOT
             coarse = any(m.elements < BIOT_MIN_ELEMENTS for m in cables)
             self._biot = StaticProblem(scene) if cables and not coarse else False
             if self._biot and self._biot.asm.n != self.asm.n:
