@@ -52,6 +52,7 @@ class BodyJoint:
     point: np.ndarray  # world point of the joint in the reference state [m]
     member: str | None = None
     at: Any = None
+    other: str | None = None  # revolute: the body the point is fixed to (None: the ground)
 
 
 def _vec2(field_name: str, v: Any) -> np.ndarray:
@@ -83,15 +84,19 @@ def make_body(scene, name: str, mass: Any, inertia: Any, position: Any, angle: A
     return Body(name, m, J, pos, ang, F)
 
 
-def make_joint(scene, kind: str, body: str, point: Any = None, member: str | None = None, at: Any = None) -> BodyJoint:
+def make_joint(scene, kind: str, body: str, point: Any = None, member: str | None = None, at: Any = None,
+               other: str | None = None) -> BodyJoint:
     """A checked body joint. revolute: `point` (world, reference state; default the centre of mass) pinned to the
-    ground. pin / rigid: the member node `at` tied to the body point where the node lies in the reference state."""
+    ground or to the body `other`. pin / rigid: the member node `at` tied to the body point where the node lies in
+    the reference state."""
     if body not in scene.bodies:
         raise SceneError(f"{kind}.body={body!r} names no body; bodies: {sorted(scene.bodies)}")
     b = scene.bodies[body]
     if kind == "revolute":
+        if other is not None and (other not in scene.bodies or other == body):
+            raise SceneError(f"revolute.other={other!r} must name another body; bodies: {sorted(scene.bodies)}")
         p = b.position.copy() if point is None else _vec2(f"{kind}.point", point)
-        return BodyJoint(kind, body, p)
+        return BodyJoint(kind, body, p, other=other)
     if kind not in ("pin", "rigid"):
         raise SceneError(f"body joint kind must be 'revolute', 'pin' or 'rigid', got {kind!r}")
     scene.check_at(member, at, node_only=True, field_name=f"{kind}.at")
@@ -147,7 +152,14 @@ def constraint_rows(rows, mesh) -> None:
         if j.kind == "revolute":
             p = b.local(j.point)
             for k in range(2):
-                rows.row(_point_coefs(o, p, k, 1.0), float(j.point[k]), f"revolute {j.body}", "position")
+                coefs = _point_coefs(o, p, k, 1.0)
+                if j.other is None:
+                    rows.row(coefs, float(j.point[k]), f"revolute {j.body}", "position")
+                else:  # the two bodies' points coincide: linear in both bodies' coordinates
+                    oo, bo = mesh.bodies[j.other], scene.bodies[j.other]
+                    for c, v in _point_coefs(oo, bo.local(j.point), k, -1.0).items():
+                        coefs[c] = coefs.get(c, 0.0) + v
+                    rows.row(coefs, 0.0, f"revolute {j.body}-{j.other}", "position")
                 rows.k.append(0.0)
             continue
         mm = mesh.members[j.member]
@@ -174,6 +186,11 @@ def constraint_rows(rows, mesh) -> None:
 
 def connected_supported(scene) -> set[str]:
     """Members and bodies held, through body joints, by a body on a revolute joint (for the statics check)."""
-    held = {j.body for j in scene.body_joints if j.kind == "revolute"}
+    held = {j.body for j in scene.body_joints if j.kind == "revolute" and j.other is None}
+    grow = True
+    while grow:  # bodies on a revolute joint to a held body
+        new = {j.body for j in scene.body_joints if j.kind == "revolute" and j.other in held} - held
+        grow = bool(new)
+        held |= new
     held |= {j.member for j in scene.body_joints if j.kind != "revolute" and j.body in held}
     return held

@@ -240,6 +240,9 @@ class CollocationIntegrator:
 
     def __init__(self, system: StepSystem, kind: str, stages: int, newton_opts: NewtonOptions, tol_q: float,
                  tol_x: float, counters: Counters):
+        if system.drives is not None:
+            raise SceneError(f"integrator={kind!r}: drives and torques (time-dependent constraints and forces) run "
+                             "with the alpha schemes (newmark, hht, generalized_alpha), not collocation")
         self.S = system
         self.tab = tableau(kind, stages)
         self.opts, self.tol_q, self.tol_x, self.counters = newton_opts, tol_q, tol_x, counters
@@ -254,10 +257,10 @@ class CollocationIntegrator:
         self.kdamp = StiffnessDamping(system, counters)
         self._W = np.linalg.inv(self.tab.A)
 
-    def initialize(self, q0, v0, Q0) -> None:
+    def initialize(self, q0, v0, Q0, t0: float = 0.0) -> None:
         self.q[:], self.v[:] = q0, v0
         self.kdamp.update(self.q)
-        a, lam = initial_acceleration(self.S, q0, v0, Q0, self.kdamp.matrix())
+        a, lam = initial_acceleration(self.S, q0, v0, Q0, self.kdamp.matrix(), t0)
         self.a[:], self.lam[:] = a, lam
 
     def _guess(self, h: float) -> np.ndarray:

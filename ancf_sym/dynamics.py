@@ -313,6 +313,9 @@ class DynamicResult:
     h_max: float = float("nan")
     setup_s: float = 0.0  # building the compiled step functions (before the time loop; not in wall_s)
     cpu_s: float = 0.0  # CPU time of the time loop (process time: what other processes on the machine take counts less)
+    # per drive (ancf_sym.drives): what it applies at the output times, (len(t), k): an angle drive's torque on its
+    # body [N m], a position drive's force [N] (from the multipliers; linear in time between steps)
+    drive_reactions: dict = field(default_factory=dict)
 
     @property
     def newton_iterations(self) -> int:
@@ -347,6 +350,8 @@ class DynamicResult:
             "energies": {k: np.asarray(v).tolist() for k, v in self.energies.items()},
             "constraint_violation": self.constraint_violation.tolist(),
             "x": self.x.tolist(), "v": self.v.tolist(),
+            **({"drive_reactions": {k: np.asarray(v).tolist() for k, v in self.drive_reactions.items()}}
+               if self.drive_reactions else {}),
         }
 
 
@@ -451,6 +456,7 @@ class _Recorder:
         self.data: dict[str, list] = {s.sensor.name: [] for s in sensors}
         self.energies: dict[str, list] = {}
         self.viol: list[float] = []
+        self.reactions: dict[str, list] = {}
         self.E0 = None
         self.scale = 0.0  # running energy scale: |T| + sum |potentials| + |works| + |E0|
         self.blowup: tuple | None = None  # (t, energy created, scale) once the scheme has created energy
@@ -459,9 +465,12 @@ class _Recorder:
         T, pot = self.S.energies(qf, vf)
         return T, pot, T + float(sum(pot.values()))
 
-    def record(self, t, qf, vf, damping_work, external_work):
+    def record(self, t, qf, vf, damping_work, external_work, lam=None):
         S = self.S
         x, v = S.full(qf), S.full_v(vf)
+        if S.drives is not None and S.drives.m and lam is not None:
+            for name, val in S.drives.reactions(x, lam[S.mc - S.drives.m:]).items():
+                self.reactions.setdefault(name, []).append(val)
         for s in self.sensors:
             self.data[s.sensor.name].append(s(x, v))
         if self.with_energies:
@@ -485,20 +494,23 @@ class _Recorder:
             created = -algorithmic
             if self.blowup is None and created > ENERGY_CREATION_LIMIT * self.scale:
                 self.blowup = (float(t), created, self.scale)
-        self.viol.append(self._violation(x))
+        self.viol.append(self._violation(x, t))
         self.t.append(float(t))
 
-    def _violation(self, x: np.ndarray) -> float:
-        """max |Phi(x)| over all supports and joints (the linear rows as a small dense matrix when it is small)."""
+    def _violation(self, x: np.ndarray, t: float) -> float:
+        """max |Phi(x)| over all supports and joints (the linear rows as a small dense matrix when it is small),
+        and the drives' rows at time t."""
         cons = self.S.asm.constraints
+        d = self.S.drives
+        drive = float(np.abs(d.value(x, d.w(t))).max()) if d is not None and d.m else 0.0
         if not cons.m:
-            return 0.0
+            return drive
         if not hasattr(self, "_cA"):
             self._cA = cons.A.toarray() if cons.m * cons.A.shape[1] <= 200_000 else cons.A
         val = self._cA @ x - cons.d
         if len(cons.qrow):
             val += np.bincount(cons.qrow, cons.qcoef * x[cons.qi] * x[cons.qj], minlength=cons.m)
-        return float(np.abs(val).max())
+        return max(float(np.abs(val).max()), drive)
 
 
 # The alpha schemes dissipate (or, Newmark, conserve to O(h^2)); a run whose energy balance shows the scheme
@@ -535,16 +547,24 @@ class _Run:
         self.h_min, self.h_max = math.inf, 0.0
         self.fd_prev = S.damping_force(integ.q, integ.v) if S.damped else None
         self.Qn = loads(opts.t_start) if loads else None
+        self.fD_prev = S.drive_force(integ.q, integ.lam, self.t)  # drives' and torques' force (their work: external)
+        self.lam_prev = integ.lam.copy()
         self.out_i = 0
         if outputs is None or outputs[0] <= self.t + self.eps_t:
-            rec.record(self.t, integ.q, integ.v, 0.0, 0.0)
+            rec.record(self.t, integ.q, integ.v, 0.0, 0.0, integ.lam)
             self.out_i = 1
 
     # -- bookkeeping ------------------------------------------------------------------------------------------
-    def _accepted(self, t_old, t_new, q_old, v_old, q_new, v_new, fd):
+    def _accepted(self, t_old, t_new, q_old, v_old, q_new, v_new, fd, lam_new=None):
         """Work of the scheme's own forces along the step, dq.(f_n + f_n+1)/2 (the trapezoidal rule's energy
         identity, exact for Newmark; f_n is the force of the equation that ended at t_n, with its damping matrix),
-        then the outputs in (t_old, t_new]."""
+        then the outputs in (t_old, t_new]. lam_new: the multipliers at t_new (drives' reactions)."""
+        lam_old = self.lam_prev
+        if self.fD_prev is not None:
+            fD = self.S.drive_force(q_new, lam_new, t_new)
+            self.W_ext += 0.5 * float((q_new - q_old) @ (self.fD_prev + fD))
+            self.fD_prev = fD
+            self.lam_prev = np.array(lam_new, float)
         if fd is not None or self.loads is not None:
             dq = q_new - q_old
             if fd is not None:
@@ -561,17 +581,18 @@ class _Run:
         rec, out = self.rec, self.outputs
         if out is None:
             if self.steps % self.every == 0 or t_new >= self.opts.t_end - self.eps_t:
-                rec.record(t_new, q_new, v_new, self.W_d, self.W_ext)
+                rec.record(t_new, q_new, v_new, self.W_d, self.W_ext, lam_new)
                 if self.progress:
                     self.progress(t_new, self.opts.t_end)
             return
         while self.out_i < len(out) and out[self.out_i] <= t_new + self.eps_t:
             tau = out[self.out_i]
             if abs(tau - t_new) <= self.eps_t:
-                rec.record(tau, q_new, v_new, self.W_d, self.W_ext)
+                rec.record(tau, q_new, v_new, self.W_d, self.W_ext, lam_new)
             else:
                 qi, vi = _hermite(t_old, t_new, q_old, v_old, q_new, v_new, tau)
-                rec.record(tau, qi, vi, self.W_d, self.W_ext)
+                li = None if lam_new is None else lam_old + (tau - t_old) / (t_new - t_old) * (lam_new - lam_old)
+                rec.record(tau, qi, vi, self.W_d, self.W_ext, li)
             self.out_i += 1
             if self.progress:
                 self.progress(tau, self.opts.t_end)
@@ -621,10 +642,12 @@ class _Run:
                 pl.flags.writeable = False  # (run_chunk copies a read-only load array into its buffer once)
         else:
             pl = -np.column_stack([S.f_lin + self.loads(self.grid(k + j + 1)) for j in range(n)])
+        if S.nw:  # the drives' time inputs below the loads
+            pl = np.vstack([pl, np.column_stack([S.w(self.grid(k + j + 1)) for j in range(n)])])
         q_old, v_old = integ.q.copy(), integ.v.copy()
         states, n_ok = integ.run_chunk(o.dt, pl)
         t_old = self.t
-        if not S.damped and self.loads is None:  # no work to book per step: only the outputs
+        if not S.damped and self.loads is None and S.drives is None:  # no work to book per step: only the outputs
             self._accepted_many(k, n_ok, states, q_old, v_old)
             self._check_energy()
             return n_ok
@@ -632,7 +655,7 @@ class _Run:
             t_new = self.grid(k + j + 1)
             q_new, v_new = states[j, :nf], states[j, nf:2 * nf]
             fd = S.damping_force(q_new, v_new) if S.damped else None
-            self._accepted(t_old, t_new, q_old, v_old, q_new, v_new, fd)
+            self._accepted(t_old, t_new, q_old, v_old, q_new, v_new, fd, states[j, 5 * nf:5 * nf + S.mc])
             t_old, q_old, v_old = t_new, q_new, v_new
         self._check_energy()
         return n_ok
@@ -717,7 +740,7 @@ class _Run:
             q_new, v_new = integ.new["q"].copy(), integ.new["v"].copy()
             fd = self.S.damping_force(q_new, v_new) if self.S.damped else None  # (K_el of this step)
             integ.accept()
-            self._accepted(t, t_new, q_old, v_old, q_new, v_new, fd)
+            self._accepted(t, t_new, q_old, v_old, q_new, v_new, fd, integ.lam)
             self._check_energy()
             if o.adaptive:  # grow only with a clear margin (the estimate is noisy on stiff, slender members)
                 f = 0.8 * max(err_ratio, 1e-10) ** (-1.0 / (integ.order + 1))
@@ -743,6 +766,9 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
     if not scene.members and not scene.bodies:
         raise SceneError("scene has no members or bodies")
     contact.check_dynamics(asm)
+    if getattr(scene, "drives", None) and opts.integrator in ("radau", "gauss"):
+        raise SceneError(f"integrator={opts.integrator!r}: drives and torques (time-dependent constraints and "
+                         "forces) run with the alpha schemes (newmark, hht, generalized_alpha), not collocation")
     sensors = [_SensorEval(s, asm, i) for i, s in enumerate(opts.sensors)]
     if system is None:
         system = StepSystem(asm, rayleigh_data(asm, [mk for mk in asm.mapped if mk.term.effect not in LINEAR_EFFECTS]),
@@ -772,6 +798,17 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
         if vv.max() > 1e-8 * max(1.0, float(np.abs(v0).max())):
             k = int(np.argmax(vv))
             raise SceneError(f"v0 violates the velocity form of constraint {asm.exact.labels[k]!r} by {vv[k]:.3g}")
+    drv = S.drives
+    if drv is not None and drv.m:  # the drives at t_start: position and velocity
+        w0 = drv.w(opts.t_start)
+        viol = np.abs(drv.value(q0, w0))
+        vv = np.abs(drv.jacobian(q0, w0) @ v0 + drv.time_terms(q0, v0, opts.t_start)[0])
+        for what, arr, tol in (("q0", viol, cons_tol), ("v0 (velocity form)", vv, 1e-8 * max(1.0, float(np.abs(v0).max())))):
+            if arr.max() > tol:
+                k = int(np.argmax(arr))
+                raise SceneError(f"{what} violates drive {drv.labels[k]!r} at t_start = {opts.t_start:g} s by "
+                                 f"{arr[k]:.3g} (start the body or node where and as fast as the drive prescribes, "
+                                 "e.g. a motion that starts from rest)")
     outputs = _collect_outputs(opts)
     every = opts.output_every
     if every is None and outputs is None:  # default: about DEFAULT_OUTPUTS intervals
@@ -795,7 +832,7 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
     t_wall, t_cpu = time.perf_counter(), time.process_time()
     qf, vf = S.reduce(q0), S.reduce(v0)
     Q0 = loads(opts.t_start) if loads else np.zeros(S.nf)
-    integ.initialize(qf, vf, Q0)
+    integ.initialize(qf, vf, Q0, opts.t_start)
     # force scale of the residual tolerance: constant loads (gravity, dead loads), inertia at t0, time loads
     fscale = max(float(np.max(np.abs(S.f_lin))), float(np.max(np.abs(S.M @ integ.a))),
                  float(np.max(np.abs(Q0)))) if S.nf else 0.0
@@ -814,7 +851,7 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
                          np.array(rec.viol), float(t), steps, rejected, counters.as_dict(), wall,
                          S.full(integ.q), S.full_v(integ.v), opts, asm,
                          float(min(h_used)) if h_used else float("nan"), float(max(h_used)) if h_used else float("nan"),
-                         setup, cpu)
+                         setup, cpu, {k: np.array(v) for k, v in rec.reactions.items()})
 
 
 ANALYSIS_KEYS = {"type", *DYNAMIC_OPTIONS}

@@ -44,7 +44,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from . import contact, kernels
+from . import contact, drives, kernels
 from .assembly import Assembly, force_terms, map_elements
 from .checks import fail
 from .scene import SceneError
@@ -296,12 +296,20 @@ class StepSystem:
         self.E = part.E
         self.cons = asm.exact.subset(part.rows) if len(part.rows) else None
         self.mc = self.cons.m if self.cons is not None else 0
+        # drives and torques: rows and forces whose time functions w(t) are per-step inputs, appended to the step's
+        # constant vector p (and to the integrators' pload): p = [p (nf); w (nw)]
+        self.drives = drives.build(asm)
+        self.nw = self.drives.nw if self.drives is not None else 0
+        if self.drives is not None:
+            drives.check_free(self.drives, part.pos)
+            self.mc += self.drives.m
         self.rayleigh = rayleigh if (rayleigh is not None and (rayleigh.alpha or rayleigh.beta)) else None
         # sparse LDL^T without pivoting for the symmetric positive definite step matrix; sparse QR when multipliers
         # make the KKT matrix indefinite (LDL^T meets zero pivots) or strain-rate damping makes it unsymmetric
         # (d f_d / dq; LDL^T reads one triangle)
         # (contact friction likewise: d f / d q is unsymmetric)
-        unsym = strain_rate is not None or bool(contact.dissipation_calls(asm.mesh))
+        unsym = strain_rate is not None or bool(contact.dissipation_calls(asm.mesh)) or \
+            bool(self.drives is not None and self.drives.torques)  # (a torque's tangent is skew)
         self.linsol = linsol if linsol != "auto" else ("qr" if (self.mc or unsym) else "ldl")
 
         M = asm.mass_matrix().tocsc()
@@ -407,6 +415,8 @@ class StepSystem:
         add(None if r is None else (r.alpha, r.beta, {k: np.asarray(v, float) for k, v in r.element_weight.items()}))
         add(self.strain_rate, asm.penalty, self.cons)
         add(contact.dissipation_calls(asm.mesh))  # contact damping/friction: parameters baked into the graph
+        d = self.drives  # drive rows' pattern (their time functions are inputs)
+        add(None if d is None else (d.nw, d.row, d.wk, d.i, d.j, d.coef, d.torques))
         return h.hexdigest()
 
     # -- symbolic assembly (once per scene) -------------------------------------------------------------------
@@ -597,8 +607,30 @@ class StepSystem:
         target[src] = inv
         return ca.MX(spK, _gather_sum(vals, target, len(indices)))
 
-    def constraint_mx(self, xf: ca.MX) -> ca.MX:
-        return Assembly._casadi_constraint(self.cons, self.x_full_mx(xf))
+    def constraint_mx(self, xf: ca.MX, w: ca.MX | None = None) -> ca.MX:
+        """The kept exact rows, then the drive rows at the time inputs w."""
+        x = self.x_full_mx(xf)
+        parts = [Assembly._casadi_constraint(self.cons, x)] if self.cons is not None else []
+        if self.drives is not None and self.drives.m:
+            parts.append(self.drives.mx(x, w))
+        return ca.vertcat(*parts)
+
+    @property
+    def bilinear(self) -> bool:
+        """Constraint rows with a Hessian (bilinear terms)."""
+        return (self.cons is not None and len(self.cons.qrow) > 0) or (self.drives is not None and self.drives.m > 0)
+
+    def torque_mx(self, xf: ca.MX, w: ca.MX) -> ca.MX | None:
+        """Generalized force of the applied torques on the unknowns, tau (-s, c) on a body's (c, s), or None."""
+        if self.drives is None or not self.drives.torques:
+            return None
+        vals, rows = [], []
+        for ic, is_, k in self.drives.torques:
+            uc, us = int(self.pos[ic]), int(self.pos[is_])
+            vals += [-w[k] * xf[us], w[k] * xf[uc]]
+            rows += [uc, us]
+        A = ca.DM(ca.Sparsity.triplet(self.nf, len(rows), rows, list(range(len(rows)))), 1.0)
+        return ca.mtimes(A, ca.vertcat(*vals))
 
     def damping_mx(self, xf_or_v: ca.MX, kel: ca.MX | None) -> tuple[ca.MX, ca.MX]:
         """(C v, C) as MX for C = alpha M + beta K_el (kel: its values, or None)."""
@@ -618,7 +650,8 @@ class StepSystem:
 
     def _build_step(self) -> None:
         nf, mc = self.nf, self.mc
-        xf, lam, p = ca.MX.sym("x", nf), ca.MX.sym("lam", mc), ca.MX.sym("p", nf)
+        xf, lam, p_in = ca.MX.sym("x", nf), ca.MX.sym("lam", mc), ca.MX.sym("p", nf + self.nw)
+        p, w = (p_in[:nf], p_in[nf:]) if self.nw else (p_in, None)  # w: the drives' time inputs
         cm, cc, kc = ca.MX.sym("cm"), ca.MX.sym("cc"), ca.MX.sym("kc")
         kel = ca.MX.sym("kel", self.kel_sparsity.nnz()) if self.kel_sparsity is not None else None
         vc = ca.MX.sym("vc", nf)  # v_n+1 = vc + cc x (used by the strain-rate damping)
@@ -644,12 +677,17 @@ class StepSystem:
         r_g = ca.mtimes(Mdm, cm * xf + y) + cc * Cx + self.grad_pf(xf, par) + p
         if self.damp_f is not None:
             r_g += self.damp_force_f(xf, vc + cc * xf)
+        tq = self.torque_mx(xf, w)
+        if tq is not None:  # applied torques: force tau (-s, c), tangent -d/dx of it
+            r_q -= tq
+            r_g -= tq
+            S = S - ca.jacobian(tq, xf)
         if mc:
-            phi = self.constraint_mx(xf)
+            phi = self.constraint_mx(xf, w)
             Jx = ca.jacobian(phi, xf)
             r_q += kc * ca.mtimes(Jx.T, lam)
             r_g += kc * ca.mtimes(Jx.T, lam)
-            if len(self.cons.qrow):
+            if self.bilinear:
                 S = S + ca.hessian(ca.dot(kc * lam, phi), xf)[0]
             r = ca.vertcat(r_q, kc * phi)
             rg = ca.vertcat(r_g, kc * phi)
@@ -658,7 +696,7 @@ class StepSystem:
         else:
             r, rg, KKT, rc = r_q, r_g, S, ca.MX(0)
         rq = ca.mmax(ca.fabs(r_q))
-        ins = [xf, lam, p, cm, cc, kc, vc] + ([kel] if kel is not None else []) + [y, par]
+        ins = [xf, lam, p_in, cm, cc, kc, vc] + ([kel] if kel is not None else []) + [y, par]
         names = ["x", "lam", "p", "cm", "cc", "kc", "vc"] + (["kel"] if kel is not None else []) + ["y", "par"]
         self.kkt_sparsity = KKT.sparsity()
         kkt_nz = _mx_sparse_nz(KKT)
@@ -726,7 +764,7 @@ class StepSystem:
     def _setup_buffers(self, has_kel: bool) -> None:
         nf, mc = self.nf, self.mc
         self.nz = nf + mc
-        self.x, self.lam, self.p, self.vc = np.zeros(nf), np.zeros(mc), np.zeros(nf), np.zeros(nf)
+        self.x, self.lam, self.p, self.vc = np.zeros(nf), np.zeros(mc), np.zeros(nf + self.nw), np.zeros(nf)
         self.y = np.zeros(nf)  # (stays 0 here: p holds the whole constant part)
         self.cm, self.cc, self.kc = np.zeros(1), np.zeros(1), np.ones(1)
         self.kel = np.zeros(self.kel_sparsity.nnz()) if has_kel else None
@@ -825,19 +863,48 @@ class StepSystem:
             out[label] = out.get(label, 0.0) + v
         return vals[-1], out
 
-    def phi(self, xf: np.ndarray) -> np.ndarray:
-        return self.cons.value(self.full(xf)) if self.mc else np.zeros(0)
+    def phi(self, xf: np.ndarray, t: float = 0.0) -> np.ndarray:
+        x = self.full(xf)
+        parts = [self.cons.value(x)] if self.cons is not None else []
+        if self.drives is not None:
+            parts.append(self.drives.value(x, self.drives.w(t)))
+        return np.concatenate(parts) if parts else np.zeros(0)
 
-    def jac_phi(self, xf: np.ndarray) -> sp.csr_matrix:
-        return (self.cons.jacobian(self.full(xf)) @ self.E).tocsr()
+    def jac_phi(self, xf: np.ndarray, t: float = 0.0) -> sp.csr_matrix:
+        x = self.full(xf)
+        parts = [self.cons.jacobian(x)] if self.cons is not None else []
+        if self.drives is not None:
+            parts.append(self.drives.jacobian(x, self.drives.w(t)))
+        return (sp.vstack(parts) @ self.E).tocsr()
 
-    def phi_vv(self, vf: np.ndarray) -> np.ndarray:
-        """v^T Phi_qq v of the bilinear rows: the acceleration-level constraint is J a + phi_vv = 0."""
-        if not self.mc or not len(self.cons.qrow):
-            return np.zeros(self.mc)
+    def phi_vv(self, vf: np.ndarray, xf: np.ndarray | None = None, t: float = 0.0) -> np.ndarray:
+        """The acceleration-level constraint is J a + gamma = 0: gamma = v^T Phi_qq v of the bilinear rows, and for
+        the drive rows (at xf, time t) also their explicit time derivatives (drives.DriveSystem.time_terms)."""
         v = self.full_v(vf)
-        c = self.cons
-        return np.bincount(c.qrow, 2 * c.qcoef * v[c.qi] * v[c.qj], minlength=self.mc)
+        parts = []
+        if self.cons is not None:
+            c = self.cons
+            parts.append(np.bincount(c.qrow, 2 * c.qcoef * v[c.qi] * v[c.qj], minlength=c.m) if len(c.qrow)
+                         else np.zeros(c.m))
+        if self.drives is not None:
+            parts.append(self.drives.time_terms(self.full(xf), v, t)[1])
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    def w(self, t: float) -> np.ndarray:
+        """The drives' time inputs at t (empty without drives)."""
+        return self.drives.w(t) if self.drives is not None else np.zeros(0)
+
+    def drive_force(self, xf: np.ndarray, lam: np.ndarray, t: float) -> np.ndarray | None:
+        """Generalized force of the drives (their rows' reactions -J_D^T lam_D) and the torques on the unknowns at
+        time t (true multipliers lam), for the work they do; None without drives."""
+        d = self.drives
+        if d is None:
+            return None
+        x, w = self.full(xf), d.w(t)
+        f = d.torque_force(x, w)
+        if d.m:
+            f = f - d.jacobian(x, w).T @ lam[self.mc - d.m:]
+        return self.E.T @ f
 
     def damping_matrix(self, kel: np.ndarray | None) -> sp.csc_matrix | None:
         if self.rayleigh is None:
@@ -1068,10 +1135,13 @@ def _newton_modified(system, factor, key, opts, counters, tol_q, tol_x) -> Newto
 
 # -- integrators -------------------------------------------------------------------------------------------------
 
-def initial_acceleration(S: StepSystem, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray, C=None):
-    """Consistent initial acceleration and multipliers: [M J^T; J 0][a; lam] = [f - C v - g; -phi_vv]."""
+def initial_acceleration(S: StepSystem, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray, C=None, t0: float = 0.0):
+    """Consistent initial acceleration and multipliers: [M J^T; J 0][a; lam] = [f - C v - g; -gamma] (gamma:
+    StepSystem.phi_vv; drives and torques at time t0)."""
     g = np.asarray(S.grad_pf(q0, S.par)).ravel()  # (the gradient-only graph: no Hessian to compute and convert)
     f = S.f_lin + Q0 - g
+    if S.drives is not None:
+        f = f + S.reduce_force(S.drives.torque_force(S.full(q0), S.w(t0)))
     if C is not None:
         f = f - C @ v0
     if S.damp_f is not None:
@@ -1079,9 +1149,9 @@ def initial_acceleration(S: StepSystem, q0: np.ndarray, v0: np.ndarray, Q0: np.n
     if not S.nf:
         return np.zeros(0), np.zeros(S.mc)
     if S.mc:
-        J = S.jac_phi(q0)
+        J = S.jac_phi(q0, t0)
         A = sp.bmat([[S.M, J.T], [J, None]], format="csc")
-        z = spla.spsolve(A, np.r_[f, -S.phi_vv(v0)])
+        z = spla.spsolve(A, np.r_[f, -S.phi_vv(v0, q0, t0)])
         return z[:S.nf], z[S.nf:]
     return spla.spsolve(S.M.tocsc(), f), np.zeros(0)
 
@@ -1240,7 +1310,7 @@ class AlphaIntegrator:
         ctl = st[5 * nf + mc:]
         h, hp = ca.MX.sym("h"), ca.MX.sym("h_prev")  # h_prev <= 0: no previous step (constant predictor)
         tols = ca.MX.sym("tols", 2)  # force tolerance [N], update tolerance [m]
-        pload = ca.MX.sym("pload", nf)  # -(f_lin + Q(t_n+1))
+        pload = ca.MX.sym("pload", nf + S.nw)  # -(f_lin + Q(t_n+1)), then the drives' inputs w(t_n+1)
         kel = ca.MX.sym("kel", S.kel.size) if S.kel is not None else None
         par = ca.MX.sym("par", S.par.size)  # element parameters (StepSystem.par)
         return st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel, par
@@ -1264,7 +1334,7 @@ class AlphaIntegrator:
         # a_n+1 = ((1 - am) ab_n+1 + am ab - af a) / (1 - af) = cm (x - qh) + k0, with x = qh + (b h^2) ab_n+1
         k0 = (am / (1 - af)) * ab - (af / (1 - af)) * a
         y = k0 - cm * qh  # the residual's inertia is M (cm x + y): no product with M here
-        p = Cvh + pload
+        p = Cvh + pload if not S.nw else ca.vertcat(Cvh + pload[:nf], pload[nf:])
         apred = a + ca.if_else(hp > 0, (a - ap) * (h / ca.fmax(hp, 1e-300)), ca.MX.zeros(nf))
         x0 = qh + (bhh / (1 - am)) * ((1 - af) * apred + af * a - am * ab)
         err_c = sc.error_constant()
@@ -1344,7 +1414,7 @@ class AlphaIntegrator:
         first, final = self._full_control_functions()
         a1 = first(ctl, n0, lte, tols)
         # second iteration, evaluated only when needed
-        xb, lb, pb = ca.MX.sym("xb", nf), ca.MX.sym("lb", mc), ca.MX.sym("pb", nf)
+        xb, lb, pb = ca.MX.sym("xb", nf), ca.MX.sym("lb", mc), ca.MX.sym("pb", nf + S.nw)
         cb, ccb, kb, vb = ca.MX.sym("cmb"), ca.MX.sym("ccb"), ca.MX.sym("kcb"), ca.MX.sym("vcb", nf)
         eb = [ca.MX.sym("kelb", S.kel.size)] if kel is not None else []
         yb, parb = ca.MX.sym("yb", nf), ca.MX.sym("parb", S.par.size)
@@ -1487,7 +1557,7 @@ class AlphaIntegrator:
         extra = [kel] if kel is not None else []
         # one Newton iteration of each kind, with the same signature: keep (converged), kept factor, refactorise
         xs, Ds, Us, UTs = ca.MX.sym("x", nf), ca.MX.sym("D", nD), ca.MX.sym("U", nU), ca.MX.sym("UT", nUT)
-        ps, cms, ccs, vcs = ca.MX.sym("p", nf), ca.MX.sym("cm"), ca.MX.sym("cc"), ca.MX.sym("vc", nf)
+        ps, cms, ccs, vcs = ca.MX.sym("p", nf + S.nw), ca.MX.sym("cm"), ca.MX.sym("cc"), ca.MX.sym("vc", nf)
         ks = [ca.MX.sym("kel", S.kel.size)] if kel is not None else []
         ys, pars = ca.MX.sym("y", nf), ca.MX.sym("par", S.par.size)
         args = [xs, Ds, Us, UTs, ps, cms, ccs, vcs] + ks + [ys, pars]
@@ -1526,7 +1596,7 @@ class AlphaIntegrator:
         self._s_in, self._s_out, self._info = np.zeros(self.state_size), np.zeros(self.state_size), \
             np.zeros(self.info_size)
         self._f_out = [np.zeros(k) for k in self.fac_sizes]
-        self._h, self._hp, self._pload, self._tols = np.zeros(1), np.zeros(1), np.zeros(nf), np.zeros(2)
+        self._h, self._hp, self._pload, self._tols = np.zeros(1), np.zeros(1), np.zeros(nf + S.nw), np.zeros(2)
         args = [self._s_in] + self.fac + [self._h, self._hp, self._pload, self._tols] + \
             ([S.kel] if S.kel is not None else []) + [S.par]
         outs = [self._s_out] + self._f_out + [self._info]
@@ -1538,11 +1608,11 @@ class AlphaIntegrator:
         self._step = (buf, ev, args, outs)
 
     # -- state ------------------------------------------------------------------------------------------------
-    def initialize(self, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray) -> None:
+    def initialize(self, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray, t0: float = 0.0) -> None:
         self.q[:] = q0
         self.v[:] = v0
         self.kdamp.update(self.q)
-        a, lam = initial_acceleration(self.S, q0, v0, Q0, self.kdamp.matrix())
+        a, lam = initial_acceleration(self.S, q0, v0, Q0, self.kdamp.matrix(), t0)
         self.a[:], self.lam[:] = a, lam
         self.ab[:] = self.a
         self.a_prev[:] = self.a
@@ -1561,6 +1631,8 @@ class AlphaIntegrator:
         The candidate is in self.new; accept() commits it."""
         S = self.S
         pload = -S.f_lin if loads is None else -(S.f_lin + loads(t + h))
+        if S.nw:
+            pload = np.r_[pload, S.w(t + h)]
         self._h_try = h
         python_newton = self.opts
         if self.modified_graph or not self.opts.modified:
@@ -1627,10 +1699,11 @@ class AlphaIntegrator:
         qh = self.q + h * self.v + h * h * (0.5 - b) * self.ab
         vh = self.v + h * (1 - g) * self.ab
         cm, cc = sc.cm(h), sc.cc(h)
-        p = S.M @ ((am * self.ab - af * self.a) / (1 - af) - cm * qh) + pload
+        p = pload.copy()
+        p[:S.nf] += S.M @ ((am * self.ab - af * self.a) / (1 - af) - cm * qh)
         C = self.kdamp.matrix()
         if C is not None:
-            p += C @ (vh - cc * qh)
+            p[:S.nf] += C @ (vh - cc * qh)
         ap = self.a + ((self.a - self.a_prev) * h / self.h_prev if self.h_prev else 0.0)
         x = qh + b * h * h * ((1 - af) * ap + af * self.a - am * self.ab) / (1 - am)
         S.vc[:] = vh - cc * qh
@@ -1704,7 +1777,7 @@ class AlphaIntegrator:
             buf, ev = _pooled_buffer(g, (n, guard), f, self)
             nf = self.S.nf
             ns = self.state_size + guard
-            bufs = dict(s=np.zeros(ns), h=np.zeros(n), hp=np.zeros(n), pload=np.zeros(nf * n),
+            bufs = dict(s=np.zeros(ns), h=np.zeros(n), hp=np.zeros(n), pload=np.zeros((nf + self.S.nw) * n),
                         tols=np.zeros(2 * n), out=np.zeros(ns * n), info=np.zeros(self.info_size * n),
                         fac_out=[np.zeros(k * n) for k in self.fac_sizes], guard=guard)
             S = self.S

@@ -206,6 +206,7 @@ class Scene:
     contacts: list = field(default_factory=list)  # ancf_sym.contact declarations
     bodies: dict = field(default_factory=dict)  # ancf_sym.bodies.Body by name (planar rigid bodies)
     body_joints: list = field(default_factory=list)  # ancf_sym.bodies.BodyJoint
+    drives: list = field(default_factory=list)  # ancf_sym.drives: prescribed angles/positions, applied torques
 
     def __post_init__(self):
         if isinstance(self.dim, bool) or self.dim not in (2, 3):
@@ -340,9 +341,41 @@ class Scene:
         self.bodies[name] = b
         return b
 
-    def revolute(self, body: str, point: Sequence[float] | None = None):
-        """The body turns about a ground point (world coordinates in the reference state; default its centre)."""
-        return self._body_joint("revolute", body, point=point)
+    def revolute(self, body: str, point: Sequence[float] | None = None, other: str | None = None):
+        """The body turns about a point (world coordinates in the reference state; default its centre) fixed to the
+        ground, or to the body `other` (a wheel on a chassis)."""
+        return self._body_joint("revolute", body, point=point, other=other)
+
+    # -- drives and torques (ancf_sym.drives) -------------------------------------------------------------------
+    def drive(self, body: str, angle: Any = None, omega: Any = None, relative_to: str | None = None,
+              angle0: float | None = None, name: str | None = None):
+        """Prescribe a body's angle in time (absolute, or relative to the body `relative_to`: a revolute joint's
+        angle): `angle` theta(t), or `omega` with angle = angle0 + its integral from the first piece's start
+        (angle0 default: the reference angle). Motions: a number, a piecewise polynomial [[t_k, [a0, a1, ...]],
+        ...] in (t - t_k), or callables (f, df/dt, d2f/dt2) (ancf_sym.drives)."""
+        from . import drives
+
+        d = drives.angle_drive(self, body, angle, omega, relative_to, angle0, name)
+        self.drives.append(d)
+        return d
+
+    def drive_position(self, position: Sequence[Any], member: str | None = None, at: Any = None,
+                       body: str | None = None, name: str | None = None):
+        """Prescribe the position of a member node (`member`, `at`; instead of a pin there) or of a body's centre
+        in time: one motion per component (as Scene.drive)."""
+        from . import drives
+
+        d = drives.position_drive(self, position, member, at, body, name)
+        self.drives.append(d)
+        return d
+
+    def torque(self, body: str, torque: Any, name: str | None = None):
+        """An applied torque on a body [N m, counter-clockwise], constant or a motion of time (as Scene.drive)."""
+        from . import drives
+
+        d = drives.torque(self, body, torque, name)
+        self.drives.append(d)
+        return d
 
     def pin_body(self, body: str, member: str, at: Any = "end"):
         """A member node tied to the body point where it lies in the reference state (free relative rotation)."""
@@ -521,6 +554,9 @@ class Scene:
         """Refuse scenes with a free rigid-body motion: every connected group of members needs a support."""
         if not self.members and not self.bodies:
             raise SceneError("scene has no members")
+        if self.drives:
+            raise SceneError(f"drives: {self.drives[0].name!r} prescribes motion in time (dynamics); solve the statics "
+                             "without drives and torques and start the dynamic run from that result")
         groups = {name: {name} for name in self.members}
         for j in self.joints:
             ga, gb = groups[j.a[0]], groups[j.b[0]]

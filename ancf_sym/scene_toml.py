@@ -12,7 +12,10 @@ The file mirrors the Python API (docs/scenes.md has the full schema and an annot
     [[loads]]            type = "force" | "distributed" | "moment" | "tension", member, at, value
     [[dampings]]         type = "rayleigh" (alpha, beta, members) | "strain_rate" (axial, bending, members)
     [[bodies]]           name, mass, inertia, position, angle, force, revolute = [x, y] (ground pivot),
-                         pin = [[member, at], ...], rigid = [[member, at], ...] (planar rigid bodies)
+                         pin = [[member, at], ...], rigid = [[member, at], ...] (planar rigid bodies),
+                         revolute_body = NAME (the revolute point fixed to that body instead of the ground)
+    [[drives]]           type = "angle" (body, angle | omega, relative_to, angle0) | "position" (member, at | body,
+                         position) | "torque" (body, torque); motions: numbers or [[t, [a0, a1, ...]], ...]
     [[contacts]]         type = "ground" (normal, level) | "circle" (centre, radius, axis), member, stiffness, hertz,
                          thickness, damping, mu, eps, gauss, method (ancf_sym.contact.from_toml)
     [analysis]           type = "statics" (tol, max_iter, load_steps, escape_saddle) | "dynamics" (passed through)
@@ -27,7 +30,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from . import contact
+from . import contact, drives
 from .checks import check_keys, fail, number, vector
 from .mesh import build_mesh
 from .scene import Material, Scene, SceneError, Section
@@ -41,8 +44,8 @@ except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
 TOP_KEYS = ("scene", "materials", "sections", "members", "supports", "joints", "loads", "dampings", "contacts",
-            "bodies", "analysis")
-BODY_KEYS = ("name", "mass", "inertia", "position", "angle", "force", "revolute", "pin", "rigid")
+            "bodies", "drives", "analysis")
+BODY_KEYS = ("name", "mass", "inertia", "position", "angle", "force", "revolute", "revolute_body", "pin", "rigid")
 SCENE_KEYS = ("name", "dim", "gravity")
 SECTION_KEYS = {None: tuple(SECTION), "circle": ("diameter",), "rectangle": ("b", "h")}
 MEMBER_KEYS = tuple(inspect.signature(Scene.member).parameters)[1:]  # the keywords of Scene.member
@@ -210,8 +213,10 @@ def _body(scene: Scene, path: str, d: dict) -> None:
     _keys(path, d, BODY_KEYS, ("name", "mass", "inertia", "position"))
     name = _str(f"{path}.name", d["name"])
     _api(path, scene.body, name, d["mass"], d["inertia"], d["position"], d.get("angle", 0.0), d.get("force"))
-    if "revolute" in d:
-        _api(path, scene.revolute, name, _vector(f"{path}.revolute", d["revolute"], 2))
+    if "revolute" in d or "revolute_body" in d:
+        point = _vector(f"{path}.revolute", d["revolute"], 2) if "revolute" in d else None
+        other = _str(f"{path}.revolute_body", d["revolute_body"]) if "revolute_body" in d else None
+        _api(path, scene.revolute, name, point, other)
     for kind, call in (("pin", scene.pin_body), ("rigid", scene.rigid_body)):
         ends = d.get(kind, [])
         if not isinstance(ends, list):
@@ -311,6 +316,8 @@ def scene_from_dict(doc: dict, default_name: str = "scene") -> tuple[Scene, dict
         _api(f"contacts[{i}]", contact.from_toml, scene, d)
     for i, d in enumerate(_array_of_tables("bodies", doc.get("bodies", []))):
         _body(scene, f"bodies[{i}]", d)
+    for i, d in enumerate(_array_of_tables("drives", doc.get("drives", []))):
+        _api(f"drives[{i}]", drives.from_toml, scene, d)
 
     # dry run of the mesh and the energy terms (numpy only, no kernels): what they refuse, refuse now
     _api("members", lambda: scene_terms(build_mesh(scene)))
