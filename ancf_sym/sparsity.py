@@ -1,6 +1,6 @@
 """Sparse patterns from (row, col) triplets, merged in compressed-column order (SciPy's and CasADi's layout), and
-the one scatter of mapped kernel results (gradients, Hessians) into global vectors and sparse matrices inside
-CasADi graphs, used by the dynamics' step system and the optimal-control transcription alike."""
+the gathers and scatters that assemble compiled kernel results into global vectors and matrices inside CasADi graphs
+(the dynamics' step system and the optimal-control model and transcription alike)."""
 from __future__ import annotations
 
 import casadi as ca
@@ -22,10 +22,9 @@ def casadi_sparsity(n_rows: int, n_cols: int, indptr: np.ndarray, indices: np.nd
     return ca.Sparsity(n_rows, n_cols, np.asarray(indptr).tolist(), np.asarray(indices).tolist())
 
 
-def sparse_dm(A) -> ca.DM:
-    """A SciPy (or dense) matrix as a sparse CasADi DM with the same pattern (duplicates summed)."""
+def dm(A) -> ca.DM:
+    """A SciPy sparse (or dense) matrix as a CasADi DM with the same pattern."""
     A = sp.csc_matrix(A)
-    A.sum_duplicates()
     A.sort_indices()
     return ca.DM(ca.Sparsity(A.shape[0], A.shape[1], A.indptr.tolist(), A.indices.tolist()), A.data.tolist())
 
@@ -50,12 +49,13 @@ def gather_sum(vals: list, target: np.ndarray, n_out: int) -> ca.MX:
     return out
 
 
-def scatter_mx(vals: list, rows: np.ndarray, cols: np.ndarray, shape: tuple[int, int],
-               src: np.ndarray | None = None, n_src: int | None = None) -> ca.MX:
-    """Sparse MX of `shape` summing values at (rows[k], cols[k]): value k is vertcat(vals)[src[k]] (default k;
-    n_src = the length of vertcat(vals) when src is given)."""
-    indptr, indices, inv = csc_pattern(rows, cols, shape[0], shape[1])
-    pattern = casadi_sparsity(shape[0], shape[1], indptr, indices)
+def scatter(vals: list, r: np.ndarray, c: np.ndarray, n: int, src: np.ndarray | None = None,
+            n_src: int | None = None, n_cols: int | None = None) -> ca.MX:
+    """Sparse n x n (or n x n_cols) MX summing the values at (r, c): entry k is vertcat(vals)[src[k]] (default:
+    k; n_src = the length of vertcat(vals) when src is given)."""
+    n_cols = n if n_cols is None else n_cols
+    indptr, indices, inv = csc_pattern(r, c, n, n_cols)
+    pattern = casadi_sparsity(n, n_cols, indptr, indices)
     if src is None:
         src, n_src = np.arange(len(inv)), len(inv)
     target = -np.ones(n_src, dtype=np.int64)
@@ -63,10 +63,10 @@ def scatter_mx(vals: list, rows: np.ndarray, cols: np.ndarray, shape: tuple[int,
     return ca.MX(pattern, gather_sum(vals, target, len(indices)))
 
 
-def hessian_entries(idx: np.ndarray, pos: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def hessian_entries(pos: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Unknowns (a, b) of the entries of the column-major vec of a mapped kernel's Hessian output (nd x nd N:
-    entry e nd^2 + a nd + b is d2U / dx_idx[e, a] dx_idx[e, b]), coordinate k being unknown pos[k] (-1: fixed),
-    and the entries on two unknowns."""
+    entry e nd^2 + a nd + b is d2U / dx_idx[e, a] dx_idx[e, b]) and the entries on two unknowns (pos: the unknown
+    of each coordinate, -1 if fixed)."""
     N, nd = idx.shape
     ia = pos[np.broadcast_to(idx[:, :, None], (N, nd, nd)).ravel()]
     ib = pos[np.broadcast_to(idx[:, None, :], (N, nd, nd)).ravel()]
@@ -94,11 +94,11 @@ def assemble_mx(calls: list, pos: np.ndarray, n: int, hessian: bool = True) -> t
         return g, None
     hvals, rows, cols, hpos, n_h = [], [], [], [], 0
     for idx, _, H in groups.values():
-        ia, ib, keep = hessian_entries(idx, pos)
+        ia, ib, keep = hessian_entries(pos, idx)
         hvals.append(ca.vec(H))
         rows.append(ib[keep])
         cols.append(ia[keep])
         hpos.append(n_h + keep)
         n_h += ia.size
-    K = scatter_mx(hvals, np.concatenate(rows), np.concatenate(cols), (n, n), np.concatenate(hpos), n_h)
+    K = scatter(hvals, np.concatenate(rows), np.concatenate(cols), n, np.concatenate(hpos), n_h)
     return g, K

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..checks import number as _num
 from ..scene import SceneError
-from ..sparsity import sparse_dm as _dm
+from ..sparsity import dm as _dm
 from .ingredients import Effort, MinimumTime, StateView, Swing
 
 

@@ -10,7 +10,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .. import kernels
-from ..sparsity import gather_sum, scatter_mx, sparse_dm as _dm
+from ..sparsity import dm as _dm, gather_sum, scatter
 
 
 def _basis(nodes: np.ndarray, tau: np.ndarray) -> np.ndarray:
@@ -189,10 +189,10 @@ class TranscriptionMixin:
         outs = [main(Xe, Pm) for _, _, main, Xe, Pm in g_parts]
         g_kernel_full = gather_sum([ca.vec(o[1]) for o in outs], rows_of_g, ng)
         if outs:
-            J_kernel = scatter_mx([ca.vec(o[2]) for o in outs], np.concatenate(jac_rows), np.concatenate(jac_cols),
-                                  (ng, nw), np.concatenate(jac_keep), n_jac)
-            H_kernel = scatter_mx(dh_vals, np.concatenate(hess_rows), np.concatenate(hess_cols), (nw, nw),
-                                  np.concatenate(hess_keep), n_jac)
+            J_kernel = scatter([ca.vec(o[2]) for o in outs], np.concatenate(jac_rows), np.concatenate(jac_cols), ng,
+                               np.concatenate(jac_keep), n_jac, n_cols=nw)
+            H_kernel = scatter(dh_vals, np.concatenate(hess_rows), np.concatenate(hess_cols), nw,
+                               np.concatenate(hess_keep), n_jac)
         else:
             J_kernel, H_kernel = ca.MX(ng, nw), ca.MX(nw, nw)
         g_nlp = g_poly + g_kernel
