@@ -28,7 +28,8 @@ from typing import Any, Callable, Sequence
 import numpy as np
 import scipy.sparse as sp
 
-from . import bodies, contact
+from . import bodies, contact, spatial_bodies
+from . import initial as initial_state
 from .assembly import Assembly
 from .interpolation import Probe, weights
 from .integrators import (LINEAR_EFFECTS, AlphaIntegrator, Counters, NewtonOptions, RayleighData, Scheme,
@@ -60,7 +61,8 @@ class Sensor:
 
     kind: "position" | "displacement" (from the reference) | "velocity" of a centreline point;
     "strain" (|r_x| - 1) | "curvature" (|r_x x r_xx| / |r_x|^3) at a point; "coordinates" (all nodal
-    coordinates of a node); "body": a rigid body's (x, y, angle, angular velocity), `member` naming the body.
+    coordinates of a node); "body": a rigid body's (x, y, angle, angular velocity), `member` naming the body
+    (spatial: centre (3), angular velocity (3, world), axes e1, e2, e3 (9), ancf_sym.spatial_bodies.sensor).
     member and at ("start", "end", node index or material coordinate s [m]) name the
     point. Energies and the constraint violation are always recorded.
     """
@@ -96,6 +98,7 @@ class _SensorEval:
                 raise SceneError(f"sensors[{index}].member={sensor.member!r} names no body; bodies: "
                                  f"{sorted(asm.mesh.bodies)}")
             self.offset = asm.mesh.bodies[sensor.member]
+            self.spatial = scene.dim == 3
             return
         if sensor.member not in asm.mesh.members:
             raise SceneError(f"sensors[{index}].member={sensor.member!r} names no member; members: "
@@ -118,6 +121,8 @@ class _SensorEval:
         k = self.sensor.kind
         if k == "body":  # angular velocity c s_dot - s c_dot of the unit vector (c, s)
             o = self.offset
+            if self.spatial:
+                return spatial_bodies.sensor(x, v, o)
             return np.array([*bodies.state(x, o), x[o + 2] * v[o + 3] - x[o + 3] * v[o + 2]])
         p = self.probe
         if k == "coordinates":
@@ -220,9 +225,17 @@ class DynamicOptions:
     energies: bool = True  # record the energy balance at output times (one energy evaluation per output)
     q0: np.ndarray | None = None  # initial coordinates (full, default the reference state)
     v0: np.ndarray | None = None  # initial velocities (full, default zero)
+    initial: list | None = None  # initial velocities per member/body ([[initial]] tables, ancf_sym.initial)
+    start: str | None = None  # "reference" (default) | "static": start from the static equilibrium
 
     def __post_init__(self):
         check_fields(self, DYNAMIC_OPTIONS, "analysis")  # types and ranges as declared in ancf_sym.schema
+        if self.initial is not None:
+            self.initial = initial_state.check_specs(self.initial)
+            if self.v0 is not None:
+                raise fail("analysis.initial", "and v0 both give the initial velocities: give one", self.initial)
+        if self.start == "static" and self.q0 is not None:
+            raise fail("analysis.start", "= 'static' and q0 both give the initial state: give one", self.start)
         if self.t_end <= self.t_start:
             raise fail("analysis.t_end", f"must be greater than t_start = {self.t_start:g}", self.t_end)
         if self.dt > self.t_end - self.t_start:
@@ -777,7 +790,11 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
     loads = _LoadSum(opts.loads, asm, S.E) if opts.loads else None
     # initial state
     q0 = asm.x0.copy() if opts.q0 is None else np.asarray(opts.q0, dtype=float).ravel()
+    if opts.start == "static":
+        q0 = initial_state.static_start(scene)
     v0 = np.zeros(asm.n) if opts.v0 is None else np.asarray(opts.v0, dtype=float).ravel()
+    if opts.initial:
+        v0 = initial_state.from_specs(asm, q0, opts.initial)
     for name, arr in (("q0", q0), ("v0", v0)):
         if arr.shape != (asm.n,):
             raise SceneError(f"{name} must have {asm.n} entries (the scene's coordinates), got {arr.size}")
@@ -871,7 +888,7 @@ def options_from_dict(analysis: dict) -> DynamicOptions:
         msg = str(exc)
         if msg.startswith("analysis"):
             raise
-        head = re.match(r"(newton|sensors|loads)\b[.\[:]?", msg)
+        head = re.match(r"(newton|sensors|loads|initial)\b[.\[:]?", msg)
         raise SceneError(f"analysis.{msg}" if head else f"analysis: {msg}") from None
 
 
