@@ -22,6 +22,8 @@ def casadi_sparsity(n_rows: int, n_cols: int, indptr: np.ndarray, indices: np.nd
     return ca.Sparsity(n_rows, n_cols, np.asarray(indptr).tolist(), np.asarray(indices).tolist())
 
 
+# -- assembling compiled kernel results in CasADi MX graphs (constant index maps, no products with 0/1 matrices) --
+
 def dm(A) -> ca.DM:
     """A SciPy sparse (or dense) matrix as a CasADi DM with the same pattern."""
     A = sp.csc_matrix(A)
@@ -102,3 +104,13 @@ def assemble_mx(calls: list, pos: np.ndarray, n: int, hessian: bool = True) -> t
         n_h += ia.size
     K = scatter(hvals, np.concatenate(rows), np.concatenate(cols), n, np.concatenate(hpos), n_h)
     return g, K
+
+
+def sx_nonzeros(A: ca.SX) -> ca.SX:
+    """Nonzeros of a sparse SX as a column."""
+    return ca.vertcat(*A.nonzeros()) if A.nnz() else ca.SX(0, 1)
+
+
+def mx_nonzeros(A: ca.MX) -> ca.MX:
+    """Nonzeros of a sparse MX as a column (no copy of the structure)."""
+    return ca.sparsity_cast(A, ca.Sparsity.dense(A.nnz(), 1))

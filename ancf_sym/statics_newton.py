@@ -41,7 +41,8 @@ from scipy.linalg.lapack import dpbtrf, dpbtrs
 
 from .inertia import BAND_LIMIT, banded_cholesky, banded_solve
 from .sparsity import csc_pattern
-from .integrators import StepSystem, partition
+from .dynamics.step_system import StepSystem
+from .reduced import partition
 
 STALL = 0.75  # updates contracting by less than this factor make no progress (the 2/3 of a quartic Green energy far out does)
 STALL_COUNT = 3  # that many in a row: the updates are round-off
@@ -79,7 +80,7 @@ def coordinate_scales(asm: Assembly) -> np.ndarray:
 
 class Reduction:
     """The StepSystem's free coordinates without its CasADi graph: supports that fix coordinates eliminated, hinges
-    identified (integrators.partition), and the constant generalized force of the linear terms (gravity, loads)."""
+    identified (ancf_sym.reduced.partition), and the constant generalized force of the linear terms (gravity, loads)."""
 
     def __init__(self, asm: Assembly):
         self.part = part = partition(asm)

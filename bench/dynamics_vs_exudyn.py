@@ -37,9 +37,7 @@ import numpy as np  # noqa: E402
 
 from ancf_sym import Material, Scene, Section  # noqa: E402
 from ancf_sym.assembly import Assembly  # noqa: E402
-from ancf_sym.dynamics import DynamicOptions, simulate, StepSystem  # noqa: E402
-from ancf_sym.integrators import clear_graph_cache  # noqa: E402
-from ancf_sym.dynamics import LINEAR_EFFECTS, rayleigh_data  # noqa: E402
+from ancf_sym.dynamics import DynamicOptions, StepSystem, clear_graph_cache, simulate  # noqa: E402
 
 G = 9.81
 CASES = {
@@ -70,7 +68,7 @@ def ancf_run(c, dt=None, modified=False, energies=True, cold=True, sensors=True)
         clear_graph_cache()
     c0, t0 = time.process_time(), time.perf_counter()
     asm = Assembly(ancf_scene(c))
-    system = StepSystem(asm, rayleigh_data(asm, [mk for mk in asm.mapped if mk.term.effect not in LINEAR_EFFECTS]))
+    system = StepSystem.for_scene(asm)
     setup = time.perf_counter() - t0
     opts = DynamicOptions(dt=dt or c["dt"], t_end=c["T"], integrator="generalized_alpha", rho_inf=0.9,
                           output_dt=OUT_DT, newton={"modified": modified}, energies=energies,
@@ -259,7 +257,7 @@ def _run_with(c, dt, gravity, v_tip):
              Section(area=c["A"], I=c["I"]), axial="biot")
     (s.clamp if c["support"] == "clamp" else s.pin)("m", "start")
     asm = Assembly(s)
-    system = StepSystem(asm, rayleigh_data(asm, [mk for mk in asm.mapped if mk.term.effect not in LINEAR_EFFECTS]))
+    system = StepSystem.for_scene(asm)
     setup = time.perf_counter() - t0
     v0 = np.zeros(asm.n)
     v0[1::4] = v_tip * np.linspace(0.0, 1.0, asm.n // 4)  # vertical velocity growing along the member (pin: 0)

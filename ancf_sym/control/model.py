@@ -15,7 +15,8 @@ from .. import registry
 from ..assembly import Assembly
 from ..checks import number as _num
 from ..interpolation import Probe
-from ..integrators import LINEAR_EFFECTS, partition
+from ..assembly import LINEAR_EFFECTS
+from ..reduced import partition
 from ..loads import point_force
 from ..scene import Scene, SceneError, _vector
 from ..sparsity import assemble_mx

@@ -1,0 +1,137 @@
+"""The force graphs of a step system: the potential's gradient and Hessian on the unknowns, assembled from the
+mapped compiled kernels by constant index gathers (no Python loop over elements, no numpy scatter).
+
+forces_pf(x, par) -> (g, K[, kel]): gradient and Hessian of the nonlinear potential (elastic terms, penalty
+joints, contact laws), and the elastic tangent values for Rayleigh stiffness damping; grad_pf(x, par) -> g from
+the kernels' (energy, gradient) companions (no Hessian work); energy functions for the outputs. `par` holds the
+kernels' element parameters (material, section, lengths), inputs rather than constants of the graphs.
+"""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import casadi as ca
+import numpy as np
+
+from .. import kernels
+from ..assembly import map_elements
+from ..sparsity import dm, gather_sum, mx_nonzeros, scatter
+
+if TYPE_CHECKING:
+    from .step_system import StepSystem
+
+ELASTIC_LABELS = ("axial", "bending", "torsion", "continuum")
+
+
+def hessian_entries(pos: np.ndarray, idx: np.ndarray):
+    """Unknowns (a, b) of the entries of the column-major vec of a mapped kernel's Hessian output (nd x nd N:
+    entry e nd^2 + a nd + b is d2U / dx_idx[e, a] dx_idx[e, b]) and the entries on two unknowns (pos: the unknown
+    of each coordinate, -1 if fixed)."""
+    N, nd = idx.shape
+    ia = pos[np.broadcast_to(idx[:, :, None], (N, nd, nd)).ravel()]
+    ib = pos[np.broadcast_to(idx[:, None, :], (N, nd, nd)).ravel()]
+    return ia, ib, np.flatnonzero((ia >= 0) & (ib >= 0))
+
+
+def build_force_graphs(S: "StepSystem") -> None:
+    """Build S.forces_pf, S.grad_pf, S.energy_f (with S.energy_labels), S._energy_kin_f (with its labels) and
+    S.kel_sparsity (None without Rayleigh stiffness damping) from S's kernel calls."""
+    asm, nf, pos = S.asm, S.nf, S.pos
+    xf = ca.MX.sym("x", nf)
+    par = ca.MX.sym("par", S.par.size)
+    x = S.x_full_mx(xf)
+    energies = []
+    kel_vals, kel_rows, kel_cols = [], [], []
+    weights = S.rayleigh.element_weight if (S.rayleigh is not None and S.rayleigh.beta) else {}
+    Ps, o = [], 0  # each kernel call's parameters (n_p x N) from the input vector
+    for P in [ft.P for ft in S.force_terms] + [mk.P for mk in S.nonlinear]:
+        Ps.append(ca.reshape(par[o:o + P.size], P.shape[1], P.shape[0]))
+        o += P.size
+    Pft, Pmk = Ps[:len(S.force_terms)], Ps[len(S.force_terms):]
+    groups: dict = {}  # calls on the same element coordinates: gradients and Hessians summed before the scatter
+    for ft, Pk in zip(S.force_terms, Pft):
+        Xe = ca.reshape(x[ft.idx.ravel().tolist()], ft.nd, ft.N)
+        _, G, H = ft.mapped()(Xe, Pk)
+        key = (ft.idx.shape, ft.idx.tobytes())
+        if key in groups:
+            grp = groups[key]
+            grp[1], grp[2] = grp[1] + G, grp[2] + H
+        else:
+            groups[key] = [ft.idx, G, H]
+        if weights and all(lbl in ELASTIC_LABELS for lbl in ft.labels):
+            ti, rows = ft.sources[0]  # fused rows have equal weights (row_keys)
+            w = weights.get(ti)
+            if w is not None and np.any(np.asarray(w)[rows]):
+                ia, ib, keep = hessian_entries(pos, ft.idx)
+                we = np.repeat(np.asarray(w, float)[rows], ft.nd * ft.nd)[keep]
+                hv = ca.vec(H)
+                kel_vals.append((hv[keep.tolist()] if len(keep) < hv.shape[0] else hv) * ca.DM(we))
+                kel_rows.append(ib[keep])
+                kel_cols.append(ia[keep])
+    gvals, gtarget, hvals, rows, cols, hpos = [], [], [], [], [], []
+    n_h = 0
+    for idx, G, H in groups.values():
+        gvals.append(ca.vec(G))
+        gtarget.append(pos[idx.ravel()])
+        ia, ib, keep = hessian_entries(pos, idx)
+        hvals.append(ca.vec(H))
+        rows.append(ib[keep])
+        cols.append(ia[keep])
+        hpos.append(n_h + keep)
+        n_h += ia.size
+    g = gather_sum(gvals, np.concatenate(gtarget), nf) if gvals else ca.MX.zeros(nf)
+    K = ca.MX(nf, nf)
+    if rows:
+        K = scatter(hvals, np.concatenate(rows), np.concatenate(cols), nf, np.concatenate(hpos), n_h)
+    S.kel_sparsity = None
+    outs = [g, K]
+    if kel_vals:
+        Kel = scatter(kel_vals, np.concatenate(kel_rows), np.concatenate(kel_cols), nf)
+        S.kel_sparsity = Kel.sparsity()
+        outs.append(mx_nonzeros(Kel))
+    if asm.penalty is not None:
+        pc = asm.penalty
+        c = asm._casadi_constraint(pc, x)
+        pen = 0.5 * ca.sum1(ca.DM(pc.k) * c * c)
+        outs[0] = outs[0] + ca.gradient(pen, xf)
+        outs[1] = outs[1] + ca.hessian(pen, xf)[0]
+        energies.append(("penalty", pen))
+    S.forces_pf = ca.Function("forces", [xf, par], outs, ["x", "par"],
+                                 ["g", "K"] + (["kel"] if kel_vals else []))
+    # the gradient alone from the (energy, gradient) companions: no Hessian work (residuals of modified Newton)
+    ggroups: dict = {}
+    for ft, Pk in zip(S.force_terms, Pft):
+        Xe = ca.reshape(x[ft.idx.ravel().tolist()], ft.nd, ft.N)
+        G = ft.mapped_grad()(Xe, Pk)[1]
+        key = (ft.idx.shape, ft.idx.tobytes())
+        ggroups[key] = (ft.idx, ggroups[key][1] + G) if key in ggroups else (ft.idx, G)
+    gg = gather_sum([ca.vec(G) for _, G in ggroups.values()],
+                     np.concatenate([pos[idx.ravel()] for idx, _ in ggroups.values()]), nf) \
+        if ggroups else ca.MX.zeros(nf)
+    if asm.penalty is not None:
+        gg += ca.gradient(pen, xf)
+    S.grad_pf = ca.Function("gradient", [xf, par], [gg], ["x", "par"], ["g"])
+    # energies for the outputs from the energy-only compiled functions (no gradient, no Hessian)
+    elist = []
+    for mk, Pk in zip(S.nonlinear, Pmk):
+        t = mk.term
+        Xe = ca.reshape(x[t.idx.ravel().tolist()], mk.nd, mk.N)
+        ef = map_elements(kernels.load_energy(t.element, t.effect, t.gauss),
+                          kernels.load_batch(t.element, t.effect, t.gauss, "_energy"), mk.N)
+        elist.append((t.label, ca.sum2(ef(Xe, Pk))))
+    elist += [(lbl, e) for lbl, e in energies if lbl == "penalty"]
+    S.energy_labels = [lbl for lbl, _ in elist]
+    S.energy_f = ca.Function("energies", [xf, par], [ca.vertcat(*[e for _, e in elist]) if elist
+                                                        else ca.MX(0, 1)])
+    # the outputs' energies in one call: the potentials (the linear ones, U = c + G.x, as dot products with the
+    # input `lin` = [G_1 .. G_k, c_1 .. c_k, Q]) and the kinetic energy
+    lin = ca.MX.sym("lin", S.lin.size)
+    n, k = asm.n, len(S._lin_energy)
+    for j, (_, _, _, label) in enumerate(S._lin_energy):
+        elist.append((label, lin[k * n + j] + ca.dot(lin[j * n:(j + 1) * n], x)))
+    if np.any(asm.Q):
+        elist.append(("loads", -ca.dot(lin[k * n + k:], x)))
+    S._energy_kin_labels = [lbl for lbl, _ in elist]
+    vf = ca.MX.sym("v", nf)
+    S._energy_kin_f = ca.Function("energies_kinetic", [xf, vf, par, lin], [
+        ca.vertcat(*[e for _, e in elist], 0.5 * ca.dot(vf, ca.mtimes(dm(S.M), vf)))])
