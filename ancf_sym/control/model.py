@@ -16,7 +16,7 @@ from ..assembly import Assembly
 from ..checks import number as _num
 from ..interpolation import Probe
 from ..assembly import LINEAR_EFFECTS
-from ..reduced import partition
+from ..reduced import full_mx, partition
 from ..loads import point_force
 from ..scene import Scene, SceneError, _vector
 from ..sparsity import assemble_mx
@@ -201,8 +201,8 @@ class ModelMixin:
         self.Tr = Tr
         M = a.mass_matrix().tocsc()
         self.M_full = M
-        self.Mff = (part.E.T @ M @ part.E).tocsc()
-        self.Mfc = (part.E.T @ M @ sp.csc_matrix(B)).tocsc()
+        self.Mff = part.reduce_matrix(M)
+        self.Mfc = part.reduce_matrix(M, B)
         # constant forces: linear energy terms (gravity, distributed dead loads) and dead point loads incl. weights
         self.f_lin_full = f_lin = a.constant_force()
         self.f_lin = part.E.T @ f_lin
@@ -240,7 +240,7 @@ class ModelMixin:
         q, s = ca.MX.sym("q", nf), ca.MX.sym("s", nc)
         pos = self.pos.copy()  # the controlled support coordinates become unknowns nf + channel
         pos[self._chan_coord] = nf + np.arange(nc)
-        x = ca.vertcat(q, s, ca.MX.zeros(1))[np.where(pos >= 0, pos, nf + nc).tolist()] + ca.DM(self.part.c)
+        x = full_mx(ca.vertcat(q, s), pos, self.part.c)
         calls = []
         for mk in self.nonlinear:
             t = mk.term
