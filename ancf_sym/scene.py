@@ -231,9 +231,11 @@ class Scene:
         prestrain: the points give the member stretched by 1 + prestrain (e.g. a taut string between two pins:
         prestrain = T/EA); its unstretched length is the polyline's divided by 1 + prestrain.
         """
-        if not isinstance(name, str) or not name or name in self.members:
-            raise fail("members.name", "must be a new non-empty string", name)
+        if not isinstance(name, str) or not name:
+            raise fail("members.name", "must be a non-empty string", name)
         at = f"members[{name!r}]"  # errors name the member's field; the TOML reader re-roots this to members[i]
+        if name in self.members:
+            raise fail(f"{at}.name", "repeats an earlier member's name", name)
         if isinstance(points, (str, bytes)) or not isinstance(points, (list, tuple, np.ndarray)) or len(points) < 2:
             raise fail(f"{at}.points", f"must be a list of >= 2 points with {self.dim} coordinates", points)
         pts = np.array([vector(f"{at}.points[{i}]", p, self.dim) for i, p in enumerate(points)])

@@ -160,8 +160,6 @@ def _member(scene: Scene, path: str, d: dict, materials: dict, sections: dict) -
     """Names resolved here (material, section); every value checked by Scene.member (axial = "none" included)."""
     _keys(path, d, MEMBER_KEYS, ("name", "points", "elements", "material", "section"))
     name = _str(f"{path}.name", d["name"])
-    if name in scene.members:
-        raise _fail(f"{path}.name", "repeats an earlier member's name", name)
     kw = {k: v for k, v in d.items() if k not in ("name", "points")}
     kw["material"] = _named(f"{path}.material", d["material"], materials, "material ([materials.NAME])")
     kw["section"] = _named(f"{path}.section", d["section"], sections, "section ([sections.NAME])")
@@ -275,8 +273,6 @@ def _loop(scene: Scene, path: str, d: dict, materials: dict, sections: dict) -> 
     member_keys = tuple(k for k in MEMBER_KEYS if k not in ("points", "elements", "material", "section"))
     _keys(path, d, tuple(LOOP) + member_keys, ("name", "elements", "material", "section"))
     name = _str(f"{path}.name", d["name"])
-    if name in scene.members:
-        raise _fail(f"{path}.name", "repeats an earlier member's name", name)
     if ("path" in d) == ("pulleys" in d):
         raise _fail(path, "give path (pieces) or pulleys (a belt around them), not both or neither")
     if "pulleys" in d:

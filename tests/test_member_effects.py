@@ -76,3 +76,24 @@ def _frame() -> Scene:
 def test_damping_refused_when_added(call, field):
     with pytest.raises(SceneError, match="^" + field):
         call(_frame())
+
+
+@pytest.mark.parametrize("table", ["members", "loops"])
+def test_repeated_member_name_refused_once(table):
+    """Scene.member refuses a repeated name; the TOML reader names the table entry (members[1] / loops[0])."""
+    from ancf_sym.scene_toml import scene_from_dict
+
+    first = {"name": "c", "points": [[0, 0], [1, 0]], "elements": 2, "material": "steel", "section": "wire"}
+    doc = {"scene": {"dim": 2}, "materials": {"steel": {"E": 200e9, "density": 7800}},
+           "sections": {"wire": {"shape": "circle", "diameter": 0.01}}, "members": [first]}
+    if table == "members":
+        doc["members"] = [first, dict(first)]
+        where = r"members\[1\]"
+    else:
+        doc["loops"] = [{"name": "c", "pulleys": [[[0, 0], 0.2], [[1, 0], 0.2]], "elements": 8, "material": "steel",
+                         "section": "wire"}]
+        where = r"loops\[0\]"
+    with pytest.raises(SceneError, match=f"^{where}\\.name: repeats an earlier member's name"):
+        scene_from_dict(doc)
+    with pytest.raises(SceneError, match=r"^members\['a'\]\.name: repeats"):
+        _frame().member("a", [(0, 0), (1, 0)], elements=2, material=STEEL, section=Section.circle(0.01))
