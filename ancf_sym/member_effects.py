@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from .checks import SceneError, fail
-from .registry import EFFECTS, GAUSS_ORDERS
+from .registry import EFFECTS, FUSED_STRAINS, GAUSS_ORDERS
 
 
 @dataclass(frozen=True)
@@ -33,7 +33,11 @@ AXIAL_STRAINS: dict[str, AxialStrain] = {s.name: s for s in (
 )}
 AXIAL = tuple(AXIAL_STRAINS)  # the strain measures a member can use
 NO_AXIAL = "none"  # axial = None (no axial stiffness) where the input has no null (TOML)
-BIOT = "biot"  # the measure the statics start from for the others (cheaper Newton, measured in ancf_sym.statics)
+START_STRAIN = "biot"  # the measure the statics start from for the others (a cheaper Newton, ancf_sym.statics)
+# the cable kernel effects of the other measures -> those of the start measure (the fused axial + bending ones too)
+START_EFFECTS = {
+    **{s.effect: AXIAL_STRAINS[START_STRAIN].effect for s in AXIAL_STRAINS.values() if s.name != START_STRAIN},
+    **{f"elastic_{s}": f"elastic_{START_STRAIN}" for s in FUSED_STRAINS if s != START_STRAIN}}
 BEAM_METHODS = ("continuum", "elastic_line")
 
 
