@@ -36,6 +36,7 @@ from .scene import Scene, SceneError
 from .schema import STATIC_OPTIONS
 
 from .inertia import STABILITY_EPS, reduced_inertia
+from .member_effects import START_STRAIN
 from .statics_eval import BIOT
 from .statics_newton import KernelNewton, NewtonRun, NewtonStatics, Reduction
 
@@ -320,7 +321,7 @@ class StaticProblem:
         shares this problem's index maps (ReducedEvaluation.variant): only its kernel calls differ. Scenes with
         multiplier rows (the graph) start from the straight state."""
         if self._biot is None:
-            cables = [m for m in self.asm.scene.members.values() if getattr(m, "axial", None) in ("green", "decoupled")]
+            cables = [m for m in self.asm.scene.members.values() if m.axial not in (None, START_STRAIN)]
             coarse = any(m.elements < BIOT_MIN_ELEMENTS for m in cables)
             ev = self.light.ev.variant(BIOT) if cables and not coarse and self.light is not None else None
             self._biot = KernelNewton(self.asm, self.S, ev) if ev is not None else False

@@ -20,6 +20,7 @@ import scipy.sparse as sp
 from . import registry
 from .assembly import LINEAR_EFFECTS, Assembly, ForceTerm, force_terms
 from .inertia import BAND_LIMIT
+from .member_effects import START_EFFECTS
 
 _MAPS: dict = {}  # (element, effect, gauss, elements) -> the kernel mapped over them (built once per process)
 
@@ -32,7 +33,7 @@ def _mapped(ft) -> ca.Function:
 
 
 # a cable's Green or decoupled axial effect -> the Biot one on the same elements and parameters (L, EA[, EI])
-BIOT = {"elastic_green": "elastic_biot", "axial_green": "axial_biot", "axial_decoupled": "axial_biot"}
+BIOT = START_EFFECTS  # (ancf_sym.member_effects)
 
 
 def fused_terms(terms: list) -> list[ForceTerm]:

@@ -7,7 +7,7 @@ import time
 import numpy as np
 
 from ..registry import GAUSS_ORDERS
-from ..scene import AXIAL
+from ..member_effects import AXIAL
 from .base import Axis, Study
 from .references import rod_reference
 
