@@ -313,16 +313,15 @@ def _reports(asm, x: np.ndarray):
 
 def _position_rows(element: str, L: float, xi: float, dim: int) -> np.ndarray:
     """(dim, nd) matrix S with r(xi) = S q_e (cubic Hermite centre line; beam3d: the r and r_x blocks)."""
-    from .elements import hermite  # plain polynomials of xi: numbers in, numbers out
+    from .interpolation import weights
     from .registry import ELEMENTS
 
-    h = hermite.h(xi)
+    w = weights(xi, L)[0]  # r = w0 r(0) + w1 r_x(0) + w2 r(L) + w3 r_x(L)
     nd = ELEMENTS[element].ndof
     S = np.zeros((dim, nd))
     node = nd // 2
-    eye = np.eye(dim)
-    for k, (off, coef) in enumerate(((0, h[0]), (dim, L * h[1]), (node, h[2]), (node + dim, L * h[3]))):
-        S[:, off:off + dim] += coef * eye
+    for off, coef in zip((0, dim, node, node + dim), w):
+        S[:, off:off + dim] += coef * np.eye(dim)
     return S
 
 
