@@ -383,13 +383,13 @@ def scene_from_dict(doc: dict, default_name: str = "scene") -> tuple[Scene, dict
         _load(scene, f"loads[{i}]", d)
     for i, d in enumerate(_array_of_tables("dampings", doc.get("dampings", []))):
         _damping(scene, f"dampings[{i}]", d)
-    for i, d in enumerate(_array_of_tables("contacts", doc.get("contacts", []))):
-        _api(f"contacts[{i}]", contact.from_toml, scene, d)
     bodies = _array_of_tables("bodies", doc.get("bodies", []))
     for i, d in enumerate(bodies):
         _body(scene, f"bodies[{i}]", d)
     for i, d in enumerate(bodies):  # joints may name any body, earlier or later
         _body_joints(scene, f"bodies[{i}]", d)
+    for i, d in enumerate(_array_of_tables("contacts", doc.get("contacts", []))):  # (after the bodies: a circle
+        _api(f"contacts[{i}]", contact.from_toml, scene, d)                         # may be carried by one)
     for i, d in enumerate(_array_of_tables("drives", doc.get("drives", []))):
         _api(f"drives[{i}]", drives.from_toml, scene, d)
 
