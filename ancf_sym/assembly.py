@@ -177,9 +177,18 @@ class Assembly:
         pen = np.flatnonzero(self.constraints.k > 0)
         self.penalty = self.constraints.subset(pen) if len(pen) else None
         self.exact = self.constraints.subset(np.flatnonzero(self.constraints.k == 0))
-        self._pattern()
 
     # -- sparse pattern ------------------------------------------------------------------------------------
+    _PATTERN = ("h_indptr", "h_indices", "_hpos", "_n_kernel_entries", "h_nnz", "h_key")
+
+    def __getattr__(self, name: str):
+        """The global Hessian's pattern is built on first use (a Newton solve on the free coordinates, statics_eval,
+        never needs it)."""
+        if name in Assembly._PATTERN and "mapped" in self.__dict__:
+            self._pattern()
+            return self.__dict__[name]
+        raise AttributeError(name)
+
     def _pattern(self) -> None:
         rows, cols = [], []
         for mk in self.curved:

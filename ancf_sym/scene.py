@@ -323,10 +323,12 @@ class Scene:
         self.contacts.append(c)
         return c
 
-    def contact_drum(self, member: str, centre: Any, radius: float, **options: Any):
-        """Contact of `member`'s centre line with a fixed drum it lies outside of: a circle of `centre` and `radius`
-        (2D) or a cylinder of unit `axis` (3D, default z). Options as contact_ground (stiffness and/or hertz,
-        thickness, damping, mu, eps, gauss); method 'penalty' only (ancf_sym.contact.drum)."""
+    def contact_drum(self, member: str, centre: Any = None, radius: float = 0.0, **options: Any):
+        """Contact of `member`'s centre line with a drum it lies outside of: a fixed circle of `centre` and `radius`
+        (2D) or a cylinder of unit `axis` (3D, default z); or, with body=NAME instead of a centre, a circle carried
+        by that planar rigid body (centred at its centre of mass, turning with it; forces on member and body).
+        Options as contact_ground (stiffness and/or hertz, thickness, damping, mu, eps, gauss); method 'penalty'
+        only (ancf_sym.contact.drum)."""
         from . import contact
 
         c = contact.drum(self, member, centre, radius, **options)
