@@ -359,12 +359,9 @@ def scene_from_dict(doc: dict, default_name: str = "scene") -> tuple[Scene, dict
     _keys("", doc, TOP_KEYS, ("scene",))
     sd = _table("scene", doc["scene"])
     _keys("scene", sd, SCENE_KEYS, ("dim",))
-    dim = sd["dim"]
-    if isinstance(dim, bool) or dim not in (2, 3):
-        raise _fail("scene.dim", "must be 2 or 3", dim)
-    name = _str("scene.name", sd["name"]) if "name" in sd else default_name
-    gravity = _vector("scene.gravity", sd["gravity"], dim) if "gravity" in sd else None
-    scene = _api("scene", Scene, dim=dim, gravity=gravity, name=name)
+    # Scene checks dim, name and gravity (errors under the API's own scene.* paths, which are the file's)
+    scene = _api("scene", Scene, root="scene", dim=sd["dim"], gravity=sd.get("gravity"),
+                 name=sd.get("name", default_name))
 
     materials = {k: _material(f"materials.{k}", v) for k, v in _table("materials", doc.get("materials", {})).items()}
     sections = {k: _section(f"sections.{k}", v) for k, v in _table("sections", doc.get("sections", {})).items()}
