@@ -274,9 +274,12 @@ class StepSystem:
         self.norms = np.zeros(5)
         self._jac_norms = np.zeros(3)
         self.floor = 0.0
-        spk = self.kkt_sparsity
-        self.kkt = sp.csc_matrix((np.zeros(spk.nnz()), np.array(spk.row(), dtype=np.int32),
-                                  np.array(spk.colind(), dtype=np.int32)), shape=(self.nz, self.nz))
+        if "kkt_pattern" not in self._graphs:  # (converting CasADi's pattern costs ~10 ms at 1000 elements)
+            spk = self.kkt_sparsity
+            self._graphs["kkt_pattern"] = (spk.nnz(), np.array(spk.row(), dtype=np.int32),
+                                           np.array(spk.colind(), dtype=np.int32))
+        nnz, rows, colind = self._graphs["kkt_pattern"]
+        self.kkt = sp.csc_matrix((np.zeros(nnz), rows, colind), shape=(self.nz, self.nz))
         args = [self.x, self.lam, self.p, self.cm, self.cc, self.kc, self.vc] + ([self.kel] if has_kel else []) \
             + [self.y, self.par]
         self._bufs = []
