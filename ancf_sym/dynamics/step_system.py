@@ -127,7 +127,7 @@ class StepSystem:
                    strain_rate=damping.strain_rate_data(asm), **kw)
 
     # compiled functions and what describes them: built once per structure key and shared by later StepSystems
-    _GRAPH_ATTRS = ("kel_sparsity", "forces_pf", "grad_pf", "energy_labels", "energy_f", "_energy_kin_labels",
+    _GRAPH_ATTRS = ("kel_sparsity", "forces_pf", "grad_pf", "_energy_kin_labels",
                     "_energy_kin_f", "damp_f", "damp_force_f", "kkt_sparsity", "iter_f", "res_f", "jac_f")
 
     @property
