@@ -35,7 +35,8 @@ def hessian_entries(pos: np.ndarray, idx: np.ndarray):
 
 
 def build_force_graphs(S: "StepSystem") -> None:
-    """Build S.forces_pf, S.grad_pf, S._energy_kin_f (with its labels) and S.kel_sparsity (None without Rayleigh stiffness damping) from S's kernel calls."""
+    """Build S.forces_pf, S.grad_pf, S._energy_kin_f (with its labels) and S.kel_sparsity (None without Rayleigh
+    stiffness damping) from S's kernel calls."""
     asm, nf, pos = S.asm, S.nf, S.pos
     xf = ca.MX.sym("x", nf)
     par = ca.MX.sym("par", S.par.size)
