@@ -11,7 +11,7 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from . import bodies, kernels
+from . import bodies, kernels, spatial_bodies
 from .constraints import Constraints, build_constraints
 from .loads import load_vector
 from .mesh import Mesh, build_mesh
@@ -180,7 +180,8 @@ class Assembly:
         self.mapped = [MappedKernel(t) for t in self.terms]
         self.curved = [mk for mk in self.mapped if not mk.linear]  # terms whose Hessian is assembled
         self.Q = load_vector(self.mesh)  # dead point loads: potential -Q.x
-        bodies.add_loads(scene, self.mesh.bodies, self.Q)  # rigid bodies' gravity and forces: linear potentials
+        # rigid bodies' gravity and forces: linear potentials
+        (spatial_bodies if scene.dim == 3 else bodies).add_loads(scene, self.mesh.bodies, self.Q)
         self.constraints: Constraints = build_constraints(self.mesh)
         pen = np.flatnonzero(self.constraints.k > 0)
         self.penalty = self.constraints.subset(pen) if len(pen) else None
@@ -362,9 +363,13 @@ class Assembly:
             rows.append(np.repeat(idx, nd, axis=1).ravel())
             cols.append(np.tile(idx, (1, nd)).ravel())
             vals.append(Me.reshape(len(idx), -1).ravel())
-        bi, bv = bodies.mass_entries(self.scene, self.mesh.bodies)  # diag(m, m, J, J) per rigid body
+        if self.scene.dim == 3:  # diag(m, m, m) + C (x) I_3 per spatial body
+            bi, bj, bv = spatial_bodies.mass_triplets(self.scene, self.mesh.bodies)
+        else:  # diag(m, m, J, J) per planar body
+            bi, bv = bodies.mass_entries(self.scene, self.mesh.bodies)
+            bj = bi
         rows.append(bi)
-        cols.append(bi)
+        cols.append(bj)
         vals.append(bv)
         return sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                              shape=(self.n, self.n)).tocsc()

@@ -198,7 +198,7 @@ class Scene:
     name: str = "scene"
     dampings: list[Damping] = field(default_factory=list)
     contacts: list = field(default_factory=list)  # ancf_sym.contact declarations
-    bodies: dict = field(default_factory=dict)  # ancf_sym.bodies.Body by name (planar rigid bodies)
+    bodies: dict = field(default_factory=dict)  # rigid bodies by name (bodies.Body in 2D, spatial_bodies in 3D)
     body_joints: list = field(default_factory=list)  # ancf_sym.bodies.BodyJoint
     drives: list = field(default_factory=list)  # ancf_sym.drives: prescribed angles/positions, applied torques
 
@@ -321,21 +321,47 @@ class Scene:
         self.contacts.append(c)
         return c
 
-    # -- rigid bodies (ancf_sym.bodies) -------------------------------------------------------------------------
-    def body(self, name: str, mass: float, inertia: float, position: Sequence[float], angle: float = 0.0,
-             force: Sequence[float] | None = None):
-        """A planar rigid body: mass [kg], inertia about its centre of mass [kg m^2], centre of mass `position` and
-        `angle` [rad] in the reference state, a dead `force` [N] at its centre; gravity acts on it."""
-        from . import bodies
+    # -- rigid bodies (ancf_sym.bodies: planar; ancf_sym.spatial_bodies: 3D scenes) -------------------------------
+    def body(self, name: str, mass: float, inertia: Any, position: Sequence[float], angle: float = 0.0,
+             force: Sequence[float] | None = None, axes: Any = None):
+        """A rigid body with mass [kg], centre of mass `position` [m] in the reference state and a dead `force` [N]
+        at its centre; gravity acts on it. Planar (2D scene): `inertia` about the centre [kg m^2] and `angle` [rad]
+        of its x axis. Spatial (3D scene): `inertia` as 3 principal moments or a 3x3 tensor about the centre in the
+        body axes, `axes` the rows x, y, z of those axes in world components (default the world axes)."""
+        if self.dim == 3:
+            from . import spatial_bodies
 
-        b = bodies.make_body(self, name, mass, inertia, position, angle, force)
+            if angle not in (0, 0.0):
+                raise fail("body.angle", "is planar; a spatial body takes axes (3 rows x, y, z)", angle)
+            b = spatial_bodies.make_body(self, name, mass, inertia, position, axes, force)
+        else:
+            from . import bodies
+
+            if axes is not None:
+                raise fail("body.axes", "is for spatial bodies (3D scenes); a planar body takes angle", axes)
+            b = bodies.make_body(self, name, mass, inertia, position, angle, force)
         self.bodies[name] = b
         return b
 
-    def revolute(self, body: str, point: Sequence[float] | None = None, other: str | None = None):
+    def revolute(self, body: str, point: Sequence[float] | None = None, axis: Sequence[float] | None = None,
+                 other: str | None = None):
         """The body turns about a point (world coordinates in the reference state; default its centre) fixed to the
-        ground, or to the body `other` (a wheel on a chassis)."""
-        return self._body_joint("revolute", body, point=point, other=other)
+        ground, or to the body `other` (a wheel on a chassis); in 3D about the world `axis` through it."""
+        if self.dim == 2:
+            if axis is not None:
+                raise fail("revolute.axis", "is for spatial bodies (3D scenes): planar bodies turn about z", axis)
+            return self._body_joint("revolute", body, point=point, other=other)
+        return self._body_joint("revolute", body, point=point, axis=axis, other=other)
+
+    def spherical(self, body: str, point: Sequence[float] | None = None, other: str | None = None):
+        """3D: the body point at `point` (default its centre) stays on the ground point, or on body `other`'s."""
+        return self._body_joint("spherical", body, point=point, other=other)
+
+    def prismatic(self, body: str, axis: Sequence[float], point: Sequence[float] | None = None,
+                  other: str | None = None):
+        """The body slides along the world `axis` (reference state) through `point` (default its centre) without
+        turning, relative to the ground or to body `other`."""
+        return self._body_joint("prismatic", body, point=point, axis=axis, other=other)
 
     # -- drives and torques (ancf_sym.drives) -------------------------------------------------------------------
     def drive(self, body: str, angle: Any = None, omega: Any = None, relative_to: str | None = None,
@@ -373,13 +399,22 @@ class Scene:
         return self._body_joint("pin", body, member=member, at=at)
 
     def rigid_body(self, body: str, member: str, at: Any = "end"):
-        """As pin_body, and the member's slope at the node turns with the body (a clamp into the body)."""
+        """As pin_body, and the member's slope at the node turns with the body (a clamp into the body; beam3d: its
+        whole frame of gradients)."""
         return self._body_joint("rigid", body, member=member, at=at)
 
     def _body_joint(self, kind: str, body: str, **kw: Any):
-        from . import bodies
+        if self.dim == 3:
+            from . import spatial_bodies
 
-        j = bodies.make_joint(self, kind, body, **kw)
+            j = spatial_bodies.make_joint(self, kind, body, **kw)
+        else:
+            from . import bodies
+
+            if kind == "spherical":
+                raise fail("spherical", "is a joint of spatial bodies (3D scenes); planar bodies have revolute, "
+                           "prismatic, pin and rigid", body)
+            j = bodies.make_joint(self, kind, body, **kw)
         self.body_joints.append(j)
         return j
 
@@ -562,8 +597,8 @@ class Scene:
                 held.add(j.body)
         for name in self.bodies:
             if name not in held:
-                raise SceneError(f"body {name!r} has a free rigid-body motion: it needs a revolute joint or a pin "
-                                 "to a supported member")
+                raise SceneError(f"body {name!r} has a free rigid-body motion: it needs a joint to the ground "
+                                 "(revolute; 3D: spherical, prismatic) or a pin to a supported member")
         for name, g in groups.items():
             if not g & supported:
                 raise SceneError(f"member {name!r} has a free rigid-body motion: neither it nor a member joined to "

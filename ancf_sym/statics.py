@@ -27,7 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from . import bodies, contact, fields, statics_contact
+from . import bodies, contact, fields, spatial_bodies, statics_contact
 from .assembly import LOAD_LABELS, Assembly
 from .checks import check_fields
 from .interrupts import interruptible
@@ -108,9 +108,18 @@ class StaticResult:
     def tip(self, member: str) -> np.ndarray:
         return self.nodes(member)[-1]
 
-    def body(self, name: str) -> tuple[float, float, float]:
-        """(x, y, angle) of a rigid body's centre of mass [m, m, rad]."""
+    def body(self, name: str) -> tuple:
+        """Planar: (x, y, angle) of a rigid body's centre of mass [m, m, rad]. Spatial: (centre [m], axes), the
+        axes' rows its x, y, z axes in world components."""
+        if self.assembly.scene.dim == 3:
+            return spatial_bodies.state(self.x, self.assembly.mesh.bodies[name])
         return bodies.state(self.x, self.assembly.mesh.bodies[name])
+
+    def _body_record(self, name: str) -> dict:
+        if self.assembly.scene.dim == 3:
+            r, E = self.body(name)
+            return {"position": r.tolist(), "axes": E.tolist()}
+        return dict(zip(("x", "y", "angle"), self.body(name)))
 
     def along(self, member: str, per_element: int = 8) -> dict:
         """s, r, axial strain |r_x|-1 and curvature along the member."""
@@ -126,7 +135,7 @@ class StaticResult:
             "residual": self.residual, "residual_floor": self.residual_floor,
             "members": {name: {"nodes": self.nodes(name).tolist(), "slopes": self.slopes(name).tolist()}
                         for name in self.assembly.mesh.members},
-            "bodies": {name: dict(zip(("x", "y", "angle"), self.body(name))) for name in self.assembly.mesh.bodies},
+            "bodies": {name: self._body_record(name) for name in self.assembly.mesh.bodies},
             "constraint_forces": {k: np.asarray(v).tolist() for k, v in self.constraint_forces.items()},
         }
 

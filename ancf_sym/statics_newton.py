@@ -73,8 +73,8 @@ def coordinate_scales(asm: Assembly) -> np.ndarray:
     for mm in asm.mesh.members.values():
         k = np.arange(mm.x0.size)
         s[mm.offset + k[k % mm.node_size < dim]] = L
-    for o in asm.mesh.bodies.values():  # a rigid body's centre; its unit vector (cos, sin) keeps scale 1
-        s[o:o + 2] = L
+    for o in asm.mesh.bodies.values():  # a rigid body's centre; its unit axis vectors keep scale 1
+        s[o:o + dim] = L
     return s
 
 
