@@ -9,6 +9,7 @@ from typing import Sequence
 
 import numpy as np
 
+from .. import initial as initial_state
 from ..checks import check_fields, check_keys, fail, number
 from ..scene import SceneError
 from ..schema import DYNAMIC_OPTIONS
@@ -47,9 +48,17 @@ class DynamicOptions:
     energies: bool = True  # record the energy balance at output times (one energy evaluation per output)
     q0: np.ndarray | None = None  # initial coordinates (full, default the reference state)
     v0: np.ndarray | None = None  # initial velocities (full, default zero)
+    initial: list | None = None  # initial velocities per member/body ([[initial]] tables, ancf_sym.initial)
+    start: str | None = None  # "reference" (default) | "static": start from the static equilibrium
 
     def __post_init__(self):
         check_fields(self, DYNAMIC_OPTIONS, "analysis")  # types and ranges as declared in ancf_sym.schema
+        if self.initial is not None:
+            self.initial = initial_state.check_specs(self.initial)
+            if self.v0 is not None:
+                raise fail("analysis.initial", "and v0 both give the initial velocities: give one", self.initial)
+        if self.start == "static" and self.q0 is not None:
+            raise fail("analysis.start", "= 'static' and q0 both give the initial state: give one", self.start)
         if self.t_end <= self.t_start:
             raise fail("analysis.t_end", f"must be greater than t_start = {self.t_start:g}", self.t_end)
         if self.dt > self.t_end - self.t_start:
@@ -131,5 +140,5 @@ def options_from_dict(analysis: dict) -> DynamicOptions:
         msg = str(exc)
         if msg.startswith("analysis"):
             raise
-        head = re.match(r"(newton|sensors|loads)\b[.\[:]?", msg)
+        head = re.match(r"(newton|sensors|loads|initial)\b[.\[:]?", msg)
         raise SceneError(f"analysis.{msg}" if head else f"analysis: {msg}") from None

@@ -8,6 +8,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .. import contact
+from .. import initial as initial_state
 from ..assembly import Assembly
 from ..mesh import check_stretch
 from ..scene import Scene, SceneError
@@ -52,7 +53,11 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
     loads = LoadSum(opts.loads, asm, S.E) if opts.loads else None
     # initial state
     q0 = asm.x0.copy() if opts.q0 is None else np.asarray(opts.q0, dtype=float).ravel()
+    if opts.start == "static":
+        q0 = initial_state.static_start(scene)
     v0 = np.zeros(asm.n) if opts.v0 is None else np.asarray(opts.v0, dtype=float).ravel()
+    if opts.initial:
+        v0 = initial_state.from_specs(asm, q0, opts.initial)
     for name, arr in (("q0", q0), ("v0", v0)):
         if arr.shape != (asm.n,):
             raise SceneError(f"{name} must have {asm.n} entries (the scene's coordinates), got {arr.size}")

@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import bodies
+from .. import bodies, spatial_bodies
 from ..assembly import Assembly
 from ..checks import fail
 from ..interpolation import Probe
@@ -21,7 +21,8 @@ class Sensor:
 
     kind: "position" | "displacement" (from the reference) | "velocity" of a centreline point;
     "strain" (|r_x| - 1) | "curvature" (|r_x x r_xx| / |r_x|^3) at a point; "coordinates" (all nodal
-    coordinates of a node); "body": a rigid body's (x, y, angle, angular velocity), `member` naming the body.
+    coordinates of a node); "body": a rigid body's (x, y, angle, angular velocity), `member` naming the body
+    (spatial: centre (3), angular velocity (3, world), axes e1, e2, e3 (9), ancf_sym.spatial_bodies.sensor).
     member and at ("start", "end", node index or material coordinate s [m]) name the
     point. Energies and the constraint violation are always recorded.
     """
@@ -59,6 +60,7 @@ class SensorEval:
                 raise SceneError(f"sensors[{index}].member={sensor.member!r} names no body; bodies: "
                                  f"{sorted(asm.mesh.bodies)}")
             self.offset = asm.mesh.bodies[sensor.member]
+            self.spatial = scene.dim == 3
             return
         if sensor.member not in asm.mesh.members:
             raise SceneError(f"sensors[{index}].member={sensor.member!r} names no member; members: "
@@ -81,6 +83,8 @@ class SensorEval:
         k = self.sensor.kind
         if k == "body":  # angular velocity c s_dot - s c_dot of the unit vector (c, s)
             o = self.offset
+            if self.spatial:
+                return spatial_bodies.sensor(x, v, o)
             return np.array([*bodies.state(x, o), x[o + 2] * v[o + 3] - x[o + 3] * v[o + 2]])
         p = self.probe
         if k == "coordinates":
