@@ -15,7 +15,6 @@ element count while the nodal loads shrink.
 """
 from __future__ import annotations
 
-import copy
 import hashlib
 import pickle
 import time
@@ -35,8 +34,9 @@ from .mesh import check_stretch
 from .scene import Scene, SceneError
 from .schema import STATIC_OPTIONS
 
-from .inertia import reduced_inertia
-from .statics_newton import AssemblyNewton, NewtonRun, NewtonStatics, Reduction
+from .inertia import STABILITY_EPS, reduced_inertia
+from .statics_eval import BIOT
+from .statics_newton import KernelNewton, NewtonRun, NewtonStatics, Reduction
 
 SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 INTERRUPTED = ("User_Requested_Stop", "User_Interrupt")  # IPOPT swallows SIGINT and returns one of these
@@ -147,13 +147,13 @@ class StaticProblem:
     def __init__(self, scene_or_assembly: Scene | Assembly):
         self.asm = scene_or_assembly if isinstance(scene_or_assembly, Assembly) else Assembly(scene_or_assembly)
         self.S = Reduction(self.asm)  # free coordinates (the graph's StepSystem has the same)
-        self.light = AssemblyNewton(self.asm, self.S) if self.S.mc == 0 else None
+        self.light = KernelNewton(self.asm, self.S) if self.S.mc == 0 else None
         self._graph: NewtonStatics | None = None
         self.newton = self.light or self.graph
         self.solves = 0
         self._nlp = None
         self._solvers: dict = {}
-        self._biot: StaticProblem | bool | None = None  # the same scene with Biot strain (a start), False: none
+        self._biot: KernelNewton | bool | None = None  # Newton on the same scene with Biot strain (a start)
         self.work = self.newton.load_work(self.asm.x0)  # the loads' energy scale W [J]
 
     @property
@@ -164,14 +164,11 @@ class StaticProblem:
         return self._graph
 
     def _engine(self) -> NewtonStatics:
-        """Which evaluation runs the Newton iterations (measured, bench/STATICS_RESULTS.md): building the graph costs
-        ~35 ms at 60 elements and ~120 ms at 600, an iteration on it ~50 us / ~1.4 ms, one on the assembly
-        ~0.3 ms / ~3 ms: the assembly wins a first solve at every size measured (60 - 6000 elements); a problem
-        solved again (a study, a parameter sweep, warm starts) builds the graph once and runs on it from then on.
-        Scenes with multiplier rows always run on the graph."""
-        if self.light is None or self.solves > 1 or self._graph is not None:
-            return self.graph
-        return self.light
+        """Which evaluation runs the Newton iterations (measured, bench/STATICS_RESULTS.md): the kernels called
+        directly (KernelNewton) cost ~55 us per iteration at 60 elements, ~0.5 ms at 600 and ~9 ms at 6000, with
+        nothing to build; the compiled StepSystem graph ~50 us / ~1.4 ms / ~13 ms after ~35 ms / ~120 ms / ~1 s of
+        building. Only scenes with multiplier rows (rigid joints, skew clamps) need the graph's KKT solve."""
+        return self.light if self.light is not None else self.graph
 
     # -- IPOPT --------------------------------------------------------------------------------------------------
     def _build_nlp(self) -> None:
@@ -318,24 +315,14 @@ class StaticProblem:
         BIOT_TOL); None without such cables or on a coarse mesh. Measured (bench/STATICS_RESULTS.md): Biot Newton
         converges in 8-10 iterations on paper 000's cantilever where Green needs 19-24 from the straight beam, and
         Green then needs 2-3 more from Biot's answer (the strain measures differ by O(strain^2))."""
+        if self._biot is None:
+            cables = [m for m in self.asm.scene.members.values() if getattr(m, "axial", None) in ("green", "decoupled")]
+            coarse = any(m.elements < BIOT_MIN_ELEMENTS for m in cables)
+            ev = self.light.ev.variant(BIOT) if cables and not coarse and self.light is not None else None
+            self._biot = KernelNewton(self.asm, self.S, ev) if ev is not None else False
         if self._biot is False:
             return None
-        if self._biot is None:
-            scene = copy.deepcopy(self.asm.scene)
-            cables = [m for m in scene.members.values() if getattr(m, "axial", None) in ("green", "decoupled")]
-            for m in cables:
-                m.axial = "biot"
-            coarse = any(m.elements < BIOT_MIN_ELEMENTS for m in cables)
-            self._biot = StaticProblem(scene) if cables and not coarse else False
-            if self._biot and self._biot.asm.n != self.asm.n:
-                self._biot = False
-            if not self._biot:
-                return None
-        b = self._biot
-        b.solves = self.solves  # the same path as this problem: assembly on a first solve, then the graph
-        b.newton = b._engine()
-        rb = b.newton.solve(x, max(opts.tol, BIOT_TOL), min(BIOT_MAX_ITER, int(opts.max_iter)), work)
-        return rb
+        return self._biot.solve(x, max(opts.tol, BIOT_TOL), min(BIOT_MAX_ITER, int(opts.max_iter)), work)
 
     def _newton_load_steps(self, x, opts, work, ceiling, attempts):
         """Full-step Newton along the load factor with an adaptive step (as Exudyn's static solver adapts its load
@@ -452,7 +439,7 @@ class StaticProblem:
         if a.exact.m and np.max(np.abs(a.exact.value(x))) > 1e-9 * self._length_scale():
             e = np.inf
         else:
-            e = a.energy(x)
+            e = self.light.potential(x) if self.light is not None else a.energy(x)
         if reference:
             self._e_ref = e
         return e + tol * work
@@ -485,7 +472,9 @@ class StaticProblem:
         row (default: from the gradient), for the curvature of the bilinear (rigid-joint) constraints.
 
         Returns (stable, direction of most negative curvature in full coordinates, max-norm 1)."""
-        if self.light is not None:  # no multiplier rows: the reduced Hessian from the assembly
+        if self.light is not None:  # no multiplier rows: the reduced Hessian from the kernels
+            if self.light.positive_definite(x, STABILITY_EPS):  # the usual case settled by a banded Cholesky
+                return True, None
             inertia = reduced_inertia(self.light.tangent(x)[2])
             d = None if inertia.direction is None else self.S.full_v(inertia.direction)
             return inertia.stable, (d / np.max(np.abs(d)) if d is not None and np.any(d) else None)

@@ -177,14 +177,19 @@ class StepSystem:
         return (self.cons is not None and len(self.cons.qrow) > 0) or (self.drives is not None and self.drives.m > 0)
 
     def torque_mx(self, xf: ca.MX, w: ca.MX) -> ca.MX | None:
-        """Generalized force of the applied torques on the unknowns, tau (-s, c) on a body's (c, s), or None."""
+        """Generalized force of the applied torques on the unknowns, tau (-s, c) on a body's (c, s) (spatial: per
+        pair of axis-vector components, ancf_sym.drives), or None."""
         if self.drives is None or not self.drives.torques:
             return None
         vals, rows = [], []
-        for ic, is_, k in self.drives.torques:
-            uc, us = int(self.pos[ic]), int(self.pos[is_])
-            vals += [-w[k] * xf[us], w[k] * xf[uc]]
-            rows += [uc, us]
+        X = self.x_full_mx(xf)  # (a coordinate a joint fixes keeps its value and takes no force)
+        for ic, is_, k, scale in self.drives.torques:
+            for i, v in ((ic, -scale * w[k] * X[is_]), (is_, scale * w[k] * X[ic])):
+                if self.pos[i] >= 0:
+                    vals.append(v)
+                    rows.append(int(self.pos[i]))
+        if not rows:
+            return None
         A = ca.DM(ca.Sparsity.triplet(self.nf, len(rows), rows, list(range(len(rows)))), 1.0)
         return ca.mtimes(A, ca.vertcat(*vals))
 
