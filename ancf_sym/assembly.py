@@ -188,14 +188,15 @@ class Assembly:
         self.exact = self.constraints.subset(np.flatnonzero(self.constraints.k == 0))
 
     # -- sparse pattern ------------------------------------------------------------------------------------
-    _PATTERN_ATTRS = ("h_indptr", "h_indices", "_hpos", "_n_kernel_entries", "h_nnz", "h_key")
+    _PATTERN = ("h_indptr", "h_indices", "_hpos", "_n_kernel_entries", "h_nnz", "h_key")
 
     def __getattr__(self, name: str):
-        """The Hessian's pattern on first use (statics assembles it; the dynamics' step graphs do not need it)."""
-        if name in Assembly._PATTERN_ATTRS:
+        """The global Hessian's pattern is built on first use (a Newton solve on the free coordinates, statics_eval,
+        never needs it)."""
+        if name in Assembly._PATTERN and "mapped" in self.__dict__:
             self._pattern()
             return self.__dict__[name]
-        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        raise AttributeError(name)
 
     def _pattern(self) -> None:
         rows, cols = [], []

@@ -105,6 +105,7 @@ class Field:
     optional: bool = False  # None allowed (the owner picks a default)
     size: int | None = None  # vectors
     doc: str = ""
+    api_only: bool = False  # a Python API option, not a key of scene files
 
     def check(self, path: str, value: Any) -> Any:
         if value is None:

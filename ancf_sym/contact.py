@@ -118,21 +118,38 @@ class DrumContact(ContactLaw):
     """Centre line of `member` outside a fixed drum: circle (2D) or cylinder of unit axis `axis` (3D) of centre
     `centre` and radius `radius`; the ContactLaw with the radial gap |r - c|_perp - radius - thickness. The centre
     is a kernel parameter (kernel <element>_contact_drum); a drum carried by a rigid body uses the kernels with the
-    centre and angle as inputs (<element>_contact_circle)."""
+    centre and angle as inputs (<element>_contact_circle). A drum carried by a planar rigid body (`body`: centred at
+    its centre of mass, turning with it) uses <element>_contact_circle on [q, x, y] and
+    <element>_contact_body_friction on [q, x, y, c, s; rates] (the body's spin c s' - s c'): the contact forces act
+    on the member and on the body, with exact tangents through the body's coordinates."""
     centre: np.ndarray
     radius: float
     axis: np.ndarray | None
+    body: str | None = None
 
 
-def drum(scene, member: str, centre: Sequence[float], radius: float, axis: Sequence[float] | None = None,
+def drum(scene, member: str, centre: Sequence[float] | None, radius: float, axis: Sequence[float] | None = None,
          stiffness: float = 0.0, hertz: float = 0.0, thickness: float | None = None, damping: float = 0.0,
-         mu: float = 0.0, eps: float = 1e-3, gauss: int = 5, method: str = "penalty") -> DrumContact:
+         mu: float = 0.0, eps: float = 1e-3, gauss: int = 5, method: str = "penalty",
+         body: str | None = None) -> DrumContact:
     """Validated DrumContact of a scene member (see Scene.contact_drum)."""
     f = f"contact_drum(member={member!r})"
     law = _law(scene, f, member, stiffness, hertz, thickness, damping, mu, eps, gauss, method)
     if method == "exact":
         raise SceneError(f"{f}: method='exact' (unilateral constraints) is available for ground contact only; "
                          "use method='penalty' with a stiffness or hertz law")
+    if body is not None:
+        if body not in scene.bodies:
+            raise SceneError(f"{f}: body {body!r} does not exist; bodies: {sorted(scene.bodies)}")
+        if scene.members[member].element != "cable2d":
+            raise SceneError(f"{f}: a drum carried by a (planar) body is for cable2d members, got "
+                             f"{scene.members[member].element!r}")
+        if centre is not None:
+            raise SceneError(f"{f}: a body-carried drum is centred at the body's centre of mass: leave centre out, "
+                             f"got {centre!r}")
+        centre = scene.bodies[body].position
+    elif centre is None:
+        raise SceneError(f"{f}: centre: missing (a fixed drum's centre, or body = the body carrying the drum)")
     c = _vector(f, "centre", centre, scene.dim, False)
     try:
         R = float(radius)
@@ -146,12 +163,13 @@ def drum(scene, member: str, centre: Sequence[float], radius: float, axis: Seque
         a = None
     else:
         a = _vector(f, "axis", (0.0, 0.0, 1.0) if axis is None else axis, 3, True)
-    return DrumContact(centre=c, radius=R, axis=a, **law)
+    return DrumContact(centre=c, radius=R, axis=a, body=body, **law)
 
 
 _SHARED_KEYS = ("type", "member", "stiffness", "hertz", "thickness", "damping", "mu", "eps", "gauss", "method")
-TOML_KEYS = {"ground": _SHARED_KEYS + ("normal", "level"), "circle": _SHARED_KEYS + ("centre", "radius", "axis")}
-_NOT_NUMBERS = ("type", "member", "normal", "method", "centre", "axis")
+TOML_KEYS = {"ground": _SHARED_KEYS + ("normal", "level"),
+             "circle": _SHARED_KEYS + ("centre", "radius", "axis", "body")}
+_NOT_NUMBERS = ("type", "member", "normal", "method", "centre", "axis", "body")
 
 
 def from_toml(scene, d: dict) -> GroundContact | DrumContact:
@@ -173,8 +191,10 @@ def from_toml(scene, d: dict) -> GroundContact | DrumContact:
         kw["gauss"] = int(kw["gauss"])
     if kind == "circle":
         for key in ("centre", "radius"):
-            if key not in kw:
-                raise SceneError(f"{key}: missing (a circle contact needs the drum's centre and radius)")
+            if key not in kw and not (key == "centre" and "body" in kw):
+                raise SceneError(f"{key}: missing (a circle contact needs the drum's centre, or the body carrying "
+                                 "it, and radius)")
+        kw.setdefault("centre", None)
         return scene.contact_drum(**kw)
     return scene.contact_ground(**kw)
 
@@ -183,9 +203,23 @@ def _effect(c) -> str:
     return "contact_drum" if isinstance(c, DrumContact) else "contact_ground"
 
 
+def _call(c, mesh, friction: bool) -> tuple[str, np.ndarray, np.ndarray]:
+    """(effect, idx (N, kernel input), P (N, parameters)) of a contact's normal-law (or, friction, dissipation)
+    kernel: a body-carried drum's kernels take the body's coordinates after the element's."""
+    mm = mesh.members[c.member]
+    idx, L = mm.elem_dofs(), mm.elem_length
+    if isinstance(c, DrumContact) and c.body is not None:
+        o = mesh.bodies[c.body]
+        extra = np.arange(o, o + (4 if friction else 2))
+        idx = np.hstack([idx, np.tile(extra, (len(idx), 1))])
+        P = _params(c, L, friction)[:, :-mesh.scene.dim]  # (no centre parameter: the body's coordinates)
+        return ("contact_body_friction" if friction else "contact_circle"), idx, P
+    return _effect(c) + ("_friction" if friction else ""), idx, _params(c, L, friction)
+
+
 def _params(c, L: np.ndarray, friction: bool) -> np.ndarray:
     """Kernel parameters per element (registry: ground (L, k, kh, t, n, d[, c, mu, eps]); fixed drum
-    (L, k, kh, t, R[, axis][, c, mu, eps], centre))."""
+    (L, k, kh, t, R[, axis][, c, mu, eps], centre); a body's drum: the same without the centre)."""
     one = np.ones_like(L)
     cols = [L, c.stiffness * one, c.hertz * one, c.thickness * one]
     if isinstance(c, DrumContact):
@@ -204,9 +238,8 @@ def energy_terms(terms: dict, mesh, add) -> None:
     for c in getattr(mesh.scene, "contacts", ()):
         if c.method != "penalty":
             continue
-        mm = mesh.members[c.member]
-        add(terms, LABEL, mm.member.element, _effect(c), c.gauss, mm.elem_dofs(),
-            _params(c, mm.elem_length, False))
+        effect, idx, P = _call(c, mesh, False)
+        add(terms, LABEL, mesh.members[c.member].member.element, effect, c.gauss, idx, P)
 
 
 def dissipation_calls(mesh) -> list[tuple[str, int, np.ndarray, np.ndarray]]:
@@ -214,9 +247,8 @@ def dissipation_calls(mesh) -> list[tuple[str, int, np.ndarray, np.ndarray]]:
     out = []
     for c in getattr(mesh.scene, "contacts", ()):
         if c.dissipative:
-            mm = mesh.members[c.member]
-            out.append((mm.member.element, _effect(c) + "_friction", c.gauss, mm.elem_dofs(),
-                        _params(c, mm.elem_length, True)))
+            effect, idx, P = _call(c, mesh, True)
+            out.append((mesh.members[c.member].member.element, effect, c.gauss, idx, P))
     return out
 
 
@@ -253,7 +285,8 @@ def _reports(asm, x: np.ndarray):
         mm = asm.mesh.members[c.member]
         r = asm.member_coordinates(x, c.member)[:, :d]
         if isinstance(c, DrumContact):
-            rel = r - c.centre
+            centre = c.centre if c.body is None else np.asarray(x)[asm.mesh.bodies[c.body] + np.arange(d)]
+            rel = r - centre
             if c.axis is not None:
                 rel = rel - np.outer(rel @ c.axis, c.axis)
             rho = np.linalg.norm(rel, axis=1)
@@ -262,9 +295,9 @@ def _reports(asm, x: np.ndarray):
         else:
             normals = np.tile(c.normal, (len(r), 1))
             gaps = r @ c.normal - c.level - c.thickness
-        idx = mm.elem_dofs()
-        k = kernels.load(mm.member.element, _effect(c), None if c.gauss == 5 else c.gauss)
-        G = np.asarray(k.map(len(idx))(np.asarray(x)[idx].T, _params(c, mm.elem_length, False).T)[1]).T
+        effect, idx, P = _call(c, asm.mesh, False)
+        k = kernels.load(mm.member.element, effect, None if c.gauss == 5 else c.gauss)
+        G = np.asarray(k.map(len(idx))(np.asarray(x)[idx].T, P.T)[1]).T[:, :mm.elem_dofs().shape[1]]
         per_node = 2 if mm.member.element.startswith("cable") else 4
         Gp = G.reshape(len(idx), -1, d)[:, ::per_node, :]  # (element, its 2 nodes, position force)
         nodal = np.zeros((len(r), d))
@@ -280,16 +313,15 @@ def _reports(asm, x: np.ndarray):
 
 def _position_rows(element: str, L: float, xi: float, dim: int) -> np.ndarray:
     """(dim, nd) matrix S with r(xi) = S q_e (cubic Hermite centre line; beam3d: the r and r_x blocks)."""
-    from .elements import hermite  # plain polynomials of xi: numbers in, numbers out
+    from .interpolation import weights
     from .registry import ELEMENTS
 
-    h = hermite.h(xi)
+    w = weights(xi, L)[0]  # r = w0 r(0) + w1 r_x(0) + w2 r(L) + w3 r_x(L)
     nd = ELEMENTS[element].ndof
     S = np.zeros((dim, nd))
     node = nd // 2
-    eye = np.eye(dim)
-    for k, (off, coef) in enumerate(((0, h[0]), (dim, L * h[1]), (node, h[2]), (node + dim, L * h[3]))):
-        S[:, off:off + dim] += coef * eye
+    for off, coef in zip((0, dim, node, node + dim), w):
+        S[:, off:off + dim] += coef * np.eye(dim)
     return S
 
 

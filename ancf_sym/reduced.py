@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
@@ -33,6 +34,20 @@ class Partition:
     @property
     def ny(self) -> int:
         return len(self.roots)
+
+    def reduce_matrix(self, A: sp.spmatrix, B: sp.spmatrix | np.ndarray | None = None) -> sp.csc_matrix:
+        """E^T A E (a mass or stiffness matrix on the unknowns), or E^T A B (its coupling to other coordinates)."""
+        R = (self.E.T @ A @ (self.E if B is None else sp.csc_matrix(B))).tocsc()
+        R.sort_indices()
+        return R
+
+
+def full_mx(y: ca.MX, pos: np.ndarray, c: np.ndarray) -> ca.MX:
+    """The scene coordinates x = E y + c as a gather (coordinate k is unknown pos[k], or fixed where pos[k] < 0):
+    the element gathers that follow merge with it into one, where a product with E would cost a sparse product at
+    every evaluation. Control passes the unknowns [q; s] with the moved support coordinates as unknowns too."""
+    x = ca.vertcat(y, ca.MX.zeros(1))[np.where(pos >= 0, pos, y.shape[0]).tolist()]
+    return x + ca.DM(c) if np.any(c) else x
 
 
 def partition(asm: Assembly) -> Partition:

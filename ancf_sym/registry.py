@@ -141,6 +141,11 @@ def _contact_effects(el: str, dim: int) -> list[Effect]:
         Effect(el, "contact_circle_friction", law + axis + friction,
                "drum contact damping + regularised Coulomb friction: dissipation of [q, c, angle; v, c', omega]",
                CONTACT_GAUSS, elastic=False, obstacle=dim + 1, rates=True),
+        # a drum carried by a planar rigid body (natural coordinates x, y, cos, sin; centre at its centre of mass):
+        # the body's spin c s' - s c' inside the density (the fields stay linear in the inputs)
+        *([Effect(el, "contact_body_friction", law + axis + friction,
+                  "body-carried drum damping + regularised Coulomb friction: dissipation of [q, x, y, c, s; rates]",
+                  CONTACT_GAUSS, elastic=False, obstacle=4, rates=True)] if dim == 2 else []),
         # a fixed drum: the same densities with the centre as a parameter (no obstacle coordinates in the scene)
         Effect(el, "contact_drum", law + axis + centre, "contact energy with a fixed drum of centre c (in p)",
                CONTACT_GAUSS, elastic=False),

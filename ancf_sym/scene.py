@@ -20,15 +20,14 @@ from typing import Any, Sequence
 import numpy as np
 
 from .checks import SceneError, check_fields, fail, number, show, vector
+from .member_effects import AXIAL  # noqa: F401  (public name: ancf_sym.scene.AXIAL)
+from .member_effects import AXIAL_STRAINS, BEAM_METHODS, axial_strain, gauss_orders, stiffness_effects
 from .schema import MATERIAL, SECTION
 
-AXIAL = ("green", "biot", "decoupled")
-BEAM_METHODS = ("continuum", "elastic_line")
 ELEMENT_KINDS = ("cable2d", "cable3d", "beam3d")
 
 
 MAX_COORDINATE = 1e12  # [m] coordinates beyond this overflow squared lengths and energies long before any solve
-GAUSS_ORDERS = (3, 4, 5, 7)
 
 
 def _positive(field_name: str, value: Any) -> float:
@@ -37,6 +36,14 @@ def _positive(field_name: str, value: Any) -> float:
 
 _finite = number
 _vector = vector
+
+
+def _coefficient(field_name: str, value: Any) -> float:
+    """A damping coefficient: finite and >= 0."""
+    v = number(field_name, value)
+    if v < 0:
+        raise fail(field_name, "must be >= 0", value)
+    return v
 
 
 @dataclass(frozen=True)
@@ -217,15 +224,18 @@ class Scene:
                gauss: int | None = None, y_axis: Sequence[float] | None = None, prestrain: float = 0.0) -> Member:
         """Add a straight (2 points) or polyline member meshed into `elements` elements of one kind.
 
-        axial: strain measure "green" | "biot" | "decoupled" (cables) or None for no axial stiffness.
+        axial: strain measure "green" | "biot" | "decoupled" (cables) or None ("none") for no axial stiffness
+        (ancf_sym.member_effects: what each means).
         element: "cable2d" (default in 2D), "cable3d" (default in 3D) or "beam3d" (beam_method "continuum" (default)
         or "elastic_line"; beam_method and y_axis are refused on cables). Polyline vertices become rigid joints between straight segments.
         prestrain: the points give the member stretched by 1 + prestrain (e.g. a taut string between two pins:
         prestrain = T/EA); its unstretched length is the polyline's divided by 1 + prestrain.
         """
-        if not isinstance(name, str) or not name or name in self.members:
-            raise fail("members.name", "must be a new non-empty string", name)
+        if not isinstance(name, str) or not name:
+            raise fail("members.name", "must be a non-empty string", name)
         at = f"members[{name!r}]"  # errors name the member's field; the TOML reader re-roots this to members[i]
+        if name in self.members:
+            raise fail(f"{at}.name", "repeats an earlier member's name", name)
         if isinstance(points, (str, bytes)) or not isinstance(points, (list, tuple, np.ndarray)) or len(points) < 2:
             raise fail(f"{at}.points", f"must be a list of >= 2 points with {self.dim} coordinates", points)
         pts = np.array([vector(f"{at}.points[{i}]", p, self.dim) for i, p in enumerate(points)])
@@ -245,8 +255,7 @@ class Scene:
             raise fail(f"{at}.element", f"must be one of {' | '.join(ELEMENT_KINDS)}", element)
         if (element == "cable2d") != (self.dim == 2):
             raise fail(f"{at}.element", f"does not fit a {self.dim}D scene", element)
-        if axial is not None and axial not in AXIAL:
-            raise fail(f"{at}.axial", f"must be one of {' | '.join(AXIAL)} or None", axial)
+        axial = axial_strain(axial, f"{at}.axial")
         for flag, v in (("bending", bending), ("torsion", torsion), ("gravity", gravity)):
             if not isinstance(v, (bool, np.bool_)):
                 raise fail(f"{at}.{flag}", "must be true or false", v)
@@ -261,11 +270,12 @@ class Scene:
             raise fail(f"{at}.material", "must be a Material", material)
         if not isinstance(section, Section):
             raise fail(f"{at}.section", "must be a Section", section)
-        if axial == "decoupled" and not bending:
+        if axial is not None and AXIAL_STRAINS[axial].needs_bending and not bending:
             # the decoupled energy sees only the nodal stretches and the element's length: without bending stiffness
             # an element can fold at no cost (a hanging soft rope's end element folds into a hook, measured)
-            raise fail(f"{at}.axial", "'decoupled' needs bending = true (without bending stiffness the decoupled "
-                       "strain leaves folding modes of an element unresisted); use 'green' or 'biot'", axial)
+            others = " or ".join(repr(k) for k, v in AXIAL_STRAINS.items() if not v.needs_bending)
+            raise fail(f"{at}.axial", f"{axial!r} needs bending = true (without bending stiffness the {axial} "
+                       f"strain leaves folding modes of an element unresisted); use {others}", axial)
         if element.startswith("cable") and bending and section.bending_inertia is None:
             raise fail(f"{at}.section.I", "is required by bending = true (give I, or Iy/Iz)", None)
         if element == "beam3d":
@@ -273,9 +283,11 @@ class Scene:
                 raise fail(f"{at}.section.b", "beam3d needs a section with b and h (Section.rectangle)", section.b)
             if beam_method == "elastic_line" and (section.Iy is None or section.J is None):
                 raise fail(f"{at}.section.Iy", "elastic_line needs section Iy, Iz and J", section.Iy)
+        orders = gauss_orders(element, stiffness_effects(element, axial, bending, torsion, beam_method))
         if gauss is not None and (not isinstance(gauss, (int, np.integer)) or isinstance(gauss, bool)
-                                  or gauss not in GAUSS_ORDERS):
-            raise fail(f"{at}.gauss", f"must be one of {', '.join(map(str, GAUSS_ORDERS))}", gauss)
+                                  or gauss not in orders):
+            why = "" if len(orders) > 1 else f" (the {beam_method} beam is generated for that order only)"
+            raise fail(f"{at}.gauss", f"must be one of {', '.join(map(str, orders))}{why}", gauss)
         ya = None if y_axis is None else vector(f"{at}.y_axis", y_axis, 3)
         pre = number(f"{at}.prestrain", prestrain)
         if not -0.5 < pre < 1.0:
@@ -311,10 +323,12 @@ class Scene:
         self.contacts.append(c)
         return c
 
-    def contact_drum(self, member: str, centre: Any, radius: float, **options: Any):
-        """Contact of `member`'s centre line with a fixed drum it lies outside of: a circle of `centre` and `radius`
-        (2D) or a cylinder of unit `axis` (3D, default z). Options as contact_ground (stiffness and/or hertz,
-        thickness, damping, mu, eps, gauss); method 'penalty' only (ancf_sym.contact.drum)."""
+    def contact_drum(self, member: str, centre: Any = None, radius: float = 0.0, **options: Any):
+        """Contact of `member`'s centre line with a drum it lies outside of: a fixed circle of `centre` and `radius`
+        (2D) or a cylinder of unit `axis` (3D, default z); or, with body=NAME instead of a centre, a circle carried
+        by that planar rigid body (centred at its centre of mass, turning with it; forces on member and body).
+        Options as contact_ground (stiffness and/or hertz, thickness, damping, mu, eps, gauss); method 'penalty'
+        only (ancf_sym.contact.drum)."""
         from . import contact
 
         c = contact.drum(self, member, centre, radius, **options)
@@ -508,16 +522,19 @@ class Scene:
 
     def rayleigh(self, alpha: float = 0.0, beta: float = 0.0, members: Sequence[str] | None = None) -> Damping:
         """Rayleigh damping for dynamics, C = alpha M + beta K_el: alpha [1/s] damps absolute velocities (whole
-        scene), beta [s] the elastic tangent stiffness of `members` (default all) at the start of each step."""
-        a = _finite("rayleigh.alpha", alpha)
-        b = _finite("rayleigh.beta", beta)
-        if a < 0 or b < 0:
-            raise SceneError(f"rayleigh.alpha and rayleigh.beta must be >= 0, got {alpha!r}, {beta!r}")
-        if members is not None:
-            members = [members] if isinstance(members, str) else list(members)
-            for m in members:
-                self._member(m, "rayleigh.members")
-        d = Damping("rayleigh", a, b, members)
+        scene, one value), beta [s] the elastic tangent stiffness of `members` (default all) at the start of each
+        step."""
+        a, b = _coefficient("rayleigh.alpha", alpha), _coefficient("rayleigh.beta", beta)
+        names = self._member_list("rayleigh.members", members)
+        if a:  # C = alpha M is one matrix for the whole scene
+            if members is not None:
+                raise fail("rayleigh.members", "alpha (mass-proportional) acts on the whole scene: give members only "
+                           "with beta", members)
+            other = {d.alpha for d in self.dampings if d.kind == "rayleigh" and d.alpha} - {a}
+            if other:
+                raise fail("rayleigh.alpha", f"the scene has one mass-proportional alpha; an earlier damping gives "
+                           f"{other.pop()!r}", alpha)
+        d = Damping("rayleigh", a, b, names)
         self.dampings.append(d)
         return d
 
@@ -526,18 +543,25 @@ class Scene:
         """Kelvin-Voigt damping of cable members for dynamics: axial force axial * eps_dot [axial in N s] and
         bending moment bending * kappa_dot [bending in N m^2 s] (strain rate of the member's axial measure,
         curvature-vector rate); it vanishes under rigid-body motion."""
-        a = _finite("strain_rate_damping.axial", axial)
-        b = _finite("strain_rate_damping.bending", bending)
-        if a < 0 or b < 0:
-            raise SceneError(f"strain_rate_damping.axial and .bending must be >= 0, got {axial!r}, {bending!r}")
-        names = list(self.members) if members is None else ([members] if isinstance(members, str) else list(members))
-        for m in names:
-            if self._member(m, "strain_rate_damping.members").element == "beam3d":
+        a = _coefficient("strain_rate_damping.axial", axial)
+        b = _coefficient("strain_rate_damping.bending", bending)
+        names = self._member_list("strain_rate_damping.members", members)
+        for m in names if names is not None else list(self.members):
+            if self.members[m].element == "beam3d":
                 raise SceneError(f"strain_rate_damping: member {m!r} is a beam3d; strain-rate damping is defined for "
                                  "cable members (use rayleigh for beams)")
-        d = Damping("strain_rate", members=None if members is None else names, axial=a, bending=b)
+        d = Damping("strain_rate", members=names, axial=a, bending=b)
         self.dampings.append(d)
         return d
+
+    def _member_list(self, field_name: str, members: Sequence[str] | str | None) -> list[str] | None:
+        """None (all members) or the named members, each checked (errors name field_name[i])."""
+        if members is None:
+            return None
+        names = [members] if isinstance(members, str) else list(members)
+        for i, m in enumerate(names):
+            self._member(m, f"{field_name}[{i}]")
+        return names
 
     def _add_load(self, load: Load) -> Load:
         self.loads.append(load)

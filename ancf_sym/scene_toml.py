@@ -37,7 +37,7 @@ from typing import Any
 from . import contact, drives
 from .checks import check_keys, fail, number, vector
 from .mesh import build_mesh
-from .scene import AXIAL, Material, Scene, SceneError, Section
+from .scene import Material, Scene, SceneError, Section
 from .schema import BODY, BODY_JOINT, LOOP, MATERIAL, SECTION, STATIC_OPTIONS
 from .statics import StaticOptions
 from .terms import scene_terms
@@ -55,10 +55,10 @@ MEMBER_KEYS = tuple(inspect.signature(Scene.member).parameters)[1:]  # the keywo
 SUPPORT_TYPES = ("clamp", "pin", "slope")
 JOINT_TYPES = ("hinge", "rigid")
 LOAD_TYPES = ("force", "distributed", "moment", "tension")
-DAMPING_FIELDS = {"rayleigh": ("alpha", "beta"), "strain_rate": ("axial", "bending")}
+DAMPINGS = {"rayleigh": "rayleigh", "strain_rate": "strain_rate_damping"}  # [[dampings]] type -> the Scene method
 METHODS = ("exact", "penalty")
 ANALYSIS_TYPES = ("statics", "dynamics")
-STATICS_OPTIONS = tuple(k for k in STATIC_OPTIONS if k != "print_level")  # print_level: Python API only
+STATICS_OPTIONS = tuple(k for k, f in STATIC_OPTIONS.items() if not f.api_only)
 
 
 # -- typed readers: each names the TOML path of what it reads -------------------------------------------------------
@@ -157,17 +157,12 @@ def _named(path: str, v: Any, table: dict, what: str) -> Any:
 
 
 def _member(scene: Scene, path: str, d: dict, materials: dict, sections: dict) -> None:
-    """Names resolved here (material, section, axial = "none"); every value checked by Scene.member."""
+    """Names resolved here (material, section); every value checked by Scene.member (axial = "none" included)."""
     _keys(path, d, MEMBER_KEYS, ("name", "points", "elements", "material", "section"))
     name = _str(f"{path}.name", d["name"])
-    if name in scene.members:
-        raise _fail(f"{path}.name", "repeats an earlier member's name", name)
     kw = {k: v for k, v in d.items() if k not in ("name", "points")}
     kw["material"] = _named(f"{path}.material", d["material"], materials, "material ([materials.NAME])")
     kw["section"] = _named(f"{path}.section", d["section"], sections, "section ([sections.NAME])")
-    if "axial" in d:
-        axial = _str(f"{path}.axial", d["axial"], AXIAL + ("none",))
-        kw["axial"] = None if axial == "none" else axial
     _api(path, scene.member, name, d["points"], root=f"members[{name!r}]", **kw)
 
 
@@ -278,8 +273,6 @@ def _loop(scene: Scene, path: str, d: dict, materials: dict, sections: dict) -> 
     member_keys = tuple(k for k in MEMBER_KEYS if k not in ("points", "elements", "material", "section"))
     _keys(path, d, tuple(LOOP) + member_keys, ("name", "elements", "material", "section"))
     name = _str(f"{path}.name", d["name"])
-    if name in scene.members:
-        raise _fail(f"{path}.name", "repeats an earlier member's name", name)
     if ("path" in d) == ("pulleys" in d):
         raise _fail(path, "give path (pieces) or pulleys (a belt around them), not both or neither")
     if "pulleys" in d:
@@ -299,9 +292,6 @@ def _loop(scene: Scene, path: str, d: dict, materials: dict, sections: dict) -> 
     kw = {k: v for k, v in d.items() if k not in ("name", "path", "pulleys", "elements", "material", "section")}
     kw["material"] = _named(f"{path}.material", d["material"], materials, "material ([materials.NAME])")
     kw["section"] = _named(f"{path}.section", d["section"], sections, "section ([sections.NAME])")
-    if "axial" in d:
-        axial = _str(f"{path}.axial", d["axial"], AXIAL + ("none",))
-        kw["axial"] = None if axial == "none" else axial
     _api(path, scene.loop, name, pieces, d["elements"], root=f"members[{name!r}]", **kw)
 
 
@@ -336,35 +326,18 @@ def _load(scene: Scene, path: str, d: dict) -> None:
 
 def _damping(scene: Scene, path: str, d: dict) -> None:
     """Dynamics only: Scene.rayleigh (alpha [1/s], beta [s]) or Scene.strain_rate_damping (axial [N s],
-    bending [N m^2 s]); members (default all) is a list of member names."""
+    bending [N m^2 s]), which check the values; members (default all) is an array of member names."""
     if "type" not in d:
         raise _fail(f"{path}.type", "missing (required: rayleigh | strain_rate)")
-    kind = _str(f"{path}.type", d["type"], tuple(DAMPING_FIELDS))
-    fields = DAMPING_FIELDS[kind]
+    kind = _str(f"{path}.type", d["type"], tuple(DAMPINGS))
+    method = DAMPINGS[kind]
+    fields = tuple(k for k in inspect.signature(getattr(Scene, method)).parameters if k not in ("self", "members"))
     _keys(path, d, ("type", "members") + fields, ("type",))
     if not any(f in d for f in fields):
         raise _fail(path, f"give {' and/or '.join(fields)} (a {kind} damping without coefficients)")
-    kw: dict[str, Any] = {}
-    for f in fields:
-        if f in d:
-            v = _number(f"{path}.{f}", d[f])
-            if v < 0:
-                raise _fail(f"{path}.{f}", "must be >= 0", d[f])
-            kw[f] = v
-    if "members" in d:
-        m = d["members"]
-        if not isinstance(m, list) or not m:
-            raise _fail(f"{path}.members", "must be a non-empty array of member names", m)
-        kw["members"] = [_member_name(scene, f"{path}.members[{i}]", v) for i, v in enumerate(m)]
-    if kind == "rayleigh" and kw.get("alpha"):  # (what the dynamics would refuse, refused now)
-        if "members" in kw:
-            raise _fail(f"{path}.members", "alpha (mass-proportional) acts on the whole scene: give members only "
-                        "with beta", d["members"])
-        other = {dd.alpha for dd in scene.dampings if dd.kind == "rayleigh" and dd.alpha} - {kw["alpha"]}
-        if other:
-            raise _fail(f"{path}.alpha", f"the scene has one mass-proportional alpha; an earlier damping gives "
-                        f"{other.pop()!r}", d["alpha"])
-    _api(path, scene.rayleigh if kind == "rayleigh" else scene.strain_rate_damping, **kw)
+    if "members" in d and (not isinstance(d["members"], list) or not d["members"]):
+        raise _fail(f"{path}.members", "must be a non-empty array of member names", d["members"])
+    _api(path, getattr(scene, method), root=method, **{k: v for k, v in d.items() if k != "type"})
 
 
 def _analysis(d: Any) -> dict:

@@ -31,7 +31,7 @@ STATIC_OPTIONS = {
     "max_iter": Field("int", positive=True, doc="IPOPT iterations per attempt"),
     "load_steps": Field("int", positive=True, doc="continuation steps of the fallback"),
     "escape_saddle": Field("bool", doc="leave an unstable equilibrium along its negative mode"),
-    "print_level": Field("int", span=(0, 12), doc="IPOPT's print level (Python API only)"),
+    "print_level": Field("int", span=(0, 12), doc="IPOPT's print level (Python API only)", api_only=True),
 }
 
 # the fields DynamicOptions checks by kind; "any" fields are checked by DynamicOptions itself (integrator names,

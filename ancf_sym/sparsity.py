@@ -1,5 +1,6 @@
 """Sparse patterns from (row, col) triplets, merged in compressed-column order (SciPy's and CasADi's layout), and
-the gathers and scatters that assemble compiled kernel results into global vectors and matrices inside CasADi graphs."""
+the gathers and scatters that assemble compiled kernel results into global vectors and matrices inside CasADi graphs
+(the dynamics' step system and the optimal-control model and transcription alike)."""
 from __future__ import annotations
 
 import casadi as ca
@@ -23,8 +24,8 @@ def casadi_sparsity(n_rows: int, n_cols: int, indptr: np.ndarray, indices: np.nd
 
 # -- assembling compiled kernel results in CasADi MX graphs (constant index maps, no products with 0/1 matrices) --
 
-def dm(A: sp.spmatrix) -> ca.DM:
-    """A SciPy sparse matrix as a CasADi DM with the same pattern."""
+def dm(A) -> ca.DM:
+    """A SciPy sparse (or dense) matrix as a CasADi DM with the same pattern."""
     A = sp.csc_matrix(A)
     A.sort_indices()
     return ca.DM(ca.Sparsity(A.shape[0], A.shape[1], A.indptr.tolist(), A.indices.tolist()), A.data.tolist())
@@ -51,15 +52,58 @@ def gather_sum(vals: list, target: np.ndarray, n_out: int) -> ca.MX:
 
 
 def scatter(vals: list, r: np.ndarray, c: np.ndarray, n: int, src: np.ndarray | None = None,
-            n_src: int | None = None) -> ca.MX:
-    """Sparse n x n MX summing the values at (r, c): entry k is vertcat(vals)[src[k]] (default: k)."""
-    indptr, indices, inv = csc_pattern(r, c, n, n)
-    spK = casadi_sparsity(n, n, indptr, indices)
+            n_src: int | None = None, n_cols: int | None = None) -> ca.MX:
+    """Sparse n x n (or n x n_cols) MX summing the values at (r, c): entry k is vertcat(vals)[src[k]] (default:
+    k; n_src = the length of vertcat(vals) when src is given)."""
+    n_cols = n if n_cols is None else n_cols
+    indptr, indices, inv = csc_pattern(r, c, n, n_cols)
+    pattern = casadi_sparsity(n, n_cols, indptr, indices)
     if src is None:
         src, n_src = np.arange(len(inv)), len(inv)
     target = -np.ones(n_src, dtype=np.int64)
     target[src] = inv
-    return ca.MX(spK, gather_sum(vals, target, len(indices)))
+    return ca.MX(pattern, gather_sum(vals, target, len(indices)))
+
+
+def hessian_entries(pos: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Unknowns (a, b) of the entries of the column-major vec of a mapped kernel's Hessian output (nd x nd N:
+    entry e nd^2 + a nd + b is d2U / dx_idx[e, a] dx_idx[e, b]) and the entries on two unknowns (pos: the unknown
+    of each coordinate, -1 if fixed)."""
+    N, nd = idx.shape
+    ia = pos[np.broadcast_to(idx[:, :, None], (N, nd, nd)).ravel()]
+    ib = pos[np.broadcast_to(idx[:, None, :], (N, nd, nd)).ravel()]
+    return ia, ib, np.flatnonzero((ia >= 0) & (ib >= 0))
+
+
+def assemble_mx(calls: list, pos: np.ndarray, n: int, hessian: bool = True) -> tuple[ca.MX, ca.MX | None]:
+    """Gradient (n) and Hessian (n x n sparse) of a sum of mapped kernel calls on the unknowns, coordinate k of
+    the scene being unknown pos[k] (-1: fixed, dropped). calls: (idx (N x nd) coordinates of the elements,
+    G (nd x N), H (nd x nd N) or None); calls on the same elements are summed before the scatter."""
+    groups: dict = {}
+    for idx, G, H in calls:
+        key = (idx.shape, idx.tobytes())
+        if key in groups:
+            grp = groups[key]
+            grp[1] = grp[1] + G
+            grp[2] = None if H is None or grp[2] is None else grp[2] + H
+        else:
+            groups[key] = [idx, G, H]
+    if not groups:
+        return ca.MX.zeros(n), (ca.MX(n, n) if hessian else None)
+    g = gather_sum([ca.vec(G) for _, G, _ in groups.values()],
+                   np.concatenate([pos[idx.ravel()] for idx, _, _ in groups.values()]), n)
+    if not hessian:
+        return g, None
+    hvals, rows, cols, hpos, n_h = [], [], [], [], 0
+    for idx, _, H in groups.values():
+        ia, ib, keep = hessian_entries(pos, idx)
+        hvals.append(ca.vec(H))
+        rows.append(ib[keep])
+        cols.append(ia[keep])
+        hpos.append(n_h + keep)
+        n_h += ia.size
+    K = scatter(hvals, np.concatenate(rows), np.concatenate(cols), n, np.concatenate(hpos), n_h)
+    return g, K
 
 
 def sx_nonzeros(A: ca.SX) -> ca.SX:

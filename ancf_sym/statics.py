@@ -1,8 +1,9 @@
 """Static equilibrium: full-step Newton first, IPOPT where Newton alone is not enough. User guide: docs/statics.md.
 
-1. Newton (statics_newton.py): full steps on the exact tangent, one CasADi call per iteration, from the start
-   point. Measured (bench/STATICS_RESULTS.md) it converges in 8 (Biot) to 18 (Green) iterations on a cantilever at any mesh size,
-   where a line search creeps along the narrow valley that a large EA/EI makes.
+1. Newton (statics_newton.py): full steps on the exact tangent (shifted where it is indefinite far out), the
+   compiled kernels called directly (statics_eval), from the start point. Measured (bench/STATICS_RESULTS.md) it
+   converges in 8 (Biot) to 12 (Green, from the Biot solution) iterations on a cantilever at any mesh size, where a
+   line search creeps along the narrow valley that a large EA/EI makes.
 2. If Newton does not converge cleanly (diverges, stalls, exceeds its iterations), Newton again along the load
    factor in adaptive steps; if that fails too (or a result lies above the start's potential), IPOPT minimises: first accepting every trial step, then with its line search, then stepping the loads up; Newton
    finishes from IPOPT's point, so every answer passes the same convergence test.
@@ -35,6 +36,7 @@ from .scene import Scene, SceneError
 from .schema import STATIC_OPTIONS
 
 from .inertia import STABILITY_EPS, reduced_inertia
+from .member_effects import START_STRAIN
 from .statics_eval import BIOT
 from .statics_newton import KernelNewton, NewtonRun, NewtonStatics, Reduction
 
@@ -141,8 +143,9 @@ class StaticResult:
 
 
 class StaticProblem:
-    """A scene's static problem, built once: the Newton iteration now, IPOPT's problem on first need (load factor
-    as a parameter); solved as often as needed."""
+    """A scene's static problem, built once: the Newton iteration's index maps now (the StepSystem graph only for
+    scenes with multiplier rows), IPOPT's problem on first need (load factor as a parameter); solved as often as
+    needed."""
 
     def __init__(self, scene_or_assembly: Scene | Assembly):
         self.asm = scene_or_assembly if isinstance(scene_or_assembly, Assembly) else Assembly(scene_or_assembly)
@@ -314,9 +317,11 @@ class StaticProblem:
         """The Biot-strain solution of the same scene (a start for cables with Green or decoupled strain, to
         BIOT_TOL); None without such cables or on a coarse mesh. Measured (bench/STATICS_RESULTS.md): Biot Newton
         converges in 8-10 iterations on paper 000's cantilever where Green needs 19-24 from the straight beam, and
-        Green then needs 2-3 more from Biot's answer (the strain measures differ by O(strain^2))."""
+        Green then needs 2-3 more from Biot's answer (the strain measures differ by O(strain^2)). The Biot Newton
+        shares this problem's index maps (ReducedEvaluation.variant): only its kernel calls differ. Scenes with
+        multiplier rows (the graph) start from the straight state."""
         if self._biot is None:
-            cables = [m for m in self.asm.scene.members.values() if getattr(m, "axial", None) in ("green", "decoupled")]
+            cables = [m for m in self.asm.scene.members.values() if m.axial not in (None, START_STRAIN)]
             coarse = any(m.elements < BIOT_MIN_ELEMENTS for m in cables)
             ev = self.light.ev.variant(BIOT) if cables and not coarse and self.light is not None else None
             self._biot = KernelNewton(self.asm, self.S, ev) if ev is not None else False
@@ -454,6 +459,10 @@ class StaticProblem:
         if not a.exact.m:
             return np.zeros(0)
         g = a.evaluate(x, hessian=False).gradient if gradient is None else gradient
+        A = a.exact.A.tocsr()
+        A.sum_duplicates()
+        if not len(a.exact.qrow) and np.all(np.diff(A.indptr) == 1) and len(np.unique(A.indices)) == a.exact.m:
+            return -g[A.indices] / A.data  # supports fixing one coordinate each (distinct): lam_r = -g_c / a_r
         if not hasattr(self, "_mult_cols"):
             self._mult_cols = np.unique(np.r_[a.exact.A.tocsr().indices, a.exact.qi, a.exact.qj]).astype(np.int64)
             self._mult_J = a.exact.A.tocsc()[:, self._mult_cols].toarray() if not len(a.exact.qrow) else None
@@ -519,7 +528,7 @@ _CACHE: "OrderedDict[str, StaticProblem]" = OrderedDict()
 
 def problem_for(scene: Scene) -> StaticProblem:
     """The scene's StaticProblem, built once per scene content (fingerprint of the scene's data) and reused: a scene
-    rebuilt with the same members, supports and loads skips the assembly and the Newton graph."""
+    rebuilt with the same members, supports and loads skips the assembly and the Newton index maps."""
     try:
         key = hashlib.sha1(pickle.dumps(scene, protocol=4)).hexdigest()
     except (pickle.PicklingError, TypeError, AttributeError):

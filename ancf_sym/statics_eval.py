@@ -17,8 +17,10 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from .assembly import LINEAR_EFFECTS, Assembly, force_terms
+from . import registry
+from .assembly import LINEAR_EFFECTS, Assembly, ForceTerm, force_terms
 from .inertia import BAND_LIMIT
+from .member_effects import START_EFFECTS
 
 _MAPS: dict = {}  # (element, effect, gauss, elements) -> the kernel mapped over them (built once per process)
 
@@ -31,7 +33,30 @@ def _mapped(ft) -> ca.Function:
 
 
 # a cable's Green or decoupled axial effect -> the Biot one on the same elements and parameters (L, EA[, EI])
-BIOT = {"elastic_green": "elastic_biot", "axial_green": "axial_biot", "axial_decoupled": "axial_biot"}
+BIOT = START_EFFECTS  # (ancf_sym.member_effects)
+
+
+def fused_terms(terms: list) -> list[ForceTerm]:
+    """assembly.force_terms without its row-by-row matching where a cable's axial and bending terms cover the same
+    elements in the same order (as a scene's members build them): fused whole, in one step."""
+    out, used = [], set()
+    for ia, ta in enumerate(terms):
+        if not ta.element.startswith("cable") or not ta.effect.startswith("axial_"):
+            continue
+        for ib, tb in enumerate(terms):
+            fe = registry.fused_effect(ta.element, (ta.effect, tb.effect)) if tb.effect == "bending" else None
+            if fe is None or tb.element != ta.element or tb.gauss != ta.gauss or ib in used:
+                continue
+            if not (np.array_equal(ta.idx, tb.idx) and np.array_equal(ta.P[:, 0], tb.P[:, 0])):
+                return force_terms(terms)
+            rows = np.arange(len(ta.idx))
+            out.append(ForceTerm(ta.element, fe, ta.gauss, ta.idx, np.c_[ta.P[:, :2], tb.P[:, 1]],
+                                 (ta.label, tb.label), [(ia, rows), (ib, rows)]))
+            used |= {ia, ib}
+            break
+    out += [ForceTerm(t.element, t.effect, t.gauss, t.idx, t.P, (t.label,), [(i, np.arange(len(t.idx)))])
+            for i, t in enumerate(terms) if i not in used and len(t.idx)]
+    return out
 
 
 class ReducedEvaluation:
@@ -45,7 +70,7 @@ class ReducedEvaluation:
         self.asm, self.R = asm, reduction
         nf = self.nf = reduction.nf
         pos = reduction.part.pos
-        self.fts = fts = force_terms([t for t in asm.terms if t.effect not in LINEAR_EFFECTS])
+        self.fts = fts = fused_terms([t for t in asm.terms if t.effect not in LINEAR_EFFECTS])
         self._bind()
         gp, rows, cols = [], [], []
         for ft in fts:

@@ -1,10 +1,17 @@
-"""Full-step Newton for static equilibrium: one CasADi call per iteration, a convergence test in the solution's terms.
+"""Full-step Newton for static equilibrium on the free coordinates, a convergence test in the solution's terms.
 
-The iteration runs on the free coordinates of the dynamics' StepSystem (supports that fix coordinates eliminated,
-hinges identified, the remaining exact rows with Lagrange multipliers): every energy term through its mapped
-compiled kernel, residual and KKT matrix assembled by constant gathers, sparse LDL^T (no multipliers) or QR
-(multipliers) factorisation and solve, all in one Function built once per scene. Python only loops over the
-iterations, so Ctrl-C stops a solve between two of them.
+The iteration runs on the free coordinates (supports that fix coordinates eliminated, hinges identified, the
+remaining exact rows with Lagrange multipliers). Two ways to evaluate one iteration (residual, tangent, update), one
+loop; which one depends on the scene, never on how often it is solved:
+- kernels (KernelNewton), every scene without multiplier rows: the compiled kernels called directly, their
+  gradients and Hessians scattered onto the free coordinates and LAPACK's band (statics_eval), a banded Cholesky
+  (dpbtrf): nothing to build; measured ~75 us per iteration at 60 elements, ~1.3 ms at 600, ~13.5 ms at 6000;
+- graph (NewtonStatics), scenes with multiplier rows (rigid joints, skew clamps): the dynamics' StepSystem with
+  every kernel, the KKT matrix and its sparse QR in one CasADi Function, ~35 ms (60 elements) to ~1 s (6000) to
+  build, then about as fast per iteration.
+Python only loops over the iterations, so Ctrl-C stops a solve between two of them.
+Where the tangent is not positive definite and the updates are still large, KernelNewton shifts its diagonal until
+the step lowers the potential (_shifted_step); full Newton steps everywhere else.
 
 Convergence (`tol`, relative, the same at any mesh size):
 - increment: the last applied Newton update, positions in units of the structure's length L and slopes
@@ -14,13 +21,6 @@ Convergence (`tol`, relative, the same at any mesh size):
 The answer is the point AFTER that update: Newton's error there is of the order of the update squared, so it lies
 within tol^2 L of the discrete solution, far below tol. The start state is never accepted while a load acts: its
 update is the (non-zero) response to the loads and it is applied before the test.
-Two ways to evaluate one iteration (residual, tangent, update), one loop:
-- graph (NewtonStatics): the compiled StepSystem Function above, ~50 us per iteration at 60 elements, but ~35 ms
-  (60 elements) to ~120 ms (600) to build;
-- assembly (AssemblyNewton): the Assembly's mapped kernel calls, the sparse tangent reduced to the free coordinates
-  and a banded Cholesky (inertia.banded_cholesky; sparse LU where it is not positive definite): ~0.2-0.4 ms per
-  iteration at 60 elements, nothing to build. Only for scenes whose supports all eliminate coordinates (no
-  multiplier rows). statics.StaticProblem chooses by measurement (its docstring).
 Round-off: when the updates stop contracting (each more than half the previous) while the residual sits at its
 round-off level (within ROUND_OFF x eps x max|K| x span), they measure the round-off of the solution itself; above tol it cannot be resolved in double precision (e.g. a penalty factor so stiff that
 eps x its force swamps the loads) and the run says so.
@@ -40,10 +40,9 @@ from .assembly import Assembly
 from scipy.linalg.lapack import dpbtrf, dpbtrs
 
 from .inertia import BAND_LIMIT, banded_cholesky, banded_solve
-from .sparsity import csc_pattern
+from .statics_eval import ReducedEvaluation
 from .dynamics.step_system import StepSystem
 from .reduced import partition
-from .statics_eval import ReducedEvaluation
 
 STALL = 0.75  # updates contracting by less than this factor make no progress (the 2/3 of a quartic Green energy far out does)
 STALL_COUNT = 3  # that many in a row: the updates are round-off
@@ -204,6 +203,12 @@ class NewtonStatics:
                          float(self.norms[0]), floor if it else 0.0, hist)
 
 
+def _dot(a: np.ndarray, b: np.ndarray) -> float:
+    """a . b without BLAS: a threaded ddot waits milliseconds for its threads on a busy machine (measured at 24 000
+    coordinates: 18 ms instead of 0.09 ms with 2 cores shared by several processes)."""
+    return float(np.multiply(a, b).sum())
+
+
 class KernelNewton(NewtonStatics):
     """The same Newton loop with each iteration evaluated from the compiled kernels (statics_eval: no graph to
     build) and solved by a banded Cholesky (LAPACK dpbtrf; sparse LU where the tangent is not positive definite or
@@ -226,7 +231,7 @@ class KernelNewton(NewtonStatics):
     def potential(self, x_full: np.ndarray, load: float = 1.0) -> float:
         """Total potential at x_full with the loads scaled by `load` [J] (linear terms: -load f_lin . x)."""
         self.ev.evaluate(x_full)
-        return self.ev.energy - load * float(self.S.f_lin_full @ x_full)
+        return self.ev.energy - load * _dot(self.S.f_lin_full, x_full)
 
     def tangent(self, x_full: np.ndarray, hessian: bool = True):
         """(None, gradient of the nonlinear potential on the free coordinates, reduced Hessian or None)."""
@@ -265,7 +270,7 @@ class KernelNewton(NewtonStatics):
                 self.dz[:] = -dpbtrs(cb, r, lower=0)[0]
                 done = True
             elif self._prev_inc > SHIFT_BELOW:
-                self.energy = ev.energy - self.load * float(R.f_lin_full @ x_full)
+                self.energy = ev.energy - self.load * _dot(R.f_lin_full, x_full)
                 done = self._shifted_step(ab, r)
         if not done:  # a wide band (or no shift helped): banded Cholesky in another order, else sparse LU
             K = ev.matrix()
@@ -275,7 +280,7 @@ class KernelNewton(NewtonStatics):
                 self.dz[:] = -(banded_solve(factor, r) if factor is not None else splu(K).solve(r))
             except RuntimeError:  # singular: the loop reads the NaN as not_finite
                 self.dz[:] = np.nan
-        self.norms[:] = (abs(r).max(), 0.0, abs(self.dz / self.scale).max(), -float(r @ self.dz), kmax)
+        self.norms[:] = (abs(r).max(), 0.0, abs(self.dz / self.scale).max(), -_dot(r, self.dz), kmax)
         self._prev_inc = self.norms[2]
 
     def solve(self, *args, **kw) -> NewtonRun:

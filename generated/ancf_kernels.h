@@ -28,6 +28,7 @@
 #include "cable2d_contact_ground_friction.h"
 #include "cable2d_contact_circle.h"
 #include "cable2d_contact_circle_friction.h"
+#include "cable2d_contact_body_friction.h"
 #include "cable2d_contact_drum.h"
 #include "cable2d_contact_drum_friction.h"
 #include "cable3d_contact_ground.h"

@@ -118,12 +118,14 @@ def _midpoint_frame(element: str, q: np.ndarray, L: float):
 
 def kernel_input(element: str, effect: str, q: np.ndarray, seed: int = 0, L: float = L0) -> np.ndarray:
     """The kernel's input for element state q: contact kernels append the drum centre (0.5 m from the element's
-    midpoint, normal to it; and its angle) and, for dissipation kernels, random velocities of all of it."""
+    midpoint, normal to it; and its angle, or a carrying body's unit vector) and, for dissipation kernels,
+    random velocities of all of it."""
     eff = registry.EFFECTS[(element, effect)]
     z = np.asarray(q, float)
     if eff.obstacle:
         r, _, m, _ = _midpoint_frame(element, z, L)
-        z = np.concatenate([z, r + 0.5 * m, [0.3]][:2 if eff.obstacle == len(r) else 3])
+        extra = {len(r): [], len(r) + 1: [0.3], len(r) + 2: [np.cos(0.3), np.sin(0.3)]}[eff.obstacle]
+        z = np.concatenate([z, r + 0.5 * m, extra])  # (+ angle of a drum, or a body's unit vector)
     if eff.rates:
         z = np.concatenate([z, 0.3 * np.random.default_rng(seed).uniform(-1, 1, z.size)])
     return z

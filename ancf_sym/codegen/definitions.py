@@ -91,6 +91,10 @@ def _contact_station(element: str, effect: str):
         v = centre(z[n:n + nd], L, xi, dim)
         if effect == "contact_ground_friction":
             yield ca.vertcat(r, v), lambda u, p: contact.ground_dissipation(u[:dim], u[dim:], p, dim), w * L
+        elif effect == "contact_body_friction":  # u = (r - c, r' - c', c, s, c', s'): spin c s' - s c' in the density
+            b, bv = z[nd:nd + 4], z[n + nd:n + nd + 4]
+            yield ca.vertcat(r - c, v - bv[:2], b[2:], bv[2:]), lambda u, p: contact.circle_dissipation(
+                u[:2], u[2:4], u[4] * u[7] - u[5] * u[6], p, 2), w * L
         else:
             moving = effect == "contact_circle_friction"  # else a fixed drum: c' = 0, omega = 0
             u = ca.vertcat(r - c, v - z[n + nd:n + nd + dim], z[n + nd + dim]) if moving else ca.vertcat(r - c, v, 0)

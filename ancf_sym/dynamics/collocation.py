@@ -13,8 +13,10 @@ stage; Gauss-Legendre (order 2s, symplectic: energy of linear systems is conserv
 from the quadrature, q_{n+1} = q_n + h sum b_j V_j, so exact constraints are met at the stages only and the end
 point drifts by O(h^(s+1)) (reported as the constraint violation).
 
-`stage_function(system, tableau)` is the reusable part: a CasADi Function of (Q, lam, q_n, v_n, h, F) returning
-the stage residual and its sparse Jacobian, for the optimal-control transcription of the same dynamics.
+`stage_function(system, tableau)`: CasADi Functions of (Q, lam, q_n, v_n, h, F) returning the stage residual and
+its sparse Jacobian on a StepSystem. The optimal-control transcription (ancf_sym.control) writes the same condensed
+equations with its own unknowns (the moved supports' states and the controls enter them; all intervals at once)
+and shares the tableaus (`tableau`).
 """
 from __future__ import annotations
 

@@ -23,7 +23,9 @@ import scipy.sparse as sp
 
 from .. import contact, kernels
 from ..assembly import Assembly
+from ..elements.quadrature import gauss01
 from ..interpolation import weights
+from ..member_effects import AXIAL_STRAINS
 from ..scene import SceneError
 from ..sparsity import dm, gather_sum, scatter
 
@@ -90,8 +92,7 @@ def strain_rate_data(asm: Assembly) -> StrainRateData | None:
             c = coef.setdefault(name, [0.0, 0.0])
             c[0], c[1] = c[0] + d.axial, c[1] + d.bending
     dim = asm.scene.dim
-    xg, wg = np.polynomial.legendre.leggauss(5)
-    xi, wq = (xg + 1) / 2, wg / 2
+    xi, wq = gauss01(5)
     rows_x, rows_xx, wl, ca_, cb_, green = [], [], [], [], [], []
     for name, (c_ax, c_be) in coef.items():
         mm = asm.mesh.members[name]
@@ -107,7 +108,7 @@ def strain_rate_data(asm: Assembly) -> StrainRateData | None:
                 wl.append(wq[k] * L)
                 ca_.append(c_ax)
                 cb_.append(c_be)
-                green.append(mm.member.axial == "green")
+                green.append(mm.member.axial is not None and AXIAL_STRAINS[mm.member.axial].rate == "green")
     P = len(wl)
 
     def matrix(rows):

@@ -16,22 +16,12 @@ import numpy as np
 
 from .. import kernels
 from ..assembly import map_elements
-from ..sparsity import dm, gather_sum, mx_nonzeros, scatter
+from ..sparsity import assemble_mx, dm, hessian_entries, mx_nonzeros, scatter
 
 if TYPE_CHECKING:
     from .step_system import StepSystem
 
 ELASTIC_LABELS = ("axial", "bending", "torsion", "continuum")
-
-
-def hessian_entries(pos: np.ndarray, idx: np.ndarray):
-    """Unknowns (a, b) of the entries of the column-major vec of a mapped kernel's Hessian output (nd x nd N:
-    entry e nd^2 + a nd + b is d2U / dx_idx[e, a] dx_idx[e, b]) and the entries on two unknowns (pos: the unknown
-    of each coordinate, -1 if fixed)."""
-    N, nd = idx.shape
-    ia = pos[np.broadcast_to(idx[:, :, None], (N, nd, nd)).ravel()]
-    ib = pos[np.broadcast_to(idx[:, None, :], (N, nd, nd)).ravel()]
-    return ia, ib, np.flatnonzero((ia >= 0) & (ib >= 0))
 
 
 def build_force_graphs(S: "StepSystem") -> None:
@@ -49,16 +39,11 @@ def build_force_graphs(S: "StepSystem") -> None:
         Ps.append(ca.reshape(par[o:o + P.size], P.shape[1], P.shape[0]))
         o += P.size
     Pft, Pmk = Ps[:len(S.force_terms)], Ps[len(S.force_terms):]
-    groups: dict = {}  # calls on the same element coordinates: gradients and Hessians summed before the scatter
+    calls = []  # (elements, G, H); assemble_mx sums calls on the same elements before the scatter
     for ft, Pk in zip(S.force_terms, Pft):
         Xe = ca.reshape(x[ft.idx.ravel().tolist()], ft.nd, ft.N)
         _, G, H = ft.mapped()(Xe, Pk)
-        key = (ft.idx.shape, ft.idx.tobytes())
-        if key in groups:
-            grp = groups[key]
-            grp[1], grp[2] = grp[1] + G, grp[2] + H
-        else:
-            groups[key] = [ft.idx, G, H]
+        calls.append((ft.idx, G, H))
         if weights and all(lbl in ELASTIC_LABELS for lbl in ft.labels):
             ti, rows = ft.sources[0]  # fused rows have equal weights (row_keys)
             w = weights.get(ti)
@@ -69,21 +54,7 @@ def build_force_graphs(S: "StepSystem") -> None:
                 kel_vals.append((hv[keep.tolist()] if len(keep) < hv.shape[0] else hv) * ca.DM(we))
                 kel_rows.append(ib[keep])
                 kel_cols.append(ia[keep])
-    gvals, gtarget, hvals, rows, cols, hpos = [], [], [], [], [], []
-    n_h = 0
-    for idx, G, H in groups.values():
-        gvals.append(ca.vec(G))
-        gtarget.append(pos[idx.ravel()])
-        ia, ib, keep = hessian_entries(pos, idx)
-        hvals.append(ca.vec(H))
-        rows.append(ib[keep])
-        cols.append(ia[keep])
-        hpos.append(n_h + keep)
-        n_h += ia.size
-    g = gather_sum(gvals, np.concatenate(gtarget), nf) if gvals else ca.MX.zeros(nf)
-    K = ca.MX(nf, nf)
-    if rows:
-        K = scatter(hvals, np.concatenate(rows), np.concatenate(cols), nf, np.concatenate(hpos), n_h)
+    g, K = assemble_mx(calls, pos, nf)
     S.kel_sparsity = None
     outs = [g, K]
     if kel_vals:
@@ -100,15 +71,11 @@ def build_force_graphs(S: "StepSystem") -> None:
     S.forces_pf = ca.Function("forces", [xf, par], outs, ["x", "par"],
                                  ["g", "K"] + (["kel"] if kel_vals else []))
     # the gradient alone from the (energy, gradient) companions: no Hessian work (residuals of modified Newton)
-    ggroups: dict = {}
+    gcalls = []
     for ft, Pk in zip(S.force_terms, Pft):
         Xe = ca.reshape(x[ft.idx.ravel().tolist()], ft.nd, ft.N)
-        G = ft.mapped_grad()(Xe, Pk)[1]
-        key = (ft.idx.shape, ft.idx.tobytes())
-        ggroups[key] = (ft.idx, ggroups[key][1] + G) if key in ggroups else (ft.idx, G)
-    gg = gather_sum([ca.vec(G) for _, G in ggroups.values()],
-                     np.concatenate([pos[idx.ravel()] for idx, _ in ggroups.values()]), nf) \
-        if ggroups else ca.MX.zeros(nf)
+        gcalls.append((ft.idx, ft.mapped_grad()(Xe, Pk)[1], None))
+    gg, _ = assemble_mx(gcalls, pos, nf, hessian=False)
     if asm.penalty is not None:
         gg += ca.gradient(pen, xf)
     S.grad_pf = ca.Function("gradient", [xf, par], [gg], ["x", "par"], ["g"])

@@ -24,7 +24,7 @@ import scipy.sparse as sp
 
 from .. import contact, drives
 from ..assembly import Assembly, force_terms
-from ..reduced import partition
+from ..reduced import full_mx, partition
 from ..sparsity import dm, mx_nonzeros
 from . import damping
 from .damping import RayleighData, StrainRateData
@@ -82,8 +82,7 @@ class StepSystem:
 
         M = asm.mass_matrix().tocsc()
         self.M_full = M
-        self.M = (part.E.T @ M @ part.E).tocsc()
-        self.M.sort_indices()
+        self.M = part.reduce_matrix(M)
 
         # linear terms: constant generalized force (gravity, distributed dead loads, point loads)
         self.nonlinear = [mk for mk in asm.mapped if not mk.linear]
@@ -152,8 +151,7 @@ class StepSystem:
     def x_full_mx(self, xf: ca.MX) -> ca.MX:
         """E xf + c as a gather (every coordinate is one unknown or fixed): the element gathers that follow merge
         with it into one, where a product with E would cost a sparse product at every evaluation."""
-        x = ca.vertcat(xf, ca.MX.zeros(1))[self._gather.tolist()]
-        return x + ca.DM(self.part.c) if np.any(self.part.c) else x
+        return full_mx(xf, self.pos, self.part.c)
 
     def damping_force(self, xf: np.ndarray, vf: np.ndarray) -> np.ndarray | None:
         """Damping force on the unknowns at (x, v) (ancf_sym.dynamics.damping.damping_force)."""
