@@ -131,17 +131,26 @@ def force_terms(terms: list[Term], fuse: bool = True, row_keys: dict | None = No
                 def key(i, t, r):
                     extra = () if row_keys is None or i not in row_keys else (float(np.asarray(row_keys[i])[r]),)
                     return (t.idx[r].tobytes(), float(t.P[r, 0])) + extra
-                rows_b: dict = {}
-                for r in np.flatnonzero(~used[ib]):
-                    rows_b.setdefault(key(ib, tb, r), r)
-                pairs = []
-                for r in np.flatnonzero(~used[ia]):
-                    rb = rows_b.pop(key(ia, ta, r), None)
-                    if rb is not None:
-                        pairs.append((r, rb))
-                if not pairs:
-                    continue
-                ra, rb = (np.array(v, dtype=np.int64) for v in zip(*pairs))
+
+                def rowkeys(i, t, rows):
+                    return None if row_keys is None or i not in row_keys else np.asarray(row_keys[i])[rows]
+                ua, ub = np.flatnonzero(~used[ia]), np.flatnonzero(~used[ib])
+                if len(ua) == len(ub) and np.array_equal(ta.idx[ua], tb.idx[ub]) and \
+                        np.array_equal(ta.P[ua, 0], tb.P[ub, 0]) and \
+                        np.array_equal(rowkeys(ia, ta, ua), rowkeys(ib, tb, ub)):
+                    ra, rb = ua, ub  # the same elements in the same order (one member's terms): no row matching
+                else:
+                    rows_b: dict = {}
+                    for r in ub:
+                        rows_b.setdefault(key(ib, tb, r), r)
+                    pairs = []
+                    for r in ua:
+                        rb = rows_b.pop(key(ia, ta, r), None)
+                        if rb is not None:
+                            pairs.append((r, rb))
+                    if not pairs:
+                        continue
+                    ra, rb = (np.array(v, dtype=np.int64) for v in zip(*pairs))
                 used[ia][ra], used[ib][rb] = True, True
                 P = np.c_[ta.P[ra, :2], tb.P[rb, 1]]  # (L, EA, EI)
                 out.append(ForceTerm(ta.element, fe, ta.gauss, ta.idx[ra], P, (ta.label, tb.label),

@@ -82,6 +82,7 @@ def partition(asm: Assembly) -> Partition:
     # identifications x_i - x_j = d first, then fixes
     ident = [r for r in range(ex.m) if nnz_row[r] == 2 and not has_quad[r]
              and abs(A.data[A.indptr[r]] + A.data[A.indptr[r] + 1]) <= 1e-14 * abs(A.data[A.indptr[r]])]
+    ident_set = set(ident)
     for r in ident:
         (i, j), (ai, _) = A.indices[A.indptr[r]:A.indptr[r + 1]], A.data[A.indptr[r]:A.indptr[r + 1]]
         d = ex.d[r] / ai  # x_i - x_j = d
@@ -104,14 +105,20 @@ def partition(asm: Assembly) -> Partition:
                 raise SceneError(f"constraint {ex.labels[r]!r} fixes coordinate {c} to {v!r}, which other supports "
                                  f"or joints fix to {fixed_val[root] + o!r}")
             fixed_val[root] = rv
-        elif r not in ident:
+        elif r not in ident_set:
             keep_rows.append(r)
-    roots_all = np.array([find(k) for k in range(n)])
-    offs = np.array([off[k] if roots_all[k] != k else 0.0 for k in range(n)])
-    is_fixed = np.array([roots_all[k] in fixed_val for k in range(n)])
-    c = offs.copy()
-    for k in np.flatnonzero(is_fixed):
-        c[k] += fixed_val[roots_all[k]]
+    # (numpy over all coordinates; Python only for the identified ones: a mesh of 1000 elements has 4000)
+    roots_all = np.arange(n)
+    for k in np.flatnonzero(parent != roots_all):
+        roots_all[k] = find(int(k))  # (compresses: off[k] is then the offset from the root)
+    offs = np.where(roots_all != np.arange(n), off, 0.0)
+    fixed_roots = np.fromiter(fixed_val, dtype=np.int64, count=len(fixed_val))
+    fixed_at = np.zeros(n)
+    fixed_at[fixed_roots] = np.fromiter(fixed_val.values(), dtype=float, count=len(fixed_val))
+    is_fixed = np.zeros(n, bool)
+    is_fixed[fixed_roots] = True
+    is_fixed = is_fixed[roots_all]
+    c = offs + np.where(is_fixed, fixed_at[roots_all], 0.0)
     free_roots = np.unique(roots_all[~is_fixed])
     ymap = -np.ones(n, dtype=np.int64)
     ymap[free_roots] = np.arange(len(free_roots))

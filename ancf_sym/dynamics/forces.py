@@ -3,8 +3,9 @@ mapped compiled kernels by constant index gathers (no Python loop over elements,
 
 forces_pf(x, par) -> (g, K[, kel]): gradient and Hessian of the nonlinear potential (elastic terms, penalty
 joints, contact laws), and the elastic tangent values for Rayleigh stiffness damping; grad_pf(x, par) -> g from
-the kernels' (energy, gradient) companions (no Hessian work); energy functions for the outputs. `par` holds the
-kernels' element parameters (material, section, lengths), inputs rather than constants of the graphs.
+the kernels' (energy, gradient) companions (no Hessian work); the energies and kinetic energy for the outputs.
+`par` holds the kernels' element parameters (material, section, lengths), inputs rather than constants of the
+graphs.
 """
 from __future__ import annotations
 
@@ -24,8 +25,8 @@ ELASTIC_LABELS = ("axial", "bending", "torsion", "continuum")
 
 
 def build_force_graphs(S: "StepSystem") -> None:
-    """Build S.forces_pf, S.grad_pf, S.energy_f (with S.energy_labels), S._energy_kin_f (with its labels) and
-    S.kel_sparsity (None without Rayleigh stiffness damping) from S's kernel calls."""
+    """Build S.forces_pf, S.grad_pf, S._energy_kin_f (with its labels) and S.kel_sparsity (None without Rayleigh
+    stiffness damping) from S's kernel calls."""
     asm, nf, pos = S.asm, S.nf, S.pos
     xf = ca.MX.sym("x", nf)
     par = ca.MX.sym("par", S.par.size)
@@ -87,9 +88,6 @@ def build_force_graphs(S: "StepSystem") -> None:
                           kernels.load_batch(t.element, t.effect, t.gauss, "_energy"), mk.N)
         elist.append((t.label, ca.sum2(ef(Xe, Pk))))
     elist += [(lbl, e) for lbl, e in energies if lbl == "penalty"]
-    S.energy_labels = [lbl for lbl, _ in elist]
-    S.energy_f = ca.Function("energies", [xf, par], [ca.vertcat(*[e for _, e in elist]) if elist
-                                                        else ca.MX(0, 1)])
     # the outputs' energies in one call: the potentials (the linear ones, U = c + G.x, as dot products with the
     # input `lin` = [G_1 .. G_k, c_1 .. c_k, Q]) and the kinetic energy
     lin = ca.MX.sym("lin", S.lin.size)

@@ -23,11 +23,11 @@ class StepOutcome:
 class Integrator(Protocol):
     """A one-step method on a StepSystem's unknowns, as the time loop (ancf_sym.dynamics.time_loop) drives it.
 
-    q, v, a, lam: the accepted state (a: acceleration, for the residual's force scale; lam: true multipliers); `new` holds the candidate of the
-    last successful `attempt` ("q", "v"), committed by `accept`. tol_q: the force tolerance [N], set by the run
-    once the force scale is known. order: of the local error estimate (step-size control exponent
-    1/(order + 1)). `chunkable` true: the integrator is a ChunkedIntegrator too, and the loop runs stretches of
-    fixed steps through it."""
+    q, v, a, lam: the accepted state (a: acceleration, for the residual's force scale; lam: true multipliers);
+    `new` holds the candidate of the last successful `attempt` ("q", "v"), committed by `accept`. tol_q: the force
+    tolerance [N], set by the run once the force scale is known. order: of the local error estimate (step-size
+    control exponent 1/(order + 1)). `chunkable` true: the integrator is a ChunkedIntegrator too, and the loop runs
+    stretches of fixed steps through it."""
     q: np.ndarray
     v: np.ndarray
     a: np.ndarray

@@ -126,7 +126,7 @@ class StepSystem:
                    strain_rate=damping.strain_rate_data(asm), **kw)
 
     # compiled functions and what describes them: built once per structure key and shared by later StepSystems
-    _GRAPH_ATTRS = ("kel_sparsity", "forces_pf", "grad_pf", "energy_labels", "energy_f", "_energy_kin_labels",
+    _GRAPH_ATTRS = ("kel_sparsity", "forces_pf", "grad_pf", "_energy_kin_labels",
                     "_energy_kin_f", "damp_f", "damp_force_f", "kkt_sparsity", "iter_f", "res_f", "jac_f")
 
     @property
@@ -277,9 +277,12 @@ class StepSystem:
         self.norms = np.zeros(5)
         self._jac_norms = np.zeros(3)
         self.floor = 0.0
-        spk = self.kkt_sparsity
-        self.kkt = sp.csc_matrix((np.zeros(spk.nnz()), np.array(spk.row(), dtype=np.int32),
-                                  np.array(spk.colind(), dtype=np.int32)), shape=(self.nz, self.nz))
+        if "kkt_pattern" not in self._graphs:  # (converting CasADi's pattern costs ~10 ms at 1000 elements)
+            spk = self.kkt_sparsity
+            self._graphs["kkt_pattern"] = (spk.nnz(), np.array(spk.row(), dtype=np.int32),
+                                           np.array(spk.colind(), dtype=np.int32))
+        nnz, rows, colind = self._graphs["kkt_pattern"]
+        self.kkt = sp.csc_matrix((np.zeros(nnz), rows, colind), shape=(self.nz, self.nz))
         args = [self.x, self.lam, self.p, self.cm, self.cc, self.kc, self.vc] + ([self.kel] if has_kel else []) \
             + [self.y, self.par]
         self._bufs = []
