@@ -16,7 +16,6 @@ from .constraints import Constraints, build_constraints
 from .loads import load_vector
 from .mesh import Mesh, build_mesh
 from . import registry
-from .registry import ELEMENTS
 from .scene import Scene
 from .sparsity import casadi_sparsity, csc_pattern
 from .terms import Term, scene_terms

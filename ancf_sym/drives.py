@@ -384,7 +384,7 @@ def build(asm) -> DriveSystem | None:
         if isinstance(d, AngleDrive):
             ob = mesh.bodies[d.body]
             cb, sb = ob + 2, ob + 3
-            C, S, ONE_W = nw, nw + 1, -1  # (ONE_W: the constant 1 of w_ext, set below)
+            C, S = nw, nw + 1
             funcs.append((nw, "angle", d.angle))
             nw += 2
             if d.relative_to is None:  # s cos(theta) - c sin(theta)

@@ -13,7 +13,7 @@ start = "static". The same per-member velocities as tables (TOML [[initial]], Dy
 """
 from __future__ import annotations
 
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import numpy as np
 

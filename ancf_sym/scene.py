@@ -19,7 +19,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from .checks import SceneError, check_fields, fail, number, show, vector
+from .checks import SceneError, check_fields, fail, number, vector
 from .member_effects import AXIAL  # noqa: F401  (public name: ancf_sym.scene.AXIAL)
 from .member_effects import AXIAL_STRAINS, BEAM_METHODS, axial_strain, gauss_orders, stiffness_effects
 from .schema import MATERIAL, SECTION

@@ -25,7 +25,6 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.linalg import splu
 
 from . import bodies, contact, fields, spatial_bodies, statics_contact
 from .assembly import LOAD_LABELS, Assembly

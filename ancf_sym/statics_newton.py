@@ -33,13 +33,12 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from .assembly import Assembly
 from scipy.linalg.lapack import dpbtrf, dpbtrs
 
-from .inertia import BAND_LIMIT, banded_cholesky, banded_solve
+from .inertia import banded_cholesky, banded_solve
 from .statics_eval import ReducedEvaluation
 from .dynamics.step_system import StepSystem
 from .reduced import partition
