@@ -16,6 +16,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from . import kernels
+from .checks import table_type
 from .scene import SceneError
 
 LABEL = "contact"
@@ -175,12 +176,7 @@ _NOT_NUMBERS = ("type", "member", "normal", "method", "centre", "axis", "body")
 def from_toml(scene, d: dict) -> GroundContact | DrumContact:
     """A [[contacts]] table: type = "ground" (Scene.contact_ground) or "circle" (a fixed drum, Scene.contact_drum)
     and the keyword arguments of that method."""
-    kind = d.get("type", "ground")
-    if kind not in TOML_KEYS:
-        raise SceneError(f"type must be one of {sorted(TOML_KEYS)}, got {kind!r}")
-    unknown = sorted(set(d) - set(TOML_KEYS[kind]))
-    if unknown:
-        raise SceneError(f"unknown key {unknown[0]!r} (allowed for type = {kind!r}: {', '.join(TOML_KEYS[kind])})")
+    kind = table_type(d, TOML_KEYS, "ground")
     if "member" not in d:
         raise SceneError("member: missing (the member whose centre line touches the obstacle)")
     for k, v in d.items():

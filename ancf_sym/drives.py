@@ -29,7 +29,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .checks import SceneError
+from .checks import SceneError, table_type
 
 # -- motions of time -----------------------------------------------------------------------------------------------
 
@@ -245,12 +245,7 @@ TOML_KEYS = {"angle": ("type", "name", "body", "relative_to", "angle", "omega", 
 def from_toml(scene, d: dict):
     """A [[drives]] table: type = "angle" (Scene.drive), "position" (Scene.drive_position) or "torque"
     (Scene.torque), with that method's keyword arguments; motions as numbers or [[t, [a0, a1, ...]], ...]."""
-    kind = d.get("type", "angle")
-    if kind not in TOML_KEYS:
-        raise SceneError(f"type must be one of {sorted(TOML_KEYS)}, got {kind!r}")
-    unknown = sorted(set(d) - set(TOML_KEYS[kind]))
-    if unknown:
-        raise SceneError(f"unknown key {unknown[0]!r} (allowed for type = {kind!r}: {', '.join(TOML_KEYS[kind])})")
+    kind = table_type(d, TOML_KEYS, "angle")
     kw = {k: v for k, v in d.items() if k != "type"}
     if kind == "position":
         return scene.drive_position(**kw)
