@@ -208,12 +208,14 @@ class StaticProblem:
         return self._solvers[key]
 
     def _run(self, x0, lam_g0, load, line_search, opts):
-        S = self.solver(line_search, opts)
         m = self.asm.exact.m
         args = {"x0": x0, "p": load, "lbg": np.zeros(m), "ubg": np.zeros(m)}
         if lam_g0 is not None:
             args["lam_g0"] = lam_g0
-        with interruptible():  # Ctrl-C / SIGTERM inside IPOPT: raised here, not tried again as a failed attempt
+        # Ctrl-C / SIGTERM inside IPOPT: raised here, not tried again as a failed attempt. Building the solver is
+        # inside too: CasADi checks for signals while it builds and swallows the exception there as well.
+        with interruptible():
+            S = self.solver(line_search, opts)
             sol = S(**args)
         st = S.stats()
         if st["return_status"] in INTERRUPTED:  # Ctrl-C during IPOPT: stop, never try the next attempt
