@@ -214,9 +214,10 @@ class StaticProblem:
             args["lam_g0"] = lam_g0
         # Ctrl-C / SIGTERM inside IPOPT: raised here, not tried again as a failed attempt. Building the solver is
         # inside too: CasADi checks for signals while it builds and swallows the exception there as well.
-        with interruptible():
+        with interruptible() as rec:
             S = self.solver(line_search, opts)
-            sol = S(**args)
+            if rec.exc is None:  # a signal swallowed while building: raised on leaving the block, no solve first
+                sol = S(**args)
         st = S.stats()
         if st["return_status"] in INTERRUPTED:  # Ctrl-C during IPOPT: stop, never try the next attempt
             raise KeyboardInterrupt
