@@ -1,9 +1,11 @@
 """Static equilibrium: full-step Newton first, IPOPT where Newton alone is not enough. User guide: docs/statics.md.
 
 1. Newton (statics_newton.py): full steps on the exact tangent (shifted where it is indefinite far out), the
-   compiled kernels called directly (statics_eval), from the start point. Measured (bench/STATICS_RESULTS.md) it
-   converges in 8 (Biot) to 12 (Green, from the Biot solution) iterations on a cantilever at any mesh size, where a
-   line search creeps along the narrow valley that a large EA/EI makes.
+   compiled kernels called directly (statics_eval), from the start point: the Biot-strain solution for Green and
+   decoupled cables, the solution on a 10x coarser mesh for fine ones (statics_coarse). Measured
+   (bench/STATICS_RESULTS.md) it converges in 8 (Biot) to 10 (Green, decoupled: from the Biot solution) iterations
+   on a cantilever at any mesh size up to 100 000 elements, where a line search creeps along the narrow valley that
+   a large EA/EI makes.
 2. If Newton does not converge cleanly (diverges, stalls, exceeds its iterations), Newton again along the load
    factor in adaptive steps; if that fails too (or a result lies above the start's potential), IPOPT minimises: first accepting every trial step, then with its line search, then stepping the loads up; Newton
    finishes from IPOPT's point, so every answer passes the same convergence test.

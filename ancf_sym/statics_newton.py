@@ -10,8 +10,9 @@ loop; which one depends on the scene, never on how often it is solved:
   every kernel, the KKT matrix and its sparse QR in one CasADi Function, ~35 ms (60 elements) to ~1 s (6000) to
   build, then about as fast per iteration.
 Python only loops over the iterations, so Ctrl-C stops a solve between two of them.
-Where the tangent is not positive definite and the updates are still large, KernelNewton shifts its diagonal until
-the step lowers the potential (_shifted_step); full Newton steps everywhere else.
+Where the tangent is not positive definite and the updates are still large, KernelNewton takes the plain step (banded
+LU) if it is small or lowers the potential, else shifts its diagonal until the step does (_shifted_step); full
+Newton steps everywhere else.
 
 Convergence (`tol`, relative, the same at any mesh size):
 - increment: the last applied Newton update, positions in units of the structure's length L and slopes
@@ -226,8 +227,8 @@ def _dot(a: np.ndarray, b: np.ndarray) -> float:
 
 class KernelNewton(NewtonStatics):
     """The same Newton loop with each iteration evaluated from the compiled kernels (statics_eval: no graph to
-    build) and solved by a banded Cholesky (LAPACK dpbtrf; sparse LU where the tangent is not positive definite or
-    the band is wide). Scenes without multiplier rows only (Reduction.mc == 0). evaluation: another strain measure's
+    build) and solved by a banded Cholesky (LAPACK dpbtrf; banded LU where the tangent is not positive definite,
+    sparse factorisations where the band is wide). Scenes without multiplier rows only (Reduction.mc == 0). evaluation: another strain measure's
     (ReducedEvaluation.variant) for a start."""
 
     def __init__(self, asm: Assembly, reduction: Reduction, evaluation: ReducedEvaluation | None = None):
