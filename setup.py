@@ -28,6 +28,11 @@ class ParallelBuildExt(build_ext):
 
 class BuildPyWithManifest(build_py):
     def run(self):
+        # modules removed or turned into packages since the last build must not ship from a reused build/ folder
+        built = Path(self.build_lib) / "ancf_sym"
+        for old in built.rglob("*.py") if built.is_dir() else ():
+            if not (HERE / old.relative_to(self.build_lib)).exists():
+                old.unlink()
         super().run()
         dst = Path(self.build_lib) / "ancf_sym" / "_kernels"
         dst.mkdir(parents=True, exist_ok=True)

@@ -11,12 +11,11 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from . import bodies, kernels
+from . import bodies, kernels, spatial_bodies
 from .constraints import Constraints, build_constraints
 from .loads import load_vector
 from .mesh import Mesh, build_mesh
 from . import registry
-from .registry import ELEMENTS
 from .scene import Scene
 from .sparsity import casadi_sparsity, csc_pattern
 from .terms import Term, scene_terms
@@ -131,17 +130,26 @@ def force_terms(terms: list[Term], fuse: bool = True, row_keys: dict | None = No
                 def key(i, t, r):
                     extra = () if row_keys is None or i not in row_keys else (float(np.asarray(row_keys[i])[r]),)
                     return (t.idx[r].tobytes(), float(t.P[r, 0])) + extra
-                rows_b: dict = {}
-                for r in np.flatnonzero(~used[ib]):
-                    rows_b.setdefault(key(ib, tb, r), r)
-                pairs = []
-                for r in np.flatnonzero(~used[ia]):
-                    rb = rows_b.pop(key(ia, ta, r), None)
-                    if rb is not None:
-                        pairs.append((r, rb))
-                if not pairs:
-                    continue
-                ra, rb = (np.array(v, dtype=np.int64) for v in zip(*pairs))
+
+                def rowkeys(i, t, rows):
+                    return None if row_keys is None or i not in row_keys else np.asarray(row_keys[i])[rows]
+                ua, ub = np.flatnonzero(~used[ia]), np.flatnonzero(~used[ib])
+                if len(ua) == len(ub) and np.array_equal(ta.idx[ua], tb.idx[ub]) and \
+                        np.array_equal(ta.P[ua, 0], tb.P[ub, 0]) and \
+                        np.array_equal(rowkeys(ia, ta, ua), rowkeys(ib, tb, ub)):
+                    ra, rb = ua, ub  # the same elements in the same order (one member's terms): no row matching
+                else:
+                    rows_b: dict = {}
+                    for r in ub:
+                        rows_b.setdefault(key(ib, tb, r), r)
+                    pairs = []
+                    for r in ua:
+                        rb = rows_b.pop(key(ia, ta, r), None)
+                        if rb is not None:
+                            pairs.append((r, rb))
+                    if not pairs:
+                        continue
+                    ra, rb = (np.array(v, dtype=np.int64) for v in zip(*pairs))
                 used[ia][ra], used[ib][rb] = True, True
                 P = np.c_[ta.P[ra, :2], tb.P[rb, 1]]  # (L, EA, EI)
                 out.append(ForceTerm(ta.element, fe, ta.gauss, ta.idx[ra], P, (ta.label, tb.label),
@@ -171,14 +179,24 @@ class Assembly:
         self.mapped = [MappedKernel(t) for t in self.terms]
         self.curved = [mk for mk in self.mapped if not mk.linear]  # terms whose Hessian is assembled
         self.Q = load_vector(self.mesh)  # dead point loads: potential -Q.x
-        bodies.add_loads(scene, self.mesh.bodies, self.Q)  # rigid bodies' gravity and forces: linear potentials
+        # rigid bodies' gravity and forces: linear potentials
+        (spatial_bodies if scene.dim == 3 else bodies).add_loads(scene, self.mesh.bodies, self.Q)
         self.constraints: Constraints = build_constraints(self.mesh)
         pen = np.flatnonzero(self.constraints.k > 0)
         self.penalty = self.constraints.subset(pen) if len(pen) else None
         self.exact = self.constraints.subset(np.flatnonzero(self.constraints.k == 0))
-        self._pattern()
 
     # -- sparse pattern ------------------------------------------------------------------------------------
+    _PATTERN = ("h_indptr", "h_indices", "_hpos", "_n_kernel_entries", "h_nnz", "h_key")
+
+    def __getattr__(self, name: str):
+        """The global Hessian's pattern is built on first use (a Newton solve on the free coordinates, statics_eval,
+        never needs it)."""
+        if name in Assembly._PATTERN and "mapped" in self.__dict__:
+            self._pattern()
+            return self.__dict__[name]
+        raise AttributeError(name)
+
     def _pattern(self) -> None:
         rows, cols = [], []
         for mk in self.curved:
@@ -345,9 +363,13 @@ class Assembly:
             rows.append(np.repeat(idx, nd, axis=1).ravel())
             cols.append(np.tile(idx, (1, nd)).ravel())
             vals.append(Me.reshape(len(idx), -1).ravel())
-        bi, bv = bodies.mass_entries(self.scene, self.mesh.bodies)  # diag(m, m, J, J) per rigid body
+        if self.scene.dim == 3:  # diag(m, m, m) + C (x) I_3 per spatial body
+            bi, bj, bv = spatial_bodies.mass_triplets(self.scene, self.mesh.bodies)
+        else:  # diag(m, m, J, J) per planar body
+            bi, bv = bodies.mass_entries(self.scene, self.mesh.bodies)
+            bj = bi
         rows.append(bi)
-        cols.append(bi)
+        cols.append(bj)
         vals.append(bv)
         return sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                              shape=(self.n, self.n)).tocsc()

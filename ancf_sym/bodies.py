@@ -9,17 +9,20 @@ assembly without any new kernel:
 - a body point r_b + R(u) p (R = [[c, -s], [s, c]], p body-fixed) is linear in q_b, so a revolute joint to the
   ground and a pin to a member node are linear constraint rows, and a rigid body-member joint (the member's slope
   turns with the body) is bilinear: all exact, with exact constant Jacobian/Hessian structure, through the same
-  constraint layer as the supports (ancf_sym.constraints). No angle wraps or singular orientations.
+  constraint layer as the supports (ancf_sym.constraints). No angle wraps or singular orientations. A revolute
+  joint between two bodies is linear too; a prismatic joint (to the ground or a body) is bilinear (ancf_sym.affine_rows).
+Spatial bodies, in the same natural-coordinate spirit, are ancf_sym.spatial_bodies.
 So plain numpy is their home: nothing here needs symbolic differentiation or generated code.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
+from .affine_rows import Vec, body_sides, dot
 from .checks import SceneError, number
 
 BODY_SIZE = 4  # x, y, cos(angle), sin(angle)
@@ -47,12 +50,14 @@ class Body:
 
 @dataclass
 class BodyJoint:
-    kind: str  # "revolute" (body-ground) | "pin" (body-member node) | "rigid" (pin + member slope turns with body)
+    kind: str  # "revolute" (body-ground or body-body) | "prismatic" (slides along axis, no relative turn) |
+    # "pin" (body-member node) | "rigid" (pin + member slope turns with body)
     body: str
     point: np.ndarray  # world point of the joint in the reference state [m]
     member: str | None = None
     at: Any = None
-    other: str | None = None  # revolute: the body the point is fixed to (None: the ground)
+    other: str | None = None  # revolute / prismatic: the second body (None: the ground)
+    axis: np.ndarray | None = None  # prismatic: unit sliding direction (world, reference state)
 
 
 def _vec2(field_name: str, v: Any) -> np.ndarray:
@@ -85,20 +90,27 @@ def make_body(scene, name: str, mass: Any, inertia: Any, position: Any, angle: A
 
 
 def make_joint(scene, kind: str, body: str, point: Any = None, member: str | None = None, at: Any = None,
-               other: str | None = None) -> BodyJoint:
+               other: str | None = None, axis: Any = None) -> BodyJoint:
     """A checked body joint. revolute: `point` (world, reference state; default the centre of mass) pinned to the
-    ground or to the body `other`. pin / rigid: the member node `at` tied to the body point where the node lies in
-    the reference state."""
+    ground or, with `other`, to that body. prismatic: the body slides along the world `axis` through `point`
+    without turning, relative to the ground or to body `other`. pin / rigid: the member node `at` tied to the body
+    point where the node lies in the reference state."""
     if body not in scene.bodies:
         raise SceneError(f"{kind}.body={body!r} names no body; bodies: {sorted(scene.bodies)}")
     b = scene.bodies[body]
-    if kind == "revolute":
+    if kind in ("revolute", "prismatic"):
         if other is not None and (other not in scene.bodies or other == body):
-            raise SceneError(f"revolute.other={other!r} must name another body; bodies: {sorted(scene.bodies)}")
+            raise SceneError(f"{kind}.other={other!r} must name another body; bodies: {sorted(scene.bodies)}")
         p = b.position.copy() if point is None else _vec2(f"{kind}.point", point)
-        return BodyJoint(kind, body, p, other=other)
+        ax = None
+        if kind == "prismatic":
+            ax = _vec2(f"{kind}.axis", axis)
+            if not np.linalg.norm(ax) > 0:
+                raise SceneError(f"prismatic.axis must be a non-zero vector, got {axis!r}")
+            ax = ax / np.linalg.norm(ax)
+        return BodyJoint(kind, body, p, other=other, axis=ax)
     if kind not in ("pin", "rigid"):
-        raise SceneError(f"body joint kind must be 'revolute', 'pin' or 'rigid', got {kind!r}")
+        raise SceneError(f"body joint kind must be 'revolute', 'prismatic', 'pin' or 'rigid', got {kind!r}")
     scene.check_at(member, at, node_only=True, field_name=f"{kind}.at")
     if kind == "rigid" and scene.members[member].element != "cable2d":
         raise SceneError(f"rigid body joint on member {member!r}: planar cable members only")
@@ -106,11 +118,6 @@ def make_joint(scene, kind: str, body: str, point: Any = None, member: str | Non
 
 
 # -- coordinates -----------------------------------------------------------------------------------------------
-def offsets(scene, first: int) -> dict[str, int]:
-    """Global offset of each body's coordinates, numbered after the members' (from `first`)."""
-    return {name: first + BODY_SIZE * i for i, name in enumerate(scene.bodies)}
-
-
 def state(x: np.ndarray, offset: int) -> tuple[float, float, float]:
     """(x, y, angle) of a body from the global coordinates (angle by atan2 of the unit vector: no wrap-around)."""
     q = np.asarray(x[offset:offset + BODY_SIZE], float)
@@ -149,6 +156,9 @@ def constraint_rows(rows, mesh) -> None:
         rows.k.append(0.0)
     for j in scene.body_joints:
         b, o = scene.bodies[j.body], mesh.bodies[j.body]
+        if j.kind == "prismatic":
+            _prismatic_rows(rows, mesh, j)
+            continue
         if j.kind == "revolute":
             p = b.local(j.point)
             for k in range(2):
@@ -184,13 +194,34 @@ def constraint_rows(rows, mesh) -> None:
             rows.k.append(0.0)
 
 
+def _point(o: int, p: np.ndarray) -> Vec:
+    """World position of the body point p (body coordinates): r + R(u) p, affine in (x, y, c, s)."""
+    return Vec([_point_coefs(o, p, k, 1.0) for k in range(2)])
+
+
+def _direction(o: int, a: np.ndarray) -> Vec:
+    """World vector R(u) a of the body-fixed direction a."""
+    return Vec([{o + 2: a[0], o + 3: -a[1]}, {o + 2: a[1], o + 3: a[0]}])
+
+
+def _prismatic_rows(rows, mesh, j: BodyJoint) -> None:
+    """A prismatic joint to the ground or a body (ancf_sym.affine_rows): the body's x axis stays normal to the other
+    side's normal of it (no relative turn), and the joint point moves along the axis only: (p_a - p_b) . n_b = 0."""
+    pa, pb, dir_a, dir_b, label = body_sides(mesh, j, _point, _direction)
+    u0 = np.array([math.cos(mesh.scene.bodies[j.body].angle), math.sin(mesh.scene.bodies[j.body].angle)])
+    dot(rows, dir_a(u0), dir_b(np.array([-u0[1], u0[0]])), 0.0, label, "slope")
+    dot(rows, pa - pb, dir_b(np.array([-j.axis[1], j.axis[0]])), 0.0, label, "position")
+
+
 def connected_supported(scene) -> set[str]:
-    """Members and bodies held, through body joints, by a body on a revolute joint (for the statics check)."""
-    held = {j.body for j in scene.body_joints if j.kind == "revolute" and j.other is None}
-    grow = True
-    while grow:  # bodies on a revolute joint to a held body
-        new = {j.body for j in scene.body_joints if j.kind == "revolute" and j.other in held} - held
-        grow = bool(new)
-        held |= new
-    held |= {j.member for j in scene.body_joints if j.kind != "revolute" and j.body in held}
-    return held
+    """Bodies held by a joint to the ground (revolute, prismatic; 3D also spherical), directly or through joints
+    between bodies, and the members tied to them (for the statics check). Planar and spatial bodies alike."""
+    held = {j.body for j in scene.body_joints if j.kind in ("spherical", "revolute", "prismatic") and j.other is None}
+    grew = True
+    while grew:
+        grew = False
+        for j in scene.body_joints:
+            if j.other is not None and (j.body in held) != (j.other in held):
+                held |= {j.body, j.other}
+                grew = True
+    return held | {j.member for j in scene.body_joints if j.member is not None and j.body in held}

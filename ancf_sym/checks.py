@@ -105,6 +105,7 @@ class Field:
     optional: bool = False  # None allowed (the owner picks a default)
     size: int | None = None  # vectors
     doc: str = ""
+    api_only: bool = False  # a Python API option, not a key of scene files
 
     def check(self, path: str, value: Any) -> Any:
         if value is None:
@@ -160,3 +161,15 @@ def check_keys(path: str, given: Mapping, allowed, required=()) -> None:
     for k in required:
         if k not in given:
             raise fail(f"{path}.{k}" if path else k, "missing (required)")
+
+
+def table_type(d: Mapping, keys_by_type: Mapping[str, tuple], default: str) -> str:
+    """The `type` of a typed TOML table ([[contacts]], [[drives]]); unknown types and keys refused, naming the
+    allowed ones."""
+    kind = d.get("type", default)
+    if kind not in keys_by_type:
+        raise SceneError(f"type must be one of {sorted(keys_by_type)}, got {kind!r}")
+    unknown = sorted(set(d) - set(keys_by_type[kind]))
+    if unknown:
+        raise SceneError(f"unknown key {unknown[0]!r} (allowed for type = {kind!r}: {', '.join(keys_by_type[kind])})")
+    return kind

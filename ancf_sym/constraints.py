@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from . import bodies
+from . import affine_rows, bodies, spatial_bodies
 from .mesh import Mesh, MemberMesh
 
 
@@ -40,12 +40,7 @@ class Rows:
 
 
 def _normals(t: np.ndarray) -> list[np.ndarray]:
-    if len(t) == 2:
-        return [np.array([-t[1], t[0]])]
-    a = np.array([1.0, 0, 0]) if abs(t[0]) < 0.9 else np.array([0, 1.0, 0])
-    n1 = np.cross(t, a)
-    n1 /= np.linalg.norm(n1)
-    return [n1, np.cross(t, n1)]
+    return [np.array([-t[1], t[0]])] if len(t) == 2 else affine_rows.normals(t)
 
 
 def _slices(mm: MemberMesh, node: int, dim: int):
@@ -179,7 +174,7 @@ def build_constraints(mesh: Mesh) -> Constraints:
             start = len(rows.d)
             joint_rows(rows, dim, mm, a, mm, b, "rigid", f"vertex {name}#{a}")
             close(start, "exact", None, mm)
-    bodies.constraint_rows(rows, mesh)
+    (spatial_bodies if dim == 3 else bodies).constraint_rows(rows, mesh)
     m = len(rows.d)
     lin = np.array(rows.lin, dtype=float).reshape(-1, 3)
     A = sp.coo_matrix((lin[:, 2], (lin[:, 0].astype(int), lin[:, 1].astype(int))), shape=(m, mesh.n)).tocsr()

@@ -1,10 +1,10 @@
-"""Contact of members with the ground and with fixed drums: scene declaration, energy terms, and the dissipation forces of the step graphs.
+"""Contact of members with the ground and with fixed drums: scene declaration, energy terms, and the dissipation kernels of the step graphs.
 
 The normal law is a potential (kernel <element>_contact_ground): it enters the scene's total potential as a term
 like any other, so statics (penalty contact) and every integrator see it with its exact Hessian. Damping and
 friction depend on the velocity: their kernel (<element>_contact_ground_friction) is a dissipation function
 D([q; v]) whose v-gradient is the force and whose Hessian blocks are its exact tangents d f / d q, d f / d v; the
-step graphs add them where they add the strain-rate damping force (integrators.StepSystem._build_damping), so the
+step graphs add them to the strain-rate damping force (ancf_sym.dynamics.damping, from `dissipation_calls`), so the
 damping work they book includes the friction and contact-damping work. Only scenes that declare contact pay.
 """
 from __future__ import annotations
@@ -13,10 +13,10 @@ import math
 from dataclasses import dataclass
 from typing import Any, Sequence
 
-import casadi as ca
 import numpy as np
 
 from . import kernels
+from .checks import table_type
 from .scene import SceneError
 
 LABEL = "contact"
@@ -176,12 +176,7 @@ _NOT_NUMBERS = ("type", "member", "normal", "method", "centre", "axis", "body")
 def from_toml(scene, d: dict) -> GroundContact | DrumContact:
     """A [[contacts]] table: type = "ground" (Scene.contact_ground) or "circle" (a fixed drum, Scene.contact_drum)
     and the keyword arguments of that method."""
-    kind = d.get("type", "ground")
-    if kind not in TOML_KEYS:
-        raise SceneError(f"type must be one of {sorted(TOML_KEYS)}, got {kind!r}")
-    unknown = sorted(set(d) - set(TOML_KEYS[kind]))
-    if unknown:
-        raise SceneError(f"unknown key {unknown[0]!r} (allowed for type = {kind!r}: {', '.join(TOML_KEYS[kind])})")
+    kind = table_type(d, TOML_KEYS, "ground")
     if "member" not in d:
         raise SceneError("member: missing (the member whose centre line touches the obstacle)")
     for k, v in d.items():
@@ -261,44 +256,6 @@ def check_dynamics(asm) -> None:
                          "statics; dynamics needs method='penalty' (a stiffness or hertz law)")
 
 
-def dissipation_mx(S, X: ca.MX, V: ca.MX):
-    """(f, df/dx, df/dv) on the unknowns of step system S, for full coordinates X and velocities V (MX in S's
-    unknowns x, v), or None without dissipative contact. Assembled from the kernels' gradient (v-part) and Hessian
-    blocks: exact tangents, no differentiation through the compiled calls."""
-    calls = dissipation_calls(S.asm.mesh)
-    if not calls:
-        return None
-    from .integrators import _gather_sum
-
-    nf, pos = S.nf, S.pos
-    fv, ft, hv, rx, cx, sx, rv, cv, sv = [], [], [], [], [], [], [], [], []
-    n_h = 0
-    for element, effect, gauss, idx, P in calls:
-        N, nd = idx.shape
-        k = kernels.load(element, effect, None if gauss == 5 else gauss)
-        Z = ca.vertcat(ca.reshape(X[idx.ravel().tolist()], nd, N), ca.reshape(V[idx.ravel().tolist()], nd, N))
-        _, G, H = k.map(N)(Z, ca.DM(P.T))
-        fv.append(ca.vec(G[nd:, :]))
-        ft.append(pos[idx.ravel()])  # vec of G[nd:, :]: element e, row a -> coordinate idx[e, a]
-        hv.append(ca.vec(H))
-        # vec(H) entry e (2nd)^2 + b 2nd + a is d2D / dz_a dz_b; rows a >= nd (forces), columns b < nd (x), >= nd (v)
-        e, b, a = np.meshgrid(np.arange(N), np.arange(2 * nd), np.arange(2 * nd), indexing="ij")
-        src = n_h + (e * (2 * nd) ** 2 + b * 2 * nd + a).ravel()
-        e, b, a = e.ravel(), b.ravel(), a.ravel()
-        row = np.where(a >= nd, pos[idx[e, a % nd]], -1)
-        col = pos[idx[e, b % nd]]
-        ok = (row >= 0) & (col >= 0)
-        for sel, R, C, S_ in ((ok & (b < nd), rx, cx, sx), (ok & (b >= nd), rv, cv, sv)):
-            R.append(row[sel])
-            C.append(col[sel])
-            S_.append(src[sel])
-        n_h += N * (2 * nd) ** 2
-    f = _gather_sum(fv, np.concatenate(ft), nf)
-    dfx = S._scatter(hv, np.concatenate(rx), np.concatenate(cx), np.concatenate(sx), n_h)
-    dfv = S._scatter(hv, np.concatenate(rv), np.concatenate(cv), np.concatenate(sv), n_h)
-    return f, dfx, dfv
-
-
 def report(asm, x: np.ndarray) -> list[dict]:
     """Per penalty contact: kind, smallest gap of the section surface at the nodes [m] and the total normal force
     [N] (from the normal law's gradient along each node's contact normal)."""
@@ -352,16 +309,15 @@ def _reports(asm, x: np.ndarray):
 
 def _position_rows(element: str, L: float, xi: float, dim: int) -> np.ndarray:
     """(dim, nd) matrix S with r(xi) = S q_e (cubic Hermite centre line; beam3d: the r and r_x blocks)."""
-    from .elements import hermite  # plain polynomials of xi: numbers in, numbers out
+    from .interpolation import weights
     from .registry import ELEMENTS
 
-    h = hermite.h(xi)
+    w = weights(xi, L)[0]  # r = w0 r(0) + w1 r_x(0) + w2 r(L) + w3 r_x(L)
     nd = ELEMENTS[element].ndof
     S = np.zeros((dim, nd))
     node = nd // 2
-    eye = np.eye(dim)
-    for k, (off, coef) in enumerate(((0, h[0]), (dim, L * h[1]), (node, h[2]), (node + dim, L * h[3]))):
-        S[:, off:off + dim] += coef * eye
+    for off, coef in zip((0, dim, node, node + dim), w):
+        S[:, off:off + dim] += coef * np.eye(dim)
     return S
 
 

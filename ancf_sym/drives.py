@@ -11,7 +11,9 @@ the time functions w(t) as per-step inputs (no angle coordinate, no wrap-around)
 Each row is a sum of entries coef * w_k(t) * X_i * X_j (X = [x; 1]: linear, bilinear and constant terms alike), so
 its value, Jacobian and Hessian are exact, and d/dt, d2/dt2 follow from w', w'' (the initial acceleration).
 An applied torque tau(t) on a body does the virtual work tau (c ds - s dc): the generalized force tau (-s, c) on
-(c, s), with its exact (unsymmetric) tangent; tau is one more per-step input.
+(c, s), with its exact (unsymmetric) tangent; tau is one more per-step input. On a spatial body (axis vectors e_k,
+ancf_sym.spatial_bodies) a world torque tau does the work tau . dtheta with de_k = dtheta x e_k: the force
+1/2 tau x e_k on each e_k, the same form per component of tau (a constant torque in 3D has no potential).
 
 Motions of time (`motion`): a number (constant), a piecewise polynomial [[t_0, [a0, a1, ...]], [t_1, [...]], ...]
 (piece k holds from t_k to t_k+1, the last one on; a polynomial in (t - t_k); before t_0 the value of piece 0 at
@@ -27,7 +29,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .checks import SceneError
+from .checks import SceneError, table_type
 
 # -- motions of time -----------------------------------------------------------------------------------------------
 
@@ -160,7 +162,7 @@ class PositionDrive:
 class Torque:
     name: str
     body: str
-    torque: Motion
+    torque: Any  # a Motion (planar, counter-clockwise); a spatial body's: 3 Motions (world x, y, z components)
 
 
 def _name(scene, name, default):
@@ -182,6 +184,8 @@ def angle_drive(scene, body: str, angle: Any = None, omega: Any = None, relative
     """A checked angle drive (Scene.drive)."""
     f = f"drive(body={body!r})"
     _body(scene, f"{f}: body", body)
+    if scene.dim == 3:
+        raise SceneError(f"{f}: angle drives are for planar bodies (a spatial body has no single angle)")
     if relative_to is not None:
         _body(scene, f"{f}: relative_to", relative_to)
         if relative_to == body:
@@ -220,9 +224,17 @@ def position_drive(scene, position: Any, member: str | None = None, at: Any = No
 
 
 def torque(scene, body: str, torque: Any, name: str | None = None) -> Torque:
-    """A checked applied torque on a body (Scene.torque) [N m], counter-clockwise positive."""
+    """A checked applied torque on a body (Scene.torque) [N m]: planar counter-clockwise positive; spatial 3 motions,
+    the world components."""
     _body(scene, "torque: body", body)
-    return Torque(_name(scene, name, f"torque {body}"), body, motion(f"torque(body={body!r}): torque", torque))
+    f = f"torque(body={body!r}): torque"
+    if scene.dim == 3:
+        if isinstance(torque, (str, bytes)) or not isinstance(torque, (list, tuple)) or len(torque) != 3:
+            raise SceneError(f"{f} must be 3 motions (world x, y, z components) on a spatial body, got {torque!r}")
+        m = [motion(f"{f}[{k}]", t) for k, t in enumerate(torque)]
+    else:
+        m = motion(f, torque)
+    return Torque(_name(scene, name, f"torque {body}"), body, m)
 
 
 TOML_KEYS = {"angle": ("type", "name", "body", "relative_to", "angle", "omega", "angle0"),
@@ -233,12 +245,7 @@ TOML_KEYS = {"angle": ("type", "name", "body", "relative_to", "angle", "omega", 
 def from_toml(scene, d: dict):
     """A [[drives]] table: type = "angle" (Scene.drive), "position" (Scene.drive_position) or "torque"
     (Scene.torque), with that method's keyword arguments; motions as numbers or [[t, [a0, a1, ...]], ...]."""
-    kind = d.get("type", "angle")
-    if kind not in TOML_KEYS:
-        raise SceneError(f"type must be one of {sorted(TOML_KEYS)}, got {kind!r}")
-    unknown = sorted(set(d) - set(TOML_KEYS[kind]))
-    if unknown:
-        raise SceneError(f"unknown key {unknown[0]!r} (allowed for type = {kind!r}: {', '.join(TOML_KEYS[kind])})")
+    kind = table_type(d, TOML_KEYS, "angle")
     kw = {k: v for k, v in d.items() if k != "type"}
     if kind == "position":
         return scene.drive_position(**kw)
@@ -263,7 +270,7 @@ class DriveSystem:
     coef: np.ndarray
     labels: list
     funcs: list  # per w block: (first index, kind "angle" | "value", Motion)
-    torques: list  # (c index, s index, w index)
+    torques: list  # (c index, s index, w index, scale): force scale w (-x_s, x_c) on (x_c, x_s)
     drives: list  # the declarations (AngleDrive / PositionDrive), in row order
     drive_rows: list  # rows of each declaration
 
@@ -322,9 +329,9 @@ class DriveSystem:
     def torque_force(self, x: np.ndarray, w: np.ndarray) -> np.ndarray:
         """Generalized force of the torques on the full coordinates."""
         f = np.zeros(self.n)
-        for ic, is_, k in self.torques:
-            f[ic] -= w[k] * x[is_]
-            f[is_] += w[k] * x[ic]
+        for ic, is_, k, scale in self.torques:
+            f[ic] -= scale * w[k] * x[is_]
+            f[is_] += scale * w[k] * x[ic]
         return f
 
     def reactions(self, x: np.ndarray, lam: np.ndarray) -> dict[str, list]:
@@ -356,14 +363,23 @@ def build(asm) -> DriveSystem | None:
     for d in decl:
         if isinstance(d, Torque):
             o = mesh.bodies[d.body]
-            funcs.append((nw, "value", d.torque))
-            torques.append((o + 2, o + 3, nw))
-            nw += 1
+            if scene.dim == 2:
+                funcs.append((nw, "value", d.torque))
+                torques.append((o + 2, o + 3, nw, 1.0))
+                nw += 1
+                continue
+            # spatial (ancf_sym.spatial_bodies): 1/2 tau x e_k on each axis vector e_k; component m of tau acts as
+            # a planar torque tau_m / 2 on the pair (a, b) of components of e_k normal to axis m
+            for comp, mo in enumerate(d.torque):
+                funcs.append((nw, "value", mo))
+                a, b = (comp + 1) % 3, (comp + 2) % 3
+                torques += [(o + 3 + 3 * k + a, o + 3 + 3 * k + b, nw, 0.5) for k in range(3)]
+                nw += 1
             continue
         if isinstance(d, AngleDrive):
             ob = mesh.bodies[d.body]
             cb, sb = ob + 2, ob + 3
-            C, S, ONE_W = nw, nw + 1, -1  # (ONE_W: the constant 1 of w_ext, set below)
+            C, S = nw, nw + 1
             funcs.append((nw, "angle", d.angle))
             nw += 2
             if d.relative_to is None:  # s cos(theta) - c sin(theta)
@@ -384,7 +400,7 @@ def build(asm) -> DriveSystem | None:
         # position drive: coordinate - p(t)
         if d.body is not None:
             o = mesh.bodies[d.body]
-            idx = [o, o + 1]
+            idx = [o + k for k in range(scene.dim)]
         else:
             mm = mesh.members[d.member]
             idx = [int(i) for i in mm.node_dofs(mm.node(d.at))[:scene.dim]]

@@ -7,7 +7,6 @@ node takes its public twin's coordinates (same position; the slope of the segmen
 """
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 

@@ -5,13 +5,15 @@ For the nodal coordinates [r, r_x (, r_y, r_z)] of a node at material coordinate
 - uniform v:                 r' = v,                        r_x' = r_y' = r_z' = 0
 - rotation omega about c:    r' = omega x (r - c),          r_x' = omega x r_x (likewise r_y, r_z): no strain rate
 - field v(s) with dv/ds:     r' = v(s),                     r_x' = dv/ds(s) (cables; the derivative is the user's)
-In 2D omega is the scalar rate about z. Rigid bodies (planar: centre r, unit vector u = (cos, sin)) take uniform
-(r' = v, u' = 0) and rotation (r' = omega x (r - c), u' = omega x u) under their names. Members not named keep zero velocity; later entries overwrite earlier ones.
-A start from a static result is DynamicOptions(q0=static_result.x) (with these velocities or at rest).
+In 2D omega is the scalar rate about z. Rigid bodies (centre r and unit vectors u: planar u = (cos, sin), spatial
+the axes e1, e2, e3) take uniform (r' = v, u' = 0) and rotation (r' = omega x (r - c), u' = omega x u) under
+their names. Members not named keep zero velocity; later entries overwrite earlier ones.
+A start from a static result is DynamicOptions(q0=static_result.x) (with these velocities or at rest), or
+start = "static". The same per-member velocities as tables (TOML [[initial]], DynamicOptions.initial): `from_specs`.
 """
 from __future__ import annotations
 
-from typing import Callable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -51,9 +53,9 @@ def velocities(asm, x: np.ndarray | None = None, uniform: dict | None = None, ro
     v = np.zeros(asm.n)
     for name, vel in (uniform or {}).items():
         mm = _member(asm, name)
-        if mm is None:  # a rigid body: its centre moves, its unit vector does not turn
+        if mm is None:  # a rigid body: its centre moves, its unit vectors do not turn
             o = asm.mesh.bodies[name]
-            v[o:o + 4] = [*_vector(f"uniform[{name!r}]", vel, d), 0.0, 0.0]
+            v[o:o + d] = _vector(f"uniform[{name!r}]", vel, d)
             continue
         V = np.zeros((mm.n_nodes, mm.node_size))
         V[:, :d] = _vector(f"uniform[{name!r}]", vel, d)
@@ -65,10 +67,11 @@ def velocities(asm, x: np.ndarray | None = None, uniform: dict | None = None, ro
         omega = _vector(f"rotation[{name!r}] omega", spec[0], 1 if d == 2 else 3)
         omega = omega[0] if d == 2 else omega
         c = _vector(f"rotation[{name!r}] centre", spec[1], d)
-        if mm is None:  # a rigid body turning about c
+        if mm is None:  # a rigid body turning about c: its centre, then its unit vectors (d components each)
             o = asm.mesh.bodies[name]
-            v[o:o + 2] = _cross(omega, x[o:o + 2] - c)
-            v[o + 2:o + 4] = _cross(omega, x[o + 2:o + 4])
+            size = len(asm.scene.bodies[name].q0)
+            v[o:o + d] = _cross(omega, x[o:o + d] - c)
+            v[o + d:o + size] = _cross(omega, x[o + d:o + size].reshape(-1, d)).ravel()
             continue
         X = asm.member_coordinates(x, name)
         V = np.zeros_like(X)
@@ -91,3 +94,60 @@ def velocities(asm, x: np.ndarray | None = None, uniform: dict | None = None, ro
             V[i, d:2 * d] = _vector(f"field[{name!r}] dv/ds({s:g})", spec[1](s), d)
         v[mm.offset:mm.offset + V.size] = V.ravel()
     return v
+
+
+def check_specs(specs: Any) -> list[dict]:
+    """The [[initial]] tables (schema.INITIAL) checked for their form: a list of tables, each naming a member or
+    body and giving either a uniform `velocity` or a rotation `omega` (about `centre`, default the origin).
+    Names and sizes are checked against the scene by `from_specs`."""
+    from .checks import check_keys, fail
+    from .schema import INITIAL
+
+    if not isinstance(specs, (list, tuple)):
+        raise fail("initial", "must be a list of tables (member, velocity | omega, centre)", specs)
+    for i, d in enumerate(specs):
+        path = f"initial[{i}]"
+        if not isinstance(d, dict):
+            raise fail(path, "must be a table (member, velocity | omega, centre)", d)
+        check_keys(path, d, INITIAL, ("member",))
+        INITIAL["member"].check(f"{path}.member", d["member"])
+        if ("velocity" in d) == ("omega" in d):
+            raise fail(path, "give either velocity (uniform) or omega (rigid rotation)", d)
+        if "centre" in d and "omega" not in d:
+            raise fail(f"{path}.centre", "belongs to a rotation (omega)", d["centre"])
+    names = [d["member"] for d in specs]
+    for name in names:
+        if names.count(name) > 1:
+            raise fail("initial", f"member {name!r} is given more than once", names)
+    return list(specs)
+
+
+def from_specs(asm, x: np.ndarray, specs: list[dict]) -> np.ndarray:
+    """v0 (full coordinates) at configuration x from checked [[initial]] tables; errors name initial[i]."""
+    from .checks import SceneError as _E
+
+    v = np.zeros(asm.n)
+    d = asm.scene.dim
+    for i, spec in enumerate(specs):
+        name = spec["member"]
+        try:
+            if "velocity" in spec:
+                one = velocities(asm, x, uniform={name: spec["velocity"]})
+            else:
+                omega = spec["omega"]
+                omega = [omega] if d == 2 and not isinstance(omega, (list, tuple, np.ndarray)) else omega
+                one = velocities(asm, x, rotation={name: (omega, spec.get("centre", [0.0] * d))})
+        except _E as exc:
+            raise _E(f"initial[{i}]: {exc}") from None
+        v += one  # each entry sets only its own member's or body's coordinates
+    return v
+
+
+def static_start(scene) -> np.ndarray:
+    """The static equilibrium's coordinates, to start a dynamic run from (pre-loaded, then released)."""
+    from .statics import solve_static
+
+    r = solve_static(scene)
+    if not r.success:
+        raise SceneError(f"analysis.start: the static solve to start from failed with status {r.status!r}")
+    return np.asarray(r.x, float).copy()

@@ -9,7 +9,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .bodies import BODY_SIZE, offsets
 from .elements.quadrature import gauss01
 from .interpolation import weights
 from .registry import ELEMENTS
@@ -172,7 +171,8 @@ class Mesh:
     scene: Scene
     members: dict[str, MemberMesh]
     n: int  # number of global coordinates
-    bodies: dict = field(default_factory=dict)  # body name -> offset of its (x, y, c, s) (after the members')
+    bodies: dict = field(default_factory=dict)  # body name -> offset of its coordinates (after the members'):
+    # planar (x, y, c, s), spatial (r, e1, e2, e3)
 
     @property
     def x0(self) -> np.ndarray:
@@ -180,7 +180,8 @@ class Mesh:
         for mm in self.members.values():
             x[mm.offset:mm.offset + mm.x0.size] = mm.x0.ravel()
         for name, o in self.bodies.items():
-            x[o:o + BODY_SIZE] = self.scene.bodies[name].q0
+            q0 = self.scene.bodies[name].q0
+            x[o:o + len(q0)] = q0
         return x
 
     @property
@@ -198,5 +199,8 @@ def build_mesh(scene: Scene) -> Mesh:
         mm = mesh_member(m, offset)
         members[name] = mm
         offset += mm.x0.size
-    body_offsets = offsets(scene, offset)  # empty without bodies: a scene without bodies keeps its unknowns
-    return Mesh(scene, members, offset + BODY_SIZE * len(body_offsets), body_offsets)
+    body_offsets = {}  # empty without bodies: a scene without bodies keeps its unknowns
+    for name, b in scene.bodies.items():
+        body_offsets[name] = offset
+        offset += len(b.q0)
+    return Mesh(scene, members, offset, body_offsets)

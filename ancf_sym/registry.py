@@ -5,7 +5,7 @@ order of `p` are defined once. Effect names are public API.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 DEFAULT_GAUSS = 5
 # Extra Gauss orders emitted for the effects whose accuracy studies need them (cheap: one point-function each).

@@ -19,16 +19,15 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from .checks import SceneError, check_fields, fail, number, show, vector
+from .checks import SceneError, check_fields, fail, number, vector
+from .member_effects import AXIAL  # noqa: F401  (public name: ancf_sym.scene.AXIAL)
+from .member_effects import AXIAL_STRAINS, BEAM_METHODS, axial_strain, gauss_orders, stiffness_effects
 from .schema import MATERIAL, SECTION
 
-AXIAL = ("green", "biot", "decoupled")
-BEAM_METHODS = ("continuum", "elastic_line")
 ELEMENT_KINDS = ("cable2d", "cable3d", "beam3d")
 
 
 MAX_COORDINATE = 1e12  # [m] coordinates beyond this overflow squared lengths and energies long before any solve
-GAUSS_ORDERS = (3, 4, 5, 7)
 
 
 def _positive(field_name: str, value: Any) -> float:
@@ -37,6 +36,14 @@ def _positive(field_name: str, value: Any) -> float:
 
 _finite = number
 _vector = vector
+
+
+def _coefficient(field_name: str, value: Any) -> float:
+    """A damping coefficient: finite and >= 0."""
+    v = number(field_name, value)
+    if v < 0:
+        raise fail(field_name, "must be >= 0", value)
+    return v
 
 
 @dataclass(frozen=True)
@@ -198,7 +205,7 @@ class Scene:
     name: str = "scene"
     dampings: list[Damping] = field(default_factory=list)
     contacts: list = field(default_factory=list)  # ancf_sym.contact declarations
-    bodies: dict = field(default_factory=dict)  # ancf_sym.bodies.Body by name (planar rigid bodies)
+    bodies: dict = field(default_factory=dict)  # rigid bodies by name (bodies.Body in 2D, spatial_bodies in 3D)
     body_joints: list = field(default_factory=list)  # ancf_sym.bodies.BodyJoint
     drives: list = field(default_factory=list)  # ancf_sym.drives: prescribed angles/positions, applied torques
 
@@ -217,15 +224,18 @@ class Scene:
                gauss: int | None = None, y_axis: Sequence[float] | None = None, prestrain: float = 0.0) -> Member:
         """Add a straight (2 points) or polyline member meshed into `elements` elements of one kind.
 
-        axial: strain measure "green" | "biot" | "decoupled" (cables) or None for no axial stiffness.
+        axial: strain measure "green" | "biot" | "decoupled" (cables) or None ("none") for no axial stiffness
+        (ancf_sym.member_effects: what each means).
         element: "cable2d" (default in 2D), "cable3d" (default in 3D) or "beam3d" (beam_method "continuum" (default)
         or "elastic_line"; beam_method and y_axis are refused on cables). Polyline vertices become rigid joints between straight segments.
         prestrain: the points give the member stretched by 1 + prestrain (e.g. a taut string between two pins:
         prestrain = T/EA); its unstretched length is the polyline's divided by 1 + prestrain.
         """
-        if not isinstance(name, str) or not name or name in self.members:
-            raise fail("members.name", "must be a new non-empty string", name)
+        if not isinstance(name, str) or not name:
+            raise fail("members.name", "must be a non-empty string", name)
         at = f"members[{name!r}]"  # errors name the member's field; the TOML reader re-roots this to members[i]
+        if name in self.members:
+            raise fail(f"{at}.name", "repeats an earlier member's name", name)
         if isinstance(points, (str, bytes)) or not isinstance(points, (list, tuple, np.ndarray)) or len(points) < 2:
             raise fail(f"{at}.points", f"must be a list of >= 2 points with {self.dim} coordinates", points)
         pts = np.array([vector(f"{at}.points[{i}]", p, self.dim) for i, p in enumerate(points)])
@@ -245,8 +255,7 @@ class Scene:
             raise fail(f"{at}.element", f"must be one of {' | '.join(ELEMENT_KINDS)}", element)
         if (element == "cable2d") != (self.dim == 2):
             raise fail(f"{at}.element", f"does not fit a {self.dim}D scene", element)
-        if axial is not None and axial not in AXIAL:
-            raise fail(f"{at}.axial", f"must be one of {' | '.join(AXIAL)} or None", axial)
+        axial = axial_strain(axial, f"{at}.axial")
         for flag, v in (("bending", bending), ("torsion", torsion), ("gravity", gravity)):
             if not isinstance(v, (bool, np.bool_)):
                 raise fail(f"{at}.{flag}", "must be true or false", v)
@@ -261,11 +270,12 @@ class Scene:
             raise fail(f"{at}.material", "must be a Material", material)
         if not isinstance(section, Section):
             raise fail(f"{at}.section", "must be a Section", section)
-        if axial == "decoupled" and not bending:
+        if axial is not None and AXIAL_STRAINS[axial].needs_bending and not bending:
             # the decoupled energy sees only the nodal stretches and the element's length: without bending stiffness
             # an element can fold at no cost (a hanging soft rope's end element folds into a hook, measured)
-            raise fail(f"{at}.axial", "'decoupled' needs bending = true (without bending stiffness the decoupled "
-                       "strain leaves folding modes of an element unresisted); use 'green' or 'biot'", axial)
+            others = " or ".join(repr(k) for k, v in AXIAL_STRAINS.items() if not v.needs_bending)
+            raise fail(f"{at}.axial", f"{axial!r} needs bending = true (without bending stiffness the {axial} "
+                       f"strain leaves folding modes of an element unresisted); use {others}", axial)
         if element.startswith("cable") and bending and section.bending_inertia is None:
             raise fail(f"{at}.section.I", "is required by bending = true (give I, or Iy/Iz)", None)
         if element == "beam3d":
@@ -273,9 +283,11 @@ class Scene:
                 raise fail(f"{at}.section.b", "beam3d needs a section with b and h (Section.rectangle)", section.b)
             if beam_method == "elastic_line" and (section.Iy is None or section.J is None):
                 raise fail(f"{at}.section.Iy", "elastic_line needs section Iy, Iz and J", section.Iy)
+        orders = gauss_orders(element, stiffness_effects(element, axial, bending, torsion, beam_method))
         if gauss is not None and (not isinstance(gauss, (int, np.integer)) or isinstance(gauss, bool)
-                                  or gauss not in GAUSS_ORDERS):
-            raise fail(f"{at}.gauss", f"must be one of {', '.join(map(str, GAUSS_ORDERS))}", gauss)
+                                  or gauss not in orders):
+            why = "" if len(orders) > 1 else f" (the {beam_method} beam is generated for that order only)"
+            raise fail(f"{at}.gauss", f"must be one of {', '.join(map(str, orders))}{why}", gauss)
         ya = None if y_axis is None else vector(f"{at}.y_axis", y_axis, 3)
         pre = number(f"{at}.prestrain", prestrain)
         if not -0.5 < pre < 1.0:
@@ -323,21 +335,47 @@ class Scene:
         self.contacts.append(c)
         return c
 
-    # -- rigid bodies (ancf_sym.bodies) -------------------------------------------------------------------------
-    def body(self, name: str, mass: float, inertia: float, position: Sequence[float], angle: float = 0.0,
-             force: Sequence[float] | None = None):
-        """A planar rigid body: mass [kg], inertia about its centre of mass [kg m^2], centre of mass `position` and
-        `angle` [rad] in the reference state, a dead `force` [N] at its centre; gravity acts on it."""
-        from . import bodies
+    # -- rigid bodies (ancf_sym.bodies: planar; ancf_sym.spatial_bodies: 3D scenes) -------------------------------
+    def body(self, name: str, mass: float, inertia: Any, position: Sequence[float], angle: float = 0.0,
+             force: Sequence[float] | None = None, axes: Any = None):
+        """A rigid body with mass [kg], centre of mass `position` [m] in the reference state and a dead `force` [N]
+        at its centre; gravity acts on it. Planar (2D scene): `inertia` about the centre [kg m^2] and `angle` [rad]
+        of its x axis. Spatial (3D scene): `inertia` as 3 principal moments or a 3x3 tensor about the centre in the
+        body axes, `axes` the rows x, y, z of those axes in world components (default the world axes)."""
+        if self.dim == 3:
+            from . import spatial_bodies
 
-        b = bodies.make_body(self, name, mass, inertia, position, angle, force)
+            if angle not in (0, 0.0):
+                raise fail("body.angle", "is planar; a spatial body takes axes (3 rows x, y, z)", angle)
+            b = spatial_bodies.make_body(self, name, mass, inertia, position, axes, force)
+        else:
+            from . import bodies
+
+            if axes is not None:
+                raise fail("body.axes", "is for spatial bodies (3D scenes); a planar body takes angle", axes)
+            b = bodies.make_body(self, name, mass, inertia, position, angle, force)
         self.bodies[name] = b
         return b
 
-    def revolute(self, body: str, point: Sequence[float] | None = None, other: str | None = None):
+    def revolute(self, body: str, point: Sequence[float] | None = None, axis: Sequence[float] | None = None,
+                 other: str | None = None):
         """The body turns about a point (world coordinates in the reference state; default its centre) fixed to the
-        ground, or to the body `other` (a wheel on a chassis)."""
-        return self._body_joint("revolute", body, point=point, other=other)
+        ground, or to the body `other` (a wheel on a chassis); in 3D about the world `axis` through it."""
+        if self.dim == 2:
+            if axis is not None:
+                raise fail("revolute.axis", "is for spatial bodies (3D scenes): planar bodies turn about z", axis)
+            return self._body_joint("revolute", body, point=point, other=other)
+        return self._body_joint("revolute", body, point=point, axis=axis, other=other)
+
+    def spherical(self, body: str, point: Sequence[float] | None = None, other: str | None = None):
+        """3D: the body point at `point` (default its centre) stays on the ground point, or on body `other`'s."""
+        return self._body_joint("spherical", body, point=point, other=other)
+
+    def prismatic(self, body: str, axis: Sequence[float], point: Sequence[float] | None = None,
+                  other: str | None = None):
+        """The body slides along the world `axis` (reference state) through `point` (default its centre) without
+        turning, relative to the ground or to body `other`."""
+        return self._body_joint("prismatic", body, point=point, axis=axis, other=other)
 
     # -- drives and torques (ancf_sym.drives) -------------------------------------------------------------------
     def drive(self, body: str, angle: Any = None, omega: Any = None, relative_to: str | None = None,
@@ -375,13 +413,22 @@ class Scene:
         return self._body_joint("pin", body, member=member, at=at)
 
     def rigid_body(self, body: str, member: str, at: Any = "end"):
-        """As pin_body, and the member's slope at the node turns with the body (a clamp into the body)."""
+        """As pin_body, and the member's slope at the node turns with the body (a clamp into the body; beam3d: its
+        whole frame of gradients)."""
         return self._body_joint("rigid", body, member=member, at=at)
 
     def _body_joint(self, kind: str, body: str, **kw: Any):
-        from . import bodies
+        if self.dim == 3:
+            from . import spatial_bodies
 
-        j = bodies.make_joint(self, kind, body, **kw)
+            j = spatial_bodies.make_joint(self, kind, body, **kw)
+        else:
+            from . import bodies
+
+            if kind == "spherical":
+                raise fail("spherical", "is a joint of spatial bodies (3D scenes); planar bodies have revolute, "
+                           "prismatic, pin and rigid", body)
+            j = bodies.make_joint(self, kind, body, **kw)
         self.body_joints.append(j)
         return j
 
@@ -475,16 +522,19 @@ class Scene:
 
     def rayleigh(self, alpha: float = 0.0, beta: float = 0.0, members: Sequence[str] | None = None) -> Damping:
         """Rayleigh damping for dynamics, C = alpha M + beta K_el: alpha [1/s] damps absolute velocities (whole
-        scene), beta [s] the elastic tangent stiffness of `members` (default all) at the start of each step."""
-        a = _finite("rayleigh.alpha", alpha)
-        b = _finite("rayleigh.beta", beta)
-        if a < 0 or b < 0:
-            raise SceneError(f"rayleigh.alpha and rayleigh.beta must be >= 0, got {alpha!r}, {beta!r}")
-        if members is not None:
-            members = [members] if isinstance(members, str) else list(members)
-            for m in members:
-                self._member(m, "rayleigh.members")
-        d = Damping("rayleigh", a, b, members)
+        scene, one value), beta [s] the elastic tangent stiffness of `members` (default all) at the start of each
+        step."""
+        a, b = _coefficient("rayleigh.alpha", alpha), _coefficient("rayleigh.beta", beta)
+        names = self._member_list("rayleigh.members", members)
+        if a:  # C = alpha M is one matrix for the whole scene
+            if members is not None:
+                raise fail("rayleigh.members", "alpha (mass-proportional) acts on the whole scene: give members only "
+                           "with beta", members)
+            other = {d.alpha for d in self.dampings if d.kind == "rayleigh" and d.alpha} - {a}
+            if other:
+                raise fail("rayleigh.alpha", f"the scene has one mass-proportional alpha; an earlier damping gives "
+                           f"{other.pop()!r}", alpha)
+        d = Damping("rayleigh", a, b, names)
         self.dampings.append(d)
         return d
 
@@ -493,18 +543,25 @@ class Scene:
         """Kelvin-Voigt damping of cable members for dynamics: axial force axial * eps_dot [axial in N s] and
         bending moment bending * kappa_dot [bending in N m^2 s] (strain rate of the member's axial measure,
         curvature-vector rate); it vanishes under rigid-body motion."""
-        a = _finite("strain_rate_damping.axial", axial)
-        b = _finite("strain_rate_damping.bending", bending)
-        if a < 0 or b < 0:
-            raise SceneError(f"strain_rate_damping.axial and .bending must be >= 0, got {axial!r}, {bending!r}")
-        names = list(self.members) if members is None else ([members] if isinstance(members, str) else list(members))
-        for m in names:
-            if self._member(m, "strain_rate_damping.members").element == "beam3d":
+        a = _coefficient("strain_rate_damping.axial", axial)
+        b = _coefficient("strain_rate_damping.bending", bending)
+        names = self._member_list("strain_rate_damping.members", members)
+        for m in names if names is not None else list(self.members):
+            if self.members[m].element == "beam3d":
                 raise SceneError(f"strain_rate_damping: member {m!r} is a beam3d; strain-rate damping is defined for "
                                  "cable members (use rayleigh for beams)")
-        d = Damping("strain_rate", members=None if members is None else names, axial=a, bending=b)
+        d = Damping("strain_rate", members=names, axial=a, bending=b)
         self.dampings.append(d)
         return d
+
+    def _member_list(self, field_name: str, members: Sequence[str] | str | None) -> list[str] | None:
+        """None (all members) or the named members, each checked (errors name field_name[i])."""
+        if members is None:
+            return None
+        names = [members] if isinstance(members, str) else list(members)
+        for i, m in enumerate(names):
+            self._member(m, f"{field_name}[{i}]")
+        return names
 
     def _add_load(self, load: Load) -> Load:
         self.loads.append(load)
@@ -564,8 +621,8 @@ class Scene:
                 held.add(j.body)
         for name in self.bodies:
             if name not in held:
-                raise SceneError(f"body {name!r} has a free rigid-body motion: it needs a revolute joint or a pin "
-                                 "to a supported member")
+                raise SceneError(f"body {name!r} has a free rigid-body motion: it needs a joint to the ground "
+                                 "(revolute; 3D: spherical, prismatic) or a pin to a supported member")
         for name, g in groups.items():
             if not g & supported:
                 raise SceneError(f"member {name!r} has a free rigid-body motion: neither it nor a member joined to "

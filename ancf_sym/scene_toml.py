@@ -11,14 +11,18 @@ The file mirrors the Python API (docs/scenes.md has the full schema and an annot
     [[joints]]           type = "hinge" | "rigid", a = [member, at], b = [member, at], method, penalty
     [[loads]]            type = "force" | "distributed" | "moment" | "tension", member, at, value
     [[dampings]]         type = "rayleigh" (alpha, beta, members) | "strain_rate" (axial, bending, members)
-    [[bodies]]           name, mass, inertia, position, angle, force, revolute = [x, y] (ground pivot),
-                         pin = [[member, at], ...], rigid = [[member, at], ...] (planar rigid bodies),
-                         revolute_body = NAME (the revolute point fixed to that body instead of the ground)
+    [[loops]]            name, path = [["line", a, b], ["arc", centre, radius, angle0, sweep], ...] or
+                         pulleys = [[centre, radius], ...], elements, material, section, and the member keys
+    [[bodies]]           name, mass, inertia, position, force, pin = [[member, at], ...], rigid = [...];
+                         2D: angle, revolute = [x, y] (pivot; fixed to the body revolute_body = NAME instead of the
+                         ground); 3D: axes; revolute / prismatic (2D, 3D), spherical (3D) = {point, axis, other}
+                         (or an array of such tables; a ground point [x, y(, z)] for revolute in 2D and spherical)
     [[drives]]           type = "angle" (body, angle | omega, relative_to, angle0) | "position" (member, at | body,
                          position) | "torque" (body, torque); motions: numbers or [[t, [a0, a1, ...]], ...]
     [[contacts]]         type = "ground" (normal, level) | "circle" (centre, radius, axis), member, stiffness, hertz,
                          thickness, damping, mu, eps, gauss, method (ancf_sym.contact.from_toml)
-    [analysis]           type = "statics" (tol, max_iter, load_steps, escape_saddle) | "dynamics" (passed through)
+    [analysis]           type = "statics" (tol, max_iter, load_steps, escape_saddle) | "dynamics" (passed through;
+                         start = "static", [[analysis.initial]] member, velocity | omega, centre)
 
 Everything is checked before any solving. Every error is a SceneError whose message starts with the TOML path of
 the offending field (array indices count from 0), e.g. "members[1].elements: must be a positive integer, got 0".
@@ -33,8 +37,8 @@ from typing import Any
 from . import contact, drives
 from .checks import check_keys, fail, number, vector
 from .mesh import build_mesh
-from .scene import AXIAL, Material, Scene, SceneError, Section
-from .schema import MATERIAL, SECTION, STATIC_OPTIONS
+from .scene import Material, Scene, SceneError, Section
+from .schema import BODY, BODY_JOINT, LOOP, MATERIAL, SECTION, STATIC_OPTIONS
 from .statics import StaticOptions
 from .terms import scene_terms
 
@@ -43,19 +47,18 @@ try:
 except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
-TOP_KEYS = ("scene", "materials", "sections", "members", "supports", "joints", "loads", "dampings", "contacts",
-            "bodies", "drives", "analysis")
-BODY_KEYS = ("name", "mass", "inertia", "position", "angle", "force", "revolute", "revolute_body", "pin", "rigid")
+TOP_KEYS = ("scene", "materials", "sections", "members", "loops", "supports", "joints", "loads", "dampings",
+            "contacts", "bodies", "drives", "analysis")
 SCENE_KEYS = ("name", "dim", "gravity")
 SECTION_KEYS = {None: tuple(SECTION), "circle": ("diameter",), "rectangle": ("b", "h")}
 MEMBER_KEYS = tuple(inspect.signature(Scene.member).parameters)[1:]  # the keywords of Scene.member
 SUPPORT_TYPES = ("clamp", "pin", "slope")
 JOINT_TYPES = ("hinge", "rigid")
 LOAD_TYPES = ("force", "distributed", "moment", "tension")
-DAMPING_FIELDS = {"rayleigh": ("alpha", "beta"), "strain_rate": ("axial", "bending")}
+DAMPINGS = {"rayleigh": "rayleigh", "strain_rate": "strain_rate_damping"}  # [[dampings]] type -> the Scene method
 METHODS = ("exact", "penalty")
 ANALYSIS_TYPES = ("statics", "dynamics")
-STATICS_OPTIONS = tuple(k for k in STATIC_OPTIONS if k != "print_level")  # print_level: Python API only
+STATICS_OPTIONS = tuple(k for k, f in STATIC_OPTIONS.items() if not f.api_only)
 
 
 # -- typed readers: each names the TOML path of what it reads -------------------------------------------------------
@@ -154,17 +157,12 @@ def _named(path: str, v: Any, table: dict, what: str) -> Any:
 
 
 def _member(scene: Scene, path: str, d: dict, materials: dict, sections: dict) -> None:
-    """Names resolved here (material, section, axial = "none"); every value checked by Scene.member."""
+    """Names resolved here (material, section); every value checked by Scene.member (axial = "none" included)."""
     _keys(path, d, MEMBER_KEYS, ("name", "points", "elements", "material", "section"))
     name = _str(f"{path}.name", d["name"])
-    if name in scene.members:
-        raise _fail(f"{path}.name", "repeats an earlier member's name", name)
     kw = {k: v for k, v in d.items() if k not in ("name", "points")}
     kw["material"] = _named(f"{path}.material", d["material"], materials, "material ([materials.NAME])")
     kw["section"] = _named(f"{path}.section", d["section"], sections, "section ([sections.NAME])")
-    if "axial" in d:
-        axial = _str(f"{path}.axial", d["axial"], AXIAL + ("none",))
-        kw["axial"] = None if axial == "none" else axial
     _api(path, scene.member, name, d["points"], root=f"members[{name!r}]", **kw)
 
 
@@ -212,21 +210,89 @@ def _joint(scene: Scene, path: str, d: dict) -> None:
 
 
 def _body(scene: Scene, path: str, d: dict) -> None:
-    """A rigid body and its joints: revolute to the ground at a point, pins and rigid ties to member nodes."""
-    _keys(path, d, BODY_KEYS, ("name", "mass", "inertia", "position"))
+    """A rigid body (Scene.body: planar in a 2D scene, spatial in a 3D one); its joints come after all bodies."""
+    _keys(path, d, BODY, ("name", "mass", "inertia", "position"))
     name = _str(f"{path}.name", d["name"])
-    _api(path, scene.body, name, d["mass"], d["inertia"], d["position"], d.get("angle", 0.0), d.get("force"))
-    if "revolute" in d or "revolute_body" in d:
-        point = _vector(f"{path}.revolute", d["revolute"], 2) if "revolute" in d else None
-        other = _str(f"{path}.revolute_body", d["revolute_body"]) if "revolute_body" in d else None
-        _api(path, scene.revolute, name, point, other)
+    kw = {k: d[k] for k in ("angle", "force", "axes") if k in d}
+    _api(path, scene.body, name, d["mass"], d["inertia"], d["position"], root="body", **kw)
+
+
+def _joint_tables(path: str, v: Any) -> list[tuple[str, dict]]:
+    """A 3D body joint given as one inline table or an array of them: [(path, table), ...]."""
+    if isinstance(v, dict):
+        return [(path, v)]
+    if isinstance(v, list) and v and all(isinstance(e, dict) for e in v):
+        return [(f"{path}[{k}]", e) for k, e in enumerate(v)]
+    raise _fail(path, "must be a table {point, axis, other} or an array of them", v)
+
+
+def _body_joints(scene: Scene, path: str, d: dict) -> None:
+    """Joints of one body: to the ground or other bodies (all bodies exist by now), pins and rigid ties to member
+    nodes."""
+    name = d["name"]
+    if scene.dim == 3 and "angle" in d:
+        raise _fail(f"{path}.angle", "is planar; a spatial body takes axes (3 rows x, y, z)", d["angle"])
+    if scene.dim == 2 and "spherical" in d:
+        raise _fail(f"{path}.spherical", "is for spatial bodies (3D scenes)", d["spherical"])
+    if "revolute_body" in d:  # (2D) the pivot fixed to that body: revolute = [x, y] or the body's centre
+        rev = d.get("revolute")
+        if scene.dim == 3 or isinstance(rev, dict) or (isinstance(rev, list) and rev and isinstance(rev[0], dict)):
+            raise _fail(f"{path}.revolute_body", "goes with a planar revolute = [x, y] (or write revolute = "
+                        "{point, other})", d["revolute_body"])
+        d = {**d, "revolute": {"other": _str(f"{path}.revolute_body", d["revolute_body"]),
+                               **({"point": d["revolute"]} if "revolute" in d else {})}}
+    for kind in ("spherical", "revolute", "prismatic"):
+        if kind not in d:
+            continue
+        v = d[kind]
+        if kind != "prismatic" and isinstance(v, list) and v and not isinstance(v[0], dict):
+            if kind == "revolute" and scene.dim == 3:
+                raise _fail(f"{path}.revolute", "in 3D must be a table {point, axis, other} (the axis is required)", v)
+            v = {"point": v}  # a ground point
+        with_axis = kind == "prismatic" or (kind == "revolute" and scene.dim == 3)
+        for jpath, t in _joint_tables(f"{path}.{kind}", v):
+            _keys(jpath, t, BODY_JOINT, ("axis",) if with_axis else ())
+            if "axis" in t and not with_axis:
+                raise _fail(f"{jpath}.axis", f"a {'planar ' if scene.dim == 2 else ''}{kind} joint has no axis",
+                            t["axis"])
+            kw = {k: t[k] for k in ("point", "axis", "other") if k in t}
+            _api(jpath, getattr(scene, kind), name, root=kind, **kw)
     for kind, call in (("pin", scene.pin_body), ("rigid", scene.rigid_body)):
         ends = d.get(kind, [])
         if not isinstance(ends, list):
             raise _fail(f"{path}.{kind}", "must be a list of [member, at]", ends)
         for k, end in enumerate(ends):
             member, at = _joint_end(scene, f"{path}.{kind}[{k}]", end)
-            _api(path, call, name, member, at)
+            _api(f"{path}.{kind}[{k}]", call, name, member, at)
+
+
+def _loop(scene: Scene, path: str, d: dict, materials: dict, sections: dict) -> None:
+    """A closed member (Scene.loop) along `path` pieces or around `pulleys` (closed.belt_path)."""
+    from . import closed
+
+    member_keys = tuple(k for k in MEMBER_KEYS if k not in ("points", "elements", "material", "section"))
+    _keys(path, d, tuple(LOOP) + member_keys, ("name", "elements", "material", "section"))
+    name = _str(f"{path}.name", d["name"])
+    if ("path" in d) == ("pulleys" in d):
+        raise _fail(path, "give path (pieces) or pulleys (a belt around them), not both or neither")
+    if "pulleys" in d:
+        pul = d["pulleys"]
+        if not isinstance(pul, list) or len(pul) < 2 or not all(isinstance(p, list) and len(p) == 2 for p in pul):
+            raise _fail(f"{path}.pulleys", "must be >= 2 entries [centre, radius], centre = [x, y]", pul)
+        pulleys = [(tuple(_vector(f"{path}.pulleys[{i}][0]", c, 2)), _number(f"{path}.pulleys[{i}][1]", R,
+                                                                               positive=True))
+                   for i, (c, R) in enumerate(pul)]
+        pieces = _api(f"{path}.pulleys", closed.belt_path, pulleys)
+    else:
+        pieces = d["path"]
+        if not isinstance(pieces, list) or not pieces:
+            raise _fail(f"{path}.path", "must be a list of pieces [\"line\", a, b] | [\"arc\", centre, radius, "
+                        "angle0, sweep]", pieces)
+        pieces = [tuple(p) if isinstance(p, list) else p for p in pieces]
+    kw = {k: v for k, v in d.items() if k not in ("name", "path", "pulleys", "elements", "material", "section")}
+    kw["material"] = _named(f"{path}.material", d["material"], materials, "material ([materials.NAME])")
+    kw["section"] = _named(f"{path}.section", d["section"], sections, "section ([sections.NAME])")
+    _api(path, scene.loop, name, pieces, d["elements"], root=f"members[{name!r}]", **kw)
 
 
 def _load(scene: Scene, path: str, d: dict) -> None:
@@ -260,35 +326,18 @@ def _load(scene: Scene, path: str, d: dict) -> None:
 
 def _damping(scene: Scene, path: str, d: dict) -> None:
     """Dynamics only: Scene.rayleigh (alpha [1/s], beta [s]) or Scene.strain_rate_damping (axial [N s],
-    bending [N m^2 s]); members (default all) is a list of member names."""
+    bending [N m^2 s]), which check the values; members (default all) is an array of member names."""
     if "type" not in d:
         raise _fail(f"{path}.type", "missing (required: rayleigh | strain_rate)")
-    kind = _str(f"{path}.type", d["type"], tuple(DAMPING_FIELDS))
-    fields = DAMPING_FIELDS[kind]
+    kind = _str(f"{path}.type", d["type"], tuple(DAMPINGS))
+    method = DAMPINGS[kind]
+    fields = tuple(k for k in inspect.signature(getattr(Scene, method)).parameters if k not in ("self", "members"))
     _keys(path, d, ("type", "members") + fields, ("type",))
     if not any(f in d for f in fields):
         raise _fail(path, f"give {' and/or '.join(fields)} (a {kind} damping without coefficients)")
-    kw: dict[str, Any] = {}
-    for f in fields:
-        if f in d:
-            v = _number(f"{path}.{f}", d[f])
-            if v < 0:
-                raise _fail(f"{path}.{f}", "must be >= 0", d[f])
-            kw[f] = v
-    if "members" in d:
-        m = d["members"]
-        if not isinstance(m, list) or not m:
-            raise _fail(f"{path}.members", "must be a non-empty array of member names", m)
-        kw["members"] = [_member_name(scene, f"{path}.members[{i}]", v) for i, v in enumerate(m)]
-    if kind == "rayleigh" and kw.get("alpha"):  # (what the dynamics would refuse, refused now)
-        if "members" in kw:
-            raise _fail(f"{path}.members", "alpha (mass-proportional) acts on the whole scene: give members only "
-                        "with beta", d["members"])
-        other = {dd.alpha for dd in scene.dampings if dd.kind == "rayleigh" and dd.alpha} - {kw["alpha"]}
-        if other:
-            raise _fail(f"{path}.alpha", f"the scene has one mass-proportional alpha; an earlier damping gives "
-                        f"{other.pop()!r}", d["alpha"])
-    _api(path, scene.rayleigh if kind == "rayleigh" else scene.strain_rate_damping, **kw)
+    if "members" in d and (not isinstance(d["members"], list) or not d["members"]):
+        raise _fail(f"{path}.members", "must be a non-empty array of member names", d["members"])
+    _api(path, getattr(scene, method), root=method, **{k: v for k, v in d.items() if k != "type"})
 
 
 def _analysis(d: Any) -> dict:
@@ -307,23 +356,22 @@ def _analysis(d: Any) -> dict:
 def scene_from_dict(doc: dict, default_name: str = "scene") -> tuple[Scene, dict]:
     """The scene and the analysis table of a parsed TOML document (see the module docstring)."""
     _check_finite("", doc)
-    _keys("", doc, TOP_KEYS, ("scene", "members"))
+    _keys("", doc, TOP_KEYS, ("scene",))
     sd = _table("scene", doc["scene"])
     _keys("scene", sd, SCENE_KEYS, ("dim",))
-    dim = sd["dim"]
-    if isinstance(dim, bool) or dim not in (2, 3):
-        raise _fail("scene.dim", "must be 2 or 3", dim)
-    name = _str("scene.name", sd["name"]) if "name" in sd else default_name
-    gravity = _vector("scene.gravity", sd["gravity"], dim) if "gravity" in sd else None
-    scene = _api("scene", Scene, dim=dim, gravity=gravity, name=name)
+    # Scene checks dim, name and gravity (errors under the API's own scene.* paths, which are the file's)
+    scene = _api("scene", Scene, root="scene", dim=sd["dim"], gravity=sd.get("gravity"),
+                 name=sd.get("name", default_name))
 
     materials = {k: _material(f"materials.{k}", v) for k, v in _table("materials", doc.get("materials", {})).items()}
     sections = {k: _section(f"sections.{k}", v) for k, v in _table("sections", doc.get("sections", {})).items()}
-    members = _array_of_tables("members", doc["members"])
-    if not members:
-        raise _fail("members", "must define at least one [[members]] table")
+    members = _array_of_tables("members", doc.get("members", []))
+    if not members and not doc.get("loops") and not doc.get("bodies"):
+        raise _fail("members", "must define at least one [[members]], [[loops]] or [[bodies]] table")
     for i, d in enumerate(members):
         _member(scene, f"members[{i}]", d, materials, sections)
+    for i, d in enumerate(_array_of_tables("loops", doc.get("loops", []))):
+        _loop(scene, f"loops[{i}]", d, materials, sections)
     for i, d in enumerate(_array_of_tables("supports", doc.get("supports", []))):
         _support(scene, f"supports[{i}]", d)
     for i, d in enumerate(_array_of_tables("joints", doc.get("joints", []))):
@@ -332,10 +380,13 @@ def scene_from_dict(doc: dict, default_name: str = "scene") -> tuple[Scene, dict
         _load(scene, f"loads[{i}]", d)
     for i, d in enumerate(_array_of_tables("dampings", doc.get("dampings", []))):
         _damping(scene, f"dampings[{i}]", d)
-    for i, d in enumerate(_array_of_tables("contacts", doc.get("contacts", []))):
-        _api(f"contacts[{i}]", contact.from_toml, scene, d)
-    for i, d in enumerate(_array_of_tables("bodies", doc.get("bodies", []))):
+    bodies = _array_of_tables("bodies", doc.get("bodies", []))
+    for i, d in enumerate(bodies):
         _body(scene, f"bodies[{i}]", d)
+    for i, d in enumerate(bodies):  # joints may name any body, earlier or later
+        _body_joints(scene, f"bodies[{i}]", d)
+    for i, d in enumerate(_array_of_tables("contacts", doc.get("contacts", []))):  # (after the bodies: a circle
+        _api(f"contacts[{i}]", contact.from_toml, scene, d)                         # may be carried by one)
     for i, d in enumerate(_array_of_tables("drives", doc.get("drives", []))):
         _api(f"drives[{i}]", drives.from_toml, scene, d)
 
@@ -344,6 +395,12 @@ def scene_from_dict(doc: dict, default_name: str = "scene") -> tuple[Scene, dict
     analysis = _analysis(doc.get("analysis", {"type": "statics"}))
     if analysis["type"] == "statics":
         _api("supports", scene.validate_for_statics)
+    for i, d in enumerate(analysis.get("initial") or []):  # (their form is checked with the analysis)
+        if d["member"] not in scene.members and d["member"] not in scene.bodies:
+            raise _fail(f"analysis.initial[{i}].member", f"names no member or body; members: {sorted(scene.members)}"
+                        f", bodies: {sorted(scene.bodies)}", d["member"])
+    if analysis.get("start") == "static":
+        _api("analysis.start", scene.validate_for_statics)
     return scene, analysis
 
 

@@ -31,7 +31,7 @@ STATIC_OPTIONS = {
     "max_iter": Field("int", positive=True, doc="IPOPT iterations per attempt"),
     "load_steps": Field("int", positive=True, doc="continuation steps of the fallback"),
     "escape_saddle": Field("bool", doc="leave an unstable equilibrium along its negative mode"),
-    "print_level": Field("int", span=(0, 12), doc="IPOPT's print level (Python API only)"),
+    "print_level": Field("int", span=(0, 12), doc="IPOPT's print level (Python API only)", api_only=True),
 }
 
 # the fields DynamicOptions checks by kind; "any" fields are checked by DynamicOptions itself (integrator names,
@@ -59,6 +59,55 @@ DYNAMIC_OPTIONS = {
     "energies": Field("bool", doc="record the energy balance"),
     "q0": Field("any", optional=True, doc="initial coordinates (Python API)"),
     "v0": Field("any", optional=True, doc="initial velocities (Python API)"),
+    "initial": Field("any", optional=True, doc="initial velocities per member or body: a list of [[initial]] tables"),
+    "start": Field("str", choices=("reference", "static"), optional=True,
+                   doc="start from the reference state (default) or from the static equilibrium"),
+}
+
+# [[bodies]]: one rigid body and its joints (planar in 2D scenes, spatial in 3D ones)
+BODY = {
+    "name": Field("str", doc="unique among bodies and members"),
+    "mass": Field("number", "kg", positive=True, doc="mass"),
+    "inertia": Field("any", "kg m^2", doc="about the centre: a number (2D); 3 principal moments or a 3x3 tensor in "
+                     "the body axes (3D)"),
+    "position": Field("any", "m", doc="centre of mass in the reference state"),
+    "angle": Field("number", "rad", optional=True, doc="2D: the body's x axis in the reference state"),
+    "axes": Field("any", optional=True, doc="3D: rows x, y, z of the body axes in world components (default: world)"),
+    "force": Field("any", "N", optional=True, doc="dead force at the centre"),
+    "revolute": Field("any", optional=True, doc="joint table(s) {point, other; 3D: axis}, or (2D) a ground pivot "
+                      "[x, y] (m)"),
+    "revolute_body": Field("str", optional=True, doc="2D: the body the revolute point is fixed to (default: ground)"),
+    "spherical": Field("any", optional=True, doc="3D: joint table(s) {point, other}, or a ground point [x, y, z] (m)"),
+    "prismatic": Field("any", optional=True, doc="joint table(s) {axis, point, other}"),
+    "pin": Field("any", optional=True, doc="[[member, at], ...]: member nodes pinned to the body"),
+    "rigid": Field("any", optional=True, doc="[[member, at], ...]: member nodes clamped into the body"),
+}
+
+# a body's revolute / spherical / prismatic joint: an inline table, or an array of them
+BODY_JOINT = {
+    "point": Field("any", "m", optional=True, doc="joint point, world, reference state (default the body's centre)"),
+    "axis": Field("any", optional=True, doc="3D revolute: the turning axis; prismatic: the sliding axis (world)"),
+    "other": Field("str", optional=True, doc="the second body (default: the ground)"),
+}
+
+# [[loops]]: a closed member along a path (Scene.loop); the member keys (element, axial, prestrain, ...) as [[members]]
+LOOP = {
+    "name": Field("str", doc="member name"),
+    "path": Field("any", "m", optional=True, doc="pieces [\"line\", a, b] and [\"arc\", centre, radius, angle0, "
+                  "sweep] (rad) joining into a loop in the x-y plane"),
+    "pulleys": Field("any", "m", optional=True, doc="instead of path: [[centre, radius], ...] counter-clockwise, "
+                     "the belt around them"),
+    "elements": Field("int", positive=True, doc="elements of equal length (>= 3)"),
+    "material": Field("str", doc="a [materials.NAME]"),
+    "section": Field("str", doc="a [sections.NAME]"),
+}
+
+# [[initial]]: the initial velocity of one member or body (dynamics)
+INITIAL = {
+    "member": Field("str", doc="member or body name"),
+    "velocity": Field("any", "m/s", optional=True, doc="uniform velocity (dim numbers)"),
+    "omega": Field("any", "rad/s", optional=True, doc="rigid rotation: rate about z (2D) or 3 numbers (3D)"),
+    "centre": Field("any", "m", optional=True, doc="the rotation's fixed point (default the origin)"),
 }
 
 
@@ -68,6 +117,13 @@ def _kind(f: Field) -> str:
     lim += [f"in ({f.between[0]:g}, {f.between[1]:g})"] if f.between else []
     lim += [f"{f.span[0]}..{f.span[1]}"] if f.span else []
     return k + (" " + ", ".join(lim) if lim else "") + (", optional" if f.optional else "")
+
+
+def fields_table(table: dict) -> str:
+    """A declared table as the markdown table docs/scenes.md gives (a test keeps the page equal to this)."""
+    rows = ["| key | type | unit | meaning |", "|---|---|---|---|"]
+    rows += [f"| `{k}` | {_kind(f)} | {f.unit or '-'} | {f.doc} |" for k, f in table.items()]
+    return "\n".join(rows) + "\n"
 
 
 def analysis_table() -> str:

@@ -1,8 +1,11 @@
-"""Sparse patterns from (row, col) triplets, merged in compressed-column order (SciPy's and CasADi's layout)."""
+"""Sparse patterns from (row, col) triplets, merged in compressed-column order (SciPy's and CasADi's layout), and
+the gathers and scatters that assemble compiled kernel results into global vectors and matrices inside CasADi graphs
+(the dynamics' step system and the optimal-control model and transcription alike)."""
 from __future__ import annotations
 
 import casadi as ca
 import numpy as np
+import scipy.sparse as sp
 
 
 def csc_pattern(rows: np.ndarray, cols: np.ndarray, n_rows: int,
@@ -17,3 +20,97 @@ def csc_pattern(rows: np.ndarray, cols: np.ndarray, n_rows: int,
 
 def casadi_sparsity(n_rows: int, n_cols: int, indptr: np.ndarray, indices: np.ndarray) -> ca.Sparsity:
     return ca.Sparsity(n_rows, n_cols, np.asarray(indptr).tolist(), np.asarray(indices).tolist())
+
+
+# -- assembling compiled kernel results in CasADi MX graphs (constant index maps, no products with 0/1 matrices) --
+
+def dm(A) -> ca.DM:
+    """A SciPy sparse (or dense) matrix as a CasADi DM with the same pattern."""
+    A = sp.csc_matrix(A)
+    A.sort_indices()
+    return ca.DM(ca.Sparsity(A.shape[0], A.shape[1], A.indptr.tolist(), A.indices.tolist()), A.data.tolist())
+
+
+def gather_sum(vals: list, target: np.ndarray, n_out: int) -> ca.MX:
+    """out[t] = sum of the entries k of vertcat(vals) with target[k] = t (target -1: dropped), as a few gathers
+    (one per multiplicity) and additions: cheaper in the MX virtual machine than a product with a 0/1 matrix."""
+    src = ca.vertcat(*vals, ca.MX.zeros(1))
+    n_src = src.shape[0] - 1
+    valid = np.flatnonzero(target >= 0)
+    t = target[valid]
+    order = valid[np.argsort(t, kind="stable")]
+    cnt = np.bincount(t, minlength=n_out)
+    if not len(order):
+        return ca.MX.zeros(n_out)
+    start = np.r_[0, np.cumsum(cnt)[:-1]]
+    out = None
+    for j in range(int(cnt.max())):
+        idx = np.where(cnt > j, order[np.minimum(start + j, len(order) - 1)], n_src)
+        term = src[idx.tolist()]
+        out = term if out is None else out + term
+    return out
+
+
+def scatter(vals: list, r: np.ndarray, c: np.ndarray, n: int, src: np.ndarray | None = None,
+            n_src: int | None = None, n_cols: int | None = None) -> ca.MX:
+    """Sparse n x n (or n x n_cols) MX summing the values at (r, c): entry k is vertcat(vals)[src[k]] (default:
+    k; n_src = the length of vertcat(vals) when src is given)."""
+    n_cols = n if n_cols is None else n_cols
+    indptr, indices, inv = csc_pattern(r, c, n, n_cols)
+    pattern = casadi_sparsity(n, n_cols, indptr, indices)
+    if src is None:
+        src, n_src = np.arange(len(inv)), len(inv)
+    target = -np.ones(n_src, dtype=np.int64)
+    target[src] = inv
+    return ca.MX(pattern, gather_sum(vals, target, len(indices)))
+
+
+def hessian_entries(pos: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Unknowns (a, b) of the entries of the column-major vec of a mapped kernel's Hessian output (nd x nd N:
+    entry e nd^2 + a nd + b is d2U / dx_idx[e, a] dx_idx[e, b]) and the entries on two unknowns (pos: the unknown
+    of each coordinate, -1 if fixed)."""
+    N, nd = idx.shape
+    ia = pos[np.broadcast_to(idx[:, :, None], (N, nd, nd)).ravel()]
+    ib = pos[np.broadcast_to(idx[:, None, :], (N, nd, nd)).ravel()]
+    return ia, ib, np.flatnonzero((ia >= 0) & (ib >= 0))
+
+
+def assemble_mx(calls: list, pos: np.ndarray, n: int, hessian: bool = True) -> tuple[ca.MX, ca.MX | None]:
+    """Gradient (n) and Hessian (n x n sparse) of a sum of mapped kernel calls on the unknowns, coordinate k of
+    the scene being unknown pos[k] (-1: fixed, dropped). calls: (idx (N x nd) coordinates of the elements,
+    G (nd x N), H (nd x nd N) or None); calls on the same elements are summed before the scatter."""
+    groups: dict = {}
+    for idx, G, H in calls:
+        key = (idx.shape, idx.tobytes())
+        if key in groups:
+            grp = groups[key]
+            grp[1] = grp[1] + G
+            grp[2] = None if H is None or grp[2] is None else grp[2] + H
+        else:
+            groups[key] = [idx, G, H]
+    if not groups:
+        return ca.MX.zeros(n), (ca.MX(n, n) if hessian else None)
+    g = gather_sum([ca.vec(G) for _, G, _ in groups.values()],
+                   np.concatenate([pos[idx.ravel()] for idx, _, _ in groups.values()]), n)
+    if not hessian:
+        return g, None
+    hvals, rows, cols, hpos, n_h = [], [], [], [], 0
+    for idx, _, H in groups.values():
+        ia, ib, keep = hessian_entries(pos, idx)
+        hvals.append(ca.vec(H))
+        rows.append(ib[keep])
+        cols.append(ia[keep])
+        hpos.append(n_h + keep)
+        n_h += ia.size
+    K = scatter(hvals, np.concatenate(rows), np.concatenate(cols), n, np.concatenate(hpos), n_h)
+    return g, K
+
+
+def sx_nonzeros(A: ca.SX) -> ca.SX:
+    """Nonzeros of a sparse SX as a column."""
+    return ca.vertcat(*A.nonzeros()) if A.nnz() else ca.SX(0, 1)
+
+
+def mx_nonzeros(A: ca.MX) -> ca.MX:
+    """Nonzeros of a sparse MX as a column (no copy of the structure)."""
+    return ca.sparsity_cast(A, ca.Sparsity.dense(A.nnz(), 1))

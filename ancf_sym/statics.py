@@ -1,8 +1,9 @@
 """Static equilibrium: full-step Newton first, IPOPT where Newton alone is not enough. User guide: docs/statics.md.
 
-1. Newton (statics_newton.py): full steps on the exact tangent, one CasADi call per iteration, from the start
-   point. Measured (bench/STATICS_RESULTS.md) it converges in 8 (Biot) to 18 (Green) iterations on a cantilever at any mesh size,
-   where a line search creeps along the narrow valley that a large EA/EI makes.
+1. Newton (statics_newton.py): full steps on the exact tangent (shifted where it is indefinite far out), the
+   compiled kernels called directly (statics_eval), from the start point. Measured (bench/STATICS_RESULTS.md) it
+   converges in 8 (Biot) to 12 (Green, from the Biot solution) iterations on a cantilever at any mesh size, where a
+   line search creeps along the narrow valley that a large EA/EI makes.
 2. If Newton does not converge cleanly (diverges, stalls, exceeds its iterations), Newton again along the load
    factor in adaptive steps; if that fails too (or a result lies above the start's potential), IPOPT minimises: first accepting every trial step, then with its line search, then stepping the loads up; Newton
    finishes from IPOPT's point, so every answer passes the same convergence test.
@@ -15,7 +16,6 @@ element count while the nodal loads shrink.
 """
 from __future__ import annotations
 
-import copy
 import hashlib
 import pickle
 import time
@@ -25,9 +25,8 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.linalg import splu
 
-from . import bodies, contact, fields, statics_contact
+from . import bodies, contact, fields, spatial_bodies, statics_contact
 from .assembly import LOAD_LABELS, Assembly
 from .checks import check_fields
 from .interrupts import interruptible
@@ -35,8 +34,10 @@ from .mesh import check_stretch
 from .scene import Scene, SceneError
 from .schema import STATIC_OPTIONS
 
-from .inertia import reduced_inertia
-from .statics_newton import AssemblyNewton, NewtonRun, NewtonStatics, Reduction
+from .inertia import STABILITY_EPS, reduced_inertia
+from .member_effects import START_STRAIN
+from .statics_eval import BIOT
+from .statics_newton import KernelNewton, NewtonRun, NewtonStatics, Reduction
 
 SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 INTERRUPTED = ("User_Requested_Stop", "User_Interrupt")  # IPOPT swallows SIGINT and returns one of these
@@ -108,9 +109,18 @@ class StaticResult:
     def tip(self, member: str) -> np.ndarray:
         return self.nodes(member)[-1]
 
-    def body(self, name: str) -> tuple[float, float, float]:
-        """(x, y, angle) of a rigid body's centre of mass [m, m, rad]."""
+    def body(self, name: str) -> tuple:
+        """Planar: (x, y, angle) of a rigid body's centre of mass [m, m, rad]. Spatial: (centre [m], axes), the
+        axes' rows its x, y, z axes in world components."""
+        if self.assembly.scene.dim == 3:
+            return spatial_bodies.state(self.x, self.assembly.mesh.bodies[name])
         return bodies.state(self.x, self.assembly.mesh.bodies[name])
+
+    def _body_record(self, name: str) -> dict:
+        if self.assembly.scene.dim == 3:
+            r, E = self.body(name)
+            return {"position": r.tolist(), "axes": E.tolist()}
+        return dict(zip(("x", "y", "angle"), self.body(name)))
 
     def along(self, member: str, per_element: int = 8) -> dict:
         """s, r, axial strain |r_x|-1 and curvature along the member."""
@@ -126,25 +136,26 @@ class StaticResult:
             "residual": self.residual, "residual_floor": self.residual_floor,
             "members": {name: {"nodes": self.nodes(name).tolist(), "slopes": self.slopes(name).tolist()}
                         for name in self.assembly.mesh.members},
-            "bodies": {name: dict(zip(("x", "y", "angle"), self.body(name))) for name in self.assembly.mesh.bodies},
+            "bodies": {name: self._body_record(name) for name in self.assembly.mesh.bodies},
             "constraint_forces": {k: np.asarray(v).tolist() for k, v in self.constraint_forces.items()},
         }
 
 
 class StaticProblem:
-    """A scene's static problem, built once: the Newton iteration now, IPOPT's problem on first need (load factor
-    as a parameter); solved as often as needed."""
+    """A scene's static problem, built once: the Newton iteration's index maps now (the StepSystem graph only for
+    scenes with multiplier rows), IPOPT's problem on first need (load factor as a parameter); solved as often as
+    needed."""
 
     def __init__(self, scene_or_assembly: Scene | Assembly):
         self.asm = scene_or_assembly if isinstance(scene_or_assembly, Assembly) else Assembly(scene_or_assembly)
         self.S = Reduction(self.asm)  # free coordinates (the graph's StepSystem has the same)
-        self.light = AssemblyNewton(self.asm, self.S) if self.S.mc == 0 else None
+        self.light = KernelNewton(self.asm, self.S) if self.S.mc == 0 else None
         self._graph: NewtonStatics | None = None
         self.newton = self.light or self.graph
         self.solves = 0
         self._nlp = None
         self._solvers: dict = {}
-        self._biot: StaticProblem | bool | None = None  # the same scene with Biot strain (a start), False: none
+        self._biot: KernelNewton | bool | None = None  # Newton on the same scene with Biot strain (a start)
         self.work = self.newton.load_work(self.asm.x0)  # the loads' energy scale W [J]
 
     @property
@@ -155,14 +166,11 @@ class StaticProblem:
         return self._graph
 
     def _engine(self) -> NewtonStatics:
-        """Which evaluation runs the Newton iterations (measured, bench/STATICS_RESULTS.md): building the graph costs
-        ~35 ms at 60 elements and ~120 ms at 600, an iteration on it ~50 us / ~1.4 ms, one on the assembly
-        ~0.3 ms / ~3 ms: the assembly wins a first solve at every size measured (60 - 6000 elements); a problem
-        solved again (a study, a parameter sweep, warm starts) builds the graph once and runs on it from then on.
-        Scenes with multiplier rows always run on the graph."""
-        if self.light is None or self.solves > 1 or self._graph is not None:
-            return self.graph
-        return self.light
+        """Which evaluation runs the Newton iterations (measured, bench/STATICS_RESULTS.md): the kernels called
+        directly (KernelNewton) cost ~55 us per iteration at 60 elements, ~0.5 ms at 600 and ~9 ms at 6000, with
+        nothing to build; the compiled StepSystem graph ~50 us / ~1.4 ms / ~13 ms after ~35 ms / ~120 ms / ~1 s of
+        building. Only scenes with multiplier rows (rigid joints, skew clamps) need the graph's KKT solve."""
+        return self.light if self.light is not None else self.graph
 
     # -- IPOPT --------------------------------------------------------------------------------------------------
     def _build_nlp(self) -> None:
@@ -200,13 +208,16 @@ class StaticProblem:
         return self._solvers[key]
 
     def _run(self, x0, lam_g0, load, line_search, opts):
-        S = self.solver(line_search, opts)
         m = self.asm.exact.m
         args = {"x0": x0, "p": load, "lbg": np.zeros(m), "ubg": np.zeros(m)}
         if lam_g0 is not None:
             args["lam_g0"] = lam_g0
-        with interruptible():  # Ctrl-C / SIGTERM inside IPOPT: raised here, not tried again as a failed attempt
-            sol = S(**args)
+        # Ctrl-C / SIGTERM inside IPOPT: raised here, not tried again as a failed attempt. Building the solver is
+        # inside too: CasADi checks for signals while it builds and swallows the exception there as well.
+        with interruptible() as rec:
+            S = self.solver(line_search, opts)
+            if rec.exc is None:  # a signal swallowed while building: raised on leaving the block, no solve first
+                sol = S(**args)
         st = S.stats()
         if st["return_status"] in INTERRUPTED:  # Ctrl-C during IPOPT: stop, never try the next attempt
             raise KeyboardInterrupt
@@ -308,25 +319,17 @@ class StaticProblem:
         """The Biot-strain solution of the same scene (a start for cables with Green or decoupled strain, to
         BIOT_TOL); None without such cables or on a coarse mesh. Measured (bench/STATICS_RESULTS.md): Biot Newton
         converges in 8-10 iterations on paper 000's cantilever where Green needs 19-24 from the straight beam, and
-        Green then needs 2-3 more from Biot's answer (the strain measures differ by O(strain^2))."""
+        Green then needs 2-3 more from Biot's answer (the strain measures differ by O(strain^2)). The Biot Newton
+        shares this problem's index maps (ReducedEvaluation.variant): only its kernel calls differ. Scenes with
+        multiplier rows (the graph) start from the straight state."""
+        if self._biot is None:
+            cables = [m for m in self.asm.scene.members.values() if m.axial not in (None, START_STRAIN)]
+            coarse = any(m.elements < BIOT_MIN_ELEMENTS for m in cables)
+            ev = self.light.ev.variant(BIOT) if cables and not coarse and self.light is not None else None
+            self._biot = KernelNewton(self.asm, self.S, ev) if ev is not None else False
         if self._biot is False:
             return None
-        if self._biot is None:
-            scene = copy.deepcopy(self.asm.scene)
-            cables = [m for m in scene.members.values() if getattr(m, "axial", None) in ("green", "decoupled")]
-            for m in cables:
-                m.axial = "biot"
-            coarse = any(m.elements < BIOT_MIN_ELEMENTS for m in cables)
-            self._biot = StaticProblem(scene) if cables and not coarse else False
-            if self._biot and self._biot.asm.n != self.asm.n:
-                self._biot = False
-            if not self._biot:
-                return None
-        b = self._biot
-        b.solves = self.solves  # the same path as this problem: assembly on a first solve, then the graph
-        b.newton = b._engine()
-        rb = b.newton.solve(x, max(opts.tol, BIOT_TOL), min(BIOT_MAX_ITER, int(opts.max_iter)), work)
-        return rb
+        return self._biot.solve(x, max(opts.tol, BIOT_TOL), min(BIOT_MAX_ITER, int(opts.max_iter)), work)
 
     def _newton_load_steps(self, x, opts, work, ceiling, attempts):
         """Full-step Newton along the load factor with an adaptive step (as Exudyn's static solver adapts its load
@@ -443,7 +446,7 @@ class StaticProblem:
         if a.exact.m and np.max(np.abs(a.exact.value(x))) > 1e-9 * self._length_scale():
             e = np.inf
         else:
-            e = a.energy(x)
+            e = self.light.potential(x) if self.light is not None else a.energy(x)
         if reference:
             self._e_ref = e
         return e + tol * work
@@ -458,6 +461,10 @@ class StaticProblem:
         if not a.exact.m:
             return np.zeros(0)
         g = a.evaluate(x, hessian=False).gradient if gradient is None else gradient
+        A = a.exact.A.tocsr()
+        A.sum_duplicates()
+        if not len(a.exact.qrow) and np.all(np.diff(A.indptr) == 1) and len(np.unique(A.indices)) == a.exact.m:
+            return -g[A.indices] / A.data  # supports fixing one coordinate each (distinct): lam_r = -g_c / a_r
         if not hasattr(self, "_mult_cols"):
             self._mult_cols = np.unique(np.r_[a.exact.A.tocsr().indices, a.exact.qi, a.exact.qj]).astype(np.int64)
             self._mult_J = a.exact.A.tocsc()[:, self._mult_cols].toarray() if not len(a.exact.qrow) else None
@@ -476,7 +483,9 @@ class StaticProblem:
         row (default: from the gradient), for the curvature of the bilinear (rigid-joint) constraints.
 
         Returns (stable, direction of most negative curvature in full coordinates, max-norm 1)."""
-        if self.light is not None:  # no multiplier rows: the reduced Hessian from the assembly
+        if self.light is not None:  # no multiplier rows: the reduced Hessian from the kernels
+            if self.light.positive_definite(x, STABILITY_EPS):  # the usual case settled by a banded Cholesky
+                return True, None
             inertia = reduced_inertia(self.light.tangent(x)[2])
             d = None if inertia.direction is None else self.S.full_v(inertia.direction)
             return inertia.stable, (d / np.max(np.abs(d)) if d is not None and np.any(d) else None)
@@ -521,7 +530,7 @@ _CACHE: "OrderedDict[str, StaticProblem]" = OrderedDict()
 
 def problem_for(scene: Scene) -> StaticProblem:
     """The scene's StaticProblem, built once per scene content (fingerprint of the scene's data) and reused: a scene
-    rebuilt with the same members, supports and loads skips the assembly and the Newton graph."""
+    rebuilt with the same members, supports and loads skips the assembly and the Newton index maps."""
     try:
         key = hashlib.sha1(pickle.dumps(scene, protocol=4)).hexdigest()
     except (pickle.PicklingError, TypeError, AttributeError):

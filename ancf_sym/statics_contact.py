@@ -55,10 +55,11 @@ def solve(problem, x: np.ndarray, opts, t0: float):
                  "nlp_scaling_method": "none", "print_level": opts.print_level, "sb": "yes"}
         if not line_search:
             ipopt["accept_every_trial_step"] = "yes"
-        S = ca.nlpsol("statics_contact", "ipopt", nlp, {"ipopt": ipopt, "print_time": False, "grad_f": grad_f,
-                                                         "hess_lag": hess_lag, "error_on_fail": False})
-        with interruptible():  # Ctrl-C / SIGTERM inside IPOPT stop the solve, not only this attempt
-            sol = S(x0=x, p=1.0, lbg=lbg, ubg=ubg)
+        with interruptible() as rec:  # Ctrl-C / SIGTERM inside IPOPT (or its build) stop the solve, not this attempt
+            S = ca.nlpsol("statics_contact", "ipopt", nlp, {"ipopt": ipopt, "print_time": False, "grad_f": grad_f,
+                                                             "hess_lag": hess_lag, "error_on_fail": False})
+            if rec.exc is None:
+                sol = S(x0=x, p=1.0, lbg=lbg, ubg=ubg)
         st = S.stats()
         status, it = st["return_status"], int(st["iter_count"])
         iters += it

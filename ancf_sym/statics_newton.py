@@ -1,10 +1,17 @@
-"""Full-step Newton for static equilibrium: one CasADi call per iteration, a convergence test in the solution's terms.
+"""Full-step Newton for static equilibrium on the free coordinates, a convergence test in the solution's terms.
 
-The iteration runs on the free coordinates of the dynamics' StepSystem (supports that fix coordinates eliminated,
-hinges identified, the remaining exact rows with Lagrange multipliers): every energy term through its mapped
-compiled kernel, residual and KKT matrix assembled by constant gathers, sparse LDL^T (no multipliers) or QR
-(multipliers) factorisation and solve, all in one Function built once per scene. Python only loops over the
-iterations, so Ctrl-C stops a solve between two of them.
+The iteration runs on the free coordinates (supports that fix coordinates eliminated, hinges identified, the
+remaining exact rows with Lagrange multipliers). Two ways to evaluate one iteration (residual, tangent, update), one
+loop; which one depends on the scene, never on how often it is solved:
+- kernels (KernelNewton), every scene without multiplier rows: the compiled kernels called directly, their
+  gradients and Hessians scattered onto the free coordinates and LAPACK's band (statics_eval), a banded Cholesky
+  (dpbtrf): nothing to build; measured ~75 us per iteration at 60 elements, ~1.3 ms at 600, ~13.5 ms at 6000;
+- graph (NewtonStatics), scenes with multiplier rows (rigid joints, skew clamps): the dynamics' StepSystem with
+  every kernel, the KKT matrix and its sparse QR in one CasADi Function, ~35 ms (60 elements) to ~1 s (6000) to
+  build, then about as fast per iteration.
+Python only loops over the iterations, so Ctrl-C stops a solve between two of them.
+Where the tangent is not positive definite and the updates are still large, KernelNewton shifts its diagonal until
+the step lowers the potential (_shifted_step); full Newton steps everywhere else.
 
 Convergence (`tol`, relative, the same at any mesh size):
 - increment: the last applied Newton update, positions in units of the structure's length L and slopes
@@ -14,13 +21,6 @@ Convergence (`tol`, relative, the same at any mesh size):
 The answer is the point AFTER that update: Newton's error there is of the order of the update squared, so it lies
 within tol^2 L of the discrete solution, far below tol. The start state is never accepted while a load acts: its
 update is the (non-zero) response to the loads and it is applied before the test.
-Two ways to evaluate one iteration (residual, tangent, update), one loop:
-- graph (NewtonStatics): the compiled StepSystem Function above, ~50 us per iteration at 60 elements, but ~35 ms
-  (60 elements) to ~120 ms (600) to build;
-- assembly (AssemblyNewton): the Assembly's mapped kernel calls, the sparse tangent reduced to the free coordinates
-  and a banded Cholesky (inertia.banded_cholesky; sparse LU where it is not positive definite): ~0.2-0.4 ms per
-  iteration at 60 elements, nothing to build. Only for scenes whose supports all eliminate coordinates (no
-  multiplier rows). statics.StaticProblem chooses by measurement (its docstring).
 Round-off: when the updates stop contracting (each more than half the previous) while the residual sits at its
 round-off level (within ROUND_OFF x eps x max|K| x span), they measure the round-off of the solution itself; above tol it cannot be resolved in double precision (e.g. a penalty factor so stiff that
 eps x its force swamps the loads) and the run says so.
@@ -33,20 +33,22 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
 from .assembly import Assembly
 from scipy.linalg.lapack import dpbtrf, dpbtrs
 
-from .inertia import BAND_LIMIT, banded_cholesky, banded_solve
-from .sparsity import csc_pattern
-from .integrators import StepSystem, partition
+from .inertia import banded_cholesky, banded_solve
+from .statics_eval import ReducedEvaluation
+from .dynamics.step_system import StepSystem
+from .reduced import partition
 
 STALL = 0.75  # updates contracting by less than this factor make no progress (the 2/3 of a quartic Green energy far out does)
 STALL_COUNT = 3  # that many in a row: the updates are round-off
 ROUND_OFF = 100.0  # a residual within this factor of eps x max|K| x span is at round-off
 NO_PROGRESS = 4  # converging runs set a new smallest update at least every 3 iterations (measured, zig-zags included)
+SHIFT, SHIFT_MAX = 1e-4, 1e4  # shifts of an indefinite tangent's diagonal tried (relative to each entry)
+SHIFT_BELOW = 1e-3  # updates (relative) below which an indefinite tangent's plain Newton step is taken
 WILD = 1e3  # an update of a thousand structure lengths left every physical equilibrium behind: hand over to IPOPT
 
 
@@ -72,14 +74,14 @@ def coordinate_scales(asm: Assembly) -> np.ndarray:
     for mm in asm.mesh.members.values():
         k = np.arange(mm.x0.size)
         s[mm.offset + k[k % mm.node_size < dim]] = L
-    for o in asm.mesh.bodies.values():  # a rigid body's centre; its unit vector (cos, sin) keeps scale 1
-        s[o:o + 2] = L
+    for o in asm.mesh.bodies.values():  # a rigid body's centre; its unit axis vectors keep scale 1
+        s[o:o + dim] = L
     return s
 
 
 class Reduction:
     """The StepSystem's free coordinates without its CasADi graph: supports that fix coordinates eliminated, hinges
-    identified (integrators.partition), and the constant generalized force of the linear terms (gravity, loads)."""
+    identified (ancf_sym.reduced.partition), and the constant generalized force of the linear terms (gravity, loads)."""
 
     def __init__(self, asm: Assembly):
         self.part = part = partition(asm)
@@ -103,7 +105,7 @@ class NewtonStatics:
     def __init__(self, asm: Assembly):
         self.asm = asm
         self.S = S = StepSystem(asm)
-        self.energy = None  # potential at the last evaluated point (AssemblyNewton only)
+        self.energy = None  # potential at the last evaluated point (KernelNewton: what a shifted step must lower)
         self.scale = coordinate_scales(asm)[S.part.roots]
         nf, mc = S.nf, S.mc
         xf, lam, p = ca.MX.sym("x", nf), ca.MX.sym("lam", mc), ca.MX.sym("p", nf)
@@ -200,13 +202,22 @@ class NewtonStatics:
                          float(self.norms[0]), floor if it else 0.0, hist)
 
 
-class AssemblyNewton(NewtonStatics):
-    """The same Newton loop with each iteration evaluated by the Assembly's mapped kernel calls (no graph to build).
-    Scenes without multiplier rows only (Reduction.mc == 0)."""
+def _dot(a: np.ndarray, b: np.ndarray) -> float:
+    """a . b without BLAS: a threaded ddot waits milliseconds for its threads on a busy machine (measured at 24 000
+    coordinates: 18 ms instead of 0.09 ms with 2 cores shared by several processes)."""
+    return float(np.multiply(a, b).sum())
 
-    def __init__(self, asm: Assembly, reduction: Reduction):
+
+class KernelNewton(NewtonStatics):
+    """The same Newton loop with each iteration evaluated from the compiled kernels (statics_eval: no graph to
+    build) and solved by a banded Cholesky (LAPACK dpbtrf; sparse LU where the tangent is not positive definite or
+    the band is wide). Scenes without multiplier rows only (Reduction.mc == 0). evaluation: another strain measure's
+    (ReducedEvaluation.variant) for a start."""
+
+    def __init__(self, asm: Assembly, reduction: Reduction, evaluation: ReducedEvaluation | None = None):
         assert reduction.mc == 0, "multiplier rows need the graph (NewtonStatics)"
         self.asm, self.S = asm, reduction
+        self.ev = evaluation or ReducedEvaluation(asm, reduction)
         self.scale = coordinate_scales(asm)[reduction.part.roots]
         nf = reduction.nf
         self.x, self.lam, self.p = np.zeros(nf), np.zeros(0), np.zeros(nf)
@@ -214,62 +225,87 @@ class AssemblyNewton(NewtonStatics):
         self.span = reduction.span
         self.energy = None
         self.load = 1.0
-        # the reduced tangent E^T H E as a gather of the assembly's Hessian values (a sparse product per iteration
-        # costs ~1 ms of SciPy overhead at 60 elements): every coordinate is one unknown or fixed
-        pos = reduction.part.pos
-        pr = pos[asm.h_indices]
-        pc = pos[np.repeat(np.arange(asm.n), np.diff(asm.h_indptr))]
-        self._keep = (pr >= 0) & (pc >= 0)
-        pr, pc = pr[self._keep], pc[self._keep]
-        self._k_indptr, self._k_indices, self._k_pos = csc_pattern(pr, pc, nf, nf)
-        self._k_nnz = len(self._k_indices)
-        kc = np.repeat(np.arange(nf), np.diff(self._k_indptr))
-        up = self._k_indices <= kc
-        bw = int(np.max(kc[up] - self._k_indices[up], initial=0))
-        # banded upper storage (LAPACK dpbtrf) written straight from the values where the band is narrow
-        self._band = (bw, up, (bw + self._k_indices[up] - kc[up]) * nf + kc[up]) if bw <= BAND_LIMIT else None
+        self._mu, self._prev_inc = 0.0, math.inf  # the last shift that made a step go downhill (the next try starts a tenth of it)
 
-    def _reduced_values(self, ev) -> np.ndarray:
-        return np.bincount(self._k_pos, ev.hessian.data[self._keep], minlength=self._k_nnz)
-
-    def _matrix(self, kdata: np.ndarray) -> sp.csc_matrix:
-        nf = self.S.nf
-        return sp.csc_matrix((kdata, self._k_indices, self._k_indptr), shape=(nf, nf))
+    def potential(self, x_full: np.ndarray, load: float = 1.0) -> float:
+        """Total potential at x_full with the loads scaled by `load` [J] (linear terms: -load f_lin . x)."""
+        self.ev.evaluate(x_full)
+        return self.ev.energy - load * _dot(self.S.f_lin_full, x_full)
 
     def tangent(self, x_full: np.ndarray, hessian: bool = True):
-        """(evaluation, gradient of the nonlinear potential on the free coordinates, reduced Hessian or None)."""
-        R = self.S
-        ev = self.asm.evaluate(x_full, hessian=hessian)
-        g = R.reduce_force(ev.gradient + R.f_lin_full)
-        return ev, g, self._matrix(self._reduced_values(ev)) if hessian else None
+        """(None, gradient of the nonlinear potential on the free coordinates, reduced Hessian or None)."""
+        self.ev.evaluate(x_full)
+        return None, self.ev.g.copy(), self.ev.matrix() if hessian else None
 
     def gradient(self, x_full: np.ndarray) -> np.ndarray:
-        return self.tangent(x_full, hessian=False)[1]
+        self.ev.evaluate(x_full)
+        return self.ev.g.copy()
+
+    def positive_definite(self, x_full: np.ndarray, sigma_rel: float) -> bool | None:
+        """Reduced Hessian + sigma I positive definite (sigma = sigma_rel x max |H_ii|) by the banded Cholesky; None
+        where the band is wide (the caller then counts the inertia)."""
+        self.ev.evaluate(x_full)
+        ab = self.ev.band()
+        if ab is None:
+            return None
+        d = ab[-1]
+        hmax = float(np.max(np.abs(d), initial=0.0))
+        if not hmax > 0:
+            return None
+        ab[-1] += sigma_rel * hmax
+        return dpbtrf(ab, lower=0, overwrite_ab=1)[1] == 0
 
     def _eval(self) -> None:
-        R = self.S
-        nf = R.nf
+        R, ev = self.S, self.ev
         x_full = R.full(self.x)
-        ev = self.asm.evaluate(x_full)
-        r = R.reduce_force(ev.gradient + R.f_lin_full) + self.p
-        # potential at the load factor: the evaluation holds it at load 1, (1 - load) f_lin.x restores the rest
-        self.energy = ev.energy + (1.0 - self.load) * float(R.f_lin_full @ x_full)
-        kdata = self._reduced_values(ev)
+        ev.evaluate(x_full)
+        r = ev.g + self.p
         done = False
-        if self._band is not None:
-            bw, up, flat = self._band
-            ab = np.bincount(flat, kdata[up], minlength=(bw + 1) * nf).reshape(bw + 1, nf)
-            cb, info = dpbtrf(ab, lower=0, overwrite_ab=1)
+        ab = ev.band()
+        if ab is not None:
+            kmax = float(abs(ab[-1]).max())  # the diagonal: no entry of a positive definite K is larger
+            cb, info = dpbtrf(ab, lower=0)
             if info == 0:
                 self.dz[:] = -dpbtrs(cb, r, lower=0)[0]
                 done = True
-        if not done:  # not positive definite (or a wide band): banded Cholesky in another order, else sparse LU
-            K = self._matrix(kdata)
-            factor = banded_cholesky(K) if self._band is None else None
+            elif self._prev_inc > SHIFT_BELOW:
+                self.energy = ev.energy - self.load * _dot(R.f_lin_full, x_full)
+                done = self._shifted_step(ab, r)
+        if not done:  # a wide band (or no shift helped): banded Cholesky in another order, else sparse LU
+            K = ev.matrix()
+            kmax = float(np.max(np.abs(K.data), initial=0.0))
+            factor = banded_cholesky(K) if ab is None else None
             try:
                 self.dz[:] = -(banded_solve(factor, r) if factor is not None else splu(K).solve(r))
             except RuntimeError:  # singular: the loop reads the NaN as not_finite
                 self.dz[:] = np.nan
-        kmax = float(np.max(np.abs(kdata), initial=0.0))
-        self.norms[:] = (np.max(np.abs(r), initial=0.0), 0.0, np.max(np.abs(self.dz / self.scale), initial=0.0),
-                         -float(r @ self.dz), kmax)
+        self.norms[:] = (abs(r).max(), 0.0, abs(self.dz / self.scale).max(), -_dot(r, self.dz), kmax)
+        self._prev_inc = self.norms[2]
+
+    def solve(self, *args, **kw) -> NewtonRun:
+        self._mu, self._prev_inc = 0.0, math.inf
+        return super().solve(*args, **kw)
+
+    def _shifted_step(self, ab: np.ndarray, r: np.ndarray) -> bool:
+        """The tangent is not positive definite: a Newton step there need not go downhill (measured on coarse
+        cantilevers: it climbs out of the valley again and again, 35 iterations with load steps for 6 decoupled
+        elements). Solve (K + mu D) dz = -r instead (D = |diag K|, mu from SHIFT up by 10 until the factorisation
+        succeeds and the potential falls); near a stable equilibrium K is positive definite again and the full,
+        quadratically converging steps return. Only while the updates are above SHIFT_BELOW: closer in, the plain Newton
+        step converges to whatever equilibrium is there (a saddle too: the stability check reports it, and leaving
+        it is escape_saddle's decision). False if no shift up to SHIFT_MAX lowers the potential."""
+        d = np.abs(ab[-1]) + np.finfo(float).eps * float(np.max(np.abs(ab[-1]), initial=0.0))
+        mu = max(self._mu * 0.1, SHIFT)
+        while mu <= SHIFT_MAX:
+            shifted = ab.copy()
+            shifted[-1] += mu * d
+            cb, info = dpbtrf(shifted, lower=0, overwrite_ab=1)
+            if info == 0:
+                dz = -dpbtrs(cb, r, lower=0)[0]
+                x_try = self.S.full(self.x + dz)
+                if self.potential(x_try, self.load) < self.energy:
+                    self.dz[:] = dz
+                    self._mu = mu
+                    return True
+            mu *= 10.0
+        return False

@@ -11,6 +11,7 @@ import numpy as np
 
 from . import contact
 from .mesh import Mesh, MemberMesh
+from .member_effects import stiffness_effects
 from .scene import SceneError, Section
 
 
@@ -38,32 +39,28 @@ def member_terms(terms: dict, mm: MemberMesh, gravity: np.ndarray) -> None:
     m = mm.member
     idx, L = mm.elem_dofs(), mm.elem_length
     one = np.ones_like(L)
-    E, A = m.material.E, m.section.area
-    gauss = m.gauss
-    if m.element.startswith("cable"):
-        if m.axial is not None:
-            _add(terms, "axial", m.element, f"axial_{m.axial}", gauss, idx, np.c_[L, E * A * one])
-        if m.bending:
-            _add(terms, "bending", m.element, "bending", gauss, idx, np.c_[L, E * m.section.bending_inertia * one])
-        if m.torsion:
-            raise SceneError(f"member {m.name!r}: torsion needs element 'beam3d' (a cable has no section orientation)")
-    else:
-        b, h, nu = m.section.b, m.section.h, m.material.nu
-        if m.beam_method == "continuum":
-            if m.gauss not in (None, 5):
-                raise SceneError(f"member {m.name!r}: the continuum beam is generated for gauss=5 only, got {m.gauss}")
+    E, A, nu, sec = m.material.E, m.section.area, m.material.nu, m.section
+    try:
+        effects = stiffness_effects(m.element, m.axial, m.bending, m.torsion, m.beam_method)
+    except SceneError as exc:
+        raise SceneError(f"member {m.name!r}: {exc}") from None
+    for label, effect in effects:
+        if effect == "continuum":
             # St. Venant's torsion constant: the section's J, else that of the b x h rectangle
-            J = m.section.J if m.section.J is not None else Section.rectangle(b, h).J
-            _add(terms, "continuum", "beam3d", "continuum", None, idx,
-                 np.c_[L, b * one, h * one, E * one, nu * one, J * one])
-        else:
-            _add(terms, "axial", "beam3d", "line_strain", gauss, idx, np.c_[L, b * one, h * one, E * one, nu * one])
-            if m.bending:
-                _add(terms, "bending", "beam3d", "line_bending", gauss, idx,
-                     np.c_[L, E * m.section.Iy * one, E * m.section.Iz * one])
-            if m.torsion:
-                _add(terms, "torsion", "beam3d", "line_torsion", gauss, idx,
-                     np.c_[L, m.material.shear_modulus * m.section.J * one])
+            J = sec.J if sec.J is not None else Section.rectangle(sec.b, sec.h).J
+            p = [L, sec.b * one, sec.h * one, E * one, nu * one, J * one]
+        elif effect == "line_strain":
+            p = [L, sec.b * one, sec.h * one, E * one, nu * one]
+        elif effect == "line_bending":
+            p = [L, E * sec.Iy * one, E * sec.Iz * one]
+        elif effect == "line_torsion":
+            p = [L, m.material.shear_modulus * sec.J * one]
+        elif effect == "bending":
+            p = [L, E * sec.bending_inertia * one]
+        else:  # a cable's axial strain measure
+            p = [L, E * A * one]
+        # (Scene.member checked the Gauss order against the effects; the continuum kernel has only its own)
+        _add(terms, label, m.element, effect, None if effect == "continuum" else m.gauss, idx, np.column_stack(p))
     if m.gravity and np.any(gravity != 0):
         rhoA = m.material.density * A
         _add(terms, "gravity", m.element, "gravity", None, idx, np.c_[L, rhoA * one, np.tile(gravity, (len(L), 1))])

@@ -171,8 +171,8 @@ def test_bad_body_joints_refused():
         s.pin_body("b", "c", at=7)
     with pytest.raises(SceneError, match="new non-empty"):
         s.body("c", 1.0, 1.0, (0, 0))
-    with pytest.raises(SceneError, match="planar"):
-        Scene(dim=3).body("b", 1.0, 1.0, (0, 0))
+    with pytest.raises(SceneError, match="body.inertia"):  # a 3D scene's body is spatial: an inertia tensor
+        Scene(dim=3).body("b", 1.0, 1.0, (0, 0, 0))
     with pytest.raises(SceneError, match="free rigid-body motion"):
         s.pin("c", "start")
         s.validate_for_statics()  # the body is tied to nothing
@@ -281,3 +281,46 @@ def test_pendulum_under_side_force_statics():
     assert abs(theta - math.atan2(F, m * G)) < 1e-8
     assert abs(math.hypot(x, y) - d) < 1e-12
     assert np.allclose(r.constraint_forces["revolute rod"], [F, -m * G], rtol=1e-8)
+
+
+def test_planar_slider_on_incline_prismatic_closed_form():
+    """A body on a ground prismatic joint along a 30 degree incline, released at rest in gravity: it slides with
+    the constant acceleration g sin(alpha), s = g sin(alpha) t^2 / 2, and never turns or leaves the line. The
+    Newmark family integrates a constant acceleration exactly, so the error is Newton's tolerance level (< 1e-9 m);
+    the joint's reaction carries the normal component m g cos(alpha) exactly."""
+    a = math.radians(30)
+    axis = np.array([math.cos(a), -math.sin(a)])
+    s = Scene(dim=2, gravity=(0, -G))
+    s.body("rod", 2.0, 0.1, position=(0.3, 0.2), angle=0.4)
+    s.prismatic("rod", axis=axis)
+    r = run_dynamics(s, {"integrator": "generalized_alpha", "dt": 1e-2, "t_end": 1.0, "output_every": 1,
+                         "sensors": BODY})
+    assert r.status == "completed"
+    x = r.sensors["b"]
+    d = x[:, :2] - np.array([0.3, 0.2])
+    assert np.abs(d @ axis - 0.5 * G * math.sin(a) * r.t**2).max() < 1e-9
+    assert np.abs(d @ np.array([math.sin(a), math.cos(a)])).max() < 1e-9
+    assert np.abs(x[:, 2] - 0.4).max() < 1e-12
+
+
+def test_planar_cart_pendulum_prismatic_and_body_body_revolute():
+    """A planar cart on a horizontal ground prismatic joint with a pendulum on a body-body revolute joint: the
+    combined centre of mass stays put horizontally (< 1e-9 m: no horizontal external force) and the small-amplitude
+    period is 2 pi / w, w^2 = m g d / (J_o - m^2 d^2 / (M + m)), within 1e-3 (amplitude 0.05 rad: nonlinear
+    correction ~ theta0^2 / 16 = 1.6e-4 times factors of order 1; phase error (w h)^2 / 12 = 2e-5)."""
+    M, mp, d, Jc, th0 = 3.0, 1.0, 0.5, 0.02, 0.05
+    s = Scene(dim=2, gravity=(0, -G))
+    s.body("cart", M, 0.2, (0, 0))
+    s.prismatic("cart", axis=(1, 0))
+    s.body("bob", mp, Jc, (d * math.sin(th0), -d * math.cos(th0)), angle=th0)
+    s.revolute("bob", point=(0, 0), other="cart")
+    Jo = Jc + mp * d * d
+    T = 2 * math.pi / math.sqrt(mp * G * d / (Jo - mp**2 * d**2 / (M + mp)))
+    r = run_dynamics(s, {"integrator": "generalized_alpha", "dt": T / 400, "t_end": 3 * T, "output_every": 1,
+                         "sensors": [{"name": "c", "kind": "body", "member": "cart"},
+                                     {"name": "b", "kind": "body", "member": "bob"}]})
+    assert r.status == "completed"
+    c, b = r.sensors["c"], r.sensors["b"]
+    assert np.abs(M * c[:, 0] + mp * b[:, 0] - mp * d * math.sin(th0)).max() < 1e-9
+    assert np.abs(c[:, 1]).max() < 1e-9 and np.abs(c[:, 2]).max() < 1e-12
+    assert abs(period(r.t, b[:, 3]) / T - 1) < 1e-3

@@ -28,8 +28,9 @@ from ancf_sym import cli
 ROOT = Path(__file__).resolve().parents[1]
 CATENARY = ROOT / "examples" / "scenes" / "catenary.toml"
 
-# a clamped 3D rubber rope of 1500 elements under a large end force: IPOPT needs tens of iterations on ~18000
-# coordinates (seconds), so a signal sent once IPOPT reports its first attempt arrives while it iterates
+# a clamped 3D rubber rope of 6000 elements under a large end force: IPOPT needs hundreds of iterations on ~72000
+# coordinates (about a minute), so a signal sent once IPOPT reports its first attempt arrives while it iterates even
+# on a loaded machine (at 1500 elements the faster statics engine finished within a second, before the signal)
 SLOW_STATICS = """
 [scene]
 name = "slow"
@@ -44,7 +45,7 @@ diameter = 0.01
 [[members]]
 name = "rope"
 points = [[0.0, 0.0, 0.0], [10.0, 0.0, 0.0]]
-elements = 1500
+elements = 6000
 material = "rubber"
 section = "rope"
 [[supports]]

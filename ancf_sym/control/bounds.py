@@ -8,8 +8,8 @@ import numpy as np
 
 from ..checks import number as _num
 from ..scene import SceneError
+from ..sparsity import dm as _dm
 from .ingredients import Effort, MinimumTime, StateView, Swing
-from .model import _dm
 
 
 class BoundsMixin:

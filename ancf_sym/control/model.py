@@ -3,7 +3,8 @@
 static equilibria and vibration modes, and centreline probes."""
 from __future__ import annotations
 
-from typing import Any, Sequence
+import math
+from typing import Any, Callable, Sequence
 
 import casadi as ca
 import numpy as np
@@ -14,10 +15,11 @@ from .. import registry
 from ..assembly import Assembly
 from ..checks import number as _num
 from ..interpolation import Probe
-from ..integrators import LINEAR_EFFECTS, partition
+from ..assembly import LINEAR_EFFECTS
+from ..reduced import full_mx, partition
 from ..loads import point_force
 from ..scene import Scene, SceneError, _vector
-from ..sparsity import casadi_sparsity, csc_pattern
+from ..sparsity import assemble_mx
 from .ingredients import PointForce, PointMass, SupportMotion
 
 
@@ -48,20 +50,39 @@ class ControlAssembly(Assembly):
         return M.tocsc()
 
 
-def _dm(A) -> ca.DM:
-    A = sp.csc_matrix(A)
-    A.sum_duplicates()
-    A.sort_indices()
-    return ca.DM(ca.Sparsity(A.shape[0], A.shape[1], A.indptr.tolist(), A.indices.tolist()), A.data.tolist())
-
-
-def _scatter(n_rows: int, n_cols: int, rows: np.ndarray, cols: np.ndarray, n_entries: int, keep: np.ndarray,
-             values: ca.MX) -> ca.MX:
-    """Sparse MX (n_rows x n_cols) summing values[keep[i]] at (rows[i], cols[i])."""
-    indptr, indices, inv = csc_pattern(rows, cols, n_rows, n_cols)
-    spy = casadi_sparsity(n_rows, n_cols, indptr, indices)
-    A = sp.coo_matrix((np.ones(len(inv)), (inv, keep)), shape=(len(indices), n_entries))
-    return ca.MX(spy, ca.mtimes(_dm(A), values))
+def newton(residual: Callable, x: np.ndarray, tol: float, max_iter: int, halvings: int,
+           tol_step: float = 0.0) -> tuple[np.ndarray, float, bool]:
+    """Newton's method on residual(x) -> (R, jacobian), jacobian() giving the sparse dR/dx there (built only where
+    a step starts), with a backtracking line search on max|R| (a step is halved until max|R| decreases by the
+    fraction 1e-4 lam; after `halvings` it is taken anyway). Converged when max|R| <= tol, or after a full step of
+    max|dx| <= tol_step. Returns (x, max|R|, converged); stops early on a singular Jacobian or a residual that is
+    not finite."""
+    R, J = residual(x)
+    rn = float(np.max(np.abs(R))) if R.size else 0.0
+    for _ in range(max_iter):
+        if not math.isfinite(rn):
+            break
+        if rn <= tol:
+            return x, rn, True
+        try:
+            dx = sp.linalg.spsolve(sp.csc_matrix(J()), -R.ravel()).reshape(x.shape)
+        except Exception:  # noqa: BLE001  (a singular Jacobian)
+            break
+        if not np.all(np.isfinite(dx)):
+            break
+        lam = 1.0
+        for k in range(halvings):  # backtrack on the residual (rotations of a stiff cable overshoot)
+            xn = x + lam * dx
+            Rn, Jn = residual(xn)
+            rnn = float(np.max(np.abs(Rn)))
+            if math.isfinite(rnn) and rnn < (1 - 1e-4 * lam) * rn:
+                break
+            if k < halvings - 1:
+                lam *= 0.5
+        x, R, J, rn = xn, Rn, Jn, rnn
+        if lam == 1.0 and float(np.max(np.abs(dx))) <= tol_step:
+            return x, rn, True
+    return x, rn, rn <= tol
 
 
 class ModelMixin:
@@ -180,8 +201,8 @@ class ModelMixin:
         self.Tr = Tr
         M = a.mass_matrix().tocsc()
         self.M_full = M
-        self.Mff = (part.E.T @ M @ part.E).tocsc()
-        self.Mfc = (part.E.T @ M @ sp.csc_matrix(B)).tocsc()
+        self.Mff = part.reduce_matrix(M)
+        self.Mfc = part.reduce_matrix(M, B)
         # constant forces: linear energy terms (gravity, distributed dead loads) and dead point loads incl. weights
         self.f_lin_full = f_lin = a.constant_force()
         self.f_lin = part.E.T @ f_lin
@@ -213,27 +234,21 @@ class ModelMixin:
         return self.part.E @ q + self.part.c + self.B @ s
 
     def _build_point_functions(self) -> None:
-        """forces(q, s) -> (grad_f U, K_ff, K_fc) at one instant (Newton for the equilibria, modes)."""
-        nf, n = self.nf, self.n
-        q, s = ca.MX.sym("q", nf), ca.MX.sym("s", self.nc)
-        x = ca.mtimes(_dm(self.part.E), q) + ca.DM(self.part.c) + (ca.mtimes(ca.DM(self.B), s) if self.nc else 0)
-        g = ca.MX.zeros(n)
-        Ks = []
+        """forces(q, s) -> (grad_f U, K_ff, K_fc) at one instant (Newton for the equilibria, modes): the kernels'
+        gradients and Hessians scattered onto the unknowns [q; s] (free coordinates, then the control channels)."""
+        nf, nc = self.nf, self.nc
+        q, s = ca.MX.sym("q", nf), ca.MX.sym("s", nc)
+        pos = self.pos.copy()  # the controlled support coordinates become unknowns nf + channel
+        pos[self._chan_coord] = nf + np.arange(nc)
+        x = full_mx(ca.vertcat(q, s), pos, self.part.c)
+        calls = []
         for mk in self.nonlinear:
             t = mk.term
-            Xe = ca.reshape(x[t.idx.ravel().tolist()], mk.nd, mk.N)
-            _, G, H = mk.kernel.map(mk.N)(Xe, ca.DM(mk.P.T))
-            Ag = sp.coo_matrix((np.ones(t.idx.size), (t.idx.ravel(), np.arange(t.idx.size))), shape=(n, t.idx.size))
-            g += ca.mtimes(_dm(Ag), ca.vec(G))
-            ia = np.broadcast_to(t.idx[:, :, None], (mk.N, mk.nd, mk.nd)).ravel()
-            ib = np.broadcast_to(t.idx[:, None, :], (mk.N, mk.nd, mk.nd)).ravel()
-            Ks.append(_scatter(n, n, ib, ia, ia.size, np.arange(ia.size), ca.vec(H)))
-        K = sum(Ks[1:], Ks[0]) if Ks else ca.MX(n, n)
-        Ed = _dm(self.part.E)
-        gf = ca.mtimes(Ed.T, g)
-        Kff = ca.mtimes(ca.mtimes(Ed.T, K), Ed)
-        Kfc = ca.mtimes(ca.mtimes(Ed.T, K), ca.DM(self.B)) if self.nc else ca.MX(nf, 0)
-        self.forces_f = ca.Function("control_forces", [q, s], [gf, Kff, Kfc], ["q", "s"], ["g", "Kff", "Kfc"])
+            _, G, H = mk.kernel.map(mk.N)(ca.reshape(x[t.idx.ravel().tolist()], mk.nd, mk.N), ca.DM(mk.P.T))
+            calls.append((t.idx, G, H))
+        g, K = assemble_mx(calls, pos, nf + nc)
+        self.forces_f = ca.Function("control_forces", [q, s], [g[:nf], K[:nf, :nf], K[:nf, nf:]], ["q", "s"],
+                                    ["g", "Kff", "Kfc"])
 
     def forces(self, q: np.ndarray, s: np.ndarray):
         g, Kff, Kfc = self.forces_f(q, s)
@@ -247,29 +262,12 @@ class ModelMixin:
         else:
             q = np.asarray(guess, float).copy()
         fscale = max(float(np.max(np.abs(self.f_lin))), 1e-300)
-        for it in range(max_iter):
+
+        def residual(q):
             g, K, _ = self.forces(q, s)
-            r = g - self.f_lin
-            rn = float(np.max(np.abs(r)))
-            if rn <= 1e-10 * fscale + 1e-12:
-                return q
-            try:
-                dq = sp.linalg.spsolve(K.tocsc(), -r)
-            except Exception:  # noqa: BLE001
-                dq = np.full_like(q, np.nan)
-            if not np.all(np.isfinite(dq)):
-                break
-            lam = 1.0
-            for _ in range(30):
-                qn = q + lam * dq
-                gn = self.forces(qn, s)[0]
-                if np.all(np.isfinite(gn)) and np.max(np.abs(gn - self.f_lin)) < (1 - 1e-4 * lam) * rn:
-                    break
-                lam *= 0.5
-            q = qn
-        g = self.forces(q, s)[0]
-        rn = float(np.max(np.abs(g - self.f_lin)))
-        if rn <= 1e-7 * fscale:
+            return g - self.f_lin, lambda: K
+        q, rn, ok = newton(residual, q, 1e-10 * fscale + 1e-12, max_iter, halvings=30)
+        if ok or rn <= 1e-7 * fscale:  # (a residual at round-off after max_iter iterations)
             return q
         raise SceneError(f"no static equilibrium found for support displacements {s.tolist()} (residual {rn:.3g} N "
                          f"after {max_iter} Newton iterations): the start/end state cannot be at rest")

@@ -10,7 +10,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .. import kernels
-from .model import _dm, _scatter
+from ..sparsity import dm as _dm, gather_sum, scatter
 
 
 def _basis(nodes: np.ndarray, tau: np.ndarray) -> np.ndarray:
@@ -163,10 +163,8 @@ class TranscriptionMixin:
             for k2, cd in enumerate(self._chan_coord):
                 hit = coord == cd
                 a_var[hit] = iSPf[np.broadcast_to(pnt[:, None], coord.shape)[hit], k2]
-            r_flat = a_row.ravel()  # vec(G) entry col * nd + a
-            ok = np.flatnonzero(r_flat >= 0)
-            Ag = _dm(sp.coo_matrix((np.ones(len(ok)), (r_flat[ok], ok)), shape=(ng, M * nd)))
-            g_parts.append((Ag, gfun, main, Xe, Pm))
+            r_flat = a_row.ravel()  # vec(G) entry col * nd + a: its dynamics row (-1: none)
+            g_parts.append((r_flat, gfun, main, Xe, Pm))
             # Jacobian: vec(H) entry (col * nd + a) * nd + b -> (row of b, variable of a)
             rb = np.broadcast_to(a_row[:, None, :], (M, nd, nd)).ravel()
             va = np.broadcast_to(a_var[:, :, None], (M, nd, nd)).ravel()
@@ -175,8 +173,7 @@ class TranscriptionMixin:
             jac_cols.append(va[keep])
             jac_keep.append(keep + n_jac)
             # Hessian: v = the dynamics multipliers at each element coordinate; d(H v)/dq (symmetric) -> upper
-            Vsel = _dm(sp.coo_matrix((np.ones(len(ok)), (ok, r_flat[ok])), shape=(M * nd, ng)))
-            vmat = ca.reshape(ca.mtimes(Vsel, lam_g), nd, M)
+            vmat = ca.reshape(ca.vertcat(lam_g, ca.MX.zeros(1))[np.where(r_flat >= 0, r_flat, ng).tolist()], nd, M)
             hr = np.broadcast_to(a_var[:, :, None], (M, nd, nd)).ravel()
             hc = np.broadcast_to(a_var[:, None, :], (M, nd, nd)).ravel()
             keep = np.flatnonzero((hr >= 0) & (hc >= 0) & (hr <= hc))
@@ -185,17 +182,17 @@ class TranscriptionMixin:
             hess_keep.append(keep + n_jac)
             dh_vals.append(ca.vec(hvp(Xe, Pm, vmat)[1]))
             n_jac += M * nd * nd
-        zero = ca.MX(ng, 1)
+        rows_of_g = np.concatenate([r for r, *_ in g_parts]) if g_parts else np.zeros(0, np.int64)
         # g for IPOPT's function evaluations: gradients from the energy kernels' reverse companions (cheaper)
-        g_kernel = sum((ca.mtimes(Ag, ca.vec(gf(Xe))) for Ag, gf, _, Xe, _ in g_parts), zero)
+        g_kernel = gather_sum([ca.vec(gf(Xe)) for _, gf, _, Xe, _ in g_parts], rows_of_g, ng)
         # g and its Jacobian from the full kernels (one call gives both)
         outs = [main(Xe, Pm) for _, _, main, Xe, Pm in g_parts]
-        g_kernel_full = sum((ca.mtimes(Ag, ca.vec(o[1])) for (Ag, *_), o in zip(g_parts, outs)), zero)
+        g_kernel_full = gather_sum([ca.vec(o[1]) for o in outs], rows_of_g, ng)
         if outs:
-            J_kernel = _scatter(ng, nw, np.concatenate(jac_rows), np.concatenate(jac_cols), n_jac,
-                                np.concatenate(jac_keep), ca.vertcat(*[ca.vec(o[2]) for o in outs]))
-            H_kernel = _scatter(nw, nw, np.concatenate(hess_rows), np.concatenate(hess_cols), n_jac,
-                                np.concatenate(hess_keep), ca.vertcat(*dh_vals))
+            J_kernel = scatter([ca.vec(o[2]) for o in outs], np.concatenate(jac_rows), np.concatenate(jac_cols), ng,
+                               np.concatenate(jac_keep), n_jac, n_cols=nw)
+            H_kernel = scatter(dh_vals, np.concatenate(hess_rows), np.concatenate(hess_cols), nw,
+                               np.concatenate(hess_keep), n_jac)
         else:
             J_kernel, H_kernel = ca.MX(ng, nw), ca.MX(nw, nw)
         g_nlp = g_poly + g_kernel

@@ -2,12 +2,12 @@
 rest-to-rest support motion, so that IPOPT starts with every dynamics row satisfied."""
 from __future__ import annotations
 
-import math
 from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
 
+from .model import newton
 from .transcription import _basis
 
 
@@ -79,43 +79,19 @@ class WarmStartMixin:
                     rhs_const[j] -= self.Bf @ Uf[j]
             if k == 0:
                 Qs = np.array([q + tab.c[j] * h * v for j in range(s)])
-            ok = False
 
             def residual(Qs):
+                """The stage equations of the interval and their Jacobian (the kernels' K on the diagonal)."""
                 R = np.zeros((s, nf))
                 Ks = []
                 for j in range(s):
                     g, Kj, _ = self.forces(Qs[j], SP[j])
                     R[j] = rhs_const[j] + g + Mff @ (W2[j] @ Qs) / h**2
                     Ks.append(Kj)
-                return R, Ks
-            R, Ks = residual(Qs)
-            rn = float(np.max(np.abs(R)))
-            for it in range(max_iter):
-                if not math.isfinite(rn):
-                    break
-                if rn <= 1e-9 * fscale:
-                    ok = True
-                    break
-                J = sp.bmat([[W2[j, m] / h**2 * Mff + (Ks[j] if j == m else 0 * Mff) for m in range(s)]
-                             for j in range(s)], format="csc")
-                try:
-                    dQ = sp.linalg.spsolve(J, -R.ravel()).reshape(s, nf)
-                except Exception:  # noqa: BLE001
-                    break
-                if not np.all(np.isfinite(dQ)):
-                    break
-                lam = 1.0
-                for _ in range(20):  # backtrack on the residual (rotations of a stiff cable overshoot)
-                    Rn, Kn = residual(Qs + lam * dQ)
-                    rnn = float(np.max(np.abs(Rn)))
-                    if math.isfinite(rnn) and rnn < (1 - 1e-4 * lam) * rn:
-                        break
-                    lam *= 0.5
-                Qs, R, Ks, rn = Qs + lam * dQ, Rn, Kn, rnn
-                if lam == 1.0 and float(np.max(np.abs(dQ))) <= 1e-12 * self.length_scale:
-                    ok = True
-                    break
+                return R, lambda: sp.bmat([[W2[j, m] / h**2 * Mff + (Ks[j] if j == m else 0 * Mff)
+                                            for m in range(s)] for j in range(s)], format="csc")
+            Qs, rn, ok = newton(residual, Qs, 1e-9 * fscale, max_iter, halvings=20,
+                                tol_step=1e-12 * self.length_scale)
             if not ok:
                 ok_all = False
                 message = f"interval {k}: Newton did not converge (residual {rn:.3g} N)"

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import Axis, Study
-from .statics_studies import _rod_reference, _timed_static, _tip_error, static_record
+from .statics_studies import _TIMING, _rod_reference, _timed_static, _tip_error, static_record
 
 BL, BB, BE, BLOAD = 1.0, 0.02, 210e9, 1.0  # square 20 mm steel bar, 1 m; PL^2/EI = 1
 BIZ = BB**4 / 12
@@ -62,8 +62,7 @@ STUDIES = [
            Axis("n", (1, 2, 4, 8, 16, 32, 64), (2, 4), int)),
           beam_run, beam_reference, _tip_error, "relative tip displacement error", 1e-3,
           columns=("tip_x", "tip_y", "iterations"), conclusions=beam_conclusions,
-          extra={"timing": "solve_static on a freshly built scene (assembly + IPOPT), min over 3 repeats "
-                           "(1 in --quick)"},
+          extra={"timing": _TIMING},
           notes="Paper 001's 24-DOF beam (beam3d): a 1 m steel bar, square 20 x 20 mm, clamped, dead tip force "
                 "PL^2/EI = 1 in -y (w/L = 0.30). h/L = 0.02: the section terms are of relative "
                 "size (kappa h)^2 ~ 4e-4 here, extensibility P/EA ~ 3e-5. Elastic line = "

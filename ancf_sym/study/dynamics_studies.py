@@ -137,12 +137,12 @@ def _study(name: str, title: str, scene_fn, member: str, t_end: float, ns: tuple
 
 STUDIES = [
     _study("zhang_pendulum", "Paper 000 beam released horizontal, clamped (1 s)", zhang_scene, "beam", ZT,
-           (3, 6, 12, 24), (3, 6), (12, 48), (5e-4, 1.25e-4), 1e-3,
+           (3, 6, 12, 24), (3, 6), (12, 96), (5e-4, 1.25e-4), 1e-3,
            "Paper 000 section 3.2 (its table 2 beam: L = 3 m, E = 20 GPa), clamped at x = 0 and released "
            "horizontal under gravity, decoupled strain, 1 s (the fall and curl to the first extremum). "
            "HHT alpha = -0.05, generalized-alpha rho_inf = 0.9, Radau IIA 3 stages, Gauss-Legendre 2 stages."),
     _study("rope", "Paper 002 soft rope pinned and released (1 s)", rope_scene, "rope", RT,
-           (8, 16, 32), (8, 16), (32, 128), (5e-4, 2.5e-4), 1e-2,
+           (8, 16, 32), (8, 16), (32, 512), (5e-4, 2.5e-4), 1e-2,
            "Paper 002's soft rope (L = 1.2 m, A = 0.0018 m^2, I = 1.215e-8 m^4, rho = 5540 kg/m^3, E = 0.7 MPa: "
            "up to ~30 % stretch), pinned at x = 0 and released horizontal, Green strain, 1 s. Target 1e-2: the "
            "rope's motion is sensitive (folds travelling along it), 1 % of the tip's travel is ~1.5 cm."),

@@ -7,7 +7,7 @@ import time
 import numpy as np
 
 from ..registry import GAUSS_ORDERS
-from ..scene import AXIAL
+from ..member_effects import AXIAL
 from .base import Axis, Study
 from .references import rod_reference
 
@@ -15,7 +15,7 @@ STRAINS = AXIAL  # the axial strain measures a member can use
 
 
 def _timed_static(scene_fn, repeats: int):
-    """solve_static on a freshly built scene whose problem (assembly, Newton graph) is already cached: one untimed
+    """solve_static on a freshly built scene whose problem (assembly, Newton index maps) is already cached: one untimed
     solve builds it, as the first of a user's solves would; min wall time over repeats. What accuracy costs, not the
     one-off set-up (which hardly depends on the element count)."""
     from ..statics import solve_static
@@ -121,7 +121,7 @@ def elastica_run(setting: dict, variant: str) -> dict:
 
 _GAUSS = Axis("gauss", GAUSS_ORDERS, (5,), int, GAUSS_ORDERS, "Gauss points per element")
 _STRAIN = Axis("strain", STRAINS, ("green", "decoupled"), str, STRAINS, "axial strain measure")
-_TIMING = ("solve_static on a freshly built scene, its problem (assembly, Newton graph) built by an untimed first solve "
+_TIMING = ("solve_static on a freshly built scene, its problem (assembly, Newton index maps) built by an untimed first solve "
            "and reused, min over 3 repeats (1 in --quick); settings within ~10 % of each other tie")
 
 STUDIES = [

@@ -1,0 +1,328 @@
+"""Newmark / HHT / generalized-alpha time steps on a StepSystem (ancf_sym.dynamics.schemes: Arnold-Bruels form,
+index-3 constraints): the integrator the time loop drives, one step at a time (`attempt` / `accept`, with step
+rejection and error control) or many fixed steps per compiled call (`run_chunk`).
+
+A step is one compiled graph (ancf_sym.dynamics.alpha_step); `run_chunk` maps it over many steps (mapaccum, or
+unrolled on large states) so that a whole stretch of the time loop is one call, ending at the first step the graph
+cannot accept (ancf_sym.dynamics.chunks). Steps the graph flags as unconverged are redone by the Python full-Newton
+loop (ancf_sym.dynamics.newton, absolute tolerances, max_iter) from the graph's last iterate. newton.modified true
+without the in-graph factor (multipliers, strain-rate damping) runs modified Newton in Python with a SuperLU
+factorisation reused across iterations and steps.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import chunks
+from .alpha_step import AlphaStepGraphs
+from .damping import StiffnessDamping
+from .graph_cache import ALPHA_GRAPHS, pooled_buffer
+from .integrator import StepOutcome, initial_acceleration
+from .newton import Counters, Factor, NewtonOptions, newton
+from .schemes import Scheme
+from .step_system import StepSystem
+
+
+class AlphaIntegrator:
+    """Newmark / HHT / generalized-alpha on a StepSystem (see the module docstring and alpha_step's).
+
+    State: q, v (true velocity), a (true acceleration), ab (algorithmic acceleration), a_prev (acceleration of the
+    previous step), lam (true multipliers), the controls of the step graph, and (modified Newton in the graph) the
+    kept factor's values D, U, U^T."""
+    order = 2  # of the local error estimate (step-size control exponent 1/(order + 1))
+    info_size = AlphaStepGraphs.info_size
+    extra_iterations = AlphaStepGraphs.extra_iterations
+
+    def __init__(self, system: StepSystem, scheme: Scheme, newton_opts: NewtonOptions, tol_q: float,
+                 tol_x: float, counters: Counters):
+        self.S, self.scheme, self.opts = system, scheme, newton_opts
+        self.tol_q, self.tol_x = tol_q, tol_x
+        self.counters = counters
+        self.factor = Factor()
+        nf, mc = system.nf, system.mc
+        # in-graph modified Newton where the step graph can hold the factor; full Newton on request
+        ldl = system.ensure_factor() if newton_opts.modified else None
+        self.modified_graph = ldl is not None
+        self.nctl = 10 if self.modified_graph else 2
+        self.fac_sizes = ldl.size if self.modified_graph else ()
+        self.q, self.v, self.a, self.ab, self.a_prev = (np.zeros(nf) for _ in range(5))
+        self.lam = np.zeros(mc)
+        self.ctl = np.zeros(self.nctl)
+        self.fac = [np.zeros(k) for k in self.fac_sizes]  # D, U, U^T of the kept factor (modified)
+        self._reset_controls()
+        self.h_prev = None
+        self.new = dict(q=np.zeros(nf), v=np.zeros(nf), a=np.zeros(nf), ab=np.zeros(nf), lam=np.zeros(mc))
+        self._new_ctl = self.ctl.copy()
+        self._new_fac = [f.copy() for f in self.fac]
+        self.kdamp = StiffnessDamping(system, counters)
+        # the compiled step and chunk functions, shared by the integrators of one structure and settings
+        key = (system.graph_key, scheme, tuple(sorted(vars(newton_opts).items())), self.modified_graph,
+               self.extra_iterations)
+        self._graphs = ALPHA_GRAPHS.setdefault(key, {"chunks": {}})
+        self._builder = AlphaStepGraphs(system, scheme, newton_opts, ldl)
+        if "step" not in self._graphs:
+            # full Newton: the further iterations (3-6) in the step graph on large states; small states build them
+            # only for guarded chunks (after a hard transient showed up): ~2.5 ms of set-up for a rare need
+            self._graphs["step"] = self._builder.build_modified() if self.modified_graph else \
+                self._builder.build_full(self.extra_iterations if self.state_size >= chunks.UNROLL_STATE else 0)
+        self.step_f = self._graphs["step"]
+        self._setup_step_buffers()
+        self._chunks: dict = {}  # this integrator's buffers of the chunk functions
+        self._guard_on = False
+
+    # -- the state ---------------------------------------------------------------------------------------------
+    @property
+    def state_size(self) -> int:
+        return 5 * self.S.nf + self.S.mc + self.nctl
+
+    @property
+    def n_accum(self) -> int:
+        """Accumulated inputs of the step function: the state, and the factor's D, U, U^T (modified)."""
+        return 1 + len(self.fac_sizes)
+
+    def _reset_controls(self) -> None:
+        self.ctl[:] = 0.0
+        if self.modified_graph:
+            self.ctl[2] = -1.0  # contraction rate unknown; ctl[4] = 0: no factor
+
+    def pack(self) -> np.ndarray:
+        return np.concatenate([self.q, self.v, self.a, self.ab, self.a_prev, self.lam, self.ctl])
+
+    def unpack(self, s: np.ndarray) -> dict:
+        nf, mc = self.S.nf, self.S.mc
+        out = {k: s[i * nf:(i + 1) * nf] for i, k in enumerate(("q", "v", "a", "ab", "a_prev"))}
+        out["lam"] = s[5 * nf:5 * nf + mc]
+        out["ctl"] = s[5 * nf + mc:]
+        return out
+
+    def _setup_step_buffers(self) -> None:
+        S, nf = self.S, self.S.nf
+        self._s_in, self._s_out, self._info = np.zeros(self.state_size), np.zeros(self.state_size), \
+            np.zeros(self.info_size)
+        self._f_out = [np.zeros(k) for k in self.fac_sizes]
+        self._h, self._hp, self._pload, self._tols = np.zeros(1), np.zeros(1), np.zeros(nf + S.nw), np.zeros(2)
+        args = [self._s_in] + self.fac + [self._h, self._hp, self._pload, self._tols] + \
+            ([S.kel] if S.kel is not None else []) + [S.par]
+        outs = [self._s_out] + self._f_out + [self._info]
+        buf, ev = pooled_buffer(self._graphs, "step", self.step_f, self)
+        for i, arr in enumerate(args):
+            buf.set_arg(i, memoryview(arr))
+        for i, arr in enumerate(outs):
+            buf.set_res(i, memoryview(arr))
+        self._step = (buf, ev, args, outs)
+
+    def initialize(self, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray, t0: float = 0.0) -> None:
+        self.q[:] = q0
+        self.v[:] = v0
+        self.kdamp.update(self.q)
+        a, lam = initial_acceleration(self.S, q0, v0, Q0, self.kdamp.matrix(), t0)
+        self.a[:], self.lam[:] = a, lam
+        self.ab[:] = self.a
+        self.a_prev[:] = self.a
+        self.h_prev = None
+        self._reset_controls()
+
+    @property
+    def chunkable(self) -> bool:
+        """The whole step is in the graph (no Python per step): no stiffness damping update, and not the Python
+        modified-Newton loop."""
+        return (self.modified_graph or not self.opts.modified) and not self.kdamp.active
+
+    # -- one step ---------------------------------------------------------------------------------------------
+    def attempt(self, t: float, h: float, loads=None) -> StepOutcome:
+        """Try the step t -> t + h (loads(t): time-dependent generalized force on the unknowns, or None).
+        The candidate is in self.new; accept() commits it."""
+        S = self.S
+        pload = -S.f_lin if loads is None else -(S.f_lin + loads(t + h))
+        if S.nw:
+            pload = np.r_[pload, S.w(t + h)]
+        self._h_try = h
+        python_newton = self.opts
+        if self.modified_graph or not self.opts.modified:
+            self._s_in[:] = self.pack()
+            self._h[0] = h
+            self._hp[0] = self.h_prev if self.h_prev else 0.0
+            self._pload[:] = pload
+            self._tols[:] = self.tol_q, self.tol_x
+            self._step[1]()
+            info = self._info
+            k = self._count(info)
+            finite = np.all(np.isfinite(self._s_out))
+            if info[0] == 1 and finite and all(np.all(np.isfinite(f)) for f in self._f_out):
+                u = self.unpack(self._s_out)
+                for key in ("q", "v", "a", "ab", "lam"):
+                    self.new[key][:] = u[key]
+                self._new_ctl[:] = u["ctl"]
+                for dst, src in zip(self._new_fac, self._f_out):
+                    dst[:] = src
+                return StepOutcome(True, k, "", True)
+            # the graph did not converge: full Newton in Python, from the graph's last iterate if finite
+            python_newton = NewtonOptions(**{**self.opts.__dict__, "modified": False})
+            kc = self.scheme.cm(h) * S.stiffness_scale()
+            if finite:
+                u = self.unpack(self._s_out)
+                S.x[:], S.lam[:] = u["q"], u["lam"] / kc
+                S.p[:] = self._predict(h, pload, kc)[2]
+                it0 = k
+            else:
+                S.x[:], S.lam[:], S.p[:] = self._predict(h, pload, kc)
+                it0 = 0
+        else:
+            S.x[:], S.lam[:], S.p[:] = self._predict(h, pload, self.scheme.cm(h) * S.stiffness_scale())
+            it0 = 0
+        sc = self.scheme
+        kc = sc.cm(h) * S.stiffness_scale()
+        S.cm[0], S.cc[0], S.kc[0] = sc.cm(h), sc.cc(h), kc
+        out = newton(S, self.factor, (h, kc), python_newton, self.counters, self.tol_q, self.tol_x, it0)
+        if not out.converged:
+            return StepOutcome(False, out.iterations, out.reason)
+        self._correct(h, S.x, S.lam * kc)
+        # controls after a Python step: estimates to be re-measured; the kept factor (modified) one step older
+        self._new_ctl[:] = self.ctl
+        self._new_ctl[1] = 0.0
+        if self.modified_graph:
+            self._new_ctl[3] += 1  # factor age
+            self._new_ctl[6] = 0.0  # |dz0| of this step unknown: no one-iteration acceptance next
+        for dst, src in zip(self._new_fac, self.fac):
+            dst[:] = src
+        return StepOutcome(True, out.iterations)
+
+    def _count(self, info: np.ndarray) -> int:
+        c = self.counters
+        k, f = int(info[1]), int(info[2])
+        c.residuals += k
+        c.jacobians += f
+        c.factorizations += f
+        c.newton_iterations += k
+        return k
+
+    def _predict(self, h, pload, kc):
+        sc, S = self.scheme, self.S
+        b, g, am, af = sc.beta, sc.gamma, sc.alpha_m, sc.alpha_f
+        qh = self.q + h * self.v + h * h * (0.5 - b) * self.ab
+        vh = self.v + h * (1 - g) * self.ab
+        cm, cc = sc.cm(h), sc.cc(h)
+        p = pload.copy()
+        p[:S.nf] += S.M @ ((am * self.ab - af * self.a) / (1 - af) - cm * qh)
+        C = self.kdamp.matrix()
+        if C is not None:
+            p[:S.nf] += C @ (vh - cc * qh)
+        ap = self.a + ((self.a - self.a_prev) * h / self.h_prev if self.h_prev else 0.0)
+        x = qh + b * h * h * ((1 - af) * ap + af * self.a - am * self.ab) / (1 - am)
+        S.vc[:] = vh - cc * qh
+        return x, self.lam / kc, p
+
+    def _correct(self, h, x, lam_true):
+        sc = self.scheme
+        b, g, am, af = sc.beta, sc.gamma, sc.alpha_m, sc.alpha_f
+        qh = self.q + h * self.v + h * h * (0.5 - b) * self.ab
+        vh = self.v + h * (1 - g) * self.ab
+        ab1 = (x - qh) / (b * h * h)
+        self.new["q"][:] = x
+        self.new["lam"][:] = lam_true
+        self.new["ab"][:] = ab1
+        self.new["a"][:] = ((1 - am) * ab1 + am * self.ab - af * self.a) / (1 - af)
+        self.new["v"][:] = vh + h * g * ab1
+
+    def error_estimate(self, h: float) -> np.ndarray:
+        """Local displacement error of the candidate, |beta - 1/6| h^2 (a_{n+1} - a_n) (Zienkiewicz-Xie)."""
+        return self.scheme.error_constant() * h * h * (self.new["a"] - self.a)
+
+    def accept(self) -> None:
+        self.a_prev[:] = self.a
+        for k in ("q", "v", "a", "ab", "lam"):
+            getattr(self, k)[:] = self.new[k]
+        self.ctl[:] = self._new_ctl
+        for dst, src in zip(self.fac, self._new_fac):
+            dst[:] = src
+        self.h_prev = self._h_try
+        self.kdamp.update(self.q)
+
+    # -- many steps in one call -------------------------------------------------------------------------------
+    def guarded_step(self):
+        """The step with the 'failed' flag of ancf_sym.dynamics.chunks.guarded (full Newton on small states: the
+        step with the further iterations 3-6, built on first use)."""
+        f = self.step_f
+        if not self.modified_graph and self.state_size < chunks.UNROLL_STATE:  # (the step with iterations 3-6)
+            f = self._graphs.setdefault("step_more", None) or self._builder.build_full(self.extra_iterations)
+            self._graphs["step_more"] = f
+        return chunks.guarded(f, self.state_size, self.n_accum, self.info_size)
+
+    @property
+    def guard(self) -> bool:
+        """Chunks with the no-op guard after a failed step: on large states (the guard's switch costs nothing
+        against a step there), and on any state after a chunk has failed early (a hard transient: the steps after
+        a failure would be thrown away). Small states start without: the switch costs ~5 % of a 130-unknown step."""
+        return self._guard_on or self.state_size >= chunks.UNROLL_STATE
+
+    def chunk_function(self, n: int, guard: bool | None = None):
+        guard = self.guard if guard is None else guard
+        if (n, guard) not in self._chunks:
+            g = self._graphs
+            if guard and "guarded" not in g:
+                g["guarded"] = self.guarded_step()
+            if (n, guard) not in g["chunks"]:  # (without the guard: the step itself over the steps)
+                g["chunks"][n, guard] = chunks.map_steps(g["guarded"] if guard else self.step_f, n, self.n_accum)
+            f = g["chunks"][n, guard]
+            buf, ev = pooled_buffer(g, (n, guard), f, self)
+            nf = self.S.nf
+            ns = self.state_size + guard
+            bufs = dict(s=np.zeros(ns), h=np.zeros(n), hp=np.zeros(n), pload=np.zeros((nf + self.S.nw) * n),
+                        tols=np.zeros(2 * n), out=np.zeros(ns * n), info=np.zeros(self.info_size * n),
+                        fac_out=[np.zeros(k * n) for k in self.fac_sizes], guard=guard)
+            S = self.S
+            args = [bufs["s"]] + self.fac + [bufs["h"], bufs["hp"], bufs["pload"], bufs["tols"]] + \
+                ([np.tile(S.kel, n)] if S.kel is not None else []) + [np.tile(S.par, n)]
+            bufs["fixed"] = args[-1 - (S.kel is not None):]  # (kept alive: the buffer holds their memory)
+            outs = [bufs["out"]] + bufs["fac_out"] + [bufs["info"]]
+            for i, arr in enumerate(args):
+                buf.set_arg(i, memoryview(arr))
+            for i, arr in enumerate(outs):
+                buf.set_res(i, memoryview(arr))
+            self._chunks[n, guard] = (buf, ev, bufs)
+        return self._chunks[n, guard]
+
+    def prepare_chunks(self, n: int) -> None:
+        """Build (or take from the cache) the chunk function of n steps and its buffers: set-up, before the loop."""
+        self.chunk_function(n)
+
+    def run_chunk(self, h: float, ploads: np.ndarray) -> tuple[np.ndarray, int]:
+        """Up to n = ploads.shape[1] steps of size h in one call (no time-dependent C). Returns the states after
+        each accepted step (n_ok x state_size) and n_ok: the steps before the first one the graph could not
+        converge (that step is then left to `attempt`). The integrator's state is advanced to the last of them."""
+        n = ploads.shape[1]
+        buf, ev, b = self.chunk_function(n)
+        ns = self.state_size
+        if b["guard"]:
+            b["s"][:-1] = self.pack()
+            b["s"][-1] = 0.0  # not failed
+        else:
+            b["s"][:] = self.pack()
+        b["h"][:] = h  # (mapaccum maps every input but the state over the steps)
+        b["hp"][:] = h
+        b["hp"][0] = self.h_prev if self.h_prev else 0.0
+        if ploads is not b.get("pload_from"):  # (a constant load array is copied in once)
+            b["pload"][:] = ploads.ravel(order="F")
+            b["pload_from"] = ploads if not ploads.flags.writeable else None
+        b["tols"][0::2], b["tols"][1::2] = self.tol_q, self.tol_x
+        ev()
+        info = b["info"].reshape(n, self.info_size)
+        states = b["out"].reshape(n, ns + b["guard"])[:, :ns]
+        good = info[:, 0] == 1  # (guarded: the failed flag, set at the first unconverged or non-finite step)
+        if not b["guard"]:
+            good &= np.isfinite(states).all(axis=1)
+        n_ok = n if good.all() else int(np.argmin(good))
+        # the failing step's work was spent too (and without the guard, the later steps' work)
+        self._count(np.nan_to_num(info[:min(n_ok + 1, n) if b["guard"] else n], posinf=0, neginf=0).sum(axis=0))
+        if n_ok < n - 1:
+            self._guard_on = True  # a hard transient: the next chunks stop at their failing step
+        if n_ok:
+            self.a_prev[:] = states[n_ok - 2, 2 * self.S.nf:3 * self.S.nf] if n_ok > 1 else self.a
+            u = self.unpack(states[n_ok - 1])
+            for k in ("q", "v", "a", "ab", "lam"):
+                getattr(self, k)[:] = u[k]
+            self.ctl[:] = u["ctl"]
+            for dst, src, k in zip(self.fac, b["fac_out"], self.fac_sizes):
+                dst[:] = src[(n_ok - 1) * k:n_ok * k]
+            self.h_prev = h
+        return states[:n_ok], n_ok

@@ -1,0 +1,351 @@
+"""The compiled step of the alpha schemes (Newmark / HHT / generalized-alpha, ancf_sym.dynamics.schemes): one CasADi
+graph per step with the predictor, the Newton iterations chosen in-graph by switches that evaluate only the branch
+taken, and the corrector. AlphaIntegrator (ancf_sym.dynamics.alpha) runs it, one step or many per call.
+
+Two step graphs:
+
+- full Newton (default): every iteration is a full Newton iteration with CasADi's sparse LDL^T (or QR:
+  multipliers, strain-rate damping); one or two iterations in the graph, accepted after one when Newton's own
+  estimate 2 omega |dz0|^2 (omega = |dz1| / |dz0|^2 measured on two-iteration steps) is below the update
+  tolerance. omega is re-measured at least every `refresh_every` steps, up to 8x less often when the
+  estimate is below a tenth of the tolerance; up to `extra_iterations` more iterations behind one switch.
+- modified Newton (newton.modified true, symmetric step matrix: no multipliers, no strain-rate damping). The
+  LDL^T factor of the step matrix (values D, U, U^T, ancf_sym.dynamics.ldl) is carried from step to step as
+  accumulated inputs of the step function and kept across iterations and steps while the iteration contracts. An
+  iteration on the kept factor costs the gradient-only kernels and two triangular solves; a refactorisation is a
+  full Newton iteration (energy, gradient, Hessian kernels, assembly, LDL^T) that stores its factor. An iteration
+  on the kept factor is accepted only after the next one measured its contraction theta = |dz_k+1| / |dz_k|
+  (error theta / (1 - theta) |dz_k+1|); predicting theta from earlier steps to accept after one iteration was
+  tried and let errors far above the tolerance through (a chaotic double pendulum ended 9 mm off). After a
+  refactorisation the step may end after one iteration on omega as above. The contraction per step of factor
+  age (rate = theta / age, rising at once, decaying slowly) predicts how many iterations the kept factor will
+  need; a step starts with a refactorisation when the step size changed, when rate x age reaches
+  newton.contraction, or when those iterations cost more than a refactorisation's cycle costs per step so far
+  (renewal rule, a refactorisation counted as `refactor_cost` iterations); within a step it refactorises when a
+  measured theta exceeds newton.contraction. The step's scalar logic is a few SX functions between the
+  iterations (hundreds of scalar MX nodes cost more than the logic itself).
+
+The update tolerance is max(xtol L, lte_fraction x the step's local truncation error |beta - 1/6| h^2
+|a_n+1 - a_n|): Newton's error stays a small fraction of the time-discretization error, so the accuracy is the
+scheme's. State: q, v (true velocity), a (true acceleration), ab (algorithmic acceleration), a_prev (acceleration
+of the previous step), lam (true multipliers) and the controls (omega, steps since a measurement; modified:
+contraction rate, factor age, step size of the factor, largest step-matrix entry, the last |dz0|, update
+tolerance and truncation error, the cost of the factor's cycle); modified: the factor.
+"""
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from .damping import rayleigh_mx
+from .ldl import LDLFactor
+from .newton import NewtonOptions
+from .schemes import Scheme
+from .step_system import StepSystem
+
+
+class AlphaStepGraphs:
+    """Builds the step function of one step system, scheme and Newton options:
+    step(state[, D, U, UT], h, h_prev, pload, tols[, kel], par) -> (next state[, D, U, UT], info)."""
+    refresh_every = 8  # one-iteration steps between two-iteration steps that re-measure omega / the contraction
+    max_slots = 5  # modified Newton: iterations (refactorisations included) the step graph tries per step
+    refactor_cost = 3.5  # modified Newton: a refactorisation's cost in iterations on a kept factor
+    info_size = 7  # ok, iterations, factorisations, |dz0|, |dz1|, truncation error, max |KKT|
+    extra_iterations = 4  # full Newton: iterations the step graph tries after the second one
+
+    def __init__(self, system: StepSystem, scheme: Scheme, opts: NewtonOptions, factor: LDLFactor | None):
+        """factor: the in-graph factorisation for modified Newton (None: full Newton)."""
+        self.S, self.scheme, self.opts, self.factor = system, scheme, opts, factor
+        self.modified = factor is not None
+        self.nctl = 10 if self.modified else 2
+        self.state_size = 5 * system.nf + system.mc + self.nctl
+
+    def step_inputs(self):
+        S, nf, mc = self.S, self.S.nf, self.S.mc
+        st = ca.MX.sym("state", self.state_size)
+        q, v, a, ab, ap = (st[i * nf:(i + 1) * nf] for i in range(5))
+        lam = st[5 * nf:5 * nf + mc]
+        ctl = st[5 * nf + mc:]
+        h, hp = ca.MX.sym("h"), ca.MX.sym("h_prev")  # h_prev <= 0: no previous step (constant predictor)
+        tols = ca.MX.sym("tols", 2)  # force tolerance [N], update tolerance [m]
+        pload = ca.MX.sym("pload", nf + S.nw)  # -(f_lin + Q(t_n+1)), then the drives' inputs w(t_n+1)
+        kel = ca.MX.sym("kel", S.kel.size) if S.kel is not None else None
+        par = ca.MX.sym("par", S.par.size)  # element parameters (StepSystem.par)
+        return st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel, par
+
+    def step_common(self, q, v, a, ab, ap, h, hp, pload, kel):
+        """Predictor, constant part of the residual and the corrector of a step (MX)."""
+        S, sc = self.S, self.scheme
+        nf = S.nf
+        b, g, am, af = sc.beta, sc.gamma, sc.alpha_m, sc.alpha_f
+        # (each MX node costs a virtual-machine instruction: shared subexpressions are built once, constant
+        # factors folded in Python)
+        hh = h * h
+        bhh = b * hh
+        qh = q + h * v + ((0.5 - b) * hh) * ab
+        vh = v + (h * (1 - g)) * ab
+        cm = ((1 - am) / (1 - af)) / bhh
+        cc = g / (b * h)
+        kc = cm * S.stiffness_scale()
+        vc = vh - cc * qh
+        Cvh, _ = rayleigh_mx(S, vc, kel)
+        # a_n+1 = ((1 - am) ab_n+1 + am ab - af a) / (1 - af) = cm (x - qh) + k0, with x = qh + (b h^2) ab_n+1
+        k0 = (am / (1 - af)) * ab - (af / (1 - af)) * a
+        y = k0 - cm * qh  # the residual's inertia is M (cm x + y): no product with M here
+        p = Cvh + pload if not S.nw else ca.vertcat(Cvh + pload[:nf], pload[nf:])
+        apred = a + ca.if_else(hp > 0, (a - ap) * (h / ca.fmax(hp, 1e-300)), ca.MX.zeros(nf))
+        x0 = qh + (bhh / (1 - am)) * ((1 - af) * apred + af * a - am * ab)
+        err_c = sc.error_constant()
+
+        def lte(x):
+            return (err_c * hh) * ca.mmax(ca.fabs(cm * (x - qh) + k0 - a))
+
+        def block(x):  # q, v, a, ab of the new state and a_prev
+            d = x - qh
+            ab1 = d / bhh
+            return ca.vertcat(x, vh + (h * g) * ab1, cm * d + k0, ab1, a)
+
+        return dict(x0=x0, p=p, y=y, cm=cm, cc=cc, kc=kc, vc=vc, lte=lte, block=block)
+
+    def _full_control_functions(self) -> tuple[ca.Function, ca.Function]:
+        """The full-Newton step's scalar logic as two SX functions (before and after the second iteration)."""
+        o, tiny = self.opts, 1e-300
+        sx = ca.SX.sym
+        C, N0, L, T = sx("ctl", 2), sx("n0", 5), sx("lte"), sx("tols", 2)
+        om, since = C[0], C[1]
+        d0 = ca.fmax(N0[2], N0[3])
+        tolx = ca.fmax(T[1], o.lte_fraction * L)
+        tq = ca.fmax(T[0], 2 * np.finfo(float).eps * N0[4] * self.S.span)
+        conv0 = ca.logic_and(N0[0] <= tq, N0[1] <= T[1])
+        est1 = 2 * om * d0 * d0
+        # omega is re-measured (second iteration) at least every refresh_every steps, up to 8x less often when the
+        # estimate has a wide margin
+        fresh = since < self.refresh_every * ca.fmin(8, ca.fmax(1, 0.1 * tolx / ca.fmax(est1, tiny)))
+        conv1 = ca.logic_and(ca.logic_and(om > 0, fresh), est1 <= tolx)
+        accept1 = ca.logic_or(conv0, conv1) if o.single else ca.SX(0)
+        first = ca.Function("after_first", [C, N0, L, T], [ca.vertcat(ca.if_else(accept1, 0, 1), tq, tolx, d0)])
+        A, N1 = sx("a", 4), sx("n1", 5)
+        second, tq, tolx, d0 = A[0], A[1], A[2], A[3]
+        accept1 = second == 0
+        d1 = ca.fmax(N1[2], N1[3])
+        th = d1 / ca.fmax(d0, tiny)
+        conv2 = ca.logic_or(ca.logic_and(N1[0] <= tq, N1[1] <= T[1]), d1 <= 0.1 * tolx)
+        conv2 = ca.logic_or(conv2, ca.logic_and(th < 0.5, th / (1 - th) * d1 <= tolx))
+        ok = ca.if_else(accept1, 1, conv2)
+        om_new = ca.if_else(accept1, om, ca.if_else(d0 > 0, ca.fmax(d1 / ca.fmax(d0 * d0, tiny), 0.5 * om), om))
+        since_new = ca.if_else(accept1, since + 1, 0)
+        iters = ca.if_else(accept1, 1, 2)
+        final = ca.Function("controls", [C, N0, A, N1, L, T],
+                            [ca.vertcat(om_new, since_new), ca.vertcat(ok, iters, iters, d0, d1, L, N0[4])])
+        return first, final
+
+    def _later_control_function(self) -> ca.Function:
+        """Convergence after a third or later full Newton iteration (the criteria and tolerances of `newton`, which
+        took these steps before): (ok, iterations, last |dz|) updated by the norms of the iteration (zeros if
+        skipped)."""
+        sx, tiny = ca.SX.sym, 1e-300
+        V, N, A, T = sx("lv", 3), sx("n", 5), sx("a", 4), sx("tols", 2)
+        ok, iters, d_prev = V[0], V[1], V[2]
+        tq, tolx = A[1], T[1]  # (the absolute update tolerance, as `newton`: a hard step converges fully)
+        ran = ok == 0
+        d = ca.fmax(N[2], N[3])
+        th = d / ca.fmax(d_prev, tiny)
+        conv = ca.logic_or(ca.logic_or(ca.logic_and(N[0] <= tq, N[1] <= T[1]), d <= 0.1 * tolx),
+                           ca.logic_and(th < 0.5, th / (1 - th) * d <= tolx))
+        return ca.Function("after_later", [V, N, A, T], [ca.vertcat(ca.logic_or(ok, ca.logic_and(ran, conv)),
+                                                                    iters + ran, ca.if_else(ran, d, d_prev))])
+
+    def build_full(self, extra_iterations: int) -> ca.Function:
+        """Full Newton: one iteration, then (in-graph switch) either acceptance or a second iteration, and up to
+        extra_iterations more while not converged."""
+        S = self.S
+        nf, mc = S.nf, S.mc
+        st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel, par = self.step_inputs()
+        c = self.step_common(q, v, a, ab, ap, h, hp, pload, kel)
+        x0, p, cm, cc, kc, vc, y = c["x0"], c["p"], c["cm"], c["cc"], c["kc"], c["vc"], c["y"]
+        l0 = lam / kc
+        extra = [kel] if kel is not None else []
+        dz, n0 = S.iter_f(x0, l0, p, cm, cc, kc, vc, *extra, y, par)
+        x1 = x0 + dz[:nf]
+        l1 = l0 + dz[nf:] if mc else l0
+        lte = c["lte"](x1)
+        first, final = self._full_control_functions()
+        a1 = first(ctl, n0, lte, tols)
+        # second iteration, evaluated only when needed
+        xb, lb, pb = ca.MX.sym("xb", nf), ca.MX.sym("lb", mc), ca.MX.sym("pb", nf + S.nw)
+        cb, ccb, kb, vb = ca.MX.sym("cmb"), ca.MX.sym("ccb"), ca.MX.sym("kcb"), ca.MX.sym("vcb", nf)
+        eb = [ca.MX.sym("kelb", S.kel.size)] if kel is not None else []
+        yb, parb = ca.MX.sym("yb", nf), ca.MX.sym("parb", S.par.size)
+        dzb, nb = S.iter_f(xb, lb, pb, cb, ccb, kb, vb, *eb, yb, parb)
+        f_keep = ca.Function("keep", [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb, parb], [xb, lb, ca.DM.zeros(5)])
+        f_iter = ca.Function("second", [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb, parb],
+                             [xb + dzb[:nf], (lb + dzb[nf:]) if mc else lb, nb])
+        switch = ca.Function.conditional("second_iteration", [f_keep], f_iter)
+        # further iterations while not converged after the second (hard transients: the step stays in the graph,
+        # and a chunk goes on): a switch inside the second iteration's branch, so that the steps accepted after one
+        # iteration (most of them) pay nothing for it; m = (ran, ok, iterations) of the further iterations
+        n_more = max(0, min(extra_iterations, self.opts.max_iter - 2))
+        if n_more:
+            later = self._later_control_function()
+            cb_, n0b, a1b, lteb, tb = ca.MX.sym("ctl", 2), ca.MX.sym("n0", 5), ca.MX.sym("a1", 4), ca.MX.sym("lte"), \
+                ca.MX.sym("tols", 2)
+            lvb = ca.MX.sym("lv", 3)
+            iter_ins = [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb, parb]
+            # one further iteration on z = (x, lam, (ok, iterations, last |dz|)), folded n_more times (one graph
+            # to build, not n_more)
+            xk, lk, nk = switch(lvb[0] == 0, xb, lb, pb, cb, ccb, kb, vb, *eb, yb, parb)
+            zb = ca.vertcat(xb, lb, lvb)
+            others = [a1b, tb, pb, cb, ccb, kb, vb] + eb + [yb, parb]
+            one = ca.Function("further_iteration", [zb] + others, [ca.vertcat(xk, lk, later(lvb, nk, a1b, tb))])
+            zin = ca.MX.sym("z", zb.numel())
+            folded = one.fold(n_more)(zin, *[ca.repmat(o, 1, n_more) for o in others])
+            more = ca.Function.conditional("further_iterations", [ca.Function("done", [zin] + others, [zin])],
+                                           ca.Function("more", [zin] + others, [folded]))
+            x2b, l2b, n1b = f_iter(*iter_ins)
+            info2 = final(cb_, n0b, a1b, n1b, lteb, tb)[1]
+            lv2 = ca.vertcat(info2[0], info2[1], ca.fmax(n1b[2], n1b[3]))
+            z3 = more(lv2[0] == 0, ca.vertcat(x2b, l2b, lv2), *others)
+            x3, l3, lv3 = z3[:nf], z3[nf:nf + mc], z3[nf + mc:]
+            br_ins = iter_ins + [cb_, n0b, a1b, lteb, tb]
+            f_keep = ca.Function("keep", br_ins, [xb, lb, ca.DM.zeros(5), ca.DM.zeros(3)])
+            f_iter = ca.Function("second", br_ins, [x3, l3, n1b, ca.vertcat(lv2[0] == 0, lv3[0], lv3[1])])
+            x2, l2, n1, m = ca.Function.conditional("second_iteration_on", [f_keep], f_iter)(
+                a1[0], x1, l1, p, cm, cc, kc, vc, *extra, y, par, ctl, n0, a1, lte, tols)
+        else:
+            x2, l2, n1 = switch(a1[0], x1, l1, p, cm, cc, kc, vc, *extra, y, par)
+            m = ca.DM.zeros(3)
+        ctl_new, info = final(ctl, n0, a1, n1, lte, tols)
+        ok, iters = ca.if_else(m[0], m[1], info[0]), ca.if_else(m[0], m[2], info[1])
+        info = ca.vertcat(ok, iters, iters, info[3:])
+        new_state = ca.vertcat(c["block"](x2), l2 * kc, ctl_new)
+        return self.make_step_f([st], [h, hp, pload, tols] + extra + [par], [new_state], info)
+
+    # carried control vector of the modified step (SX functions between the iterations)
+    _CV = ("conv", "tolx", "tq", "kmax", "iters", "nfull", "since_full", "d_prev", "last_full", "th", "mode",
+           "d1", "th1", "conv0", "refac0", "d0", "th0", "lte1")
+
+    def _control_functions(self) -> dict:
+        """The modified step's scalar logic as SX functions (a few calls instead of hundreds of MX nodes)."""
+        o = self.opts
+        KEEP, MOD, FULL = 0, 1, 2
+        cmax, R, tiny = o.contraction, self.refactor_cost, 1e-300
+        sx = ca.SX.sym
+        C, hs, T = sx("ctl", self.nctl), sx("h"), sx("tols", 2)
+        om, since, rate, age, fh, kmax, d0p, tolxp, ltep, cyc = (C[k] for k in range(self.nctl))
+        fresh = since < self.refresh_every
+        known = rate >= 0
+        idx = {k: i for i, k in enumerate(self._CV)}
+        # before the first iteration: on the kept factor, or refactorise (no factor for this step size, contraction
+        # too slow, or the iterations predicted on the kept factor cost more than a refactorisation's cycle does
+        # per step: renewal rule, m0 > cyc / age)
+        th0 = ca.fmax(rate, 0) * age
+        # (an iteration on the kept factor is accepted only after the next one measured its contraction)
+        m0 = 1 + ca.fmax(1, ca.ceil(ca.log(ca.fmax(tolxp * (1 - th0), tiny) / ca.fmax(d0p, tiny)) /
+                                    ca.log(ca.fmin(ca.fmax(th0, tiny), 0.999))))
+        costly = ca.logic_and(ca.logic_and(known, d0p > 0), m0 * age > cyc)
+        refac0 = ca.logic_or(ca.logic_not(ca.logic_and(fh > 0, ca.fabs(fh - hs) <= 1e-9 * hs)),
+                             ca.logic_and(known, ca.logic_or(th0 >= cmax, costly)))
+        decide = ca.Function("decide", [C, hs], [ca.vertcat(ca.if_else(refac0, FULL, MOD), th0)])
+        # after the first iteration
+        N, L1, M0, TH0 = sx("n", 3), sx("lte1"), sx("mode0"), sx("th0")
+        rq0, d0 = N[0], N[1]
+        ref0 = M0 == FULL
+        kmax1 = ca.if_else(ref0, N[2], kmax)
+        lte_use = ca.if_else(ltep > 0, ca.fmin(L1, 2 * ltep), L1)  # x1 may be off by the tolerance
+        tolx = ca.fmax(T[1], o.lte_fraction * lte_use)
+        tq = ca.fmax(T[0], 2 * np.finfo(float).eps * kmax1 * self.S.span)
+        ok_full = ca.logic_and(ref0, ca.logic_or(d0 <= 0.1 * tolx, ca.logic_and(ca.logic_and(om > 0, fresh),
+                                                                                2 * om * d0 * d0 <= tolx)))
+        conv = ca.logic_or(rq0 <= tq, ok_full) if o.single else ca.SX(0)
+        vals = dict(conv=conv, tolx=tolx, tq=tq, kmax=kmax1, iters=1, nfull=ref0, since_full=0, d_prev=d0,
+                    last_full=ref0, th=0, mode=ca.if_else(conv, KEEP, MOD), d1=0, th1=0, conv0=conv, refac0=ref0,
+                    d0=d0, th0=TH0, lte1=L1)
+        first = ca.Function("after_first", [C, N, L1, T, M0, TH0], [ca.vertcat(*[vals[k] for k in self._CV])])
+        # after a further iteration: keep when converged; after a refactorisation the new factor; else refactorise
+        # when the kept factor contracted too slowly (theta measured in this step)
+        CV, Nk = sx("cv", len(self._CV)), sx("n", 3)
+        cv = {k: CV[i] for k, i in idx.items()}
+        ran, is_full = cv["mode"] != KEEP, cv["mode"] == FULL
+        rq, d = Nk[0], Nk[1]
+        th = ca.if_else(ran, d / ca.fmax(cv["d_prev"], tiny), 0)
+        conv_k = ca.logic_or(ca.logic_or(rq <= cv["tq"], d <= 0.1 * cv["tolx"]),
+                             ca.logic_and(th < 0.5, th / (1 - th) * d <= cv["tolx"]))
+        new = dict(cv)
+        new["conv"] = ca.logic_or(cv["conv"], ca.logic_and(ran, conv_k))
+        new["iters"] = cv["iters"] + ran
+        new["nfull"] = cv["nfull"] + is_full
+        new["since_full"] = ca.if_else(is_full, 0, cv["since_full"] + ran)
+        new["kmax"] = ca.if_else(is_full, Nk[2], cv["kmax"])
+        new["d_prev"] = ca.if_else(ran, d, cv["d_prev"])
+        new["last_full"] = ca.if_else(ran, is_full, cv["last_full"])
+        new["th"] = th
+        bad = ca.logic_and(ca.logic_not(new["last_full"]), th > cmax)
+        new["mode"] = ca.if_else(new["conv"], KEEP, ca.if_else(bad, FULL, MOD))
+        later = ca.Function("after_later", [CV, Nk], [ca.vertcat(*[new[k] for k in self._CV])])
+        new1 = dict(new, d1=d, th1=th)
+        second = ca.Function("after_second", [CV, Nk], [ca.vertcat(*[new1[k] for k in self._CV])])
+        # controls for the next step
+        L2 = sx("lte")
+        two = ca.logic_not(cv["conv0"])  # a second iteration ran: the estimates were measured
+        # contraction per step of factor age, measured when the step started on the kept factor (age >= 1);
+        # it rises at once and decays slowly (one lucky measurement must not make the next steps optimistic)
+        meas = cv["th1"] / ca.fmax(age, 1)
+        rate_new = ca.if_else(ca.logic_and(two, ca.logic_not(cv["refac0"])),
+                              ca.if_else(known, ca.fmax(meas, 0.7 * rate), meas), rate)
+        om_new = ca.if_else(ca.logic_and(two, cv["refac0"]),
+                            ca.if_else(cv["d0"] > 0, ca.fmax(cv["d1"] / ca.fmax(cv["d0"] ** 2, tiny), 0.5 * om), om),
+                            om)
+        any_full = cv["nfull"] > 0
+        ctl_new = ca.vertcat(om_new, ca.if_else(two, 0, since + 1), rate_new, ca.if_else(any_full, 1, age + 1),
+                             ca.if_else(any_full, hs, fh), cv["kmax"], cv["d0"], cv["tolx"], L2,
+                             ca.if_else(any_full, R + cv["since_full"], cyc + cv["iters"]))
+        info = ca.vertcat(cv["conv"], cv["iters"], cv["nfull"], cv["d0"], cv["d1"], cv["lte1"], cv["kmax"])
+        final = ca.Function("controls", [C, CV, L2, hs], [ctl_new, info])
+        return dict(decide=decide, first=first, second=second, later=later, final=final, mode=idx["mode"])
+
+    def build_modified(self) -> ca.Function:
+        """Modified Newton with the LDL^T factor as accumulated inputs (see the class docstring)."""
+        S = self.S
+        nf = S.nf
+        fac = self.factor
+        nD, nU, nUT = fac.size
+        st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel, par = self.step_inputs()
+        D0, U0, UT0 = ca.MX.sym("D", nD), ca.MX.sym("U", nU), ca.MX.sym("UT", nUT)
+        c = self.step_common(q, v, a, ab, ap, h, hp, pload, kel)
+        x0, p, cm, cc, vc, y = c["x0"], c["p"], c["cm"], c["cc"], c["vc"], c["y"]
+        extra = [kel] if kel is not None else []
+        # one Newton iteration of each kind, with the same signature: keep (converged), kept factor, refactorise
+        xs, Ds, Us, UTs = ca.MX.sym("x", nf), ca.MX.sym("D", nD), ca.MX.sym("U", nU), ca.MX.sym("UT", nUT)
+        ps, cms, ccs, vcs = ca.MX.sym("p", nf + S.nw), ca.MX.sym("cm"), ca.MX.sym("cc"), ca.MX.sym("vc", nf)
+        ks = [ca.MX.sym("kel", S.kel.size)] if kel is not None else []
+        ys, pars = ca.MX.sym("y", nf), ca.MX.sym("par", S.par.size)
+        args = [xs, Ds, Us, UTs, ps, cms, ccs, vcs] + ks + [ys, pars]
+        none = ca.MX(0, 1)
+        r, nr = S.res_f(xs, none, ps, cms, ccs, 1.0, vcs, *ks, ys, pars)
+        dz = -fac.solve_mx(Ds, Us, UTs, r)
+        f_mod = ca.Function("kept_factor", args, [xs + dz, Ds, Us, UTs, ca.vertcat(nr[0], ca.mmax(ca.fabs(dz)), 0)])
+        r, nj, knz = S.jac_f(xs, none, ps, cms, ccs, 1.0, vcs, *ks, ys, pars)
+        D2, U2, UT2 = fac.fact_f(knz)
+        dz = -fac.solve_mx(D2, U2, UT2, r)
+        f_full = ca.Function("refactorise", args,
+                             [xs + dz, D2, U2, UT2, ca.vertcat(nj[0], ca.mmax(ca.fabs(dz)), nj[2])])
+        f_keep = ca.Function("keep", args, [xs, Ds, Us, UTs, ca.DM.zeros(3)])
+        slot = ca.Function.conditional("newton_iteration", [f_keep, f_mod], f_full)  # 0 keep, 1 kept, 2 refactorise
+        cf = self._control_functions()
+        dm = cf["decide"](ctl, h)
+        mode0, th0 = dm[0], dm[1]
+        x, Dk, Uk, UTk, n = slot(mode0, x0, D0, U0, UT0, p, cm, cc, vc, *extra, y, par)
+        cv = cf["first"](ctl, n, c["lte"](x), tols, mode0, th0)
+        for k in range(1, self.max_slots):
+            x, Dk, Uk, UTk, n = slot(cv[cf["mode"]], x, Dk, Uk, UTk, p, cm, cc, vc, *extra, y, par)
+            cv = (cf["second"] if k == 1 else cf["later"])(cv, n)
+        ctl_new, info = cf["final"](ctl, cv, c["lte"](x), h)
+        new_state = ca.vertcat(c["block"](x), lam, ctl_new)
+        return self.make_step_f([st, D0, U0, UT0], [h, hp, pload, tols] + extra + [par], [new_state, Dk, Uk, UTk],
+                                 info)
+
+    def make_step_f(self, accum_in, other_in, accum_out, info) -> ca.Function:
+        names = ["state", "D", "U", "UT"][:len(accum_in)] + ["h", "h_prev", "pload", "tols"] + \
+            (["kel"] if len(other_in) == 6 else []) + ["par"]
+        return ca.Function("alpha_step", accum_in + other_in, accum_out + [info], names,
+                           ["next_" + nm for nm in names[:len(accum_out)]] + ["info"])

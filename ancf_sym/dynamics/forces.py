@@ -1,0 +1,102 @@
+"""The force graphs of a step system: the potential's gradient and Hessian on the unknowns, assembled from the
+mapped compiled kernels by constant index gathers (no Python loop over elements, no numpy scatter).
+
+forces_pf(x, par) -> (g, K[, kel]): gradient and Hessian of the nonlinear potential (elastic terms, penalty
+joints, contact laws), and the elastic tangent values for Rayleigh stiffness damping; grad_pf(x, par) -> g from
+the kernels' (energy, gradient) companions (no Hessian work); the energies and kinetic energy for the outputs.
+`par` holds the kernels' element parameters (material, section, lengths), inputs rather than constants of the
+graphs.
+"""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import casadi as ca
+import numpy as np
+
+from .. import kernels
+from ..assembly import map_elements
+from ..sparsity import assemble_mx, dm, hessian_entries, mx_nonzeros, scatter
+
+if TYPE_CHECKING:
+    from .step_system import StepSystem
+
+ELASTIC_LABELS = ("axial", "bending", "torsion", "continuum")
+
+
+def build_force_graphs(S: "StepSystem") -> None:
+    """Build S.forces_pf, S.grad_pf, S._energy_kin_f (with its labels) and S.kel_sparsity (None without Rayleigh
+    stiffness damping) from S's kernel calls."""
+    asm, nf, pos = S.asm, S.nf, S.pos
+    xf = ca.MX.sym("x", nf)
+    par = ca.MX.sym("par", S.par.size)
+    x = S.x_full_mx(xf)
+    energies = []
+    kel_vals, kel_rows, kel_cols = [], [], []
+    weights = S.rayleigh.element_weight if (S.rayleigh is not None and S.rayleigh.beta) else {}
+    Ps, o = [], 0  # each kernel call's parameters (n_p x N) from the input vector
+    for P in [ft.P for ft in S.force_terms] + [mk.P for mk in S.nonlinear]:
+        Ps.append(ca.reshape(par[o:o + P.size], P.shape[1], P.shape[0]))
+        o += P.size
+    Pft, Pmk = Ps[:len(S.force_terms)], Ps[len(S.force_terms):]
+    calls = []  # (elements, G, H); assemble_mx sums calls on the same elements before the scatter
+    for ft, Pk in zip(S.force_terms, Pft):
+        Xe = ca.reshape(x[ft.idx.ravel().tolist()], ft.nd, ft.N)
+        _, G, H = ft.mapped()(Xe, Pk)
+        calls.append((ft.idx, G, H))
+        if weights and all(lbl in ELASTIC_LABELS for lbl in ft.labels):
+            ti, rows = ft.sources[0]  # fused rows have equal weights (row_keys)
+            w = weights.get(ti)
+            if w is not None and np.any(np.asarray(w)[rows]):
+                ia, ib, keep = hessian_entries(pos, ft.idx)
+                we = np.repeat(np.asarray(w, float)[rows], ft.nd * ft.nd)[keep]
+                hv = ca.vec(H)
+                kel_vals.append((hv[keep.tolist()] if len(keep) < hv.shape[0] else hv) * ca.DM(we))
+                kel_rows.append(ib[keep])
+                kel_cols.append(ia[keep])
+    g, K = assemble_mx(calls, pos, nf)
+    S.kel_sparsity = None
+    outs = [g, K]
+    if kel_vals:
+        Kel = scatter(kel_vals, np.concatenate(kel_rows), np.concatenate(kel_cols), nf)
+        S.kel_sparsity = Kel.sparsity()
+        outs.append(mx_nonzeros(Kel))
+    if asm.penalty is not None:
+        pc = asm.penalty
+        c = asm._casadi_constraint(pc, x)
+        pen = 0.5 * ca.sum1(ca.DM(pc.k) * c * c)
+        outs[0] = outs[0] + ca.gradient(pen, xf)
+        outs[1] = outs[1] + ca.hessian(pen, xf)[0]
+        energies.append(("penalty", pen))
+    S.forces_pf = ca.Function("forces", [xf, par], outs, ["x", "par"],
+                                 ["g", "K"] + (["kel"] if kel_vals else []))
+    # the gradient alone from the (energy, gradient) companions: no Hessian work (residuals of modified Newton)
+    gcalls = []
+    for ft, Pk in zip(S.force_terms, Pft):
+        Xe = ca.reshape(x[ft.idx.ravel().tolist()], ft.nd, ft.N)
+        gcalls.append((ft.idx, ft.mapped_grad()(Xe, Pk)[1], None))
+    gg, _ = assemble_mx(gcalls, pos, nf, hessian=False)
+    if asm.penalty is not None:
+        gg += ca.gradient(pen, xf)
+    S.grad_pf = ca.Function("gradient", [xf, par], [gg], ["x", "par"], ["g"])
+    # energies for the outputs from the energy-only compiled functions (no gradient, no Hessian)
+    elist = []
+    for mk, Pk in zip(S.nonlinear, Pmk):
+        t = mk.term
+        Xe = ca.reshape(x[t.idx.ravel().tolist()], mk.nd, mk.N)
+        ef = map_elements(kernels.load_energy(t.element, t.effect, t.gauss),
+                          kernels.load_batch(t.element, t.effect, t.gauss, "_energy"), mk.N)
+        elist.append((t.label, ca.sum2(ef(Xe, Pk))))
+    elist += [(lbl, e) for lbl, e in energies if lbl == "penalty"]
+    # the outputs' energies in one call: the potentials (the linear ones, U = c + G.x, as dot products with the
+    # input `lin` = [G_1 .. G_k, c_1 .. c_k, Q]) and the kinetic energy
+    lin = ca.MX.sym("lin", S.lin.size)
+    n, k = asm.n, len(S._lin_energy)
+    for j, (_, _, _, label) in enumerate(S._lin_energy):
+        elist.append((label, lin[k * n + j] + ca.dot(lin[j * n:(j + 1) * n], x)))
+    if np.any(asm.Q):
+        elist.append(("loads", -ca.dot(lin[k * n + k:], x)))
+    S._energy_kin_labels = [lbl for lbl, _ in elist]
+    vf = ca.MX.sym("v", nf)
+    S._energy_kin_f = ca.Function("energies_kinetic", [xf, vf, par, lin], [
+        ca.vertcat(*[e for _, e in elist], 0.5 * ca.dot(vf, ca.mtimes(dm(S.M), vf)))])

@@ -1,0 +1,83 @@
+"""Compiled step graphs cached by scene structure, in the process.
+
+A StepSystem's graphs bake in the pattern of the equations (elements, kernels, gathers, sparsity) and a few values
+(mass matrix, fixed coordinates, damping, penalties, constraints, scales); element parameters (E, section, lengths),
+constant and time loads, the step size and the initial state are inputs. `structure_key` hashes what is baked in,
+so runs that differ only in the inputs share the graphs (and the integrators' step and chunk functions, and the
+buffers those allocate).
+"""
+from __future__ import annotations
+
+import hashlib
+import weakref
+from typing import TYPE_CHECKING
+
+import casadi as ca
+import numpy as np
+import scipy.sparse as sp
+
+from .. import contact
+
+if TYPE_CHECKING:
+    from .step_system import StepSystem
+
+# structure key -> the StepSystem's compiled functions (and the in-graph factor, buffers)
+SYSTEM_GRAPHS: dict = {}
+# (structure key, scheme, Newton options, in-graph factor, further iterations) -> alpha step and chunk functions
+ALPHA_GRAPHS: dict = {}
+
+
+def clear_graph_cache() -> None:
+    """Forget the compiled step graphs of this process (the next run of every structure builds them again)."""
+    SYSTEM_GRAPHS.clear()
+    ALPHA_GRAPHS.clear()
+
+
+def structure_key(S: "StepSystem") -> str:
+    """What the compiled graphs bake in: the pattern of the equations (elements, kernels, gathers, sparsity),
+    and the values that are constants of the graphs (mass matrix, fixed coordinates, Rayleigh and strain-rate
+    damping, penalties, constraints, scales). Element parameters (E, section, lengths), constant and time
+    loads, the step size and the initial state are inputs: runs that differ only in those share the graphs."""
+    h = hashlib.sha256()
+
+    def add(*xs):
+        for x in xs:
+            if isinstance(x, np.ndarray):
+                h.update(repr((x.dtype.str, x.shape)).encode())
+                h.update(np.ascontiguousarray(x).tobytes())
+            elif isinstance(x, (list, tuple)):
+                h.update(b"[")
+                add(*x)
+                h.update(b"]")
+            elif isinstance(x, dict):
+                add(*sorted(x.items(), key=lambda kv: repr(kv[0])))
+            elif hasattr(x, "__dict__") and not isinstance(x, type):
+                add(type(x).__name__, dict(vars(x)))
+            elif sp.issparse(x):
+                x = sp.csc_matrix(x)
+                add(x.shape, x.indptr, x.indices, x.data)
+            else:
+                h.update(repr(x).encode())
+    asm = S.asm
+    add(asm.n, S.nf, S.mc, S.linsol, S.fuse, S._gather, S.part.c, S.M, S.span,
+        S.length_scale, bool(np.any(asm.Q)), [lbl for *_, lbl in S._lin_energy])
+    add([(ft.element, ft.effect, ft.gauss, ft.idx, ft.P.shape, ft.labels, ft.sources) for ft in S.force_terms])
+    add([(mk.term.element, mk.term.effect, mk.term.gauss, mk.term.idx, mk.P.shape, mk.term.label)
+         for mk in S.nonlinear])
+    r = S.rayleigh
+    add(None if r is None else (r.alpha, r.beta, {k: np.asarray(v, float) for k, v in r.element_weight.items()}))
+    add(S.strain_rate, asm.penalty, S.cons)
+    add(contact.dissipation_calls(asm.mesh))  # contact damping/friction: parameters baked into the graph
+    d = S.drives  # drive rows' pattern (their time functions are inputs)
+    add(None if d is None else (d.nw, d.row, d.wk, d.i, d.j, d.coef, d.torques))
+    return h.hexdigest()
+
+
+def pooled_buffer(graphs: dict, key, f: ca.Function, owner) -> tuple:
+    """f.buffer() from the structure's pool (a buffer of a large graph takes ~10 ms to allocate at 1000 elements:
+    a second run of the structure reuses the buffer of a finished run); it returns to the pool when `owner` is
+    collected. The caller binds every argument and result anew."""
+    pool = graphs.setdefault("buffers", {}).setdefault(key, [])
+    be = pool.pop() if pool else f.buffer()
+    weakref.finalize(owner, pool.append, be)
+    return be

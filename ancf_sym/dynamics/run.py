@@ -1,0 +1,141 @@
+"""A dynamic run from a scene and options: checks of the initial state, the step system, the integrator, the time
+loop, the result."""
+from __future__ import annotations
+
+import time
+from typing import Any, Callable
+
+import numpy as np
+
+from .. import contact
+from .. import initial as initial_state
+from ..assembly import Assembly
+from ..mesh import check_stretch
+from ..scene import Scene, SceneError
+from .alpha import AlphaIntegrator
+from .collocation import CollocationIntegrator
+from .integrator import Integrator
+from .newton import Counters
+from .options import DynamicOptions, options_from_dict
+from .recording import DEFAULT_OUTPUTS, Recorder, output_grid
+from .result import DynamicResult
+from .sensors import SensorEval
+from .step_system import StepSystem
+from .time_loads import LoadSum
+from .time_loop import TimeLoop, chunk_size
+
+
+def make_integrator(system: StepSystem, opts: DynamicOptions, counters: Counters, tol_q: float,
+                    tol_x: float) -> Integrator:
+    """The integrator the options name: an alpha scheme or collocation (Radau IIA, Gauss-Legendre)."""
+    if opts.integrator in ("radau", "gauss"):
+        stages = opts.stages or (3 if opts.integrator == "radau" else 2)
+        return CollocationIntegrator(system, opts.integrator, stages, opts.newton, tol_q, tol_x, counters)
+    return AlphaIntegrator(system, opts.scheme(), opts.newton, tol_q, tol_x, counters)
+
+
+def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callable[[float, float], Any] | None = None,
+             system: StepSystem | None = None) -> DynamicResult:
+    """Integrate a scene from options.t_start to options.t_end (see ancf_sym.dynamics)."""
+    opts = options
+    asm = scene if isinstance(scene, Assembly) else Assembly(scene)
+    scene = asm.scene
+    if not scene.members and not scene.bodies:
+        raise SceneError("scene has no members or bodies")
+    contact.check_dynamics(asm)
+    if getattr(scene, "drives", None) and opts.integrator in ("radau", "gauss"):
+        raise SceneError(f"integrator={opts.integrator!r}: drives and torques (time-dependent constraints and "
+                         "forces) run with the alpha schemes (newmark, hht, generalized_alpha), not collocation")
+    sensors = [SensorEval(s, asm, i) for i, s in enumerate(opts.sensors)]
+    if system is None:
+        system = StepSystem.for_scene(asm)
+    S = system
+    loads = LoadSum(opts.loads, asm, S.E) if opts.loads else None
+    # initial state
+    q0 = asm.x0.copy() if opts.q0 is None else np.asarray(opts.q0, dtype=float).ravel()
+    if opts.start == "static":
+        q0 = initial_state.static_start(scene)
+    v0 = np.zeros(asm.n) if opts.v0 is None else np.asarray(opts.v0, dtype=float).ravel()
+    if opts.initial:
+        v0 = initial_state.from_specs(asm, q0, opts.initial)
+    for name, arr in (("q0", q0), ("v0", v0)):
+        if arr.shape != (asm.n,):
+            raise SceneError(f"{name} must have {asm.n} entries (the scene's coordinates), got {arr.size}")
+        if not np.all(np.isfinite(arr)):
+            raise SceneError(f"{name} must be finite")
+    if opts.q0 is not None:
+        check_stretch(asm.mesh, q0, "q0")
+    L = S.length_scale
+    tol_x = opts.newton.xtol * L
+    cons_tol = max(1e-8 * L, 10 * tol_x)
+    if asm.exact.m:
+        viol = np.abs(asm.exact.value(q0))
+        if viol.max() > cons_tol:
+            k = int(np.argmax(viol))
+            raise SceneError(f"q0 violates constraint {asm.exact.labels[k]!r} by {viol[k]:.3g} m (tolerance "
+                             f"{cons_tol:.3g} m)")
+        vv = np.abs(asm.exact.jacobian(q0) @ v0)
+        if vv.max() > 1e-8 * max(1.0, float(np.abs(v0).max())):
+            k = int(np.argmax(vv))
+            raise SceneError(f"v0 violates the velocity form of constraint {asm.exact.labels[k]!r} by {vv[k]:.3g}")
+    drv = S.drives
+    if drv is not None and drv.m:  # the drives at t_start: position and velocity
+        w0 = drv.w(opts.t_start)
+        viol = np.abs(drv.value(q0, w0))
+        vv = np.abs(drv.jacobian(q0, w0) @ v0 + drv.time_terms(q0, v0, opts.t_start)[0])
+        for what, arr, tol in (("q0", viol, cons_tol), ("v0 (velocity form)", vv, 1e-8 * max(1.0, float(np.abs(v0).max())))):
+            if arr.max() > tol:
+                k = int(np.argmax(arr))
+                raise SceneError(f"{what} violates drive {drv.labels[k]!r} at t_start = {opts.t_start:g} s by "
+                                 f"{arr[k]:.3g} (start the body or node where and as fast as the drive prescribes, "
+                                 "e.g. a motion that starts from rest)")
+    outputs = output_grid(opts)
+    every = opts.output_every
+    if every is None and outputs is None:  # default: about DEFAULT_OUTPUTS intervals
+        if opts.adaptive:
+            n_out = DEFAULT_OUTPUTS
+            outputs = opts.t_start + (opts.t_end - opts.t_start) * np.arange(n_out + 1) / n_out
+        else:
+            every = max(1, int(round((opts.t_end - opts.t_start) / opts.dt / DEFAULT_OUTPUTS)))
+    dt_min = opts.dt_min or opts.dt * 2.0 ** -12
+    dt_max = opts.dt_max or (opts.dt * 100 if opts.adaptive else opts.dt)
+    err_tol = opts.tol or 1e-6 * L
+
+    t_setup = time.perf_counter()
+    counters = Counters()
+    integ = make_integrator(S, opts, counters, 0.0, tol_x)
+    if integ.chunkable and not opts.adaptive and chunk_size(opts.n_grid):
+        integ.prepare_chunks(chunk_size(opts.n_grid))  # compiled-call set-up, like the step graph itself
+    setup = time.perf_counter() - t_setup
+    t_wall, t_cpu = time.perf_counter(), time.process_time()
+    qf, vf = S.reduce(q0), S.reduce(v0)
+    Q0 = loads(opts.t_start) if loads else np.zeros(S.nf)
+    integ.initialize(qf, vf, Q0, opts.t_start)
+    # force scale of the residual tolerance: constant loads (gravity, dead loads), inertia at t0, time loads
+    fscale = max(float(np.max(np.abs(S.f_lin))), float(np.max(np.abs(S.M @ integ.a))),
+                 float(np.max(np.abs(Q0)))) if S.nf else 0.0
+    integ.tol_q = opts.newton.tol * max(fscale, 1e-300)
+
+    rec = Recorder(S, sensors, opts.energies)
+    rec.E0 = rec.energy(integ.q, integ.v)[2] if opts.energies else None
+    run = TimeLoop(S, integ, opts, loads, rec, outputs, every, progress, dt_min, dt_max, err_tol)
+    run.go()
+    wall, cpu = time.perf_counter() - t_wall, time.process_time() - t_cpu
+    t, status, message, steps, rejected = run.t, run.status, run.message, run.steps, run.rejected
+    h_used = [run.h_min, run.h_max] if steps else []
+    sens = {name: np.array(vals) for name, vals in rec.data.items()}
+    ener = {k: np.array(v) for k, v in rec.energies.items()}
+    return DynamicResult(status, status == "completed", message, opts.integrator, np.array(rec.t), sens, ener,
+                         np.array(rec.viol), float(t), steps, rejected, counters.as_dict(), wall,
+                         S.full(integ.q), S.full_v(integ.v), opts, asm,
+                         float(min(h_used)) if h_used else float("nan"), float(max(h_used)) if h_used else float("nan"),
+                         setup, cpu, {k: np.array(v) for k, v in rec.reactions.items()})
+
+
+def run_dynamics(scene: Scene | Assembly, analysis: dict | DynamicOptions,
+                 progress: Callable[[float, float], Any] | None = None) -> DynamicResult:
+    """Run a dynamic analysis: `analysis` is the [analysis] table (type "dynamics") or DynamicOptions.
+
+    progress(t, t_end) is called at every output time. Bad input raises SceneError before any step."""
+    opts = analysis if isinstance(analysis, DynamicOptions) else options_from_dict(analysis)
+    return simulate(scene, opts, progress)

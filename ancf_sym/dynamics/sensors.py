@@ -1,0 +1,108 @@
+"""Sensors: what a dynamic run records at its output times besides the energies and the constraint violation."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .. import bodies, spatial_bodies
+from ..assembly import Assembly
+from ..checks import fail
+from ..interpolation import Probe
+from ..scene import SceneError
+
+SENSOR_KINDS = ("position", "displacement", "velocity", "strain", "curvature", "coordinates", "body")
+
+
+@dataclass
+class Sensor:
+    """What to record at output times.
+
+    kind: "position" | "displacement" (from the reference) | "velocity" of a centreline point;
+    "strain" (|r_x| - 1) | "curvature" (|r_x x r_xx| / |r_x|^3) at a point; "coordinates" (all nodal
+    coordinates of a node); "body": a rigid body's (x, y, angle, angular velocity), `member` naming the body
+    (spatial: centre (3), angular velocity (3, world), axes e1, e2, e3 (9), ancf_sym.spatial_bodies.sensor).
+    member and at ("start", "end", node index or material coordinate s [m]) name the
+    point. Energies and the constraint violation are always recorded.
+    """
+    name: str
+    kind: str
+    member: str
+    at: Any = "end"
+
+    @classmethod
+    def from_dict(cls, d: dict, index: int) -> "Sensor":
+        if isinstance(d, Sensor):
+            return d
+        if not isinstance(d, dict):
+            raise SceneError(f"sensors[{index}] must be a table with kind, member, at; got {d!r}")
+        unknown = set(d) - {"name", "kind", "member", "at"}
+        if unknown:
+            raise SceneError(f"sensors[{index}]: unknown field(s) {sorted(unknown)}; known: name, kind, member, at")
+        kind = d.get("kind")
+        if kind not in SENSOR_KINDS:
+            raise fail(f"sensors[{index}].kind", f"must be one of {' | '.join(SENSOR_KINDS)}", kind)
+        member = d.get("member")
+        at = d.get("at", "end")
+        name = d.get("name") or f"{kind}_{member}_{at}"
+        return cls(str(name), kind, member, at)
+
+
+class SensorEval:
+    """A sensor bound to an assembly: its value from full coordinates and velocities."""
+
+    def __init__(self, sensor: Sensor, asm: Assembly, index: int):
+        scene = asm.scene
+        self.sensor = sensor
+        if sensor.kind == "body":
+            if sensor.member not in asm.mesh.bodies:
+                raise SceneError(f"sensors[{index}].member={sensor.member!r} names no body; bodies: "
+                                 f"{sorted(asm.mesh.bodies)}")
+            self.offset = asm.mesh.bodies[sensor.member]
+            self.spatial = scene.dim == 3
+            return
+        if sensor.member not in asm.mesh.members:
+            raise SceneError(f"sensors[{index}].member={sensor.member!r} names no member; members: "
+                             f"{sorted(asm.mesh.members)}")
+        try:
+            scene.check_at(sensor.member, sensor.at, node_only=sensor.kind == "coordinates",
+                            field_name=f"sensors[{index}].at")
+        except SceneError:
+            raise
+        mm = asm.mesh.members[sensor.member]
+        self.sensor, self.mm, self.dim = sensor, mm, scene.dim
+        if sensor.kind == "coordinates":
+            self.dofs = mm.node_dofs(mm.node(sensor.at))
+            self.probe = None
+        else:
+            self.probe = Probe(mm, mm.coordinate(sensor.at), scene.dim)
+            self.r0 = self.probe.r(asm.x0)
+
+    def __call__(self, x: np.ndarray, v: np.ndarray) -> np.ndarray:
+        k = self.sensor.kind
+        if k == "body":  # angular velocity c s_dot - s c_dot of the unit vector (c, s)
+            o = self.offset
+            if self.spatial:
+                return spatial_bodies.sensor(x, v, o)
+            return np.array([*bodies.state(x, o), x[o + 2] * v[o + 3] - x[o + 3] * v[o + 2]])
+        p = self.probe
+        if k == "coordinates":
+            return x[self.dofs].copy()
+        if k == "position":
+            return p.r(x)
+        if k == "displacement":
+            return p.r(x) - self.r0
+        if k == "velocity":
+            return p.r(v)
+        rx = p.rx(x)
+        nrm = float(np.linalg.norm(rx))
+        if k == "strain":
+            return np.array([nrm - 1.0])
+        rxx = p.rxx(x)
+        if self.dim == 2:
+            c = abs(float(rx[0] * rxx[1] - rx[1] * rxx[0]))
+        else:
+            c = float(np.linalg.norm(np.cross(rx, rxx)))
+        return np.array([c / max(nrm, 1e-300) ** 3])
+

@@ -1,0 +1,419 @@
+"""A scene's equations of motion on its reduced coordinates, as compiled CasADi Functions: forces, tangent,
+constraints and the sparse factorisation of one Newton iteration of an implicit step.
+
+Equations of motion with exact constraints (index 3):
+
+    M a + C v + grad U(q) + J(q)^T lam = Q(t),    Phi(q) = 0
+
+U is the scene's total potential (strain energies, gravity, dead loads, penalty joints); C is Rayleigh damping
+and/or the strain-rate damping force f_d(q, v) (ancf_sym.dynamics.damping). Supports that fix single coordinates
+are eliminated and hinges identify coordinates (ancf_sym.reduced); the remaining exact rows (rigid joints, skew
+clamps) carry Lagrange multipliers.
+
+One full Newton iteration is one call of a CasADi Function: every energy term through its mapped compiled kernel,
+residual and KKT matrix assembled by constant index maps (gathers), sparse LDL^T (symmetric positive definite
+case) or QR (multipliers, strain-rate damping) factorisation and solve, all inside CasADi: no Python loop over
+elements, no numpy scatter. Residuals alone use the kernels' (energy, gradient) companions (no Hessian work).
+The graphs are cached by scene structure (ancf_sym.dynamics.graph_cache).
+"""
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+import scipy.sparse as sp
+
+from .. import contact, drives
+from ..assembly import Assembly, force_terms
+from ..reduced import full_mx, partition
+from ..sparsity import dm, mx_nonzeros
+from . import damping
+from .damping import RayleighData, StrainRateData
+from .forces import build_force_graphs
+from .graph_cache import SYSTEM_GRAPHS, structure_key
+from .ldl import LDLFactor, build_ldl
+
+
+class StepSystem:
+    """A scene's equations of motion on its free coordinates, as compiled CasADi Functions.
+
+    forces(x) -> (g, K[, kel]): gradient and Hessian of the potential (nonlinear terms and penalty joints; the
+    constant forces of linear terms such as gravity are in f_lin), and the elastic tangent values for Rayleigh
+    stiffness damping. Every term is one mapped compiled kernel call; assembly by constant index gathers
+    (ancf_sym.dynamics.forces).
+
+    For a step with unknown x = q_{n+1} (and scaled multipliers lam, lam_true = kc lam):
+        r = [cm M x + cc C x + g(x) + kc J^T lam + p ; kc Phi(x)]
+        KKT = [[cm M + cc C + K(x) + H_Phi(kc lam), kc J^T], [kc J, 0]]
+    p collects what is constant within a step. C = alpha M + beta K_el(q_n) with K_el(q_n) passed as `kel`.
+    `iterate` does a whole full-Newton iteration (residual, KKT, sparse LDL^T factorisation, solve) in one call;
+    `residual` (gradient-only kernels) and `jacobian` serve modified Newton with a factorisation kept in Python;
+    `ensure_factor` builds the in-graph LDL^T factorisation of the compiled modified step.
+    """
+
+    def __init__(self, asm: Assembly, rayleigh: RayleighData | None = None, linsol: str = "auto",
+                 strain_rate: StrainRateData | None = None, fuse: bool = True):
+        self.asm = asm
+        self.fuse = fuse  # axial + bending of a cable in one kernel call (False: one call per term, for tests)
+        self.strain_rate = strain_rate
+        self.part = part = partition(asm)
+        n = asm.n
+        nf = part.ny
+        self.nf = nf
+        self.pos = part.pos
+        self._gather = np.where(part.pos >= 0, part.pos, nf)  # full coordinate k = ext[_gather[k]], ext[nf] = 0
+        self.E = part.E
+        self.cons = asm.exact.subset(part.rows) if len(part.rows) else None
+        self.mc = self.cons.m if self.cons is not None else 0
+        # drives and torques: rows and forces whose time functions w(t) are per-step inputs, appended to the step's
+        # constant vector p (and to the integrators' pload): p = [p (nf); w (nw)]
+        self.drives = drives.build(asm)
+        self.nw = self.drives.nw if self.drives is not None else 0
+        if self.drives is not None:
+            drives.check_free(self.drives, part.pos)
+            self.mc += self.drives.m
+        self.rayleigh = rayleigh if (rayleigh is not None and (rayleigh.alpha or rayleigh.beta)) else None
+        # sparse LDL^T without pivoting for the symmetric positive definite step matrix; sparse QR when multipliers
+        # make the KKT matrix indefinite (LDL^T meets zero pivots) or strain-rate damping makes it unsymmetric
+        # (d f_d / dq; LDL^T reads one triangle)
+        # (contact friction likewise: d f / d q is unsymmetric)
+        unsym = strain_rate is not None or bool(contact.dissipation_calls(asm.mesh)) or \
+            bool(self.drives is not None and self.drives.torques)  # (a torque's tangent is skew)
+        self.linsol = linsol if linsol != "auto" else ("qr" if (self.mc or unsym) else "ldl")
+
+        M = asm.mass_matrix().tocsc()
+        self.M_full = M
+        self.M = part.reduce_matrix(M)
+
+        # linear terms: constant generalized force (gravity, distributed dead loads, point loads)
+        self.nonlinear = [mk for mk in asm.mapped if not mk.linear]
+        f_lin = asm.constant_force()  # (evaluates the linear terms at x0: their G and E below)
+        # U_lin(x) = c + G.x (gradient constant), for the energy outputs
+        self._lin_energy = [(mk.term.idx.ravel().copy(), mk.G.ravel().copy(),
+                             float(mk.E.sum()) - float(mk.G.ravel() @ asm.x0[mk.term.idx.ravel()]), mk.term.label)
+                            for mk in asm.mapped if mk.linear]
+        self.f_lin_full = f_lin
+        self.f_lin = part.E.T @ f_lin
+        self.length_scale = asm.mesh.length_scale
+        self.span = float(np.max(np.abs(asm.x0))) + 1.0
+        # the kernel calls: a cable's axial and bending terms fused into one elastic_<strain> kernel where both
+        # are on (same elements, Gauss order and Rayleigh weight): one B^T f_uu B per point instead of two
+        weights = self.rayleigh.element_weight if (self.rayleigh is not None and self.rayleigh.beta) else {}
+        self.force_terms = force_terms([mk.term for mk in self.nonlinear], fuse=self.fuse, row_keys=weights)
+        # values that are inputs of the compiled graphs (not baked in): the kernels' element parameters (material,
+        # section, lengths) and the linear potentials' coefficients (gravity, dead loads) of the energy outputs
+        self.par = np.concatenate([ft.P.ravel() for ft in self.force_terms] +
+                                  [mk.P.ravel() for mk in self.nonlinear] + [np.zeros(0)])
+        self.lin = np.concatenate([np.bincount(idx, G, minlength=n) for idx, G, _, _ in self._lin_energy] +
+                                  [np.array([c for _, _, c, _ in self._lin_energy]), asm.Q])
+        self.graph_key = structure_key(self)
+        graphs = SYSTEM_GRAPHS.get(self.graph_key)
+        if graphs is None:
+            build_force_graphs(self)
+            self.damp_f, self.damp_force_f = damping.dissipation_functions(self)
+            self._build_step()
+            graphs = {k: getattr(self, k) for k in self._GRAPH_ATTRS}
+            SYSTEM_GRAPHS[self.graph_key] = graphs
+        else:
+            for k in self._GRAPH_ATTRS:
+                setattr(self, k, graphs[k])
+        self._graphs = graphs
+        self._setup_buffers(self.kel_sparsity is not None)
+
+    @classmethod
+    def for_scene(cls, asm: Assembly, **kw) -> "StepSystem":
+        """The step system with the damping the scene declares (Rayleigh, strain-rate damping of cables)."""
+        return cls(asm, damping.rayleigh_data(asm, [mk for mk in asm.mapped if not mk.linear]),
+                   strain_rate=damping.strain_rate_data(asm), **kw)
+
+    # compiled functions and what describes them: built once per structure key and shared by later StepSystems
+    _GRAPH_ATTRS = ("kel_sparsity", "forces_pf", "grad_pf", "_energy_kin_labels",
+                    "_energy_kin_f", "damp_f", "damp_force_f", "kkt_sparsity", "iter_f", "res_f", "jac_f")
+
+    @property
+    def forces_f(self) -> ca.Function:
+        """forces(x) -> (g, K[, kel]) with this scene's element parameters (forces_pf takes them as an input)."""
+        if "forces_f" not in self.__dict__:
+            xf = ca.MX.sym("x", self.nf)
+            out = self.forces_pf(xf, ca.DM(self.par))
+            self.__dict__["forces_f"] = ca.Function("forces", [xf], list(out), ["x"],
+                                                    [self.forces_pf.name_out(i) for i in range(len(out))])
+        return self.__dict__["forces_f"]
+
+    @property
+    def grad_f(self) -> ca.Function:
+        """gradient(x) -> g with this scene's element parameters (grad_pf takes them as an input)."""
+        if "grad_f" not in self.__dict__:
+            xf = ca.MX.sym("x", self.nf)
+            self.__dict__["grad_f"] = ca.Function("gradient", [xf], [self.grad_pf(xf, ca.DM(self.par))], ["x"], ["g"])
+        return self.__dict__["grad_f"]
+
+    # -- symbolic assembly (once per scene) -------------------------------------------------------------------
+    def x_full_mx(self, xf: ca.MX) -> ca.MX:
+        """E xf + c as a gather (every coordinate is one unknown or fixed): the element gathers that follow merge
+        with it into one, where a product with E would cost a sparse product at every evaluation."""
+        return full_mx(xf, self.pos, self.part.c)
+
+    def damping_force(self, xf: np.ndarray, vf: np.ndarray) -> np.ndarray | None:
+        """Damping force on the unknowns at (x, v) (ancf_sym.dynamics.damping.damping_force)."""
+        return damping.damping_force(self, xf, vf)
+
+    @property
+    def damped(self) -> bool:
+        return self.rayleigh is not None or self.damp_f is not None
+
+    def constraint_mx(self, xf: ca.MX, w: ca.MX | None = None) -> ca.MX:
+        """The kept exact rows, then the drive rows at the time inputs w."""
+        x = self.x_full_mx(xf)
+        parts = [Assembly._casadi_constraint(self.cons, x)] if self.cons is not None else []
+        if self.drives is not None and self.drives.m:
+            parts.append(self.drives.mx(x, w))
+        return ca.vertcat(*parts)
+
+    @property
+    def bilinear(self) -> bool:
+        """Constraint rows with a Hessian (bilinear terms)."""
+        return (self.cons is not None and len(self.cons.qrow) > 0) or (self.drives is not None and self.drives.m > 0)
+
+    def torque_mx(self, xf: ca.MX, w: ca.MX) -> ca.MX | None:
+        """Generalized force of the applied torques on the unknowns, tau (-s, c) on a body's (c, s) (spatial: per
+        pair of axis-vector components, ancf_sym.drives), or None."""
+        if self.drives is None or not self.drives.torques:
+            return None
+        vals, rows = [], []
+        X = self.x_full_mx(xf)  # (a coordinate a joint fixes keeps its value and takes no force)
+        for ic, is_, k, scale in self.drives.torques:
+            for i, v in ((ic, -scale * w[k] * X[is_]), (is_, scale * w[k] * X[ic])):
+                if self.pos[i] >= 0:
+                    vals.append(v)
+                    rows.append(int(self.pos[i]))
+        if not rows:
+            return None
+        A = ca.DM(ca.Sparsity.triplet(self.nf, len(rows), rows, list(range(len(rows)))), 1.0)
+        return ca.mtimes(A, ca.vertcat(*vals))
+
+    def _build_step(self) -> None:
+        nf, mc = self.nf, self.mc
+        xf, lam, p_in = ca.MX.sym("x", nf), ca.MX.sym("lam", mc), ca.MX.sym("p", nf + self.nw)
+        p, w = (p_in[:nf], p_in[nf:]) if self.nw else (p_in, None)  # w: the drives' time inputs
+        cm, cc, kc = ca.MX.sym("cm"), ca.MX.sym("cc"), ca.MX.sym("kc")
+        kel = ca.MX.sym("kel", self.kel_sparsity.nnz()) if self.kel_sparsity is not None else None
+        vc = ca.MX.sym("vc", nf)  # v_n+1 = vc + cc x (used by the strain-rate damping)
+        # y: inertia part of the constant residual, M (cm x + y) (the alpha step graph: one product with M per
+        # iteration and none in the step's predictor; other callers pass y = 0 and M y in p)
+        y = ca.MX.sym("y", nf)
+        par = ca.MX.sym("par", self.par.size)
+        out = self.forces_pf(xf, par)
+        g, K = out[0], out[1]
+        Mdm = dm(self.M)
+        Cx, C = damping.rayleigh_mx(self, xf, kel)
+        r_q = ca.mtimes(Mdm, cm * xf + y) + cc * Cx + g + p
+        spS = K.sparsity().unite(Mdm.sparsity())
+        if spS == K.sparsity():  # M placed in K's pattern once: no projection of M at every evaluation
+            S = cm * ca.project(Mdm, spS) + cc * C + K
+        else:
+            S = cm * Mdm + cc * C + K
+        if self.damp_f is not None:
+            fd, dfx, dfv = self.damp_f(xf, vc + cc * xf)
+            r_q += fd
+            S = S + dfx + cc * dfv
+        # the same residual from the gradient-only kernels (modified Newton: no Hessian work)
+        r_g = ca.mtimes(Mdm, cm * xf + y) + cc * Cx + self.grad_pf(xf, par) + p
+        if self.damp_f is not None:
+            r_g += self.damp_force_f(xf, vc + cc * xf)
+        tq = self.torque_mx(xf, w)
+        if tq is not None:  # applied torques: force tau (-s, c), tangent -d/dx of it
+            r_q -= tq
+            r_g -= tq
+            S = S - ca.jacobian(tq, xf)
+        if mc:
+            phi = self.constraint_mx(xf, w)
+            Jx = ca.jacobian(phi, xf)
+            r_q += kc * ca.mtimes(Jx.T, lam)
+            r_g += kc * ca.mtimes(Jx.T, lam)
+            if self.bilinear:
+                S = S + ca.hessian(ca.dot(kc * lam, phi), xf)[0]
+            r = ca.vertcat(r_q, kc * phi)
+            rg = ca.vertcat(r_g, kc * phi)
+            KKT = ca.blockcat([[S, kc * Jx.T], [kc * Jx, ca.MX(mc, mc)]])
+            rc = ca.mmax(ca.fabs(phi))
+        else:
+            r, rg, KKT, rc = r_q, r_g, S, ca.MX(0)
+        rq = ca.mmax(ca.fabs(r_q))
+        ins = [xf, lam, p_in, cm, cc, kc, vc] + ([kel] if kel is not None else []) + [y, par]
+        names = ["x", "lam", "p", "cm", "cc", "kc", "vc"] + (["kel"] if kel is not None else []) + ["y", "par"]
+        self.kkt_sparsity = KKT.sparsity()
+        kkt_nz = mx_nonzeros(KKT)
+        # largest entry (round-off floor): on the diagonal when the step matrix is positive definite
+        kmax = ca.mmax(ca.fabs(ca.diag(KKT))) if self.linsol == "ldl" and not mc else ca.mmax(ca.fabs(kkt_nz))
+        dz = -ca.solve(KKT, r, self.linsol)
+        dzx = ca.mmax(ca.fabs(dz[:nf]))
+        dzl = ca.mmax(ca.fabs(dz[nf:])) if mc else ca.MX(0)
+        # norms: |r_q|inf [N], |Phi|inf [m], |dx|inf, |dlam|inf (scaled: m), max |KKT|
+        self.iter_f = ca.Function("newton_iteration", ins, [dz, ca.vertcat(rq, rc, dzx, dzl, kmax)], names,
+                                  ["dz", "norms"])
+        self.res_f = ca.Function("step_residual", ins, [rg, ca.vertcat(ca.mmax(ca.fabs(r_g)), rc)], names,
+                                 ["r", "norms"])
+        self.jac_f = ca.Function("step_jacobian", ins, [r, ca.vertcat(rq, rc, kmax), kkt_nz], names,
+                                 ["r", "norms", "kkt"])
+
+
+    def ensure_factor(self) -> LDLFactor | None:
+        """The in-graph LDL^T factorisation of the step matrix (ancf_sym.dynamics.ldl), built on first use and shared
+        like the graphs; None where it does not apply: multipliers or strain-rate damping (self.linsol is not
+        "ldl"), or a factorisation graph too large."""
+        if "factor" not in self._graphs:
+            ok = self.linsol == "ldl" and not self.mc and self.nf
+            self._graphs["factor"] = build_ldl(self.kkt_sparsity) if ok else None
+        return self._graphs["factor"]
+
+    def _setup_buffers(self, has_kel: bool) -> None:
+        nf, mc = self.nf, self.mc
+        self.nz = nf + mc
+        self.x, self.lam, self.p, self.vc = np.zeros(nf), np.zeros(mc), np.zeros(nf + self.nw), np.zeros(nf)
+        self.y = np.zeros(nf)  # (stays 0 here: p holds the whole constant part)
+        self.cm, self.cc, self.kc = np.zeros(1), np.zeros(1), np.ones(1)
+        self.kel = np.zeros(self.kel_sparsity.nnz()) if has_kel else None
+        self.r, self.dz = np.zeros(self.nz), np.zeros(self.nz)
+        self.norms = np.zeros(5)
+        self._jac_norms = np.zeros(3)
+        self.floor = 0.0
+        if "kkt_pattern" not in self._graphs:  # (converting CasADi's pattern costs ~10 ms at 1000 elements)
+            spk = self.kkt_sparsity
+            self._graphs["kkt_pattern"] = (spk.nnz(), np.array(spk.row(), dtype=np.int32),
+                                           np.array(spk.colind(), dtype=np.int32))
+        nnz, rows, colind = self._graphs["kkt_pattern"]
+        self.kkt = sp.csc_matrix((np.zeros(nnz), rows, colind), shape=(self.nz, self.nz))
+        args = [self.x, self.lam, self.p, self.cm, self.cc, self.kc, self.vc] + ([self.kel] if has_kel else []) \
+            + [self.y, self.par]
+        self._bufs = []
+        for f, outs in ((self.iter_f, (self.dz, self.norms)), (self.res_f, (self.r, self.norms[:2])),
+                        (self.jac_f, (self.r, self._jac_norms, self.kkt.data))):
+            buf, ev = f.buffer()
+            for i, a in enumerate(args):
+                buf.set_arg(i, memoryview(a))
+            for i, a in enumerate(outs):
+                buf.set_res(i, memoryview(a))
+            self._bufs.append((buf, ev, args, outs))  # the buffer object must outlive its evaluations
+        self._iter_eval, self._res_eval, self._jac_eval = (b[1] for b in self._bufs)
+
+    # -- numeric calls ------------------------------------------------------------------------------------------
+    def iterate(self) -> np.ndarray:
+        """One full Newton iteration at the current buffers: self.dz (not applied) and self.norms."""
+        self._iter_eval()
+        self.floor = float(np.finfo(float).eps * self.norms[4] * self.span)
+        return self.dz
+
+    def residual(self) -> np.ndarray:
+        """r at the current buffers, written into self.r; norms[:2]."""
+        self._res_eval()
+        return self.r
+
+    def jacobian(self) -> sp.csc_matrix:
+        """r and the KKT values at the current buffers (self.r, self.kkt in place); updates the round-off floor
+        of the residual, eps x largest matrix entry x coordinate span (as statics._roundoff_floor)."""
+        self._jac_eval()
+        self.norms[:2] = self._jac_norms[:2]
+        self.norms[4] = self._jac_norms[2]
+        self.floor = float(np.finfo(float).eps * self._jac_norms[2] * self.span)
+        return self.kkt
+
+    def full(self, xf: np.ndarray) -> np.ndarray:
+        """Coordinates of the scene from the unknowns."""
+        return self.full_v(xf) + self.part.c
+
+    def full_v(self, vf: np.ndarray) -> np.ndarray:
+        """E vf: every coordinate is one unknown or fixed (a gather, cheaper than the sparse product)."""
+        vf = np.asarray(vf, dtype=float)
+        if vf.ndim != 1:
+            return self.E @ vf
+        ext = np.empty(self.nf + 1)
+        ext[:-1], ext[-1] = vf, 0.0
+        return ext[self._gather]
+
+    def reduce(self, x_full: np.ndarray) -> np.ndarray:
+        """Unknowns from scene coordinates (that satisfy the eliminated constraints)."""
+        return np.asarray(x_full)[self.part.roots].copy()
+
+    def reduce_force(self, f_full: np.ndarray) -> np.ndarray:
+        """Generalized force on the unknowns (E^T f)."""
+        return self.E.T @ f_full
+
+    def forces(self, xf: np.ndarray) -> tuple[np.ndarray, sp.csc_matrix, np.ndarray | None]:
+        """(gradient of the nonlinear potential, its Hessian, K_el values or None) at free coordinates xf."""
+        out = self.forces_pf(xf, self.par)
+        g = np.asarray(out[0]).ravel()
+        K = out[1].sparse() if hasattr(out[1], "sparse") else sp.csc_matrix(np.asarray(out[1]))
+        kel = np.asarray(out[2]).ravel() if len(out) > 2 else None
+        return g, sp.csc_matrix(K), kel
+
+    def potential(self, xf: np.ndarray) -> dict:
+        """Energies by label at free coordinates xf (nonlinear terms, penalty and linear terms) [J]."""
+        return self.energies(xf, None)[1]
+
+    def energies(self, xf: np.ndarray, vf: np.ndarray | None) -> tuple[float, dict]:
+        """(kinetic energy 1/2 v.M v (0 without vf), potential energies by label) in one compiled call [J]."""
+        out: dict[str, float] = {}
+        if not hasattr(self, "_ebuf"):
+            self._e_x, self._e_vel = np.zeros(self.nf), np.zeros(self.nf)
+            self._e_v = np.zeros(self._energy_kin_f.nnz_out(0))
+            buf, ev = self._energy_kin_f.buffer()
+            buf.set_arg(0, memoryview(self._e_x))
+            buf.set_arg(1, memoryview(self._e_vel))
+            buf.set_arg(2, memoryview(self.par))
+            buf.set_arg(3, memoryview(self.lin))
+            buf.set_res(0, memoryview(self._e_v))
+            self._ebuf = (buf, ev)
+        self._e_x[:] = xf
+        self._e_vel[:] = 0.0 if vf is None else vf
+        self._ebuf[1]()
+        vals = self._e_v.tolist()
+        for label, v in zip(self._energy_kin_labels, vals):
+            out[label] = out.get(label, 0.0) + v
+        return vals[-1], out
+
+    def phi(self, xf: np.ndarray, t: float = 0.0) -> np.ndarray:
+        x = self.full(xf)
+        parts = [self.cons.value(x)] if self.cons is not None else []
+        if self.drives is not None:
+            parts.append(self.drives.value(x, self.drives.w(t)))
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    def jac_phi(self, xf: np.ndarray, t: float = 0.0) -> sp.csr_matrix:
+        x = self.full(xf)
+        parts = [self.cons.jacobian(x)] if self.cons is not None else []
+        if self.drives is not None:
+            parts.append(self.drives.jacobian(x, self.drives.w(t)))
+        return (sp.vstack(parts) @ self.E).tocsr()
+
+    def phi_vv(self, vf: np.ndarray, xf: np.ndarray | None = None, t: float = 0.0) -> np.ndarray:
+        """The acceleration-level constraint is J a + gamma = 0: gamma = v^T Phi_qq v of the bilinear rows, and for
+        the drive rows (at xf, time t) also their explicit time derivatives (drives.DriveSystem.time_terms)."""
+        v = self.full_v(vf)
+        parts = []
+        if self.cons is not None:
+            c = self.cons
+            parts.append(np.bincount(c.qrow, 2 * c.qcoef * v[c.qi] * v[c.qj], minlength=c.m) if len(c.qrow)
+                         else np.zeros(c.m))
+        if self.drives is not None:
+            parts.append(self.drives.time_terms(self.full(xf), v, t)[1])
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    def w(self, t: float) -> np.ndarray:
+        """The drives' time inputs at t (empty without drives)."""
+        return self.drives.w(t) if self.drives is not None else np.zeros(0)
+
+    def drive_force(self, xf: np.ndarray, lam: np.ndarray, t: float) -> np.ndarray | None:
+        """Generalized force of the drives (their rows' reactions -J_D^T lam_D) and the torques on the unknowns at
+        time t (true multipliers lam), for the work they do; None without drives."""
+        d = self.drives
+        if d is None:
+            return None
+        x, w = self.full(xf), d.w(t)
+        f = d.torque_force(x, w)
+        if d.m:
+            f = f - d.jacobian(x, w).T @ lam[self.mc - d.m:]
+        return self.E.T @ f
+
+    def stiffness_scale(self) -> float:
+        """Largest diagonal entry of M (for the multiplier scale kc = cm * this)."""
+        return float(self.M.diagonal().max()) if self.nf else 1.0

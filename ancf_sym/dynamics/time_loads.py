@@ -1,0 +1,65 @@
+"""Time-dependent point loads of a dynamic run: F(t) = factor(t) * force, factor piecewise linear in time."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+
+from ..assembly import Assembly
+from ..loads import point_force
+from ..scene import SceneError, _vector
+
+
+@dataclass
+class TimeLoad:
+    """A point force F(t) = factor(t) * force at a node or material coordinate, factor piecewise linear in
+    `history` [(t, factor), ...] (zero outside unless the first/last factor says otherwise: held constant)."""
+    member: str
+    at: Any
+    force: Sequence[float]
+    history: Sequence[Sequence[float]]
+
+    @classmethod
+    def from_dict(cls, d: dict, index: int) -> "TimeLoad":
+        if isinstance(d, TimeLoad):
+            return d
+        if not isinstance(d, dict):
+            raise SceneError(f"loads[{index}] must be a table with member, at, force, history; got {d!r}")
+        unknown = set(d) - {"member", "at", "force", "history"}
+        missing = {"member", "force", "history"} - set(d)
+        if unknown or missing:
+            raise SceneError(f"loads[{index}]: unknown {sorted(unknown)} / missing {sorted(missing)} fields; "
+                             "expected member, at, force, history")
+        return cls(d["member"], d.get("at", "end"), d["force"], d["history"])
+
+
+class LoadSum:
+    """The sum of the time loads as a generalized force on the unknowns (free: the map E from unknowns to
+    coordinates): a callable of t."""
+
+    def __init__(self, loads: list[TimeLoad], asm: Assembly, free: np.ndarray):
+        self.vecs, self.hist = [], []
+        for i, ld in enumerate(loads):
+            asm.scene.check_at(ld.member, ld.at, node_only=False, field_name=f"loads[{i}].at")
+            F = _vector(f"loads[{i}].force", ld.force, asm.scene.dim)
+            try:
+                H = np.asarray(ld.history, dtype=float)
+            except (TypeError, ValueError):
+                raise SceneError(f"loads[{i}].history must be a list of [t, factor] pairs, got {ld.history!r}") from None
+            if H.ndim != 2 or H.shape[1] != 2 or len(H) < 1 or not np.all(np.isfinite(H)) or np.any(np.diff(H[:, 0]) <= 0):
+                raise SceneError(f"loads[{i}].history must be [t, factor] pairs with increasing finite times, got "
+                                 f"{ld.history!r}")
+            mm = asm.mesh.members[ld.member]
+            idx, val = point_force(mm, mm.coordinate(ld.at), F)
+            q = np.zeros(asm.n)
+            np.add.at(q, idx, val)
+            self.vecs.append(free.T @ q)
+            self.hist.append(H)
+
+    def __call__(self, t: float) -> np.ndarray:
+        out = np.zeros_like(self.vecs[0])
+        for q, H in zip(self.vecs, self.hist):
+            out += np.interp(t, H[:, 0], H[:, 1]) * q
+        return out
+

@@ -1,0 +1,255 @@
+"""The time loop of a dynamic run: fixed steps (many per compiled call where the integrator is chunkable) or
+adaptive ones, step rejection and halving on Newton failure, the work of the damping forces and time loads along
+each step, and the outputs.
+
+A step whose Newton iteration fails is rejected and retried with half the step (recorded in `rejected`); the run
+ends with status "newton_failed" at the last good state when the step would fall below dt_min. damping_work and
+external_work are the work of the forces of the discrete equations along each step, dq.(f_n + f_n+1)/2 (exact
+in the energy identity of trapezoidal Newmark).
+"""
+from __future__ import annotations
+
+import math
+from typing import Any, Callable
+
+import numpy as np
+
+from .integrator import ChunkedIntegrator, Integrator
+from .options import DynamicOptions
+from .recording import ENERGY_CREATION_LIMIT, Recorder, hermite
+from .step_system import StepSystem
+from .time_loads import LoadSum
+
+CHUNK = 64  # steps per compiled call in fixed-step runs of the alpha schemes (the rest of the grid: step by step)
+
+
+def chunk_size(n_grid: int) -> int:
+    """Steps per compiled call on a fixed grid of n_grid steps (0: none, shorter than CHUNK): the size in
+    [CHUNK/2, CHUNK] that leaves the fewest steps to the one-by-one loop (a step there costs ~2x a chunked one),
+    the largest of those; e.g. 1000 steps: 20 x 50 instead of 15 x 64 + 40."""
+    if n_grid < CHUNK:
+        return 0
+    return min(range(CHUNK // 2, CHUNK + 1), key=lambda s: (n_grid % s, -s))
+
+
+class TimeLoop:
+    """The time loop: fixed or adaptive steps with rejection, or (fixed step, an integrator that is chunkable)
+    chunks of chunk_size(n) steps in one compiled call; bookkeeping and outputs per accepted step."""
+
+    def __init__(self, S: StepSystem, integ: Integrator, opts: DynamicOptions, loads: LoadSum | None,
+                 rec: Recorder, outputs: np.ndarray | None, every: int | None,
+                 progress: Callable[[float, float], Any] | None, dt_min: float, dt_max: float, err_tol: float):
+        self.S, self.integ, self.opts, self.loads, self.rec = S, integ, opts, loads, rec
+        self.outputs, self.every, self.progress = outputs, every, progress
+        self.dt_min, self.dt_max, self.err_tol = dt_min, dt_max, err_tol
+        self.t = opts.t_start
+        self.eps_t = 1e-9 * opts.dt
+        self._const_pl: dict = {}
+        self.W_d = self.W_ext = 0.0
+        self.steps, self.rejected = 0, []
+        self.status, self.message = "completed", ""
+        self.h_min, self.h_max = math.inf, 0.0
+        self.fd_prev = S.damping_force(integ.q, integ.v) if S.damped else None
+        self.Qn = loads(opts.t_start) if loads else None
+        self.fD_prev = S.drive_force(integ.q, integ.lam, self.t)  # drives' and torques' force (their work: external)
+        self.lam_prev = integ.lam.copy()
+        self.out_i = 0
+        if outputs is None or outputs[0] <= self.t + self.eps_t:
+            rec.record(self.t, integ.q, integ.v, 0.0, 0.0, integ.lam)
+            self.out_i = 1
+
+    # -- bookkeeping ------------------------------------------------------------------------------------------
+    def _accepted(self, t_old, t_new, q_old, v_old, q_new, v_new, fd, lam_new=None):
+        """Work of the scheme's own forces along the step, dq.(f_n + f_n+1)/2 (the trapezoidal rule's energy
+        identity, exact for Newmark; f_n is the force of the equation that ended at t_n, with its damping matrix),
+        then the outputs in (t_old, t_new]. lam_new: the multipliers at t_new (drives' reactions)."""
+        lam_old = self.lam_prev
+        if self.fD_prev is not None:
+            fD = self.S.drive_force(q_new, lam_new, t_new)
+            self.W_ext += 0.5 * float((q_new - q_old) @ (self.fD_prev + fD))
+            self.fD_prev = fD
+            self.lam_prev = np.array(lam_new, float)
+        if fd is not None or self.loads is not None:
+            dq = q_new - q_old
+            if fd is not None:
+                self.W_d += 0.5 * float(dq @ (self.fd_prev + fd))
+                self.fd_prev = fd
+            if self.loads is not None:
+                Qnew = self.loads(t_new)
+                self.W_ext += 0.5 * float(dq @ (self.Qn + Qnew))
+                self.Qn = Qnew
+        self.steps += 1
+        h = t_new - t_old
+        self.h_min, self.h_max = min(self.h_min, h), max(self.h_max, h)
+        self.t = t_new
+        rec, out = self.rec, self.outputs
+        if out is None:
+            if self.steps % self.every == 0 or t_new >= self.opts.t_end - self.eps_t:
+                rec.record(t_new, q_new, v_new, self.W_d, self.W_ext, lam_new)
+                if self.progress:
+                    self.progress(t_new, self.opts.t_end)
+            return
+        while self.out_i < len(out) and out[self.out_i] <= t_new + self.eps_t:
+            tau = out[self.out_i]
+            if abs(tau - t_new) <= self.eps_t:
+                rec.record(tau, q_new, v_new, self.W_d, self.W_ext, lam_new)
+            else:
+                qi, vi = hermite(t_old, t_new, q_old, v_old, q_new, v_new, tau)
+                li = None if lam_new is None else lam_old + (tau - t_old) / (t_new - t_old) * (lam_new - lam_old)
+                rec.record(tau, qi, vi, self.W_d, self.W_ext, li)
+            self.out_i += 1
+            if self.progress:
+                self.progress(tau, self.opts.t_end)
+
+    def _check_energy(self) -> None:
+        """End the run (status energy_blowup) once the recorded energy balance shows the scheme creating energy."""
+        b = self.rec.blowup
+        if b is not None and self.status == "completed":
+            self.status = "energy_blowup"
+            self.message = (f"the integrator created {b[1]:.3g} J by t = {b[0]:.6g} s, more than "
+                            f"{ENERGY_CREATION_LIMIT:g} x the energy scale {b[2]:.3g} J: the run went unstable "
+                            f"(try a smaller dt or more numerical dissipation); outputs after that time are not valid")
+
+    # -- loops ------------------------------------------------------------------------------------------------
+    def go(self):
+        o = self.opts
+        if o.adaptive:
+            return self.per_step(o.t_end)
+        n_grid = o.n_grid
+        k = 0
+        if self.integ.chunkable:
+            size = chunk_size(n_grid)
+            while size and n_grid - k >= size and self.status == "completed":
+                n_ok = self.chunk(k, size)
+                k += n_ok
+                if n_ok < size:  # the graph flagged step k+1: the per-step loop takes it (Newton in Python, rejection)
+                    self.per_step(self.grid(k + 1), k)
+                    k += 1
+            if k < n_grid and self.status == "completed":  # the rest (< size steps): the same step graph, one by one
+                self.per_step(self.grid(n_grid), k)  # (cheaper than building a chunk function of that length)
+        else:
+            self.per_step(o.t_start + n_grid * o.dt, 0)
+        if self.status == "completed" and self.t < o.t_end - self.eps_t:
+            self.per_step(o.t_end, n_grid)
+
+    def grid(self, k: int) -> float:
+        return self.opts.t_start + k * self.opts.dt
+
+    def chunk(self, k: int, n: int) -> int:
+        """Steps k+1 .. k+n in one call; returns how many were accepted."""
+        integ: ChunkedIntegrator = self.integ  # (chunkable)
+        S, o = self.S, self.opts
+        nf = S.nf
+        if self.loads is None:  # the same constant load at every step: one array per chunk length
+            pl = self._const_pl.get(n)
+            if pl is None:
+                pl = self._const_pl[n] = np.repeat(-S.f_lin[:, None], n, axis=1)
+                pl.flags.writeable = False  # (run_chunk copies a read-only load array into its buffer once)
+        else:
+            pl = -np.column_stack([S.f_lin + self.loads(self.grid(k + j + 1)) for j in range(n)])
+        if S.nw:  # the drives' time inputs below the loads
+            pl = np.vstack([pl, np.column_stack([S.w(self.grid(k + j + 1)) for j in range(n)])])
+        q_old, v_old = integ.q.copy(), integ.v.copy()
+        states, n_ok = integ.run_chunk(o.dt, pl)
+        t_old = self.t
+        if not S.damped and self.loads is None and S.drives is None:  # no work to book per step: only the outputs
+            self._accepted_many(k, n_ok, states, q_old, v_old)
+            self._check_energy()
+            return n_ok
+        for j in range(n_ok):
+            t_new = self.grid(k + j + 1)
+            q_new, v_new = states[j, :nf], states[j, nf:2 * nf]
+            fd = S.damping_force(q_new, v_new) if S.damped else None
+            self._accepted(t_old, t_new, q_old, v_old, q_new, v_new, fd, states[j, 5 * nf:5 * nf + S.mc])
+            t_old, q_old, v_old = t_new, q_new, v_new
+        self._check_energy()
+        return n_ok
+
+    def _accepted_many(self, k: int, n_ok: int, states: np.ndarray, q_old: np.ndarray, v_old: np.ndarray):
+        """Bookkeeping of the accepted grid steps k+1 .. k+n_ok of a chunk (nothing to integrate along them): the
+        outputs that fall in them, as `_accepted` would record them step by step."""
+        if not n_ok:
+            return
+        nf = self.S.nf
+        rec, out, o = self.rec, self.outputs, self.opts
+        t_first = self.t
+        steps0 = self.steps
+        self.steps += n_ok
+        self.h_min, self.h_max = min(self.h_min, o.dt), max(self.h_max, o.dt)
+        self.t = self.grid(k + n_ok)
+        if out is None:
+            last = self.steps if self.t >= o.t_end - self.eps_t else None
+            for s in range(steps0 + 1, self.steps + 1):
+                if s % self.every == 0 or s == last:
+                    j = s - steps0 - 1
+                    rec.record(self.grid(k + j + 1), states[j, :nf], states[j, nf:2 * nf], self.W_d, self.W_ext)
+                    if self.progress:
+                        self.progress(self.grid(k + j + 1), o.t_end)
+            return
+        T = o.t_start + (k + 1 + np.arange(n_ok)) * o.dt  # = self.grid(k + j + 1), without a Python loop
+        while self.out_i < len(out) and out[self.out_i] <= T[-1] + self.eps_t:
+            tau = out[self.out_i]
+            j = int(np.searchsorted(T, tau - self.eps_t))
+            q1, v1 = states[j, :nf], states[j, nf:2 * nf]
+            if abs(tau - T[j]) <= self.eps_t:
+                rec.record(tau, q1, v1, self.W_d, self.W_ext)
+            else:
+                if j == 0:
+                    t0, q0, v0 = t_first, q_old, v_old
+                else:
+                    t0, q0, v0 = T[j - 1], states[j - 1, :nf], states[j - 1, nf:2 * nf]
+                qi, vi = hermite(t0, T[j], q0, v0, q1, v1, tau)
+                rec.record(tau, qi, vi, self.W_d, self.W_ext)
+            self.out_i += 1
+            if self.progress:
+                self.progress(tau, o.t_end)
+
+    def per_step(self, t_stop: float, k_grid: int = 0):
+        """Single steps with rejection (halving on Newton failure, error control if adaptive) until t_stop."""
+        o, integ = self.opts, self.integ
+        eps_t = self.eps_t
+        h = o.dt
+        while self.t < t_stop - eps_t and self.status == "completed":
+            t = self.t
+            if o.adaptive:
+                h_try = min(h, self.dt_max, o.t_end - t)
+            else:
+                h_try = min(h, t_stop - t)
+            if t_stop - (t + h_try) < eps_t:
+                h_try = t_stop - t
+            t_new = t + h_try
+            if abs(t_new - t_stop) <= eps_t:
+                t_new = t_stop  # no round-off drift of the fixed-step grid
+                h_try = t_new - t
+            out = integ.attempt(t, h_try, self.loads)
+            reject_reason, err_ratio = None, None
+            if not out.converged:
+                reject_reason = f"newton: {out.reason}"
+            elif o.adaptive:
+                e = integ.error_estimate(h_try)
+                err_ratio = float(np.max(np.abs(e))) / self.err_tol if len(e) else 0.0
+                if not math.isfinite(err_ratio) or err_ratio > 1.0:
+                    reject_reason = f"error estimate {err_ratio:.3g} x tol"
+            if reject_reason is not None:
+                self.rejected.append({"t": t, "h": h_try, "reason": reject_reason, "iterations": out.iterations})
+                factor = 0.5 if err_ratio is None or not math.isfinite(err_ratio) else \
+                    max(0.2, min(0.9, 0.9 * err_ratio ** (-1.0 / (integ.order + 1))))
+                h = h_try * factor
+                if h < self.dt_min:
+                    self.status = "newton_failed" if err_ratio is None else "step_size_underflow"
+                    self.message = (f"step at t = {t:.6g} s rejected with h = {h_try:.3g} s ({reject_reason}); a "
+                                    f"smaller step would go below dt_min = {self.dt_min:.3g} s")
+                    return
+                continue
+            q_old, v_old = integ.q.copy(), integ.v.copy()
+            q_new, v_new = integ.new["q"].copy(), integ.new["v"].copy()
+            fd = self.S.damping_force(q_new, v_new) if self.S.damped else None  # (K_el of this step)
+            integ.accept()
+            self._accepted(t, t_new, q_old, v_old, q_new, v_new, fd, integ.lam)
+            self._check_energy()
+            if o.adaptive:  # grow only with a clear margin (the estimate is noisy on stiff, slender members)
+                f = 0.8 * max(err_ratio, 1e-10) ** (-1.0 / (integ.order + 1))
+                h = min(h_try * min(1.25, max(1.0, f)), self.dt_max) if err_ratio < 0.5 else h_try
+            elif h < o.dt:
+                h = min(o.dt, 2 * h)  # after a rejection, climb back towards dt
+

@@ -1,0 +1,176 @@
+"""A scene's potential, residual and tangent on its free coordinates, from the compiled kernels: nothing to build.
+
+One mapped kernel call per (fused) term, never a Python loop over elements: a cable's axial and bending terms fused
+into one elastic kernel where it exists (assembly.force_terms), the linear terms (gravity) left out (their force is
+constant: Reduction.f_lin). The element gradients and Hessians are scattered straight onto the free coordinates by
+precomputed index maps (one bincount each): the residual, and the tangent in LAPACK's banded upper storage (a mesh
+numbered node by node is a band of width 2 x node size). Penalty springs are added from the Assembly's constraint
+rows. Measured (bench/STATICS_RESULTS.md): ~55 us per evaluation at 60 elements (the Assembly's general evaluation
+and sparse reduction ~0.3 ms, the compiled StepSystem graph ~50 us after ~35 ms of building it).
+"""
+from __future__ import annotations
+
+import copy
+import dataclasses
+
+import casadi as ca
+import numpy as np
+import scipy.sparse as sp
+
+from . import registry
+from .assembly import LINEAR_EFFECTS, Assembly, ForceTerm, force_terms
+from .inertia import BAND_LIMIT
+from .member_effects import START_EFFECTS
+
+_MAPS: dict = {}  # (element, effect, gauss, elements) -> the kernel mapped over them (built once per process)
+
+
+def _mapped(ft) -> ca.Function:
+    key = (ft.element, ft.effect, ft.gauss, ft.N)
+    if key not in _MAPS:
+        _MAPS[key] = ft.mapped()
+    return _MAPS[key]
+
+
+# a cable's Green or decoupled axial effect -> the Biot one on the same elements and parameters (L, EA[, EI])
+BIOT = START_EFFECTS  # (ancf_sym.member_effects)
+
+
+def fused_terms(terms: list) -> list[ForceTerm]:
+    """assembly.force_terms without its row-by-row matching where a cable's axial and bending terms cover the same
+    elements in the same order (as a scene's members build them): fused whole, in one step."""
+    out, used = [], set()
+    for ia, ta in enumerate(terms):
+        if not ta.element.startswith("cable") or not ta.effect.startswith("axial_"):
+            continue
+        for ib, tb in enumerate(terms):
+            fe = registry.fused_effect(ta.element, (ta.effect, tb.effect)) if tb.effect == "bending" else None
+            if fe is None or tb.element != ta.element or tb.gauss != ta.gauss or ib in used:
+                continue
+            if not (np.array_equal(ta.idx, tb.idx) and np.array_equal(ta.P[:, 0], tb.P[:, 0])):
+                return force_terms(terms)
+            rows = np.arange(len(ta.idx))
+            out.append(ForceTerm(ta.element, fe, ta.gauss, ta.idx, np.c_[ta.P[:, :2], tb.P[:, 1]],
+                                 (ta.label, tb.label), [(ia, rows), (ib, rows)]))
+            used |= {ia, ib}
+            break
+    out += [ForceTerm(t.element, t.effect, t.gauss, t.idx, t.P, (t.label,), [(i, np.arange(len(t.idx)))])
+            for i, t in enumerate(terms) if i not in used and len(t.idx)]
+    return out
+
+
+class ReducedEvaluation:
+    """Potential, residual and tangent of the nonlinear terms on the free coordinates of a Reduction.
+
+    After `evaluate(x_full)`: `energy` (nonlinear terms and penalties [J]), `g` (their gradient on the free
+    coordinates), `band()` (upper banded tangent, None if the band is wider than BAND_LIMIT) and `matrix()` (the
+    sparse tangent, for what a band cannot do: factorisations in another order, LU, the inertia)."""
+
+    def __init__(self, asm: Assembly, reduction):
+        self.asm, self.R = asm, reduction
+        nf = self.nf = reduction.nf
+        pos = reduction.part.pos
+        self.fts = fts = fused_terms([t for t in asm.terms if t.effect not in LINEAR_EFFECTS])
+        self._bind()
+        gp, rows, cols = [], [], []
+        for ft in fts:
+            N, nd = ft.N, ft.nd
+            p = pos[ft.idx]
+            gp.append(p.ravel())
+            rows.append(np.broadcast_to(p[:, None, :], (N, nd, nd)).ravel())  # H[e, b, a] = d2U/dx_a dx_b
+            cols.append(np.broadcast_to(p[:, :, None], (N, nd, nd)).ravel())
+        gp = np.concatenate(gp) if gp else np.zeros(0, np.int64)
+        self._gpos = np.where(gp >= 0, gp, nf)
+        hr = np.concatenate(rows) if rows else np.zeros(0, np.int64)
+        hc = np.concatenate(cols) if cols else np.zeros(0, np.int64)
+        self._free = np.flatnonzero((hr >= 0) & (hc >= 0))  # kernel Hessian entries on two free coordinates
+        self._hr, self._hc = hr[self._free], hc[self._free]
+        up = self._hr <= self._hc
+        self.bw = int(np.max(self._hc[up] - self._hr[up], initial=0))
+        self.pen = asm.penalty
+        if self.pen is not None:  # structural pattern of the penalty Hessian (J^T K J and the bilinear terms)
+            J = abs(self.pen.jacobian(asm.x0 + 1.0))
+            P = (J.T @ J + abs(self.pen.hessian(np.ones(self.pen.m)))).tocoo()
+            pr, pc = pos[P.row], pos[P.col]
+            keep = (pr >= 0) & (pc >= 0)
+            self.bw = max(self.bw, int(np.max(np.abs(pc - pr)[keep], initial=0)))
+        self._dump = (self.bw + 1) * nf  # band slot of the entries left out (fixed coordinates, lower triangle)
+        self._hband = None
+        if self.bw <= BAND_LIMIT:  # kernel entry -> LAPACK's upper banded storage ab[bw + i - j, j]
+            flat = np.full(len(hr), self._dump)
+            flat[self._free[up]] = (self.bw + self._hr[up] - self._hc[up]) * nf + self._hc[up]
+            self._hband = flat
+        self.energy, self.g = 0.0, np.zeros(nf)
+        self._pen = None  # penalty Hessian entries at the last evaluation: (rows, cols, values) on free coordinates
+
+    def _bind(self) -> None:
+        """Output buffers (every call's gradients and Hessians side by side) and the mapped kernel calls."""
+        fts = self.fts
+        self.E = np.zeros(sum(ft.N for ft in fts))
+        self.G = np.zeros(sum(ft.N * ft.nd for ft in fts))
+        self.H = np.zeros(sum(ft.N * ft.nd * ft.nd for ft in fts))
+        self.calls = []
+        e0 = g0 = h0 = 0
+        for ft in fts:
+            N, nd = ft.N, ft.nd
+            X, P = np.zeros((N, nd)), np.ascontiguousarray(ft.P, dtype=float)
+            buf, ev = _mapped(ft).buffer()
+            buf.set_arg(0, memoryview(X))
+            buf.set_arg(1, memoryview(P))
+            for i, (a, size) in enumerate(((self.E[e0:], N), (self.G[g0:], N * nd), (self.H[h0:], N * nd * nd))):
+                buf.set_res(i, memoryview(a[:size]))
+            e0, g0, h0 = e0 + N, g0 + N * nd, h0 + N * nd * nd
+            self.calls.append((ft.idx, X, P, buf, ev))
+
+    def variant(self, effects: dict) -> "ReducedEvaluation | None":
+        """The same evaluation with cable effects swapped (e.g. BIOT), sharing every index map; None if none of
+        this scene's calls has such an effect."""
+        fts = [dataclasses.replace(ft, effect=effects[ft.effect])
+               if ft.element.startswith("cable") and ft.effect in effects else ft for ft in self.fts]
+        if all(a is b for a, b in zip(fts, self.fts)):
+            return None
+        out = copy.copy(self)
+        out.fts = fts
+        out._bind()
+        return out
+
+    def evaluate(self, x_full: np.ndarray) -> None:
+        """Kernels (and penalties) at x_full: energy, g; the tangent's values kept for band() / matrix()."""
+        for idx, X, _, _, ev in self.calls:
+            np.take(x_full, idx, out=X)
+            ev()
+        self.energy = float(self.E.sum())
+        self.g = np.bincount(self._gpos, self.G, minlength=self.nf + 1)[:self.nf]
+        self._pen = None
+        if self.pen is not None:
+            pc = self.pen
+            c = pc.value(x_full)
+            self.energy += float(0.5 * np.sum(pc.k * c * c))
+            J = pc.jacobian(x_full)
+            self.g += self.R.reduce_force(J.T @ (pc.k * c))
+            Hp = (J.T @ sp.diags(pc.k) @ J + pc.hessian(pc.k * c)).tocoo()
+            pos = self.R.part.pos
+            r, col = pos[Hp.row], pos[Hp.col]
+            keep = (r >= 0) & (col >= 0)
+            self._pen = (r[keep], col[keep], Hp.data[keep])
+
+    def band(self) -> np.ndarray | None:
+        """The reduced tangent in LAPACK's upper banded storage ((bw + 1) x nf), None for a wide band."""
+        if self._hband is None:
+            return None
+        size = self._dump
+        ab = np.bincount(self._hband, self.H, minlength=size + 1)[:size]
+        if self._pen is not None:
+            r, c, v = self._pen
+            up = r <= c
+            ab += np.bincount((self.bw + r[up] - c[up]) * self.nf + c[up], v[up], minlength=size)
+        return ab.reshape(self.bw + 1, self.nf)
+
+    def matrix(self) -> sp.csc_matrix:
+        """The reduced tangent as a sparse matrix (duplicates summed)."""
+        r, c, v = self._hr, self._hc, self.H[self._free]
+        if self._pen is not None:
+            r, c, v = np.r_[r, self._pen[0]], np.r_[c, self._pen[1]], np.r_[v, self._pen[2]]
+        K = sp.csc_matrix((v, (r, c)), shape=(self.nf, self.nf))
+        K.sum_duplicates()
+        return K
