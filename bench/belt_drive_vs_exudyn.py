@@ -1,0 +1,179 @@
+"""Cost per step of a belt drive: ancf_sym's belt scene (examples/belt_drive.py) against Exudyn's belt drive set-up
+with ObjectContactFrictionCircleCable2D, same physics where the two codes' laws allow, in this one script.
+
+Scene (both codes): pulleys r_driver = 0.1 m at the origin and r_driven = 0.15 m at 0.5 m, rigid bodies of 1 kg
+on revolute joints (Exudyn: NodeRigidBody2D with x, y coordinate constraints), a closed belt of n cable elements
+(EA = 1e5 N, rho A = 0.1 kg/m, EI = 0.1 N m^2, prestrain 0.5 %; Exudyn: CreateReevingCurve +
+PointsAndSlopes2ANCFCable2D with firstNodeIsLastNode, physicsReferenceAxialStrain = -0.005), the driver's angular
+velocity ramped smoothly from rest to 20 rad/s in 0.2 s (ancf_sym: Scene.drive, an exact row with per-step time
+inputs; Exudyn: a velocity-level CoordinateConstraint with a Python offsetUserFunction_t, its own set-up), the
+driven pulley against a resisting torque of 20 N m (Scene.torque / LoadCoordinate), friction mu = 0.4.
+Contact laws: ancf_sym's linear penalty 1e8 N/m^2 with regularised Coulomb friction (eps = 1 mm/s) at 5 Gauss
+points per element; Exudyn's ObjectContactFrictionCircleCable2D per element with 4 contact segments, contact
+stiffness 1e8 x the segment length, friction velocity penalty mu f_n / eps per segment (f_n at the prestress), no
+bristle stiffness. Both: generalized-alpha (rho_inf 0.6), fixed dt = 1e-3 s over 0.6 s. Exudyn's contact is
+discontinuous (its solver iterates the contact state per step); ancf_sym's is smooth (one Newton loop).
+
+Timing: CPU time of each code's time loop (process time; min and median over --repeats, the codes interleaved),
+model set-up separately. The steady speed ratio omega_driven / omega_driver of each run is printed as the check
+that both modelled the same drive. Where ancf_sym's time goes: the same scene with the friction off
+(normal law only) and without the drive's row (driver free, torque-driven).
+
+Run: python bench/belt_drive_vs_exudyn.py [--repeats 3] [--elements 48] [--json PATH]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import statistics
+import sys
+import time
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "examples"))
+import belt_drive as BD  # noqa: E402  (the example's scene)
+
+from ancf_sym.assembly import Assembly  # noqa: E402
+from ancf_sym.dynamics import DynamicOptions, simulate  # noqa: E402
+from ancf_sym.integrators import clear_graph_cache  # noqa: E402
+
+R2, OMEGA, TORQUE, T_END, DT = 0.15, 20.0, 20.0, 0.6, 1e-3
+
+
+def ramp(t: float) -> float:
+    tau = min(t / BD.T_RAMP, 1.0)
+    return OMEGA * (3 * tau * tau - 2 * tau**3)
+
+
+# -- ancf_sym ----------------------------------------------------------------------------------------------------
+
+def ancf_run(n: int, variant: str = "full"):
+    clear_graph_cache()
+    t0 = time.perf_counter()
+    s = BD.scene(R2, OMEGA, TORQUE, n)
+    if variant == "frictionless":
+        from dataclasses import replace
+        s.contacts = [replace(c, mu=0.0) for c in s.contacts]
+    asm = Assembly(s)
+    opts = DynamicOptions(dt=DT, t_end=T_END, integrator="generalized_alpha", rho_inf=0.6, output_dt=0.01,
+                          energies=False, sensors=[{"name": b, "kind": "body", "member": b}
+                                                   for b in ("driver", "driven")])
+    res = simulate(asm, opts)
+    setup = time.perf_counter() - t0 - res.wall_s
+    late = res.t >= res.t[-1] * 2 / 3
+    ratio = float(np.mean(res.sensors["driven"][late, 3]) / np.mean(res.sensors["driver"][late, 3]))
+    return dict(cpu=res.cpu_s, wall=res.wall_s, steps=res.steps, setup=setup, ratio=ratio, status=res.status,
+                newton=res.counters["newton_iterations"] / max(res.steps, 1))
+
+
+# -- Exudyn ------------------------------------------------------------------------------------------------------
+
+def exudyn_run(n: int, segments: int = 4):
+    import exudyn as exu
+    from exudyn.beams import CreateReevingCurve, PointsAndSlopes2ANCFCable2D
+    from exudyn.itemInterface import (Cable2D, CoordinateConstraint, LoadCoordinate, MarkerBodyCable2DShape,
+                                      MarkerBodyRigid, MarkerNodeCoordinate, NodeGenericData, NodePointGround,
+                                      NodeRigidBody2D, ObjectContactFrictionCircleCable2D, ObjectRigidBody2D,
+                                      SensorNode)
+
+    t0 = time.perf_counter()
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    circles = [[[0.0, 0.0], BD.R1, "L"], [[BD.D, 0.0], R2, "L"]]
+    rc = CreateReevingCurve(circles, numberOfANCFnodes=n, closedCurve=True, drawingLinesPerCircle=64)
+    E_I = BD.EA * 1e-6
+    template = Cable2D(physicsMassPerLength=BD.RHO_A, physicsBendingStiffness=E_I, physicsAxialStiffness=BD.EA,
+                       physicsAxialDamping=BD.EA * 2e-4, physicsReferenceAxialStrain=-BD.PRESTRAIN,
+                       useReducedOrderIntegration=0)
+    ancf = PointsAndSlopes2ANCFCable2D(mbs, rc["ancfPointsSlopes"], rc["elementLengths"], template,
+                                       firstNodeIsLastNode=True)
+    cables = ancf[1]
+    nG = mbs.AddNode(NodePointGround())
+    mG = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=nG, coordinate=0))
+    l_seg = rc["totalLength"] / n / segments
+    fn = BD.EA * BD.PRESTRAIN / BD.R1  # contact pressure at the prestress [N/m]
+    sensors = []
+    for i, ((p, r, _), inertia) in enumerate(zip(circles, (0.5 * BD.R1**2, 0.5 * R2**2))):
+        nb = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[p[0], p[1], 0.0]))
+        ob = mbs.AddObject(ObjectRigidBody2D(physicsMass=1.0, physicsInertia=inertia, nodeNumber=nb))
+        for k in (0, 1):
+            mbs.AddObject(CoordinateConstraint(markerNumbers=[mG, mbs.AddMarker(MarkerNodeCoordinate(
+                nodeNumber=nb, coordinate=k))]))
+        mrot = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=nb, coordinate=2))
+        if i == 0:
+            mbs.AddObject(CoordinateConstraint(markerNumbers=[mG, mrot], velocityLevel=True,
+                                               offsetUserFunction_t=lambda mbs, t, item, off: ramp(t)))
+        else:
+            mbs.AddLoad(LoadCoordinate(markerNumber=mrot, load=-TORQUE))
+        sensors.append(mbs.AddSensor(SensorNode(nodeNumber=nb, storeInternal=True,
+                                                outputVariableType=exu.OutputVariableType.AngularVelocity)))
+        mc = mbs.AddMarker(MarkerBodyRigid(bodyNumber=ob))
+        for c in cables:
+            mcab = mbs.AddMarker(MarkerBodyCable2DShape(bodyNumber=c, numberOfSegments=segments))
+            data = mbs.AddNode(NodeGenericData(initialCoordinates=[0.1] * segments + [-2] * segments
+                                               + [0] * segments, numberOfDataCoordinates=3 * segments))
+            mbs.AddObject(ObjectContactFrictionCircleCable2D(
+                markerNumbers=[mc, mcab], nodeNumber=data, numberOfContactSegments=segments,
+                contactStiffness=BD.K_N * l_seg, contactDamping=1e2 * l_seg,
+                frictionVelocityPenalty=BD.MU * fn * l_seg / BD.EPS, frictionStiffness=0.0,
+                frictionCoefficient=BD.MU, circleRadius=r))
+    mbs.Assemble()
+    ss = exu.SimulationSettings()
+    ss.timeIntegration.numberOfSteps = int(round(T_END / DT))
+    ss.timeIntegration.endTime = T_END
+    ss.timeIntegration.generalizedAlpha.spectralRadius = 0.6
+    ss.timeIntegration.verboseMode = 0
+    ss.solutionSettings.writeSolutionToFile = False
+    ss.solutionSettings.sensorsWritePeriod = 0.01
+    ss.linearSolverType = exu.LinearSolverType.EigenSparse
+    ss.displayStatistics = False
+    setup = time.perf_counter() - t0
+    c0, w0 = time.process_time(), time.perf_counter()
+    ok = exu.SolveDynamic(mbs, ss, solverType=exu.DynamicSolverType.GeneralizedAlpha)
+    cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+    w = [np.asarray(mbs.GetSensorStoredData(s))[:, 3] for s in sensors]
+    t = np.asarray(mbs.GetSensorStoredData(sensors[0]))[:, 0]
+    late = t >= t[-1] * 2 / 3
+    ratio = float(np.mean(w[1][late]) / np.mean(w[0][late]))
+    return dict(cpu=cpu, wall=wall, steps=ss.timeIntegration.numberOfSteps, setup=setup, ratio=ratio,
+                status="completed" if ok else "failed")
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--elements", type=int, default=48)
+    ap.add_argument("--json")
+    a = ap.parse_args()
+    runs = {"ancf_sym": [], "exudyn": [], "ancf_sym frictionless": []}
+    for _ in range(a.repeats):  # interleaved
+        runs["ancf_sym"].append(ancf_run(a.elements))
+        runs["exudyn"].append(exudyn_run(a.elements))
+        runs["ancf_sym frictionless"].append(ancf_run(a.elements, "frictionless"))
+    rows = []
+    for name, rs in runs.items():
+        per = [r["cpu"] / r["steps"] * 1e6 for r in rs]
+        rows.append(dict(code=name, cpu_us_step_min=min(per), cpu_us_step_median=statistics.median(per),
+                         setup_s=min(r["setup"] for r in rs), speed_ratio=rs[0]["ratio"], status=rs[0]["status"],
+                         newton_per_step=rs[0].get("newton")))
+    base = rows[1]["cpu_us_step_min"]
+    print(f"belt drive, {a.elements} elements, dt = {DT}, {T_END} s, r_driver/r_driven = {BD.R1 / R2:.4f}")
+    print(f"{'code':24s} {'min us/step':>12s} {'median':>10s} {'vs exudyn':>10s} {'setup s':>8s} "
+          f"{'speed ratio':>12s} {'Newton/step':>12s} status")
+    for r in rows:
+        nps = r["newton_per_step"]
+        print(f"{r['code']:24s} {r['cpu_us_step_min']:12.1f} {r['cpu_us_step_median']:10.1f} "
+              f"{r['cpu_us_step_min'] / base:10.2f} {r['setup_s']:8.2f} {r['speed_ratio']:12.4f} "
+              f"{'' if nps is None else f'{nps:.2f}':>12s} {r['status']}")
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump(rows, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()
