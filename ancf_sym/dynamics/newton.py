@@ -115,6 +115,7 @@ def newton(system: StepSystem, factor: Factor, key, opts: NewtonOptions, counter
     norms = system.norms
     it = it0
     d_prev = None
+    back = None  # (x, lam, dz, merit) of the last full update, kept for a line search
     while True:
         system.iterate()
         counters.residuals += 1
@@ -129,9 +130,21 @@ def newton(system: StepSystem, factor: Factor, key, opts: NewtonOptions, counter
         d = max(dzx, dzl)
         if not math.isfinite(d):
             return NewtonOutcome(False, it, "singular iteration matrix (update not finite)", rq)
+        merit = max(rq / tq, rc / tol_x)
+        if back is not None and d_prev is not None and merit > back[3] and d > opts.contraction * d_prev:
+            # neither the residual fell nor the updates contract: the full step left Newton's region of
+            # convergence (regularised friction: its force saturates over the velocity eps, and Newton on such
+            # a law overshoots by the cube of the distance); back along the last update to a sufficient decrease
+            if it >= opts.max_iter:
+                return NewtonOutcome(False, it, f"no convergence in {opts.max_iter} iterations (residual {rq:.3g} N, "
+                                                f"constraint {rc:.3g} m; tolerances {tq:.3g} N, {tol_x:.3g} m)", rq)
+            _backtrack(system, back, tq, tol_x, counters)
+            back, d_prev = None, None
+            continue
         if it >= opts.max_iter:
             return NewtonOutcome(False, it, f"no convergence in {opts.max_iter} iterations (residual {rq:.3g} N, "
                                             f"constraint {rc:.3g} m; tolerances {tq:.3g} N, {tol_x:.3g} m)", rq)
+        back = (system.x.copy(), system.lam.copy(), system.dz.copy(), merit)
         system.x += system.dz[:nf]
         if system.mc:
             system.lam += system.dz[nf:]
@@ -146,6 +159,29 @@ def newton(system: StepSystem, factor: Factor, key, opts: NewtonOptions, counter
             if d > 1e6 * d_prev:
                 return NewtonOutcome(False, it, f"diverging (update {d:.3g}, residual {rq:.3g} N)", rq)
         d_prev = d
+
+
+LINE_SEARCH_HALVINGS = 12  # shortest step 2^-12 of the Newton update
+
+
+def _backtrack(system, back, tq: float, tol_x: float, counters: Counters) -> None:
+    """Armijo backtracking from the iterate `back` = (x, lam, dz, merit) along its Newton update dz: the first of
+    t = 1/2, 1/4, ... whose scaled residual max(|r_q| / tq, |Phi| / tol_x) is below (1 - t/10^4) merit (a Newton
+    update lowers every residual row by the fraction t to first order, so a short enough step always passes),
+    else the shortest. Residuals only (no Jacobian); the iterate is left in system.x, system.lam."""
+    x0, lam0, dz, merit0 = back
+    nf = system.nf
+    t = 1.0
+    for _ in range(LINE_SEARCH_HALVINGS):
+        t *= 0.5
+        system.x[:] = x0 + t * dz[:nf]
+        if system.mc:
+            system.lam[:] = lam0 + t * dz[nf:]
+        system.residual()
+        counters.residuals += 1
+        rq, rc = system.norms[0], system.norms[1]
+        if math.isfinite(rq) and math.isfinite(rc) and max(rq / tq, rc / tol_x) <= (1 - 1e-4 * t) * merit0:
+            return
 
 
 def _newton_modified(system, factor, key, opts, counters, tol_q, tol_x) -> NewtonOutcome:
