@@ -58,16 +58,13 @@ def ramp(t: float) -> float:
 
 # -- ancf_sym ----------------------------------------------------------------------------------------------------
 
-def ancf_run(n: int, variant: str = "full"):
+def ancf_run(n: int, k_n: float | None):
+    """ancf_sym's belt drive with the linear penalty k_n (Exudyn's law) or, k_n None, the example's Hertz law."""
     clear_graph_cache()
     t0 = time.perf_counter()
-    s = BD.scene(R2, OMEGA, TORQUE, n, k_n=K_N)
-    if variant == "frictionless":
-        from dataclasses import replace
-        s.contacts = [replace(c, mu=0.0) for c in s.contacts]
-    asm = Assembly(s)
+    asm = Assembly(BD.scene(R2, OMEGA, TORQUE, n, k_n=k_n))
     t1 = time.perf_counter()
-    q0 = BD.start(asm, R2, n, K_N)
+    q0 = BD.start(asm, R2, n, k_n)
     settle = time.perf_counter() - t1
     opts = DynamicOptions(dt=DT, t_end=T_END, integrator="generalized_alpha", rho_inf=0.6, output_dt=0.01,
                           energies=False, q0=q0, sensors=[{"name": b, "kind": "body", "member": b}
@@ -135,7 +132,7 @@ def exudyn_run(n: int, segments: int = 4):
             mbs.AddObject(ObjectContactFrictionCircleCable2D(
                 markerNumbers=[mc, mcab], nodeNumber=data, numberOfContactSegments=segments,
                 contactStiffness=K_N * l_seg, contactDamping=1e2 * delta0 * l_seg,
-                frictionVelocityPenalty=BD.MU * fn * l_seg / BD.EPS, frictionStiffness=0.0,
+                frictionVelocityPenalty=BD.MU * fn * l_seg / BD.EPS, frictionStiffness=0.2 * K_N * l_seg,
                 frictionCoefficient=BD.MU, circleRadius=r))
     mbs.Assemble()
     ss = exu.SimulationSettings()
@@ -163,17 +160,55 @@ def exudyn_run(n: int, segments: int = 4):
                 status="completed" if ok else "failed", newton=newton)
 
 
+def breakdown(n: int, k_n: float | None, repeats: int = 20) -> dict:
+    """Where one full Newton iteration of ancf_sym's step goes, at the settled start state (process time per call,
+    min over `repeats` calls of each compiled function): the whole iteration (residual, KKT matrix, sparse QR
+    factorisation and solve), the residual alone, the contact damping/friction graph (the drums' dissipation
+    kernels and the scatter of their Hessian blocks) and the belt's strain-rate damping graph."""
+    import casadi as ca
+    from ancf_sym.dynamics import damping
+    from ancf_sym.dynamics.schemes import Scheme
+    from ancf_sym.dynamics.step_system import StepSystem
+    from ancf_sym.sparsity import dm
+
+    clear_graph_cache()
+    asm = Assembly(BD.scene(R2, OMEGA, TORQUE, n, k_n=k_n))
+    S = StepSystem.for_scene(asm)
+    S.x[:] = S.reduce(BD.start(asm, R2, n, k_n))
+    sc = Scheme.generalized_alpha(0.6)  # the step coefficients of a run
+    S.cm[0], S.cc[0], S.kc[0] = sc.cm(DT), sc.cc(DT), sc.cm(DT) * S.stiffness_scale()
+    xf, vf = ca.MX.sym("x", S.nf), ca.MX.sym("v", S.nf)
+    X, V = S.x_full_mx(xf), ca.mtimes(dm(S.E), vf)
+    contact_f = ca.Function("c", [xf, vf], list(damping.contact_dissipation_mx(S, X, V)))
+    rate_f = ca.Function("s", [xf, vf], damping.strain_rate_mx(S.strain_rate, xf, X, V, vf))
+
+    def per_call(f):
+        f()
+        best = math.inf
+        for _ in range(repeats):
+            c0 = time.process_time()
+            f()
+            best = min(best, time.process_time() - c0)
+        return best * 1e6
+
+    out = {"iteration_us": per_call(S.iterate), "residual_us": per_call(S.residual),
+           "contact_friction_us": per_call(lambda: contact_f(S.x, S.vc)),
+           "strain_rate_us": per_call(lambda: rate_f(S.x, S.vc))}
+    out["rest_us"] = out["iteration_us"] - out["contact_friction_us"] - out["strain_rate_us"]
+    return out
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--elements", type=int, default=48)
     ap.add_argument("--json")
     a = ap.parse_args()
-    runs = {"ancf_sym": [], "exudyn": [], "ancf_sym frictionless": []}
+    runs = {"ancf_sym Hertz": [], "exudyn": [], "ancf_sym linear": []}
     for _ in range(a.repeats):  # interleaved
-        runs["ancf_sym"].append(ancf_run(a.elements))
+        runs["ancf_sym Hertz"].append(ancf_run(a.elements, None))
         runs["exudyn"].append(exudyn_run(a.elements))
-        runs["ancf_sym frictionless"].append(ancf_run(a.elements, "frictionless"))
+        runs["ancf_sym linear"].append(ancf_run(a.elements, K_N))
     rows = []
     for name, rs in runs.items():
         per = [r["cpu"] / r["steps"] * 1e6 for r in rs]
@@ -182,7 +217,7 @@ def main():
                          speed_ratio=rs[0]["ratio"], status=rs[0]["status"], newton_per_step=rs[0].get("newton"),
                          us_per_iteration=min(r["us_per_iteration"] for r in rs) if "us_per_iteration" in rs[0]
                          else None, rejected=rs[0].get("rejected")))
-    base = rows[1]["cpu_us_step_min"]
+    base = rows[1]["cpu_us_step_min"]  # exudyn
     print(f"belt drive, {a.elements} elements, dt = {DT}, {T_END} s, r_driver/r_driven = {BD.R1 / R2:.4f}, "
           f"min/median over {a.repeats} repeats (CPU time of the time loop)")
     print(f"{'code':24s} {'min us/step':>12s} {'median':>10s} {'vs exudyn':>10s} {'setup s':>8s} "
@@ -193,9 +228,14 @@ def main():
               f"{r['cpu_us_step_min'] / base:10.2f} {r['setup_s']:8.2f} {r['speed_ratio']:12.4f} "
               f"{'' if nps is None else f'{nps:.2f}':>12s} {'' if upi is None else f'{upi:.0f}':>8s} "
               f"{'' if rej is None else rej:>8} {r['status']}")
+    b = breakdown(a.elements, None)
+    print(f"one Newton iteration of ancf_sym (Hertz scene), us: whole {b['iteration_us']:.0f} = contact damping + "
+          f"friction kernels {b['contact_friction_us']:.0f} + strain-rate damping {b['strain_rate_us']:.0f} + "
+          f"the rest (elastic and normal-law kernels, assembly, sparse QR) {b['rest_us']:.0f}; residual alone "
+          f"{b['residual_us']:.0f}")
     if a.json:
         with open(a.json, "w") as f:
-            json.dump(rows, f, indent=1)
+            json.dump(rows + [dict(code="ancf_sym Hertz, one iteration", elements=a.elements, **b)], f, indent=1)
 
 
 if __name__ == "__main__":
