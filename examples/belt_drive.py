@@ -15,8 +15,8 @@ Laws checked in the records:
   the wrap angle there; below that limit the belt sticks on most of the wrap (no gross slip);
 - speed ratio omega_driven / omega_driver = (r_driver / r_driven) (1 - s): the elastic creep
   s ~ (T_tight - T_slack) / (EA + T_tight) (the belt leaves the driver shorter than it arrives: slip on the exit
-  arcs), plus the regularised friction's own creep (the sticking arcs slide at a fraction of eps: at most
-  eps / (omega_driver r_driver) = 0.5 %).
+  arcs), plus the regularised friction's own creep: an arc that transmits the fraction f of mu f_n slides at
+  eps f / sqrt(1 - f^2), so this creep is of order eps / (omega_driver r_driver) = 0.5 % and grows with the torque.
 Tensions are EA (|r_x| - 1) averaged over the nodes of the middle half of each straight span and over the last
 third of the run. Records (one per case): case, r_driver, r_driven, omega_driver, omega_driven_steady, ratio_radii,
 speed_ratio, creep, creep_elastic, T_tight, T_slack, tension_ratio, capstan_limit, torque, torque_from_tensions,
@@ -199,7 +199,7 @@ def main(argv=None):
         ee = np.linspace(0, max(e.max(), 1e-3) * 1.1, 2) if len(e) else np.zeros(2)
         axs[1].plot(100 * ee, 100 * ee, "k:", lw=0.8, label="elastic creep (T_tight - T_slack) / (EA + T_tight)")
         axs[1].plot(100 * ee, 100 * (ee + EPS / (20.0 * R1)), "k--", lw=0.6,
-                    label="+ regularisation bound eps / (omega r_driver)")
+                    label="elastic + eps / (omega r_driver)")
         axs[1].set_xlabel("elastic creep [%]"), axs[1].set_ylabel("measured creep [%]"), axs[1].legend(fontsize=7)
         axs[1].set_title("creep")
         for r, (t, series, res) in runs:
