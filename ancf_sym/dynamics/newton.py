@@ -4,7 +4,9 @@ iterations and steps), with its options, work counters and outcome.
 
 A step converges when the residual is below the force tolerance (never below twice the round-off floor) and the
 constraints below the length tolerance, or when the contraction of successive updates shows the remaining error
-below the update tolerance.
+below the update tolerance. Full Newton backs off along an update (Armijo line search on the scaled residual)
+when it neither lowered the residual nor contracted: laws that saturate, such as regularised friction, make the
+full update overshoot from outside a narrow region.
 """
 from __future__ import annotations
 
