@@ -163,7 +163,8 @@ def run_case(name: str, r_driven: float, omega: float, torque: float, elements: 
                                                                                        max(R1, r_driven))),
             "torque": torque, "torque_from_tensions": (tight - slack) * r_driven, "success": res.success,
             "status": res.status, "steps": res.steps, "rejected": len(res.rejected),
-            "newton_per_step": res.counters["newton_iterations"] / max(res.steps, 1), "wall_s": res.wall_s}, (t, series, res)
+            "newton_per_step": res.counters["newton_iterations"] / max(res.steps, 1),
+            "wall_s": res.wall_s}, (t, series, res)
 
 
 # (name, r_driven, omega_driver, torque): three radius ratios at one torque, and the torque raised towards the
@@ -189,7 +190,8 @@ def main(argv=None):
         x = np.linspace(0.45, 1.05, 2)
         axs[0].plot(x, x, "k:", lw=0.8, label="no creep: r_driver / r_driven")
         for r in ok:
-            axs[0].plot(r["ratio_radii"], r["speed_ratio"], "o", label=f"{r['case']} (creep {100 * r['creep']:.2f} %)")
+            axs[0].plot(r["ratio_radii"], r["speed_ratio"], "o",
+                        label=f"{r['case']} (creep {100 * r['creep']:.2f} %)")
         axs[0].set_xlabel("r_driver / r_driven"), axs[0].set_ylabel("omega_driven / omega_driver (steady)")
         axs[0].set_title("speed ratio"), axs[0].legend(fontsize=7)
         e = np.array([r["creep_elastic"] for r in ok])
