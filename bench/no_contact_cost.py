@@ -7,11 +7,12 @@ gravity (bench/contact_cost.py's "no contact" case) and a pinned 2 m cable3d pen
 alpha, dt = 1e-3 s, 1 s. Printed per scene and build: CPU time per step, Newton iterations per step, and the size of
 the compiled Newton-iteration graph (instructions, inputs): a scene that declares no contact gets the same graph.
 
-Baseline build (the commit before ground contact was added; a few minutes of C compilation):
-    git archive <commit> | tar -x -C /tmp/pre_contact_src
-    pip install --no-deps --target /tmp/pre_contact_site /tmp/pre_contact_src
+Baseline build (the commit before ground contact was added; a few minutes of C compilation), in two directories
+outside the project root, SRC and SITE:
+    git archive <commit> | tar -x -C SRC
+    pip install --no-deps --target SITE SRC
 
-Run: python bench/no_contact_cost.py [--baseline /tmp/pre_contact_site] [--repeats 3] [--json PATH]
+Run: python bench/no_contact_cost.py [--baseline SITE] [--repeats 3] [--json PATH]
 """
 from __future__ import annotations
 
@@ -83,7 +84,7 @@ def main() -> None:
         for b, rs in runs.items():
             per = [r[scene]["cpu_us_step"] for r in rs]
             r0 = rs[0][scene]
-            rows.append(dict(scene=scene, build=b, package=rs[0]["package"], cpu_us_step_min=min(per),
+            rows.append(dict(scene=scene, build=b, cpu_us_step_min=min(per),
                              cpu_us_step_median=statistics.median(per), newton_per_step=r0["newton_per_step"],
                              graph_instructions=r0["graph_instructions"], graph_inputs=r0["graph_inputs"],
                              unknowns=r0["unknowns"], status=r0["status"]))
