@@ -101,14 +101,16 @@ def test_energy_function_and_reverse_companion_match_kernel(element, effect, gau
 
 
 # Parameter that multiplies each effect's energy as a whole (energy is linear in it).
-LINEAR_PARAM = {"axial_green": ("EA",), "axial_biot": ("EA",), "axial_decoupled": ("EA",), "bending": ("EI",),
+LINEAR_PARAM = {"axial_green": ("EA",), "axial_biot": ("EA",), "axial_decoupled": ("EA",),
+                "axial_decoupled_biot": ("EA",), "bending": ("EI",),
                 "gravity": ("rhoA",), "moment": ("M",), "continuum": ("E",), "line_strain": ("E",),
                 "line_bending": ("EIy", "EIz"), "line_torsion": ("GIp",), "moment_z": ("M",), "moment_y": ("M",),
                 "elastic_green": ("EA", "EI"), "elastic_biot": ("EA", "EI"),  # fused axial + bending: both factors
                 "contact_ground": ("k", "kh"), "contact_circle": ("k", "kh"),  # normal law: both stiffnesses
                 "contact_ground_friction": ("k", "kh", "c"), "contact_circle_friction": ("k", "kh", "c"),
                 "contact_drum": ("k", "kh"), "contact_drum_friction": ("k", "kh", "c"),
-                "contact_body_friction": ("k", "kh", "c")}
+                "contact_body_friction": ("k", "kh", "c"),
+                "contact_body_drum": ("k", "kh"), "contact_body_drum_friction": ("k", "kh", "c")}
 
 
 @pytest.mark.parametrize("element,effect,gauss", KERNELS, ids=IDS)

@@ -84,6 +84,15 @@ def _contact_station(element: str, effect: str):
         c = z[nd:nd + dim] if eff.obstacle else 0
         if effect.startswith("contact_drum"):  # fixed drum: centre after (law, axis[, friction]) in p
             c = p[len(eff.params) - dim:]
+        if effect.startswith("contact_body_drum"):  # a spatial body's drum: u = (r - r_b, E[, r' - r_b', E'])
+            body = z[nd:nd + 12]
+            if not eff.rates:
+                yield ca.vertcat(r - body[:3], body[3:]), contact.body_drum_energy, w * L
+                return
+            bv = z[n + nd:n + nd + 12]
+            v = centre(z[n:n + nd], L, xi, dim)
+            yield ca.vertcat(r - body[:3], body[3:], v - bv[:3], bv[3:]), contact.body_drum_dissipation, w * L
+            return
         if not eff.rates:
             dens = contact.ground_energy if effect == "contact_ground" else contact.circle_energy
             yield r - c, lambda u, p: dens(u, p, dim), w * L
@@ -115,8 +124,9 @@ def _direct_energy(element: str, effect: str, gauss: int | None):
     el = registry.ELEMENTS[element]
     if element.startswith("cable"):
         dim = el.dim
-        if effect == "axial_decoupled":
-            return lambda q, p: cable.decoupled_energy(q, p, dim, gauss)
+        if effect in ("axial_decoupled", "axial_decoupled_biot"):
+            strain = "green" if effect == "axial_decoupled" else "biot"
+            return lambda q, p: cable.decoupled_energy(q, p, dim, gauss, strain)
         if effect == "gravity":
             return lambda q, p: cable.gravity_energy(q, p, dim)
         if effect == "moment":
