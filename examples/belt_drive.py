@@ -146,7 +146,8 @@ def run_case(name: str, r_driven: float, omega: float, torque: float, elements: 
     sensors = [{"name": f"n{k}", "kind": "coordinates", "member": "belt", "at": k} for k in range(elements)]
     sensors += [{"name": b, "kind": "body", "member": b} for b in ("driver", "driven")]
     res = run_dynamics(asm, {"integrator": "generalized_alpha", "rho_inf": 0.6, "dt": dt, "t_end": t_end,
-                             "output_dt": 5 * dt, "sensors": sensors, "energies": False, "q0": q0})
+                             "output_dt": 5 * dt, "sensors": sensors, "energies": False, "q0": q0,
+                             "newton": {"line_search": True}})
     t = np.asarray(res.t)
     late = t >= t[-1] * 2 / 3
     w1 = float(np.mean(res.sensors["driver"][late, 3])) if res.success else float("nan")

@@ -13,7 +13,7 @@ Bounds, from the physics of the drive (measured in brackets):
   axial vibration (about +-3 N on a difference of 133 N) is left, and the centrifugal tension rho A v^2 (0.4 N)
   is the same in both spans;
 - Newton converges without step rejections on more than 98 % of the steps [100 %] (before the start from a pin in a
-  free span and the line search, 90 % of the steps were rejected).
+  free span, 90 % of the steps were rejected).
 """
 from __future__ import annotations
 

@@ -46,6 +46,6 @@ def test_full_update_overshoots_from_this_start():
 
 def test_line_search_converges_on_saturating_residual():
     s = Saturating(2.0)
-    out = newton(s, Factor(), None, NewtonOptions(max_iter=40), Counters(), tol_q=1e-9, tol_x=1e-12)
+    out = newton(s, Factor(), None, NewtonOptions(max_iter=40, line_search=True), Counters(), tol_q=1e-9, tol_x=1e-12)
     assert out.converged, out.reason
     assert abs(s.x[0] - C / np.sqrt(1 - C * C)) < 1e-8

@@ -4,9 +4,9 @@ iterations and steps), with its options, work counters and outcome.
 
 A step converges when the residual is below the force tolerance (never below twice the round-off floor) and the
 constraints below the length tolerance, or when the contraction of successive updates shows the remaining error
-below the update tolerance. Full Newton backs off along an update (Armijo line search on the scaled residual)
-when it neither lowered the residual nor contracted: laws that saturate, such as regularised friction, make the
-full update overshoot from outside a narrow region.
+below the update tolerance. With `line_search`, full Newton backs off along an update (Armijo on the scaled
+residual) when it neither lowered the residual nor contracted: laws that saturate, such as regularised friction,
+make the full update overshoot from outside a narrow region.
 """
 from __future__ import annotations
 
@@ -45,6 +45,9 @@ class NewtonOptions:
     lte_fraction: float = 0.01  # alpha schemes: update tolerance also this fraction of the local truncation error
     contraction: float = 0.5  # modified Newton: refactorise when the contraction |dz_k+1| / |dz_k| exceeds this
     max_modified: int = 8  # modified Newton: at most this many iterations on one factorisation within a step
+    # full Newton in Python: back off along an update that neither lowered the residual nor contracted (Armijo on
+    # the scaled residual); for laws that saturate (regularised friction with a small eps) where full updates cycle
+    line_search: bool = False
 
     def __post_init__(self):
         if isinstance(self.lte_fraction, bool) or not isinstance(self.lte_fraction, (int, float)) or \
@@ -60,7 +63,7 @@ class NewtonOptions:
                 raise fail(f"newton.{name}", "must be a positive integer", v)
         if self.contraction >= 1:
             raise SceneError(f"newton.contraction must be below 1, got {self.contraction!r}")
-        for name in ("modified", "single"):
+        for name in ("modified", "single", "line_search"):
             if not isinstance(getattr(self, name), bool):
                 raise SceneError(f"newton.{name} must be true or false, got {getattr(self, name)!r}")
 
@@ -146,7 +149,8 @@ def newton(system: StepSystem, factor: Factor, key, opts: NewtonOptions, counter
         if it >= opts.max_iter:
             return NewtonOutcome(False, it, f"no convergence in {opts.max_iter} iterations (residual {rq:.3g} N, "
                                             f"constraint {rc:.3g} m; tolerances {tq:.3g} N, {tol_x:.3g} m)", rq)
-        back = (system.x.copy(), system.lam.copy(), system.dz.copy(), merit)
+        if opts.line_search:
+            back = (system.x.copy(), system.lam.copy(), system.dz.copy(), merit)
         system.x += system.dz[:nf]
         if system.mc:
             system.lam += system.dz[nf:]
