@@ -78,10 +78,13 @@ class Piecewise(Motion):
         k = self._piece(t)
         if k < 0:
             return (self(self.starts[0])[0] if self.hold else 0.0), 0.0, 0.0
-        c = np.asarray(self.coefs[k], float)
         tau = t - self.starts[k]
-        p = np.polynomial.polynomial
-        return float(p.polyval(tau, c)), float(p.polyval(tau, p.polyder(c))), float(p.polyval(tau, p.polyder(c, 2)))
+        f = df = ddf = 0.0
+        for a in reversed(self.coefs[k]):  # Horner on f and its derivatives (called at every step: no numpy)
+            ddf = ddf * tau + 2.0 * df
+            df = df * tau + f
+            f = f * tau + float(a)
+        return f, df, ddf
 
     def integral(self, value0: float) -> "Piecewise":
         """value0 + integral from t_0 of this function (itself 0 before t_0): exact, continuous at the breaks."""

@@ -4,7 +4,9 @@ iterations and steps), with its options, work counters and outcome.
 
 A step converges when the residual is below the force tolerance (never below twice the round-off floor) and the
 constraints below the length tolerance, or when the contraction of successive updates shows the remaining error
-below the update tolerance.
+below the update tolerance. With `line_search`, full Newton backs off along an update (Armijo on the scaled
+residual) when it neither lowered the residual nor contracted: laws that saturate, such as regularised friction,
+make the full update overshoot from outside a narrow region.
 """
 from __future__ import annotations
 
@@ -43,6 +45,9 @@ class NewtonOptions:
     lte_fraction: float = 0.01  # alpha schemes: update tolerance also this fraction of the local truncation error
     contraction: float = 0.5  # modified Newton: refactorise when the contraction |dz_k+1| / |dz_k| exceeds this
     max_modified: int = 8  # modified Newton: at most this many iterations on one factorisation within a step
+    # full Newton in Python: back off along an update that neither lowered the residual nor contracted (Armijo on
+    # the scaled residual); for laws that saturate (regularised friction with a small eps) where full updates cycle
+    line_search: bool = False
 
     def __post_init__(self):
         if isinstance(self.lte_fraction, bool) or not isinstance(self.lte_fraction, (int, float)) or \
@@ -58,7 +63,7 @@ class NewtonOptions:
                 raise fail(f"newton.{name}", "must be a positive integer", v)
         if self.contraction >= 1:
             raise SceneError(f"newton.contraction must be below 1, got {self.contraction!r}")
-        for name in ("modified", "single"):
+        for name in ("modified", "single", "line_search"):
             if not isinstance(getattr(self, name), bool):
                 raise SceneError(f"newton.{name} must be true or false, got {getattr(self, name)!r}")
 
@@ -115,6 +120,7 @@ def newton(system: StepSystem, factor: Factor, key, opts: NewtonOptions, counter
     norms = system.norms
     it = it0
     d_prev = None
+    back = None  # (x, lam, dz, merit) of the last full update, kept for a line search
     while True:
         system.iterate()
         counters.residuals += 1
@@ -129,9 +135,22 @@ def newton(system: StepSystem, factor: Factor, key, opts: NewtonOptions, counter
         d = max(dzx, dzl)
         if not math.isfinite(d):
             return NewtonOutcome(False, it, "singular iteration matrix (update not finite)", rq)
+        merit = max(rq / tq, rc / tol_x)
+        if back is not None and d_prev is not None and merit > back[3] and d > opts.contraction * d_prev:
+            # neither the residual fell nor the updates contract: the full step left Newton's region of
+            # convergence (regularised friction: its force saturates over the velocity eps, and Newton on such
+            # a law overshoots by the cube of the distance); back along the last update to a sufficient decrease
+            if it >= opts.max_iter:
+                return NewtonOutcome(False, it, f"no convergence in {opts.max_iter} iterations (residual {rq:.3g} N, "
+                                                f"constraint {rc:.3g} m; tolerances {tq:.3g} N, {tol_x:.3g} m)", rq)
+            _backtrack(system, back, tq, tol_x, counters)
+            back, d_prev = None, None
+            continue
         if it >= opts.max_iter:
             return NewtonOutcome(False, it, f"no convergence in {opts.max_iter} iterations (residual {rq:.3g} N, "
                                             f"constraint {rc:.3g} m; tolerances {tq:.3g} N, {tol_x:.3g} m)", rq)
+        if opts.line_search:
+            back = (system.x.copy(), system.lam.copy(), system.dz.copy(), merit)
         system.x += system.dz[:nf]
         if system.mc:
             system.lam += system.dz[nf:]
@@ -146,6 +165,29 @@ def newton(system: StepSystem, factor: Factor, key, opts: NewtonOptions, counter
             if d > 1e6 * d_prev:
                 return NewtonOutcome(False, it, f"diverging (update {d:.3g}, residual {rq:.3g} N)", rq)
         d_prev = d
+
+
+LINE_SEARCH_HALVINGS = 12  # shortest step 2^-12 of the Newton update
+
+
+def _backtrack(system, back, tq: float, tol_x: float, counters: Counters) -> None:
+    """Armijo backtracking from the iterate `back` = (x, lam, dz, merit) along its Newton update dz: the first of
+    t = 1/2, 1/4, ... whose scaled residual max(|r_q| / tq, |Phi| / tol_x) is below (1 - t/10^4) merit (a Newton
+    update lowers every residual row by the fraction t to first order, so a short enough step always passes),
+    else the shortest. Residuals only (no Jacobian); the iterate is left in system.x, system.lam."""
+    x0, lam0, dz, merit0 = back
+    nf = system.nf
+    t = 1.0
+    for _ in range(LINE_SEARCH_HALVINGS):
+        t *= 0.5
+        system.x[:] = x0 + t * dz[:nf]
+        if system.mc:
+            system.lam[:] = lam0 + t * dz[nf:]
+        system.residual()
+        counters.residuals += 1
+        rq, rc = system.norms[0], system.norms[1]
+        if math.isfinite(rq) and math.isfinite(rc) and max(rq / tq, rc / tol_x) <= (1 - 1e-4 * t) * merit0:
+            return
 
 
 def _newton_modified(system, factor, key, opts, counters, tol_q, tol_x) -> NewtonOutcome:
