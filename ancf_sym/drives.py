@@ -7,6 +7,9 @@ the time functions w(t) as per-step inputs (no angle coordinate, no wrap-around)
 - angle of body b relative to body a (a revolute joint's angle):     sin(angle_b - angle_a - theta) = 0, with
   sin(angle_b - angle_a) = s_b c_a - c_b s_a and cos(...) = c_b c_a + s_b s_a:
       cos(theta) (s_b c_a - c_b s_a) - sin(theta) (c_b c_a + s_b s_a) = 0
+- angle of a spatial body about its revolute joint's axis t, relative to the jointed body or the ground: with u the
+  body's normal n1 of t and w1, w2 the other side's n1, n2 (t, n1, n2 right-handed; ancf_sym.spatial_bodies):
+      cos(theta) u.w2 - sin(theta) u.w1 = sin(angle - theta) = 0   (bilinear; angle 0 in the reference state)
 - position of a member node or of a body's centre, r(t) prescribed:  r_k - p_k(t) = 0 per component.
 Each row is a sum of entries coef * w_k(t) * X_i * X_j (X = [x; 1]: linear, bilinear and constant terms alike), so
 its value, Jacobian and Hessian are exact, and d/dt, d2/dt2 follow from w', w'' (the initial acceleration).
@@ -184,8 +187,6 @@ def angle_drive(scene, body: str, angle: Any = None, omega: Any = None, relative
     """A checked angle drive (Scene.drive)."""
     f = f"drive(body={body!r})"
     _body(scene, f"{f}: body", body)
-    if scene.dim == 3:
-        raise SceneError(f"{f}: angle drives are for planar bodies (a spatial body has no single angle)")
     if relative_to is not None:
         _body(scene, f"{f}: relative_to", relative_to)
         if relative_to == body:
@@ -193,7 +194,13 @@ def angle_drive(scene, body: str, angle: Any = None, omega: Any = None, relative
     if (angle is None) == (omega is None):
         raise SceneError(f"{f}: give exactly one of angle (theta(t)) or omega (angular velocity), got angle="
                          f"{angle!r}, omega={omega!r}")
-    ref = scene.bodies[body].angle - (scene.bodies[relative_to].angle if relative_to else 0.0)
+    if scene.dim == 3:  # the angle about the revolute joint's axis, 0 in the reference state
+        from .spatial_bodies import drive_joint
+
+        drive_joint(scene, body, relative_to, f"{f}: body")
+        ref = 0.0
+    else:
+        ref = scene.bodies[body].angle - (scene.bodies[relative_to].angle if relative_to else 0.0)
     if angle0 is not None:
         if angle is not None:
             raise SceneError(f"{f}: angle0 goes with omega (the angle where the integral starts), got {angle0!r}")
@@ -336,7 +343,7 @@ class DriveSystem:
 
     def reactions(self, x: np.ndarray, lam: np.ndarray) -> dict[str, list]:
         """What each drive applies to the system, from its rows' multipliers lam (true, in row order): an angle
-        drive the torque on `body` [N m] (counter-clockwise; on relative_to the opposite), a position drive the
+        drive the torque on `body` [N m] (counter-clockwise; spatial: about the joint axis; on relative_to the opposite), a position drive the
         force on the node or body [N]. Row sin(angle - theta): torque = -lam cos(angle - theta) = -lam."""
         out = {}
         for d, rows in zip(self.drives, self.drive_rows):
@@ -375,6 +382,21 @@ def build(asm) -> DriveSystem | None:
                 a, b = (comp + 1) % 3, (comp + 2) % 3
                 torques += [(o + 3 + 3 * k + a, o + 3 + 3 * k + b, nw, 0.5) for k in range(3)]
                 nw += 1
+            continue
+        if isinstance(d, AngleDrive) and scene.dim == 3:
+            # spatial (ancf_sym.spatial_bodies.drive_vectors): cos(theta) u.w2 - sin(theta) u.w1 = sin(angle - theta)
+            from .spatial_bodies import drive_joint, drive_vectors
+
+            u, w1, w2 = drive_vectors(mesh, drive_joint(scene, d.body, d.relative_to, d.name), d.body, d.relative_to)
+            for k, sign, w_ in ((nw, 1.0, w2), (nw + 1, -1.0, w1)):
+                for i, j, c in _dot_terms(u, w_, ONE):
+                    entry(m, k, i, j, sign * c)
+            funcs.append((nw, "angle", d.angle))
+            nw += 2
+            labels.append(d.name)
+            drives.append(d)
+            drive_rows.append([m])
+            m += 1
             continue
         if isinstance(d, AngleDrive):
             ob = mesh.bodies[d.body]
@@ -421,9 +443,27 @@ def build(asm) -> DriveSystem | None:
                        np.array(jj, dtype=np.int64), np.array(coef, float), labels, funcs, torques, drives, drive_rows)
 
 
+def _dot_terms(a, b, one: int) -> list[tuple[int, int, float]]:
+    """(i, j, coef) with a . b = sum coef X_i X_j for affine vectors a, b (ancf_sym.affine_rows.Vec; X = [x; 1],
+    index `one` the constant 1)."""
+    out = []
+    for ca_, cb, a0, b0 in zip(a.coef, b.coef, a.const, b.const):
+        out += [(i, j, u * v) for i, u in ca_.items() for j, v in cb.items()]
+        out += [(i, one, u * b0) for i, u in ca_.items() if b0 != 0]
+        out += [(j, one, v * a0) for j, v in cb.items() if a0 != 0]
+        if a0 * b0 != 0:
+            out.append((one, one, a0 * b0))
+    return [t for t in out if t[2] != 0]
+
+
 def check_free(ds: DriveSystem, pos: np.ndarray) -> None:
-    """Refuse drive rows on coordinates the supports/joints eliminated (fixed): the two would fight."""
+    """Refuse position-drive rows on coordinates the supports/joints eliminated (fixed): the two would fight. (An
+    angle drive's bilinear row may hold fixed coordinates as constants: a spatial revolute joint to the ground
+    fixes the components of the body's axis vectors across its axis, not the angle.)"""
+    position = {r for d, rows in zip(ds.drives, ds.drive_rows) if isinstance(d, PositionDrive) for r in rows}
     for r, i, j in zip(ds.row, ds.i, ds.j):
+        if r not in position:
+            continue
         for c in (i, j):
             if c < ds.n and pos[c] < 0:
                 raise SceneError(f"drive {ds.labels[r]!r} acts on coordinate {int(c)}, which a support or joint "

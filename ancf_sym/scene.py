@@ -382,7 +382,8 @@ class Scene:
               angle0: float | None = None, name: str | None = None):
         """Prescribe a body's angle in time (absolute, or relative to the body `relative_to`: a revolute joint's
         angle): `angle` theta(t), or `omega` with angle = angle0 + its integral from the first piece's start
-        (angle0 default: the reference angle). Motions: a number, a piecewise polynomial [[t_k, [a0, a1, ...]],
+        (angle0 default: the reference angle). A spatial body (3D) turns about the axis of its revolute joint to
+        `relative_to` (or to the ground), angle 0 in the reference state, positive about the joint's axis. Motions: a number, a piecewise polynomial [[t_k, [a0, a1, ...]],
         ...] in (t - t_k), or callables (f, df/dt, d2f/dt2) (ancf_sym.drives)."""
         from . import drives
 

@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from .affine_rows import Vec, body_sides, coords, dot, equal, normals
+from .affine_rows import Vec, body_sides, const, coords, dot, equal, normals
 from .checks import fail, number, vector
 
 BODY_SIZE = 12  # r (3), e1, e2, e3 (3 each)
@@ -253,3 +253,29 @@ def _joint_rows(rows, mesh, j: SpatialJoint) -> None:
         dot(rows, dir_a(g[i]), dir_b(g[k]), 0.0, label, "slope")
     for n in g[1:]:  # (p_a - p_b) . n_b = 0, n_b the second body's normals of the axis
         dot(rows, pa - pb, dir_b(n), 0.0, label, "position")
+
+
+# -- angle drives (ancf_sym.drives): the angle of a revolute joint ---------------------------------------------
+def drive_joint(scene, body: str, relative_to: str | None, field: str) -> SpatialJoint:
+    """The revolute joint between `body` and `relative_to` (None: the ground) whose angle a drive prescribes;
+    refused (naming `field`) when there is none or more than one."""
+    found = [j for j in scene.body_joints if j.kind == "revolute" and {j.body, j.other} == {body, relative_to}]
+    other = repr(relative_to) if relative_to else "the ground"
+    if len(found) != 1:
+        raise fail(field, f"a spatial body's angle drive turns it about a revolute joint's axis: needs exactly one "
+                   f"revolute joint between {body!r} and {other} (declare it first), found {len(found)}", body)
+    return found[0]
+
+
+def drive_vectors(mesh, j: SpatialJoint, body: str, relative_to: str | None) -> tuple[Vec, Vec, Vec]:
+    """(u, w1, w2), affine in the coordinates: the normal n1 of the joint axis t fixed in `body`, and n1, n2 fixed
+    in `relative_to` (the ground if None; t, n1, n2 right-handed, as in the reference state). While the revolute
+    rows keep the two axes parallel, u = cos(angle) w1 + sin(angle) w2 with angle the rotation of `body` about t
+    relative to the other side (0 in the reference state): u . w2 = sin(angle), u . w1 = cos(angle), bilinear."""
+    scene = mesh.scene
+    n1, n2 = normals(j.axis)
+
+    def fixed(name: str | None, d: np.ndarray) -> Vec:
+        return const(d) if name is None else direction(mesh.bodies[name], scene.bodies[name].local_direction(d))
+
+    return fixed(body, n1), fixed(relative_to, n1), fixed(relative_to, n2)

@@ -320,5 +320,5 @@ def test_spatial_drive_and_torque_input_refused():
     s.body("b", 1.0, (1, 1, 1), (0, 0, 0))
     with pytest.raises(SceneError, match="3 motions"):
         s.torque("b", 5.0)
-    with pytest.raises(SceneError, match="planar bodies"):
+    with pytest.raises(SceneError, match="needs exactly one revolute joint"):
         s.drive("b", angle=0.3)
