@@ -15,7 +15,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from . import kernels
+from . import contact_body, kernels
 from .checks import table_type
 from .scene import SceneError
 
@@ -122,7 +122,8 @@ class DrumContact(ContactLaw):
     centre and angle as inputs (<element>_contact_circle). A drum carried by a planar rigid body (`body`: centred at
     its centre of mass, turning with it) uses <element>_contact_circle on [q, x, y] and
     <element>_contact_body_friction on [q, x, y, c, s; rates] (the body's spin c s' - s c'): the contact forces act
-    on the member and on the body, with exact tangents through the body's coordinates."""
+    on the member and on the body, with exact tangents through the body's coordinates. A drum carried by a spatial
+    body (3D): `centre` a point on its axis and `axis`, world, reference state (ancf_sym.contact_body)."""
     centre: np.ndarray
     radius: float
     axis: np.ndarray | None
@@ -142,13 +143,18 @@ def drum(scene, member: str, centre: Sequence[float] | None, radius: float, axis
     if body is not None:
         if body not in scene.bodies:
             raise SceneError(f"{f}: body {body!r} does not exist; bodies: {sorted(scene.bodies)}")
-        if scene.members[member].element != "cable2d":
+        if scene.dim == 3:  # a spatial body's drum (ancf_sym.contact_body): centre and axis fixed in the body
+            from .contact_body import geometry
+
+            centre, axis = geometry(scene, body, centre, axis)
+        elif scene.members[member].element != "cable2d":
             raise SceneError(f"{f}: a drum carried by a (planar) body is for cable2d members, got "
                              f"{scene.members[member].element!r}")
-        if centre is not None:
+        elif centre is not None:
             raise SceneError(f"{f}: a body-carried drum is centred at the body's centre of mass: leave centre out, "
                              f"got {centre!r}")
-        centre = scene.bodies[body].position
+        else:
+            centre = scene.bodies[body].position
     elif centre is None:
         raise SceneError(f"{f}: centre: missing (a fixed drum's centre, or body = the body carrying the drum)")
     c = _vector(f, "centre", centre, scene.dim, False)
@@ -204,6 +210,10 @@ def _call(c, mesh, friction: bool) -> tuple[str, np.ndarray, np.ndarray]:
     kernel: a body-carried drum's kernels take the body's coordinates after the element's."""
     mm = mesh.members[c.member]
     idx, L = mm.elem_dofs(), mm.elem_length
+    if isinstance(c, DrumContact) and c.body is not None and mesh.scene.dim == 3:
+        from .contact_body import call
+
+        return call(c, mesh, friction)
     if isinstance(c, DrumContact) and c.body is not None:
         o = mesh.bodies[c.body]
         extra = np.arange(o, o + (4 if friction else 2))
@@ -281,10 +291,10 @@ def _reports(asm, x: np.ndarray):
         mm = asm.mesh.members[c.member]
         r = asm.member_coordinates(x, c.member)[:, :d]
         if isinstance(c, DrumContact):
-            centre = c.centre if c.body is None else np.asarray(x)[asm.mesh.bodies[c.body] + np.arange(d)]
+            centre, axis = (c.centre, c.axis) if c.body is None else contact_body.pose(c, asm, x)
             rel = r - centre
-            if c.axis is not None:
-                rel = rel - np.outer(rel @ c.axis, c.axis)
+            if axis is not None:
+                rel = rel - np.outer(rel @ axis, axis)
             rho = np.linalg.norm(rel, axis=1)
             normals = rel / np.maximum(rho, 1e-300)[:, None]
             gaps = rho - c.radius - c.thickness

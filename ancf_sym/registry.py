@@ -130,6 +130,7 @@ def _contact_effects(el: str, dim: int) -> list[Effect]:
     axis = ("R",) if dim == 2 else ("R", "ax", "ay", "az")
     friction = ("c", "mu", "eps")
     centre = tuple(f"c{a}" for a in "xyz"[:dim])
+    offset = ("sx", "sy", "sz")  # a spatial body's drum: its axis point in body components
     return [
         Effect(el, "contact_ground", law + normal, "ground contact energy of the centre line (penalty/Hertz)",
                CONTACT_GAUSS, elastic=False),
@@ -146,6 +147,15 @@ def _contact_effects(el: str, dim: int) -> list[Effect]:
         *([Effect(el, "contact_body_friction", law + axis + friction,
                   "body-carried drum damping + regularised Coulomb friction: dissipation of [q, x, y, c, s; rates]",
                   CONTACT_GAUSS, elastic=False, obstacle=4, rates=True)] if dim == 2 else []),
+        # a drum carried by a spatial rigid body (natural coordinates r, e1, e2, e3, ancf_sym.spatial_bodies): axis
+        # a = sum a_k e_k through the body point r + sum s_k e_k (a, s in body components, parameters)
+        *([Effect(el, "contact_body_drum", law + axis + offset,
+                  "spatial-body-carried drum contact energy: [q, r, e1, e2, e3]", CONTACT_GAUSS, elastic=False,
+                  obstacle=12),
+           Effect(el, "contact_body_drum_friction", law + axis + friction + offset,
+                  "spatial-body-carried drum damping + regularised Coulomb friction: dissipation of "
+                  "[q, r, e1, e2, e3; rates] (the body's spin and tumbling in the relative velocity)", CONTACT_GAUSS,
+                  elastic=False, obstacle=12, rates=True)] if dim == 3 else []),
         # a fixed drum: the same densities with the centre as a parameter (no obstacle coordinates in the scene)
         Effect(el, "contact_drum", law + axis + centre, "contact energy with a fixed drum of centre c (in p)",
                CONTACT_GAUSS, elastic=False),

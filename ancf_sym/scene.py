@@ -326,7 +326,9 @@ class Scene:
     def contact_drum(self, member: str, centre: Any = None, radius: float = 0.0, **options: Any):
         """Contact of `member`'s centre line with a drum it lies outside of: a fixed circle of `centre` and `radius`
         (2D) or a cylinder of unit `axis` (3D, default z); or, with body=NAME instead of a centre, a circle carried
-        by that planar rigid body (centred at its centre of mass, turning with it; forces on member and body).
+        by that planar rigid body (centred at its centre of mass, turning with it; forces on member and body); in
+        3D a cylinder fixed in that spatial body, `centre` (a point on its axis) and `axis` in world coordinates of
+        the reference state (defaults: the body's centre and z axis; ancf_sym.contact_body).
         Options as contact_ground (stiffness and/or hertz, thickness, damping, mu, eps, gauss); method 'penalty'
         only (ancf_sym.contact.drum)."""
         from . import contact

@@ -26,7 +26,7 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from . import bodies, contact, fields, spatial_bodies, statics_contact
+from . import bodies, contact, fields, spatial_bodies, statics_coarse, statics_contact
 from .assembly import LOAD_LABELS, Assembly
 from .checks import check_fields
 from .interrupts import interruptible
@@ -156,6 +156,7 @@ class StaticProblem:
         self._nlp = None
         self._solvers: dict = {}
         self._biot: KernelNewton | bool | None = None  # Newton on the same scene with Biot strain (a start)
+        self._coarse: StaticProblem | bool | None = None  # the scene meshed coarser (a start on fine meshes)
         self.work = self.newton.load_work(self.asm.x0)  # the loads' energy scale W [J]
 
     @property
@@ -269,14 +270,27 @@ class StaticProblem:
             return self._result(True, "Solve_Succeeded", 0, time.perf_counter() - t0, x, stable, attempts, "start",
                                 None)
         ceiling = self._start_ceiling(x, work, opts.tol)
-        biot = self._biot_start(x, opts, work) if x0 is None else None
-        run, used, iters = None, False, 0
-        if biot is not None and biot.converged:  # Newton from the Biot solution
-            run = self.newton.solve(biot.x, opts.tol, min(NEWTON_MAX_ITER, int(opts.max_iter)), work)
+        n_iter = min(NEWTON_MAX_ITER, int(opts.max_iter))
+        coarse = self._coarse_start(opts) if x0 is None else None
+        run, used, iters, biot = None, False, 0, None
+        if coarse is not None and coarse[0].success:  # Newton from the coarse mesh's solution
+            run = self.newton.solve(coarse[1], opts.tol, n_iter, work)
             used, iters = run.converged, run.iterations
+        coarse_used = used
         if not used:
-            run = self.newton.solve(x, opts.tol, min(NEWTON_MAX_ITER, int(opts.max_iter)), work)
+            biot = self._biot_start(x, opts, work) if x0 is None else None
+            if biot is not None and biot.converged:  # Newton from the Biot solution
+                run = self.newton.solve(biot.x, opts.tol, n_iter, work)
+                used, iters = run.converged, run.iterations
+        if not used:
+            run = self.newton.solve(x, opts.tol, n_iter, work)
         attempts.append(self._newton_attempt("newton", run))
+        if coarse is not None:
+            members = self._coarse.asm.scene.members
+            attempts[-1]["coarse_start"] = {"elements": {k: m.elements for k, m in members.items()},
+                                            "status": coarse[0].status, "iterations": coarse[0].iterations,
+                                            "used": coarse_used}
+            iters += coarse[0].iterations
         if biot is not None:
             attempts[-1]["biot_start"] = {"status": biot.status, "iterations": biot.iterations,
                                           "used": used}
@@ -314,6 +328,21 @@ class StaticProblem:
                     ev = None
         return self._result(ok, status, iters, time.perf_counter() - t0, x_out, stable, attempts, path,
                             run if ok else None, ev if ok else None)
+
+    def _coarse_start(self, opts: StaticOptions) -> tuple[StaticResult, np.ndarray] | None:
+        """The scene meshed coarser (statics_coarse), solved with the same options, and its solution interpolated
+        onto this mesh: (coarse result, fine coordinates), None where there is no coarse start. The coarse problem
+        is built once and kept (it may start from a coarser mesh itself)."""
+        if self._coarse is None:
+            c = statics_coarse.coarse_scene(self.asm.scene)
+            self._coarse = StaticProblem(c) if c is not None else False
+        if self._coarse is False:
+            return None
+        rc = self._coarse.solve(opts)
+        if not rc.success:
+            return rc, None
+        xf = statics_coarse.interpolate(self._coarse.asm, rc.x, self.asm)
+        return rc, self.S.full(self.S.reduce(xf))  # supports and hinges that fix or identify coordinates exactly
 
     def _biot_start(self, x, opts, work) -> NewtonRun | None:
         """The Biot-strain solution of the same scene (a start for cables with Green or decoupled strain, to

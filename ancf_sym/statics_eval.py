@@ -7,6 +7,13 @@ precomputed index maps (one bincount each): the residual, and the tangent in LAP
 numbered node by node is a band of width 2 x node size). Penalty springs are added from the Assembly's constraint
 rows. Measured (bench/STATICS_RESULTS.md): ~55 us per evaluation at 60 elements (the Assembly's general evaluation
 and sparse reduction ~0.3 ms, the compiled StepSystem graph ~50 us after ~35 ms of building it).
+
+Element-local positions: an elastic energy does not change under a translation, so on fine meshes each element's
+positions are handed to its kernel relative to its first node. In absolute coordinates the kernel forms differences
+of positions ~span apart from each other to resolve lengths ~l (r_xx ~ (r1 - r0)/l^2): the residual then carries
+round-off ~eps span / l larger than needed. Measured on a 3 m cantilever at 100 000 elements (span / l ~ 1e5):
+Newton's updates from a converged coarse start sat at round-off 1e-10 - 4e-9 L (Green strain, the tip wandering
+1.8e-9 m), with local positions at ~1e-12 L (tip within 3.5e-12 m).
 """
 from __future__ import annotations
 
@@ -22,6 +29,7 @@ from .assembly import LINEAR_EFFECTS, Assembly, ForceTerm, force_terms
 from .inertia import BAND_LIMIT
 from .member_effects import START_EFFECTS
 
+LOCAL_ABOVE = 100.0  # coordinate span / shortest element above which positions go to the kernels element-local
 _MAPS: dict = {}  # (element, effect, gauss, elements) -> the kernel mapped over them (built once per process)
 
 
@@ -71,6 +79,8 @@ class ReducedEvaluation:
         nf = self.nf = reduction.nf
         pos = reduction.part.pos
         self.fts = fts = fused_terms([t for t in asm.terms if t.effect not in LINEAR_EFFECTS])
+        lengths = [mm.elem_length.min() for mm in asm.mesh.members.values()]
+        self.local = bool(lengths) and reduction.span > LOCAL_ABOVE * min(lengths)
         self._bind()
         gp, rows, cols = [], [], []
         for ft in fts:
@@ -120,7 +130,16 @@ class ReducedEvaluation:
             for i, (a, size) in enumerate(((self.E[e0:], N), (self.G[g0:], N * nd), (self.H[h0:], N * nd * nd))):
                 buf.set_res(i, memoryview(a[:size]))
             e0, g0, h0 = e0 + N, g0 + N * nd, h0 + N * nd * nd
-            self.calls.append((ft.idx, X, P, buf, ev))
+            self.calls.append((ft.idx, X, P, buf, ev, self._local_columns(ft)))
+
+    def _local_columns(self, ft: ForceTerm) -> tuple[np.ndarray, np.ndarray] | None:
+        """(columns of both nodes' positions, the first node's position columns under them) for an elastic
+        (translation-invariant) kernel when local positions are on, else None."""
+        if not self.local or not registry.EFFECTS[(ft.element, ft.effect)].elastic:
+            return None
+        dim, half = self.asm.scene.dim, ft.nd // 2  # q = [node 0 | node 1], each node's position first
+        first = np.arange(dim)
+        return np.r_[half + first, first], np.r_[first, first]
 
     def variant(self, effects: dict) -> "ReducedEvaluation | None":
         """The same evaluation with cable effects swapped (e.g. BIOT), sharing every index map; None if none of
@@ -136,8 +155,10 @@ class ReducedEvaluation:
 
     def evaluate(self, x_full: np.ndarray) -> None:
         """Kernels (and penalties) at x_full: energy, g; the tangent's values kept for band() / matrix()."""
-        for idx, X, _, _, ev in self.calls:
+        for idx, X, _, _, ev, local in self.calls:
             np.take(x_full, idx, out=X)
+            if local is not None:  # both copies are taken before the assignment: the first node's column too
+                X[:, local[0]] -= X[:, local[1]]
             ev()
         self.energy = float(self.E.sum())
         self.g = np.bincount(self._gpos, self.G, minlength=self.nf + 1)[:self.nf]

@@ -3,7 +3,7 @@ IIA with 3 stages) at two sizes; IPOPT iterations and where the time goes.
 
 Run from OUTSIDE the project root, so that `import ancf_sym` is the installed package with the compiled libraries:
 
-    cd /tmp && OPENBLAS_NUM_THREADS=1 python /path/to/main/bench/control.py [--sizes 4x20,8x40] [--repeats 3]
+    cd "$(mktemp -d)" && OPENBLAS_NUM_THREADS=1 python "$OLDPWD"/bench/control.py [--sizes 4x20,8x40] [--repeats 3]
                                                                              [--markdown]
 
 Columns: nw / ng (variables / constraints), nnz of the constraint Jacobian and of the Hessian's upper triangle;
@@ -26,7 +26,7 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 if (Path.cwd() / "ancf_sym").is_dir():
-    sys.exit("run this from outside the project root (cd /tmp), so that the installed, compiled ancf_sym is imported")
+    sys.exit("run this from outside the project root (any other directory), so that the installed, compiled ancf_sym is imported")
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
 from crane_ocp import crane_problem  # noqa: E402

@@ -1,6 +1,6 @@
 """Dynamics speed and accuracy: ancf_sym against Exudyn (generalized-alpha, sparse solver), same physics.
 
-Cases (the issue's benchmark): the paper-000 beam pinned and released horizontal (n = 30, dt = 1e-3 s, 2 s) and
+Cases (the speed goal's benchmark): the paper-000 beam pinned and released horizontal (n = 30, dt = 1e-3 s, 2 s) and
 the paper-002 soft rope pinned and released (n = 32, dt = 1e-3 s, 1 s); `--clamp` adds the clamped beam (the
 paper's own case). Both codes: generalized-alpha with rho_inf = 0.9 (Exudyn's default), dt fixed, planar ANCF
 cable (ObjectANCFCable2D / NodePoint2DSlope1 vs cable2d).

@@ -4,7 +4,7 @@ and the planar (cable2d, 8 DOF) against the spatial (cable3d, 12 DOF) element.
 
 Run from OUTSIDE the project root, so that `import ancf_sym` is the installed package with the compiled libraries:
 
-    cd /tmp && python /path/to/main/bench/effects.py [--n 1000] [--repeats 30] [--markdown]
+    cd "$(mktemp -d)" && python "$OLDPWD"/bench/effects.py [--n 1000] [--repeats 30] [--markdown]
 
 Each configuration is evaluated at the same perturbed state (reference + 1e-3 m noise, so no kernel sees the
 special straight state); "min / median" over --repeats timings of one evaluate() call each (after a warm-up).
@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 if (Path.cwd() / "ancf_sym").is_dir():
-    sys.exit("run this from outside the project root (cd /tmp), so that the installed, compiled ancf_sym is imported")
+    sys.exit("run this from outside the project root (any other directory), so that the installed, compiled ancf_sym is imported")
 
 from ancf_sym import Material, Scene, Section  # noqa: E402
 from ancf_sym.assembly import Assembly  # noqa: E402

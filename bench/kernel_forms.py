@@ -1,9 +1,9 @@
 """Investigation: why cable3d axial_green + bending costs what it does, and which kernel form is faster.
 
-    cd /tmp && python /path/to/main/bench/kernel_forms.py parts            # operation counts per part
-    cd /tmp && python /path/to/main/bench/kernel_forms.py forms --dim 3    # form x gcc flags, axial_green+bending
-    cd /tmp && python /path/to/main/bench/kernel_forms.py perkernel        # MX+calls vs all-SX, per kernel, -O2
-    cd /tmp && python /path/to/main/bench/kernel_forms.py tail             # where the MX form's overhead goes
+    cd "$(mktemp -d)" && python "$OLDPWD"/bench/kernel_forms.py parts            # operation counts per part
+    cd "$(mktemp -d)" && python "$OLDPWD"/bench/kernel_forms.py forms --dim 3    # form x gcc flags, axial_green+bending
+    cd "$(mktemp -d)" && python "$OLDPWD"/bench/kernel_forms.py perkernel        # MX+calls vs all-SX, per kernel, -O2
+    cd "$(mktemp -d)" && python "$OLDPWD"/bench/kernel_forms.py tail             # where the MX form's overhead goes
 
 Everything is built here from the installed package's symbolic code (ancf_sym.codegen.definitions, forms,
 elements.cable), generated to C in a temporary folder, compiled with gcc, loaded with casadi.external and timed
@@ -33,7 +33,7 @@ import casadi as ca
 import numpy as np
 
 if (Path.cwd() / "ancf_sym").is_dir():
-    sys.exit("run this from outside the project root (cd /tmp), so that the installed, compiled ancf_sym is imported")
+    sys.exit("run this from outside the project root (any other directory), so that the installed, compiled ancf_sym is imported")
 
 from ancf_sym import kernels  # noqa: E402
 from ancf_sym.codegen import definitions, forms  # noqa: E402

@@ -2,8 +2,8 @@
 
 Run from OUTSIDE the project root, so that `import ancf_sym` is the installed package with the compiled libraries:
 
-    cd /tmp && python /path/to/main/bench/kernels.py --passes 3 --repeats 5   # all kernels, markdown on stdout
-    cd /tmp && python /path/to/main/bench/kernels.py --only cable3d_axial_green,cable3d_bending
+    cd "$(mktemp -d)" && python "$OLDPWD"/bench/kernels.py --passes 3 --repeats 5   # all kernels, markdown on stdout
+    cd "$(mktemp -d)" && python "$OLDPWD"/bench/kernels.py --only cable3d_axial_green,cable3d_bending
 
 Columns (ns per element; "min / median" over --passes sweeps x --repeats batches, each batch timing enough calls
 to last >= --min-time seconds; several passes spread the samples in time, against load from other processes):
@@ -16,7 +16,7 @@ to last >= --min-time seconds; several passes spread the samples in time, agains
 - SX VM map: the symbolic kernel (ancf_sym.codegen.definitions), expanded to SX, mapped serially, not compiled:
   CasADi's SX virtual machine; per element.
 The bold rows "... axial_green + bending" add the two kernels' columns; the lines under the table time the two
-mapped kernels called back to back (what an assembly of a cable with both effects does today). The issue's target
+mapped kernels called back to back (what an assembly of a cable with both effects does today). The speed target
 is <= 1000 ns per element, mapped, for cable3d.
 """
 from __future__ import annotations
@@ -32,7 +32,7 @@ import casadi as ca
 import numpy as np
 
 if (Path.cwd() / "ancf_sym").is_dir():
-    sys.exit("run this from outside the project root (cd /tmp), so that the installed, compiled ancf_sym is imported")
+    sys.exit("run this from outside the project root (any other directory), so that the installed, compiled ancf_sym is imported")
 
 from ancf_sym import kernels, registry  # noqa: E402
 

@@ -116,13 +116,21 @@ def _midpoint_frame(element: str, q: np.ndarray, L: float):
     return r, t, m, np.cross(t, m)
 
 
+_BODY_AXES = rotation(np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8]), 0.9)  # rows e1, e2, e3
+_DRUM_OFFSET = np.array([0.1, -0.2, 0.05])  # a spatial body's drum axis point, body components
+
+
 def kernel_input(element: str, effect: str, q: np.ndarray, seed: int = 0, L: float = L0) -> np.ndarray:
     """The kernel's input for element state q: contact kernels append the drum centre (0.5 m from the element's
     midpoint, normal to it; and its angle, or a carrying body's unit vector) and, for dissipation kernels,
     random velocities of all of it."""
     eff = registry.EFFECTS[(element, effect)]
     z = np.asarray(q, float)
-    if eff.obstacle:
+    if eff.obstacle == 12:  # a spatial body (r, e1, e2, e3) whose drum axis passes through r + 0.5 m
+        r, _, m, _ = _midpoint_frame(element, z, L)
+        E = _BODY_AXES
+        z = np.concatenate([z, r + 0.5 * m - E.T @ _DRUM_OFFSET, E.ravel()])
+    elif eff.obstacle:
         r, _, m, _ = _midpoint_frame(element, z, L)
         extra = {len(r): [], len(r) + 1: [0.3], len(r) + 2: [np.cos(0.3), np.sin(0.3)]}[eff.obstacle]
         z = np.concatenate([z, r + 0.5 * m, extra])  # (+ angle of a drum, or a body's unit vector)
@@ -151,6 +159,11 @@ def params(element: str, effect: str, q: np.ndarray, L: float = L0, **overrides)
             if effect.startswith("contact_drum"):  # a fixed drum: its centre is a parameter, where kernel_input puts it
                 c = r + 0.5 * m
                 vals.update(zip(("cx", "cy", "cz")[:len(c)], c))
+            elif effect.startswith("contact_body_drum"):  # a spatial body's: axis point and axis in body components
+                E = q[nd + 3:nd + 12].reshape(3, 3)
+                c = q[nd:nd + 3] + E.T @ _DRUM_OFFSET
+                vals.update(zip(("sx", "sy", "sz"), _DRUM_OFFSET))
+                a = E @ a
             else:
                 c = q[nd:nd + len(r)]
             vals.update(R=float(np.linalg.norm(r - c)) - vals["t"] + 0.05)

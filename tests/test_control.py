@@ -1,5 +1,5 @@
 """Optimal control (ancf_sym.control): exact derivatives against central differences, the crane and minimum-time
-examples in their --quick form (figures the issue asks for), refusals of bad input before any solve, and an
+examples in their --quick form (the figures they promise), refusals of bad input before any solve, and an
 infeasible problem that reports IPOPT's status and its last point instead of raising.
 
 Derivative tolerances: central differences with step 1e-6 on O(1) coordinates have truncation ~1e-12 x the next

@@ -108,7 +108,8 @@ LINEAR_PARAM = {"axial_green": ("EA",), "axial_biot": ("EA",), "axial_decoupled"
                 "contact_ground": ("k", "kh"), "contact_circle": ("k", "kh"),  # normal law: both stiffnesses
                 "contact_ground_friction": ("k", "kh", "c"), "contact_circle_friction": ("k", "kh", "c"),
                 "contact_drum": ("k", "kh"), "contact_drum_friction": ("k", "kh", "c"),
-                "contact_body_friction": ("k", "kh", "c")}
+                "contact_body_friction": ("k", "kh", "c"),
+                "contact_body_drum": ("k", "kh"), "contact_body_drum_friction": ("k", "kh", "c")}
 
 
 @pytest.mark.parametrize("element,effect,gauss", KERNELS, ids=IDS)

@@ -84,6 +84,15 @@ def _contact_station(element: str, effect: str):
         c = z[nd:nd + dim] if eff.obstacle else 0
         if effect.startswith("contact_drum"):  # fixed drum: centre after (law, axis[, friction]) in p
             c = p[len(eff.params) - dim:]
+        if effect.startswith("contact_body_drum"):  # a spatial body's drum: u = (r - r_b, E[, r' - r_b', E'])
+            body = z[nd:nd + 12]
+            if not eff.rates:
+                yield ca.vertcat(r - body[:3], body[3:]), contact.body_drum_energy, w * L
+                return
+            bv = z[n + nd:n + nd + 12]
+            v = centre(z[n:n + nd], L, xi, dim)
+            yield ca.vertcat(r - body[:3], body[3:], v - bv[:3], bv[3:]), contact.body_drum_dissipation, w * L
+            return
         if not eff.rates:
             dens = contact.ground_energy if effect == "contact_ground" else contact.circle_energy
             yield r - c, lambda u, p: dens(u, p, dim), w * L

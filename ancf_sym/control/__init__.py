@@ -19,16 +19,19 @@ of controlled point forces, M the mass matrix with the point masses added and f_
 the cables and of the point masses, dead loads). Only grad U is nonlinear.
 
 Transcription. K intervals of length h = T/K, each an implicit Runge-Kutta step of Radau IIA or Gauss-Legendre
-with s stages (ancf_sym.collocation.tableau; equivalent to collocation with the polynomial through tau = 0 and the
-points c_j). Variables per interval: the start velocity v_k, the stage positions Q_kj (Radau: the last stage is the
-next interval's start position), the support states at the start and the stages, the controls at the stages (or
-one per interval, control_form="constant"). With W = A^-1 the stage velocities and accelerations are linear,
-V = W (Q - q_k) / h, a = W (V - v_k) / h, and per stage the dynamics residual above is a constraint; continuity of
-v (and, for Gauss, of q) by the quadrature weights b. This condensed form has about half the variables of the
-state-per-node form, and its KKT matrix factorises ~4x faster (measured fill 1.8M vs 6.8M at n = 8, K = 40).
+with s stages (equivalent to collocation with the polynomial through tau = 0 and the points c_j). Variables per
+interval: the start velocity v_k, the stage positions Q_kj (Radau: the last stage is the next interval's start
+position), the support states at the start and the stages, the controls at the stages (or one per interval,
+control_form="constant"). With W = A^-1 the stage velocities and accelerations are linear, V = W (Q - q_k) / h,
+a = W (V - v_k) / h, and per stage the dynamics residual above is a constraint; continuity of v (and, for Gauss,
+of q) by the quadrature weights b. The tableaus and these condensed stage equations are those of the dynamics
+integrator (ancf_sym.dynamics.collocation: stage_residual, interval_end), written for all intervals at once. This
+condensed form has about half the variables of the state-per-node form, and its KKT matrix factorises ~4x faster
+(measured fill 1.8M vs 6.8M at n = 8, K = 40).
 
-Warm start: the same collocation equations integrated interval by interval (Newton on their exact sparse Jacobian)
-for a quintic rest-to-rest support motion, so IPOPT starts with every dynamics row satisfied.
+Warm start: the same collocation equations (stage_residual, stage_tangent) integrated interval by interval (Newton
+on their exact sparse Jacobian) for a quintic rest-to-rest support motion, so IPOPT starts with every dynamics row
+satisfied.
 
 Derivatives. grad U at all collocation points is one mapped call per energy term. IPOPT gets its Jacobian from the
 kernel Hessians and the Lagrangian Hessian from the kernels' third-derivative companions (load_hvp: d(H v)/dq with

@@ -7,7 +7,7 @@ import numpy as np
 
 from ..scene import SceneError
 from .resimulation import ResimulationReport, resimulate_motion
-from .transcription import _basis
+from ..dynamics.collocation import lagrange_basis as _basis
 
 if TYPE_CHECKING:
     from .problem import ControlProblem
@@ -60,14 +60,18 @@ class ControlResult:
         q = self.state_at(t)[0]
         return np.stack([q[:, row] @ wts for row in idx], axis=1)
 
+    def _intervals(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(t, the interval k of each time, the local time tau in [0, 1] there)."""
+        t = np.atleast_1d(np.asarray(t, float))
+        h = self.T / self.prob.K
+        k = np.clip(np.floor(t / h).astype(int), 0, self.prob.K - 1)
+        return t, k, np.clip(t / h - k, 0.0, 1.0)
+
     def state_at(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(full coordinates, support positions, velocities of the free coordinates) at times t from each interval's
         collocation polynomial (constant at rest after T)."""
         p = self.prob
-        t = np.atleast_1d(np.asarray(t, float))
-        h = self.T / p.K
-        k = np.clip(np.floor(t / h).astype(int), 0, p.K - 1)
-        tau = np.clip(t / h - k, 0.0, 1.0)
+        t, k, tau = self._intervals(t)
         base = _basis(p.tau, tau)  # (len, s+1)
         nodes = k[:, None] * (p.s + 1) + np.arange(p.s + 1)[None, :]
         Zt = np.einsum("lr,lrz->lz", base, self.Z[nodes])
@@ -80,10 +84,7 @@ class ControlResult:
     def control_at(self, t) -> np.ndarray:
         """Controls at times t: each interval's Lagrange polynomial through its collocation points (zero after T)."""
         p = self.prob
-        t = np.atleast_1d(np.asarray(t, float))
-        h = self.T / p.K
-        k = np.clip(np.floor(t / h).astype(int), 0, p.K - 1)
-        tau = np.clip(t / h - k, 0.0, 1.0)
+        t, k, tau = self._intervals(t)
         base = _basis(p.tab.c, tau) if p.s > 1 else np.ones((len(t), 1))
         pts = k[:, None] * p.s + np.arange(p.s)[None, :]
         u = np.einsum("lj,lju->lu", base, self.U[pts])

@@ -10,17 +10,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from .. import kernels
+from ..dynamics.collocation import interval_end, stage_residual
 from ..sparsity import dm as _dm, gather_sum, scatter
-
-
-def _basis(nodes: np.ndarray, tau: np.ndarray) -> np.ndarray:
-    """Lagrange basis values l_r(tau) (len(tau) x len(nodes))."""
-    out = np.ones((len(tau), len(nodes)))
-    for r in range(len(nodes)):
-        for m in range(len(nodes)):
-            if m != r:
-                out[:, r] *= (tau - nodes[m]) / (nodes[r] - nodes[m])
-    return out
 
 
 class TranscriptionMixin:
@@ -73,11 +64,8 @@ class TranscriptionMixin:
             return ca.reshape(w[ix.reshape(-1).tolist()], m, cols)
         T = w[self.iT] if self.free_time else ca.DM(self.T_guess)
         h = T / K
-        W = np.linalg.inv(tab.A)
         IK = sp.identity(K, format="csc")
-        Wbig = _dm(sp.kron(IK, sp.csc_matrix(W.T)))  # (Ks x Ks): (X Wbig)[:, k s + j] = sum_m X[:, k s + m] W[j, m]
         Abig = _dm(sp.kron(IK, sp.csc_matrix(tab.A.T)))
-        Rw1 = _dm(sp.kron(IK, sp.csc_matrix(W.sum(axis=1)[None, :])))  # (K x Ks): value at the interval start x w1_j
         R1 = _dm(sp.kron(IK, sp.csc_matrix(np.ones((1, s)))))
         Bk = _dm(sp.kron(IK, sp.csc_matrix(tab.b[:, None])))  # (Ks x K): quadrature over each interval
         q0, v0 = mat(I["q"][:-1]), mat(I["v"][:-1])
@@ -85,22 +73,23 @@ class TranscriptionMixin:
         s0, sv0, s1, sv1 = mat(I["s"][:-1]), mat(I["sv"][:-1]), mat(I["s"][1:]), mat(I["sv"][1:])
         Qm, SP, SV, U = mat(I["Q"]), mat(I["SP"]), mat(I["SV"]), mat(I["U"])
         Ua, Uf = U[:nc, :], U[nc:, :]
-        # stage velocities and accelerations of the implicit Runge-Kutta form (W = A^-1)
-        Vst = (ca.mtimes(Qm, Wbig) - ca.mtimes(q0, Rw1)) / h
-        Acc = (ca.mtimes(Vst, Wbig) - ca.mtimes(v0, Rw1)) / h
-        self._Vst_fun = ca.Function("stage_velocities", [w], [Vst])
-        dyn = ca.mtimes(_dm(self.Mff), Acc) - ca.repmat(ca.DM(self.f_lin), 1, Pp)
+        # the condensed stage equations of all intervals (M a + the support and control forces - f_lin; the
+        # kernels' grad U is added below) and the continuity of q, v by the quadrature weights
+        rest = -ca.repmat(ca.DM(self.f_lin), 1, Pp)
         if nc:
-            dyn += ca.mtimes(_dm(self.Mfc), Ua)
+            rest += ca.mtimes(_dm(self.Mfc), Ua)
         if self.nF:
-            dyn -= ca.mtimes(ca.DM(self.Bf), Uf)
+            rest -= ca.mtimes(ca.DM(self.Bf), Uf)
+        dyn, Vst, Acc = stage_residual(tab, h, self.Mff, Qm, q0, v0, rest)
+        self._Vst_fun = ca.Function("stage_velocities", [w], [Vst])
         rows = [ca.vec(dyn)]
         if nc:
             rows += [ca.vec(SV - ca.mtimes(sv0, R1) - h * ca.mtimes(Ua, Abig)),
                      ca.vec(SP - ca.mtimes(s0, R1) - h * ca.mtimes(SV, Abig))]
-        if not tab.stiffly_accurate:
-            rows.append(ca.vec(q1 - q0 - h * ca.mtimes(Vst, Bk)))
-        rows.append(ca.vec(v1 - v0 - h * ca.mtimes(Acc, Bk)))
+        q_end, v_end = interval_end(tab, h, q0, v0, Qm, Vst, Acc)
+        if not tab.stiffly_accurate:  # (Radau: the last stage is the next start, no row)
+            rows.append(ca.vec(q1 - q_end))
+        rows.append(ca.vec(v1 - v_end))
         if nc:
             rows += [ca.vec(s1 - s0 - h * ca.mtimes(SV, Bk)), ca.vec(sv1 - sv0 - h * ca.mtimes(Ua, Bk))]
         n_dyn = sum(r.shape[0] for r in rows)

@@ -7,8 +7,8 @@ from typing import Callable
 import numpy as np
 import scipy.sparse as sp
 
+from ..dynamics.collocation import interval_end, stage_rates, stage_residual, stage_tangent
 from .model import newton
-from .transcription import _basis
 
 
 class WarmStartMixin:
@@ -53,60 +53,49 @@ class WarmStartMixin:
         K, s, nf, nc = self.K, self.s, self.nf, self.nc
         tab = self.tab
         h = T / K
-        W = np.linalg.inv(tab.A)
-        W2, w1 = W @ W, W.sum(axis=1)
-        w21 = W2.sum(axis=1)
         U = np.asarray(controls, float).reshape(self.Pp, self.nu)
         Mff, Mfc = self.Mff, self.Mfc
         Z = np.zeros((self.Nn, self.nz))
         q, v = self.q_start.copy(), np.zeros(nf)
         sc, svc = self._chan_vector(self.start_values), np.zeros(nc)
         fscale = max(float(np.max(np.abs(self.f_lin))), 1e-300)
-        Qs = np.tile(q, (s, 1))
         message = ""
         ok_all = True
+        Qs = np.array([q + tab.c[j] * h * v for j in range(s)])  # stage positions, a row per stage
         for k in range(K):
             Uk = U[k * s:(k + 1) * s]
             Ua, Uf = Uk[:, :nc], Uk[:, nc:]
             SV = svc[None, :] + h * tab.A @ Ua
             SP = sc[None, :] + h * tab.A @ SV
-            rhs_const = np.zeros((s, nf))
-            for j in range(s):
-                rhs_const[j] = Mff @ (-w21[j] * q / h**2 - w1[j] * v / h) - self.f_lin
-                if nc:
-                    rhs_const[j] += Mfc @ Ua[j]
-                if self.nF:
-                    rhs_const[j] -= self.Bf @ Uf[j]
-            if k == 0:
-                Qs = np.array([q + tab.c[j] * h * v for j in range(s)])
+            rest = np.tile(-self.f_lin[:, None], (1, s))  # the support and control forces at the stages
+            if nc:
+                rest += Mfc @ Ua.T
+            if self.nF:
+                rest -= self.Bf @ Uf.T
 
-            def residual(Qs):
-                """The stage equations of the interval and their Jacobian (the kernels' K on the diagonal)."""
-                R = np.zeros((s, nf))
-                Ks = []
+            def residual(Qs, q=q, v=v, rest=rest, SP=SP):
+                """The interval's stage equations (rows: stages) and their exact Jacobian."""
+                g, Ks = np.zeros((nf, s)), []
                 for j in range(s):
-                    g, Kj, _ = self.forces(Qs[j], SP[j])
-                    R[j] = rhs_const[j] + g + Mff @ (W2[j] @ Qs) / h**2
+                    g[:, j], Kj, _ = self.forces(Qs[j], SP[j])
                     Ks.append(Kj)
-                return R, lambda: sp.bmat([[W2[j, m] / h**2 * Mff + (Ks[j] if j == m else 0 * Mff)
-                                            for m in range(s)] for j in range(s)], format="csc")
+                R = stage_residual(tab, h, Mff, Qs.T, q, v, rest + g)[0]
+                return R.T, lambda: sp.bmat(stage_tangent(tab, h, Mff, Ks), format="csc")
             Qs, rn, ok = newton(residual, Qs, 1e-9 * fscale, max_iter, halvings=20,
                                 tol_step=1e-12 * self.length_scale)
             if not ok:
                 ok_all = False
                 message = f"interval {k}: Newton did not converge (residual {rn:.3g} N)"
                 break
-            V = (W @ (Qs - q[None, :])) / h
-            Acc = (W @ (V - v[None, :])) / h
+            V, Acc = stage_rates(tab, Qs.T, q, v, h)
             r = k * (s + 1)
             Z[r] = np.r_[q, v, sc, svc]
             for j in range(s):
-                Z[r + 1 + j] = np.r_[Qs[j], V[j], SP[j], SV[j]]
-            nodes_pos = np.r_[q[None, :], Qs]
-            q = Qs[-1].copy() if tab.stiffly_accurate else q + h * tab.b @ V
-            v = v + h * tab.b @ Acc
+                Z[r + 1 + j] = np.r_[Qs[j], V[:, j], SP[j], SV[j]]
+            Qs_prev, q_prev = Qs, q
+            q, v = (x[:, 0] for x in interval_end(tab, h, q, v, Qs.T, V, Acc))
             sc, svc = sc + h * tab.b @ SV, svc + h * tab.b @ Ua
-            Qs = _basis(self.tau, 1.0 + tab.c) @ nodes_pos  # the interval's polynomial, extrapolated
+            Qs = tab.extrapolate(q_prev, Qs_prev.T, 1.0 + tab.c).T  # the interval's polynomial, extrapolated
         if ok_all:
             Z[-1] = np.r_[q, v, sc, svc]
         else:  # hold the last good state

@@ -13,10 +13,12 @@ stage; Gauss-Legendre (order 2s, symplectic: energy of linear systems is conserv
 from the quadrature, q_{n+1} = q_n + h sum b_j V_j, so exact constraints are met at the stages only and the end
 point drifts by O(h^(s+1)) (reported as the constraint violation).
 
+The one home of these equations (used by the integrator here, the optimal-control transcription with all its
+intervals at once, and the control warm start, in NumPy): `stage_rates` (V and the stage accelerations from Q),
+`stage_residual` (M a + the other forces), `stage_tangent` (the exact dR/dQ by blocks), `interval_end` (q, v at
+the interval's end) and `Tableau.extrapolate` (the interval's polynomial beyond its end: Newton's first guess).
 `stage_function(system, tableau)`: CasADi Functions of (Q, lam, q_n, v_n, h, F) returning the stage residual and
-its sparse Jacobian on a StepSystem. The optimal-control transcription (ancf_sym.control) writes the same condensed
-equations with its own unknowns (the moved supports' states and the controls enter them; all intervals at once)
-and shares the tableaus (`tableau`).
+its sparse Jacobian on a StepSystem.
 """
 from __future__ import annotations
 
@@ -25,6 +27,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 import numpy.polynomial.legendre as leg
+import scipy.sparse as sp
 
 from ..scene import SceneError
 from ..sparsity import dm, mx_nonzeros
@@ -49,6 +52,111 @@ class Tableau:
     @property
     def stiffly_accurate(self) -> bool:
         return bool(np.allclose(self.A[-1], self.b)) and abs(self.c[-1] - 1.0) < 1e-14
+
+    @property
+    def W(self) -> np.ndarray:
+        """A^-1: stage velocities from stage positions, V = (Q - q_n) W^T / h."""
+        return np.linalg.inv(self.A)
+
+    def extrapolate(self, q_start: np.ndarray, Q: np.ndarray, tau) -> np.ndarray:
+        """The interval's collocation polynomial (through q_start at 0 and the stage positions Q (n x s) at c) at
+        the local times tau (n x len(tau)); tau > 1 extrapolates into the next interval."""
+        base = lagrange_basis(np.r_[0.0, self.c], np.atleast_1d(np.asarray(tau, float)))
+        return np.column_stack([q_start, Q]) @ base.T
+
+
+def lagrange_basis(nodes: np.ndarray, tau: np.ndarray) -> np.ndarray:
+    """Lagrange basis values l_r(tau) (len(tau) x len(nodes)) on the nodes."""
+    out = np.ones((len(tau), len(nodes)))
+    for r in range(len(nodes)):
+        for m in range(len(nodes)):
+            if m != r:
+                out[:, r] *= (tau - nodes[m]) / (nodes[r] - nodes[m])
+    return out
+
+
+# -- the condensed stage equations (dynamics, control transcription and warm start alike) ---------------------------
+
+def _symbolic(*xs) -> bool:
+    return any(isinstance(x, (ca.MX, ca.SX, ca.DM)) for x in xs)
+
+
+def _mul(A, B):
+    """A B for CasADi operands (SciPy matrices as DM with their pattern) or NumPy/SciPy ones."""
+    if _symbolic(A, B):
+        return ca.mtimes(dm(A) if sp.issparse(A) else A, dm(B) if sp.issparse(B) else B)
+    return A @ B
+
+
+def _per_interval(row: np.ndarray, K: int, symbolic: bool):
+    """kron(I_K, row): the same stage weights in each of K intervals (sparse DM or dense array)."""
+    if symbolic:
+        return dm(sp.kron(sp.identity(K, format="csc"), sp.csc_matrix(row)))
+    return row if K == 1 else np.kron(np.eye(K), row)
+
+
+def _columns(x, n: int):
+    return x if _symbolic(x) else np.asarray(x, float).reshape(n, -1, order="F")
+
+
+def stage_rates(tab: Tableau, Q, qn, vn, h):
+    """Stage velocities V and accelerations A (n x K s, like Q) of K intervals at once: Q holds the stage positions
+    interval after interval, qn and vn (n x K) the intervals' start states. With W = A^-1 (the collocation
+    polynomial through q_n and the stages), V = (Q - q_n) W^T / h and A = (V - v_n) W^T / h per interval.
+    CasADi expressions or NumPy arrays."""
+    sym = _symbolic(Q, qn, vn, h)
+    n = Q.shape[0]
+    qn, vn = _columns(qn, n), _columns(vn, n)
+    K = qn.shape[1]
+    W = tab.W
+    Wb = _per_interval(W.T, K, sym)  # (X Wb)[:, k s + j] = sum_m X[:, k s + m] W[j, m]
+    R1 = _per_interval(W.sum(axis=1)[None, :], K, sym)  # (K x K s): the start value x (W 1)_j
+    V = (_mul(Q, Wb) - _mul(qn, R1)) / h
+    A = (_mul(V, Wb) - _mul(vn, R1)) / h
+    return V, A
+
+
+def stage_residual(tab: Tableau, h, M, Q, qn, vn, forces=None):
+    """The condensed collocation equations R = M a(Q) + forces (n x K s, one column per stage) and the stage
+    velocities and accelerations (V, A) of `stage_rates`. forces: the other terms at the stages (internal minus
+    external), an array/expression or a function of V (velocity-dependent forces); None: inertia alone."""
+    V, A = stage_rates(tab, Q, qn, vn, h)
+    R = _mul(M, A)
+    if forces is not None:
+        R = R + (forces(V) if callable(forces) else forces)
+    return R, V, A
+
+
+def stage_tangent(tab: Tableau, h, M, diag: list, velocity: list | None = None) -> list:
+    """The exact tangent dR_i/dQ_j of one interval's stage equations as s x s blocks (nested lists; assemble with
+    ca.blockcat or sp.bmat): (W^2)_ij M / h^2 + W_ij D_i / h + delta_ij K_i, with diag[i] = K_i the position
+    derivative of stage i's forces and velocity[i] = D_i their velocity derivative (None: no velocity forces)."""
+    W = tab.W
+    W2 = W @ W
+    blocks = []
+    for i in range(tab.s):
+        row = []
+        for j in range(tab.s):
+            B = W2[i, j] / h**2 * M
+            if velocity is not None:
+                B = B + W[i, j] / h * velocity[i]
+            if i == j:
+                B = B + diag[i]
+            row.append(B)
+        blocks.append(row)
+    return blocks
+
+
+def interval_end(tab: Tableau, h, qn, vn, Q, V, A):
+    """(q, v) at the ends of K intervals (n x K): Q's last stage if the method is stiffly accurate (Radau IIA), else
+    q_n + h sum_j b_j V_j; v_n + h sum_j b_j A_j."""
+    sym = _symbolic(Q, qn, vn, h)
+    n = Q.shape[0]
+    qn, vn = _columns(qn, n), _columns(vn, n)
+    Bk = _per_interval(tab.b[:, None], qn.shape[1], sym)  # (K s x K): quadrature over each interval
+    s = tab.s
+    q_end = Q[:, s - 1::s] if tab.stiffly_accurate else qn + h * _mul(V, Bk)
+    return q_end, vn + h * _mul(A, Bk)
 
 
 def _collocation_matrix(c: np.ndarray) -> np.ndarray:
@@ -96,68 +204,54 @@ def stage_function(system: StepSystem, tab: Tableau, linsol: str = "qr") -> dict
     Equation ordering: for each stage, nf force rows then mc constraint rows; unknowns likewise per stage."""
     S = system
     nf, mc, s = S.nf, S.mc, tab.s
-    W = np.linalg.inv(tab.A)
-    W2 = W @ W
-    w1 = W.sum(axis=1)
     Q = ca.MX.sym("Q", nf, s)
     lam = ca.MX.sym("lam", mc, s)
     qn, vn = ca.MX.sym("qn", nf), ca.MX.sym("vn", nf)
     h, kc = ca.MX.sym("h"), ca.MX.sym("kc")
     F = ca.MX.sym("F", nf, s)
     kel = ca.MX.sym("kel", S.kel.size) if S.kel is not None else None
-    Mdm = dm(S.M)
-    dQ = Q - ca.repmat(qn, 1, s)
-    MdQ = ca.mtimes(Mdm, dQ)
-    Mv = ca.mtimes(Mdm, vn)
-    CdQ = ca.horzcat(*[rayleigh_mx(S, dQ[:, j], kel)[0] for j in range(s)]) if S.rayleigh is not None else None
     _, C = rayleigh_mx(S, qn, kel)
-    rows, blocks_diag, dfv = [], [], []
-    phis = []
+    diag, dfv, jacs, phis = [], [], [], []
     if mc:  # constraint, Jacobian and multiplier Hessian as a function of pure symbols (AD needs them)
         qs, ls = ca.MX.sym("q", nf), ca.MX.sym("l", mc)
         ph = S.constraint_mx(qs)
         Hq = ca.hessian(ca.dot(ls, ph), qs)[0] if len(S.cons.qrow) else ca.MX(nf, nf)
         cons_f = ca.Function("constraint_stage", [qs, ls], [ph, ca.jacobian(ph, qs), Hq])
-    for i in range(s):
-        g, K = S.forces_f(Q[:, i])[:2]
-        Ri = ca.mtimes(MdQ, ca.DM(W2[i])) / h**2 - w1[i] / h * Mv + g - F[:, i]
-        if CdQ is not None:
-            Ri += ca.mtimes(CdQ, ca.DM(W[i])) / h
-        Si = K
-        if S.damp_f is not None:  # strain-rate damping at the stage velocity V_i = sum_j W_ij (Q_j - q_n) / h
-            fd, dfx, dfv_i = S.damp_f(Q[:, i], ca.mtimes(dQ, ca.DM(W[i])) / h)
-            Ri += fd
-            Si = Si + dfx
-            dfv.append(dfv_i)
-        if mc:
-            phi, Jx, Hl = cons_f(Q[:, i], lam[:, i])
-            Ri += kc * ca.mtimes(Jx.T, lam[:, i])
-            if len(S.cons.qrow):
-                Si = Si + kc * Hl
-            rows.append(ca.vertcat(Ri, kc * phi))
-            phis.append(phi)
-            blocks_diag.append((Si, Jx))
-        else:
-            rows.append(Ri)
-            blocks_diag.append((Si, None))
-    R = ca.vertcat(*rows)
-    # Jacobian by blocks (the kernels give K; the coupling through M and C is constant per step)
-    blocks = []
-    for i in range(s):
-        row = []
-        for j in range(s):
-            Bij = W2[i, j] / h**2 * Mdm + (W[i, j] / h * C if S.rayleigh is not None else 0)
-            if dfv:
-                Bij = Bij + W[i, j] / h * dfv[i]
-            Si, Jx = blocks_diag[i]
-            if i == j:
-                Bij = Bij + Si
+
+    def forces(V):
+        """Stage i: grad U(Q_i) + C V_i + strain-rate damping(Q_i, V_i) + J(Q_i)^T lam_i - F_i."""
+        cols = []
+        for i in range(s):
+            g, K = S.forces_f(Q[:, i])[:2]
+            fi = g - F[:, i]
+            if S.rayleigh is not None:
+                fi += rayleigh_mx(S, V[:, i], kel)[0]
+            if S.damp_f is not None:
+                fd, dfx, dfv_i = S.damp_f(Q[:, i], V[:, i])
+                fi += fd
+                K = K + dfx
+                dfv.append(dfv_i)
             if mc:
-                top = ca.horzcat(Bij, kc * Jx.T if i == j else ca.MX(nf, mc))
-                bot = ca.horzcat(kc * Jx if i == j else ca.MX(mc, nf), ca.MX(mc, mc))
-                Bij = ca.vertcat(top, bot)
-            row.append(Bij)
-        blocks.append(row)
+                phi, Jx, Hl = cons_f(Q[:, i], lam[:, i])
+                fi += kc * ca.mtimes(Jx.T, lam[:, i])
+                if len(S.cons.qrow):
+                    K = K + kc * Hl
+                phis.append(phi)
+                jacs.append(Jx)
+            diag.append(K)
+            cols.append(fi)
+        return ca.horzcat(*cols)
+    Rq_cols = stage_residual(tab, h, dm(S.M), Q, qn, vn, forces)[0]
+    R = ca.vertcat(*[ca.vertcat(Rq_cols[:, i], kc * phis[i]) if mc else Rq_cols[:, i] for i in range(s)])
+    # Jacobian by blocks (the kernels give K; the coupling through M and C is constant per step)
+    velocity = None
+    if S.rayleigh is not None or dfv:
+        velocity = [(C if S.rayleigh is not None else 0) + (dfv[i] if dfv else 0) for i in range(s)]
+    blocks = stage_tangent(tab, h, dm(S.M), diag, velocity)
+    if mc:  # each stage's constraint rows and multiplier columns
+        blocks = [[ca.vertcat(ca.horzcat(B, kc * jacs[i].T if i == j else ca.MX(nf, mc)),
+                              ca.horzcat(kc * jacs[i] if i == j else ca.MX(mc, nf), ca.MX(mc, mc)))
+                   for j, B in enumerate(row)] for i, row in enumerate(blocks)]
     Jac = ca.blockcat(blocks)
     Rq = ca.vertcat(*[R[i * (nf + mc):i * (nf + mc) + nf] for i in range(s)])
     rq = ca.mmax(ca.fabs(Rq))
@@ -240,12 +334,6 @@ class _StageNewton:
         return self.kkt
 
 
-def _lagrange(nodes: np.ndarray, t: float) -> np.ndarray:
-    """Weights of the Lagrange polynomial through `nodes` evaluated at t (extrapolation of the last step)."""
-    return np.array([np.prod([(t - nodes[m]) / (nodes[j] - nodes[m]) for m in range(len(nodes)) if m != j])
-                     for j in range(len(nodes))])
-
-
 class CollocationIntegrator:
     """Radau IIA / Gauss-Legendre steps with Newton on the exact tangent of the coupled stage system (an Integrator:
     ancf_sym.dynamics.integrator; one step per call, not chunkable)."""
@@ -268,7 +356,6 @@ class CollocationIntegrator:
         self.new = dict(q=np.zeros(nf), v=np.zeros(nf), a=np.zeros(nf), lam=np.zeros(mc))
         self._prev = None  # (h, Q stages) of the last accepted step, for extrapolation
         self.kdamp = StiffnessDamping(system, counters)
-        self._W = np.linalg.inv(self.tab.A)
 
     def initialize(self, q0, v0, Q0, t0: float = 0.0) -> None:
         self.q[:], self.v[:] = q0, v0
@@ -282,10 +369,7 @@ class CollocationIntegrator:
         if self._prev is None:
             return np.stack([self.q + ci * h * self.v + 0.5 * (ci * h) ** 2 * self.a for ci in c], axis=1)
         h0, Qp, q_start = self._prev
-        nodes = np.r_[0.0, c]
-        vals = np.column_stack([q_start, Qp])
-        tau = 1.0 + c * h / h0
-        return np.column_stack([vals @ _lagrange(nodes, t) for t in tau])
+        return self.tab.extrapolate(q_start, Qp, 1.0 + c * h / h0)
 
     def attempt(self, t: float, h: float, loads=None) -> StepOutcome:
         """Try the step t -> t + h (loads(t): time-dependent generalized force on the unknowns, or None)."""
@@ -307,15 +391,10 @@ class CollocationIntegrator:
         if not out.converged:
             return StepOutcome(False, out.iterations, out.reason)
         Qs = N.x.reshape((nf, s), order="F")
-        V = (Qs - self.q[:, None]) @ self._W.T / h
-        Vd = (V - self.v[:, None]) @ self._W.T / h
-        if tab.stiffly_accurate:
-            qn1, vn1 = Qs[:, -1].copy(), V[:, -1].copy()
-        else:
-            qn1 = self.q + h * V @ tab.b
-            vn1 = self.v + h * Vd @ tab.b
-        self.new["q"][:] = qn1
-        self.new["v"][:] = vn1
+        V, Vd = stage_rates(tab, Qs, self.q, self.v, h)
+        qn1, vn1 = interval_end(tab, h, self.q, self.v, Qs, V, Vd)
+        self.new["q"][:] = qn1[:, 0]
+        self.new["v"][:] = vn1[:, 0]
         self.new["a"][:] = Vd[:, -1]  # (first-step guesses only)
         if mc:
             lam_st = N.lam.reshape((mc, s), order="F") * kc
@@ -329,9 +408,7 @@ class CollocationIntegrator:
         if self._prev is None:
             return np.zeros_like(self.q)
         h0, Qp, q_start = self._prev
-        nodes = np.r_[0.0, self.tab.c]
-        pred = np.column_stack([q_start, Qp]) @ _lagrange(nodes, 1.0 + h / h0)
-        return self.new["q"] - pred
+        return self.new["q"] - self.tab.extrapolate(q_start, Qp, 1.0 + h / h0)[:, 0]
 
     def accept(self) -> None:
         self._prev = self._pending
@@ -340,4 +417,5 @@ class CollocationIntegrator:
         self.kdamp.update(self.q)
 
 
-__all__ = ["Tableau", "tableau", "stage_function", "CollocationIntegrator"]
+__all__ = ["Tableau", "tableau", "lagrange_basis", "stage_rates", "stage_residual", "stage_tangent", "interval_end",
+           "stage_function", "CollocationIntegrator"]

@@ -8,7 +8,7 @@ import numpy as np
 
 from .. import bodies, spatial_bodies
 from ..assembly import Assembly
-from ..checks import fail
+from ..checks import check_keys, fail
 from ..interpolation import Probe
 from ..scene import SceneError
 
@@ -37,9 +37,7 @@ class Sensor:
             return d
         if not isinstance(d, dict):
             raise SceneError(f"sensors[{index}] must be a table with kind, member, at; got {d!r}")
-        unknown = set(d) - {"name", "kind", "member", "at"}
-        if unknown:
-            raise SceneError(f"sensors[{index}]: unknown field(s) {sorted(unknown)}; known: name, kind, member, at")
+        check_keys(f"sensors[{index}]", d, ("name", "kind", "member", "at"))
         kind = d.get("kind")
         if kind not in SENSOR_KINDS:
             raise fail(f"sensors[{index}].kind", f"must be one of {' | '.join(SENSOR_KINDS)}", kind)

@@ -7,6 +7,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..assembly import Assembly
+from ..checks import check_keys
 from ..loads import point_force
 from ..scene import SceneError, _vector
 
@@ -26,11 +27,7 @@ class TimeLoad:
             return d
         if not isinstance(d, dict):
             raise SceneError(f"loads[{index}] must be a table with member, at, force, history; got {d!r}")
-        unknown = set(d) - {"member", "at", "force", "history"}
-        missing = {"member", "force", "history"} - set(d)
-        if unknown or missing:
-            raise SceneError(f"loads[{index}]: unknown {sorted(unknown)} / missing {sorted(missing)} fields; "
-                             "expected member, at, force, history")
+        check_keys(f"loads[{index}]", d, ("member", "at", "force", "history"), required=("member", "force", "history"))
         return cls(d["member"], d.get("at", "end"), d["force"], d["history"])
 
 

@@ -101,3 +101,35 @@ def circle_dissipation(d, w, omega, p, dim: int):
     n = dp / rho
     spin = omega * ca.vertcat(-d[1], d[0]) if dim == 2 else omega * ca.cross(p[5:8], d)
     return dissipation(penetration(rho - R - t), n, w - spin, k, kh, c, mu, eps)
+
+
+def _body_drum_geometry(x, E, p):
+    """Radial part of the point x = r - r_b (relative to the body's centre) from the axis of a drum carried by a
+    spatial body of axis vectors E = (e1, e2, e3): axis a = sum a_k e_k, through the body point sum s_k e_k
+    (p = (L, k, kh, t, R, a1, a2, a3, ..., s1, s2, s3): a and s in body components, s last). Linear in (x, E)
+    before the projection, so the fields stay linear in the kernel's inputs."""
+    a = p[5] * E[0] + p[6] * E[1] + p[7] * E[2]
+    d = x - (p[-3] * E[0] + p[-2] * E[1] + p[-1] * E[2])
+    return d - ca.dot(a, d) * a
+
+
+def body_drum_energy(u, p):
+    """u = (r - r_b, e1, e2, e3): a centre-line point relative to the centre r_b of a spatial body (natural
+    coordinates, ancf_sym.spatial_bodies) and its axis vectors; p = (L, k, kh, t, R, a (3), s (3))."""
+    k, kh, t, R = p[1], p[2], p[3], p[4]
+    dp = _body_drum_geometry(u[:3], (u[3:6], u[6:9], u[9:12]), p)
+    return normal_energy(penetration(ca.sqrt(ca.dot(dp, dp)) - R - t), k, kh)
+
+
+def body_drum_dissipation(u, p):
+    """u = (r - r_b, e1, e2, e3, r' - r_b', e1', e2', e3'); p = (L, k, kh, t, R, a (3), c, mu, eps, s (3)). The
+    drum's material point at x = r - r_b moves at r_b' + sum_k (e_k . x) e_k' (exact while the axes are orthonormal:
+    e_k . x are the point's body coordinates), so w = x' - sum_k (e_k . x) e_k' is the velocity relative to the drum
+    surface, the body's spin and tumbling included."""
+    k, kh, t, R = p[1], p[2], p[3], p[4]
+    c, mu, eps = p[8], p[9], p[10]
+    x, E, Ed = u[:3], (u[3:6], u[6:9], u[9:12]), (u[15:18], u[18:21], u[21:24])
+    dp = _body_drum_geometry(x, E, p)
+    rho = ca.sqrt(ca.dot(dp, dp))
+    w = u[12:15] - sum((ca.dot(e, x) * ed for e, ed in zip(E, Ed)), ca.SX.zeros(3))
+    return dissipation(penetration(rho - R - t), dp / rho, w, k, kh, c, mu, eps)
