@@ -357,7 +357,10 @@ class Assembly:
             P = np.stack([L, np.full_like(L, m.material.density * m.section.area)], axis=1) if m.element != "beam3d" \
                 else np.stack([L] + [np.full_like(L, v) for v in (m.section.b, m.section.h, m.material.density)], 1)
             # equal elements (the same parameters) computed once; entry (i, j) of element e at (idx[e,i], idx[e,j])
-            uniq, inv = np.unique(P, axis=0, return_inverse=True)
+            if np.all(P == P[:1]):  # (a uniform mesh: one element mass matrix, without sorting the rows)
+                uniq, inv = P[:1], np.zeros(len(P), dtype=np.int64)
+            else:
+                uniq, inv = np.unique(P, axis=0, return_inverse=True)
             Me = np.stack([kernels.mass_matrix(m.element, list(map(float, p))) for p in uniq])[np.ravel(inv)]
             nd = idx.shape[1]
             rows.append(np.repeat(idx, nd, axis=1).ravel())

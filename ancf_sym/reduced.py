@@ -37,8 +37,27 @@ class Partition:
 
     def reduce_matrix(self, A: sp.spmatrix, B: sp.spmatrix | np.ndarray | None = None) -> sp.csc_matrix:
         """E^T A E (a mass or stiffness matrix on the unknowns), or E^T A B (its coupling to other coordinates)."""
+        if B is None and not self.n_identified:  # E selects coordinates: the entries of free rows and columns
+            return self._select(A)
         R = (self.E.T @ A @ (self.E if B is None else sp.csc_matrix(B))).tocsc()
         R.sort_indices()
+        return R
+
+
+    def _select(self, A: sp.spmatrix) -> sp.csc_matrix:
+        """E^T A E where every unknown is one coordinate (no identifications): A's entries in free rows and columns,
+        renumbered (pos is increasing on the free coordinates, so sorted columns stay sorted; no sums): the result
+        of the sparse products E^T A E, entry for entry."""
+        A = sp.csc_matrix(A)
+        A.sum_duplicates()  # (canonical: sorted, duplicates summed)
+        pos = self.pos
+        cols = np.repeat(np.arange(A.shape[1]), np.diff(A.indptr))
+        keep = (pos[A.indices] >= 0) & (pos[cols] >= 0)
+        counts = np.bincount(pos[cols[keep]], minlength=self.ny)
+        indptr = np.zeros(self.ny + 1, dtype=A.indptr.dtype)
+        np.cumsum(counts, out=indptr[1:])
+        R = sp.csc_matrix((A.data[keep], pos[A.indices[keep]].astype(A.indices.dtype), indptr), shape=(self.ny, self.ny))
+        R.eliminate_zeros()  # (as the sparse products did: the element mass matrices' zero entries are not stored)
         return R
 
 
@@ -119,12 +138,16 @@ def partition(asm: Assembly) -> Partition:
     is_fixed[fixed_roots] = True
     is_fixed = is_fixed[roots_all]
     c = offs + np.where(is_fixed, fixed_at[roots_all], 0.0)
-    free_roots = np.unique(roots_all[~is_fixed])
+    identified = bool(np.any(roots_all != np.arange(n)))
+    free_roots = np.unique(roots_all[~is_fixed]) if identified else np.flatnonzero(~is_fixed)
     ymap = -np.ones(n, dtype=np.int64)
     ymap[free_roots] = np.arange(len(free_roots))
     pos = np.where(is_fixed, -1, ymap[roots_all])
     rows_e = np.flatnonzero(pos >= 0)
-    E = sp.csc_matrix((np.ones(len(rows_e)), (rows_e, pos[rows_e])), shape=(n, len(free_roots)))
+    if identified:
+        E = sp.csc_matrix((np.ones(len(rows_e)), (rows_e, pos[rows_e])), shape=(n, len(free_roots)))
+    else:  # one coordinate per unknown, in order: the CSC arrays directly
+        E = sp.csc_matrix((np.ones(len(rows_e)), rows_e, np.arange(len(rows_e) + 1)), shape=(n, len(free_roots)))
     keep = np.array(sorted(set(keep_rows)), dtype=np.int64)
     # rows whose coordinates are all fixed are redundant once the coordinates are eliminated
     if len(keep):

@@ -81,6 +81,8 @@ def _cable_effects(el: str, dim: int) -> list[Effect]:
         Effect(el, "axial_biot", ("L", "EA"), "coupled Biot strain eps=|r_x|-1, U=1/2 int EA eps^2", _G),
         Effect(el, "axial_decoupled", ("L", "EA"),
                "decoupled strain of paper 000: equivalent rod q_D=[0,|r_x(0)|,L_D,|r_x(L)|]", _G),
+        Effect(el, "axial_decoupled_biot", ("L", "EA"),
+               "the decoupled strain's equivalent rod with Biot strain r_D,x - 1 (the statics' start for it)", _G),
         Effect(el, "bending", ("L", "EI"), "U=1/2 int EI |r_x x r_xx|^2/|r_x|^6", _G),
         Effect(el, "gravity", ("L", "rhoA") + g_names, "U=-int rhoA g.r dx (exact, linear in q)", elastic=False),
         Effect(el, "moment", moment_params,

@@ -1,9 +1,11 @@
 """Static equilibrium: full-step Newton first, IPOPT where Newton alone is not enough. User guide: docs/statics.md.
 
 1. Newton (statics_newton.py): full steps on the exact tangent (shifted where it is indefinite far out), the
-   compiled kernels called directly (statics_eval), from the start point. Measured (bench/STATICS_RESULTS.md) it
-   converges in 8 (Biot) to 12 (Green, from the Biot solution) iterations on a cantilever at any mesh size, where a
-   line search creeps along the narrow valley that a large EA/EI makes.
+   compiled kernels called directly (statics_eval), from the start point: the Biot-strain solution for Green and
+   decoupled cables, the solution on a 10x coarser mesh for fine ones (statics_coarse). Measured
+   (bench/STATICS_RESULTS.md) it converges in 8 (Biot) to 10 (Green, decoupled: from the Biot solution) iterations
+   on a cantilever at any mesh size up to 100 000 elements, where a line search creeps along the narrow valley that
+   a large EA/EI makes.
 2. If Newton does not converge cleanly (diverges, stalls, exceeds its iterations), Newton again along the load
    factor in adaptive steps; if that fails too (or a result lies above the start's potential), IPOPT minimises: first accepting every trial step, then with its line search, then stepping the loads up; Newton
    finishes from IPOPT's point, so every answer passes the same convergence test.
@@ -47,7 +49,8 @@ STEP_MAX_ITER = 15  # Newton iterations per load step (from a nearby converged l
 MIN_LOAD_STEP = 1.0 / 4096  # smaller load steps than this: hand over to IPOPT
 BIOT_TOL = 1e-6  # tolerance of the Biot solve that only gives the start (Newton's last steps are quadratic)
 BIOT_MAX_ITER = 12  # Biot converges in 8-10 on fine meshes: give up early where it does not
-BIOT_MIN_ELEMENTS = 10  # measured: on 3 and 6 elements Newton wanders with any strain, Biot too (no start gained)
+BIOT_MIN_ELEMENTS = 10  # measured: on 3 and 6 elements the coupled Biot solution is no start for Green (no gain)
+DECOUPLED = "decoupled"  # starts from its own rod's Biot strain at any element count (measured: 6 elements 8 + 2)
 CACHE_SIZE = 8  # problems kept per process, by scene fingerprint
 
 
@@ -275,13 +278,13 @@ class StaticProblem:
         run, used, iters, biot = None, False, 0, None
         if coarse is not None and coarse[0].success:  # Newton from the coarse mesh's solution
             run = self.newton.solve(coarse[1], opts.tol, n_iter, work)
-            used, iters = run.converged, run.iterations
+            used, iters = run.converged, (0 if run.converged else run.iterations)  # a discarded run's count
         coarse_used = used
         if not used:
             biot = self._biot_start(x, opts, work) if x0 is None else None
             if biot is not None and biot.converged:  # Newton from the Biot solution
                 run = self.newton.solve(biot.x, opts.tol, n_iter, work)
-                used, iters = run.converged, run.iterations
+                used, iters = run.converged, iters + (0 if run.converged else run.iterations)
         if not used:
             run = self.newton.solve(x, opts.tol, n_iter, work)
         attempts.append(self._newton_attempt("newton", run))
@@ -353,7 +356,7 @@ class StaticProblem:
         multiplier rows (the graph) start from the straight state."""
         if self._biot is None:
             cables = [m for m in self.asm.scene.members.values() if m.axial not in (None, START_STRAIN)]
-            coarse = any(m.elements < BIOT_MIN_ELEMENTS for m in cables)
+            coarse = any(m.elements < BIOT_MIN_ELEMENTS for m in cables if m.axial != DECOUPLED)
             ev = self.light.ev.variant(BIOT) if cables and not coarse and self.light is not None else None
             self._biot = KernelNewton(self.asm, self.S, ev) if ev is not None else False
         if self._biot is False:

@@ -31,8 +31,8 @@ class Term:
 
 def _add(terms: dict, label, element, effect, gauss, idx_rows, p_rows):
     t = terms.setdefault((label, element, effect, gauss), Term(label, element, effect, gauss))
-    t.idx.extend(np.asarray(idx_rows, dtype=np.int64))
-    t.P.extend(np.asarray(p_rows, dtype=float))
+    t.idx.append(np.asarray(idx_rows, dtype=np.int64))  # (blocks of rows, stacked once by scene_terms)
+    t.P.append(np.asarray(p_rows, dtype=float))
 
 
 def member_terms(terms: dict, mm: MemberMesh, gravity: np.ndarray) -> None:
@@ -117,5 +117,5 @@ def scene_terms(mesh: Mesh) -> list[Term]:
     contact.energy_terms(terms, mesh, _add)
     out = list(terms.values())
     for t in out:
-        t.idx, t.P = np.array(t.idx), np.array(t.P)
+        t.idx, t.P = np.concatenate(t.idx), np.concatenate(t.P)
     return out

@@ -62,8 +62,9 @@ def ancf_scene(c):
 def ancf_run(c, dt=None, modified=False, energies=True, cold=True, sensors=True):
     """The time loop is timed by simulate itself (DynamicResult.cpu_s / wall_s: initial acceleration, steps,
     outputs); set-up = Assembly + StepSystem + the integrator's step and chunk functions (DynamicResult.setup_s).
-    cold: forget the compiled graphs first (a first run of its structure in the process: set-up builds them all);
-    else a structure run before in this process reuses them."""
+    cold: forget the compiled graphs first (a first run of its structure in the process: set-up builds them all,
+    but not the kernels and the scene-independent Newton logic, loaded by an earlier run as in any process that
+    ran dynamics before); else a structure run before in this process reuses them."""
     if cold:
         clear_graph_cache()
     c0, t0 = time.process_time(), time.perf_counter()

@@ -140,7 +140,7 @@ def main(argv=None) -> None:
     plan = [(60, "biot", 20e9), (60, "green", 20e9), (600, "biot", 20e9), (600, "green", 20e9),
             (2000, "biot", 20e9), (6000, "biot", 20e9), (6000, "green", 20e9), (60, "biot", 1e9),
             (60, "green", 1e9), (600, "biot", 1e9), (600, "green", 1e9), (10_000, "biot", 20e9),
-            (10_000, "green", 20e9), (100_000, "biot", 20e9)]
+            (10_000, "green", 20e9), (100_000, "biot", 20e9), (100_000, "green", 20e9)]
     if a.sizes:
         plan = [p for p in plan if p[0] in a.sizes]
     if a.quick:
@@ -150,9 +150,11 @@ def main(argv=None) -> None:
         r = reps[n] if not a.quick else max(1, reps[n] // 3)
         rows.append(case(n, axial, E, r, n <= a.no_exudyn_above))
         show(rows[-1])
-    big = {row["n"]: row["solve"][0] for row in rows if row["axial"] == "biot" and row["E"] == 20e9}
-    if 10_000 in big and 100_000 in big:
-        print(f"linearity: solve(100 000) / solve(10 000) = {big[100_000] / big[10_000]:.1f} (linear: 10)")
+    for axial in ("biot", "green"):
+        big = {row["n"]: row["solve"][0] for row in rows if row["axial"] == axial and row["E"] == 20e9}
+        if 10_000 in big and 100_000 in big:
+            print(f"linearity ({axial}): solve(100 000) / solve(10 000) = {big[100_000] / big[10_000]:.1f} "
+                  "(linear: 10)")
 
 
 if __name__ == "__main__":

@@ -34,14 +34,16 @@ def stretched(element, s):
 @pytest.mark.parametrize("s", [-0.1, 0.02, 0.15])
 def test_uniform_stretch(element, s):
     """Energies, and the nodal forces: the end positions carry -+N t with the axial force N = dU/d(chord)
-    (Green and decoupled: EA e (1+s), e = ((1+s)^2 - 1)/2; Biot: EA s), the slopes carry nothing (int S2' = 0)."""
+    (Green and decoupled: EA e (1+s), e = ((1+s)^2 - 1)/2; Biot and the decoupled rod with Biot strain: EA s), the
+    slopes carry nothing (int S2' = 0)."""
     dim = registry.ELEMENTS[element].dim
     e_green = ((1 + s) ** 2 - 1) / 2
     q = stretched(element, s)
     t = TURN[element] @ np.eye(dim)[0]
     cases = {"axial_green": (EA * L0 * e_green**2 / 2, EA * e_green * (1 + s)),
              "axial_biot": (EA * L0 * s**2 / 2, EA * s),
-             "axial_decoupled": (EA * L0 * e_green**2 / 2, EA * e_green * (1 + s))}
+             "axial_decoupled": (EA * L0 * e_green**2 / 2, EA * e_green * (1 + s)),
+             "axial_decoupled_biot": (EA * L0 * s**2 / 2, EA * s)}
     assert abs(cases["axial_green"][0] - EA * L0 * ((1 + s) ** 2 - 1) ** 2 / 8) < 1e-12 * cases["axial_green"][0]
     for effect, (energy, N) in cases.items():
         for g in gauss_orders(element, effect):

@@ -101,7 +101,8 @@ def test_energy_function_and_reverse_companion_match_kernel(element, effect, gau
 
 
 # Parameter that multiplies each effect's energy as a whole (energy is linear in it).
-LINEAR_PARAM = {"axial_green": ("EA",), "axial_biot": ("EA",), "axial_decoupled": ("EA",), "bending": ("EI",),
+LINEAR_PARAM = {"axial_green": ("EA",), "axial_biot": ("EA",), "axial_decoupled": ("EA",),
+                "axial_decoupled_biot": ("EA",), "bending": ("EI",),
                 "gravity": ("rhoA",), "moment": ("M",), "continuum": ("E",), "line_strain": ("E",),
                 "line_bending": ("EIy", "EIz"), "line_torsion": ("GIp",), "moment_z": ("M",), "moment_y": ("M",),
                 "elastic_green": ("EA", "EI"), "elastic_biot": ("EA", "EI"),  # fused axial + bending: both factors

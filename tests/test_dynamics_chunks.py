@@ -56,7 +56,7 @@ def test_a_chunk_stops_at_the_first_step_it_cannot_accept():
 
 def test_hard_transient_stays_in_the_chunks(monkeypatch):
     """Zhang's pendulum on a fine mesh released horizontal (early steps need 3-4 Newton iterations): every grid step is taken in
-    the compiled chunk (no single step left to `attempt`), and the run equals the same run step by step (the same
+    the chunks' compiled step (no single step left to `attempt`), and the run equals the same run step by step (the same
     compiled step graph: round-off only, far below the 1e-9 m asked here)."""
     opts = dict(dt=1e-3, t_end=0.064, integrator="generalized_alpha", rho_inf=0.9, output_dt=0.016, energies=False,
                 sensors=[{"name": "tip", "kind": "position", "member": "m", "at": "end"}])
@@ -110,3 +110,28 @@ def test_integrators_of_one_structure_share_step_and_chunk_functions():
     assert a._graphs["chunks"][8, False] is b._graphs["chunks"][8, False]  # ...on one compiled function
     c = AlphaIntegrator(S, Scheme.generalized_alpha(0.5), NewtonOptions(), 0.0, 1e-10, Counters())
     assert c.step_f is not a.step_f  # other scheme coefficients: another graph
+
+
+def test_a_large_state_runs_its_chunk_step_by_step_and_stops_at_the_first_failure():
+    """Large states (>= chunks.UNROLL_STATE entries) build no chunk graph: the chunk is the step graph called once
+    per step, ending at the first step it cannot accept (a non-finite load at step 4 of 8). The accepted states
+    are those of three single steps (the same compiled step: round-off only), and the failing step's work is
+    counted but nothing after it."""
+    scene = pendulum(n=130)
+    S, integ = integrator(scene)
+    _, one = integrator(scene)
+    assert integ.stepwise
+    h = 1e-3
+    pl = np.repeat(-S.f_lin[:, None], 8, axis=1)
+    pl[:, 3] = np.nan
+    states, n_ok = integ.run_chunk(h, pl)
+    assert n_ok == 3 and states.shape[0] == 3
+    its = integ.counters.newton_iterations
+    for k in range(3):
+        assert one.attempt(0.0, h).converged
+        one.accept()
+        assert np.allclose(states[k, :S.nf], one.q, rtol=0, atol=1e-14 * S.span)
+    assert np.allclose(integ.q, one.q, rtol=0, atol=1e-14 * S.span)
+    assert np.allclose(integ.a_prev, one.a_prev, rtol=0, atol=1e-12 * np.abs(one.a_prev).max())
+    assert its >= one.counters.newton_iterations + 1  # the failing step's iteration(s) too
+    assert not integ._graphs["chunks"]  # no chunk graph built

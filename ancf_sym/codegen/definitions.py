@@ -124,8 +124,9 @@ def _direct_energy(element: str, effect: str, gauss: int | None):
     el = registry.ELEMENTS[element]
     if element.startswith("cable"):
         dim = el.dim
-        if effect == "axial_decoupled":
-            return lambda q, p: cable.decoupled_energy(q, p, dim, gauss)
+        if effect in ("axial_decoupled", "axial_decoupled_biot"):
+            strain = "green" if effect == "axial_decoupled" else "biot"
+            return lambda q, p: cable.decoupled_energy(q, p, dim, gauss, strain)
         if effect == "gravity":
             return lambda q, p: cable.gravity_energy(q, p, dim)
         if effect == "moment":

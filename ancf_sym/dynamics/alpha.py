@@ -282,14 +282,24 @@ class AlphaIntegrator:
             self._chunks[n, guard] = (buf, ev, bufs)
         return self._chunks[n, guard]
 
+    @property
+    def stepwise(self) -> bool:
+        """Large states run a chunk as one call of the step graph per step from a tight loop (the loop's ~5 us per
+        step is nothing against a step there, and no chunk graph is built: an unrolled 50-step chunk took
+        0.1-0.15 s to build at 1000 elements); small states as one compiled call (mapaccum)."""
+        return self.state_size >= chunks.UNROLL_STATE
+
     def prepare_chunks(self, n: int) -> None:
         """Build (or take from the cache) the chunk function of n steps and its buffers: set-up, before the loop."""
-        self.chunk_function(n)
+        if not self.stepwise:
+            self.chunk_function(n)
 
     def run_chunk(self, h: float, ploads: np.ndarray) -> tuple[np.ndarray, int]:
         """Up to n = ploads.shape[1] steps of size h in one call (no time-dependent C). Returns the states after
         each accepted step (n_ok x state_size) and n_ok: the steps before the first one the graph could not
         converge (that step is then left to `attempt`). The integrator's state is advanced to the last of them."""
+        if self.stepwise:
+            return self._run_steps(h, ploads)
         n = ploads.shape[1]
         buf, ev, b = self.chunk_function(n)
         ns = self.state_size
@@ -326,3 +336,47 @@ class AlphaIntegrator:
                 dst[:] = src[(n_ok - 1) * k:n_ok * k]
             self.h_prev = h
         return states[:n_ok], n_ok
+
+    def _run_steps(self, h: float, ploads: np.ndarray) -> tuple[np.ndarray, int]:
+        """run_chunk of large states: the step graph (with its further iterations) called once per step, ending at
+        the first step it cannot accept (not converged, or a non-finite state): the steps a guarded chunk takes,
+        with the same compiled step. Each step reads the row the step before wrote (no copies)."""
+        n = ploads.shape[1]
+        ns = self.state_size
+        st = self._chunks.get("states")
+        if st is None or st[0].shape[0] < n + 1:
+            rows = np.empty((n + 1, ns))
+            st = self._chunks["states"] = (rows, [memoryview(r) for r in rows])
+        rows, views = st
+        buf, ev, _, _ = self._step
+        info, f_out = self._info, self._f_out
+        rows[0] = self.pack()
+        self._h[0] = h
+        self._hp[0] = self.h_prev if self.h_prev else 0.0
+        self._tols[:] = self.tol_q, self.tol_x
+        nf = self.S.nf
+        n_ok = 0
+        try:
+            for j in range(n):
+                self._pload[:] = ploads[:, j]
+                buf.set_arg(0, views[j])
+                buf.set_res(0, views[j + 1])
+                ev()
+                self._count(np.nan_to_num(info, posinf=0, neginf=0))
+                # (a sum is finite only if every entry is)
+                if info[0] != 1 or not np.isfinite(rows[j + 1].sum()) or not all(np.isfinite(f.sum()) for f in f_out):
+                    break
+                for dst, src in zip(self.fac, f_out):  # (bound as the step's inputs: the next step's factor)
+                    dst[:] = src
+                self._hp[0] = h
+                n_ok += 1
+        finally:
+            buf.set_arg(0, memoryview(self._s_in))
+            buf.set_res(0, memoryview(self._s_out))
+        if n_ok:
+            u = self.unpack(rows[n_ok])
+            for k in ("q", "v", "a", "ab", "a_prev", "lam"):
+                getattr(self, k)[:] = u[k]
+            self.ctl[:] = u["ctl"]
+            self.h_prev = h
+        return rows[1:n_ok + 1], n_ok

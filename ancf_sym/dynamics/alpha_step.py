@@ -38,6 +38,7 @@ import casadi as ca
 import numpy as np
 
 from .damping import rayleigh_mx
+from .graph_cache import SCHEME_FUNCTIONS
 from .ldl import LDLFactor
 from .newton import NewtonOptions
 from .schemes import Scheme
@@ -108,14 +109,23 @@ class AlphaStepGraphs:
         return dict(x0=x0, p=p, y=y, cm=cm, cc=cc, kc=kc, vc=vc, lte=lte, block=block)
 
     def _full_control_functions(self) -> tuple[ca.Function, ca.Function]:
-        """The full-Newton step's scalar logic as two SX functions (before and after the second iteration)."""
+        """The full-Newton step's scalar logic as two SX functions (before and after the second iteration); the
+        first takes the scene's coordinate span (round-off floor) as an input: they depend on the Newton options
+        only, and are built once per process (SCHEME_FUNCTIONS)."""
+        o = self.opts
+        key = ("full_controls", o.single, o.lte_fraction, self.refresh_every)
+        if key not in SCHEME_FUNCTIONS:
+            SCHEME_FUNCTIONS[key] = self._build_full_control_functions()
+        return SCHEME_FUNCTIONS[key]
+
+    def _build_full_control_functions(self) -> tuple[ca.Function, ca.Function]:
         o, tiny = self.opts, 1e-300
         sx = ca.SX.sym
-        C, N0, L, T = sx("ctl", 2), sx("n0", 5), sx("lte"), sx("tols", 2)
+        C, N0, L, T, span = sx("ctl", 2), sx("n0", 5), sx("lte"), sx("tols", 2), sx("span")
         om, since = C[0], C[1]
         d0 = ca.fmax(N0[2], N0[3])
         tolx = ca.fmax(T[1], o.lte_fraction * L)
-        tq = ca.fmax(T[0], 2 * np.finfo(float).eps * N0[4] * self.S.span)
+        tq = ca.fmax(T[0], 2 * np.finfo(float).eps * N0[4] * span)
         conv0 = ca.logic_and(N0[0] <= tq, N0[1] <= T[1])
         est1 = 2 * om * d0 * d0
         # omega is re-measured (second iteration) at least every refresh_every steps, up to 8x less often when the
@@ -123,7 +133,7 @@ class AlphaStepGraphs:
         fresh = since < self.refresh_every * ca.fmin(8, ca.fmax(1, 0.1 * tolx / ca.fmax(est1, tiny)))
         conv1 = ca.logic_and(ca.logic_and(om > 0, fresh), est1 <= tolx)
         accept1 = ca.logic_or(conv0, conv1) if o.single else ca.SX(0)
-        first = ca.Function("after_first", [C, N0, L, T], [ca.vertcat(ca.if_else(accept1, 0, 1), tq, tolx, d0)])
+        first = ca.Function("after_first", [C, N0, L, T, span], [ca.vertcat(ca.if_else(accept1, 0, 1), tq, tolx, d0)])
         A, N1 = sx("a", 4), sx("n1", 5)
         second, tq, tolx, d0 = A[0], A[1], A[2], A[3]
         accept1 = second == 0
@@ -139,10 +149,17 @@ class AlphaStepGraphs:
                             [ca.vertcat(om_new, since_new), ca.vertcat(ok, iters, iters, d0, d1, L, N0[4])])
         return first, final
 
-    def _later_control_function(self) -> ca.Function:
+    @staticmethod
+    def _later_control_function() -> ca.Function:
         """Convergence after a third or later full Newton iteration (the criteria and tolerances of `newton`, which
         took these steps before): (ok, iterations, last |dz|) updated by the norms of the iteration (zeros if
-        skipped)."""
+        skipped). Independent of the scene and options: built once per process."""
+        if "later_controls" not in SCHEME_FUNCTIONS:
+            SCHEME_FUNCTIONS["later_controls"] = AlphaStepGraphs._build_later_control_function()
+        return SCHEME_FUNCTIONS["later_controls"]
+
+    @staticmethod
+    def _build_later_control_function() -> ca.Function:
         sx, tiny = ca.SX.sym, 1e-300
         V, N, A, T = sx("lv", 3), sx("n", 5), sx("a", 4), sx("tols", 2)
         ok, iters, d_prev = V[0], V[1], V[2]
@@ -170,7 +187,7 @@ class AlphaStepGraphs:
         l1 = l0 + dz[nf:] if mc else l0
         lte = c["lte"](x1)
         first, final = self._full_control_functions()
-        a1 = first(ctl, n0, lte, tols)
+        a1 = first(ctl, n0, lte, tols, self.S.span)
         # second iteration, evaluated only when needed
         xb, lb, pb = ca.MX.sym("xb", nf), ca.MX.sym("lb", mc), ca.MX.sym("pb", nf + S.nw)
         cb, ccb, kb, vb = ca.MX.sym("cmb"), ca.MX.sym("ccb"), ca.MX.sym("kcb"), ca.MX.sym("vcb", nf)

@@ -25,10 +25,14 @@ if TYPE_CHECKING:
 SYSTEM_GRAPHS: dict = {}
 # (structure key, scheme, Newton options, in-graph factor, further iterations) -> alpha step and chunk functions
 ALPHA_GRAPHS: dict = {}
+# functions that depend on no scene (the alpha steps' scalar Newton logic, by options): built once per process,
+# like the kernels they sit between, and kept by clear_graph_cache
+SCHEME_FUNCTIONS: dict = {}
 
 
 def clear_graph_cache() -> None:
-    """Forget the compiled step graphs of this process (the next run of every structure builds them again)."""
+    """Forget the compiled step graphs of this process (the next run of every structure builds them again; the
+    scene-independent SCHEME_FUNCTIONS stay)."""
     SYSTEM_GRAPHS.clear()
     ALPHA_GRAPHS.clear()
 

@@ -29,7 +29,7 @@ from ..sparsity import dm, mx_nonzeros
 from . import damping
 from .damping import RayleighData, StrainRateData
 from .forces import build_force_graphs
-from .graph_cache import SYSTEM_GRAPHS, structure_key
+from .graph_cache import SYSTEM_GRAPHS, pooled_buffer, structure_key
 from .ldl import LDLFactor, build_ldl
 
 
@@ -277,45 +277,60 @@ class StepSystem:
         self.norms = np.zeros(5)
         self._jac_norms = np.zeros(3)
         self.floor = 0.0
-        if "kkt_pattern" not in self._graphs:  # (converting CasADi's pattern costs ~10 ms at 1000 elements)
-            spk = self.kkt_sparsity
-            self._graphs["kkt_pattern"] = (spk.nnz(), np.array(spk.row(), dtype=np.int32),
-                                           np.array(spk.colind(), dtype=np.int32))
-        nnz, rows, colind = self._graphs["kkt_pattern"]
-        self.kkt = sp.csc_matrix((np.zeros(nnz), rows, colind), shape=(self.nz, self.nz))
-        args = [self.x, self.lam, self.p, self.cm, self.cc, self.kc, self.vc] + ([self.kel] if has_kel else []) \
-            + [self.y, self.par]
-        self._bufs = []
-        for f, outs in ((self.iter_f, (self.dz, self.norms)), (self.res_f, (self.r, self.norms[:2])),
-                        (self.jac_f, (self.r, self._jac_norms, self.kkt.data))):
-            buf, ev = f.buffer()
-            for i, a in enumerate(args):
-                buf.set_arg(i, memoryview(a))
-            for i, a in enumerate(outs):
-                buf.set_res(i, memoryview(a))
-            self._bufs.append((buf, ev, args, outs))  # the buffer object must outlive its evaluations
-        self._iter_eval, self._res_eval, self._jac_eval = (b[1] for b in self._bufs)
+        self._evals = None  # the compiled calls' buffers: bound on first use (`_bind`)
+
+    def _bind(self) -> tuple:
+        """Buffers of iter_f, res_f and jac_f bound to this system's arrays, and the KKT matrix jac_f writes into:
+        made on the first Newton iteration in Python (a run whose steps all converge in the compiled step graph
+        never needs them; at 1000 elements the three buffers take ~2 ms to allocate), from the structure's pool."""
+        if self._evals is None:
+            if "kkt_pattern" not in self._graphs:  # (converting CasADi's pattern costs ~10 ms at 1000 elements)
+                spk = self.kkt_sparsity
+                self._graphs["kkt_pattern"] = (spk.nnz(), np.array(spk.row(), dtype=np.int32),
+                                               np.array(spk.colind(), dtype=np.int32))
+            nnz, rows, colind = self._graphs["kkt_pattern"]
+            self._kkt = sp.csc_matrix((np.zeros(nnz), rows, colind), shape=(self.nz, self.nz))
+            has_kel = self.kel is not None
+            args = [self.x, self.lam, self.p, self.cm, self.cc, self.kc, self.vc] + ([self.kel] if has_kel else []) \
+                + [self.y, self.par]
+            bufs = []
+            for name, f, outs in (("iter", self.iter_f, (self.dz, self.norms)), ("res", self.res_f, (self.r, self.norms[:2])),
+                                  ("jac", self.jac_f, (self.r, self._jac_norms, self._kkt.data))):
+                buf, ev = pooled_buffer(self._graphs, name, f, self)
+                for i, a in enumerate(args):
+                    buf.set_arg(i, memoryview(a))
+                for i, a in enumerate(outs):
+                    buf.set_res(i, memoryview(a))
+                bufs.append((buf, ev, args, outs))  # the buffer object must outlive its evaluations
+            self._evals = bufs
+        return self._evals
+
+    @property
+    def kkt(self) -> sp.csc_matrix:
+        """The KKT matrix `jacobian` writes into (its pattern: kkt_sparsity)."""
+        self._bind()
+        return self._kkt
 
     # -- numeric calls ------------------------------------------------------------------------------------------
     def iterate(self) -> np.ndarray:
         """One full Newton iteration at the current buffers: self.dz (not applied) and self.norms."""
-        self._iter_eval()
+        self._bind()[0][1]()
         self.floor = float(np.finfo(float).eps * self.norms[4] * self.span)
         return self.dz
 
     def residual(self) -> np.ndarray:
         """r at the current buffers, written into self.r; norms[:2]."""
-        self._res_eval()
+        self._bind()[1][1]()
         return self.r
 
     def jacobian(self) -> sp.csc_matrix:
         """r and the KKT values at the current buffers (self.r, self.kkt in place); updates the round-off floor
         of the residual, eps x largest matrix entry x coordinate span (as statics._roundoff_floor)."""
-        self._jac_eval()
+        self._bind()[2][1]()
         self.norms[:2] = self._jac_norms[:2]
         self.norms[4] = self._jac_norms[2]
         self.floor = float(np.finfo(float).eps * self._jac_norms[2] * self.span)
-        return self.kkt
+        return self._kkt
 
     def full(self, xf: np.ndarray) -> np.ndarray:
         """Coordinates of the scene from the unknowns."""

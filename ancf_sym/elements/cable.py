@@ -63,8 +63,9 @@ def bending_density(rx, rxx, EI):
 
 # Whole-element energies (direct form; the decoupled strain needs the whole element at once) ------------------
 
-def decoupled_energy(q, p, dim: int, gauss: int):
-    """Paper 000 sec. 2: axial energy of the equivalent rod q_D = [0, |r_x(0)|, L_D, |r_x(L)|]."""
+def decoupled_energy(q, p, dim: int, gauss: int, strain: str = "green"):
+    """Paper 000 sec. 2: axial energy of the equivalent rod q_D = [0, |r_x(0)|, L_D, |r_x(L)|], with the rod's Green
+    strain (the paper's) or its Biot strain r_D,x - 1 (the statics' start for it, as Biot is for coupled Green)."""
     L, EA = p[0], p[1]
     _, t0, _, t1 = nodal(q, dim)
     xs, ws = gauss01(gauss)
@@ -74,7 +75,7 @@ def decoupled_energy(q, p, dim: int, gauss: int):
     for x, w in zip(xs, ws):
         d = hermite.dh(x)
         rDx = d[1] * a + d[2] * LD / L + d[3] * c  # d r_D / dx with r_D(0) = 0
-        eps = (rDx**2 - 1) / 2
+        eps = (rDx**2 - 1) / 2 if strain == "green" else rDx - 1
         U += w * L * EA / 2 * eps**2
     return U
 
