@@ -14,7 +14,11 @@ From the example's static start, per beam form:
 CPU (process) time, so that the other processes on a shared machine count less; min and median over repeats.
 No peer runs here: the reference figure is paper 001's "CMM takes 9x the ELM run" (Exudyn has no 24-DOF ANCF beam).
 
-Run: python bench/tracked_vehicle_cost.py [--repeats 3]
+With --driven, the same for the driven half vehicle (chassis and wheels as bodies, 7 body-carried drums, the sprocket
+turned by omega(t) from t = 0): the time loop (modified Newton, 0.04 s from the vehicle's static start) and the
+kernels with their tangents at the start: elastic, the 8 normal laws, the ground's and the sprocket's friction.
+
+Run: python bench/tracked_vehicle_cost.py [--repeats 3] [--driven]
 """
 from __future__ import annotations
 
@@ -70,10 +74,45 @@ def loop_cost(method: str, q0: np.ndarray, dissipation: bool, repeats: int, modi
     return min(per), statistics.median(per), it
 
 
+def driven_cost(repeats: int) -> None:
+    """CPU ms per step of the driven vehicle's time loop and of its kernels at the start, per beam form."""
+    print(f"{'driven vehicle, CPU ms':34s} {'CMM min':>9s} {'median':>8s} {'ELM min':>9s} {'median':>8s}")
+    rows = {}
+    for method in ("continuum", "elastic_line"):
+        asm, q0, _ = TV.vehicle_start(method, drive_start=0.0)
+        per, it = [], 0.0
+        for _ in range(repeats):
+            res = simulate(asm, DynamicOptions(dt=2e-4, t_end=0.04, rho_inf=0.5, q0=q0, energies=False,
+                                               newton=TV.NEWTON))
+            assert res.success, res.message
+            per.append(1e3 * res.cpu_s / res.steps)
+            it = res.newton_iterations / res.steps
+        r = {"loop": (min(per), statistics.median(per))}
+        rep = 10 * repeats
+        elastic = [mk for mk in asm.curved if mk.term.label != contact.LABEL]
+        normal = [mk for mk in asm.curved if mk.term.label == contact.LABEL]
+        r["elastic"] = best(lambda: [mk(q0) for mk in elastic], rep)
+        r["normal"] = best(lambda: [mk(q0) for mk in normal], rep)
+        for element, effect, gauss, idx, P in contact.dissipation_calls(asm.mesh):
+            k = kernels.load(element, effect, None if gauss == 5 else gauss).map(len(idx))
+            Z = np.vstack([q0[idx].T, np.zeros_like(q0[idx].T)])
+            r[effect] = best(lambda: k(Z, P.T), rep)
+        rows[method] = r
+        print(f"{method}: Newton iterations per step {it:.2f}")
+    for key in rows["continuum"]:
+        c, e = rows["continuum"][key], rows["elastic_line"][key]
+        sc = 1.0 if key == "loop" else 1e3
+        print(f"{key:34s} {sc * c[0]:9.2f} {sc * c[1]:8.2f} {sc * e[0]:9.2f} {sc * e[1]:8.2f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--driven", action="store_true", help="the driven vehicle instead of the chain on fixed wheels")
     a = ap.parse_args()
+    if a.driven:
+        driven_cost(a.repeats)
+        return
     rows = {}
     for method in ("continuum", "elastic_line"):
         q0, _ = TV.static_start(method)
