@@ -56,7 +56,8 @@ class Partition:
         counts = np.bincount(pos[cols[keep]], minlength=self.ny)
         indptr = np.zeros(self.ny + 1, dtype=A.indptr.dtype)
         np.cumsum(counts, out=indptr[1:])
-        R = sp.csc_matrix((A.data[keep], pos[A.indices[keep]].astype(A.indices.dtype), indptr), shape=(self.ny, self.ny))
+        R = sp.csc_matrix((A.data[keep], pos[A.indices[keep]].astype(A.indices.dtype), indptr),
+                          shape=(self.ny, self.ny))
         R.eliminate_zeros()  # (as the sparse products did: the element mass matrices' zero entries are not stored)
         return R
 

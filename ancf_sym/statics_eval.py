@@ -112,6 +112,7 @@ class ReducedEvaluation:
             self._hband = flat
         self.energy, self.g = 0.0, np.zeros(nf)
         self._pen = None  # penalty Hessian entries at the last evaluation: (rows, cols, values) on free coordinates
+        self.at = None  # the array of the last evaluation (the object, not a copy: identity says none came since)
 
     def _bind(self) -> None:
         """Output buffers (every call's gradients and Hessians side by side) and the mapped kernel calls."""
@@ -150,11 +151,13 @@ class ReducedEvaluation:
             return None
         out = copy.copy(self)
         out.fts = fts
+        out.at = None
         out._bind()
         return out
 
     def evaluate(self, x_full: np.ndarray) -> None:
         """Kernels (and penalties) at x_full: energy, g; the tangent's values kept for band() / matrix()."""
+        self.at = x_full
         for idx, X, _, _, ev, local in self.calls:
             np.take(x_full, idx, out=X)
             if local is not None:  # both copies are taken before the assignment: the first node's column too

@@ -37,8 +37,7 @@ import numpy as np
 from scipy.sparse.linalg import splu
 
 from .assembly import Assembly
-from scipy.linalg import solve_banded
-from scipy.linalg.lapack import dpbtrf, dpbtrs
+from scipy.linalg.lapack import dgbsv, dpbtrf, dpbtrs
 
 from .inertia import banded_cholesky, banded_solve
 from .statics_eval import ReducedEvaluation
@@ -207,16 +206,16 @@ class NewtonStatics:
 def _banded_lu_solve(ab: np.ndarray, r: np.ndarray) -> np.ndarray:
     """K^-1 r for a symmetric K in LAPACK's upper banded storage, by the banded LU with partial pivoting (LAPACK
     dgbsv, O(n bw^2)): for tangents that are not positive definite, where the sparse LU took ~1 s at 400 000
-    coordinates (measured) and this takes ~0.05 s. NaN where K is singular."""
+    coordinates (measured) and this takes ~0.05 s. NaN where K is singular. dgbsv called directly (what
+    scipy.linalg.solve_banded calls, in the storage it builds): its checks and copies cost ~30 us a call, measured on
+    6 elements (35 -> 6 us), where one indefinite step per solve is common."""
     bw, n = ab.shape[0] - 1, ab.shape[1]
-    full = np.zeros((2 * bw + 1, n))
-    full[:bw + 1] = ab
+    full = np.zeros((3 * bw + 1, n))  # bw rows for the LU's fill-in, then K's upper band, diagonal, lower band
+    full[bw:2 * bw + 1] = ab
     for d in range(1, bw + 1):  # K[j + d, j] = K[j, j + d], stored at ab[bw - d, j + d]
-        full[bw + d, :n - d] = ab[bw - d, d:]
-    try:
-        return solve_banded((bw, bw), full, r, overwrite_ab=True, check_finite=False)
-    except np.linalg.LinAlgError:
-        return np.full(n, np.nan)
+        full[2 * bw + d, :n - d] = ab[bw - d, d:]
+    x, info = dgbsv(bw, bw, full, r, overwrite_ab=1)[2:]
+    return x if info == 0 else np.full(n, np.nan)
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> float:
@@ -243,6 +242,7 @@ class KernelNewton(NewtonStatics):
         self.energy = None
         self.load = 1.0
         self._mu, self._prev_inc = 0.0, math.inf  # the last shift that made a step go downhill (the next try starts a tenth of it)
+        self._trial = None  # the point x + dz of an accepted step whose potential was evaluated (reused by the next _eval)
 
     def potential(self, x_full: np.ndarray, load: float = 1.0) -> float:
         """Total potential at x_full with the loads scaled by `load` [J] (linear terms: -load f_lin . x)."""
@@ -275,7 +275,11 @@ class KernelNewton(NewtonStatics):
     def _eval(self) -> None:
         R, ev = self.S, self.ev
         x_full = R.full(self.x)
-        ev.evaluate(x_full)
+        trial, self._trial = self._trial, None
+        if trial is not None and ev.at is trial and np.array_equal(x_full, trial):
+            x_full = trial  # the last step was accepted on its potential: the kernels were evaluated there already
+        else:
+            ev.evaluate(x_full)
         r = ev.g + self.p
         done = False
         ab = ev.band()
@@ -290,7 +294,10 @@ class KernelNewton(NewtonStatics):
                 done = bool(np.all(np.isfinite(self.dz)))
                 if self._prev_inc > SHIFT_BELOW and not abs(self.dz / self.scale).max() <= SHIFT_BELOW:
                     self.energy = ev.energy - self.load * _dot(R.f_lin_full, x_full)
-                    if not (done and self.potential(R.full(self.x + self.dz), self.load) < self.energy):
+                    x_try = R.full(self.x + self.dz)
+                    if done and self.potential(x_try, self.load) < self.energy:
+                        self._trial = x_try
+                    else:
                         done = self._shifted_step(ab, r) or done
         if not done:  # a wide band (or a singular one): banded Cholesky in another order, else sparse LU
             K = ev.matrix()
@@ -304,7 +311,7 @@ class KernelNewton(NewtonStatics):
         self._prev_inc = self.norms[2]
 
     def solve(self, *args, **kw) -> NewtonRun:
-        self._mu, self._prev_inc = 0.0, math.inf
+        self._mu, self._prev_inc, self._trial = 0.0, math.inf, None
         return super().solve(*args, **kw)
 
     def _shifted_step(self, ab: np.ndarray, r: np.ndarray) -> bool:
@@ -327,6 +334,7 @@ class KernelNewton(NewtonStatics):
                 if self.potential(x_try, self.load) < self.energy:
                     self.dz[:] = dz
                     self._mu = mu
+                    self._trial = x_try
                     return True
             mu *= 10.0
         return False

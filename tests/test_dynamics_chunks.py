@@ -113,7 +113,7 @@ def test_integrators_of_one_structure_share_step_and_chunk_functions():
 
 
 def test_a_large_state_runs_its_chunk_step_by_step_and_stops_at_the_first_failure():
-    """Large states (>= chunks.UNROLL_STATE entries) build no chunk graph: the chunk is the step graph called once
+    """Large states (>= chunks.LARGE_STATE entries) build no chunk graph: the chunk is the step graph called once
     per step, ending at the first step it cannot accept (a non-finite load at step 4 of 8). The accepted states
     are those of three single steps (the same compiled step: round-off only), and the failing step's work is
     counted but nothing after it."""

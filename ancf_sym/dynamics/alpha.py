@@ -2,12 +2,12 @@
 index-3 constraints): the integrator the time loop drives, one step at a time (`attempt` / `accept`, with step
 rejection and error control) or many fixed steps per compiled call (`run_chunk`).
 
-A step is one compiled graph (ancf_sym.dynamics.alpha_step); `run_chunk` maps it over many steps (mapaccum, or
-unrolled on large states) so that a whole stretch of the time loop is one call, ending at the first step the graph
-cannot accept (ancf_sym.dynamics.chunks). Steps the graph flags as unconverged are redone by the Python full-Newton
-loop (ancf_sym.dynamics.newton, absolute tolerances, max_iter) from the graph's last iterate. newton.modified true
-without the in-graph factor (multipliers, strain-rate damping) runs modified Newton in Python with a SuperLU
-factorisation reused across iterations and steps.
+A step is one compiled graph (ancf_sym.dynamics.alpha_step); `run_chunk` maps it over many steps (mapaccum; on
+large states a loop calling it once per step) so that a whole stretch of the time loop is one call, ending at the
+first step the graph cannot accept (ancf_sym.dynamics.chunks). Steps the graph flags as unconverged are redone by
+the Python full-Newton loop (ancf_sym.dynamics.newton, absolute tolerances, max_iter) from the graph's last iterate.
+newton.modified true without the in-graph factor (multipliers, strain-rate damping) runs modified Newton in Python
+with a SuperLU factorisation reused across iterations and steps.
 """
 from __future__ import annotations
 
@@ -64,7 +64,7 @@ class AlphaIntegrator:
             # full Newton: the further iterations (3-6) in the step graph on large states; small states build them
             # only for guarded chunks (after a hard transient showed up): ~2.5 ms of set-up for a rare need
             self._graphs["step"] = self._builder.build_modified() if self.modified_graph else \
-                self._builder.build_full(self.extra_iterations if self.state_size >= chunks.UNROLL_STATE else 0)
+                self._builder.build_full(self.extra_iterations if self.state_size >= chunks.LARGE_STATE else 0)
         self.step_f = self._graphs["step"]
         self._setup_step_buffers()
         self._chunks: dict = {}  # this integrator's buffers of the chunk functions
@@ -243,7 +243,7 @@ class AlphaIntegrator:
         """The step with the 'failed' flag of ancf_sym.dynamics.chunks.guarded (full Newton on small states: the
         step with the further iterations 3-6, built on first use)."""
         f = self.step_f
-        if not self.modified_graph and self.state_size < chunks.UNROLL_STATE:  # (the step with iterations 3-6)
+        if not self.modified_graph and self.state_size < chunks.LARGE_STATE:  # (the step with iterations 3-6)
             f = self._graphs.setdefault("step_more", None) or self._builder.build_full(self.extra_iterations)
             self._graphs["step_more"] = f
         return chunks.guarded(f, self.state_size, self.n_accum, self.info_size)
@@ -253,7 +253,7 @@ class AlphaIntegrator:
         """Chunks with the no-op guard after a failed step: on large states (the guard's switch costs nothing
         against a step there), and on any state after a chunk has failed early (a hard transient: the steps after
         a failure would be thrown away). Small states start without: the switch costs ~5 % of a 130-unknown step."""
-        return self._guard_on or self.state_size >= chunks.UNROLL_STATE
+        return self._guard_on or self.state_size >= chunks.LARGE_STATE
 
     def chunk_function(self, n: int, guard: bool | None = None):
         guard = self.guard if guard is None else guard
@@ -287,7 +287,7 @@ class AlphaIntegrator:
         """Large states run a chunk as one call of the step graph per step from a tight loop (the loop's ~5 us per
         step is nothing against a step there, and no chunk graph is built: an unrolled 50-step chunk took
         0.1-0.15 s to build at 1000 elements); small states as one compiled call (mapaccum)."""
-        return self.state_size >= chunks.UNROLL_STATE
+        return self.state_size >= chunks.LARGE_STATE
 
     def prepare_chunks(self, n: int) -> None:
         """Build (or take from the cache) the chunk function of n steps and its buffers: set-up, before the loop."""

@@ -294,7 +294,8 @@ class StepSystem:
             args = [self.x, self.lam, self.p, self.cm, self.cc, self.kc, self.vc] + ([self.kel] if has_kel else []) \
                 + [self.y, self.par]
             bufs = []
-            for name, f, outs in (("iter", self.iter_f, (self.dz, self.norms)), ("res", self.res_f, (self.r, self.norms[:2])),
+            for name, f, outs in (("iter", self.iter_f, (self.dz, self.norms)),
+                                  ("res", self.res_f, (self.r, self.norms[:2])),
                                   ("jac", self.jac_f, (self.r, self._jac_norms, self._kkt.data))):
                 buf, ev = pooled_buffer(self._graphs, name, f, self)
                 for i, a in enumerate(args):
