@@ -5,6 +5,8 @@ From the example's static start, per beam form:
 - the time loop (generalized-alpha, dt = 2e-4 s, 100 steps): CPU ms per step and Newton iterations per step, with
   the full contact set (ground friction and damping: unsymmetric tangent, sparse QR) and with the ground's
   dissipation left out (normal laws only: symmetric, LDL^T), which separates the dissipation kernel + QR share;
+  and with modified Newton (the exact tangent's factor kept while Newton contracts: the example's setting), at
+  dt = 2e-4 s and 5e-4 s (cost per simulated time: divide by 2.5 at the larger step);
 - the kernels alone, best of `repeat` calls at the start state: the elastic forces with their Hessian (64
   elements), the 8 contact normal laws (8 x 64 element calls), the ground's damping/friction dissipation (64);
 - a sparse LU factorisation of the step matrix M / (beta h^2) + K (SciPy SuperLU, for scale: the step graph
@@ -12,7 +14,11 @@ From the example's static start, per beam form:
 CPU (process) time, so that the other processes on a shared machine count less; min and median over repeats.
 No peer runs here: the reference figure is paper 001's "CMM takes 9x the ELM run" (Exudyn has no 24-DOF ANCF beam).
 
-Run: python bench/tracked_vehicle_cost.py [--repeats 3]
+With --driven, the same for the driven half vehicle (chassis and wheels as bodies, 7 body-carried drums, the sprocket
+turned by omega(t) from t = 0): the time loop (modified Newton, 0.04 s from the vehicle's static start) and the
+kernels with their tangents at the start: elastic, the 8 normal laws, the ground's and the sprocket's friction.
+
+Run: python bench/tracked_vehicle_cost.py [--repeats 3] [--driven]
 """
 from __future__ import annotations
 
@@ -36,6 +42,7 @@ from ancf_sym import contact  # noqa: E402
 from ancf_sym.assembly import Assembly  # noqa: E402
 from ancf_sym.dynamics import DynamicOptions, simulate  # noqa: E402
 from ancf_sym.dynamics import StepSystem  # noqa: E402
+from ancf_sym.dynamics.newton import NewtonOptions  # noqa: E402
 from ancf_sym import kernels  # noqa: E402
 
 
@@ -48,26 +55,64 @@ def best(f, repeat: int) -> tuple[float, float]:
     return min(ts), statistics.median(ts)
 
 
-def loop_cost(method: str, q0: np.ndarray, dissipation: bool, repeats: int) -> tuple[float, float, float]:
-    """(min, median CPU ms per step, Newton iterations per step) over `repeats` runs of 100 steps."""
+def loop_cost(method: str, q0: np.ndarray, dissipation: bool, repeats: int, modified: bool = False,
+              dt: float = 2e-4) -> tuple[float, float, float]:
+    """(min, median CPU ms per step, Newton iterations per step) over `repeats` runs of 0.02 s (100 steps at the
+    example's dt): full Newton (a factorisation per iteration, in the compiled step graph) or modified Newton (the
+    exact tangent's SuperLU factor kept across iterations and steps while Newton contracts)."""
     per, it = [], 0.0
     for _ in range(repeats):
         sc = TV.build_scene(method)
         if not dissipation:
             sc.contacts[0] = dataclasses.replace(sc.contacts[0], damping=0.0, mu=0.0)
         asm = Assembly(sc)
-        res = simulate(asm, DynamicOptions(dt=2e-4, t_end=0.02, rho_inf=0.5, q0=q0, energies=False),
-                       system=StepSystem(asm))
+        res = simulate(asm, DynamicOptions(dt=dt, t_end=0.02, rho_inf=0.5, q0=q0, energies=False,
+                                           newton=NewtonOptions(modified=modified)), system=StepSystem(asm))
         assert res.success, res.message
         per.append(1e3 * res.cpu_s / res.steps)
         it = res.newton_iterations / res.steps
     return min(per), statistics.median(per), it
 
 
+def driven_cost(repeats: int) -> None:
+    """CPU ms per step of the driven vehicle's time loop and of its kernels at the start, per beam form."""
+    print(f"{'driven vehicle, CPU ms':34s} {'CMM min':>9s} {'median':>8s} {'ELM min':>9s} {'median':>8s}")
+    rows = {}
+    for method in ("continuum", "elastic_line"):
+        asm, q0, _ = TV.vehicle_start(method, drive_start=0.0)
+        per, it = [], 0.0
+        for _ in range(repeats):
+            res = simulate(asm, DynamicOptions(dt=2e-4, t_end=0.04, rho_inf=0.5, q0=q0, energies=False,
+                                               newton=TV.NEWTON))
+            assert res.success, res.message
+            per.append(1e3 * res.cpu_s / res.steps)
+            it = res.newton_iterations / res.steps
+        r = {"loop": (min(per), statistics.median(per))}
+        rep = 10 * repeats
+        elastic = [mk for mk in asm.curved if mk.term.label != contact.LABEL]
+        normal = [mk for mk in asm.curved if mk.term.label == contact.LABEL]
+        r["elastic"] = best(lambda: [mk(q0) for mk in elastic], rep)
+        r["normal"] = best(lambda: [mk(q0) for mk in normal], rep)
+        for element, effect, gauss, idx, P in contact.dissipation_calls(asm.mesh):
+            k = kernels.load(element, effect, None if gauss == 5 else gauss).map(len(idx))
+            Z = np.vstack([q0[idx].T, np.zeros_like(q0[idx].T)])
+            r[effect] = best(lambda: k(Z, P.T), rep)
+        rows[method] = r
+        print(f"{method}: Newton iterations per step {it:.2f}")
+    for key in rows["continuum"]:
+        c, e = rows["continuum"][key], rows["elastic_line"][key]
+        sc = 1.0 if key == "loop" else 1e3
+        print(f"{key:34s} {sc * c[0]:9.2f} {sc * c[1]:8.2f} {sc * e[0]:9.2f} {sc * e[1]:8.2f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--driven", action="store_true", help="the driven vehicle instead of the chain on fixed wheels")
     a = ap.parse_args()
+    if a.driven:
+        driven_cost(a.repeats)
+        return
     rows = {}
     for method in ("continuum", "elastic_line"):
         q0, _ = TV.static_start(method)
@@ -75,6 +120,8 @@ def main() -> None:
         r = {}
         r["loop"] = loop_cost(method, q0, True, a.repeats)
         r["loop_sym"] = loop_cost(method, q0, False, a.repeats)
+        r["loop_mod"] = loop_cost(method, q0, True, a.repeats, modified=True)
+        r["loop_mod_5"] = loop_cost(method, q0, True, a.repeats, modified=True, dt=5e-4)
         elastic = [mk for mk in asm.curved if mk.term.label != contact.LABEL]
         normal = [mk for mk in asm.curved if mk.term.label == contact.LABEL]
         rep = 10 * a.repeats
@@ -92,6 +139,8 @@ def main() -> None:
         rows[method] = r
     print(f"{'CPU ms':34s} {'CMM min':>9s} {'median':>8s} {'ELM min':>9s} {'median':>8s} {'CMM/ELM':>8s}")
     labels = {"loop": "time loop, per step (all contacts)", "loop_sym": "time loop, per step (no ground dissip.)",
+              "loop_mod": "time loop, modified Newton (the example)",
+              "loop_mod_5": "modified Newton, dt = 5e-4 s",
               "elastic": "elastic forces + Hessian (64 el.)", "normal": "8 contact normal laws (8 x 64)",
               "friction": "ground damping/friction (64)", "lu": "sparse LU of the step matrix"}
     for key, lab in labels.items():
@@ -100,7 +149,8 @@ def main() -> None:
         print(f"{lab:34s} {sc * c[0]:9.2f} {sc * c[1]:8.2f} {sc * e[0]:9.2f} {sc * e[1]:8.2f} {c[0] / e[0]:8.2f}")
     for m in rows:
         print(f"{m}: Newton iterations per step {rows[m]['loop'][2]:.2f} (all contacts), "
-              f"{rows[m]['loop_sym'][2]:.2f} (no ground dissipation)")
+              f"{rows[m]['loop_sym'][2]:.2f} (no ground dissipation), {rows[m]['loop_mod'][2]:.2f} (modified), "
+              f"{rows[m]['loop_mod_5'][2]:.2f} (modified, dt = 5e-4 s)")
 
 
 if __name__ == "__main__":

@@ -13,11 +13,17 @@ the wrapped loop is exactly 64 l long (the track adjuster's job).
 Frames: the scene is x forward, y up, z lateral (the chain lies in the plane z = 0); the paper's axes are Y forward,
 Z up, X lateral, so paper (X, Y, Z) = scene (z, x, y). Records use the paper's names.
 
-This version holds the wheels fixed in space (fixed drums): the chain rests on the wheels and the ground, started
-from its static equilibrium (`static_start`), or, with --speed V, running along its path at V from that shape (the
-ground's friction then brakes it: an energy bookkeeping case). What the driven vehicle adds (a chassis body carrying
-the wheels, the sprocket turned by the paper's omega(t)) is listed in docs/vehicle.md. "Vehicle" displacement and
-speed here are the chain's centre of mass.
+The driven half vehicle (the default run): a chassis (half of the M113's ~7.8 t hull) held in the chain's plane by
+two light slides (forward, vertical, pitch), the sprocket, the idler and the five road wheels as spatial bodies on
+revolute joints to the chassis (axles rigidly mounted: no torsion bars; the band and the Hertz contacts give the
+vertical compliance), each carrying its drum; the sprocket turned relative to the chassis by paper 001's omega(t)
+(0 until 1 s, ramp to 10 rad/s at 2 s); it drives the chain by friction (mu = 0.3, no tooth model), the idler and
+road wheels spin freely and are frictionless. The run starts from the vehicle's static equilibrium
+(`vehicle_start`). "Vehicle" displacement and speed are the chassis' centre of mass; the no-slip estimates are the
+sprocket's angle and rate times its pitch radius (35 rad x 0.2453 m = 8.59 m at 5 s, 2.453 m/s on the plateau).
+With --fixed-wheels, the first stage: the chain on wheels held in space, at rest from its static equilibrium
+(`static_start`) or, with --speed V, running along its path at V (the ground's friction then brakes it: an energy
+bookkeeping case); its "vehicle" displacement and speed are the chain's centre of mass.
 
 The steel band's bending stiffness is the paper's, E b h^3 / 12 = 5.08e4 N m^2: wrapped on the sprocket's pitch
 circle it carries a bending moment of EI / R = 2.1e5 N m, so the band wants to straighten and is held on the wheels
@@ -26,14 +32,16 @@ only by its own tension (the loop is exactly as long as the wheels' convex hull)
 alone would need. Before the dynamics, `relax_sections` removes the spurious thickness strain of the curved
 elements and `static_start` finds the equilibrium (docs/vehicle.md says why both are needed).
 
-Records (one per output time, every 0.05 s): method, t, x, y, z (paper axes, centre of mass displacement from the
-start [m]), vy (forward speed [m/s]), wall_s (the run's wall time), contact gaps and forces, the largest distance
-of a node from the wrapped path and from its start, the mean stretch, the energies (kinetic, potential,
-damping_work, external_work, algorithmic), the run's steps, Newton iterations, CPU time and the static start's
-cost, and shape_diff_vs_other (CMM vs ELM: largest distance between the chains' nodes).
+Records (one per output time, every 0.05 s): case ("driven", "rest", "running"), method, t, x, y, z (paper axes,
+centre of mass displacement from the start [m]), vy (forward speed [m/s]), wall_s (the run's wall time), contact
+gaps and forces, the mean stretch, the energies (kinetic, potential, damping_work: contact damping and friction,
+external_work: the drive's work, algorithmic), the run's steps, Newton iterations, CPU time and the static start's
+cost, and shape_diff_vs_other (CMM vs ELM: largest distance between the chains' nodes); driven: the chassis' pitch,
+the sprocket's angle and rate, the no-slip y and speed, the drive's torque; fixed wheels: the largest distance of a
+node from the wrapped path and from its start.
 
 Run: python examples/tracked_vehicle.py [--quick] [--methods continuum,elastic_line] [--t-end 5] [--json PATH]
-     [--out DIR] [--dt 2e-4] [--speed V]
+     [--out DIR] [--dt 2e-4] [--drive-start 1] [--fixed-wheels [--speed V]] [--ground-mu MU]
 """
 from __future__ import annotations
 
@@ -53,9 +61,10 @@ import scipy.sparse as sp  # noqa: E402
 import scipy.sparse.linalg as spla  # noqa: E402
 from scipy.optimize import brentq  # noqa: E402
 
-from ancf_sym import Material, Scene, Section, closed, contact  # noqa: E402
+from ancf_sym import Material, Scene, Section, closed, contact, drives  # noqa: E402
 from ancf_sym.assembly import Assembly  # noqa: E402
 from ancf_sym.dynamics import DynamicOptions, Sensor, simulate  # noqa: E402
+from ancf_sym.dynamics.newton import NewtonOptions  # noqa: E402
 from ancf_sym.dynamics_output import frame_sensors, write_series  # noqa: E402
 from ancf_sym.statics import solve_static  # noqa: E402
 
@@ -73,7 +82,8 @@ ROAD_X = (-1.32, -0.66, 0.0, 0.66, 1.32)
 Y_ROAD = 2 * T + R_ROAD  # road wheels resting on the chain resting on the ground y = 0
 SPROCKET = (2.0, 0.62)
 Y_IDLER = 0.52
-QUICK_T = 0.02  # [s] the test's runs
+QUICK_T = 0.02  # [s] the test's runs of the chain on fixed wheels
+QUICK_DRIVEN_T = 0.3  # [s] the test's run of the driven vehicle (drive started at t = 0: the sprocket turns 0.24 rad)
 RUN_SPEED = 10 * R_PITCH  # [m/s] the paper's speed plateau without slip, omega = 10 rad/s on the pitch circle
 AXIS_LABELS = {"x": "X (lateral) [m]", "y": "Y (forward) [m]", "z": "Z (up) [m]", "vy": "forward speed [m/s]"}
 PIN_NODE = 8  # a node of the bottom span, under the middle road wheel (held for the static start only)
@@ -86,6 +96,10 @@ GROUND = dict(hertz=1e10, damping=1e9, mu=0.5, eps=0.01)
 # mu = 0.3 and the MN/m wrap pressure the regularised friction (eps = 0.01 m/s) made Newton reject most steps, and
 # the damping/friction kernels of 7 drums x 64 elements quadrupled the cost per step, measured)
 WHEEL = dict(hertz=1e11)
+# modified Newton: the exact tangent's factorisation kept across iterations and steps while Newton contracts (the
+# step matrix changes little from step to step); 2.9x less CPU per step than a factorisation per step here (the
+# ground's friction makes it unsymmetric: a sparse QR in the step graph; bench/VEHICLE_RESULTS.md)
+NEWTON = NewtonOptions(modified=True)
 
 
 def idler_x() -> float:
@@ -148,10 +162,17 @@ def relax_sections(asm: Assembly, x: np.ndarray, member: str = "chain", tol: flo
     raise RuntimeError("section relaxation did not converge in 20 Newton iterations")
 
 
+_STATIC: dict = {}  # beam form -> (x, data) of its static start
+
+
 def static_start(method: str) -> tuple[np.ndarray, dict]:
     """The chain at rest on the wheels and the ground: statics (penalty contact, IPOPT) from the wrapped shape
     with relaxed sections, one bottom node pinned for the solve only (frictionless statics leaves the loop free to
-    slide around the wheels; in the dynamic run the ground's friction holds it). Returns x and the solve's data."""
+    slide around the wheels; in the dynamic run the ground's friction holds it). Returns x and the solve's data
+    (solved once per beam form and process: the runs of one command share it)."""
+    if method in _STATIC:
+        x, st = _STATIC[method]
+        return x.copy(), dict(st)
     sc = build_scene(method)
     sc.pin("chain", at=PIN_NODE)
     asm = Assembly(sc)
@@ -160,8 +181,9 @@ def static_start(method: str) -> tuple[np.ndarray, dict]:
     if not r.success:
         raise RuntimeError(f"static start ({method}): {r.status}")
     pin = np.asarray(r.constraint_forces.get(f"pin chain@{PIN_NODE}", [np.nan] * 3), float)
-    return r.x, {"static_s": time.perf_counter() - t0, "static_iterations": r.iterations,
-                 "pin_force": float(np.linalg.norm(pin))}
+    _STATIC[method] = (np.array(r.x, float), {"static_s": time.perf_counter() - t0,
+                                              "static_iterations": r.iterations, "pin_force": float(np.linalg.norm(pin))})
+    return static_start(method)
 
 
 def circulating(asm: Assembly, speed: float, refine: int = 200) -> np.ndarray:
@@ -182,6 +204,196 @@ def circulating(asm: Assembly, speed: float, refine: int = 200) -> np.ndarray:
     return v
 
 
+# -- the driven half vehicle ----------------------------------------------------------------------------------------
+# M113 data (the paper gives none): half of the ~7.8 t hull per side; the hull's inertia as a uniform box of its
+# length, height and width; wheels as discs (M113 dual road wheel ~50 kg). Total per side with the chain: 5.4 t.
+CHASSIS_MASS = 3900.0  # [kg]
+CHASSIS_BOX = (4.9, 1.8, 2.7)  # [m] length (x), height (y), width (z)
+CHASSIS_POS = (0.2, 1.1)  # centre of mass (scene x, y) [m]: between the sprocket and the idler, 1.1 m up
+WHEEL_MASS = {"road": 50.0, "sprocket": 80.0, "idler": 60.0}  # [kg]
+WHEEL_WIDTH = 0.3  # [m] (the discs' inertia across their axle)
+# the two slides that hold the chassis in the chain's plane (x slide on the ground, y slide on it, the chassis
+# pitching on the y slide): light next to the 5.4 t they carry (4e-4 of the mass), so they change nothing physical
+SLIDE_MASS = 1.0
+# the sprocket drives the chain by friction (no tooth model): by the capstan law the band's ~0.8 MN tension over half
+# the sprocket (mu = 0.3) can pass ~0.8 MN (e^(0.3 pi) - 1) = 1.3 MN, far above the ~18 kN the peak acceleration
+# (3.3 m/s^2 on 5.4 t) needs; idler and road wheels spin freely on their axles and stay frictionless (docs/vehicle.md)
+SPROCKET_LAW = dict(hertz=1e11, mu=0.3, eps=0.01)
+DRIVE_START = 1.0  # [s] the paper's omega(t) is 0 until 1 s
+# paper 001's sprocket angular velocity [rad/s] from the drive's start t_s: pieces (t - t_s, polynomial in (t - t_k))
+OMEGA_PIECES = ((0.0, (0.0, 0.0, 80 / 3)), (0.25, (5 / 3, 40 / 3)), (0.75, (25 / 3, 40 / 3, -80 / 3)), (1.0, (10.0,)))
+NO_SLIP_Y = 35 * R_PITCH  # [m] forward travel without slip at 5 s: 35 rad of sprocket rotation on the pitch circle
+
+
+def omega_spec(start: float = DRIVE_START) -> list:
+    """Paper 001's omega(t) as a piecewise polynomial [[t_k, [a0, a1, ...]], ...] (0 before `start`)."""
+    pieces = [[start + t, list(c)] for t, c in OMEGA_PIECES]
+    return ([[0.0, [0.0]]] if start > 0 else []) + pieces
+
+
+def sprocket_angle(t: np.ndarray, start: float = DRIVE_START) -> tuple[np.ndarray, np.ndarray]:
+    """(angle [rad], omega [rad/s]) of the sprocket relative to the chassis at times t (exact integral)."""
+    m = drives.motion("omega", omega_spec(start), integral_of=0.0)
+    v = np.array([m(float(tk))[:2] for tk in np.atleast_1d(t)])
+    return v[:, 0], v[:, 1]
+
+
+def box_inertia(m: float, a: float, b: float, c: float) -> tuple[float, float, float]:
+    return m * (b * b + c * c) / 12, m * (a * a + c * c) / 12, m * (a * a + b * b) / 12
+
+
+def disc_inertia(m: float, R: float, w: float = WHEEL_WIDTH) -> tuple[float, float, float]:
+    """A disc of radius R and width w turning about z."""
+    across = m * (3 * R * R + w * w) / 12
+    return across, across, m * R * R / 2
+
+
+def wheel_bodies(x_idler: float) -> list[tuple[str, tuple[float, float], float, float, tuple]]:
+    """(name, centre, drum radius, mass, inertia) of every wheel body."""
+    out = []
+    for name, c, R in wheels(x_idler):
+        m = WHEEL_MASS[name.rstrip("0123456789")]
+        out.append((name, c, R, m, disc_inertia(m, R + T)))
+    return out
+
+
+def build_vehicle(method: str, ground_mu: float | None = None, drive_start: float = DRIVE_START,
+                  static: bool = False) -> Scene:
+    """The half vehicle: the chain, a chassis held in the chain's plane (forward, vertical, pitch), the sprocket,
+    idler and road wheels on revolute joints to the chassis (axles rigidly mounted: free-spinning wheels, no
+    suspension; the band's stiffness and the Hertz contacts give the vertical compliance), each carrying its drum,
+    and the sprocket turned by paper 001's omega(t) relative to the chassis.
+
+    static: the scene of the static start instead. Frictionless statics leaves the wheels' spins free (the normal
+    law's force passes through the axle), which makes the equilibrium singular; the drums are then all carried by
+    the chassis, whose mass and centre are those of chassis and wheels together: the same contact geometry and the
+    same weight and moment, hence the same equilibrium. No drive either (the statics take no time-dependent rows)."""
+    sc = Scene(dim=3, gravity=(0.0, -G, 0.0), name=f"tracked_vehicle_driven_{method}")
+    xi = idler_x()
+    sc.loop("chain", chain_path(xi), N_EL, STEEL, Section.rectangle(b=B, h=H), element="beam3d",
+            beam_method=method, y_axis=(0.0, 0.0, 1.0))
+    sc.contact_ground("chain", normal=(0.0, 1.0, 0.0), level=0.0,
+                      **{**GROUND, **({} if ground_mu is None else {"mu": ground_mu})})
+    wb = wheel_bodies(xi)
+    mass, centre = CHASSIS_MASS, np.array([*CHASSIS_POS, 0.0])
+    if static:
+        mass = CHASSIS_MASS + sum(w[3] for w in wb)
+        centre = (CHASSIS_MASS * centre + sum(w[3] * np.array([*w[1], 0.0]) for w in wb)) / mass
+    p = tuple(centre)
+    sc.body("slide_x", SLIDE_MASS, (0.1, 0.1, 0.1), p)
+    sc.prismatic("slide_x", axis=(1.0, 0.0, 0.0))
+    sc.body("slide_y", SLIDE_MASS, (0.1, 0.1, 0.1), p)
+    sc.prismatic("slide_y", axis=(0.0, 1.0, 0.0), other="slide_x")
+    sc.body("chassis", mass, box_inertia(mass, *CHASSIS_BOX), p)
+    sc.revolute("chassis", axis=(0.0, 0.0, 1.0), other="slide_y")
+    for name, c, R, m, inertia in wb:
+        law = SPROCKET_LAW if name == "sprocket" else WHEEL
+        if static:
+            sc.contact_drum("chain", centre=(c[0], c[1], 0.0), radius=R, body="chassis", **law)
+            continue
+        sc.body(name, m, inertia, (c[0], c[1], 0.0))
+        # the sprocket's axis is -z: its positive angle turns it clockwise seen from +z, top forward (+x), which
+        # runs the chain backward along the ground and the vehicle forward
+        sc.revolute(name, axis=(0.0, 0.0, -1.0 if name == "sprocket" else 1.0), other="chassis")
+        sc.contact_drum("chain", radius=R, body=name, **law)
+    if not static:
+        sc.drive("sprocket", omega=omega_spec(drive_start), relative_to="chassis")
+    return sc
+
+
+def vehicle_start(method: str, ground_mu: float | None = None,
+                  drive_start: float = DRIVE_START) -> tuple[Assembly, np.ndarray, dict]:
+    """The vehicle at rest: statics of the whole half vehicle (`build_vehicle(static=True)`: chassis free to settle
+    on the chain, penalty contacts, IPOPT), warm-started from the chain's equilibrium on the wheels held in place
+    (`static_start`), one bottom node of the chain pinned for the solve only (as there). Without it the band's
+    push on the wheels (0.8 MN on the ground with the wheels held, 20 times the vehicle's weight) would throw the
+    chassis up at the release. The static chassis' rigid motion then places the chassis, the wheels (spin 0) and
+    the slides of the dynamic scene. Returns the dynamic run's assembly, q0 and the solves' data."""
+    xc, st = static_start(method)
+    fixed = Assembly(build_scene(method)).mesh.members["chain"]
+    sc = build_vehicle(method, ground_mu, drive_start, static=True)
+    sc.pin("chain", at=PIN_NODE)
+    asm_s = Assembly(sc)
+    mm = asm_s.mesh.members["chain"]
+    n_chain = mm.n_nodes * 12
+    x0 = np.array(asm_s.x0, float)
+    x0[mm.offset:mm.offset + n_chain] = xc[fixed.offset:fixed.offset + n_chain]
+    t0 = time.perf_counter()
+    r = solve_static(asm_s, warm_start=x0, print_level=0)
+    if not r.success:
+        raise RuntimeError(f"static start of the vehicle ({method}): {r.status}")
+    st.update(vehicle_static_s=time.perf_counter() - t0, vehicle_static_iterations=r.iterations)
+    cg = sc.bodies["chassis"].position
+    o = asm_s.mesh.bodies["chassis"]
+    rc, E = r.x[o:o + 3], r.x[o + 3:o + 12].reshape(3, 3)  # the static chassis' centre and axes (rows)
+    asm = Assembly(build_vehicle(method, ground_mu, drive_start))
+    q0 = np.array(asm.x0, float)
+    q0[asm.mesh.members["chain"].offset:][:n_chain] = r.x[mm.offset:mm.offset + n_chain]
+    for name, b in asm.scene.bodies.items():
+        ob = asm.mesh.bodies[name]
+        centre = rc + E.T @ (b.position - cg)
+        if name == "slide_x":  # slides along x only, at its reference height (slide_y: on the chassis' centre)
+            q0[ob:ob + 3] = (centre[0], b.position[1], b.position[2])
+            continue
+        q0[ob:ob + 3] = centre
+        if name != "slide_y":  # (the slides do not turn)
+            q0[ob + 3:ob + 12] = E.ravel()
+    return asm, q0, st
+
+
+def run_vehicle(method: str, t_end: float, dt: float, drive_start: float = DRIVE_START, rho_inf: float = 0.5,
+                output_dt: float = 0.05, ground_mu: float | None = None) -> tuple[list[dict], dict]:
+    """The driven half vehicle from rest: records of the chassis' motion (paper axes), the no-slip estimate, the
+    drive's torque and work, the energies and contacts at every output time."""
+    asm, q0, st = vehicle_start(method, ground_mu, drive_start)
+    sc = asm.scene
+    sensors = [Sensor(**s) for s in frame_sensors(sc)] + [Sensor(b, "body", b) for b in sc.bodies]
+    opts = DynamicOptions(dt=dt, t_end=t_end, rho_inf=rho_inf, output_dt=output_dt, sensors=sensors, q0=q0,
+                          newton=NEWTON)
+    t0 = time.perf_counter()
+    res = simulate(asm, opts)
+    wall = time.perf_counter() - t0
+    mm = asm.mesh.members["chain"]
+    states = np.stack([np.asarray(res.sensors[f"__node:chain:{j}"]) for j in range(mm.n_nodes)], axis=1)
+    t = np.asarray(res.t)
+    ch = np.asarray(res.sensors["chassis"])  # centre (3), omega (3), axes (9)
+    d = ch[:, :3] - ch[0, :3]
+    vel = np.gradient(ch[:, :3], t, axis=0, edge_order=2) if len(t) > 2 else np.zeros_like(d)
+    pitch = np.arctan2(ch[:, 7], ch[:, 6])  # the chassis x axis' angle up from forward
+    angle, omega = sprocket_angle(t, drive_start)
+    torque = np.asarray(res.drive_reactions.get("angle sprocket", np.full(len(t), np.nan)), float).ravel()
+    en = res.energies
+    records = []
+    for k in range(len(t)):
+        x = np.array(res.x, float)
+        x[mm.offset:mm.offset + states[k].size] = states[k].ravel()
+        for b, o in asm.mesh.bodies.items():  # bodies' centre and axes, for the contact report
+            x[o:o + 3], x[o + 3:o + 12] = res.sensors[b][k][:3], res.sensors[b][k][6:15]
+        reps = contact.report(asm, x)
+        records.append({"case": "driven", "method": method, "t": float(t[k]), "x": float(d[k, 2]),
+                        "y": float(d[k, 0]), "z": float(d[k, 1]), "vy": float(vel[k, 0]), "wall_s": wall,
+                        "status": res.status, "pitch_deg": float(np.degrees(pitch[k])),
+                        "sprocket_angle": float(angle[k]), "sprocket_omega": float(omega[k]),
+                        "y_no_slip": float(R_PITCH * angle[k]), "v_no_slip": float(R_PITCH * omega[k]),
+                        "drive_torque": float(torque[k]) if k < len(torque) else float("nan"),
+                        "ground_gap_min": reps[0]["min_gap"], "ground_force": reps[0]["normal_force"],
+                        "wheel_gap_min": min(rp["min_gap"] for rp in reps[1:]),
+                        "wheel_force": sum(rp["normal_force"] for rp in reps[1:]),
+                        "stretch_mean": float(np.linalg.norm(states[k, :, 3:6], axis=1).mean() - 1.0),
+                        "chain_bottom": float(states[k, :, 1].min()),
+                        **{e: float(en[e][k]) for e in ("kinetic", "potential", "damping_work", "external_work",
+                                                        "algorithmic")}})
+    summary = {"case": "driven", "method": method, "status": res.status, "success": res.success,
+               "t_reached": res.t_reached, "steps": res.steps, "rejected": len(res.rejected),
+               "newton": res.newton_iterations, "factorizations": res.factorizations, "wall_s": wall,
+               "setup_s": res.setup_s, "cpu_s": res.cpu_s, "ms_per_step": 1e3 * res.wall_s / max(res.steps, 1),
+               "cpu_ms_per_step": 1e3 * res.cpu_s / max(res.steps, 1), "energy_error": res.energy_error(), **st}
+    for r in records:
+        r.update({k: summary[k] for k in ("steps", "rejected", "newton", "factorizations", "cpu_s",
+                                          "cpu_ms_per_step", "static_s", "vehicle_static_s")})
+    return records, {"summary": summary, "t": t, "states": states, "result": res, "chassis": ch}
+
+
 def run(method: str, t_end: float, dt: float, integrator: str = "generalized_alpha", rho_inf: float = 0.5,
         output_dt: float = 0.05, speed: float = 0.0, ground_mu: float | None = None,
         case: str = "rest") -> tuple[list[dict], dict]:
@@ -191,7 +403,7 @@ def run(method: str, t_end: float, dt: float, integrator: str = "generalized_alp
     v0 = circulating(asm, speed) if speed else None
     sensors = [Sensor(**s) for s in frame_sensors(sc)]
     opts = DynamicOptions(dt=dt, t_end=t_end, integrator=integrator, rho_inf=rho_inf, output_dt=output_dt,
-                          sensors=sensors, q0=q0, v0=v0)
+                          sensors=sensors, q0=q0, v0=v0, newton=NEWTON)
     t0 = time.perf_counter()
     res = simulate(asm, opts)
     wall = time.perf_counter() - t0
@@ -236,27 +448,10 @@ def run(method: str, t_end: float, dt: float, integrator: str = "generalized_alp
     return records, {"summary": summary, "t": t, "states": states, "result": res}
 
 
-def main(argv=None):
-    p = C.parser("tracked_vehicle", __doc__)
-    p.add_argument("--methods", default="continuum,elastic_line", help="comma-separated beam forms")
-    p.add_argument("--t-end", type=float, default=None, help="end time [s] (default 5, --quick 0.02)")
-    p.add_argument("--dt", type=float, default=2e-4, help="time step [s]")
-    p.add_argument("--integrator", default="generalized_alpha")
-    p.add_argument("--speed", type=float, default=0.0,
-                   help="start the chain running along its path at this speed [m/s] instead of at rest")
-    p.add_argument("--ground-mu", type=float, default=None, help=f"ground friction (default {GROUND['mu']})")
-    a = p.parse_args(argv)
-    t_end = a.t_end if a.t_end is not None else (QUICK_T if a.quick else 5.0)
-    case = "running" if a.speed else "rest"
-    cases = [(case, m, a.speed, a.ground_mu) for m in a.methods.split(",")]
-    if a.quick:  # and the chain running at the speed plateau's 2.45 m/s on a frictionless ground (a belt on a stand)
-        cases.append(("running", "elastic_line", RUN_SPEED, 0.0))
-    records, runs = [], []
-    for case, method, speed, mu in cases:
-        recs, data = run(method, t_end, a.dt, a.integrator, speed=speed, ground_mu=mu, case=case)
-        records += recs
-        runs.append(data)
-    for c in {r["case"] for r in records}:  # CMM vs ELM: largest distance between the chains' nodes at each time
+def _pair_diff(runs: list[dict], records: list[dict]) -> None:
+    """CMM vs ELM: the largest distance between the chains' nodes at each output time, into the records of each
+    case run with both forms (shape_diff_vs_other)."""
+    for c in {r["case"] for r in records}:
         pair = [d for d in runs if d["summary"]["case"] == c]
         if len(pair) != 2:
             continue
@@ -267,56 +462,145 @@ def main(argv=None):
             rs = [r for r in records if r["method"] == d["summary"]["method"] and r["case"] == c]
             for k, r in enumerate(rs[:n]):
                 r["shape_diff_vs_other"] = float(diff[k])
+
+
+def _case_records(records, d):
+    return [r for r in records if r["method"] == d["summary"]["method"] and r["case"] == d["summary"]["case"]]
+
+
+def plot_motion(runs, records, out):
+    """X, Y, Z and the forward speed over time (paper 001's Figs. 11-12), with the no-slip estimates."""
+    plt = C.pyplot()
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7))
+    for d in runs:
+        m, c = d["summary"]["method"], d["summary"]["case"]
+        rs = _case_records(records, d)
+        t = [r["t"] for r in rs]
+        for ax, k in zip(axes.ravel(), ("x", "y", "z", "vy")):
+            ax.plot(t, [r[k] for r in rs], label=f"{c}, {m}")
+            ax.set_xlabel("t [s]"), ax.set_ylabel(AXIS_LABELS[k])
+        if c == "running":  # the chain runs round the wheels: its rms speed sqrt(2 T / m)
+            axes[1, 1].plot(t, [r["chain_speed"] for r in rs], "--", label=f"{c}, {m}: chain rms speed")
+    drv = [d for d in runs if d["summary"]["case"] == "driven"]
+    if drv:
+        rs = _case_records(records, drv[0])
+        t = [r["t"] for r in rs]
+        axes[0, 1].plot(t, [r["y_no_slip"] for r in rs], "k:", label="no slip: sprocket angle x pitch radius")
+        axes[1, 1].plot(t, [r["v_no_slip"] for r in rs], "k:", label="no slip: omega x pitch radius")
+    for ax in axes.ravel():
+        ax.legend(fontsize=7)
+    C.save(fig, out, "displacement_speed.png")
+
+
+def plot_energy(runs, records, out):
+    """Energy bookkeeping per run: E(0) + drive work = kinetic + potential + dissipated + integrator's share."""
+    plt = C.pyplot()
+    fig, axes = plt.subplots(1, len(runs), figsize=(5 * len(runs), 3.6), squeeze=False)
+    for ax, d in zip(axes[0], runs):
+        m, c = d["summary"]["method"], d["summary"]["case"]
+        rs = _case_records(records, d)
+        t = [r["t"] for r in rs]
+        for k, lab in (("kinetic", "kinetic"), ("potential", "potential - potential(0)"),
+                       ("damping_work", "contact damping + friction work"), ("external_work", "drive work"),
+                       ("algorithmic", "integrator")):
+            ax.plot(t, [r[k] - (rs[0][k] if k == "potential" else 0.0) for r in rs], label=lab)
+        ax.set_title(f"{c}, {m}", fontsize=9), ax.set_xlabel("t [s]"), ax.set_ylabel("energy [J]")
+    axes[0, 0].legend(fontsize=7)
+    C.save(fig, out, "energy.png")
+
+
+def plot_shapes(runs, out):
+    """The chain (and the wheels where they are) at a few instants: a panel per run."""
+    plt = C.pyplot()
+    fig, axes = plt.subplots(len(runs), 1, figsize=(12, 3.2 * len(runs)), squeeze=False)
+    for ax, d in zip(axes[:, 0], runs):
+        S, t = d["states"], d["t"]
+        ks = sorted({0, len(S) // 4, len(S) // 2, 3 * len(S) // 4, len(S) - 1})
+        for k in ks:
+            r = S[k, :, :3]
+            line, = ax.plot(np.r_[r[:, 0], r[:1, 0]], np.r_[r[:, 1], r[:1, 1]], ".-", ms=2, lw=0.8,
+                            label=f"t = {t[k]:.2f} s")
+            res = d["result"]
+            for name, _, R in wheels(idler_x()):
+                if name in res.sensors:  # a wheel carried by the chassis: where it is now
+                    c = np.asarray(res.sensors[name])[k, :2]
+                    ax.add_patch(plt.Circle(c, R, fill=False, color=line.get_color(), lw=0.6))
+        if "chassis" not in d["result"].sensors:
+            for name, c, R in wheels(idler_x()):
+                ax.add_patch(plt.Circle(c, R, fill=False, color="0.5"))
+        ax.axhline(0.0, color="k", lw=0.8)
+        ax.set_title(f"{d['summary']['case']}, {d['summary']['method']}", fontsize=9)
+        ax.set_aspect("equal"), ax.legend(fontsize=7, ncol=len(ks)), ax.set_xlabel("forward [m]")
+        ax.set_ylabel("up [m]")
+    C.save(fig, out, "chain_shape.png")
+
+
+def write_vtk(runs, out):
+    for d in runs:
+        dest = Path(out) / f"vtk_{d['summary']['case']}_{d['summary']['method']}"
+        Path(out).mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(dir=out))
+        write_series(d["result"], tmp)
+        if dest.exists():
+            shutil.rmtree(dest)
+        tmp.rename(dest)
+        print(f"VTK series: {dest / 'series.pvd'}")
+
+
+def main(argv=None):
+    p = C.parser("tracked_vehicle", __doc__)
+    p.add_argument("--methods", default="continuum,elastic_line", help="comma-separated beam forms")
+    p.add_argument("--t-end", type=float, default=None, help="end time [s] (default 5, --quick 0.02 / 0.1)")
+    p.add_argument("--dt", type=float, default=2e-4, help="time step [s]")
+    p.add_argument("--fixed-wheels", action="store_true",
+                   help="the first stage: the chain on wheels held in space (at rest, or running with --speed)")
+    p.add_argument("--drive-start", type=float, default=DRIVE_START,
+                   help=f"time [s] at which omega(t) starts its ramp (paper: {DRIVE_START}; --quick: 0)")
+    p.add_argument("--integrator", default="generalized_alpha")
+    p.add_argument("--speed", type=float, default=0.0,
+                   help="fixed wheels: start the chain running along its path at this speed [m/s] instead of at rest")
+    p.add_argument("--ground-mu", type=float, default=None, help=f"ground friction (default {GROUND['mu']})")
+    a = p.parse_args(argv)
+    methods = a.methods.split(",")
+    for m in methods:
+        if m not in ("continuum", "elastic_line"):
+            raise SystemExit(f"--methods: {m!r} is not a beam form (continuum, elastic_line)")
+    if a.dt <= 0 or not math.isfinite(a.dt):
+        raise SystemExit(f"--dt must be a positive time step [s], got {a.dt!r}")
+    records, runs = [], []
+    if a.fixed_wheels or a.quick:
+        t_end = a.t_end if a.t_end is not None else (QUICK_T if a.quick else 5.0)
+        case = "running" if a.speed else "rest"
+        cases = [(case, m, a.speed, a.ground_mu) for m in methods]
+        if a.quick:  # and the chain running at the speed plateau's 2.45 m/s on a frictionless ground (a belt on a stand)
+            cases.append(("running", "elastic_line", RUN_SPEED, 0.0))
+        for case, method, speed, mu in cases:
+            recs, data = run(method, t_end, a.dt, a.integrator, speed=speed, ground_mu=mu, case=case)
+            records += recs
+            runs.append(data)
+    if not a.fixed_wheels:
+        drive_start = 0.0 if a.quick else a.drive_start
+        t_end = QUICK_DRIVEN_T if a.quick else (a.t_end if a.t_end is not None else 5.0)
+        for method in (["elastic_line"] if a.quick else methods):
+            recs, data = run_vehicle(method, t_end, a.dt, drive_start, ground_mu=a.ground_mu)
+            records += recs
+            runs.append(data)
+    _pair_diff(runs, records)
     C.table([d["summary"] for d in runs], ["case", "method", "status", "steps", "rejected", "newton",
                                           "factorizations", "ms_per_step", "cpu_ms_per_step", "wall_s",
-                                          "ground_gap_min", "wheel_gap_min", "energy_error"])
+                                          "energy_error"])
+    for d in runs:
+        if d["summary"]["case"] == "driven":
+            r = _case_records(records, d)[-1]
+            print(f"driven, {d['summary']['method']}: t = {r['t']:.2f} s, y = {r['y']:.4f} m (no slip "
+                  f"{r['y_no_slip']:.4f} m), vy = {r['vy']:.4f} m/s (no slip {r['v_no_slip']:.4f}), drive work "
+                  f"{r['external_work']:.1f} J, dissipated {r['damping_work']:.1f} J, integrator {r['algorithmic']:.1f} J")
 
     def plots(out):
-        plt = C.pyplot()
-        fig, axes = plt.subplots(2, 2, figsize=(11, 7))
-        for d in runs:
-            m, c = d["summary"]["method"], d["summary"]["case"]
-            rs = [r for r in records if r["method"] == m and r["case"] == c]
-            t = [r["t"] for r in rs]
-            for ax, k in zip(axes.ravel(), ("x", "y", "z", "vy")):
-                ax.plot(t, [r[k] for r in rs], label=f"{c}, {m}")
-            if c == "running":  # the chain runs round the wheels: its rms speed sqrt(2 T / m)
-                axes[1, 1].plot(t, [r["chain_speed"] for r in rs], "--", label=f"{c}, {m}: chain rms speed")
-                axes[1, 1].legend(fontsize=7)
-                ax.set_xlabel("t [s]"), ax.set_ylabel(AXIS_LABELS[k])
-        axes[0, 0].legend()
-        C.save(fig, out, "displacement_speed.png")
-        fig, axes = plt.subplots(1, len(runs), figsize=(5 * len(runs), 3.6), squeeze=False)
-        for ax, d in zip(axes[0], runs):  # energy bookkeeping: E(0) = kinetic + potential + damping work + alg.
-            m, c = d["summary"]["method"], d["summary"]["case"]
-            rs = [r for r in records if r["method"] == m and r["case"] == c]
-            t = [r["t"] for r in rs]
-            for k, lab in (("kinetic", "kinetic"), ("potential", "potential - potential(0)"),
-                           ("damping_work", "contact damping + friction work"), ("algorithmic", "integrator")):
-                ax.plot(t, [r[k] - (rs[0][k] if k == "potential" else 0.0) for r in rs], label=lab)
-            ax.set_title(f"{c}, {m}", fontsize=9), ax.set_xlabel("t [s]"), ax.set_ylabel("energy [J]")
-        axes[0, 0].legend(fontsize=7)
-        C.save(fig, out, "energy.png")
-        fig, ax = plt.subplots(figsize=(11, 3.5))
-        for d in runs:
-            S = d["states"]
-            for k in sorted({0, len(S) // 2, len(S) - 1}):
-                r = S[k, :, :3]
-                ax.plot(np.r_[r[:, 0], r[:1, 0]], np.r_[r[:, 1], r[:1, 1]], ".-", ms=3,
-                        label=f"{d['summary']['case']}, {d['summary']['method']}, t = {d['t'][k]:.2f} s")
-        for name, c, R in wheels(idler_x()):
-            ax.add_patch(plt.Circle(c, R, fill=False, color="0.5"))
-        ax.axhline(0.0, color="k", lw=0.8)
-        ax.set_aspect("equal"), ax.legend(fontsize=7), ax.set_xlabel("forward [m]"), ax.set_ylabel("up [m]")
-        C.save(fig, out, "chain_shape.png")
-        for d in runs:
-            dest = Path(out) / f"vtk_{d['summary']['case']}_{d['summary']['method']}"
-            tmp = Path(tempfile.mkdtemp(dir=out))
-            write_series(d["result"], tmp)
-            if dest.exists():
-                shutil.rmtree(dest)
-            tmp.rename(dest)
-            print(f"VTK series: {dest / 'series.pvd'}")
+        plot_motion(runs, records, out)
+        plot_energy(runs, records, out)
+        plot_shapes(runs, out)
+        write_vtk(runs, out)
 
     return C.finish(records, a, plots)
 

@@ -245,7 +245,7 @@ def damping_force(S: "StepSystem", xf: np.ndarray, vf: np.ndarray) -> np.ndarray
     C = rayleigh_matrix(S, S.kel)
     if C is not None:
         f = C @ vf
-    if S.damp_force_f is not None:  # (the force alone: damp_f would also assemble its tangents)
+    if S.damp_force_f is not None:  # the force alone: damp_f's tangents cost 2x more and are not needed here
         fd = np.asarray(S.damp_force_f(xf, vf)).ravel()
         f = fd if f is None else f + fd
     return f
