@@ -391,6 +391,19 @@ class StepSystem:
     def energies(self, xf: np.ndarray, vf: np.ndarray | None) -> tuple[float, dict]:
         """(kinetic energy 1/2 v.M v (0 without vf), potential energies by label) in one compiled call [J]."""
         out: dict[str, float] = {}
+        vals = self.energy_values(xf, vf)
+        for label, v in zip(self._energy_kin_labels, vals):
+            out[label] = out.get(label, 0.0) + v
+        return vals[-1], out
+
+    @property
+    def energy_labels(self) -> list[str]:
+        """The label of each potential `energy_values` returns (a label may repeat: several members' bending)."""
+        return self._energy_kin_labels
+
+    def energy_values(self, xf: np.ndarray, vf: np.ndarray | None) -> list[float]:
+        """The potentials of the terms (labels: energy_labels), then the kinetic energy, from one compiled call [J]
+        (what `energies` sums by label; the outputs call it directly)."""
         if not hasattr(self, "_ebuf"):
             self._e_x, self._e_vel = np.zeros(self.nf), np.zeros(self.nf)
             self._e_v = np.zeros(self._energy_kin_f.nnz_out(0))
@@ -404,10 +417,7 @@ class StepSystem:
         self._e_x[:] = xf
         self._e_vel[:] = 0.0 if vf is None else vf
         self._ebuf[1]()
-        vals = self._e_v.tolist()
-        for label, v in zip(self._energy_kin_labels, vals):
-            out[label] = out.get(label, 0.0) + v
-        return vals[-1], out
+        return self._e_v.tolist()
 
     def phi(self, xf: np.ndarray, t: float = 0.0) -> np.ndarray:
         x = self.full(xf)
