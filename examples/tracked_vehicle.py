@@ -631,6 +631,32 @@ def plot_shapes(runs, out):
     C.save(fig, out, "chain_shape.png")
 
 
+def plot_full(runs, records, out):
+    """The full vehicle's symmetry over time: lateral X, roll, yaw and the chains' mirror asymmetry (log scale: the
+    symmetric vehicle keeps them at round-off), and both tracks seen from behind at the last output."""
+    full = [d for d in runs if d["summary"]["case"] == "full"]
+    if not full:
+        return
+    plt = C.pyplot()
+    fig, axes = plt.subplots(1, 3, figsize=(14, 3.8))
+    for d in full:
+        m = d["summary"]["method"]
+        rs = _case_records(records, d)
+        t = [r["t"] for r in rs]
+        for k, lab in (("x", "|X| [m]"), ("chain_asymmetry", "chain asymmetry [m]")):
+            axes[0].semilogy(t, [max(abs(r[k]), 1e-300) for r in rs], label=f"{m}: {lab}")
+        for k in ("roll_deg", "yaw_deg"):
+            axes[1].semilogy(t, [max(abs(r[k]), 1e-300) for r in rs], label=f"{m}: |{k[:-4]}| [deg]")
+        for c, S in d["chains"].items():
+            axes[2].plot(S[-1, :, 2], S[-1, :, 1], ".", ms=2, label=f"{m}: {c}, t = {d['t'][-1]:.2f} s")
+    for ax in axes[:2]:
+        ax.set_xlabel("t [s]"), ax.legend(fontsize=7)
+    axes[2].axhline(0.0, color="k", lw=0.8)
+    axes[2].set_xlabel("lateral (paper X) [m]"), axes[2].set_ylabel("up [m]"), axes[2].set_aspect("equal")
+    axes[2].legend(fontsize=7)
+    C.save(fig, out, "full_vehicle_symmetry.png")
+
+
 def write_vtk(runs, out):
     for d in runs:
         dest = Path(out) / f"vtk_{d['summary']['case']}_{d['summary']['method']}"
@@ -706,6 +732,7 @@ def main(argv=None):
         plot_motion(runs, records, out)
         plot_energy(runs, records, out)
         plot_shapes(runs, out)
+        plot_full(runs, records, out)
         write_vtk(runs, out)
 
     return C.finish(records, a, plots)
