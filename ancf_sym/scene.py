@@ -298,16 +298,19 @@ class Scene:
         return m
 
     def loop(self, name: str, path: list, elements: int, material: Material, section: Section,
-             **options: Any) -> Member:
+             offset: Sequence[float] | None = None, **options: Any) -> Member:
         """Add a closed member (a belt, a track chain) along `path`, a loop of straight segments and arcs in the
         x-y plane (ancf_sym.closed: pieces, or closed.belt_path(pulleys)), meshed into `elements` elements of equal
-        length whose last one ends on the first node. Options as `member` (prestrain: the path is the loop
-        stretched by 1 + prestrain, i.e. its unstretched length is the path's / (1 + prestrain))."""
+        length whose last one ends on the first node; `offset` translates it (3D: e.g. a second track chain in a
+        parallel plane). Options as `member` (prestrain: the path is the loop stretched by 1 + prestrain, i.e. its
+        unstretched length is the path's / (1 + prestrain))."""
         from . import closed
 
         if isinstance(elements, bool) or not isinstance(elements, (int, np.integer)) or elements < 3:
             raise SceneError(f"loop {name!r}: elements must be an integer >= 3, got {elements!r}")
         pts, tans, total = closed.sample(path, int(elements), self.dim)
+        if offset is not None:
+            pts = pts + vector(f"loop {name!r}: offset", offset, self.dim)
         m = self.member(name, pts, int(elements), material, section, **options)
         m.tangents, m.loop_length = tans, total
         return m

@@ -21,6 +21,11 @@ vertical compliance), each carrying its drum; the sprocket turned relative to th
 road wheels spin freely and are frictionless. The run starts from the vehicle's static equilibrium
 (`vehicle_start`). "Vehicle" displacement and speed are the chassis' centre of mass; the no-slip estimates are the
 sprocket's angle and rate times its pitch radius (35 rad x 0.2453 m = 8.59 m at 5 s, 2.453 m/s on the plateau).
+The full vehicle (--vehicle full): a free spatial chassis (position and rotation; twice the half's mass and
+inertia) carrying one such track on each side (`add_track`, planes z = -+1.155 m), both sprockets turned by the same
+omega(t), started from the half vehicle's statics with the right chain the left one's mirror image (an exactly
+symmetric start); its records add the lateral speed, roll and yaw, each side's drive torque and ground force and the
+chains' mirror asymmetry.
 With --fixed-wheels, the first stage: the chain on wheels held in space, at rest from its static equilibrium
 (`static_start`) or, with --speed V, running along its path at V (the ground's friction then brakes it: an energy
 bookkeeping case); its "vehicle" displacement and speed are the chain's centre of mass.
@@ -32,16 +37,16 @@ only by its own tension (the loop is exactly as long as the wheels' convex hull)
 alone would need. Before the dynamics, `relax_sections` removes the spurious thickness strain of the curved
 elements and `static_start` finds the equilibrium (docs/vehicle.md says why both are needed).
 
-Records (one per output time, every 0.05 s): case ("driven", "rest", "running"), method, t, x, y, z (paper axes,
-centre of mass displacement from the start [m]), vy (forward speed [m/s]), wall_s (the run's wall time), contact
-gaps and forces, the mean stretch, the energies (kinetic, potential, damping_work: contact damping and friction,
-external_work: the drive's work, algorithmic), the run's steps, Newton iterations, CPU time and the static start's
-cost, and shape_diff_vs_other (CMM vs ELM: largest distance between the chains' nodes); driven: the chassis' pitch,
-the sprocket's angle and rate, the no-slip y and speed, the drive's torque; fixed wheels: the largest distance of a
-node from the wrapped path and from its start.
+Records (one per output time, every 0.05 s): case ("driven", "full", "rest", "running"), method, t, x, y, z (paper
+axes, centre of mass displacement from the start [m]), vy (forward speed [m/s]), wall_s (the run's wall time),
+contact gaps and forces, the mean stretch, the energies (kinetic, potential, damping_work: contact damping and
+friction, external_work: the drive's work, algorithmic), the run's steps, Newton iterations, CPU time and the static
+start's cost, and shape_diff_vs_other (CMM vs ELM: largest distance between the chains' nodes); driven: the chassis'
+pitch, the sprocket's angle and rate, the no-slip y and speed, the drive's torque; fixed wheels: the largest
+distance of a node from the wrapped path and from its start.
 
-Run: python examples/tracked_vehicle.py [--quick] [--methods continuum,elastic_line] [--t-end 5] [--json PATH]
-     [--out DIR] [--dt 2e-4] [--drive-start 1] [--fixed-wheels [--speed V]] [--ground-mu MU]
+Run: python examples/tracked_vehicle.py [--quick] [--vehicle half|full] [--methods continuum,elastic_line]
+     [--t-end 5] [--json PATH] [--out DIR] [--dt 2e-4] [--drive-start 1] [--fixed-wheels [--speed V]] [--ground-mu MU]
 """
 from __future__ import annotations
 
@@ -222,6 +227,14 @@ SPROCKET_LAW = dict(hertz=1e11, mu=0.3, eps=0.01)
 DRIVE_START = 1.0  # [s] the paper's omega(t) is 0 until 1 s
 # paper 001's sprocket angular velocity [rad/s] from the drive's start t_s: pieces (t - t_s, polynomial in (t - t_k))
 OMEGA_PIECES = ((0.0, (0.0, 0.0, 80 / 3)), (0.25, (5 / 3, 40 / 3)), (0.75, (25 / 3, 40 / 3, -80 / 3)), (1.0, (10.0,)))
+# the full vehicle: the two tracks' centre planes at z = -+GAUGE/2 (scene z points to the vehicle's right), the
+# M113's 2.69 m overall width less one track width; the chassis box (2.7 m wide) spans them
+GAUGE = 2.69 - B  # [m]
+SIDES = {"left": -GAUGE / 2, "right": GAUGE / 2}
+QUICK_FULL_T = 0.2  # [s] the test's run of the full vehicle (drive started at t = 0: the sprocket turns 0.07 rad)
+# [s] its time step: y(0.2 s), the drive's work and the dissipation agree with dt = 2e-4 s to 4 digits (measured),
+# at 0.4x the CPU time
+QUICK_FULL_DT = 4e-4
 NO_SLIP_Y = 35 * R_PITCH  # [m] forward travel without slip at 5 s: 35 rad of sprocket rotation on the pitch circle
 
 
@@ -258,77 +271,120 @@ def wheel_bodies(x_idler: float) -> list[tuple[str, tuple[float, float], float, 
 
 
 def build_vehicle(method: str, ground_mu: float | None = None, drive_start: float = DRIVE_START,
-                  static: bool = False) -> Scene:
+                  static: bool = False, full: bool = False) -> Scene:
     """The half vehicle: the chain, a chassis held in the chain's plane (forward, vertical, pitch), the sprocket,
     idler and road wheels on revolute joints to the chassis (axles rigidly mounted: free-spinning wheels, no
     suspension; the band's stiffness and the Hertz contacts give the vertical compliance), each carrying its drum,
     and the sprocket turned by paper 001's omega(t) relative to the chassis.
 
-    static: the scene of the static start instead. Frictionless statics leaves the wheels' spins free (the normal
-    law's force passes through the axle), which makes the equilibrium singular; the drums are then all carried by
-    the chassis, whose mass and centre are those of chassis and wheels together: the same contact geometry and the
-    same weight and moment, hence the same equilibrium. No drive either (the statics take no time-dependent rows)."""
-    sc = Scene(dim=3, gravity=(0.0, -G, 0.0), name=f"tracked_vehicle_driven_{method}")
+    full: the full vehicle instead: a free spatial chassis (position and rotation, twice the half's mass) and one
+    such track (`add_track`) on each side, at z = -+GAUGE/2 (`SIDES`), both sprockets turned by the same omega(t).
+
+    static: the scene of the half vehicle's static start instead. Frictionless statics leaves the wheels' spins
+    free (the normal law's force passes through the axle), which makes the equilibrium singular; the drums are then
+    all carried by the chassis, whose mass and centre are those of chassis and wheels together: the same contact
+    geometry and the same weight and moment, hence the same equilibrium. No drive either (the statics take no
+    time-dependent rows)."""
+    if static and full:
+        raise ValueError("build_vehicle: the full vehicle starts from the half vehicle's statics (vehicle_start)")
+    sc = Scene(dim=3, gravity=(0.0, -G, 0.0), name=f"tracked_vehicle_{'full' if full else 'driven'}_{method}")
     xi = idler_x()
-    sc.loop("chain", chain_path(xi), N_EL, STEEL, Section.rectangle(b=B, h=H), element="beam3d",
-            beam_method=method, y_axis=(0.0, 0.0, 1.0))
-    sc.contact_ground("chain", normal=(0.0, 1.0, 0.0), level=0.0,
-                      **{**GROUND, **({} if ground_mu is None else {"mu": ground_mu})})
     wb = wheel_bodies(xi)
     mass, centre = CHASSIS_MASS, np.array([*CHASSIS_POS, 0.0])
     if static:
         mass = CHASSIS_MASS + sum(w[3] for w in wb)
         centre = (CHASSIS_MASS * centre + sum(w[3] * np.array([*w[1], 0.0]) for w in wb)) / mass
     p = tuple(centre)
-    sc.body("slide_x", SLIDE_MASS, (0.1, 0.1, 0.1), p)
-    sc.prismatic("slide_x", axis=(1.0, 0.0, 0.0))
-    sc.body("slide_y", SLIDE_MASS, (0.1, 0.1, 0.1), p)
-    sc.prismatic("slide_y", axis=(0.0, 1.0, 0.0), other="slide_x")
-    sc.body("chassis", mass, box_inertia(mass, *CHASSIS_BOX), p)
-    sc.revolute("chassis", axis=(0.0, 0.0, 1.0), other="slide_y")
-    for name, c, R, m, inertia in wb:
-        law = SPROCKET_LAW if name == "sprocket" else WHEEL
-        if static:
-            sc.contact_drum("chain", centre=(c[0], c[1], 0.0), radius=R, body="chassis", **law)
-            continue
-        sc.body(name, m, inertia, (c[0], c[1], 0.0))
-        # the sprocket's axis is -z: its positive angle turns it clockwise seen from +z, top forward (+x), which
-        # runs the chain backward along the ground and the vehicle forward
-        sc.revolute(name, axis=(0.0, 0.0, -1.0 if name == "sprocket" else 1.0), other="chassis")
-        sc.contact_drum("chain", radius=R, body=name, **law)
-    if not static:
-        sc.drive("sprocket", omega=omega_spec(drive_start), relative_to="chassis")
+    if full:  # free in space: its position and rotation are the vehicle's
+        sc.body("chassis", 2 * mass, box_inertia(2 * mass, *CHASSIS_BOX), p)
+    else:
+        sc.body("slide_x", SLIDE_MASS, (0.1, 0.1, 0.1), p)
+        sc.prismatic("slide_x", axis=(1.0, 0.0, 0.0))
+        sc.body("slide_y", SLIDE_MASS, (0.1, 0.1, 0.1), p)
+        sc.prismatic("slide_y", axis=(0.0, 1.0, 0.0), other="slide_x")
+        sc.body("chassis", mass, box_inertia(mass, *CHASSIS_BOX), p)
+        sc.revolute("chassis", axis=(0.0, 0.0, 1.0), other="slide_y")
+    for side, z in (SIDES if full else {"": 0.0}).items():
+        add_track(sc, method, side, z, ground_mu, drive_start, static)
     return sc
 
 
-def vehicle_start(method: str, ground_mu: float | None = None,
-                  drive_start: float = DRIVE_START) -> tuple[Assembly, np.ndarray, dict]:
-    """The vehicle at rest: statics of the whole half vehicle (`build_vehicle(static=True)`: chassis free to settle
-    on the chain, penalty contacts, IPOPT), warm-started from the chain's equilibrium on the wheels held in place
+def add_track(sc: Scene, method: str, side: str, z: float, ground_mu: float | None, drive_start: float,
+              static: bool) -> None:
+    """One side's running gear on the scene's "chassis": the chain (member "chain" + suffix) in the plane at z on
+    the Hertz ground, the sprocket, idler and road wheels on revolute joints to the chassis carrying their drums
+    (static: drums on the chassis, no wheel bodies, no drive), the sprocket turned by omega(t). Names carry the
+    suffix "_<side>" (none for the half vehicle's side "")."""
+    sfx = f"_{side}" if side else ""
+    chain = f"chain{sfx}"
+    xi = idler_x()
+    sc.loop(chain, chain_path(xi), N_EL, STEEL, Section.rectangle(b=B, h=H), element="beam3d", beam_method=method,
+            y_axis=(0.0, 0.0, 1.0), offset=(0.0, 0.0, z))
+    sc.contact_ground(chain, normal=(0.0, 1.0, 0.0), level=0.0,
+                      **{**GROUND, **({} if ground_mu is None else {"mu": ground_mu})})
+    for name, c, R, m, inertia in wheel_bodies(xi):
+        law = SPROCKET_LAW if name == "sprocket" else WHEEL
+        if static:
+            sc.contact_drum(chain, centre=(c[0], c[1], z), radius=R, body="chassis", **law)
+            continue
+        sc.body(name + sfx, m, inertia, (c[0], c[1], z))
+        # the sprocket's axis is -z: its positive angle turns it clockwise seen from +z, top forward (+x), which
+        # runs the chain backward along the ground and the vehicle forward
+        sc.revolute(name + sfx, axis=(0.0, 0.0, -1.0 if name == "sprocket" else 1.0), other="chassis")
+        sc.contact_drum(chain, radius=R, body=name + sfx, **law)
+    if not static:
+        sc.drive(f"sprocket{sfx}", omega=omega_spec(drive_start), relative_to="chassis")
+
+
+_VEHICLE_STATIC: dict = {}  # beam form -> the half vehicle's static start (chain coordinates, chassis pose, data)
+
+
+def vehicle_static(method: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict]:
+    """The half vehicle at rest: statics of `build_vehicle(static=True)` (chassis free to settle on the chain,
+    penalty contacts, IPOPT), warm-started from the chain's equilibrium on the wheels held in place
     (`static_start`), one bottom node of the chain pinned for the solve only (as there). Without it the band's
     push on the wheels (0.8 MN on the ground with the wheels held, 20 times the vehicle's weight) would throw the
-    chassis up at the release. The static chassis' rigid motion then places the chassis, the wheels (spin 0) and
-    the slides of the dynamic scene. Returns the dynamic run's assembly, q0 and the solves' data."""
-    xc, st = static_start(method)
-    fixed = Assembly(build_scene(method)).mesh.members["chain"]
-    sc = build_vehicle(method, ground_mu, drive_start, static=True)
-    sc.pin("chain", at=PIN_NODE)
-    asm_s = Assembly(sc)
-    mm = asm_s.mesh.members["chain"]
-    n_chain = mm.n_nodes * 12
-    x0 = np.array(asm_s.x0, float)
-    x0[mm.offset:mm.offset + n_chain] = xc[fixed.offset:fixed.offset + n_chain]
-    t0 = time.perf_counter()
-    r = solve_static(asm_s, warm_start=x0, print_level=0)
-    if not r.success:
-        raise RuntimeError(f"static start of the vehicle ({method}): {r.status}")
-    st.update(vehicle_static_s=time.perf_counter() - t0, vehicle_static_iterations=r.iterations)
-    cg = sc.bodies["chassis"].position
-    o = asm_s.mesh.bodies["chassis"]
-    rc, E = r.x[o:o + 3], r.x[o + 3:o + 12].reshape(3, 3)  # the static chassis' centre and axes (rows)
-    asm = Assembly(build_vehicle(method, ground_mu, drive_start))
+    chassis up at the release. Returns the chain's coordinates, the static chassis' reference centre, its centre and
+    axes (rows) at the equilibrium, and the solves' data (solved once per beam form and process)."""
+    if method not in _VEHICLE_STATIC:
+        xc, st = static_start(method)
+        fixed = Assembly(build_scene(method)).mesh.members["chain"]
+        sc = build_vehicle(method, static=True)
+        sc.pin("chain", at=PIN_NODE)
+        asm_s = Assembly(sc)
+        mm = asm_s.mesh.members["chain"]
+        n_chain = mm.n_nodes * 12
+        x0 = np.array(asm_s.x0, float)
+        x0[mm.offset:mm.offset + n_chain] = xc[fixed.offset:fixed.offset + n_chain]
+        t0 = time.perf_counter()
+        r = solve_static(asm_s, warm_start=x0, print_level=0)
+        if not r.success:
+            raise RuntimeError(f"static start of the vehicle ({method}): {r.status}")
+        st.update(vehicle_static_s=time.perf_counter() - t0, vehicle_static_iterations=r.iterations)
+        o = asm_s.mesh.bodies["chassis"]
+        _VEHICLE_STATIC[method] = (np.array(r.x[mm.offset:mm.offset + n_chain], float),
+                                   sc.bodies["chassis"].position.copy(), np.array(r.x[o:o + 3], float),
+                                   np.array(r.x[o + 3:o + 12], float).reshape(3, 3), st)
+    xc, cg, rc, E, st = _VEHICLE_STATIC[method]
+    return xc.copy(), cg.copy(), rc.copy(), E.copy(), dict(st)
+
+
+def vehicle_start(method: str, ground_mu: float | None = None, drive_start: float = DRIVE_START,
+                  full: bool = False) -> tuple[Assembly, np.ndarray, dict]:
+    """The driven vehicle at rest: the half vehicle's statics (`vehicle_static`), its chassis' rigid motion placing
+    the chassis, the wheels (spin 0) and the slides of the dynamic scene. The full vehicle, symmetric, is two such
+    halves on one chassis (twice the mass, the same centre): its equilibrium is the half's, the chain copied into
+    each side's plane. Returns the dynamic run's assembly, q0 and the solves' data."""
+    xc, cg, rc, E, st = vehicle_static(method)
+    asm = Assembly(build_vehicle(method, ground_mu, drive_start, full=full))
     q0 = np.array(asm.x0, float)
-    q0[asm.mesh.members["chain"].offset:][:n_chain] = r.x[mm.offset:mm.offset + n_chain]
+    chain = xc.reshape(-1, 12).copy()
+    for name, mm in asm.mesh.members.items():
+        side = chain.copy()
+        side[:, 2] += q0[mm.offset + 2]  # into the side's plane (node 0's reference z: the loop's offset)
+        if name == "chain_right":  # the left chain's mirror image: an exactly symmetric start
+            side = mirrored(chain.copy() + np.r_[0.0, 0.0, SIDES["left"], np.zeros(9)])
+        q0[mm.offset:mm.offset + side.size] = side.ravel()
     for name, b in asm.scene.bodies.items():
         ob = asm.mesh.bodies[name]
         centre = rc + E.T @ (b.position - cg)
@@ -341,11 +397,30 @@ def vehicle_start(method: str, ground_mu: float | None = None,
     return asm, q0, st
 
 
+def mirrored(nodes: np.ndarray) -> np.ndarray:
+    """beam3d nodes (n, 12: r, r_x, r_y, r_z) mirrored in the plane z = 0: r, r_x and r_z mirrored, r_y mirrored
+    and reversed so that the frame stays right-handed (the section's y axis turned over: for a section symmetric
+    about its z axis and an isotropic material the same strain energy, the shears that involve y changing sign)."""
+    out = np.array(nodes, float)
+    out[:, [2, 5, 6, 7, 11]] *= -1.0
+    return out
+
+
+def chassis_angles(ch: np.ndarray) -> dict[str, np.ndarray]:
+    """Pitch (nose up), roll (about the forward axis) and yaw (about the up axis) [deg] of the chassis from its
+    "body" sensor rows (centre, omega, axes e1, e2, e3): e1 forward, e2 up in the reference state."""
+    e1, e2 = ch[:, 6:9], ch[:, 9:12]
+    return {"pitch_deg": np.degrees(np.arctan2(e1[:, 1], e1[:, 0])),
+            "roll_deg": np.degrees(np.arctan2(e2[:, 2], e2[:, 1])),
+            "yaw_deg": np.degrees(np.arctan2(-e1[:, 2], e1[:, 0]))}
+
+
 def run_vehicle(method: str, t_end: float, dt: float, drive_start: float = DRIVE_START, rho_inf: float = 0.5,
-                output_dt: float = 0.05, ground_mu: float | None = None) -> tuple[list[dict], dict]:
-    """The driven half vehicle from rest: records of the chassis' motion (paper axes), the no-slip estimate, the
-    drive's torque and work, the energies and contacts at every output time."""
-    asm, q0, st = vehicle_start(method, ground_mu, drive_start)
+                output_dt: float = 0.05, ground_mu: float | None = None,
+                full: bool = False) -> tuple[list[dict], dict]:
+    """The driven vehicle (half, or full) from rest: records of the chassis' motion (paper axes), the no-slip
+    estimate, the drives' torque and work, the energies and contacts at every output time."""
+    asm, q0, st = vehicle_start(method, ground_mu, drive_start, full)
     sc = asm.scene
     sensors = [Sensor(**s) for s in frame_sensors(sc)] + [Sensor(b, "body", b) for b in sc.bodies]
     opts = DynamicOptions(dt=dt, t_end=t_end, rho_inf=rho_inf, output_dt=output_dt, sensors=sensors, q0=q0,
@@ -353,45 +428,64 @@ def run_vehicle(method: str, t_end: float, dt: float, drive_start: float = DRIVE
     t0 = time.perf_counter()
     res = simulate(asm, opts)
     wall = time.perf_counter() - t0
-    mm = asm.mesh.members["chain"]
-    states = np.stack([np.asarray(res.sensors[f"__node:chain:{j}"]) for j in range(mm.n_nodes)], axis=1)
+    chains = {c: np.stack([np.asarray(res.sensors[f"__node:{c}:{j}"]) for j in range(mm.n_nodes)], axis=1)
+              for c, mm in asm.mesh.members.items()}
+    states = np.concatenate(list(chains.values()), axis=1)
     t = np.asarray(res.t)
     ch = np.asarray(res.sensors["chassis"])  # centre (3), omega (3), axes (9)
     d = ch[:, :3] - ch[0, :3]
     vel = np.gradient(ch[:, :3], t, axis=0, edge_order=2) if len(t) > 2 else np.zeros_like(d)
-    pitch = np.arctan2(ch[:, 7], ch[:, 6])  # the chassis x axis' angle up from forward
+    ang = chassis_angles(ch)
     angle, omega = sprocket_angle(t, drive_start)
-    torque = np.asarray(res.drive_reactions.get("angle sprocket", np.full(len(t), np.nan)), float).ravel()
+    torques = [np.asarray(res.drive_reactions.get(f"angle {b}", np.full(len(t), np.nan)), float).ravel()
+               for b in sc.bodies if b.startswith("sprocket")]
+    torque = np.sum(torques, axis=0)
+    mirror = None
+    if full:  # symmetry: the left chain against the right one mirrored in the vehicle's middle plane z = 0
+        right = chains["chain_right"][:, :, :3] * np.array([1.0, 1.0, -1.0])
+        mirror = np.linalg.norm(chains["chain_left"][:, :, :3] - right, axis=2).max(axis=1)
     en = res.energies
     records = []
     for k in range(len(t)):
         x = np.array(res.x, float)
-        x[mm.offset:mm.offset + states[k].size] = states[k].ravel()
+        for c, S in chains.items():
+            o = asm.mesh.members[c].offset
+            x[o:o + S[k].size] = S[k].ravel()
         for b, o in asm.mesh.bodies.items():  # bodies' centre and axes, for the contact report
             x[o:o + 3], x[o + 3:o + 12] = res.sensors[b][k][:3], res.sensors[b][k][6:15]
         reps = contact.report(asm, x)
-        records.append({"case": "driven", "method": method, "t": float(t[k]), "x": float(d[k, 2]),
-                        "y": float(d[k, 0]), "z": float(d[k, 1]), "vy": float(vel[k, 0]), "wall_s": wall,
-                        "status": res.status, "pitch_deg": float(np.degrees(pitch[k])),
-                        "sprocket_angle": float(angle[k]), "sprocket_omega": float(omega[k]),
-                        "y_no_slip": float(R_PITCH * angle[k]), "v_no_slip": float(R_PITCH * omega[k]),
-                        "drive_torque": float(torque[k]) if k < len(torque) else float("nan"),
-                        "ground_gap_min": reps[0]["min_gap"], "ground_force": reps[0]["normal_force"],
-                        "wheel_gap_min": min(rp["min_gap"] for rp in reps[1:]),
-                        "wheel_force": sum(rp["normal_force"] for rp in reps[1:]),
-                        "stretch_mean": float(np.linalg.norm(states[k, :, 3:6], axis=1).mean() - 1.0),
-                        "chain_bottom": float(states[k, :, 1].min()),
-                        **{e: float(en[e][k]) for e in ("kinetic", "potential", "damping_work", "external_work",
-                                                        "algorithmic")}})
-    summary = {"case": "driven", "method": method, "status": res.status, "success": res.success,
-               "t_reached": res.t_reached, "steps": res.steps, "rejected": len(res.rejected),
+        ground = [rp for rp in reps if rp["type"] == "ground"]
+        drums = [rp for rp in reps if rp["type"] != "ground"]
+        rec = {"case": "full" if full else "driven", "method": method, "t": float(t[k]), "x": float(d[k, 2]),
+               "y": float(d[k, 0]), "z": float(d[k, 1]), "vy": float(vel[k, 0]), "wall_s": wall,
+               "status": res.status, **{a: float(v[k]) for a, v in ang.items()},
+               "sprocket_angle": float(angle[k]), "sprocket_omega": float(omega[k]),
+               "y_no_slip": float(R_PITCH * angle[k]), "v_no_slip": float(R_PITCH * omega[k]),
+               "drive_torque": float(torque[k]) if k < len(torque) else float("nan"),
+               "ground_gap_min": min(rp["min_gap"] for rp in ground),
+               "ground_force": sum(rp["normal_force"] for rp in ground),
+               "wheel_gap_min": min(rp["min_gap"] for rp in drums),
+               "wheel_force": sum(rp["normal_force"] for rp in drums),
+               "stretch_mean": float(np.linalg.norm(states[k, :, 3:6], axis=1).mean() - 1.0),
+               "chain_bottom": float(states[k, :, 1].min()),
+               **{e: float(en[e][k]) for e in ("kinetic", "potential", "damping_work", "external_work",
+                                               "algorithmic")}}
+        if full:
+            rec.update(vx=float(vel[k, 2]), chain_asymmetry=float(mirror[k]),
+                       **{f"drive_torque_{s}": float(tq[k]) for s, tq in zip(SIDES, torques) if k < len(tq)},
+                       **{f"ground_force_{s}": sum(rp["normal_force"] for rp in ground if rp["member"].endswith(s))
+                          for s in SIDES})
+        records.append(rec)
+    summary = {"case": "full" if full else "driven", "method": method, "status": res.status,
+               "success": res.success, "t_reached": res.t_reached, "steps": res.steps, "rejected": len(res.rejected),
                "newton": res.newton_iterations, "factorizations": res.factorizations, "wall_s": wall,
                "setup_s": res.setup_s, "cpu_s": res.cpu_s, "ms_per_step": 1e3 * res.wall_s / max(res.steps, 1),
-               "cpu_ms_per_step": 1e3 * res.cpu_s / max(res.steps, 1), "energy_error": res.energy_error(), **st}
+               "cpu_ms_per_step": 1e3 * res.cpu_s / max(res.steps, 1), "energy_error": res.energy_error(),
+               "n_coordinates": asm.n, **st}
     for r in records:
         r.update({k: summary[k] for k in ("steps", "rejected", "newton", "factorizations", "cpu_s",
-                                          "cpu_ms_per_step", "static_s", "vehicle_static_s")})
-    return records, {"summary": summary, "t": t, "states": states, "result": res, "chassis": ch}
+                                          "cpu_ms_per_step", "static_s", "vehicle_static_s", "n_coordinates")})
+    return records, {"summary": summary, "t": t, "states": states, "chains": chains, "result": res, "chassis": ch}
 
 
 def run(method: str, t_end: float, dt: float, integrator: str = "generalized_alpha", rho_inf: float = 0.5,
@@ -481,7 +575,7 @@ def plot_motion(runs, records, out):
             ax.set_xlabel("t [s]"), ax.set_ylabel(AXIS_LABELS[k])
         if c == "running":  # the chain runs round the wheels: its rms speed sqrt(2 T / m)
             axes[1, 1].plot(t, [r["chain_speed"] for r in rs], "--", label=f"{c}, {m}: chain rms speed")
-    drv = [d for d in runs if d["summary"]["case"] == "driven"]
+    drv = [d for d in runs if d["summary"]["case"] in ("driven", "full")]
     if drv:
         rs = _case_records(records, drv[0])
         t = [r["t"] for r in rs]
@@ -510,11 +604,13 @@ def plot_energy(runs, records, out):
 
 
 def plot_shapes(runs, out):
-    """The chain (and the wheels where they are) at a few instants: a panel per run."""
+    """The chain (and the wheels where they are) at a few instants, side view: a panel per run (the full
+    vehicle: its left track; the right one is its mirror image)."""
     plt = C.pyplot()
     fig, axes = plt.subplots(len(runs), 1, figsize=(12, 3.2 * len(runs)), squeeze=False)
     for ax, d in zip(axes[:, 0], runs):
-        S, t = d["states"], d["t"]
+        S, t = next(iter(d.get("chains", {"chain": d["states"]}).values())), d["t"]
+        sfx = "_left" if d["summary"]["case"] == "full" else ""
         ks = sorted({0, len(S) // 4, len(S) // 2, 3 * len(S) // 4, len(S) - 1})
         for k in ks:
             r = S[k, :, :3]
@@ -522,8 +618,8 @@ def plot_shapes(runs, out):
                             label=f"t = {t[k]:.2f} s")
             res = d["result"]
             for name, _, R in wheels(idler_x()):
-                if name in res.sensors:  # a wheel carried by the chassis: where it is now
-                    c = np.asarray(res.sensors[name])[k, :2]
+                if name + sfx in res.sensors:  # a wheel carried by the chassis: where it is now
+                    c = np.asarray(res.sensors[name + sfx])[k, :2]
                     ax.add_patch(plt.Circle(c, R, fill=False, color=line.get_color(), lw=0.6))
         if "chassis" not in d["result"].sensors:
             for name, c, R in wheels(idler_x()):
@@ -533,6 +629,32 @@ def plot_shapes(runs, out):
         ax.set_aspect("equal"), ax.legend(fontsize=7, ncol=len(ks)), ax.set_xlabel("forward [m]")
         ax.set_ylabel("up [m]")
     C.save(fig, out, "chain_shape.png")
+
+
+def plot_full(runs, records, out):
+    """The full vehicle's symmetry over time: lateral X, roll, yaw and the chains' mirror asymmetry (log scale: the
+    symmetric vehicle keeps them at round-off), and both tracks seen from behind at the last output."""
+    full = [d for d in runs if d["summary"]["case"] == "full"]
+    if not full:
+        return
+    plt = C.pyplot()
+    fig, axes = plt.subplots(1, 3, figsize=(14, 3.8))
+    for d in full:
+        m = d["summary"]["method"]
+        rs = _case_records(records, d)
+        t = [r["t"] for r in rs]
+        for k, lab in (("x", "|X| [m]"), ("chain_asymmetry", "chain asymmetry [m]")):
+            axes[0].semilogy(t, [max(abs(r[k]), 1e-300) for r in rs], label=f"{m}: {lab}")
+        for k in ("roll_deg", "yaw_deg"):
+            axes[1].semilogy(t, [max(abs(r[k]), 1e-300) for r in rs], label=f"{m}: |{k[:-4]}| [deg]")
+        for c, S in d["chains"].items():
+            axes[2].plot(S[-1, :, 2], S[-1, :, 1], ".", ms=2, label=f"{m}: {c}, t = {d['t'][-1]:.2f} s")
+    for ax in axes[:2]:
+        ax.set_xlabel("t [s]"), ax.legend(fontsize=7)
+    axes[2].axhline(0.0, color="k", lw=0.8)
+    axes[2].set_xlabel("lateral (paper X) [m]"), axes[2].set_ylabel("up [m]"), axes[2].set_aspect("equal")
+    axes[2].legend(fontsize=7)
+    C.save(fig, out, "full_vehicle_symmetry.png")
 
 
 def write_vtk(runs, out):
@@ -550,8 +672,12 @@ def write_vtk(runs, out):
 def main(argv=None):
     p = C.parser("tracked_vehicle", __doc__)
     p.add_argument("--methods", default="continuum,elastic_line", help="comma-separated beam forms")
-    p.add_argument("--t-end", type=float, default=None, help="end time [s] (default 5, --quick 0.02 / 0.1)")
-    p.add_argument("--dt", type=float, default=2e-4, help="time step [s]")
+    p.add_argument("--t-end", type=float, default=None, help="end time [s] (default 5; --quick: fixed wheels 0.02, driven 0.3, full 0.2)")
+    p.add_argument("--dt", type=float, default=None,
+                   help=f"time step [s] (default 2e-4; --quick --vehicle full: {QUICK_FULL_DT})")
+    p.add_argument("--vehicle", choices=("half", "full"), default="half",
+                   help="the driven half vehicle (planar chassis, one chain) or the full vehicle (spatial chassis, "
+                        "two chains)")
     p.add_argument("--fixed-wheels", action="store_true",
                    help="the first stage: the chain on wheels held in space (at rest, or running with --speed)")
     p.add_argument("--drive-start", type=float, default=DRIVE_START,
@@ -565,10 +691,15 @@ def main(argv=None):
     for m in methods:
         if m not in ("continuum", "elastic_line"):
             raise SystemExit(f"--methods: {m!r} is not a beam form (continuum, elastic_line)")
+    if a.dt is None:
+        a.dt = QUICK_FULL_DT if a.quick and a.vehicle == "full" else 2e-4
     if a.dt <= 0 or not math.isfinite(a.dt):
         raise SystemExit(f"--dt must be a positive time step [s], got {a.dt!r}")
+    if a.vehicle == "full" and a.fixed_wheels:
+        raise SystemExit("--fixed-wheels is the half vehicle's first stage: leave out --vehicle full")
+    full = a.vehicle == "full"
     records, runs = [], []
-    if a.fixed_wheels or a.quick:
+    if a.fixed_wheels or (a.quick and not full):
         t_end = a.t_end if a.t_end is not None else (QUICK_T if a.quick else 5.0)
         case = "running" if a.speed else "rest"
         cases = [(case, m, a.speed, a.ground_mu) for m in methods]
@@ -580,9 +711,10 @@ def main(argv=None):
             runs.append(data)
     if not a.fixed_wheels:
         drive_start = 0.0 if a.quick else a.drive_start
-        t_end = QUICK_DRIVEN_T if a.quick else (a.t_end if a.t_end is not None else 5.0)
+        quick_t = QUICK_FULL_T if full else QUICK_DRIVEN_T
+        t_end = quick_t if a.quick else (a.t_end if a.t_end is not None else 5.0)
         for method in (["elastic_line"] if a.quick else methods):
-            recs, data = run_vehicle(method, t_end, a.dt, drive_start, ground_mu=a.ground_mu)
+            recs, data = run_vehicle(method, t_end, a.dt, drive_start, ground_mu=a.ground_mu, full=full)
             records += recs
             runs.append(data)
     _pair_diff(runs, records)
@@ -590,9 +722,9 @@ def main(argv=None):
                                           "factorizations", "ms_per_step", "cpu_ms_per_step", "wall_s",
                                           "energy_error"])
     for d in runs:
-        if d["summary"]["case"] == "driven":
+        if d["summary"]["case"] in ("driven", "full"):
             r = _case_records(records, d)[-1]
-            print(f"driven, {d['summary']['method']}: t = {r['t']:.2f} s, y = {r['y']:.4f} m (no slip "
+            print(f"{d['summary']['case']}, {d['summary']['method']}: t = {r['t']:.2f} s, y = {r['y']:.4f} m (no slip "
                   f"{r['y_no_slip']:.4f} m), vy = {r['vy']:.4f} m/s (no slip {r['v_no_slip']:.4f}), drive work "
                   f"{r['external_work']:.1f} J, dissipated {r['damping_work']:.1f} J, integrator {r['algorithmic']:.1f} J")
 
@@ -600,6 +732,7 @@ def main(argv=None):
         plot_motion(runs, records, out)
         plot_energy(runs, records, out)
         plot_shapes(runs, out)
+        plot_full(runs, records, out)
         write_vtk(runs, out)
 
     return C.finish(records, a, plots)

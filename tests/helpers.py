@@ -219,8 +219,8 @@ def kernels_by_element():
 
 # Examples ------------------------------------------------------------------------------------------------------
 
-def run_example(name: str, tmp_path_factory) -> tuple[object, list[dict]]:
-    """Import examples/<name>.py, run its main(["--quick", "--json", ..., "--out", ...]) in a fresh temporary
+def run_example(name: str, tmp_path_factory, *args: str) -> tuple[object, list[dict]]:
+    """Import examples/<name>.py, run its main(["--quick", *args, "--json", ..., "--out", ...]) in a fresh temporary
     directory and check what every example promises: the JSON on disk holds the returned records, flat, and at least
     one figure was drawn. Returns (module, records)."""
     spec = importlib.util.spec_from_file_location(f"example_{name}", EXAMPLES / f"{name}.py")
@@ -228,7 +228,7 @@ def run_example(name: str, tmp_path_factory) -> tuple[object, list[dict]]:
     spec.loader.exec_module(mod)
     tmp = tmp_path_factory.mktemp(name)
     js, out = tmp / f"{name}.json", tmp / "figures"
-    records = mod.main(["--quick", "--json", str(js), "--out", str(out)])
+    records = mod.main(["--quick", *args, "--json", str(js), "--out", str(out)])
     on_disk = json.loads(js.read_text())
     assert len(on_disk) == len(records) > 0
     assert all(isinstance(r, dict) and all(not isinstance(v, (dict, list)) for v in r.values()) for r in on_disk), \
