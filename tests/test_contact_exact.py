@@ -207,3 +207,39 @@ def test_toml_exact_drum_and_result_json(tmp_path):
     assert c["type"] == "circle" and c["method"] == "exact" and len(c["gaps"]) == 16 * 5
     assert c["normal_force"] == pytest.approx(sum(c["forces"])) and c["normal_force"] > 0
     assert c["min_gap"] > -1e-9
+
+
+def _pushed3d(element: str, body: bool):
+    """3D: a straight member pinned at both ends pushed 2 cm sideways by a cylinder of axis z (no gravity); fixed,
+    or carried by a spatial body on a revolute joint about that axis."""
+    sc = Scene(dim=3, gravity=(0.0, 0.0, 0.0))
+    if element == "beam3d":
+        sc.member("strip", [(0, 0, 0), (1, 0, 0)], 8, Material(E=2e9, density=1000.0), Section.rectangle(0.01, 0.004),
+                  element="beam3d")
+    else:
+        sc.member("strip", [(0, 0, 0), (1, 0, 0)], 8, Material(E=2e9, density=1000.0), Section.circle(0.004))
+    sc.pin("strip", "start")
+    sc.pin("strip", "end")
+    centre = (0.5, -0.18, 0.0)
+    if body:
+        sc.body("wheel", 1.0, (0.01, 0.01, 0.02), position=centre)
+        sc.revolute("wheel", axis=(0, 0, 1))
+        sc.contact_drum("strip", centre, 0.2, axis=(0, 0, 1), body="wheel", method="exact")
+    else:
+        sc.contact_drum("strip", centre, 0.2, axis=(0, 0, 1), method="exact")
+    return sc
+
+
+@pytest.mark.parametrize("element", ["cable3d", "beam3d"])
+def test_drum_on_a_held_spatial_body_acts_as_the_fixed_cylinder(element):
+    """The kernel <element>_contact_body_drum_gap on a spatial body held by a revolute joint about the drum axis gives
+    the fixed cylinder's equilibrium (1e-6 of the push) and contact forces (1e-5 relative: IPOPT's tolerance); no
+    point penetrates and the forces push (>= 0)."""
+    fixed = solve_static(_pushed3d(element, False))
+    held = solve_static(_pushed3d(element, True))
+    assert fixed.success and held.success, (fixed.status, held.status)
+    n = fixed.x.size
+    assert np.abs(held.x[:n] - fixed.x).max() < 1e-6 * 0.02
+    ff, fh = (np.asarray(r.constraint_forces["contact"]) for r in (fixed, held))
+    assert ff.max() > 0 and np.all(fh >= 0) and np.abs(fh - ff).max() < 1e-5 * ff.max()
+    assert min(contact_exact.gaps(held.assembly, held.x)) > -1e-9
