@@ -26,6 +26,7 @@ import scipy.sparse as sp
 
 from . import registry
 from .assembly import LINEAR_EFFECTS, Assembly, ForceTerm, force_terms
+from .casadi_buffers import bind
 from .inertia import BAND_LIMIT
 from .member_effects import START_EFFECTS
 
@@ -125,11 +126,8 @@ class ReducedEvaluation:
         for ft in fts:
             N, nd = ft.N, ft.nd
             X, P = np.zeros((N, nd)), np.ascontiguousarray(ft.P, dtype=float)
-            buf, ev = _mapped(ft).buffer()
-            buf.set_arg(0, memoryview(X))
-            buf.set_arg(1, memoryview(P))
-            for i, (a, size) in enumerate(((self.E[e0:], N), (self.G[g0:], N * nd), (self.H[h0:], N * nd * nd))):
-                buf.set_res(i, memoryview(a[:size]))
+            buf, ev = bind(_mapped(ft), (X, P),
+                           (self.E[e0:e0 + N], self.G[g0:g0 + N * nd], self.H[h0:h0 + N * nd * nd]))
             e0, g0, h0 = e0 + N, g0 + N * nd, h0 + N * nd * nd
             self.calls.append((ft.idx, X, P, buf, ev, self._local_columns(ft)))
 
