@@ -358,11 +358,21 @@ def unilateral(asm, only=None) -> tuple | None:
     return sp.csr_matrix((vals, (rows, cols)), shape=(m, asm.n)), np.array(b), labels
 
 
-def point_data(asm, x: np.ndarray, per_element: int) -> dict[str, np.ndarray]:
+def point_data(asm, x: np.ndarray, per_element: int, exact_forces=None) -> dict[str, np.ndarray]:
     """VTK point data of a scene with contact, at the points fields.sample gives (per_element per element, members
     in mesh order): 'contact_gap' [m] (NaN on members without contact) and 'contact_force' [N per node, spread
-    linearly between nodes], interpolated from the nodal values of node_fields; {} without contact."""
+    linearly between nodes], interpolated from the nodal values of node_fields (and, given exact_forces =
+    result.constraint_forces['contact'] of a statics with exact contact, contact_exact.node_fields); {} without
+    contact."""
     nodal = node_fields(asm, x)
+    if exact_forces is not None:
+        from . import contact_exact
+
+        for name, f in contact_exact.node_fields(asm, x, exact_forces).items():
+            g = nodal.setdefault(name, {"contact_gap": np.full(len(f["contact_gap"]), np.inf),
+                                        "contact_force": np.zeros(len(f["contact_gap"]))})
+            g["contact_gap"] = np.minimum(g["contact_gap"], f["contact_gap"])
+            g["contact_force"] = g["contact_force"] + f["contact_force"]
     if not nodal:
         return {}
     gap, force = [], []

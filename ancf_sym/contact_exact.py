@@ -131,6 +131,22 @@ def report(asm, x: np.ndarray, forces=None) -> list[dict]:
     return out
 
 
+def node_fields(asm, x: np.ndarray, forces) -> dict[str, dict[str, np.ndarray]]:
+    """Per member with exact contact: nodal 'contact_gap' [m] (the smallest gap of the points of the elements at the
+    node) and 'contact_force' [N] (each point's force shared by its element's nodes as (1 - xi, xi): the sum kept),
+    for VTK point data (ancf_sym.contact.point_data)."""
+    out: dict = {}
+    for p in points(asm, x, forces):
+        mm = asm.mesh.members[p["member"]]
+        f = out.setdefault(p["member"], {"contact_gap": np.full(mm.n_nodes, np.inf),
+                                         "contact_force": np.zeros(mm.n_nodes)})
+        a, b = mm.elem_nodes[p["element"]]
+        f["contact_gap"][[a, b]] = np.minimum(f["contact_gap"][[a, b]], p["gap"])
+        f["contact_force"][a] += (1 - p["xi"]) * p["force"]
+        f["contact_force"][b] += p["xi"] * p["force"]
+    return out
+
+
 def casadi_rows(asm, blocks: list[Rows], x: ca.MX, lam: ca.MX):
     """(g (m), lower bounds (m), Jacobian (m x n), upper triangle of sum_k lam_k Hess g_k (n x n)) of the rows as MX
     of x and the rows' multipliers lam: linear rows as constant matrices, drum rows from the gap kernels."""

@@ -4,6 +4,7 @@ pressure T/rho, drum reaction 2 T sin(wrap/2)), drums carried by held rigid bodi
 from __future__ import annotations
 
 import json
+import meshio
 import numpy as np
 import pytest
 
@@ -206,6 +207,10 @@ def test_toml_exact_drum_and_result_json(tmp_path):
     assert c["type"] == "circle" and c["method"] == "exact" and len(c["gaps"]) == 16 * 5
     assert c["normal_force"] == pytest.approx(sum(c["forces"])) and c["normal_force"] > 0
     assert c["min_gap"] > -1e-9
+    (vtu,) = list(out.glob("*.vtu"))
+    pd = meshio.read(vtu).point_data  # the forces shared by the nodes, interpolated between them: the same sum
+    assert pd["contact_force"].max() > 0 and pd["contact_force"].min() >= 0
+    assert pd["contact_gap"].min() == pytest.approx(c["min_gap"], abs=1e-12)
 
 
 def _pushed3d(element: str, body: bool):
