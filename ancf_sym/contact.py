@@ -137,9 +137,6 @@ def drum(scene, member: str, centre: Sequence[float] | None, radius: float, axis
     """Validated DrumContact of a scene member (see Scene.contact_drum)."""
     f = f"contact_drum(member={member!r})"
     law = _law(scene, f, member, stiffness, hertz, thickness, damping, mu, eps, gauss, method)
-    if method == "exact":
-        raise SceneError(f"{f}: method='exact' (unilateral constraints) is available for ground contact only; "
-                         "use method='penalty' with a stiffness or hertz law")
     if body is not None:
         if body not in scene.bodies:
             raise SceneError(f"{f}: body {body!r} does not exist; bodies: {sorted(scene.bodies)}")
@@ -260,10 +257,10 @@ def dissipation_calls(mesh) -> list[tuple[str, int, np.ndarray, np.ndarray]]:
 
 def check_dynamics(asm) -> None:
     """Exact contact is a statics method: refuse it in a dynamic run, before any work."""
-    exact = [c.member for c in getattr(asm.scene, "contacts", ()) if c.method == "exact"]
+    exact = [c for c in getattr(asm.scene, "contacts", ()) if c.method == "exact"]
     if exact:
-        raise SceneError(f"contact_ground(member={exact[0]!r}): method='exact' (unilateral constraints) is for "
-                         "statics; dynamics needs method='penalty' (a stiffness or hertz law)")
+        raise SceneError(f"{_effect(exact[0])}(member={exact[0].member!r}): method='exact' (unilateral "
+                         "constraints) is for statics; dynamics needs method='penalty' (a stiffness or hertz law)")
 
 
 def report(asm, x: np.ndarray) -> list[dict]:
@@ -331,15 +328,16 @@ def _position_rows(element: str, L: float, xi: float, dim: int) -> np.ndarray:
     return S
 
 
-def unilateral(asm) -> tuple | None:
-    """(A (m x n sparse), b, labels) of the exact contacts' rows n.r(xi_k) - level - t >= 0 at the Gauss points of
-    every element (the points where the penalty law is evaluated), or None. Linear in x: no Hessian term."""
+def unilateral(asm, only=None) -> tuple | None:
+    """(A (m x n sparse), b, labels) of the exact ground contacts' rows n.r(xi_k) - level - t >= 0 at the Gauss
+    points of every element (the points where the penalty law is evaluated), or None; `only`: of that contact.
+    Linear in x: no Hessian term. (All exact contacts, drums too: ancf_sym.contact_exact.)"""
     from .elements.quadrature import gauss01
 
     rows, cols, vals, b, labels = [], [], [], [], []
     m = 0
     for c in getattr(asm.scene, "contacts", ()):
-        if c.method != "exact":
+        if c.method != "exact" or isinstance(c, DrumContact) or (only is not None and c is not only):
             continue
         mm = asm.mesh.members[c.member]
         d = asm.scene.dim
@@ -360,11 +358,21 @@ def unilateral(asm) -> tuple | None:
     return sp.csr_matrix((vals, (rows, cols)), shape=(m, asm.n)), np.array(b), labels
 
 
-def point_data(asm, x: np.ndarray, per_element: int) -> dict[str, np.ndarray]:
+def point_data(asm, x: np.ndarray, per_element: int, exact_forces=None) -> dict[str, np.ndarray]:
     """VTK point data of a scene with contact, at the points fields.sample gives (per_element per element, members
     in mesh order): 'contact_gap' [m] (NaN on members without contact) and 'contact_force' [N per node, spread
-    linearly between nodes], interpolated from the nodal values of node_fields; {} without contact."""
+    linearly between nodes], interpolated from the nodal values of node_fields (and, given exact_forces =
+    result.constraint_forces['contact'] of a statics with exact contact, contact_exact.node_fields); {} without
+    contact."""
     nodal = node_fields(asm, x)
+    if exact_forces is not None:
+        from . import contact_exact
+
+        for name, f in contact_exact.node_fields(asm, x, exact_forces).items():
+            g = nodal.setdefault(name, {"contact_gap": np.full(len(f["contact_gap"]), np.inf),
+                                        "contact_force": np.zeros(len(f["contact_gap"]))})
+            g["contact_gap"] = np.minimum(g["contact_gap"], f["contact_gap"])
+            g["contact_force"] = g["contact_force"] + f["contact_force"]
     if not nodal:
         return {}
     gap, force = [], []

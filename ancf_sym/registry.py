@@ -158,6 +158,15 @@ def _contact_effects(el: str, dim: int) -> list[Effect]:
                   "spatial-body-carried drum damping + regularised Coulomb friction: dissipation of "
                   "[q, r, e1, e2, e3; rates] (the body's spin and tumbling in the relative velocity)", CONTACT_GAUSS,
                   elastic=False, obstacle=12, rates=True)] if dim == 3 else []),
+        # statics with exact contact: the gap of one centre-line point (at xi, a parameter) outside a drum, a
+        # constraint g >= 0 of IPOPT (its Hessian weighted by the multiplier); the centre is an input, so one kernel
+        # serves a fixed drum (constant centre) and a planar body's drum (its x, y)
+        Effect(el, "contact_circle_gap", ("L", "xi", "t") + axis, "gap |r(xi) - c|_perp - R - t of a centre-line "
+               "point outside a drum of centre c (appended to q): a unilateral constraint of statics", elastic=False,
+               obstacle=dim),
+        *([Effect(el, "contact_body_drum_gap", ("L", "xi", "t") + axis + offset,
+                  "gap of a centre-line point outside the drum of a spatial body: [q, r, e1, e2, e3]",
+                  elastic=False, obstacle=12)] if dim == 3 else []),
         # a fixed drum: the same densities with the centre as a parameter (no obstacle coordinates in the scene)
         Effect(el, "contact_drum", law + axis + centre, "contact energy with a fixed drum of centre c (in p)",
                CONTACT_GAUSS, elastic=False),

@@ -64,7 +64,8 @@ def static_mesh(result: StaticResult, per_element: int = 8) -> meshio.Mesh:
     point_data = {k: np.concatenate(v) for k, v in data.items()}
     point_data["member"] = point_data["member"].astype(np.int32)
     point_data.update(section_point_data(result.assembly.mesh, per_element))
-    point_data.update(contact.point_data(result.assembly, result.x, per_element))
+    point_data.update(contact.point_data(result.assembly, result.x, per_element,
+                                         result.constraint_forces.get("contact")))
     return meshio.Mesh(np.vstack(pts), cells, point_data=point_data,
                        cell_data={"member": [c.astype(np.int32) for c in cell_member]})
 

@@ -111,7 +111,7 @@ def _contact_station(element: str, effect: str):
     return station
 
 
-CONTACT = {ef for (el, ef), e in registry.EFFECTS.items() if ef.startswith("contact_")}
+CONTACT = {ef for (el, ef), e in registry.EFFECTS.items() if ef.startswith("contact_") and e.gauss}  # (gaps: direct)
 
 
 # internal fused effects (registry Effect.parts): axial density of the strain measure + bending density
@@ -120,8 +120,25 @@ _QUADRATURE = {"axial_green", "axial_biot", "bending", "continuum", "line_strain
                *FUSED, *CONTACT}
 
 
+def _gap(element: str, effect: str):
+    """Gap of the centre-line point at xi = p[1] outside a drum (elements.contact.circle_gap / body_drum_gap), the
+    drum's centre or carrying body's coordinates after the element's in q."""
+    el = registry.ELEMENTS[element]
+    nd, dim = el.ndof, el.dim
+    centre = cable.position if element.startswith("cable") else (lambda q, L, xi, dim: beam.centreline(q, L, xi))
+
+    def gap(z, p):
+        r = centre(z[:nd], p[0], p[1], dim)
+        if effect == "contact_body_drum_gap":
+            return contact.body_drum_gap(ca.vertcat(r - z[nd:nd + 3], z[nd + 3:nd + 12]), p)
+        return contact.circle_gap(r - z[nd:nd + dim], p, dim)
+    return gap
+
+
 def _direct_energy(element: str, effect: str, gauss: int | None):
     el = registry.ELEMENTS[element]
+    if effect.endswith("_gap"):
+        return _gap(element, effect)
     if element.startswith("cable"):
         dim = el.dim
         if effect in ("axial_decoupled", "axial_decoupled_biot"):
@@ -169,7 +186,8 @@ def kernel(element: str, effect: str, gauss: int | None = None) -> ca.Function:
         # (bench/kernel_forms.py, bench/RESULTS.md).
         small = element.startswith("cable") or effect == "line_torsion" or effect in CONTACT
         return k.expand(name, {}) if small else k
-    return forms.direct_kernel(name, el.ndof, len(eff.params), _direct_energy(element, effect, gauss))
+    return forms.direct_kernel(name, registry.input_size(element, effect), len(eff.params),
+                               _direct_energy(element, effect, gauss))
 
 
 def mass(element: str) -> ca.Function:

@@ -103,14 +103,29 @@ def circle_dissipation(d, w, omega, p, dim: int):
     return dissipation(penetration(rho - R - t), n, w - spin, k, kh, c, mu, eps)
 
 
-def _body_drum_geometry(x, E, p):
+def _body_drum_geometry(x, E, p, first: int = 5):
     """Radial part of the point x = r - r_b (relative to the body's centre) from the axis of a drum carried by a
     spatial body of axis vectors E = (e1, e2, e3): axis a = sum a_k e_k, through the body point sum s_k e_k
-    (p = (L, k, kh, t, R, a1, a2, a3, ..., s1, s2, s3): a and s in body components, s last). Linear in (x, E)
+    (p = (..., a1, a2, a3, ..., s1, s2, s3): a from p[first], s last, both in body components). Linear in (x, E)
     before the projection, so the fields stay linear in the kernel's inputs."""
-    a = p[5] * E[0] + p[6] * E[1] + p[7] * E[2]
+    a = p[first] * E[0] + p[first + 1] * E[1] + p[first + 2] * E[2]
     d = x - (p[-3] * E[0] + p[-2] * E[1] + p[-1] * E[2])
     return d - ca.dot(a, d) * a
+
+
+# -- exact contact in statics: the gap of one point as a constraint g >= 0 (no law, no stiffness) ----------------
+
+def circle_gap(d, p, dim: int):
+    """Gap |d|_perp - R - t of a point d = r - c outside a drum; p = (L, xi, t, R[, ax, ay, az])."""
+    dp = d if dim == 2 else d - ca.dot(p[4:7], d) * p[4:7]
+    return ca.sqrt(ca.dot(dp, dp)) - p[3] - p[2]
+
+
+def body_drum_gap(u, p):
+    """Gap of a point outside a spatial body's drum, u = (r - r_b, e1, e2, e3);
+    p = (L, xi, t, R, a (3), s (3)), a and s in body components."""
+    dp = _body_drum_geometry(u[:3], (u[3:6], u[6:9], u[9:12]), p, first=4)
+    return ca.sqrt(ca.dot(dp, dp)) - p[3] - p[2]
 
 
 def body_drum_energy(u, p):
