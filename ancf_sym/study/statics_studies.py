@@ -12,6 +12,9 @@ from .base import Axis, Study
 from .references import rod_reference
 
 STRAINS = AXIAL  # the axial strain measures a member can use
+# timed solves per setting (min): a solve of a small scene takes ~1 ms, and with 2 cores shared by other processes
+# the min over 3 still caught preempted runs (2 ms for a 1 ms solve, measured); 10 cost ~1 s per study more
+REPEATS = 10
 
 
 def _timed_static(scene_fn, repeats: int):
@@ -68,7 +71,7 @@ def zhang_reference(variant: str) -> dict:
 
 def zhang_run(setting: dict, variant: str) -> dict:
     r, wall = _timed_static(lambda: zhang_scene(setting["strain"], setting["n"], setting["gauss"]),
-                            1 if variant == "quick" else 3)
+                            1 if variant == "quick" else REPEATS)
     return static_record(r, wall)
 
 
@@ -115,14 +118,14 @@ def elastica_reference(variant: str) -> dict:
 
 def elastica_run(setting: dict, variant: str) -> dict:
     r, wall = _timed_static(lambda: elastica_scene(setting["strain"], setting["n"], setting["gauss"]),
-                            1 if variant == "quick" else 3)
+                            1 if variant == "quick" else REPEATS)
     return static_record(r, wall)
 
 
 _GAUSS = Axis("gauss", GAUSS_ORDERS, (5,), int, GAUSS_ORDERS, "Gauss points per element")
 _STRAIN = Axis("strain", STRAINS, ("green", "decoupled"), str, STRAINS, "axial strain measure")
 _TIMING = ("solve_static on a freshly built scene, its problem (assembly, Newton index maps) built by an untimed first solve "
-           "and reused, min over 3 repeats (1 in --quick); settings within ~10 % of each other tie")
+           "and reused, min over 10 repeats (1 in --quick); settings within ~10 % of each other tie")
 
 STUDIES = [
     Study("zhang_cantilever", "Paper 000 cantilever under gravity (E = 20 GPa)",
