@@ -12,6 +12,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import bodies, kernels, spatial_bodies
+from .casadi_buffers import bind
 from .constraints import Constraints, build_constraints
 from .loads import load_vector
 from .mesh import Mesh, build_mesh
@@ -45,11 +46,7 @@ class MappedKernel:
         self.E = np.zeros(self.N)
         self.G = np.zeros((self.N, self.nd))
         self.H = np.zeros((self.N, self.nd, self.nd))
-        self.buf, self._eval = self.f.buffer()
-        for i, a in enumerate((self.X, self.P)):
-            self.buf.set_arg(i, memoryview(a))
-        for i, a in enumerate((self.E, self.G, self.H)):
-            self.buf.set_res(i, memoryview(a))
+        self.buf, self._eval = bind(self.f, (self.X, self.P), (self.E, self.G, self.H))
 
     def __call__(self, x: np.ndarray) -> None:
         np.take(x, self.term.idx, out=self.X)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import signal
+import socket
 import sys
 import threading
 from typing import Iterator
@@ -56,9 +57,12 @@ class _WithoutInterruptNotice:
 
     def __init__(self, stream, rec: _Recorder):
         self.stream, self.rec = stream, rec
+        self.dropping = False  # inside a CasADi warning line written after the interrupt (it comes in pieces)
 
     def write(self, text: str) -> int:
-        if self.rec.exc is not None and "KeyboardInterruptException" in text:
+        if self.rec.exc is not None and (self.dropping or text.startswith("CasADi - ")
+                                         or "KeyboardInterruptException" in text):
+            self.dropping = "\n" not in text
             return len(text)
         return self.stream.write(text)
 
@@ -70,7 +74,12 @@ class _WithoutInterruptNotice:
 def interruptible() -> Iterator[_Recorder]:
     """Around a C call that may swallow signal exceptions: after it returns, the exception a SIGINT/SIGTERM handler
     raised during the call is raised again. Handlers that are not Python callables (default kill, ignore) are left
-    alone; outside the main thread signals are not Python's to handle, so nothing is wrapped."""
+    alone; outside the main thread signals are not Python's to handle, so nothing is wrapped.
+
+    A signal whose Python handler never ran during the call (its pending flag consumed inside C code without the
+    handler: once seen under load, IPOPT then iterated to its end) is still seen: Python's C-level handler writes
+    every signal number to the wakeup fd, and a SIGINT/SIGTERM found there without a recorded exception calls the
+    handler after the call."""
     rec = _Recorder()
     if threading.current_thread() is not threading.main_thread():
         yield rec
@@ -81,12 +90,27 @@ def interruptible() -> Iterator[_Recorder]:
         if callable(prev):
             saved[sig] = prev
             signal.signal(sig, rec.wrap(prev))
+    wake_r, wake_w = socket.socketpair()
+    wake_r.setblocking(False)
+    wake_w.setblocking(False)
+    old_fd = signal.set_wakeup_fd(wake_w.fileno(), warn_on_full_buffer=False)
     stderr, sys.stderr = sys.stderr, _WithoutInterruptNotice(sys.stderr, rec)
+    arrived = b""
     try:
         yield rec
     finally:
         sys.stderr = stderr
+        signal.set_wakeup_fd(old_fd)
+        try:
+            arrived = wake_r.recv(4096)
+        except BlockingIOError:  # nothing arrived
+            pass
+        wake_r.close()
+        wake_w.close()
         for sig, prev in saved.items():
             signal.signal(sig, prev)
     if rec.exc is not None:
         raise rec.exc
+    for sig, handler in saved.items():
+        if int(sig) in arrived:
+            handler(int(sig), None)  # raises (KeyboardInterrupt / Terminated) for the handlers this module expects

@@ -26,6 +26,7 @@ import scipy.sparse as sp
 
 from . import kernels, registry
 from .assembly import LINEAR_EFFECTS, Assembly, ForceTerm, force_terms, map_elements
+from .casadi_buffers import bind
 from .inertia import BAND_LIMIT
 from .member_effects import START_EFFECTS
 
@@ -141,11 +142,8 @@ class ReducedEvaluation:
         for ft, N in zip(fts, self._n):
             nd, pad = ft.nd, np.zeros(N - ft.N, np.int64)  # padding repeats the first element (finite outputs)
             X, P = np.zeros((N, nd)), np.ascontiguousarray(ft.P[np.r_[np.arange(ft.N), pad]], dtype=float)
-            buf, ev = _mapped(ft, N).buffer()
-            buf.set_arg(0, memoryview(X))
-            buf.set_arg(1, memoryview(P))
-            for i, (a, size) in enumerate(((self.E[e0:], N), (self.G[g0:], N * nd), (self.H[h0:], N * nd * nd))):
-                buf.set_res(i, memoryview(a[:size]))
+            buf, ev = bind(_mapped(ft, N), (X, P),
+                           (self.E[e0:e0 + N], self.G[g0:g0 + N * nd], self.H[h0:h0 + N * nd * nd]))
             e0, g0, h0 = e0 + N, g0 + N * nd, h0 + N * nd * nd
             idx = np.ascontiguousarray(ft.idx[np.r_[np.arange(ft.N), pad]])
             self.calls.append((idx, X, P, buf, ev, self._local_columns(ft)))

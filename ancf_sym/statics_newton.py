@@ -37,6 +37,7 @@ import numpy as np
 from scipy.sparse.linalg import splu
 
 from .assembly import Assembly
+from .casadi_buffers import bind
 from scipy.linalg.lapack import dgbsv, dpbtrf, dpbtrs
 
 from .inertia import banded_cholesky, banded_solve
@@ -130,11 +131,7 @@ class NewtonStatics:
         f = ca.Function("statics_newton", [xf, lam, p], [dz, norms], ["x", "lam", "p"], ["dz", "norms"])
         self.x, self.lam, self.p = np.zeros(nf), np.zeros(mc), np.zeros(nf)
         self.dz, self.norms = np.zeros(nf + mc), np.zeros(5)
-        self._buf, self._eval = f.buffer()
-        for i, a in enumerate((self.x, self.lam, self.p)):
-            self._buf.set_arg(i, memoryview(a))
-        for i, a in enumerate((self.dz, self.norms)):
-            self._buf.set_res(i, memoryview(a))
+        self._buf, self._eval = bind(f, (self.x, self.lam, self.p), (self.dz, self.norms))
         self.f = f
         self.span = S.span
 

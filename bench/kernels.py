@@ -35,6 +35,7 @@ if (Path.cwd() / "ancf_sym").is_dir():
     sys.exit("run this from outside the project root (any other directory), so that the installed, compiled ancf_sym is imported")
 
 from ancf_sym import kernels, registry  # noqa: E402
+from ancf_sym.casadi_buffers import bind  # noqa: E402
 
 PARAM_DEFAULTS = {"L": 0.5, "xi": 0.5, "nu": 0.3, "E": 2e11, "b": 0.02, "h": 0.03, "J": 4.7e-8, "EA": 1.6e7, "EI": 1e2,
                   "nx": 0.0, "ny": 0.0, "nz": 1.0, "t0x": 1.0, "t0y": 0.0, "t0z": 0.0,
@@ -97,13 +98,7 @@ class Buffered:
         self.f = f
         self.args = [np.ascontiguousarray(a, dtype=float) for a in args]
         self.res = [np.zeros(f.nnz_out(i)) for i in range(f.n_out())]
-        for i, a in enumerate(self.args):
-            assert a.size == f.nnz_in(i), (f.name(), i, a.size, f.nnz_in(i))
-        self.buf, self.eval = f.buffer()
-        for i, a in enumerate(self.args):
-            self.buf.set_arg(i, memoryview(a))
-        for i, r in enumerate(self.res):
-            self.buf.set_res(i, memoryview(r))
+        self.buf, self.eval = bind(f, self.args, self.res)  # (checks each input's size)
 
     def __call__(self):
         self.eval()

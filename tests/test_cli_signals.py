@@ -132,6 +132,7 @@ def test_signal_during_ipopt_stops_the_run_and_keeps_the_previous_result(tmp_pat
     rc, err, after = start_and_signal(scene, out, b"IPOPT full steps ...", sig)
     assert rc == code, err[-3000:]
     assert "Traceback" not in err and "KeyboardInterrupt" not in err and err.count("ancf-sym:") == 1, err[-3000:]
+    assert "CasADi - " not in err, err[-3000:]  # its warning about the caught interrupt is not a second report
     line = last_line(err)
     assert line.startswith("ancf-sym: slow: ") and word in line and f"previous results in {out} kept" in line, line
     assert after < 30, f"took {after:.1f} s to stop"

@@ -10,6 +10,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .. import kernels
+from ..casadi_buffers import bind
 from ..dynamics.collocation import interval_end, stage_residual
 from ..sparsity import dm as _dm, gather_sum, scatter
 
@@ -262,12 +263,7 @@ class TranscriptionMixin:
             Pnp = np.ascontiguousarray(np.asarray(Pm).T)
             V = np.ones_like(Xe)
             for key, f, args in (("gradient", gfun, [Xe]), ("full", main, [Xe, Pnp]), ("hvp", hvp, [Xe, Pnp, V])):
-                buf, ev = f.buffer()
-                res = [np.zeros(f.nnz_out(i)) for i in range(f.n_out())]
-                for i, a in enumerate(args):
-                    buf.set_arg(i, memoryview(a))
-                for i, r in enumerate(res):
-                    buf.set_res(i, memoryview(r))
+                buf, ev = bind(f, args, [np.zeros(f.nnz_out(i)) for i in range(f.n_out())])
                 ev()
                 ts = []
                 for _ in range(repeat):

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..casadi_buffers import bind
 from . import chunks
 from .alpha_step import AlphaStepGraphs
 from .damping import StiffnessDamping
@@ -104,11 +105,7 @@ class AlphaIntegrator:
         args = [self._s_in] + self.fac + [self._h, self._hp, self._pload, self._tols] + \
             ([S.kel] if S.kel is not None else []) + [S.par]
         outs = [self._s_out] + self._f_out + [self._info]
-        buf, ev = pooled_buffer(self._graphs, "step", self.step_f, self)
-        for i, arr in enumerate(args):
-            buf.set_arg(i, memoryview(arr))
-        for i, arr in enumerate(outs):
-            buf.set_res(i, memoryview(arr))
+        buf, ev = bind(self.step_f, args, outs, pooled_buffer(self._graphs, "step", self.step_f, self))
         self._step = (buf, ev, args, outs)
 
     def initialize(self, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray, t0: float = 0.0) -> None:
@@ -264,7 +261,6 @@ class AlphaIntegrator:
             if (n, guard) not in g["chunks"]:  # (without the guard: the step itself over the steps)
                 g["chunks"][n, guard] = chunks.map_steps(g["guarded"] if guard else self.step_f, n, self.n_accum)
             f = g["chunks"][n, guard]
-            buf, ev = pooled_buffer(g, (n, guard), f, self)
             nf = self.S.nf
             ns = self.state_size + guard
             bufs = dict(s=np.zeros(ns), h=np.zeros(n), hp=np.zeros(n), pload=np.zeros((nf + self.S.nw) * n),
@@ -275,10 +271,7 @@ class AlphaIntegrator:
                 ([np.tile(S.kel, n)] if S.kel is not None else []) + [np.tile(S.par, n)]
             bufs["fixed"] = args[-1 - (S.kel is not None):]  # (kept alive: the buffer holds their memory)
             outs = [bufs["out"]] + bufs["fac_out"] + [bufs["info"]]
-            for i, arr in enumerate(args):
-                buf.set_arg(i, memoryview(arr))
-            for i, arr in enumerate(outs):
-                buf.set_res(i, memoryview(arr))
+            buf, ev = bind(f, args, outs, pooled_buffer(g, (n, guard), f, self))
             self._chunks[n, guard] = (buf, ev, bufs)
         return self._chunks[n, guard]
 

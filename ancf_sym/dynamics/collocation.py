@@ -29,6 +29,7 @@ import numpy as np
 import numpy.polynomial.legendre as leg
 import scipy.sparse as sp
 
+from ..casadi_buffers import bind
 from ..scene import SceneError
 from ..sparsity import dm, mx_nonzeros
 from .damping import StiffnessDamping, rayleigh_mx
@@ -302,11 +303,7 @@ class _StageNewton:
         self._dz_raw, self._r_raw = np.zeros(self.nz), np.zeros(self.nz)
         for key, outs in (("iteration", (self._dz_raw, self.norms)), ("residual", (self._r_raw, self.norms[:2])),
                           ("jacobian", (self._r_raw, self._jn, self.kkt.data))):
-            buf, ev = fns[key].buffer()
-            for i, a in enumerate(args):
-                buf.set_arg(i, memoryview(a))
-            for i, a in enumerate(outs):
-                buf.set_res(i, memoryview(a))
+            buf, ev = bind(fns[key], args, outs)
             self._bufs.append((buf, ev, args, outs))
         self._it, self._res, self._jac = (b[1] for b in self._bufs)
         if mc:  # modified Newton factorizes the Jacobian in the Functions' order: permute it once per use

@@ -24,6 +24,7 @@ import scipy.sparse as sp
 
 from .. import contact, drives
 from ..assembly import Assembly, force_terms
+from ..casadi_buffers import bind
 from ..reduced import full_mx, partition
 from ..sparsity import dm, mx_nonzeros
 from . import damping
@@ -297,11 +298,7 @@ class StepSystem:
             for name, f, outs in (("iter", self.iter_f, (self.dz, self.norms)),
                                   ("res", self.res_f, (self.r, self.norms[:2])),
                                   ("jac", self.jac_f, (self.r, self._jac_norms, self._kkt.data))):
-                buf, ev = pooled_buffer(self._graphs, name, f, self)
-                for i, a in enumerate(args):
-                    buf.set_arg(i, memoryview(a))
-                for i, a in enumerate(outs):
-                    buf.set_res(i, memoryview(a))
+                buf, ev = bind(f, args, outs, pooled_buffer(self._graphs, name, f, self))
                 bufs.append((buf, ev, args, outs))  # the buffer object must outlive its evaluations
             self._evals = bufs
         return self._evals
@@ -372,13 +369,7 @@ class StepSystem:
         if not hasattr(self, "_ebuf"):
             self._e_x, self._e_vel = np.zeros(self.nf), np.zeros(self.nf)
             self._e_v = np.zeros(self._energy_kin_f.nnz_out(0))
-            buf, ev = self._energy_kin_f.buffer()
-            buf.set_arg(0, memoryview(self._e_x))
-            buf.set_arg(1, memoryview(self._e_vel))
-            buf.set_arg(2, memoryview(self.par))
-            buf.set_arg(3, memoryview(self.lin))
-            buf.set_res(0, memoryview(self._e_v))
-            self._ebuf = (buf, ev)
+            self._ebuf = bind(self._energy_kin_f, (self._e_x, self._e_vel, self.par, self.lin), (self._e_v,))
         self._e_x[:] = xf
         self._e_vel[:] = 0.0 if vf is None else vf
         self._ebuf[1]()

@@ -25,6 +25,7 @@ import time
 
 import numpy as np
 
+from ..casadi_buffers import bind
 from ..registry import GAUSS_ORDERS
 from .base import Axis, Study
 
@@ -227,18 +228,11 @@ class Buffered:
 
     def __init__(self, f, args: list[np.ndarray]):
         self.args = [np.ascontiguousarray(a, dtype=float) for a in args]
-        for i, a in enumerate(self.args):
-            if a.size != f.nnz_in(i):
-                raise ValueError(f"{f.name()}: input {i} has {a.size} numbers, expected {f.nnz_in(i)}")
         for i in range(f.n_out()):
             if f.nnz_out(i) != f.numel_out(i):
                 raise ValueError(f"{f.name()}: output {i} is not dense")
         self.res = [np.zeros(f.nnz_out(i)) for i in range(f.n_out())]
-        self.buf, self.eval = f.buffer()
-        for i, a in enumerate(self.args):
-            self.buf.set_arg(i, memoryview(a))
-        for i, r in enumerate(self.res):
-            self.buf.set_res(i, memoryview(r))
+        self.buf, self.eval = bind(f, self.args, self.res)  # (checks each input's size)
 
 
 def mapped(fns: list, q: np.ndarray) -> list[Buffered]:
