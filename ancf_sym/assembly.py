@@ -27,6 +27,7 @@ LINEAR_EFFECTS = ("gravity",)  # potential linear in q: zero Hessian, never scat
 
 
 _MAPPED: dict = {}  # (element, effect, Gauss order, elements) -> the kernel mapped over them (built once)
+MAPPED_CALLS: dict = {}  # (kernel names, elements) -> map_elements' function (cleared with the step graphs)
 
 
 class MappedKernel:
@@ -91,7 +92,16 @@ class ForceTerm:
 
 def map_elements(one: ca.Function, batch: ca.Function | None, N: int) -> ca.Function:
     """`one` mapped over N elements: its batched version (registry.BATCH_LANES elements per call, SIMD) over the
-    whole batches and `one` over the rest; the plain map where no batched version exists."""
+    whole batches and `one` over the rest; the plain map where no batched version exists. Kept for each (kernel,
+    N): the runs of a structure map the same kernels again (ancf_sym.dynamics.clear_graph_cache forgets them)."""
+    key = (one.name(), None if batch is None else batch.name(), N)
+    f = MAPPED_CALLS.get(key)
+    if f is None:
+        f = MAPPED_CALLS[key] = _map_elements(one, batch, N)
+    return f
+
+
+def _map_elements(one: ca.Function, batch: ca.Function | None, N: int) -> ca.Function:
     lanes = registry.BATCH_LANES
     nb = N // lanes if batch is not None else 0
     if nb == 0:

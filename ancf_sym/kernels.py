@@ -109,6 +109,7 @@ def load(element: str, effect: str, gauss: int | None = None) -> Kernel:
     return _load(element, effect, gauss)
 
 
+@functools.lru_cache(maxsize=None)
 def load_energy(element: str, effect: str, gauss: int | None = None) -> ca.Function:
     """(q, p) -> energy alone, with its compiled reverse-mode companion (for CasADi/IPOPT graphs that need it)."""
     _check_names(element, effect)
@@ -116,6 +117,7 @@ def load_energy(element: str, effect: str, gauss: int | None = None) -> ca.Funct
     return ca.external(name, str(library_path(registry.library_name(element, effect))))
 
 
+@functools.lru_cache(maxsize=None)
 def load_grad(element: str, effect: str, gauss: int | None = None) -> ca.Function:
     """(q, p) -> (energy, gradient) without the Hessian's work: the residual of modified Newton iterations."""
     _check_names(element, effect)
@@ -136,6 +138,7 @@ def load_batch(element: str, effect: str, gauss: int | None = None, companion: s
     return ca.external(name, str(library_path(registry.library_name(element, effect))))
 
 
+@functools.lru_cache(maxsize=None)
 def load_hvp(element: str, effect: str) -> ca.Function:
     """(q, p, v) -> (H v, d(H v)/dq), third derivatives of the energy contracted with v (cable elastic effects,
     default quadrature): what an exact Lagrangian Hessian needs when grad U sits inside constraints."""

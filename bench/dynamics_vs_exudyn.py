@@ -202,6 +202,7 @@ def bench_case(name, c, repeats, exudyn_modes, exudyn_tols, ancf_no_energies, an
             base[f"ratio_cpu_min_vs_{r['code']}"] = base["cpu_min_s"] / r["cpu_min_s"]
             base[f"ratio_wall_vs_{r['code']}"] = base["wall_median_s"] / r["wall_median_s"]
             base[f"ratio_cpu_total_vs_{r['code']}"] = base["cpu_total_median_s"] / r["cpu_total_median_s"]
+            base[f"ratio_cpu_total_min_vs_{r['code']}"] = base["cpu_total_min_s"] / r["cpu_total_min_s"]
     return rows
 
 
@@ -367,7 +368,8 @@ def main(argv=None):
         print("  ".join(cells))
     print()
     what = {"cpu": "CPU time of the time loop, medians", "cpu_min": "CPU time of the time loop, minima",
-            "wall": "wall time of the time loop, medians", "cpu_total": "CPU time incl. set-up, medians"}
+            "wall": "wall time of the time loop, medians", "cpu_total": "CPU time incl. set-up, medians",
+            "cpu_total_min": "CPU time incl. set-up, minima"}
     for r in rows:
         for k, v in r.items():
             if k.startswith("ratio_"):

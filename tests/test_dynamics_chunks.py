@@ -135,3 +135,43 @@ def test_a_large_state_runs_its_chunk_step_by_step_and_stops_at_the_first_failur
     assert np.allclose(integ.a_prev, one.a_prev, rtol=0, atol=1e-12 * np.abs(one.a_prev).max())
     assert its >= one.counters.newton_iterations + 1  # the failing step's iteration(s) too
     assert not integ._graphs["chunks"]  # no chunk graph built
+
+
+def test_newton_functions_outside_the_step_graph_are_built_on_first_use():
+    """A full-Newton run whose steps all converge in the compiled step graph builds neither the step residual nor
+    the step Jacobian (modified Newton and Newton in Python use them); their first use builds them once for the
+    structure (a second system of it gets the same objects), and they describe the same equations as the compiled
+    iteration: the Newton update solved from their residual and KKT matrix equals the compiled one's to round-off
+    (tolerance 1e-9 relative: the step matrix is dominated by M / (beta h^2), condition number ~1e4 here)."""
+    clear_graph_cache()
+    S, integ = integrator(pendulum())
+    integ.run_chunk(1e-3, np.repeat(-S.f_lin[:, None], 32, axis=1))
+    assert "res_f" not in S._graphs and "jac_f" not in S._graphs
+    S.x[:] = S.reduce(S.asm.x0)
+    S.x[1::4] -= 1e-3 * np.linspace(0.0, 1.0, S.x[1::4].size)  # a bent state
+    S.p[:] = -S.f_lin - 2e6 * (S.M @ S.x)
+    S.cm[0], S.cc[0] = 1e6, 1e3
+    S.jacobian()
+    r = S.r.copy()
+    dz_py = -np.linalg.solve(S.kkt.toarray(), r)
+    dz = S.iterate().copy()
+    assert "res_f" in S._graphs and "jac_f" in S._graphs
+    assert np.max(np.abs(dz_py - dz)) < 1e-9 * np.max(np.abs(dz))
+    rg = S.residual()  # the same residual from the gradient-only kernels
+    assert np.max(np.abs(rg - r)) < 1e-10 * np.max(np.abs(r))
+    S2 = StepSystem(Assembly(pendulum(E=4e9)))
+    assert S2.res_f is S.res_f and S2.jac_f is S.jac_f
+
+
+def test_kernel_companions_load_once_and_mapped_calls_follow_the_graph_cache():
+    """The kernels' (energy, gradient) and energy companions are one compiled function per process, like the
+    kernels; the kernels mapped over a structure's elements are kept with the step graphs and forgotten with them."""
+    from ancf_sym import kernels
+    from ancf_sym.assembly import MAPPED_CALLS, map_elements
+    assert kernels.load_grad("cable2d", "axial_biot") is kernels.load_grad("cable2d", "axial_biot")
+    assert kernels.load_energy("cable2d", "bending") is kernels.load_energy("cable2d", "bending")
+    one = kernels.load_grad("cable2d", "axial_biot")
+    f = map_elements(one, None, 7)
+    assert map_elements(one, None, 7) is f and f.size2_in(0) == 7
+    clear_graph_cache()
+    assert not MAPPED_CALLS and map_elements(one, None, 7) is not f

@@ -17,6 +17,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .. import contact
+from ..assembly import MAPPED_CALLS
 
 if TYPE_CHECKING:
     from .step_system import StepSystem
@@ -35,6 +36,7 @@ def clear_graph_cache() -> None:
     scene-independent SCHEME_FUNCTIONS stay)."""
     SYSTEM_GRAPHS.clear()
     ALPHA_GRAPHS.clear()
+    MAPPED_CALLS.clear()
 
 
 def structure_key(S: "StepSystem") -> str:

@@ -128,7 +128,24 @@ class StepSystem:
 
     # compiled functions and what describes them: built once per structure key and shared by later StepSystems
     _GRAPH_ATTRS = ("kel_sparsity", "forces_pf", "grad_pf", "_energy_kin_labels",
-                    "_energy_kin_f", "damp_f", "damp_force_f", "kkt_sparsity", "iter_f", "res_f", "jac_f")
+                    "_energy_kin_f", "damp_f", "damp_force_f", "kkt_sparsity", "iter_f")
+
+    @property
+    def res_f(self) -> ca.Function:
+        """step_residual(x, lam, p, cm, cc, kc, vc[, kel], y, par) -> (r, norms) from the gradient-only kernels:
+        modified Newton's residual. Built on first use (a full-Newton run that converges in its compiled steps
+        never calls it) and shared by the structure's systems."""
+        if "res_f" not in self._graphs:
+            self._build_step(full_only=False)
+        return self._graphs["res_f"]
+
+    @property
+    def jac_f(self) -> ca.Function:
+        """step_jacobian(...) -> (r, norms, KKT values): Newton in Python and the modified step's
+        refactorisations. Built on first use, like res_f."""
+        if "jac_f" not in self._graphs:
+            self._build_step(full_only=False)
+        return self._graphs["jac_f"]
 
     @property
     def forces_f(self) -> ca.Function:
@@ -192,7 +209,8 @@ class StepSystem:
         A = ca.DM(ca.Sparsity.triplet(self.nf, len(rows), rows, list(range(len(rows)))), 1.0)
         return ca.mtimes(A, ca.vertcat(*vals))
 
-    def _build_step(self) -> None:
+    def _build_step(self, full_only: bool = True) -> None:
+        """iter_f (and kkt_sparsity); full_only False: res_f and jac_f instead, into the structure's graphs."""
         nf, mc = self.nf, self.mc
         xf, lam, p_in = ca.MX.sym("x", nf), ca.MX.sym("lam", mc), ca.MX.sym("p", nf + self.nw)
         p, w = (p_in[:nf], p_in[nf:]) if self.nw else (p_in, None)  # w: the drives' time inputs
@@ -218,23 +236,25 @@ class StepSystem:
             r_q += fd
             S = S + dfx + cc * dfv
         # the same residual from the gradient-only kernels (modified Newton: no Hessian work)
-        r_g = ca.mtimes(Mdm, cm * xf + y) + cc * Cx + self.grad_pf(xf, par) + p
-        if self.damp_f is not None:
+        r_g = None if full_only else ca.mtimes(Mdm, cm * xf + y) + cc * Cx + self.grad_pf(xf, par) + p
+        if self.damp_f is not None and not full_only:
             r_g += self.damp_force_f(xf, vc + cc * xf)
         tq = self.torque_mx(xf, w)
         if tq is not None:  # applied torques: force tau (-s, c), tangent -d/dx of it
             r_q -= tq
-            r_g -= tq
+            if r_g is not None:
+                r_g -= tq
             S = S - ca.jacobian(tq, xf)
         if mc:
             phi = self.constraint_mx(xf, w)
             Jx = ca.jacobian(phi, xf)
             r_q += kc * ca.mtimes(Jx.T, lam)
-            r_g += kc * ca.mtimes(Jx.T, lam)
+            if r_g is not None:
+                r_g += kc * ca.mtimes(Jx.T, lam)
             if self.bilinear:
                 S = S + ca.hessian(ca.dot(kc * lam, phi), xf)[0]
             r = ca.vertcat(r_q, kc * phi)
-            rg = ca.vertcat(r_g, kc * phi)
+            rg = None if r_g is None else ca.vertcat(r_g, kc * phi)
             KKT = ca.blockcat([[S, kc * Jx.T], [kc * Jx, ca.MX(mc, mc)]])
             rc = ca.mmax(ca.fabs(phi))
         else:
@@ -242,20 +262,22 @@ class StepSystem:
         rq = ca.mmax(ca.fabs(r_q))
         ins = [xf, lam, p_in, cm, cc, kc, vc] + ([kel] if kel is not None else []) + [y, par]
         names = ["x", "lam", "p", "cm", "cc", "kc", "vc"] + (["kel"] if kel is not None else []) + ["y", "par"]
-        self.kkt_sparsity = KKT.sparsity()
         kkt_nz = mx_nonzeros(KKT)
         # largest entry (round-off floor): on the diagonal when the step matrix is positive definite
         kmax = ca.mmax(ca.fabs(ca.diag(KKT))) if self.linsol == "ldl" and not mc else ca.mmax(ca.fabs(kkt_nz))
+        if not full_only:
+            self._graphs["res_f"] = ca.Function("step_residual", ins, [rg, ca.vertcat(ca.mmax(ca.fabs(r_g)), rc)],
+                                                names, ["r", "norms"])
+            self._graphs["jac_f"] = ca.Function("step_jacobian", ins, [r, ca.vertcat(rq, rc, kmax), kkt_nz], names,
+                                                ["r", "norms", "kkt"])
+            return
+        self.kkt_sparsity = KKT.sparsity()
         dz = -ca.solve(KKT, r, self.linsol)
         dzx = ca.mmax(ca.fabs(dz[:nf]))
         dzl = ca.mmax(ca.fabs(dz[nf:])) if mc else ca.MX(0)
         # norms: |r_q|inf [N], |Phi|inf [m], |dx|inf, |dlam|inf (scaled: m), max |KKT|
         self.iter_f = ca.Function("newton_iteration", ins, [dz, ca.vertcat(rq, rc, dzx, dzl, kmax)], names,
                                   ["dz", "norms"])
-        self.res_f = ca.Function("step_residual", ins, [rg, ca.vertcat(ca.mmax(ca.fabs(r_g)), rc)], names,
-                                 ["r", "norms"])
-        self.jac_f = ca.Function("step_jacobian", ins, [r, ca.vertcat(rq, rc, kmax), kkt_nz], names,
-                                 ["r", "norms", "kkt"])
 
 
     def ensure_factor(self) -> LDLFactor | None:
@@ -366,6 +388,19 @@ class StepSystem:
     def energies(self, xf: np.ndarray, vf: np.ndarray | None) -> tuple[float, dict]:
         """(kinetic energy 1/2 v.M v (0 without vf), potential energies by label) in one compiled call [J]."""
         out: dict[str, float] = {}
+        vals = self.energy_values(xf, vf)
+        for label, v in zip(self._energy_kin_labels, vals):
+            out[label] = out.get(label, 0.0) + v
+        return vals[-1], out
+
+    @property
+    def energy_labels(self) -> list[str]:
+        """The label of each potential `energy_values` returns (a label may repeat: several members' bending)."""
+        return self._energy_kin_labels
+
+    def energy_values(self, xf: np.ndarray, vf: np.ndarray | None) -> list[float]:
+        """The potentials of the terms (labels: energy_labels), then the kinetic energy, from one compiled call [J]
+        (what `energies` sums by label; the outputs call it directly)."""
         if not hasattr(self, "_ebuf"):
             self._e_x, self._e_vel = np.zeros(self.nf), np.zeros(self.nf)
             self._e_v = np.zeros(self._energy_kin_f.nnz_out(0))
@@ -373,10 +408,7 @@ class StepSystem:
         self._e_x[:] = xf
         self._e_vel[:] = 0.0 if vf is None else vf
         self._ebuf[1]()
-        vals = self._e_v.tolist()
-        for label, v in zip(self._energy_kin_labels, vals):
-            out[label] = out.get(label, 0.0) + v
-        return vals[-1], out
+        return self._e_v.tolist()
 
     def phi(self, xf: np.ndarray, t: float = 0.0) -> np.ndarray:
         x = self.full(xf)
