@@ -218,7 +218,9 @@ def fused_effect(element: str, effects: tuple[str, ...]) -> str | None:
 # Batched kernels (codegen.batch): <function>_x4 evaluates BATCH_LANES elements per call in SIMD lanes. Emitted at
 # the default quadrature order for what the dynamics step graphs call at every step or output: the fused elastic
 # effects' kernel and _grad companion, and the _energy companion of the cables' public quadrature effects (the
-# energies per effect at the output times). Elsewhere the graphs map the one-element function.
+# energies per effect at the output times); and the kernel itself of the effects a decoupled-strain cable calls
+# unfused (its axial energy is no density of (r_x, r_xx), so it cannot join the fused form): axial_decoupled[_biot]
+# and bending. Elsewhere the graphs map the one-element function.
 BATCH_LANES = 4
 BATCH_SUFFIX = f"_x{BATCH_LANES}"
 
@@ -230,8 +232,12 @@ def batched(element: str, effect: str, gauss: int | None) -> tuple[str, ...]:
         return ()
     if eff.internal:
         return ("", "_grad")
-    if effect in ("axial_green", "axial_biot", "bending"):
+    if effect == "bending":
+        return ("", "_energy")
+    if effect in ("axial_green", "axial_biot"):
         return ("_energy",)
+    if effect in ("axial_decoupled", "axial_decoupled_biot"):
+        return ("",)
     return ()
 
 

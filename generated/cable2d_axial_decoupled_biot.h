@@ -308,6 +308,7 @@ int cable2d_axial_decoupled_biot_g7_grad_work_bytes(casadi_int *sz_arg, casadi_i
 void cable2d_axial_decoupled_biot_casadi_version(int* major, int* minor, int* patch);
 int cable2d_axial_decoupled_biot_casadi_int_size(void);
 int cable2d_axial_decoupled_biot_casadi_real_size(void);
+int cable2d_axial_decoupled_biot_x4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 #ifdef __cplusplus
 } /* extern "C" */
 #endif

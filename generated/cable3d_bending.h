@@ -326,6 +326,7 @@ int cable3d_bending_g7_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, c
 void cable3d_bending_casadi_version(int* major, int* minor, int* patch);
 int cable3d_bending_casadi_int_size(void);
 int cable3d_bending_casadi_real_size(void);
+int cable3d_bending_x4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int cable3d_bending_energy_x4(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 #ifdef __cplusplus
 } /* extern "C" */

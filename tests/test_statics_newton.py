@@ -144,13 +144,15 @@ def test_kernel_evaluation_is_the_assembly_reduced(axial):
     index maps, penalties added) is the Assembly's gradient and Hessian reduced to the free coordinates, and its
     Biot variant is the Assembly of the same scene with each axial kernel swapped for its start measure's (Green ->
     coupled Biot, decoupled -> the decoupled rod with Biot strain): the same kernel values summed in another order,
-    so they agree to round-off (1e-10 of the largest entry leaves ~5 orders of magnitude for the summation order)."""
+    so they agree to round-off (1e-10 of the largest entry leaves ~5 orders of magnitude for the summation order).
+    Member "a" (5 elements) is evaluated padded to whole SIMD batches (8): the padding's outputs must be dropped."""
     import dataclasses
 
     from ancf_sym.assembly import Assembly, MappedKernel
     from ancf_sym.statics_eval import BIOT
     p = StaticProblem(_two_members(axial))
     R, ev = p.S, p.light.ev
+    assert any(n > ft.N for ft, n in zip(ev.fts, ev._n))  # the padded path is the one checked
     x = R.full(R.reduce(p.asm.x0) + 0.02 * np.random.default_rng(1).standard_normal(R.nf))
     for evaluation, start in ((ev, False), (ev.variant(BIOT), True)):
         asm = Assembly(_two_members(axial))

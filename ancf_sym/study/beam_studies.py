@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import Axis, Study
-from .statics_studies import _TIMING, _rod_reference, _timed_static, _tip_error, static_record
+from .statics_studies import MIN_TIME, REPEATS, _TIMING, _rod_reference, _timed_static, _tip_error, static_record
 
 BL, BB, BE, BLOAD = 1.0, 0.02, 210e9, 1.0  # square 20 mm steel bar, 1 m; PL^2/EI = 1
 BIZ = BB**4 / 12
@@ -32,7 +32,7 @@ def beam_reference(variant: str) -> dict:
 
 def beam_run(setting: dict, variant: str) -> dict:
     r, wall = _timed_static(lambda: beam_scene(setting["method"], setting["n"], setting["poisson"]),
-                            1 if variant == "quick" else 3)
+                            *((1, 0.0) if variant == "quick" else (REPEATS, MIN_TIME)))
     return static_record(r, wall)
 
 
