@@ -76,10 +76,10 @@ def interruptible() -> Iterator[_Recorder]:
     raised during the call is raised again. Handlers that are not Python callables (default kill, ignore) are left
     alone; outside the main thread signals are not Python's to handle, so nothing is wrapped.
 
-    A signal whose Python handler never ran during the call (its pending flag consumed inside C code without the
-    handler: once seen under load, IPOPT then iterated to its end) is still seen: Python's C-level handler writes
-    every signal number to the wakeup fd, and a SIGINT/SIGTERM found there without a recorded exception calls the
-    handler after the call."""
+    A signal whose Python handler never ran during the call (C code that checks for signals itself and consumes
+    the pending flag) is still seen: Python's C-level handler writes every signal number to the wakeup fd, and a
+    SIGINT/SIGTERM found there without a recorded exception calls the handler after the call. A SIGINT the process
+    inherited as ignored (a background job of a non-interactive shell) stays ignored, as in any Unix program."""
     rec = _Recorder()
     if threading.current_thread() is not threading.main_thread():
         yield rec

@@ -21,9 +21,17 @@ from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before anything loads NumPy/CasADi: see ancf_sym/__init__.py
 
+import signal
+
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+
+# Ctrl-C tests need SIGINT handled: a suite started as a background job of a non-interactive shell (CI scripts,
+# `pytest &`) inherits SIGINT ignored, and so would every CLI run it starts (an ignored signal stays ignored across
+# exec, a handled one is reset to its default there)
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def _is_root(entry: str) -> bool:
