@@ -11,7 +11,7 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from . import bodies, kernels, spatial_bodies
+from . import bodies, kernels, setup_cache, spatial_bodies
 from .casadi_buffers import bind
 from .constraints import Constraints, build_constraints
 from .loads import load_vector
@@ -43,11 +43,20 @@ class MappedKernel:
             _MAPPED[key] = self.kernel.map(self.N)
         self.f = _MAPPED[key]
         self.P = np.ascontiguousarray(term.P)
+
+    _BUFFERS = ("X", "E", "G", "H", "buf", "_eval")
+
+    def __getattr__(self, name: str):
+        """The call's buffers are bound on first use (a dynamic run calls only the linear terms' kernels here:
+        its step graphs call the kernels themselves)."""
+        if name not in MappedKernel._BUFFERS or "P" not in self.__dict__:
+            raise AttributeError(name)
         self.X = np.zeros((self.N, self.nd))
         self.E = np.zeros(self.N)
         self.G = np.zeros((self.N, self.nd))
         self.H = np.zeros((self.N, self.nd, self.nd))
         self.buf, self._eval = bind(self.f, (self.X, self.P), (self.E, self.G, self.H))
+        return self.__dict__[name]
 
     def __call__(self, x: np.ndarray) -> None:
         np.take(x, self.term.idx, out=self.X)
@@ -191,7 +200,9 @@ class Assembly:
         self.constraints: Constraints = build_constraints(self.mesh)
         pen = np.flatnonzero(self.constraints.k > 0)
         self.penalty = self.constraints.subset(pen) if len(pen) else None
-        self.exact = self.constraints.subset(np.flatnonzero(self.constraints.k == 0))
+        # (no penalty rows: every row is exact, the same rows as a subset of all of them would copy)
+        self.exact = self.constraints.subset(np.flatnonzero(self.constraints.k == 0)) if len(pen) else \
+            self.constraints
 
     # -- sparse pattern ------------------------------------------------------------------------------------
     _PATTERN = ("h_indptr", "h_indices", "_hpos", "_n_kernel_entries", "h_nnz", "h_key")
@@ -355,31 +366,44 @@ class Assembly:
         return f
 
     def mass_matrix(self) -> sp.csc_matrix:
-        """Constant global mass matrix (sparse)."""
-        rows, cols, vals = [], [], []
+        """Constant global mass matrix (sparse, CSC). Kept by its exact inputs (each member's element coordinates,
+        lengths and mass parameters, the bodies' entries; ancf_sym.setup_cache): a scene that differs only in
+        other values shares it, read-only."""
+        parts = []
         for mm in self.mesh.members.values():
             m = mm.member
-            idx = mm.elem_dofs()
             L = np.asarray(mm.elem_length, dtype=float)
             P = np.stack([L, np.full_like(L, m.material.density * m.section.area)], axis=1) if m.element != "beam3d" \
                 else np.stack([L] + [np.full_like(L, v) for v in (m.section.b, m.section.h, m.material.density)], 1)
-            # equal elements (the same parameters) computed once; entry (i, j) of element e at (idx[e,i], idx[e,j])
-            if np.all(P == P[:1]):  # (a uniform mesh: one element mass matrix, without sorting the rows)
-                uniq, inv = P[:1], np.zeros(len(P), dtype=np.int64)
-            else:
-                uniq, inv = np.unique(P, axis=0, return_inverse=True)
-            Me = np.stack([kernels.mass_matrix(m.element, list(map(float, p))) for p in uniq])[np.ravel(inv)]
-            nd = idx.shape[1]
-            rows.append(np.repeat(idx, nd, axis=1).ravel())
-            cols.append(np.tile(idx, (1, nd)).ravel())
-            vals.append(Me.reshape(len(idx), -1).ravel())
+            parts.append((m.element, mm.elem_dofs(), P))
         if self.scene.dim == 3:  # diag(m, m, m) + C (x) I_3 per spatial body
             bi, bj, bv = spatial_bodies.mass_triplets(self.scene, self.mesh.bodies)
         else:  # diag(m, m, J, J) per planar body
             bi, bv = bodies.mass_entries(self.scene, self.mesh.bodies)
             bj = bi
-        rows.append(bi)
-        cols.append(bj)
-        vals.append(bv)
-        return sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                             shape=(self.n, self.n)).tocsc()
+        body = tuple(np.asarray(a) for a in (bi, bj, bv))
+        key = setup_cache.array_key(self.n, parts, body)
+        return setup_cache.cached("mass_matrix", key, lambda: _mass_matrix(self.n, parts, body))
+
+
+def _mass_matrix(n: int, parts: list, body: tuple) -> sp.csc_matrix:
+    """The global mass matrix from each member's (element, element coordinates (N, nd), mass parameters (N, k))
+    and the bodies' triplets."""
+    rows, cols, vals = [], [], []
+    for element, idx, P in parts:
+        # equal elements (the same parameters) computed once; entry (i, j) of element e at (idx[e,i], idx[e,j])
+        if np.all(P == P[:1]):  # (a uniform mesh: one element mass matrix, without sorting the rows)
+            uniq, inv = P[:1], np.zeros(len(P), dtype=np.int64)
+        else:
+            uniq, inv = np.unique(P, axis=0, return_inverse=True)
+        Me = np.stack([kernels.mass_matrix(element, list(map(float, p))) for p in uniq])[np.ravel(inv)]
+        nd = idx.shape[1]
+        rows.append(np.repeat(idx, nd, axis=1).ravel())
+        cols.append(np.tile(idx, (1, nd)).ravel())
+        vals.append(Me.reshape(len(idx), -1).ravel())
+    bi, bj, bv = body
+    rows.append(bi)
+    cols.append(bj)
+    vals.append(bv)
+    return sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(n, n)).tocsc()
