@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from . import affine_rows, bodies, spatial_bodies
+from . import affine_rows, bodies, setup_cache, spatial_bodies
 from .mesh import Mesh, MemberMesh
 
 
@@ -162,8 +162,13 @@ def _take_rows(A: sp.csr_matrix, rows: np.ndarray) -> sp.csr_matrix:
 
 def _csr(lin: list, m: int, n: int) -> sp.csr_matrix:
     """The CSR matrix of (row, col, value) entries, columns sorted in each row: what coo_matrix(...).tocsr() gives,
-    without its conversions (~110 us a run). Duplicate (row, col) entries are summed by SciPy's path."""
+    without its conversions (~110 us a run), and kept by the exact entries (ancf_sym.setup_cache: shared,
+    read-only, by the scenes with the same supports and joints)."""
     a = np.array(lin, dtype=float).reshape(-1, 3)
+    return setup_cache.cached("constraint_matrix", setup_cache.array_key(a, m, n), lambda: _csr_of(a, m, n))
+
+
+def _csr_of(a: np.ndarray, m: int, n: int) -> sp.csr_matrix:
     r, c = a[:, 0].astype(np.int64), a[:, 1].astype(np.int64)
     o = np.lexsort((c, r))
     key = r[o] * n + c[o]

@@ -66,7 +66,7 @@ def structure_key(S: "StepSystem") -> str:
             elif isinstance(x, dict):
                 add(*sorted(x.items(), key=lambda kv: repr(kv[0])))
             elif sp.issparse(x):
-                x = sp.csc_matrix(x)
+                x = x if x.format == "csc" else x.tocsc()
                 add(x.shape, x.indptr, x.indices, x.data)
             elif isinstance(x, np.ndarray):
                 add(np.asarray(x))
