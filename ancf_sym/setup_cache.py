@@ -1,6 +1,7 @@
-"""Numeric set-up pieces kept by the exact inputs they read (mass matrix, reduced coordinates, the reduced mass
-matrix), so that a second run of a scene whose values changed elsewhere (stiffness, loads, step size, initial
-state) does not compute them again.
+"""Numeric set-up pieces kept by the exact inputs they read (a member's mesh, the constraint matrix, the mass
+matrix, the reduced coordinates and the reduced mass matrix, the fusion of a cable's kernel calls), so that a
+second run of a scene whose values changed elsewhere (stiffness, loads, step size, initial state) does not
+compute them again.
 
 A key holds the inputs themselves (array bytes with dtype and shape, scalars): two keys are equal only when every
 input is equal, so a hit is the value a fresh computation would give, bit for bit (no hash of the inputs stands in
