@@ -28,9 +28,11 @@ def array_key(*xs: Any) -> tuple:
     for x in xs:
         if isinstance(x, np.ndarray):
             out.append((x.dtype.str, x.shape, np.ascontiguousarray(x).tobytes()))
-        elif sp.issparse(x):
-            x = x.tocsr() if x.format not in ("csr", "csc") else x
+        elif sp.issparse(x) and x.format in ("csr", "csc"):
             out.append((x.format, x.shape) + array_key(x.indptr, x.indices, x.data))
+        elif sp.issparse(x):  # (the stored entries as they are: a conversion could sum duplicates)
+            x = x.tocoo()
+            out.append(("coo", x.shape) + array_key(x.row, x.col, x.data))
         elif isinstance(x, (tuple, list)):
             out.append(array_key(*x))
         else:
