@@ -11,7 +11,7 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from . import bodies, kernels, spatial_bodies
+from . import bodies, kernels, setup_cache, spatial_bodies
 from .casadi_buffers import bind
 from .constraints import Constraints, build_constraints
 from .loads import load_vector
@@ -43,11 +43,20 @@ class MappedKernel:
             _MAPPED[key] = self.kernel.map(self.N)
         self.f = _MAPPED[key]
         self.P = np.ascontiguousarray(term.P)
+
+    _BUFFERS = ("X", "E", "G", "H", "buf", "_eval")
+
+    def __getattr__(self, name: str):
+        """The call's buffers are bound on first use (a dynamic run calls only the linear terms' kernels here:
+        its step graphs call the kernels themselves)."""
+        if name not in MappedKernel._BUFFERS or "P" not in self.__dict__:
+            raise AttributeError(name)
         self.X = np.zeros((self.N, self.nd))
         self.E = np.zeros(self.N)
         self.G = np.zeros((self.N, self.nd))
         self.H = np.zeros((self.N, self.nd, self.nd))
         self.buf, self._eval = bind(self.f, (self.X, self.P), (self.E, self.G, self.H))
+        return self.__dict__[name]
 
     def __call__(self, x: np.ndarray) -> None:
         np.take(x, self.term.idx, out=self.X)
@@ -123,7 +132,26 @@ def force_terms(terms: list[Term], fuse: bool = True, row_keys: dict | None = No
     these calls' first output (the step graphs report them from the separate <effect>_energy functions).
 
     row_keys: term index -> per-element values that must also agree for two rows to fuse (Rayleigh weights)."""
-    out: list[ForceTerm] = []
+    rk = None if row_keys is None else {i: np.asarray(v, dtype=float) for i, v in row_keys.items()}
+    key = setup_cache.array_key([(t.label, t.element, t.effect, t.gauss, t.idx, t.P[:, 0]) for t in terms], fuse,
+                                None if rk is None else sorted(rk.items(), key=lambda kv: kv[0]))
+    calls = setup_cache.cached("force_terms", key, lambda: _force_term_rows(terms, fuse, rk))
+    out = []
+    for element, effect, gauss, idx, labels, sources in calls:
+        if len(sources) > 1:
+            (ia, ra), (ib, rb) = sources
+            P = np.column_stack([terms[ia].P[ra, :2], terms[ib].P[rb, 1]])  # (L, EA, EI)
+        else:
+            (i, rows), = sources
+            P = terms[i].P[rows]
+        out.append(ForceTerm(element, effect, gauss, idx, P, labels, [(i, np.array(r)) for i, r in sources]))
+    return out
+
+
+def _force_term_rows(terms: list[Term], fuse: bool, row_keys: dict | None) -> list[tuple]:
+    """force_terms' calls without their parameters: (element, effect, gauss, idx, labels, sources), from what
+    decides the fusion (the terms' elements, coordinates, lengths and row keys)."""
+    out: list[tuple] = []
     used: dict[int, np.ndarray] = {i: np.zeros(len(t.idx), bool) for i, t in enumerate(terms)}
     if fuse:
         for ia, ta in enumerate(terms):
@@ -158,13 +186,11 @@ def force_terms(terms: list[Term], fuse: bool = True, row_keys: dict | None = No
                         continue
                     ra, rb = (np.array(v, dtype=np.int64) for v in zip(*pairs))
                 used[ia][ra], used[ib][rb] = True, True
-                P = np.c_[ta.P[ra, :2], tb.P[rb, 1]]  # (L, EA, EI)
-                out.append(ForceTerm(ta.element, fe, ta.gauss, ta.idx[ra], P, (ta.label, tb.label),
-                                     [(ia, ra), (ib, rb)]))
+                out.append((ta.element, fe, ta.gauss, ta.idx[ra], (ta.label, tb.label), [(ia, ra), (ib, rb)]))
     for i, t in enumerate(terms):
         rest = np.flatnonzero(~used[i])
         if len(rest):
-            out.append(ForceTerm(t.element, t.effect, t.gauss, t.idx[rest], t.P[rest], (t.label,), [(i, rest)]))
+            out.append((t.element, t.effect, t.gauss, t.idx[rest], (t.label,), [(i, rest)]))
     return out
 
 
@@ -191,7 +217,9 @@ class Assembly:
         self.constraints: Constraints = build_constraints(self.mesh)
         pen = np.flatnonzero(self.constraints.k > 0)
         self.penalty = self.constraints.subset(pen) if len(pen) else None
-        self.exact = self.constraints.subset(np.flatnonzero(self.constraints.k == 0))
+        # (no penalty rows: every row is exact, the same rows as a subset of all of them would copy)
+        self.exact = self.constraints.subset(np.flatnonzero(self.constraints.k == 0)) if len(pen) else \
+            self.constraints
 
     # -- sparse pattern ------------------------------------------------------------------------------------
     _PATTERN = ("h_indptr", "h_indices", "_hpos", "_n_kernel_entries", "h_nnz", "h_key")
@@ -355,31 +383,49 @@ class Assembly:
         return f
 
     def mass_matrix(self) -> sp.csc_matrix:
-        """Constant global mass matrix (sparse)."""
-        rows, cols, vals = [], [], []
-        for mm in self.mesh.members.values():
-            m = mm.member
-            idx = mm.elem_dofs()
-            L = np.asarray(mm.elem_length, dtype=float)
-            P = np.stack([L, np.full_like(L, m.material.density * m.section.area)], axis=1) if m.element != "beam3d" \
-                else np.stack([L] + [np.full_like(L, v) for v in (m.section.b, m.section.h, m.material.density)], 1)
-            # equal elements (the same parameters) computed once; entry (i, j) of element e at (idx[e,i], idx[e,j])
-            if np.all(P == P[:1]):  # (a uniform mesh: one element mass matrix, without sorting the rows)
-                uniq, inv = P[:1], np.zeros(len(P), dtype=np.int64)
-            else:
-                uniq, inv = np.unique(P, axis=0, return_inverse=True)
-            Me = np.stack([kernels.mass_matrix(m.element, list(map(float, p))) for p in uniq])[np.ravel(inv)]
-            nd = idx.shape[1]
-            rows.append(np.repeat(idx, nd, axis=1).ravel())
-            cols.append(np.tile(idx, (1, nd)).ravel())
-            vals.append(Me.reshape(len(idx), -1).ravel())
+        """Constant global mass matrix (sparse, CSC). Kept by its exact inputs (each member's element coordinates,
+        lengths and mass parameters, the bodies' entries; ancf_sym.setup_cache): a scene that differs only in
+        other values shares it, read-only."""
+        members = list(self.mesh.members.values())
+        # (the key: what elem_dofs and the mass parameters are made of, without making them)
+        mass = [(mm.member.element, mm.offset, mm.node_size, mm.elem_nodes, np.asarray(mm.elem_length, dtype=float),
+                 _mass_params(mm.member)) for mm in members]
         if self.scene.dim == 3:  # diag(m, m, m) + C (x) I_3 per spatial body
             bi, bj, bv = spatial_bodies.mass_triplets(self.scene, self.mesh.bodies)
         else:  # diag(m, m, J, J) per planar body
             bi, bv = bodies.mass_entries(self.scene, self.mesh.bodies)
             bj = bi
-        rows.append(bi)
-        cols.append(bj)
-        vals.append(bv)
-        return sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                             shape=(self.n, self.n)).tocsc()
+        body = tuple(np.asarray(a) for a in (bi, bj, bv))
+        key = setup_cache.array_key(self.n, mass, body)
+        return setup_cache.cached("mass_matrix", key, lambda: _mass_matrix(self.n, members, body))
+
+
+def _mass_params(m) -> tuple:
+    """A member's mass kernel parameters after the element length: rho A (cables), b, h, rho (beam3d)."""
+    return (m.material.density * m.section.area,) if m.element != "beam3d" else \
+        (m.section.b, m.section.h, m.material.density)
+
+
+def _mass_matrix(n: int, members: list, body: tuple) -> sp.csc_matrix:
+    """The global mass matrix of the members' elements and the bodies' triplets."""
+    rows, cols, vals = [], [], []
+    for mm in members:
+        element, idx = mm.member.element, mm.elem_dofs()
+        L = np.asarray(mm.elem_length, dtype=float)
+        P = np.stack([L] + [np.full_like(L, v) for v in _mass_params(mm.member)], axis=1)
+        # equal elements (the same parameters) computed once; entry (i, j) of element e at (idx[e,i], idx[e,j])
+        if np.all(P == P[:1]):  # (a uniform mesh: one element mass matrix, without sorting the rows)
+            uniq, inv = P[:1], np.zeros(len(P), dtype=np.int64)
+        else:
+            uniq, inv = np.unique(P, axis=0, return_inverse=True)
+        Me = np.stack([kernels.mass_matrix(element, list(map(float, p))) for p in uniq])[np.ravel(inv)]
+        nd = idx.shape[1]
+        rows.append(np.repeat(idx, nd, axis=1).ravel())
+        cols.append(np.tile(idx, (1, nd)).ravel())
+        vals.append(Me.reshape(len(idx), -1).ravel())
+    bi, bj, bv = body
+    rows.append(bi)
+    cols.append(bj)
+    vals.append(bv)
+    return sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(n, n)).tocsc()

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from . import affine_rows, bodies, spatial_bodies
+from . import affine_rows, bodies, setup_cache, spatial_bodies
 from .mesh import Mesh, MemberMesh
 
 
@@ -145,8 +145,39 @@ class Constraints:
         remap = -np.ones(self.m, dtype=int)
         remap[rows] = np.arange(len(rows))
         keep = remap[self.qrow] >= 0
-        return Constraints(self.A[rows], remap[self.qrow[keep]], self.qi[keep], self.qj[keep], self.qcoef[keep],
+        return Constraints(_take_rows(self.A, rows), remap[self.qrow[keep]], self.qi[keep], self.qj[keep], self.qcoef[keep],
                            self.d[rows], self.k[rows], [self.labels[r] for r in rows])
+
+
+def _take_rows(A: sp.csr_matrix, rows: np.ndarray) -> sp.csr_matrix:
+    """A[rows] of a CSR matrix (each row's stored entries in their order), by numpy gathers: SciPy's fancy row
+    indexing costs ~70 us whatever the size, a set-up step of every run."""
+    A = A.tocsr()
+    counts = np.diff(A.indptr)[rows]
+    indptr = np.zeros(len(rows) + 1, dtype=A.indptr.dtype)
+    np.cumsum(counts, out=indptr[1:])
+    take = np.repeat(A.indptr[rows] - indptr[:-1], counts) + np.arange(indptr[-1], dtype=A.indptr.dtype)
+    return sp.csr_matrix((A.data[take], A.indices[take], indptr), shape=(len(rows), A.shape[1]))
+
+
+def _csr(lin: list, m: int, n: int) -> sp.csr_matrix:
+    """The CSR matrix of (row, col, value) entries, columns sorted in each row: what coo_matrix(...).tocsr() gives,
+    without its conversions (~110 us a run), and kept by the exact entries (ancf_sym.setup_cache: shared,
+    read-only, by the scenes with the same supports and joints)."""
+    a = np.array(lin, dtype=float).reshape(-1, 3)
+    return setup_cache.cached("constraint_matrix", setup_cache.array_key(a, m, n), lambda: _csr_of(a, m, n))
+
+
+def _csr_of(a: np.ndarray, m: int, n: int) -> sp.csr_matrix:
+    r, c = a[:, 0].astype(np.int64), a[:, 1].astype(np.int64)
+    o = np.lexsort((c, r))
+    key = r[o] * n + c[o]
+    if len(key) > 1 and np.any(key[1:] == key[:-1]):
+        return sp.coo_matrix((a[:, 2], (r, c)), shape=(m, n)).tocsr()
+    idx = np.int32 if max(m, n, len(key)) < 2 ** 31 - 1 else np.int64
+    indptr = np.zeros(m + 1, dtype=idx)
+    np.cumsum(np.bincount(r, minlength=m), out=indptr[1:])
+    return sp.csr_matrix((a[o, 2], c[o].astype(idx), indptr), shape=(m, n))
 
 
 def build_constraints(mesh: Mesh) -> Constraints:
@@ -176,8 +207,7 @@ def build_constraints(mesh: Mesh) -> Constraints:
             close(start, "exact", None, mm)
     (spatial_bodies if dim == 3 else bodies).constraint_rows(rows, mesh)
     m = len(rows.d)
-    lin = np.array(rows.lin, dtype=float).reshape(-1, 3)
-    A = sp.coo_matrix((lin[:, 2], (lin[:, 0].astype(int), lin[:, 1].astype(int))), shape=(m, mesh.n)).tocsr()
+    A = _csr(rows.lin, m, mesh.n)
     q = np.array(rows.quad, dtype=float).reshape(-1, 4)
     return Constraints(A, q[:, 0].astype(int), q[:, 1].astype(int), q[:, 2].astype(int), q[:, 3],
                        np.array(rows.d, float), np.array(rows.k, float), rows.label)

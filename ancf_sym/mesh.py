@@ -5,10 +5,11 @@ duplicated and tied by internal rigid joints. Node coordinates: cables [r, r_x],
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from . import setup_cache
 from .elements.quadrature import gauss01
 from .interpolation import weights
 from .registry import ELEMENTS
@@ -99,6 +100,15 @@ def mesh_closed(m: Member, offset: int) -> MemberMesh:
 
 
 def mesh_member(m: Member, offset: int) -> MemberMesh:
+    """The member's nodes and elements from `offset` on. The geometry is kept by the exact member fields it reads
+    (ancf_sym.setup_cache: shared, read-only, by members that differ only in material or section)."""
+    key = setup_cache.array_key(m.closed, m.points, m.elements, m.element, m.prestrain, m.y_axis, m.tangents,
+                                m.loop_length)
+    g = setup_cache.cached("member_mesh", key, lambda: _mesh_member(m, 0))
+    return replace(g, member=m, offset=offset, vertex_pairs=list(g.vertex_pairs))
+
+
+def _mesh_member(m: Member, offset: int) -> MemberMesh:
     if m.closed:
         return mesh_closed(m, offset)
     pts = m.points

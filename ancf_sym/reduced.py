@@ -13,6 +13,7 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
+from . import setup_cache
 from .assembly import Assembly
 from .scene import SceneError
 
@@ -44,6 +45,13 @@ class Partition:
         return R
 
 
+    def reduce_vector(self, f: np.ndarray) -> np.ndarray:
+        """E^T f (a generalized force on the unknowns): f at the unknowns' coordinates where nothing is identified
+        (each column of E holds a single 1: the product's sums have one term each, the same numbers)."""
+        if not self.n_identified:
+            return np.asarray(f, dtype=float)[self.roots]
+        return self.E.T @ f
+
     def _select(self, A: sp.spmatrix) -> sp.csc_matrix:
         """E^T A E where every unknown is one coordinate (no identifications): A's entries in free rows and columns,
         renumbered (pos is increasing on the free coordinates, so sorted columns stay sorted; no sums): the result
@@ -62,6 +70,15 @@ class Partition:
         return R
 
 
+def reduce_shared(part: Partition, A: sp.spmatrix) -> sp.csc_matrix:
+    """part.reduce_matrix(A), kept (read-only) when the partition and A both come from ancf_sym.setup_cache (their
+    keys are then the exact inputs of the result: the mass matrix of a second run of the same structure)."""
+    ka, kp = setup_cache.key_of(A), setup_cache.key_of(part)
+    if ka is None or kp is None:
+        return part.reduce_matrix(A)
+    return setup_cache.cached("reduced_matrix", (ka, kp), lambda: part.reduce_matrix(A))
+
+
 def full_mx(y: ca.MX, pos: np.ndarray, c: np.ndarray) -> ca.MX:
     """The scene coordinates x = E y + c as a gather (coordinate k is unknown pos[k], or fixed where pos[k] < 0):
     the element gathers that follow merge with it into one, where a product with E would cost a sparse product at
@@ -71,9 +88,15 @@ def full_mx(y: ca.MX, pos: np.ndarray, c: np.ndarray) -> ca.MX:
 
 
 def partition(asm: Assembly) -> Partition:
-    """The reduced coordinates of an assembly's exact constraints (see Partition)."""
+    """The reduced coordinates of an assembly's exact constraints (see Partition). Kept by the exact inputs it reads
+    (the constraint rows and the number of coordinates; ancf_sym.setup_cache): shared, read-only, by the scenes
+    with the same supports and joints."""
     ex = asm.exact
-    n = asm.n
+    key = setup_cache.array_key(asm.n, ex.A, ex.d, ex.qrow, ex.qi, ex.qj)
+    return setup_cache.cached("partition", key, lambda: _partition(ex, asm.n))
+
+
+def _partition(ex, n: int) -> Partition:
     A = ex.A.tocsr()
     nnz_row = np.diff(A.indptr)
     has_quad = np.zeros(ex.m, bool)

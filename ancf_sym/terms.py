@@ -63,7 +63,8 @@ def member_terms(terms: dict, mm: MemberMesh, gravity: np.ndarray) -> None:
         _add(terms, label, m.element, effect, None if effect == "continuum" else m.gauss, idx, np.column_stack(p))
     if m.gravity and np.any(gravity != 0):
         rhoA = m.material.density * A
-        _add(terms, "gravity", m.element, "gravity", None, idx, np.c_[L, rhoA * one, np.tile(gravity, (len(L), 1))])
+        _add(terms, "gravity", m.element, "gravity", None, idx,
+             np.column_stack([L, rhoA * one, np.tile(gravity, (len(L), 1))]))
 
 
 def distributed_term(terms: dict, mm: MemberMesh, f: np.ndarray) -> None:

@@ -16,7 +16,7 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from .. import contact
+from .. import contact, setup_cache
 from ..assembly import MAPPED_CALLS
 
 if TYPE_CHECKING:
@@ -32,11 +32,15 @@ SCHEME_FUNCTIONS: dict = {}
 
 
 def clear_graph_cache() -> None:
-    """Forget the compiled step graphs of this process (the next run of every structure builds them again; the
-    scene-independent SCHEME_FUNCTIONS stay)."""
+    """Forget the compiled step graphs and the cached numeric set-up (ancf_sym.setup_cache) of this process (the
+    next run of every structure builds them again; the scene-independent SCHEME_FUNCTIONS stay)."""
     SYSTEM_GRAPHS.clear()
     ALPHA_GRAPHS.clear()
     MAPPED_CALLS.clear()
+    setup_cache.clear()
+
+
+_SCALARS = frozenset((str, int, float, bool, type(None), np.float64, np.int64, np.bool_))
 
 
 def structure_key(S: "StepSystem") -> str:
@@ -45,25 +49,31 @@ def structure_key(S: "StepSystem") -> str:
     damping, penalties, constraints, scales). Element parameters (E, section, lengths), constant and time
     loads, the step size and the initial state are inputs: runs that differ only in those share the graphs."""
     h = hashlib.sha256()
+    upd = h.update
 
-    def add(*xs):
+    def add(*xs):  # (the exact scalar types and arrays first: most items are those)
         for x in xs:
-            if isinstance(x, np.ndarray):
-                h.update(repr((x.dtype.str, x.shape)).encode())
-                h.update(np.ascontiguousarray(x).tobytes())
+            t = type(x)
+            if t in _SCALARS:
+                upd(repr(x).encode())
+            elif t is np.ndarray:
+                upd(repr((x.dtype.str, x.shape)).encode())
+                upd(np.ascontiguousarray(x).tobytes())
             elif isinstance(x, (list, tuple)):
-                h.update(b"[")
+                upd(b"[")
                 add(*x)
-                h.update(b"]")
+                upd(b"]")
             elif isinstance(x, dict):
                 add(*sorted(x.items(), key=lambda kv: repr(kv[0])))
+            elif sp.issparse(x):
+                x = x if x.format == "csc" else x.tocsc()
+                add(x.shape, x.indptr, x.indices, x.data)
+            elif isinstance(x, np.ndarray):
+                add(np.asarray(x))
             elif hasattr(x, "__dict__") and not isinstance(x, type):
                 add(type(x).__name__, dict(vars(x)))
-            elif sp.issparse(x):
-                x = sp.csc_matrix(x)
-                add(x.shape, x.indptr, x.indices, x.data)
             else:
-                h.update(repr(x).encode())
+                upd(repr(x).encode())
     asm = S.asm
     add(asm.n, S.nf, S.mc, S.linsol, S.fuse, S._gather, S.part.c, S.M, S.span,
         S.length_scale, bool(np.any(asm.Q)), [lbl for *_, lbl in S._lin_energy])

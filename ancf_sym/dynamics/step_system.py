@@ -25,7 +25,7 @@ import scipy.sparse as sp
 from .. import contact, drives
 from ..assembly import Assembly, force_terms
 from ..casadi_buffers import bind
-from ..reduced import full_mx, partition
+from ..reduced import full_mx, partition, reduce_shared
 from ..sparsity import dm, mx_nonzeros
 from . import damping
 from .damping import RayleighData, StrainRateData
@@ -83,7 +83,7 @@ class StepSystem:
 
         M = asm.mass_matrix().tocsc()
         self.M_full = M
-        self.M = part.reduce_matrix(M)
+        self.M = reduce_shared(part, M)
 
         # linear terms: constant generalized force (gravity, distributed dead loads, point loads)
         self.nonlinear = [mk for mk in asm.mapped if not mk.linear]
@@ -93,7 +93,7 @@ class StepSystem:
                              float(mk.E.sum()) - float(mk.G.ravel() @ asm.x0[mk.term.idx.ravel()]), mk.term.label)
                             for mk in asm.mapped if mk.linear]
         self.f_lin_full = f_lin
-        self.f_lin = part.E.T @ f_lin
+        self.f_lin = part.reduce_vector(f_lin)
         self.length_scale = asm.mesh.length_scale
         self.span = float(np.max(np.abs(asm.x0))) + 1.0
         # the kernel calls: a cable's axial and bending terms fused into one elastic_<strain> kernel where both
@@ -371,7 +371,7 @@ class StepSystem:
 
     def reduce_force(self, f_full: np.ndarray) -> np.ndarray:
         """Generalized force on the unknowns (E^T f)."""
-        return self.E.T @ f_full
+        return self.part.reduce_vector(f_full) if np.ndim(f_full) == 1 else self.E.T @ f_full
 
     def forces(self, xf: np.ndarray) -> tuple[np.ndarray, sp.csc_matrix, np.ndarray | None]:
         """(gradient of the nonlinear potential, its Hessian, K_el values or None) at free coordinates xf."""

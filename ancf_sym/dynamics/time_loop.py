@@ -9,6 +9,7 @@ in the energy identity of trapezoidal Newmark).
 """
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any, Callable
 
@@ -23,6 +24,7 @@ from .time_loads import LoadSum
 CHUNK = 64  # steps per compiled call in fixed-step runs of the alpha schemes (the rest of the grid: step by step)
 
 
+@functools.lru_cache(maxsize=256)
 def chunk_size(n_grid: int) -> int:
     """Steps per compiled call on a fixed grid of n_grid steps (0: none, shorter than CHUNK): the size in
     [CHUNK/2, CHUNK] that leaves the fewest steps to the one-by-one loop (a step there costs ~2x a chunked one),
