@@ -26,7 +26,7 @@ import time
 import traceback
 from pathlib import Path
 
-from .interrupts import Terminated, terminate_raises
+from .interrupts import Terminated, signals_remembered, terminate_raises
 from .result_dir import RESULT_FILE, ResultDir
 from .scene import Scene, SceneError
 
@@ -148,7 +148,9 @@ def _fail(msg: str) -> None:
 
 
 def cmd_run(args) -> int:
-    with terminate_raises():  # SIGTERM unwinds like Ctrl-C: the temporary directory is removed
+    # SIGTERM unwinds like Ctrl-C (the temporary directory is removed); a signal whose exception some C call swallowed
+    # is raised again before the next solver call instead of being lost
+    with terminate_raises(), signals_remembered():
         return _cmd_run(args)
 
 

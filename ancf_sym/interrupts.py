@@ -6,6 +6,10 @@ handler raises, and returns a failed status ("NonIpopt_Exception_Thrown"; IPOPT'
 "User_Requested_Stop"); a solver that then tries its next strategy would ignore the user. `interruptible()` around
 such a call records the exception raised by the signal handler and raises it again once the call returns (and
 drops CasADi's warning line about it, so that the interrupt is reported once, by the caller).
+
+A command that must stop on a signal wherever it arrives (the CLI) runs inside `signals_remembered()`: an exception a
+SIGINT/SIGTERM handler raised anywhere, also in code outside `interruptible()` that swallowed it, is raised again by
+the next `interruptible()` on entry or exit (a Ctrl-C once ran a whole IPOPT solve that followed it).
 """
 from __future__ import annotations
 
@@ -35,6 +39,50 @@ def terminate_raises() -> Iterator[None]:
         yield
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+_pending: BaseException | None = None  # raised by a signal handler inside signals_remembered(), not yet re-raised
+
+
+def _remembering(previous):
+    def handler(signum, frame):
+        global _pending
+        try:
+            previous(signum, frame)
+        except BaseException as exc:  # noqa: BLE001 - remembered in case the code it lands in swallows it
+            _pending = exc
+            raise
+    return handler
+
+
+@contextlib.contextmanager
+def signals_remembered() -> Iterator[None]:
+    """Within the block every SIGINT/SIGTERM exception is remembered until `raise_pending()` (or an
+    `interruptible()`) raises it again; main thread only (elsewhere signals are not Python's to handle)."""
+    global _pending
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    saved = {}
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        prev = signal.getsignal(sig)
+        if callable(prev):
+            saved[sig] = prev
+            signal.signal(sig, _remembering(prev))
+    try:
+        yield
+    finally:
+        for sig, prev in saved.items():
+            signal.signal(sig, prev)
+        _pending = None
+
+
+def raise_pending() -> None:
+    """Raise the signal exception remembered by `signals_remembered()` that nobody let through (no-op otherwise)."""
+    global _pending
+    if _pending is not None:
+        exc, _pending = _pending, None
+        raise exc
 
 
 class _Recorder:
@@ -80,10 +128,12 @@ def interruptible() -> Iterator[_Recorder]:
     handler: once seen under load, IPOPT then iterated to its end) is still seen: Python's C-level handler writes
     every signal number to the wakeup fd, and a SIGINT/SIGTERM found there without a recorded exception calls the
     handler after the call."""
+    global _pending
     rec = _Recorder()
     if threading.current_thread() is not threading.main_thread():
         yield rec
         return
+    raise_pending()  # a signal whose exception was swallowed before this call: no call at all
     saved = {}
     for sig in (signal.SIGINT, signal.SIGTERM):
         prev = signal.getsignal(sig)
@@ -110,7 +160,9 @@ def interruptible() -> Iterator[_Recorder]:
         for sig, prev in saved.items():
             signal.signal(sig, prev)
     if rec.exc is not None:
+        _pending = None  # the same exception: raised now
         raise rec.exc
     for sig, handler in saved.items():
         if int(sig) in arrived:
             handler(int(sig), None)  # raises (KeyboardInterrupt / Terminated) for the handlers this module expects
+    raise_pending()

@@ -1,5 +1,6 @@
 """`interruptible()`: a Ctrl-C that arrives during a C call which swallows the exception is raised again once the
-call returns, whether or not its Python handler ran inside the call; nothing is raised when no signal came."""
+call returns, whether or not its Python handler ran inside the call; nothing is raised when no signal came. Inside
+`signals_remembered()` (a CLI run) a Ctrl-C swallowed anywhere else stops the next interruptible call before it starts."""
 from __future__ import annotations
 
 import os
@@ -8,7 +9,7 @@ import time
 
 import pytest
 
-from ancf_sym.interrupts import interruptible
+from ancf_sym.interrupts import interruptible, raise_pending, signals_remembered
 
 
 def _deliver(sig: int) -> None:
@@ -42,3 +43,30 @@ def test_no_signal_no_exception_and_handlers_restored():
         pass
     assert signal.getsignal(signal.SIGINT) is before[0]
     assert signal.set_wakeup_fd(before[1]) == before[1]
+
+
+def test_signal_swallowed_before_the_call_stops_the_call_before_it_starts():
+    ran = []
+    with signals_remembered():
+        try:
+            _deliver(signal.SIGINT)
+        except KeyboardInterrupt:  # code outside any interruptible() that swallows it
+            pass
+        with pytest.raises(KeyboardInterrupt):
+            with interruptible():
+                ran.append(True)
+        raise_pending()  # raised once: nothing left
+    assert ran == []
+
+
+def test_remembered_signal_is_forgotten_outside_the_block_and_handlers_restored():
+    before = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+    with signals_remembered():
+        try:
+            _deliver(signal.SIGINT)
+        except KeyboardInterrupt:
+            pass
+    assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == before
+    raise_pending()  # the block ended: nothing is raised later
+    with interruptible():
+        pass
