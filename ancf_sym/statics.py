@@ -493,10 +493,15 @@ class StaticProblem:
         if not a.exact.m:
             return np.zeros(0)
         g = a.evaluate(x, hessian=False).gradient if gradient is None else gradient
-        A = a.exact.A.tocsr()
-        A.sum_duplicates()
-        if not len(a.exact.qrow) and np.all(np.diff(A.indptr) == 1) and len(np.unique(A.indices)) == a.exact.m:
-            return -g[A.indices] / A.data  # supports fixing one coordinate each (distinct): lam_r = -g_c / a_r
+        if not hasattr(self, "_mult_fixing"):  # structure only: decided once per problem
+            A = a.exact.A.tocsr()
+            A.sum_duplicates()
+            simple = not len(a.exact.qrow) and np.all(np.diff(A.indptr) == 1) and \
+                len(np.unique(A.indices)) == a.exact.m
+            self._mult_fixing = (A.indices.copy(), A.data.copy()) if simple else None
+        if self._mult_fixing is not None:  # supports fixing one coordinate each (distinct): lam_r = -g_c / a_r
+            cols, coef = self._mult_fixing
+            return -g[cols] / coef
         if not hasattr(self, "_mult_cols"):
             self._mult_cols = np.unique(np.r_[a.exact.A.tocsr().indices, a.exact.qi, a.exact.qj]).astype(np.int64)
             self._mult_J = a.exact.A.tocsc()[:, self._mult_cols].toarray() if not len(a.exact.qrow) else None

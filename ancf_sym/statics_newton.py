@@ -51,6 +51,7 @@ ROUND_OFF = 100.0  # a residual within this factor of eps x max|K| x span is at 
 NO_PROGRESS = 4  # converging runs set a new smallest update at least every 3 iterations (measured, zig-zags included)
 SHIFT, SHIFT_MAX = 1e-4, 1e4  # shifts of an indefinite tangent's diagonal tried (relative to each entry)
 SHIFT_BELOW = 1e-3  # updates (relative) below which an indefinite tangent's plain Newton step is taken
+EPS = float(np.finfo(float).eps)
 WILD = 1e3  # an update of a thousand structure lengths left every physical equilibrium behind: hand over to IPOPT
 
 
@@ -162,8 +163,8 @@ class NewtonStatics:
         for it in range(1, max_iter + 1):
             self.norms[:] = np.nan  # a failed evaluation (e.g. a singular KKT matrix) writes nothing: not finite
             self._eval()
-            rq, rc, inc, dec, kmax = self.norms
-            floor = float(np.finfo(float).eps * kmax * self.span)
+            rq, rc, inc, dec, kmax = self.norms.tolist()  # Python floats: scalar tests on them cost less
+            floor = EPS * kmax * self.span
             dec = abs(dec) / W
             if not (math.isfinite(inc) and math.isfinite(rq) and math.isfinite(dec)):
                 status = "not_finite"
@@ -175,7 +176,7 @@ class NewtonStatics:
             self.x += self.dz[:nf]
             if S.mc:
                 self.lam += self.dz[nf:]
-            hist.append((float(inc), float(dec)))
+            hist.append((inc, dec))
             if inc < best:
                 best, best_at = inc, it
             if inc <= tol and dec <= tol:

@@ -171,3 +171,18 @@ def test_kernel_evaluation_is_the_assembly_reduced(axial):
         ab, bw = evaluation.band(), evaluation.bw
         for d in range(bw + 1):  # LAPACK upper band: ab[bw - d, j] = K[j - d, j]
             assert np.allclose(ab[bw - d, d:], np.diagonal(K, d), rtol=0, atol=1e-10 * np.max(np.abs(K_ref)))
+
+
+def test_clamp_reaction_is_the_weight_on_every_solve_of_a_cached_problem():
+    """The clamp's multipliers balance the loads: by translation invariance the elastic forces sum to zero, so the
+    clamp's force rows carry the whole weight rho A L g (down) and no horizontal force. The second solve of a scene
+    with the same content reuses the cached problem (and its multiplier structure): it must report the same balance.
+    Tolerance 1e-8 of the weight: the residual after the converged update is far below tol x the loads, and its
+    round-off eps x max|K| x span (~1e-9 N at EA/l ~ 4e6 N) is below 1e-10 of the weight."""
+    weight = 7200 * 7.854e-5 * L * 9.81
+    for _ in range(2):
+        r = solve_static(cantilever(8, "green"))
+        assert r.success
+        fx, fy = r.constraint_forces["clamp beam@start"][:2]
+        assert abs(fx) <= 1e-8 * weight
+        assert fy == pytest.approx(-weight, rel=1e-8)
