@@ -55,8 +55,6 @@ class Recorder:
         self.t: list[float] = []
         self.data: dict[str, list] = {s.sensor.name: [] for s in sensors}
         self._rows: list[tuple] = []  # (kinetic, potential, potentials by label..., total, works, algorithmic)
-        self._labels: list[str] | None = None  # the potentials' labels, first seen first
-        self._groups: list | None = None  # per label the indices of its terms' energies (None: one term each)
         self.viol: list[float] = []
         self.reactions: dict[str, list] = {}
         self.E0 = None
@@ -75,31 +73,13 @@ class Recorder:
         external_work, algorithmic (empty without energies or records)."""
         if not self._rows:
             return {}
-        keys = ("kinetic", "potential", *(f"potential_{k}" for k in self._labels), "total", "damping_work",
-                "external_work", "algorithmic")
+        keys = ("kinetic", "potential", *(f"potential_{k}" for k in self.S.potential_labels), "total",
+                "damping_work", "external_work", "algorithmic")
         return {k: list(col) for k, col in zip(keys, zip(*self._rows))}
 
-    def _potentials(self, qf, vf) -> tuple[float, list[float]]:
-        """(kinetic energy, the potentials summed by label in the order of self._labels)."""
-        vals = self.S.energy_values(qf, vf)
-        if self._labels is None:
-            labels = self.S.energy_labels
-            self._labels = list(dict.fromkeys(labels))
-            if len(self._labels) < len(labels):
-                self._groups = [[i for i, lbl in enumerate(labels) if lbl == u] for u in self._labels]
-        if self._groups is None:
-            return vals[-1], vals[:-1]
-        pots = []
-        for idx in self._groups:
-            acc = 0.0
-            for i in idx:
-                acc += vals[i]
-            pots.append(acc)
-        return vals[-1], pots
-
     def energy(self, qf, vf):
-        T, pots = self._potentials(qf, vf)
-        return T, dict(zip(self._labels, pots)), T + float(sum(pots))
+        T, pot = self.S.energies(qf, vf)
+        return T, pot, T + float(sum(pot.values()))
 
     def record(self, t, qf, vf, damping_work, external_work, lam=None):
         S = self.S
@@ -110,7 +90,7 @@ class Recorder:
         for s in self.sensors:
             self.data[s.sensor.name].append(s(x, v))
         if self.with_energies:
-            T, pots = self._potentials(qf, vf)
+            T, pots = self.S.energies_by_label(qf, vf)
             E = T + float(sum(pots))
             algorithmic = self.E0 + external_work - damping_work - E
             self._rows.append((T, E - T, *pots, E, damping_work, external_work, algorithmic))

@@ -387,20 +387,43 @@ class StepSystem:
 
     def energies(self, xf: np.ndarray, vf: np.ndarray | None) -> tuple[float, dict]:
         """(kinetic energy 1/2 v.M v (0 without vf), potential energies by label) in one compiled call [J]."""
-        out: dict[str, float] = {}
-        vals = self.energy_values(xf, vf)
-        for label, v in zip(self._energy_kin_labels, vals):
-            out[label] = out.get(label, 0.0) + v
-        return vals[-1], out
+        T, pots = self.energies_by_label(xf, vf)
+        return T, dict(zip(self.potential_labels, pots))
+
+    def _potential_groups(self) -> tuple[list[str], list | None]:
+        """(the potentials' labels, first seen first; per label the indices of its terms' energies, or None when
+        every term has its own label). Several terms may share a label: members' bending."""
+        if not hasattr(self, "_pot_groups"):
+            labels = self._energy_kin_labels
+            unique = list(dict.fromkeys(labels))
+            groups = None if len(unique) == len(labels) else \
+                [[i for i, lbl in enumerate(labels) if lbl == u] for u in unique]
+            self._pot_groups = (unique, groups)
+        return self._pot_groups
 
     @property
-    def energy_labels(self) -> list[str]:
-        """The label of each potential `energy_values` returns (a label may repeat: several members' bending)."""
-        return self._energy_kin_labels
+    def potential_labels(self) -> list[str]:
+        """The labels of the potentials `energies_by_label` returns, in its order."""
+        return self._potential_groups()[0]
+
+    def energies_by_label(self, xf: np.ndarray, vf: np.ndarray | None) -> tuple[float, list[float]]:
+        """(kinetic energy, the potentials summed by label in the order of `potential_labels`) [J]: `energies`
+        without the dictionary (the recorder's per-record path)."""
+        vals = self.energy_values(xf, vf)
+        groups = self._potential_groups()[1]
+        if groups is None:
+            return vals[-1], vals[:-1]
+        pots = []
+        for idx in groups:  # (summed in the terms' order)
+            acc = 0.0
+            for i in idx:
+                acc += vals[i]
+            pots.append(acc)
+        return vals[-1], pots
 
     def energy_values(self, xf: np.ndarray, vf: np.ndarray | None) -> list[float]:
-        """The potentials of the terms (labels: energy_labels), then the kinetic energy, from one compiled call [J]
-        (what `energies` sums by label; the outputs call it directly)."""
+        """The potentials of the terms, then the kinetic energy, from one compiled call [J] (what
+        `energies_by_label` sums by label)."""
         if not hasattr(self, "_ebuf"):
             self._e_x, self._e_vel = np.zeros(self.nf), np.zeros(self.nf)
             self._e_v = np.zeros(self._energy_kin_f.nnz_out(0))
