@@ -31,16 +31,11 @@ from .inertia import BAND_LIMIT
 from .member_effects import START_EFFECTS
 
 LOCAL_ABOVE = 100.0  # coordinate span / shortest element above which positions go to the kernels element-local
-_MAPS: dict = {}  # (element, effect, gauss, elements) -> the kernel mapped over them (built once per process)
-
-
 def _mapped(ft, n: int) -> ca.Function:
-    """ft's kernel mapped over n >= ft.N elements (the batched version over whole batches where one exists)."""
-    key = (ft.element, ft.effect, ft.gauss, n)
-    if key not in _MAPS:
-        _MAPS[key] = map_elements(kernels.load(ft.element, ft.effect, ft.gauss),
-                                  kernels.load_batch(ft.element, ft.effect, ft.gauss), n)
-    return _MAPS[key]
+    """ft's kernel mapped over n >= ft.N elements (the batched version over whole batches where one exists; kept
+    by map_elements)."""
+    return map_elements(kernels.load(ft.element, ft.effect, ft.gauss),
+                        kernels.load_batch(ft.element, ft.effect, ft.gauss), n)
 
 
 def _padded(ft) -> int:
