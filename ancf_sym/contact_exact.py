@@ -104,12 +104,16 @@ def gaps(asm, x: np.ndarray, blocks: list[Rows] | None = None) -> np.ndarray:
     return np.concatenate(out) if out else np.zeros(0)
 
 
+def _kind(r: Rows) -> str:
+    return "circle" if isinstance(r.contact, DrumContact) else "ground"
+
+
 def points(asm, x: np.ndarray, forces) -> list[dict]:
     """Per contact point: type ('ground' or 'circle'), member, element, xi (in the element, 0..1), gap [m] and
     force [N] (the point's multiplier: forces = result.constraint_forces['contact'])."""
     blocks = rows(asm)
     g, f = gaps(asm, x, blocks), np.asarray(forces, float)
-    kinds = [("circle" if isinstance(r.contact, DrumContact) else "ground") for r in blocks for _ in r.labels]
+    kinds = [_kind(r) for r in blocks for _ in r.labels]
     labels = [lbl for r in blocks for lbl in r.labels]
     return [{"type": k, "member": m, "element": e, "xi": xi, "gap": float(gi), "force": float(fi)}
             for k, (m, e, xi), gi, fi in zip(kinds, labels, g, f)]
@@ -120,12 +124,13 @@ def report(asm, x: np.ndarray, forces=None) -> list[dict]:
     smallest gap of its points min_gap [m], the sum of their forces normal_force [N] and per point gap and force
     (forces: result.constraint_forces['contact']; None, a failed solve's: NaN)."""
     out, i = [], 0
-    g = gaps(asm, x)
+    blocks = rows(asm)
+    g = gaps(asm, x, blocks)
     f = np.full(len(g), np.nan) if forces is None else np.asarray(forces, float)
-    for r in rows(asm):
+    for r in blocks:
         sl = slice(i, i + r.m)
         i += r.m
-        out.append({"type": "circle" if isinstance(r.contact, DrumContact) else "ground", "member": r.contact.member,
+        out.append({"type": _kind(r), "member": r.contact.member,
                     "method": "exact", "min_gap": float(g[sl].min()), "normal_force": float(f[sl].sum()),
                     "gaps": g[sl].tolist(), "forces": f[sl].tolist()})
     return out
