@@ -34,24 +34,35 @@ def dm(A) -> ca.DM:
 def kron_identity_factor(A, dims: tuple[int, ...] = (3, 2)) -> tuple[int, sp.csc_matrix] | None:
     """(d, B) with A = kron(B, I_d) exactly, for the first d of `dims` that fits, or None. A mass matrix of elements
     whose directions share their shape functions (cables: r = S(xi) q, M_e = (rho A int s s^T) x I_d) has this form
-    on unknowns grouped by d, unless supports, joints or point masses break it."""
+    on unknowns grouped by d, unless supports, joints or point masses break it. (Compared on the compressed columns:
+    column d j + a must hold column d j's entries, rows shifted by a; O(nnz).)"""
     A = sp.csc_matrix(A)
+    A.sort_indices()
     n = A.shape[0]
     for d in dims:
         if n % d or n < d or A.shape[1] != n:
             continue
-        B = sp.csc_matrix(A[0::d, 0::d])
-        if (sp.kron(B, sp.identity(d), format="csc") != A).nnz == 0:
-            B.sort_indices()
-            return d, B
+        cnt = np.diff(A.indptr).reshape(-1, d)  # entries per column, by groups of d columns
+        if np.any(cnt != cnt[:, :1]):
+            continue
+        c0 = cnt[:, 0]
+        grp = np.repeat(np.arange(n // d), c0)
+        t = np.arange(c0.sum()) - np.repeat(np.cumsum(c0) - c0, c0)
+        p0 = A.indptr[d * grp] + t
+        rows0 = A.indices[p0]
+        if np.any(rows0 % d):
+            continue
+        if all(np.array_equal(A.indices[A.indptr[d * grp + a] + t], rows0 + a) and
+               np.array_equal(A.data[A.indptr[d * grp + a] + t], A.data[p0]) for a in range(1, d)):
+            return d, sp.csc_matrix((A.data[p0], rows0 // d, np.r_[0, np.cumsum(c0)]), shape=(n // d, n // d))
     return None
 
 
-def kron_product_mx(d: int, B: sp.spmatrix, u: ca.MX) -> ca.MX:
-    """kron(B, I_d) u as the product of u reshaped to d x n/d with B^T: one pass over B's nonzeros for all d
-    directions (at d = 2 half the memory traffic of the product with the whole matrix, same sums in the same
+def kron_product_mx(d: int, Bt: ca.DM, u: ca.MX) -> ca.MX:
+    """kron(B, I_d) u as the product of u reshaped to d x n/d with Bt = B^T (a DM): one pass over B's nonzeros for
+    all d directions (at d = 2 half the memory traffic of the product with the whole matrix, same sums in the same
     order)."""
-    return ca.vec(ca.mtimes(ca.reshape(u, d, u.shape[0] // d), dm(sp.csc_matrix(B).T)))
+    return ca.vec(ca.mtimes(ca.reshape(u, d, u.shape[0] // d), Bt))
 
 
 def gather_sum(vals: list, target: np.ndarray, n_out: int) -> ca.MX:
