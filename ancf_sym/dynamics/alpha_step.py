@@ -94,8 +94,7 @@ class AlphaStepGraphs:
         k0 = (am / (1 - af)) * ab - (af / (1 - af)) * a
         y = k0 - cm * qh  # the residual's inertia is M (cm x + y): no product with M here
         p = Cvh + pload if not S.nw else ca.vertcat(Cvh + pload[:nf], pload[nf:])
-        apred = a + ca.if_else(hp > 0, (a - ap) * (h / ca.fmax(hp, 1e-300)), ca.MX.zeros(nf))
-        x0 = qh + (bhh / (1 - am)) * ((1 - af) * apred + af * a - am * ab)
+        x0 = qh + (bhh / (1 - am)) * (a - am * ab)  # constant-acceleration predictor (AlphaIntegrator._predict)
         err_c = sc.error_constant()
 
         def lte(x):
