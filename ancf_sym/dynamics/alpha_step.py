@@ -67,7 +67,7 @@ class AlphaStepGraphs:
         q, v, a, ab, ap = (st[i * nf:(i + 1) * nf] for i in range(5))
         lam = st[5 * nf:5 * nf + mc]
         ctl = st[5 * nf + mc:]
-        h, hp = ca.MX.sym("h"), ca.MX.sym("h_prev")  # h_prev <= 0: no previous step (constant predictor)
+        h, hp = ca.MX.sym("h"), ca.MX.sym("h_prev")  # (h_prev: unused since the predictor keeps a constant)
         tols = ca.MX.sym("tols", 2)  # force tolerance [N], update tolerance [m]
         pload = ca.MX.sym("pload", nf + S.nw)  # -(f_lin + Q(t_n+1)), then the drives' inputs w(t_n+1)
         kel = ca.MX.sym("kel", S.kel.size) if S.kel is not None else None
