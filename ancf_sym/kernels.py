@@ -174,6 +174,14 @@ def mass_matrix(element: str, p: Any) -> np.ndarray:
     return np.asarray(f(a))
 
 
+@functools.lru_cache(maxsize=None)
+def load_band(kind: str, w: int, m: int) -> ca.Function:
+    """A banded LDL^T kernel (ancf_sym.codegen.band): kind "fwd" or "bwd", half-bandwidth w, m columns per call."""
+    if (w, m) not in registry.BAND_LDL or kind not in ("fwd", "bwd"):
+        raise KernelError(f"no banded LDL^T kernel {kind!r} with w={w}, m={m}; built: {list(registry.BAND_LDL)}")
+    return ca.external(registry.band_name(kind, w, m), str(library_path(registry.BAND_LIBRARY)))
+
+
 def mass_parameters(element: str) -> tuple[str, ...]:
     return registry.MASS_PARAMS[element]
 

@@ -268,3 +268,14 @@ def all_kernels() -> list[tuple[str, str, int | None]]:
             out.append((el, ef, eff.default_gauss))
             out += [(el, ef, g) for g in eff.gauss if g != eff.default_gauss]
     return out
+
+
+# Banded LDL^T kernels (codegen.band; ancf_sym.dynamics.band): (half-bandwidth w, columns per call m). w = 7: a chain of
+# 4-coordinate nodes (planar cables) in its natural order.
+BAND_LDL = ((7, 128),)
+BAND_LIBRARY = "ancf_band"
+
+
+def band_name(kind: str, w: int, m: int) -> str:
+    """Name of a banded LDL^T kernel: kind "fwd" (factorisation, forward substitution) or "bwd" (back substitution)."""
+    return f"band_ldl_{kind}_w{w}_m{m}"

@@ -45,7 +45,8 @@ def main(argv=None) -> np.ndarray:
     print("per step:", "".join(str(k) for k in it))
     print("step  iterations  |dz0|      |dz1|      truncation  tolerance")
     for k in range(min(a.steps, len(info))):
-        print(f"{k + 1:4d}  {it[k]:10d}  {info[k, 3]:.3e}  {info[k, 4]:.3e}  {info[k, 5]:.3e}   {0.01 * info[k, 5]:.3e}")
+        d0, d1, lte = info[k, 3:6]
+        print(f"{k + 1:4d}  {it[k]:10d}  {d0:.3e}  {d1:.3e}  {lte:.3e}   {0.01 * lte:.3e}")
     return info
 
 

@@ -55,4 +55,5 @@
 #include "beam3d_contact_drum.h"
 #include "beam3d_contact_drum_friction.h"
 #include "ancf_mass.h"
+#include "ancf_band.h"
 #endif

@@ -75,6 +75,14 @@ def generate(out_dir: Path = GENERATED, verbose: bool = False) -> dict:
     entries.append({"name": "ancf_mass", "element": None, "effect": "mass", "gauss": None, "params": None,
                      "library": "ancf_mass", "c_file": "ancf_mass.c", "cflags": DEFAULT_CFLAGS, "functions": [m.name() for m in mass],
                      "sha256": hashlib.sha256(files["ancf_mass.c"].encode()).hexdigest()})
+    from . import band
+
+    fns = band.functions()
+    files = writer.write_c(registry.BAND_LIBRARY, fns, out_dir)
+    entries.append({"name": registry.BAND_LIBRARY, "element": None, "effect": "band_ldl", "gauss": None, "params": None,
+                    "library": registry.BAND_LIBRARY, "c_file": registry.BAND_LIBRARY + ".c", "cflags": DEFAULT_CFLAGS,
+                    "functions": [f.name() for f in fns],
+                    "sha256": hashlib.sha256(files[registry.BAND_LIBRARY + ".c"].encode()).hexdigest()})
     header = ["/* ancf_sym generated kernels: include this to call any of them from C. Do not edit. */",
               "#ifndef ANCF_KERNELS_H", "#define ANCF_KERNELS_H"]
     header += [f'#include "{lib}.h"' for lib in dict.fromkeys(e["library"] for e in entries)] + ["#endif", ""]

@@ -16,12 +16,57 @@ import numpy as np
 
 from .. import kernels
 from ..assembly import map_elements
-from ..sparsity import assemble_mx, hessian_entries, mx_nonzeros, scatter
+from ..sparsity import assemble_mx, gather_sum, hessian_entries, mx_nonzeros, scatter
+from .band import PAD_PIVOT
 
 if TYPE_CHECKING:
+    from .band import BandLayout
     from .step_system import StepSystem
 
 ELASTIC_LABELS = ("axial", "bending", "torsion", "continuum")
+
+
+def _parameters(S: "StepSystem", par: ca.MX) -> tuple[list, list]:
+    """Each kernel call's parameters (n_p x N) from the input vector: (force terms', nonlinear terms')."""
+    Ps, o = [], 0
+    for P in [ft.P for ft in S.force_terms] + [mk.P for mk in S.nonlinear]:
+        Ps.append(ca.reshape(par[o:o + P.size], P.shape[1], P.shape[0]))
+        o += P.size
+    return Ps[:len(S.force_terms)], Ps[len(S.force_terms):]
+
+
+def _kernel_calls(S: "StepSystem", x: ca.MX, Pft: list) -> list:
+    """(elements, G, H) of every force term's mapped kernel call at the scene coordinates x."""
+    calls = []
+    for ft, Pk in zip(S.force_terms, Pft):
+        _, G, H = ft.mapped()(ca.reshape(x[ft.idx.ravel().tolist()], ft.nd, ft.N), Pk)
+        calls.append((ft.idx, G, H))
+    return calls
+
+
+def band_force_graph(S: "StepSystem", layout: "BandLayout") -> ca.Function:
+    """forces_band(x, par) -> (g, K band): the gradient as forces_pf's and the Hessian gathered straight into the
+    lower band storage of `layout` (ancf_sym.dynamics.band; its padding pivots included), for S without penalty
+    joints (their Hessian is not a kernel call)."""
+    xf, par = ca.MX.sym("x", S.nf), ca.MX.sym("par", S.par.size)
+    calls = _kernel_calls(S, S.x_full_mx(xf), _parameters(S, par)[0])
+    g, _ = assemble_mx(calls, S.pos, S.nf, hessian=False)
+    groups: dict = {}  # (calls on the same elements summed first, as assemble_mx)
+    for idx, _, H in calls:
+        key = (idx.shape, idx.tobytes())
+        groups[key] = (idx, H if key not in groups else groups[key][1] + H)
+    vals, targets = [], []
+    for idx, H in groups.values():
+        ia, ib, keep = hessian_entries(S.pos, idx)
+        t = -np.ones(ia.size, dtype=np.int64)
+        t[keep] = layout.slots(ib[keep], ia[keep])  # (row ib, column ia)
+        vals.append(ca.vec(H))
+        targets.append(t)
+    pad = layout.padding_slots()
+    vals.append(ca.DM.ones(len(pad)) * PAD_PIVOT)
+    targets.append(pad)
+    Kb = gather_sum(vals, np.concatenate(targets), layout.size)
+    return ca.Function("forces_band", [xf, par], [g, Kb], ["x", "par"], ["g", "K_band"])
 
 
 def build_force_graphs(S: "StepSystem") -> None:
@@ -34,16 +79,9 @@ def build_force_graphs(S: "StepSystem") -> None:
     energies = []
     kel_vals, kel_rows, kel_cols = [], [], []
     weights = S.rayleigh.element_weight if (S.rayleigh is not None and S.rayleigh.beta) else {}
-    Ps, o = [], 0  # each kernel call's parameters (n_p x N) from the input vector
-    for P in [ft.P for ft in S.force_terms] + [mk.P for mk in S.nonlinear]:
-        Ps.append(ca.reshape(par[o:o + P.size], P.shape[1], P.shape[0]))
-        o += P.size
-    Pft, Pmk = Ps[:len(S.force_terms)], Ps[len(S.force_terms):]
-    calls = []  # (elements, G, H); assemble_mx sums calls on the same elements before the scatter
-    for ft, Pk in zip(S.force_terms, Pft):
-        Xe = ca.reshape(x[ft.idx.ravel().tolist()], ft.nd, ft.N)
-        _, G, H = ft.mapped()(Xe, Pk)
-        calls.append((ft.idx, G, H))
+    Pft, Pmk = _parameters(S, par)
+    calls = _kernel_calls(S, x, Pft)  # (elements, G, H); assemble_mx sums calls on the same elements before the scatter
+    for ft, (_, _, H) in zip(S.force_terms, calls):
         if weights and all(lbl in ELASTIC_LABELS for lbl in ft.labels):
             ti, rows = ft.sources[0]  # fused rows have equal weights (row_keys)
             w = weights.get(ti)

@@ -26,10 +26,11 @@ from .. import contact, drives
 from ..assembly import Assembly, force_terms
 from ..casadi_buffers import bind
 from ..reduced import full_mx, partition, reduce_shared
-from ..sparsity import dm, kron_identity_factor, kron_product_mx, mx_nonzeros
+from ..sparsity import casadi_sparsity, dm, kron_identity_factor, kron_product_mx, mx_nonzeros
 from . import damping
+from .band import BandLayout, band_layout
 from .damping import RayleighData, StrainRateData
-from .forces import build_force_graphs
+from .forces import band_force_graph, build_force_graphs
 from .graph_cache import SYSTEM_GRAPHS, pooled_buffer, structure_key
 from .ldl import LDLFactor, build_ldl
 
@@ -231,6 +232,17 @@ class StepSystem:
         # iteration and none in the step's predictor; other callers pass y = 0 and M y in p)
         y = ca.MX.sym("y", nf)
         par = ca.MX.sym("par", self.par.size)
+        ins = [xf, lam, p_in, cm, cc, kc, vc] + ([kel] if kel is not None else []) + [y, par]
+        names = ["x", "lam", "p", "cm", "cc", "kc", "vc"] + (["kel"] if kel is not None else []) + ["y", "par"]
+        layout = self._band_layout() if full_only else None
+        if layout is not None:  # the Hessian gathered straight into the band, banded LDL^T (ancf_sym.dynamics.band)
+            g, Kb = band_force_graph(self, layout)(xf, par)
+            r = self.mass_mx(cm * xf + y) + g + p
+            x, kmax, dzx = layout.solve_mx(cm * ca.DM(layout.values(self.M)) + Kb, r)
+            self.kkt_sparsity = layout.pattern
+            self.iter_f = ca.Function("newton_iteration", ins, [-x, ca.vertcat(ca.mmax(ca.fabs(r)), 0, dzx, 0, kmax)],
+                                      names, ["dz", "norms"])
+            return
         out = self.forces_pf(xf, par)
         g, K = out[0], out[1]
         Mdm = dm(self.M)
@@ -271,8 +283,6 @@ class StepSystem:
         else:
             r, rg, KKT, rc = r_q, r_g, S, ca.MX(0)
         rq = ca.mmax(ca.fabs(r_q))
-        ins = [xf, lam, p_in, cm, cc, kc, vc] + ([kel] if kel is not None else []) + [y, par]
-        names = ["x", "lam", "p", "cm", "cc", "kc", "vc"] + (["kel"] if kel is not None else []) + ["y", "par"]
         kkt_nz = mx_nonzeros(KKT)
         # largest entry (round-off floor): on the diagonal when the step matrix is positive definite
         kmax = ca.mmax(ca.fabs(ca.diag(KKT))) if self.linsol == "ldl" and not mc else ca.mmax(ca.fabs(kkt_nz))
@@ -290,6 +300,16 @@ class StepSystem:
         self.iter_f = ca.Function("newton_iteration", ins, [dz, ca.vertcat(rq, rc, dzx, dzl, kmax)], names,
                                   ["dz", "norms"])
 
+
+    def _band_layout(self) -> BandLayout | None:
+        """The band path's layout of the step matrix (ancf_sym.dynamics.band) where it applies, else None: positive
+        definite step matrices (LDL^T) without multipliers, drives, Rayleigh or strain-rate damping, penalty joints."""
+        if self.linsol != "ldl" or self.mc or self.drives is not None or self.rayleigh is not None or \
+                self.damp_f is not None or self.asm.penalty is not None:
+            return None
+        M = sp.csc_matrix(self.M)
+        M.sort_indices()
+        return band_layout(self.forces_pf.sparsity_out(1).unite(casadi_sparsity(self.nf, self.nf, M.indptr, M.indices)))
 
     def ensure_factor(self) -> LDLFactor | None:
         """The in-graph LDL^T factorisation of the step matrix (ancf_sym.dynamics.ldl), built on first use and shared
