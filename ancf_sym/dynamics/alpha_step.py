@@ -74,39 +74,60 @@ class AlphaStepGraphs:
         par = ca.MX.sym("par", S.par.size)  # element parameters (StepSystem.par)
         return st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel, par
 
+    def _coefficient_function(self) -> ca.Function:
+        """The step's scalar coefficients of (h, h_prev) as one SX function (one call instead of dozens of scalar MX
+        nodes, each a virtual-machine instruction): built once per scheme and stiffness scale (SCHEME_FUNCTIONS)."""
+        sc, scale = self.scheme, self.S.stiffness_scale()
+        key = ("alpha_coefficients", sc, scale)
+        if key not in SCHEME_FUNCTIONS:
+            b, g, am, af = sc.beta, sc.gamma, sc.alpha_m, sc.alpha_f
+            h, hp = ca.SX.sym("h"), ca.SX.sym("h_prev")
+            hh = h * h
+            bhh = b * hh
+            cm = ((1 - am) / (1 - af)) / bhh
+            # predicted acceleration a + r (a - a_prev) (r = h / h_prev; constant when there is no previous step)
+            r = ca.if_else(hp > 0, h / ca.fmax(hp, 1e-300), 0)
+            c5 = bhh / (1 - am)
+            # qh = q + hv v + c_ab ab (hv = h), vh = v + c_vh ab, x0 = qh + x_a a + x_ab ab + x_ap ap (the predictor),
+            # k0 = k_ab ab + k_a a, and the step's Newton and corrector scalars
+            outs = dict(hv=h, c_ab=(0.5 - b) * hh, c_vh=h * (1 - g), x_a=c5 * ((1 - af) * (1 + r) + af),
+                        x_ab=-c5 * am, x_ap=-c5 * (1 - af) * r, k_ab=am / (1 - af) + 0 * h, k_a=-af / (1 - af) + 0 * h,
+                        cm=cm, cc=g / (b * h), kc=cm * scale, ibhh=1 / bhh, hg=h * g,
+                        lte=sc.error_constant() * hh)
+            SCHEME_FUNCTIONS[key] = ca.Function("alpha_coefficients", [h, hp], list(outs.values()), ["h", "h_prev"],
+                                                list(outs))
+        return SCHEME_FUNCTIONS[key]
+
     def step_common(self, q, v, a, ab, ap, h, hp, pload, kel):
-        """Predictor, constant part of the residual and the corrector of a step (MX)."""
-        S, sc = self.S, self.scheme
+        """Predictor, constant part of the residual and the corrector of a step (MX). Each MX node is a
+        virtual-machine instruction (~30-50 ns on a short vector, one pass over memory on a long one): the scalar
+        coefficients come from one SX call, and every vector is a linear combination built term by term."""
+        S = self.S
         nf = S.nf
-        b, g, am, af = sc.beta, sc.gamma, sc.alpha_m, sc.alpha_f
-        # (each MX node costs a virtual-machine instruction: shared subexpressions are built once, constant
-        # factors folded in Python)
-        hh = h * h
-        bhh = b * hh
-        qh = q + h * v + ((0.5 - b) * hh) * ab
-        vh = v + (h * (1 - g)) * ab
-        cm = ((1 - am) / (1 - af)) / bhh
-        cc = g / (b * h)
-        kc = cm * S.stiffness_scale()
-        vc = vh - cc * qh
+        k = dict(zip(self._coefficient_function().name_out(), self._coefficient_function()(h, hp)))
+        cm, kc = k["cm"], k["kc"]
+        qh = (q + k["hv"] * v) + k["c_ab"] * ab
+        vh = v + k["c_vh"] * ab
+        x0 = qh + ((k["x_a"] * a + k["x_ab"] * ab) + k["x_ap"] * ap)
+        # a_n+1 = ((1 - am) ab_n+1 + am ab - af a) / (1 - af) = cm (x - qh) + k0: the residual's inertia is
+        # M (cm x + y), y = k0 - cm qh, no product with M here (the corrector keeps cm (x - qh) + k0: cm x and y
+        # are ~1/h^2 larger than their sum)
+        k0 = k["k_ab"] * ab + k["k_a"] * a
+        y = k0 - cm * qh
+        damped = S.rayleigh is not None or S.damp_f is not None
+        vc = vh - k["cc"] * qh if damped else vh  # (v_n+1 = vc + cc x: used by damping only)
         Cvh, _ = rayleigh_mx(S, vc, kel)
-        # a_n+1 = ((1 - am) ab_n+1 + am ab - af a) / (1 - af) = cm (x - qh) + k0, with x = qh + (b h^2) ab_n+1
-        k0 = (am / (1 - af)) * ab - (af / (1 - af)) * a
-        y = k0 - cm * qh  # the residual's inertia is M (cm x + y): no product with M here
         p = Cvh + pload if not S.nw else ca.vertcat(Cvh + pload[:nf], pload[nf:])
-        apred = a + ca.if_else(hp > 0, (a - ap) * (h / ca.fmax(hp, 1e-300)), ca.MX.zeros(nf))
-        x0 = qh + (bhh / (1 - am)) * ((1 - af) * apred + af * a - am * ab)
-        err_c = sc.error_constant()
 
         def lte(x):
-            return (err_c * hh) * ca.mmax(ca.fabs(cm * (x - qh) + k0 - a))
+            return k["lte"] * ca.mmax(ca.fabs(cm * (x - qh) + (k0 - a)))
 
         def block(x):  # q, v, a, ab of the new state and a_prev
             d = x - qh
-            ab1 = d / bhh
-            return ca.vertcat(x, vh + (h * g) * ab1, cm * d + k0, ab1, a)
+            ab1 = d * k["ibhh"]
+            return ca.vertcat(x, vh + k["hg"] * ab1, cm * d + k0, ab1, a)
 
-        return dict(x0=x0, p=p, y=y, cm=cm, cc=cc, kc=kc, vc=vc, lte=lte, block=block)
+        return dict(x0=x0, p=p, y=y, cm=cm, cc=k["cc"], kc=kc, vc=vc, lte=lte, block=block)
 
     def _full_control_functions(self) -> tuple[ca.Function, ca.Function]:
         """The full-Newton step's scalar logic as two SX functions (before and after the second iteration); the
@@ -133,7 +154,8 @@ class AlphaStepGraphs:
         fresh = since < self.refresh_every * ca.fmin(8, ca.fmax(1, 0.1 * tolx / ca.fmax(est1, tiny)))
         conv1 = ca.logic_and(ca.logic_and(om > 0, fresh), est1 <= tolx)
         accept1 = ca.logic_or(conv0, conv1) if o.single else ca.SX(0)
-        first = ca.Function("after_first", [C, N0, L, T, span], [ca.vertcat(ca.if_else(accept1, 0, 1), tq, tolx, d0)])
+        flag = ca.if_else(accept1, 0, 1)  # (a second output: the switch reads it with no extraction node)
+        first = ca.Function("after_first", [C, N0, L, T, span], [flag, ca.vertcat(flag, tq, tolx, d0)])
         A, N1 = sx("a", 4), sx("n1", 5)
         second, tq, tolx, d0 = A[0], A[1], A[2], A[3]
         accept1 = second == 0
@@ -183,11 +205,11 @@ class AlphaStepGraphs:
         l0 = lam / kc
         extra = [kel] if kel is not None else []
         dz, n0 = S.iter_f(x0, l0, p, cm, cc, kc, vc, *extra, y, par)
-        x1 = x0 + dz[:nf]
+        x1 = x0 + (dz[:nf] if mc else dz)
         l1 = l0 + dz[nf:] if mc else l0
         lte = c["lte"](x1)
         first, final = self._full_control_functions()
-        a1 = first(ctl, n0, lte, tols, self.S.span)
+        second, a1 = first(ctl, n0, lte, tols, self.S.span)
         # second iteration, evaluated only when needed
         xb, lb, pb = ca.MX.sym("xb", nf), ca.MX.sym("lb", mc), ca.MX.sym("pb", nf + S.nw)
         cb, ccb, kb, vb = ca.MX.sym("cmb"), ca.MX.sym("ccb"), ca.MX.sym("kcb"), ca.MX.sym("vcb", nf)
@@ -196,7 +218,7 @@ class AlphaStepGraphs:
         dzb, nb = S.iter_f(xb, lb, pb, cb, ccb, kb, vb, *eb, yb, parb)
         f_keep = ca.Function("keep", [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb, parb], [xb, lb, ca.DM.zeros(5)])
         f_iter = ca.Function("second", [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb, parb],
-                             [xb + dzb[:nf], (lb + dzb[nf:]) if mc else lb, nb])
+                             [xb + (dzb[:nf] if mc else dzb), (lb + dzb[nf:]) if mc else lb, nb])
         switch = ca.Function.conditional("second_iteration", [f_keep], f_iter)
         # further iterations while not converged after the second (hard transients: the step stays in the graph,
         # and a chunk goes on): a switch inside the second iteration's branch, so that the steps accepted after one
@@ -227,13 +249,14 @@ class AlphaStepGraphs:
             f_keep = ca.Function("keep", br_ins, [xb, lb, ca.DM.zeros(5), ca.DM.zeros(3)])
             f_iter = ca.Function("second", br_ins, [x3, l3, n1b, ca.vertcat(lv2[0] == 0, lv3[0], lv3[1])])
             x2, l2, n1, m = ca.Function.conditional("second_iteration_on", [f_keep], f_iter)(
-                a1[0], x1, l1, p, cm, cc, kc, vc, *extra, y, par, ctl, n0, a1, lte, tols)
+                second, x1, l1, p, cm, cc, kc, vc, *extra, y, par, ctl, n0, a1, lte, tols)
         else:
-            x2, l2, n1 = switch(a1[0], x1, l1, p, cm, cc, kc, vc, *extra, y, par)
-            m = ca.DM.zeros(3)
+            x2, l2, n1 = switch(second, x1, l1, p, cm, cc, kc, vc, *extra, y, par)
+            m = None
         ctl_new, info = final(ctl, n0, a1, n1, lte, tols)
-        ok, iters = ca.if_else(m[0], m[1], info[0]), ca.if_else(m[0], m[2], info[1])
-        info = ca.vertcat(ok, iters, iters, info[3:])
+        if m is not None:  # the further iterations' (ran, ok, iterations)
+            ok, iters = ca.if_else(m[0], m[1], info[0]), ca.if_else(m[0], m[2], info[1])
+            info = ca.vertcat(ok, iters, iters, info[3:])
         new_state = ca.vertcat(c["block"](x2), l2 * kc, ctl_new)
         return self.make_step_f([st], [h, hp, pload, tols] + extra + [par], [new_state], info)
 
