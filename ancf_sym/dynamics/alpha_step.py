@@ -44,6 +44,21 @@ from .newton import NewtonOptions
 from .schemes import Scheme
 from .step_system import StepSystem
 
+# The step's vector algebra through MX.binary / MX.unary: CasADi's Python operators resolve their overloads at ~30
+# us a node, these calls at ~3 us (a step graph is built at every first run of a structure).
+
+
+def _add(x: ca.MX, y: ca.MX) -> ca.MX:
+    return ca.MX.binary(ca.OP_ADD, x, y)
+
+
+def _sub(x: ca.MX, y: ca.MX) -> ca.MX:
+    return ca.MX.binary(ca.OP_SUB, x, y)
+
+
+def _mul(x: ca.MX, y: ca.MX) -> ca.MX:
+    return ca.MX.binary(ca.OP_MUL, x, y)
+
 
 class AlphaStepGraphs:
     """Builds the step function of one step system, scheme and Newton options:
@@ -106,28 +121,30 @@ class AlphaStepGraphs:
         nf = S.nf
         k = dict(zip(self._coefficient_function().name_out(), self._coefficient_function()(h, hp)))
         cm, kc = k["cm"], k["kc"]
-        qh = (q + k["hv"] * v) + k["c_ab"] * ab
-        vh = v + k["c_vh"] * ab
-        x0 = qh + ((k["x_a"] * a + k["x_ab"] * ab) + k["x_ap"] * ap)
+        qh = _add(_add(q, _mul(k["hv"], v)), _mul(k["c_ab"], ab))
+        vh = _add(v, _mul(k["c_vh"], ab))
+        x0 = _add(qh, _add(_add(_mul(k["x_a"], a), _mul(k["x_ab"], ab)), _mul(k["x_ap"], ap)))
         # a_n+1 = ((1 - am) ab_n+1 + am ab - af a) / (1 - af) = cm (x - qh) + k0: the residual's inertia is
         # M (cm x + y), y = k0 - cm qh, no product with M here (the corrector keeps cm (x - qh) + k0: cm x and y
         # are ~1/h^2 larger than their sum)
-        k0 = k["k_ab"] * ab + k["k_a"] * a
-        y = k0 - cm * qh
+        k0 = _add(_mul(k["k_ab"], ab), _mul(k["k_a"], a))
+        y = _sub(k0, _mul(cm, qh))
         damped = S.rayleigh is not None or S.damp_f is not None
-        vc = vh - k["cc"] * qh if damped else vh  # (v_n+1 = vc + cc x: used by damping only)
+        vc = _sub(vh, _mul(k["cc"], qh)) if damped else vh  # (v_n+1 = vc + cc x: used by damping only)
         Cvh, _ = rayleigh_mx(S, vc, kel)
-        p = Cvh + pload if not S.nw else ca.vertcat(Cvh + pload[:nf], pload[nf:])
+        if S.rayleigh is not None:
+            pload = ca.vertcat(Cvh + pload[:nf], pload[nf:]) if S.nw else Cvh + pload
+        k0a = _sub(k0, a)
 
         def lte(x):
-            return k["lte"] * ca.mmax(ca.fabs(cm * (x - qh) + (k0 - a)))
+            return _mul(k["lte"], ca.mmax(ca.MX.unary(ca.OP_FABS, _add(_mul(cm, _sub(x, qh)), k0a))))
 
         def block(x):  # q, v, a, ab of the new state and a_prev
-            d = x - qh
-            ab1 = d * k["ibhh"]
-            return ca.vertcat(x, vh + k["hg"] * ab1, cm * d + k0, ab1, a)
+            d = _sub(x, qh)
+            ab1 = _mul(d, k["ibhh"])
+            return ca.vertcat(x, _add(vh, _mul(k["hg"], ab1)), _add(_mul(cm, d), k0), ab1, a)
 
-        return dict(x0=x0, p=p, y=y, cm=cm, cc=k["cc"], kc=kc, vc=vc, lte=lte, block=block)
+        return dict(x0=x0, p=pload, y=y, cm=cm, cc=k["cc"], kc=kc, vc=vc, lte=lte, block=block)
 
     def _full_control_functions(self) -> tuple[ca.Function, ca.Function]:
         """The full-Newton step's scalar logic as two SX functions (before and after the second iteration); the
@@ -202,11 +219,11 @@ class AlphaStepGraphs:
         st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel, par = self.step_inputs()
         c = self.step_common(q, v, a, ab, ap, h, hp, pload, kel)
         x0, p, cm, cc, kc, vc, y = c["x0"], c["p"], c["cm"], c["cc"], c["kc"], c["vc"], c["y"]
-        l0 = lam / kc
+        l0 = ca.MX.binary(ca.OP_DIV, lam, kc) if mc else lam
         extra = [kel] if kel is not None else []
         dz, n0 = S.iter_f(x0, l0, p, cm, cc, kc, vc, *extra, y, par)
-        x1 = x0 + (dz[:nf] if mc else dz)
-        l1 = l0 + dz[nf:] if mc else l0
+        x1 = _add(x0, dz[:nf] if mc else dz)
+        l1 = _add(l0, dz[nf:]) if mc else l0
         lte = c["lte"](x1)
         first, final = self._full_control_functions()
         second, a1 = first(ctl, n0, lte, tols, self.S.span)
@@ -218,7 +235,7 @@ class AlphaStepGraphs:
         dzb, nb = S.iter_f(xb, lb, pb, cb, ccb, kb, vb, *eb, yb, parb)
         f_keep = ca.Function("keep", [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb, parb], [xb, lb, ca.DM.zeros(5)])
         f_iter = ca.Function("second", [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb, parb],
-                             [xb + (dzb[:nf] if mc else dzb), (lb + dzb[nf:]) if mc else lb, nb])
+                             [_add(xb, dzb[:nf] if mc else dzb), _add(lb, dzb[nf:]) if mc else lb, nb])
         switch = ca.Function.conditional("second_iteration", [f_keep], f_iter)
         # further iterations while not converged after the second (hard transients: the step stays in the graph,
         # and a chunk goes on): a switch inside the second iteration's branch, so that the steps accepted after one
@@ -257,7 +274,7 @@ class AlphaStepGraphs:
         if m is not None:  # the further iterations' (ran, ok, iterations)
             ok, iters = ca.if_else(m[0], m[1], info[0]), ca.if_else(m[0], m[2], info[1])
             info = ca.vertcat(ok, iters, iters, info[3:])
-        new_state = ca.vertcat(c["block"](x2), l2 * kc, ctl_new)
+        new_state = ca.vertcat(c["block"](x2), _mul(l2, kc) if mc else l2, ctl_new)
         return self.make_step_f([st], [h, hp, pload, tols] + extra + [par], [new_state], info)
 
     # carried control vector of the modified step (SX functions between the iterations)
