@@ -147,9 +147,9 @@ class AlphaStepGraphs:
         return dict(x0=x0, p=pload, y=y, cm=cm, cc=k["cc"], kc=kc, vc=vc, lte=lte, block=block)
 
     def _full_control_functions(self) -> tuple[ca.Function, ca.Function]:
-        """The full-Newton step's scalar logic as two SX functions (before and after the second iteration); the
-        first takes the scene's coordinate span (round-off floor) as an input: they depend on the Newton options
-        only, and are built once per process (SCHEME_FUNCTIONS)."""
+        """The full-Newton step's scalar logic as two SX functions (after the first iteration, and after the second
+        one if it ran); the first takes the scene's coordinate span (round-off floor) as an input: they depend on
+        the Newton options only, and are built once per process (SCHEME_FUNCTIONS)."""
         o = self.opts
         key = ("full_controls", o.single, o.lte_fraction, self.refresh_every)
         if key not in SCHEME_FUNCTIONS:
@@ -171,8 +171,12 @@ class AlphaStepGraphs:
         fresh = since < self.refresh_every * ca.fmin(8, ca.fmax(1, 0.1 * tolx / ca.fmax(est1, tiny)))
         conv1 = ca.logic_and(ca.logic_and(om > 0, fresh), est1 <= tolx)
         accept1 = ca.logic_or(conv0, conv1) if o.single else ca.SX(0)
-        flag = ca.if_else(accept1, 0, 1)  # (a second output: the switch reads it with no extraction node)
-        first = ca.Function("after_first", [C, N0, L, T, span], [flag, ca.vertcat(flag, tq, tolx, d0)])
+        flag = ca.if_else(accept1, 0, 1)  # (an output of its own: the switch reads it with no extraction node)
+        # and the controls and info of a step accepted now (what `final` gives then), passed on by the switch's
+        # keep branch: a one-iteration step calls no SX function after the switch
+        first = ca.Function("after_first", [C, N0, L, T, span],
+                            [flag, ca.vertcat(flag, tq, tolx, d0), ca.vertcat(om, since + 1),
+                             ca.vertcat(1, 1, 1, d0, 0, L, N0[4])])
         A, N1 = sx("a", 4), sx("n1", 5)
         second, tq, tolx, d0 = A[0], A[1], A[2], A[3]
         accept1 = second == 0
@@ -226,30 +230,33 @@ class AlphaStepGraphs:
         l1 = _add(l0, dz[nf:]) if mc else l0
         lte = c["lte"](x1)
         first, final = self._full_control_functions()
-        second, a1 = first(ctl, n0, lte, tols, self.S.span)
-        # second iteration, evaluated only when needed
+        second, a1, ctl1, info1 = first(ctl, n0, lte, tols, self.S.span)
+        # the second iteration and the controls after it, evaluated only when needed (a switch whose keep branch
+        # passes x1, l1 and the controls of a step accepted after one iteration on)
         xb, lb, pb = ca.MX.sym("xb", nf), ca.MX.sym("lb", mc), ca.MX.sym("pb", nf + S.nw)
         cb, ccb, kb, vb = ca.MX.sym("cmb"), ca.MX.sym("ccb"), ca.MX.sym("kcb"), ca.MX.sym("vcb", nf)
         eb = [ca.MX.sym("kelb", S.kel.size)] if kel is not None else []
         yb, parb = ca.MX.sym("yb", nf), ca.MX.sym("parb", S.par.size)
-        dzb, nb = S.iter_f(xb, lb, pb, cb, ccb, kb, vb, *eb, yb, parb)
-        f_keep = ca.Function("keep", [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb, parb], [xb, lb, ca.DM.zeros(5)])
-        f_iter = ca.Function("second", [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb, parb],
-                             [_add(xb, dzb[:nf] if mc else dzb), _add(lb, dzb[nf:]) if mc else lb, nb])
-        switch = ca.Function.conditional("second_iteration", [f_keep], f_iter)
+        cb_, n0b, a1b, lteb, tb = ca.MX.sym("ctl", 2), ca.MX.sym("n0", 5), ca.MX.sym("a1", 4), ca.MX.sym("lte"), \
+            ca.MX.sym("tols", 2)
+        ctl1b, info1b = ca.MX.sym("ctl1", 2), ca.MX.sym("info1", self.info_size)
+        iter_ins = [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb, parb]
+        dzb, nb = S.iter_f(*iter_ins)
+        f_iter = ca.Function("second", iter_ins, [_add(xb, dzb[:nf] if mc else dzb), _add(lb, dzb[nf:]) if mc else lb,
+                                                  nb])
+        x2b, l2b, n1b = f_iter(*iter_ins)
+        ctl2b, info2b = final(cb_, n0b, a1b, n1b, lteb, tb)
         # further iterations while not converged after the second (hard transients: the step stays in the graph,
         # and a chunk goes on): a switch inside the second iteration's branch, so that the steps accepted after one
-        # iteration (most of them) pay nothing for it; m = (ran, ok, iterations) of the further iterations
+        # iteration (most of them) pay nothing for it
         n_more = max(0, min(extra_iterations, self.opts.max_iter - 2))
         if n_more:
             later = self._later_control_function()
-            cb_, n0b, a1b, lteb, tb = ca.MX.sym("ctl", 2), ca.MX.sym("n0", 5), ca.MX.sym("a1", 4), ca.MX.sym("lte"), \
-                ca.MX.sym("tols", 2)
             lvb = ca.MX.sym("lv", 3)
-            iter_ins = [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb, parb]
             # one further iteration on z = (x, lam, (ok, iterations, last |dz|)), folded n_more times (one graph
             # to build, not n_more)
-            xk, lk, nk = switch(lvb[0] == 0, xb, lb, pb, cb, ccb, kb, vb, *eb, yb, parb)
+            f_keep = ca.Function("keep", iter_ins, [xb, lb, ca.DM.zeros(5)])
+            xk, lk, nk = ca.Function.conditional("next_iteration", [f_keep], f_iter)(lvb[0] == 0, *iter_ins)
             zb = ca.vertcat(xb, lb, lvb)
             others = [a1b, tb, pb, cb, ccb, kb, vb] + eb + [yb, parb]
             one = ca.Function("further_iteration", [zb] + others, [ca.vertcat(xk, lk, later(lvb, nk, a1b, tb))])
@@ -257,23 +264,18 @@ class AlphaStepGraphs:
             folded = one.fold(n_more)(zin, *[ca.repmat(o, 1, n_more) for o in others])
             more = ca.Function.conditional("further_iterations", [ca.Function("done", [zin] + others, [zin])],
                                            ca.Function("more", [zin] + others, [folded]))
-            x2b, l2b, n1b = f_iter(*iter_ins)
-            info2 = final(cb_, n0b, a1b, n1b, lteb, tb)[1]
-            lv2 = ca.vertcat(info2[0], info2[1], ca.fmax(n1b[2], n1b[3]))
+            lv2 = ca.vertcat(info2b[0], info2b[1], ca.fmax(n1b[2], n1b[3]))
             z3 = more(lv2[0] == 0, ca.vertcat(x2b, l2b, lv2), *others)
-            x3, l3, lv3 = z3[:nf], z3[nf:nf + mc], z3[nf + mc:]
-            br_ins = iter_ins + [cb_, n0b, a1b, lteb, tb]
-            f_keep = ca.Function("keep", br_ins, [xb, lb, ca.DM.zeros(5), ca.DM.zeros(3)])
-            f_iter = ca.Function("second", br_ins, [x3, l3, n1b, ca.vertcat(lv2[0] == 0, lv3[0], lv3[1])])
-            x2, l2, n1, m = ca.Function.conditional("second_iteration_on", [f_keep], f_iter)(
-                second, x1, l1, p, cm, cc, kc, vc, *extra, y, par, ctl, n0, a1, lte, tols)
-        else:
-            x2, l2, n1 = switch(second, x1, l1, p, cm, cc, kc, vc, *extra, y, par)
-            m = None
-        ctl_new, info = final(ctl, n0, a1, n1, lte, tols)
-        if m is not None:  # the further iterations' (ran, ok, iterations)
-            ok, iters = ca.if_else(m[0], m[1], info[0]), ca.if_else(m[0], m[2], info[1])
-            info = ca.vertcat(ok, iters, iters, info[3:])
+            x2b, l2b, lv3 = z3[:nf], z3[nf:nf + mc], z3[nf + mc:]
+            # (ok, iterations) of the further iterations where they ran
+            ran = lv2[0] == 0
+            ok, iters = ca.if_else(ran, lv3[0], info2b[0]), ca.if_else(ran, lv3[1], info2b[1])
+            info2b = ca.vertcat(ok, iters, iters, info2b[3:])
+        br_ins = iter_ins + [cb_, n0b, a1b, lteb, tb, ctl1b, info1b]
+        f_keep = ca.Function("keep", br_ins, [xb, lb, ctl1b, info1b])
+        f_second = ca.Function("second", br_ins, [x2b, l2b, ctl2b, info2b])
+        x2, l2, ctl_new, info = ca.Function.conditional("second_iteration", [f_keep], f_second)(
+            second, x1, l1, p, cm, cc, kc, vc, *extra, y, par, ctl, n0, a1, lte, tols, ctl1, info1)
         new_state = ca.vertcat(c["block"](x2), _mul(l2, kc) if mc else l2, ctl_new)
         return self.make_step_f([st], [h, hp, pload, tols] + extra + [par], [new_state], info)
 
