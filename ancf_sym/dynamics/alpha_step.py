@@ -137,7 +137,7 @@ class AlphaStepGraphs:
         k0a = _sub(k0, a)
 
         def lte(x):
-            return _mul(k["lte"], ca.mmax(ca.MX.unary(ca.OP_FABS, _add(_mul(cm, _sub(x, qh)), k0a))))
+            return _mul(k["lte"], ca.norm_inf(_add(_mul(cm, _sub(x, qh)), k0a)))
 
         def block(x):  # q, v, a, ab of the new state and a_prev
             d = _sub(x, qh)
