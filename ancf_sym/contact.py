@@ -255,9 +255,14 @@ def dissipation_calls(mesh) -> list[tuple[str, int, np.ndarray, np.ndarray]]:
     return out
 
 
+def exact_contacts(asm) -> list:
+    """The scene's exact (unilateral-row) contacts, in declaration order; empty: no contact rows."""
+    return [c for c in getattr(asm.scene, "contacts", ()) if c.method == "exact"]
+
+
 def check_dynamics(asm) -> None:
     """Exact contact is a statics method: refuse it in a dynamic run, before any work."""
-    exact = [c for c in getattr(asm.scene, "contacts", ()) if c.method == "exact"]
+    exact = exact_contacts(asm)
     if exact:
         raise SceneError(f"{_effect(exact[0])}(member={exact[0].member!r}): method='exact' (unilateral "
                          "constraints) is for statics; dynamics needs method='penalty' (a stiffness or hertz law)")

@@ -18,7 +18,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import kernels
-from .contact import DrumContact, unilateral
+from .contact import DrumContact, exact_contacts, unilateral
 from .contact_body import BODY_SIZE
 from .elements.quadrature import gauss01
 from .sparsity import dm, hessian_entries, scatter
@@ -43,15 +43,10 @@ class Rows:
         return len(self.labels)
 
 
-def declared(asm) -> list:
-    """The scene's exact contacts (empty: statics without contact rows)."""
-    return [c for c in getattr(asm.scene, "contacts", ()) if c.method == "exact"]
-
-
 def rows(asm) -> list[Rows]:
     """Rows of every exact contact, in declaration order."""
     out = []
-    for c in declared(asm):
+    for c in exact_contacts(asm):
         if not isinstance(c, DrumContact):
             A, b, labels = unilateral(asm, only=c)
             out.append(Rows(c, labels, A=A, b=b))

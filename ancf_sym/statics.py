@@ -28,7 +28,7 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from . import bodies, contact_exact, fields, spatial_bodies, statics_coarse, statics_contact
+from . import bodies, contact, contact_exact, fields, spatial_bodies, statics_coarse, statics_contact
 from .assembly import LOAD_LABELS, Assembly
 from .checks import check_fields
 from .interrupts import interruptible
@@ -262,7 +262,7 @@ class StaticProblem:
         if x0 is not None:
             check_stretch(a.mesh, x, "warm start x0")
             x = self.S.full(self.S.reduce(x))  # supports and hinges that fix or identify coordinates hold exactly
-        if contact_exact.declared(a):  # exact frictionless contact: IPOPT with inequality rows
+        if contact.exact_contacts(a):  # exact frictionless contact: IPOPT with inequality rows
             return statics_contact.solve(self, x, opts, t0)
         attempts: list = []
         work = self.work if self.work > 0 else self.newton.load_work(x)

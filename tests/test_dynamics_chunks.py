@@ -55,10 +55,10 @@ def test_a_chunk_stops_at_the_first_step_it_cannot_accept():
 
 
 def test_hard_transient_stays_in_the_chunks(monkeypatch):
-    """Zhang's pendulum on a fine mesh released horizontal (early steps need 3-4 Newton iterations): every grid step is taken in
-    the chunks' compiled step (no single step left to `attempt`), and the run equals the same run step by step (the same
-    compiled step graph: round-off only, far below the 1e-9 m asked here)."""
-    opts = dict(dt=1e-3, t_end=0.064, integrator="generalized_alpha", rho_inf=0.9, output_dt=0.016, energies=False,
+    """Zhang's pendulum on a fine mesh released horizontal with a long step (early steps need 4-5 Newton iterations):
+    every grid step is taken in the chunks' compiled step (no single step left to `attempt`), and the run equals the
+    same run step by step (the same compiled step graph: round-off only, far below the 1e-9 m asked here)."""
+    opts = dict(dt=4e-3, t_end=0.256, integrator="generalized_alpha", rho_inf=0.9, output_dt=0.064, energies=False,
                 sensors=[{"name": "tip", "kind": "position", "member": "m", "at": "end"}])
     import ancf_sym.dynamics.time_loop as D
     calls = []

@@ -93,7 +93,7 @@ class AlphaStepGraphs:
         q, v, a, ab, ap = (st[i * nf:(i + 1) * nf] for i in range(5))
         lam = st[5 * nf:5 * nf + mc]
         ctl = st[5 * nf + mc:]
-        h, hp = ca.MX.sym("h"), ca.MX.sym("h_prev")  # h_prev <= 0: no previous step (constant predictor)
+        h, hp = ca.MX.sym("h"), ca.MX.sym("h_prev")  # (h_prev: unused by the constant-acceleration predictor)
         tols = ca.MX.sym("tols", 2)  # force tolerance [N], update tolerance [m]
         pload = ca.MX.sym("pload", nf + S.nw)  # -(f_lin + Q(t_n+1)), then the drives' inputs w(t_n+1)
         kel = ca.MX.sym("kel", S.kel.size) if S.kel is not None else None
@@ -101,27 +101,23 @@ class AlphaStepGraphs:
         return st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel, par
 
     def _coefficient_function(self) -> ca.Function:
-        """The step's scalar coefficients of (h, h_prev) as one SX function (one call instead of dozens of scalar MX
+        """The step's scalar coefficients of h as one SX function (one call instead of dozens of scalar MX
         nodes, each a virtual-machine instruction): built once per scheme and stiffness scale (SCHEME_FUNCTIONS)."""
         sc, scale = self.scheme, self.S.stiffness_scale()
         key = ("alpha_coefficients", sc, scale)
         if key not in SCHEME_FUNCTIONS:
             b, g, am, af = sc.beta, sc.gamma, sc.alpha_m, sc.alpha_f
-            h, hp = ca.SX.sym("h"), ca.SX.sym("h_prev")
+            h = ca.SX.sym("h")
             hh = h * h
             bhh = b * hh
             cm = ((1 - am) / (1 - af)) / bhh
-            # predicted acceleration a + r (a - a_prev) (r = h / h_prev; constant when there is no previous step)
-            r = ca.if_else(hp > 0, h / ca.fmax(hp, 1e-300), 0)
             c5 = bhh / (1 - am)
-            # qh = q + hv v + c_ab ab (hv = h), vh = v + c_vh ab, x0 = qh + x_a a + x_ab ab + x_ap ap (the predictor),
-            # k0 = k_ab ab + k_a a, and the step's Newton and corrector scalars
-            outs = dict(hv=h, c_ab=(0.5 - b) * hh, c_vh=h * (1 - g), x_a=c5 * ((1 - af) * (1 + r) + af),
-                        x_ab=-c5 * am, x_ap=-c5 * (1 - af) * r, k_ab=am / (1 - af) + 0 * h, k_a=-af / (1 - af) + 0 * h,
-                        cm=cm, cc=g / (b * h), kc=cm * scale, ibhh=1 / bhh, hg=h * g,
-                        lte=sc.error_constant() * hh)
-            SCHEME_FUNCTIONS[key] = ca.Function("alpha_coefficients", [h, hp], list(outs.values()), ["h", "h_prev"],
-                                                list(outs))
+            # qh = q + hv v + c_ab ab (hv = h), vh = v + c_vh ab, x0 = qh + x_a a + x_ab ab (the constant-acceleration
+            # predictor, AlphaIntegrator._predict), k0 = k_ab ab + k_a a, and the step's Newton and corrector scalars
+            outs = dict(hv=h, c_ab=(0.5 - b) * hh, c_vh=h * (1 - g), x_a=c5, x_ab=-c5 * am,
+                        k_ab=am / (1 - af) + 0 * h, k_a=-af / (1 - af) + 0 * h, cm=cm, cc=g / (b * h), kc=cm * scale,
+                        ibhh=1 / bhh, hg=h * g, lte=sc.error_constant() * hh)
+            SCHEME_FUNCTIONS[key] = ca.Function("alpha_coefficients", [h], list(outs.values()), ["h"], list(outs))
         return SCHEME_FUNCTIONS[key]
 
     def step_common(self, q, v, a, ab, ap, h, hp, pload, kel):
@@ -130,11 +126,12 @@ class AlphaStepGraphs:
         coefficients come from one SX call, and every vector is a linear combination built term by term."""
         S = self.S
         nf = S.nf
-        k = dict(zip(self._coefficient_function().name_out(), self._coefficient_function()(h, hp)))
+        coef = self._coefficient_function()
+        k = dict(zip(coef.name_out(), coef(h)))
         cm, kc = k["cm"], k["kc"]
         qh = _add(_add(q, _mul(k["hv"], v)), _mul(k["c_ab"], ab))
         vh = _add(v, _mul(k["c_vh"], ab))
-        x0 = _add(qh, _add(_add(_mul(k["x_a"], a), _mul(k["x_ab"], ab)), _mul(k["x_ap"], ap)))
+        x0 = _add(qh, _add(_mul(k["x_a"], a), _mul(k["x_ab"], ab)))
         # a_n+1 = ((1 - am) ab_n+1 + am ab - af a) / (1 - af) = cm (x - qh) + k0: the residual's inertia is
         # M (cm x + y), y = k0 - cm qh, no product with M here (the corrector keeps cm (x - qh) + k0: cm x and y
         # are ~1/h^2 larger than their sum)

@@ -133,7 +133,7 @@ def rayleigh_mx(S: "StepSystem", v: ca.MX, kel: ca.MX | None) -> tuple[ca.MX, ca
         return Cv, C
     Mdm = dm(S.M)
     if S.rayleigh.alpha:
-        Cv += S.rayleigh.alpha * ca.mtimes(Mdm, v)
+        Cv += S.rayleigh.alpha * S.mass_mx(v)
         C = C + S.rayleigh.alpha * Mdm
     if kel is not None:
         Kel = ca.MX(S.kel_sparsity, kel)

@@ -16,7 +16,7 @@ import numpy as np
 
 from .. import kernels
 from ..assembly import map_elements
-from ..sparsity import assemble_mx, dm, hessian_entries, mx_nonzeros, scatter
+from ..sparsity import assemble_mx, hessian_entries, mx_nonzeros, scatter
 
 if TYPE_CHECKING:
     from .step_system import StepSystem
@@ -99,4 +99,4 @@ def build_force_graphs(S: "StepSystem") -> None:
     S._energy_kin_labels = [lbl for lbl, _ in elist]
     vf = ca.MX.sym("v", nf)
     S._energy_kin_f = ca.Function("energies_kinetic", [xf, vf, par, lin], [
-        ca.vertcat(*[e for _, e in elist], 0.5 * ca.dot(vf, ca.mtimes(dm(S.M), vf)))])
+        ca.vertcat(*[e for _, e in elist], 0.5 * ca.dot(vf, S.mass_mx(vf)))])

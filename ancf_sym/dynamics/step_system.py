@@ -26,7 +26,7 @@ from .. import contact, drives
 from ..assembly import Assembly, force_terms
 from ..casadi_buffers import bind
 from ..reduced import full_mx, partition, reduce_shared
-from ..sparsity import dm, mx_nonzeros
+from ..sparsity import dm, kron_identity_factor, kron_product_mx, mx_nonzeros
 from . import damping
 from .damping import RayleighData, StrainRateData
 from .forces import build_force_graphs
@@ -171,6 +171,16 @@ class StepSystem:
         with it into one, where a product with E would cost a sparse product at every evaluation."""
         return full_mx(xf, self.pos, self.part.c)
 
+    def mass_mx(self, u: ca.MX) -> ca.MX:
+        """M u in a graph. Where M = kron(Mbar, I_d) (cables: every direction has the same mass; checked exactly when
+        the graphs are built), as the product with Mbar of u reshaped to d x nf/d: at 1000 cable2d elements 29 us
+        instead of 61 us per product, the same sums."""
+        if "_mass_kron" not in self.__dict__:
+            self._mass_kron = kron_identity_factor(self.M)
+        if self._mass_kron is None:
+            return ca.mtimes(dm(self.M), u)
+        return kron_product_mx(*self._mass_kron, u)
+
     def damping_force(self, xf: np.ndarray, vf: np.ndarray) -> np.ndarray | None:
         """Damping force on the unknowns at (x, v) (ancf_sym.dynamics.damping.damping_force)."""
         return damping.damping_force(self, xf, vf)
@@ -225,7 +235,8 @@ class StepSystem:
         g, K = out[0], out[1]
         Mdm = dm(self.M)
         Cx, C = damping.rayleigh_mx(self, xf, kel)
-        r_q = ca.mtimes(Mdm, cm * xf + y) + cc * Cx + g + p
+        Mu = self.mass_mx(cm * xf + y)
+        r_q = Mu + cc * Cx + g + p
         spS = K.sparsity().unite(Mdm.sparsity())
         if spS == K.sparsity():  # M placed in K's pattern once: no projection of M at every evaluation
             S = cm * ca.project(Mdm, spS) + cc * C + K
@@ -236,7 +247,7 @@ class StepSystem:
             r_q += fd
             S = S + dfx + cc * dfv
         # the same residual from the gradient-only kernels (modified Newton: no Hessian work)
-        r_g = None if full_only else ca.mtimes(Mdm, cm * xf + y) + cc * Cx + self.grad_pf(xf, par) + p
+        r_g = None if full_only else Mu + cc * Cx + self.grad_pf(xf, par) + p
         if self.damp_f is not None and not full_only:
             r_g += self.damp_force_f(xf, vc + cc * xf)
         tq = self.torque_mx(xf, w)
