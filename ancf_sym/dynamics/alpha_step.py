@@ -112,11 +112,12 @@ class AlphaStepGraphs:
             bhh = b * hh
             cm = ((1 - am) / (1 - af)) / bhh
             c5 = bhh / (1 - am)
-            # qh = q + hv v + c_ab ab (hv = h), vh = v + c_vh ab, x0 = qh + x_a a + x_ab ab (the constant-acceleration
+            # qh = q + hv v + c_ab ab (hv = h), vh = v + c_vh ab, x0 = qh + c5 (a - am ab) (the constant-acceleration
             # predictor, AlphaIntegrator._predict), k0 = k_ab ab + k_a a, and the step's Newton and corrector scalars
-            outs = dict(hv=h, c_ab=(0.5 - b) * hh, c_vh=h * (1 - g), x_a=c5, x_ab=-c5 * am,
+            # (the same operations in the same order as the scalar MX nodes they replace: the same numbers)
+            outs = dict(hv=h, c_ab=(0.5 - b) * hh, c_vh=h * (1 - g), c5=c5, am=am + 0 * h,
                         k_ab=am / (1 - af) + 0 * h, k_a=-af / (1 - af) + 0 * h, cm=cm, cc=g / (b * h), kc=cm * scale,
-                        ibhh=1 / bhh, hg=h * g, lte=sc.error_constant() * hh)
+                        bhh=bhh, hg=h * g, lte=sc.error_constant() * hh)
             SCHEME_FUNCTIONS[key] = ca.Function("alpha_coefficients", [h], list(outs.values()), ["h"], list(outs))
         return SCHEME_FUNCTIONS[key]
 
@@ -131,7 +132,7 @@ class AlphaStepGraphs:
         cm, kc = k["cm"], k["kc"]
         qh = _add(_add(q, _mul(k["hv"], v)), _mul(k["c_ab"], ab))
         vh = _add(v, _mul(k["c_vh"], ab))
-        x0 = _add(qh, _add(_mul(k["x_a"], a), _mul(k["x_ab"], ab)))
+        x0 = _add(qh, _mul(k["c5"], _sub(a, _mul(k["am"], ab))))
         # a_n+1 = ((1 - am) ab_n+1 + am ab - af a) / (1 - af) = cm (x - qh) + k0: the residual's inertia is
         # M (cm x + y), y = k0 - cm qh, no product with M here (the corrector keeps cm (x - qh) + k0: cm x and y
         # are ~1/h^2 larger than their sum)
@@ -142,14 +143,13 @@ class AlphaStepGraphs:
         Cvh, _ = rayleigh_mx(S, vc, kel)
         if S.rayleigh is not None:
             pload = ca.vertcat(Cvh + pload[:nf], pload[nf:]) if S.nw else Cvh + pload
-        k0a = _sub(k0, a)
 
         def lte(x):
-            return _mul(k["lte"], ca.norm_inf(_add(_mul(cm, _sub(x, qh)), k0a)))
+            return _mul(k["lte"], ca.norm_inf(_sub(_add(_mul(cm, _sub(x, qh)), k0), a)))
 
         def block(x):  # q, v, a, ab of the new state and a_prev
             d = _sub(x, qh)
-            ab1 = _mul(d, k["ibhh"])
+            ab1 = ca.MX.binary(ca.OP_DIV, d, k["bhh"])
             return ca.vertcat(x, _add(vh, _mul(k["hg"], ab1)), _add(_mul(cm, d), k0), ab1, a)
 
         return dict(x0=x0, p=pload, y=y, cm=cm, cc=k["cc"], kc=kc, vc=vc, lte=lte, block=block)
