@@ -11,6 +11,8 @@ with a SuperLU factorisation reused across iterations and steps.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..casadi_buffers import bind
@@ -46,9 +48,12 @@ class AlphaIntegrator:
         self.modified_graph = ldl is not None
         self.nctl = 10 if self.modified_graph else 2
         self.fac_sizes = ldl.size if self.modified_graph else ()
-        self.q, self.v, self.a, self.ab, self.a_prev = (np.zeros(nf) for _ in range(5))
-        self.lam = np.zeros(mc)
-        self.ctl = np.zeros(self.nctl)
+        # the state is one array (the step graph's input and output), q, v, a, ab, a_prev, lam, ctl views of it:
+        # a chunk's last state is taken over in one copy
+        self.state = np.zeros(self.state_size)
+        self.q, self.v, self.a, self.ab, self.a_prev = (self.state[i * nf:(i + 1) * nf] for i in range(5))
+        self.lam = self.state[5 * nf:5 * nf + mc]
+        self.ctl = self.state[5 * nf + mc:]
         self.fac = [np.zeros(k) for k in self.fac_sizes]  # D, U, U^T of the kept factor (modified)
         self._reset_controls()
         self.h_prev = None
@@ -87,7 +92,7 @@ class AlphaIntegrator:
             self.ctl[2] = -1.0  # contraction rate unknown; ctl[4] = 0: no factor
 
     def pack(self) -> np.ndarray:
-        return np.concatenate([self.q, self.v, self.a, self.ab, self.a_prev, self.lam, self.ctl])
+        return self.state.copy()
 
     def unpack(self, s: np.ndarray) -> dict:
         nf, mc = self.S.nf, self.S.mc
@@ -136,14 +141,14 @@ class AlphaIntegrator:
         self._h_try = h
         python_newton = self.opts
         if self.modified_graph or not self.opts.modified:
-            self._s_in[:] = self.pack()
+            self._s_in[:] = self.state
             self._h[0] = h
             self._hp[0] = self.h_prev if self.h_prev else 0.0
             self._pload[:] = pload
             self._tols[:] = self.tol_q, self.tol_x
             self._step[1]()
             info = self._info
-            k = self._count(info)
+            k = self._count(info[1], info[2])
             finite = np.all(np.isfinite(self._s_out))
             if info[0] == 1 and finite and all(np.all(np.isfinite(f)) for f in self._f_out):
                 u = self.unpack(self._s_out)
@@ -184,9 +189,11 @@ class AlphaIntegrator:
             dst[:] = src
         return StepOutcome(True, out.iterations)
 
-    def _count(self, info: np.ndarray) -> int:
+    def _count(self, iterations: float, factorizations: float) -> int:
+        """Book a step's (or chunk's) Newton iterations and factorisations from its info (0 if not finite)."""
         c = self.counters
-        k, f = int(info[1]), int(info[2])
+        k = int(iterations) if math.isfinite(iterations) else 0
+        f = int(factorizations) if math.isfinite(factorizations) else 0
         c.residuals += k
         c.jacobians += f
         c.factorizations += f
@@ -267,7 +274,7 @@ class AlphaIntegrator:
             ns = self.state_size + guard
             bufs = dict(s=np.zeros(ns), h=np.zeros(n), hp=np.zeros(n), pload=np.zeros((nf + self.S.nw) * n),
                         tols=np.zeros(2 * n), out=np.zeros(ns * n), info=np.zeros(self.info_size * n),
-                        fac_out=[np.zeros(k * n) for k in self.fac_sizes], guard=guard)
+                        fac_out=[np.zeros(k * n) for k in self.fac_sizes], guard=guard, ones=np.ones(ns - guard))
             S = self.S
             args = [bufs["s"]] + self.fac + [bufs["h"], bufs["hp"], bufs["pload"], bufs["tols"]] + \
                 ([np.tile(S.kel, n)] if S.kel is not None else []) + [np.tile(S.par, n)]
@@ -298,11 +305,9 @@ class AlphaIntegrator:
         n = ploads.shape[1]
         buf, ev, b = self.chunk_function(n)
         ns = self.state_size
+        b["s"][:ns] = self.state
         if b["guard"]:
-            b["s"][:-1] = self.pack()
             b["s"][-1] = 0.0  # not failed
-        else:
-            b["s"][:] = self.pack()
         b["h"][:] = h  # (mapaccum maps every input but the state over the steps)
         b["hp"][:] = h
         b["hp"][0] = self.h_prev if self.h_prev else 0.0
@@ -315,18 +320,14 @@ class AlphaIntegrator:
         states = b["out"].reshape(n, ns + b["guard"])[:, :ns]
         good = info[:, 0] == 1  # (guarded: the failed flag, set at the first unconverged or non-finite step)
         if not b["guard"]:
-            good &= np.isfinite(states).all(axis=1)
+            good &= np.isfinite(states @ b["ones"])  # (a sum is finite only if every entry is)
         n_ok = n if good.all() else int(np.argmin(good))
         # the failing step's work was spent too (and without the guard, the later steps' work)
-        self._count(np.nan_to_num(info[:min(n_ok + 1, n) if b["guard"] else n], posinf=0, neginf=0).sum(axis=0))
+        self._count(*info[:min(n_ok + 1, n) if b["guard"] else n, 1:3].sum(axis=0))
         if n_ok < n - 1:
             self._guard_on = True  # a hard transient: the next chunks stop at their failing step
         if n_ok:
-            self.a_prev[:] = states[n_ok - 2, 2 * self.S.nf:3 * self.S.nf] if n_ok > 1 else self.a
-            u = self.unpack(states[n_ok - 1])
-            for k in ("q", "v", "a", "ab", "lam"):
-                getattr(self, k)[:] = u[k]
-            self.ctl[:] = u["ctl"]
+            self.state[:] = states[n_ok - 1]  # (its a_prev: the acceleration of the step before)
             for dst, src, k in zip(self.fac, b["fac_out"], self.fac_sizes):
                 dst[:] = src[(n_ok - 1) * k:n_ok * k]
             self.h_prev = h
@@ -345,7 +346,7 @@ class AlphaIntegrator:
         rows, views = st
         buf, ev, _, _ = self._step
         info, f_out = self._info, self._f_out
-        rows[0] = self.pack()
+        rows[0] = self.state
         self._h[0] = h
         self._hp[0] = self.h_prev if self.h_prev else 0.0
         self._tols[:] = self.tol_q, self.tol_x
@@ -357,7 +358,7 @@ class AlphaIntegrator:
                 buf.set_arg(0, views[j])
                 buf.set_res(0, views[j + 1])
                 ev()
-                self._count(np.nan_to_num(info, posinf=0, neginf=0))
+                self._count(info[1], info[2])
                 # (a sum is finite only if every entry is)
                 if info[0] != 1 or not np.isfinite(rows[j + 1].sum()) or not all(np.isfinite(f.sum()) for f in f_out):
                     break
@@ -369,9 +370,6 @@ class AlphaIntegrator:
             buf.set_arg(0, memoryview(self._s_in))
             buf.set_res(0, memoryview(self._s_out))
         if n_ok:
-            u = self.unpack(rows[n_ok])
-            for k in ("q", "v", "a", "ab", "a_prev", "lam"):
-                getattr(self, k)[:] = u[k]
-            self.ctl[:] = u["ctl"]
+            self.state[:] = rows[n_ok]
             self.h_prev = h
         return rows[1:n_ok + 1], n_ok

@@ -44,6 +44,32 @@ from .newton import NewtonOptions
 from .schemes import Scheme
 from .step_system import StepSystem
 
+# The step's vector algebra through MX.binary / MX.unary: CasADi's Python operators resolve their overloads at ~30
+# us a node, these calls at ~3 us (a step graph is built at every first run of a structure).
+
+
+def _add(x: ca.MX, y: ca.MX) -> ca.MX:
+    return ca.MX.binary(ca.OP_ADD, x, y)
+
+
+def _sub(x: ca.MX, y: ca.MX) -> ca.MX:
+    return ca.MX.binary(ca.OP_SUB, x, y)
+
+
+def _mul(x: ca.MX, y: ca.MX) -> ca.MX:
+    return ca.MX.binary(ca.OP_MUL, x, y)
+
+
+def _without_multipliers(f: ca.Function) -> ca.Function:
+    """A step system's iteration function (x, lam, ...) without its empty multiplier input (no constraint rows):
+    CasADi analyses the whole graph of a function with an empty input at every symbolic call (~2 ms at 1000
+    elements; a step graph calls it several times); this wrapper pays that once and inlines f's graph (evaluated
+    as f is)."""
+    ins = [ca.MX.sym(f.name_in(k), f.sparsity_in(k)) for k in range(f.n_in())]
+    out = f.call(ins[:1] + [ca.MX(0, 1)] + ins[2:], True, False)
+    return ca.Function(f.name(), ins[:1] + ins[2:], out, [f.name_in(k) for k in range(f.n_in()) if k != 1],
+                       f.name_out())
+
 
 class AlphaStepGraphs:
     """Builds the step function of one step system, scheme and Newton options:
@@ -67,50 +93,71 @@ class AlphaStepGraphs:
         q, v, a, ab, ap = (st[i * nf:(i + 1) * nf] for i in range(5))
         lam = st[5 * nf:5 * nf + mc]
         ctl = st[5 * nf + mc:]
-        h, hp = ca.MX.sym("h"), ca.MX.sym("h_prev")  # (h_prev: unused since the predictor keeps a constant)
+        h, hp = ca.MX.sym("h"), ca.MX.sym("h_prev")  # (h_prev: unused by the constant-acceleration predictor)
         tols = ca.MX.sym("tols", 2)  # force tolerance [N], update tolerance [m]
         pload = ca.MX.sym("pload", nf + S.nw)  # -(f_lin + Q(t_n+1)), then the drives' inputs w(t_n+1)
         kel = ca.MX.sym("kel", S.kel.size) if S.kel is not None else None
         par = ca.MX.sym("par", S.par.size)  # element parameters (StepSystem.par)
         return st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel, par
 
+    def _coefficient_function(self) -> ca.Function:
+        """The step's scalar coefficients of h as one SX function (one call instead of dozens of scalar MX
+        nodes, each a virtual-machine instruction): built once per scheme and stiffness scale (SCHEME_FUNCTIONS)."""
+        sc, scale = self.scheme, self.S.stiffness_scale()
+        key = ("alpha_coefficients", sc, scale)
+        if key not in SCHEME_FUNCTIONS:
+            b, g, am, af = sc.beta, sc.gamma, sc.alpha_m, sc.alpha_f
+            h = ca.SX.sym("h")
+            hh = h * h
+            bhh = b * hh
+            cm = ((1 - am) / (1 - af)) / bhh
+            c5 = bhh / (1 - am)
+            # qh = q + hv v + c_ab ab (hv = h), vh = v + c_vh ab, x0 = qh + c5 (a - am ab) (the constant-acceleration
+            # predictor, AlphaIntegrator._predict), k0 = k_ab ab + k_a a, and the step's Newton and corrector scalars
+            # (the same operations in the same order as the scalar MX nodes they replace: the same numbers)
+            outs = dict(hv=h, c_ab=(0.5 - b) * hh, c_vh=h * (1 - g), c5=c5, am=am + 0 * h,
+                        k_ab=am / (1 - af) + 0 * h, k_a=-af / (1 - af) + 0 * h, cm=cm, cc=g / (b * h), kc=cm * scale,
+                        bhh=bhh, hg=h * g, lte=sc.error_constant() * hh)
+            SCHEME_FUNCTIONS[key] = ca.Function("alpha_coefficients", [h], list(outs.values()), ["h"], list(outs))
+        return SCHEME_FUNCTIONS[key]
+
     def step_common(self, q, v, a, ab, ap, h, hp, pload, kel):
-        """Predictor, constant part of the residual and the corrector of a step (MX)."""
-        S, sc = self.S, self.scheme
+        """Predictor, constant part of the residual and the corrector of a step (MX). Each MX node is a
+        virtual-machine instruction (~30-50 ns on a short vector, one pass over memory on a long one): the scalar
+        coefficients come from one SX call, and every vector is a linear combination built term by term."""
+        S = self.S
         nf = S.nf
-        b, g, am, af = sc.beta, sc.gamma, sc.alpha_m, sc.alpha_f
-        # (each MX node costs a virtual-machine instruction: shared subexpressions are built once, constant
-        # factors folded in Python)
-        hh = h * h
-        bhh = b * hh
-        qh = q + h * v + ((0.5 - b) * hh) * ab
-        vh = v + (h * (1 - g)) * ab
-        cm = ((1 - am) / (1 - af)) / bhh
-        cc = g / (b * h)
-        kc = cm * S.stiffness_scale()
-        vc = vh - cc * qh
+        coef = self._coefficient_function()
+        k = dict(zip(coef.name_out(), coef(h)))
+        cm, kc = k["cm"], k["kc"]
+        qh = _add(_add(q, _mul(k["hv"], v)), _mul(k["c_ab"], ab))
+        vh = _add(v, _mul(k["c_vh"], ab))
+        x0 = _add(qh, _mul(k["c5"], _sub(a, _mul(k["am"], ab))))
+        # a_n+1 = ((1 - am) ab_n+1 + am ab - af a) / (1 - af) = cm (x - qh) + k0: the residual's inertia is
+        # M (cm x + y), y = k0 - cm qh, no product with M here (the corrector keeps cm (x - qh) + k0: cm x and y
+        # are ~1/h^2 larger than their sum)
+        k0 = _add(_mul(k["k_ab"], ab), _mul(k["k_a"], a))
+        y = _sub(k0, _mul(cm, qh))
+        damped = S.rayleigh is not None or S.damp_f is not None
+        vc = _sub(vh, _mul(k["cc"], qh)) if damped else vh  # (v_n+1 = vc + cc x: used by damping only)
         Cvh, _ = rayleigh_mx(S, vc, kel)
-        # a_n+1 = ((1 - am) ab_n+1 + am ab - af a) / (1 - af) = cm (x - qh) + k0, with x = qh + (b h^2) ab_n+1
-        k0 = (am / (1 - af)) * ab - (af / (1 - af)) * a
-        y = k0 - cm * qh  # the residual's inertia is M (cm x + y): no product with M here
-        p = Cvh + pload if not S.nw else ca.vertcat(Cvh + pload[:nf], pload[nf:])
-        x0 = qh + (bhh / (1 - am)) * (a - am * ab)  # constant-acceleration predictor (AlphaIntegrator._predict)
-        err_c = sc.error_constant()
+        if S.rayleigh is not None:
+            pload = ca.vertcat(Cvh + pload[:nf], pload[nf:]) if S.nw else Cvh + pload
 
         def lte(x):
-            return (err_c * hh) * ca.mmax(ca.fabs(cm * (x - qh) + k0 - a))
+            return _mul(k["lte"], ca.norm_inf(_sub(_add(_mul(cm, _sub(x, qh)), k0), a)))
 
         def block(x):  # q, v, a, ab of the new state and a_prev
-            d = x - qh
-            ab1 = d / bhh
-            return ca.vertcat(x, vh + (h * g) * ab1, cm * d + k0, ab1, a)
+            d = _sub(x, qh)
+            ab1 = ca.MX.binary(ca.OP_DIV, d, k["bhh"])
+            return ca.vertcat(x, _add(vh, _mul(k["hg"], ab1)), _add(_mul(cm, d), k0), ab1, a)
 
-        return dict(x0=x0, p=p, y=y, cm=cm, cc=cc, kc=kc, vc=vc, lte=lte, block=block)
+        return dict(x0=x0, p=pload, y=y, cm=cm, cc=k["cc"], kc=kc, vc=vc, lte=lte, block=block)
 
     def _full_control_functions(self) -> tuple[ca.Function, ca.Function]:
-        """The full-Newton step's scalar logic as two SX functions (before and after the second iteration); the
-        first takes the scene's coordinate span (round-off floor) as an input: they depend on the Newton options
-        only, and are built once per process (SCHEME_FUNCTIONS)."""
+        """The full-Newton step's scalar logic as two SX functions (after the first iteration, and after the second
+        one if it ran); the first takes the scene's coordinate span (round-off floor) as an input: they depend on
+        the Newton options only, and are built once per process (SCHEME_FUNCTIONS)."""
         o = self.opts
         key = ("full_controls", o.single, o.lte_fraction, self.refresh_every)
         if key not in SCHEME_FUNCTIONS:
@@ -132,7 +179,12 @@ class AlphaStepGraphs:
         fresh = since < self.refresh_every * ca.fmin(8, ca.fmax(1, 0.1 * tolx / ca.fmax(est1, tiny)))
         conv1 = ca.logic_and(ca.logic_and(om > 0, fresh), est1 <= tolx)
         accept1 = ca.logic_or(conv0, conv1) if o.single else ca.SX(0)
-        first = ca.Function("after_first", [C, N0, L, T, span], [ca.vertcat(ca.if_else(accept1, 0, 1), tq, tolx, d0)])
+        flag = ca.if_else(accept1, 0, 1)  # (an output of its own: the switch reads it with no extraction node)
+        # and the controls and info of a step accepted now (what `final` gives then), passed on by the switch's
+        # keep branch: a one-iteration step calls no SX function after the switch
+        first = ca.Function("after_first", [C, N0, L, T, span],
+                            [flag, ca.vertcat(flag, tq, tolx, d0), ca.vertcat(om, since + 1),
+                             ca.vertcat(1, 1, 1, d0, 0, L, N0[4])])
         A, N1 = sx("a", 4), sx("n1", 5)
         second, tq, tolx, d0 = A[0], A[1], A[2], A[3]
         accept1 = second == 0
@@ -179,61 +231,66 @@ class AlphaStepGraphs:
         st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel, par = self.step_inputs()
         c = self.step_common(q, v, a, ab, ap, h, hp, pload, kel)
         x0, p, cm, cc, kc, vc, y = c["x0"], c["p"], c["cm"], c["cc"], c["kc"], c["vc"], c["y"]
-        l0 = lam / kc
+        l0 = ca.MX.binary(ca.OP_DIV, lam, kc) if mc else lam
         extra = [kel] if kel is not None else []
-        dz, n0 = S.iter_f(x0, l0, p, cm, cc, kc, vc, *extra, y, par)
-        x1 = x0 + dz[:nf]
-        l1 = l0 + dz[nf:] if mc else l0
+        # (no multipliers: the iteration without its empty multiplier input, and no empty inputs below)
+        it = S.iter_f if mc else _without_multipliers(S.iter_f)
+        lm = [l0] if mc else []
+        dz, n0 = it(x0, *lm, p, cm, cc, kc, vc, *extra, y, par)
+        x1 = _add(x0, dz[:nf] if mc else dz)
+        l1 = _add(l0, dz[nf:]) if mc else l0
         lte = c["lte"](x1)
         first, final = self._full_control_functions()
-        a1 = first(ctl, n0, lte, tols, self.S.span)
-        # second iteration, evaluated only when needed
-        xb, lb, pb = ca.MX.sym("xb", nf), ca.MX.sym("lb", mc), ca.MX.sym("pb", nf + S.nw)
+        second, a1, ctl1, info1 = first(ctl, n0, lte, tols, self.S.span)
+        # the second iteration and the controls after it, evaluated only when needed (a switch whose keep branch
+        # passes x1, l1 and the controls of a step accepted after one iteration on)
+        xb, pb = ca.MX.sym("xb", nf), ca.MX.sym("pb", nf + S.nw)
+        lb = ca.MX.sym("lb", mc) if mc else ca.MX(0, 1)  # (no empty inputs: see _without_multipliers)
         cb, ccb, kb, vb = ca.MX.sym("cmb"), ca.MX.sym("ccb"), ca.MX.sym("kcb"), ca.MX.sym("vcb", nf)
         eb = [ca.MX.sym("kelb", S.kel.size)] if kel is not None else []
         yb, parb = ca.MX.sym("yb", nf), ca.MX.sym("parb", S.par.size)
-        dzb, nb = S.iter_f(xb, lb, pb, cb, ccb, kb, vb, *eb, yb, parb)
-        f_keep = ca.Function("keep", [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb, parb], [xb, lb, ca.DM.zeros(5)])
-        f_iter = ca.Function("second", [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb, parb],
-                             [xb + dzb[:nf], (lb + dzb[nf:]) if mc else lb, nb])
-        switch = ca.Function.conditional("second_iteration", [f_keep], f_iter)
+        cb_, n0b, a1b, lteb, tb = ca.MX.sym("ctl", 2), ca.MX.sym("n0", 5), ca.MX.sym("a1", 4), ca.MX.sym("lte"), \
+            ca.MX.sym("tols", 2)
+        ctl1b, info1b = ca.MX.sym("ctl1", 2), ca.MX.sym("info1", self.info_size)
+        iter_ins = [xb] + ([lb] if mc else []) + [pb, cb, ccb, kb, vb] + eb + [yb, parb]
+        dzb, n1b = it(*iter_ins)
+        x2b, l2b = _add(xb, dzb[:nf] if mc else dzb), _add(lb, dzb[nf:]) if mc else lb
+        ctl2b, info2b = final(cb_, n0b, a1b, n1b, lteb, tb)
         # further iterations while not converged after the second (hard transients: the step stays in the graph,
         # and a chunk goes on): a switch inside the second iteration's branch, so that the steps accepted after one
-        # iteration (most of them) pay nothing for it; m = (ran, ok, iterations) of the further iterations
+        # iteration (most of them) pay nothing for it
         n_more = max(0, min(extra_iterations, self.opts.max_iter - 2))
         if n_more:
             later = self._later_control_function()
-            cb_, n0b, a1b, lteb, tb = ca.MX.sym("ctl", 2), ca.MX.sym("n0", 5), ca.MX.sym("a1", 4), ca.MX.sym("lte"), \
-                ca.MX.sym("tols", 2)
             lvb = ca.MX.sym("lv", 3)
-            iter_ins = [xb, lb, pb, cb, ccb, kb, vb] + eb + [yb, parb]
             # one further iteration on z = (x, lam, (ok, iterations, last |dz|)), folded n_more times (one graph
             # to build, not n_more)
-            xk, lk, nk = switch(lvb[0] == 0, xb, lb, pb, cb, ccb, kb, vb, *eb, yb, parb)
+            f_iter = ca.Function("iteration", iter_ins, [x2b, l2b, n1b])
+            f_keep = ca.Function("keep", iter_ins, [xb, lb, ca.DM.zeros(5)])
+            xk, lk, nk = ca.Function.conditional("next_iteration", [f_keep], f_iter)(lvb[0] == 0, *iter_ins)
             zb = ca.vertcat(xb, lb, lvb)
             others = [a1b, tb, pb, cb, ccb, kb, vb] + eb + [yb, parb]
             one = ca.Function("further_iteration", [zb] + others, [ca.vertcat(xk, lk, later(lvb, nk, a1b, tb))])
             zin = ca.MX.sym("z", zb.numel())
-            folded = one.fold(n_more)(zin, *[ca.repmat(o, 1, n_more) for o in others])
+            # (folded as an unrolled mapaccum's last column: 1.2 ms to build at 1000 elements, Function.fold 5 ms)
+            folded = one.mapaccum("further_iterations_unrolled", n_more, 1, {"base": -1})(
+                zin, *[ca.repmat(o, 1, n_more) for o in others])[:, -1]
             more = ca.Function.conditional("further_iterations", [ca.Function("done", [zin] + others, [zin])],
                                            ca.Function("more", [zin] + others, [folded]))
-            x2b, l2b, n1b = f_iter(*iter_ins)
-            info2 = final(cb_, n0b, a1b, n1b, lteb, tb)[1]
-            lv2 = ca.vertcat(info2[0], info2[1], ca.fmax(n1b[2], n1b[3]))
+            lv2 = ca.vertcat(info2b[0], info2b[1], ca.fmax(n1b[2], n1b[3]))
             z3 = more(lv2[0] == 0, ca.vertcat(x2b, l2b, lv2), *others)
-            x3, l3, lv3 = z3[:nf], z3[nf:nf + mc], z3[nf + mc:]
-            br_ins = iter_ins + [cb_, n0b, a1b, lteb, tb]
-            f_keep = ca.Function("keep", br_ins, [xb, lb, ca.DM.zeros(5), ca.DM.zeros(3)])
-            f_iter = ca.Function("second", br_ins, [x3, l3, n1b, ca.vertcat(lv2[0] == 0, lv3[0], lv3[1])])
-            x2, l2, n1, m = ca.Function.conditional("second_iteration_on", [f_keep], f_iter)(
-                a1[0], x1, l1, p, cm, cc, kc, vc, *extra, y, par, ctl, n0, a1, lte, tols)
-        else:
-            x2, l2, n1 = switch(a1[0], x1, l1, p, cm, cc, kc, vc, *extra, y, par)
-            m = ca.DM.zeros(3)
-        ctl_new, info = final(ctl, n0, a1, n1, lte, tols)
-        ok, iters = ca.if_else(m[0], m[1], info[0]), ca.if_else(m[0], m[2], info[1])
-        info = ca.vertcat(ok, iters, iters, info[3:])
-        new_state = ca.vertcat(c["block"](x2), l2 * kc, ctl_new)
+            x2b, l2b, lv3 = z3[:nf], z3[nf:nf + mc], z3[nf + mc:]
+            # (ok, iterations) of the further iterations where they ran
+            ran = lv2[0] == 0
+            ok, iters = ca.if_else(ran, lv3[0], info2b[0]), ca.if_else(ran, lv3[1], info2b[1])
+            info2b = ca.vertcat(ok, iters, iters, info2b[3:])
+        br_ins = iter_ins + [cb_, n0b, a1b, lteb, tb, ctl1b, info1b]
+        f_keep = ca.Function("keep", br_ins, [xb, lb, ctl1b, info1b])
+        f_second = ca.Function("second", br_ins, [x2b, l2b, ctl2b, info2b])
+        x2, l2, ctl_new, info = ca.Function.conditional("second_iteration", [f_keep], f_second)(
+            second, x1, *([l1] if mc else []), p, cm, cc, kc, vc, *extra, y, par, ctl, n0, a1, lte, tols, ctl1,
+            info1)
+        new_state = ca.vertcat(c["block"](x2), _mul(l2, kc) if mc else l2, ctl_new)
         return self.make_step_f([st], [h, hp, pload, tols] + extra + [par], [new_state], info)
 
     # carried control vector of the modified step (SX functions between the iterations)
@@ -336,11 +393,11 @@ class AlphaStepGraphs:
         ks = [ca.MX.sym("kel", S.kel.size)] if kel is not None else []
         ys, pars = ca.MX.sym("y", nf), ca.MX.sym("par", S.par.size)
         args = [xs, Ds, Us, UTs, ps, cms, ccs, vcs] + ks + [ys, pars]
-        none = ca.MX(0, 1)
-        r, nr = S.res_f(xs, none, ps, cms, ccs, 1.0, vcs, *ks, ys, pars)
+        res_f, jac_f = _without_multipliers(S.res_f), _without_multipliers(S.jac_f)  # (no multipliers here)
+        r, nr = res_f(xs, ps, cms, ccs, 1.0, vcs, *ks, ys, pars)
         dz = -fac.solve_mx(Ds, Us, UTs, r)
         f_mod = ca.Function("kept_factor", args, [xs + dz, Ds, Us, UTs, ca.vertcat(nr[0], ca.mmax(ca.fabs(dz)), 0)])
-        r, nj, knz = S.jac_f(xs, none, ps, cms, ccs, 1.0, vcs, *ks, ys, pars)
+        r, nj, knz = jac_f(xs, ps, cms, ccs, 1.0, vcs, *ks, ys, pars)
         D2, U2, UT2 = fac.fact_f(knz)
         dz = -fac.solve_mx(D2, U2, UT2, r)
         f_full = ca.Function("refactorise", args,

@@ -9,6 +9,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from ..casadi_buffers import bind
 from .step_system import StepSystem
 
 
@@ -65,7 +66,11 @@ def initial_acceleration(S: StepSystem, q0: np.ndarray, v0: np.ndarray, Q0: np.n
                          C: sp.spmatrix | None = None, t0: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Consistent initial acceleration and multipliers: [M J^T; J 0][a; lam] = [f - C v - g; -gamma] (gamma:
     StepSystem.phi_vv; drives and torques at time t0)."""
-    g = np.asarray(S.grad_pf(q0, S.par)).ravel()  # (the gradient-only graph: no Hessian to compute and convert)
+    # (the gradient-only graph, evaluated in place: no Hessian to compute, no conversion to and from DM; at 1000
+    # elements 0.12 ms against 0.9 ms for a call on numpy arrays)
+    g = np.zeros(S.nf)
+    buf, evaluate = bind(S.grad_pf, [np.ascontiguousarray(q0, dtype=float), S.par], [g])  # (buf alive while it runs)
+    evaluate()
     f = S.f_lin + Q0 - g
     if S.drives is not None:
         f = f + S.reduce_force(S.drives.torque_force(S.full(q0), S.w(t0)))

@@ -189,9 +189,10 @@ class TimeLoop:
                         self.progress(self.grid(k + j + 1), o.t_end)
             return
         T = o.t_start + (k + 1 + np.arange(n_ok)) * o.dt  # = self.grid(k + j + 1), without a Python loop
-        while self.out_i < len(out) and out[self.out_i] <= T[-1] + self.eps_t:
-            tau = out[self.out_i]
-            j = int(np.searchsorted(T, tau - self.eps_t))
+        # the outputs in (t_first, T[-1]] and the steps that end at or after each (one search for all of them)
+        i0 = self.out_i
+        taus = out[i0:i0 + int(np.searchsorted(out[i0:], T[-1] + self.eps_t, side="right"))]
+        for tau, j in zip(taus.tolist(), np.searchsorted(T, taus - self.eps_t).tolist()):
             q1, v1 = states[j, :nf], states[j, nf:2 * nf]
             if abs(tau - T[j]) <= self.eps_t:
                 rec.record(tau, q1, v1, self.W_d, self.W_ext)
