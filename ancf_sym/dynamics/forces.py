@@ -69,8 +69,33 @@ def band_force_graph(S: "StepSystem", layout: "BandLayout") -> ca.Function:
     return ca.Function("forces_band", [xf, par], [g, Kb], ["x", "par"], ["g", "K_band"])
 
 
+def gradient_graph(S: "StepSystem") -> ca.Function:
+    """gradient(x, par) -> g from the kernels' (energy, gradient) companions: no Hessian work (the residuals of
+    modified Newton). Built on first use (StepSystem.grad_pf): a full-Newton run never needs it."""
+    xf, par = ca.MX.sym("x", S.nf), ca.MX.sym("par", S.par.size)
+    x = S.x_full_mx(xf)
+    gcalls = []
+    for ft, Pk in zip(S.force_terms, _parameters(S, par)[0]):
+        Xe = ca.reshape(x[ft.idx.ravel().tolist()], ft.nd, ft.N)
+        gcalls.append((ft.idx, ft.mapped_grad()(Xe, Pk)[1], None))
+    gg, _ = assemble_mx(gcalls, S.pos, S.nf, hessian=False)
+    pen = _penalty_energy(S, x)
+    if pen is not None:
+        gg += ca.gradient(pen, xf)
+    return ca.Function("gradient", [xf, par], [gg], ["x", "par"], ["g"])
+
+
+def _penalty_energy(S: "StepSystem", x: ca.MX) -> ca.MX | None:
+    """The penalty joints' energy 1/2 sum k c(x)^2 at the scene coordinates x, or None without penalty joints."""
+    pc = S.asm.penalty
+    if pc is None:
+        return None
+    c = S.asm._casadi_constraint(pc, x)
+    return 0.5 * ca.sum1(ca.DM(pc.k) * c * c)
+
+
 def build_force_graphs(S: "StepSystem") -> None:
-    """Build S.forces_pf, S.grad_pf, S._energy_kin_f (with its labels) and S.kel_sparsity (None without Rayleigh
+    """Build S.forces_pf, S._energy_kin_f (with its labels) and S.kel_sparsity (None without Rayleigh
     stiffness damping) from S's kernel calls."""
     asm, nf, pos = S.asm, S.nf, S.pos
     xf = ca.MX.sym("x", nf)
@@ -99,24 +124,13 @@ def build_force_graphs(S: "StepSystem") -> None:
         Kel = scatter(kel_vals, np.concatenate(kel_rows), np.concatenate(kel_cols), nf)
         S.kel_sparsity = Kel.sparsity()
         outs.append(mx_nonzeros(Kel))
-    if asm.penalty is not None:
-        pc = asm.penalty
-        c = asm._casadi_constraint(pc, x)
-        pen = 0.5 * ca.sum1(ca.DM(pc.k) * c * c)
+    pen = _penalty_energy(S, x)
+    if pen is not None:
         outs[0] = outs[0] + ca.gradient(pen, xf)
         outs[1] = outs[1] + ca.hessian(pen, xf)[0]
         energies.append(("penalty", pen))
     S.forces_pf = ca.Function("forces", [xf, par], outs, ["x", "par"],
                                  ["g", "K"] + (["kel"] if kel_vals else []))
-    # the gradient alone from the (energy, gradient) companions: no Hessian work (residuals of modified Newton)
-    gcalls = []
-    for ft, Pk in zip(S.force_terms, Pft):
-        Xe = ca.reshape(x[ft.idx.ravel().tolist()], ft.nd, ft.N)
-        gcalls.append((ft.idx, ft.mapped_grad()(Xe, Pk)[1], None))
-    gg, _ = assemble_mx(gcalls, pos, nf, hessian=False)
-    if asm.penalty is not None:
-        gg += ca.gradient(pen, xf)
-    S.grad_pf = ca.Function("gradient", [xf, par], [gg], ["x", "par"], ["g"])
     # energies for the outputs from the energy-only compiled functions (no gradient, no Hessian)
     elist = []
     for mk, Pk in zip(S.nonlinear, Pmk):

@@ -30,7 +30,7 @@ from ..sparsity import casadi_sparsity, dm, kron_identity_factor, kron_product_m
 from . import damping
 from .band import BandLayout, band_layout
 from .damping import RayleighData, StrainRateData
-from .forces import band_force_graph, build_force_graphs
+from .forces import band_force_graph, build_force_graphs, gradient_graph
 from .graph_cache import SYSTEM_GRAPHS, pooled_buffer, structure_key
 from .ldl import LDLFactor, build_ldl
 
@@ -128,8 +128,16 @@ class StepSystem:
                    strain_rate=damping.strain_rate_data(asm), **kw)
 
     # compiled functions and what describes them: built once per structure key and shared by later StepSystems
-    _GRAPH_ATTRS = ("kel_sparsity", "forces_pf", "grad_pf", "_energy_kin_labels",
+    _GRAPH_ATTRS = ("kel_sparsity", "forces_pf", "_energy_kin_labels",
                     "_energy_kin_f", "damp_f", "damp_force_f", "kkt_sparsity", "iter_f")
+
+    @property
+    def grad_pf(self) -> ca.Function:
+        """gradient(x, par) -> g from the gradient-only kernels (ancf_sym.dynamics.forces.gradient_graph): built on
+        first use (modified Newton's residual; a full-Newton run never needs it) and shared like res_f."""
+        if "grad_pf" not in self._graphs:
+            self._graphs["grad_pf"] = gradient_graph(self)
+        return self._graphs["grad_pf"]
 
     @property
     def res_f(self) -> ca.Function:
