@@ -40,25 +40,10 @@ import numpy as np
 from .damping import rayleigh_mx
 from .graph_cache import SCHEME_FUNCTIONS
 from .ldl import LDLFactor
+from .mx_ops import add as _add, mul as _mul, sub as _sub  # (the step's vector algebra)
 from .newton import NewtonOptions
 from .schemes import Scheme
 from .step_system import StepSystem
-
-# The step's vector algebra through MX.binary / MX.unary: CasADi's Python operators resolve their overloads at ~30
-# us a node, these calls at ~3 us (a step graph is built at every first run of a structure).
-
-
-def _add(x: ca.MX, y: ca.MX) -> ca.MX:
-    return ca.MX.binary(ca.OP_ADD, x, y)
-
-
-def _sub(x: ca.MX, y: ca.MX) -> ca.MX:
-    return ca.MX.binary(ca.OP_SUB, x, y)
-
-
-def _mul(x: ca.MX, y: ca.MX) -> ca.MX:
-    return ca.MX.binary(ca.OP_MUL, x, y)
-
 
 def _without_multipliers(f: ca.Function) -> ca.Function:
     """A step system's iteration function (x, lam, ...) without its empty multiplier input (no constraint rows):
@@ -101,13 +86,14 @@ class AlphaStepGraphs:
         return st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel, par
 
     def _coefficient_function(self) -> ca.Function:
-        """The step's scalar coefficients of h as one SX function (one call instead of dozens of scalar MX
-        nodes, each a virtual-machine instruction): built once per scheme and stiffness scale (SCHEME_FUNCTIONS)."""
-        sc, scale = self.scheme, self.S.stiffness_scale()
-        key = ("alpha_coefficients", sc, scale)
+        """The step's scalar coefficients of h (and of the multiplier scale's stiffness scale) as one SX function
+        (one call instead of dozens of scalar MX nodes, each a virtual-machine instruction): built once per scheme
+        in the process (SCHEME_FUNCTIONS: the scale is an input, no scene is baked in)."""
+        sc = self.scheme
+        key = ("alpha_coefficients", sc)
         if key not in SCHEME_FUNCTIONS:
             b, g, am, af = sc.beta, sc.gamma, sc.alpha_m, sc.alpha_f
-            h = ca.SX.sym("h")
+            h, scale = ca.SX.sym("h"), ca.SX.sym("scale")
             hh = h * h
             bhh = b * hh
             cm = ((1 - am) / (1 - af)) / bhh
@@ -118,7 +104,8 @@ class AlphaStepGraphs:
             outs = dict(hv=h, c_ab=(0.5 - b) * hh, c_vh=h * (1 - g), c5=c5, am=am + 0 * h,
                         k_ab=am / (1 - af) + 0 * h, k_a=-af / (1 - af) + 0 * h, cm=cm, cc=g / (b * h), kc=cm * scale,
                         bhh=bhh, hg=h * g, lte=sc.error_constant() * hh)
-            SCHEME_FUNCTIONS[key] = ca.Function("alpha_coefficients", [h], list(outs.values()), ["h"], list(outs))
+            SCHEME_FUNCTIONS[key] = ca.Function("alpha_coefficients", [h, scale], list(outs.values()), ["h", "scale"],
+                                                list(outs))
         return SCHEME_FUNCTIONS[key]
 
     def step_common(self, q, v, a, ab, ap, h, hp, pload, kel):
@@ -128,7 +115,7 @@ class AlphaStepGraphs:
         S = self.S
         nf = S.nf
         coef = self._coefficient_function()
-        k = dict(zip(coef.name_out(), coef(h)))
+        k = dict(zip(coef.name_out(), coef(h, ca.MX(S.stiffness_scale()))))
         cm, kc = k["cm"], k["kc"]
         qh = _add(_add(q, _mul(k["hv"], v)), _mul(k["c_ab"], ab))
         vh = _add(v, _mul(k["c_vh"], ab))

@@ -33,6 +33,7 @@ from .damping import RayleighData, StrainRateData
 from .forces import band_force_graph, build_force_graphs, gradient_graph
 from .graph_cache import SYSTEM_GRAPHS, pooled_buffer, structure_key
 from .ldl import LDLFactor, build_ldl
+from .mx_ops import add, fabs, mul, neg
 
 
 class StepSystem:
@@ -245,23 +246,23 @@ class StepSystem:
         layout = self._band_layout() if full_only else None
         if layout is not None:  # the Hessian gathered straight into the band, banded LDL^T (ancf_sym.dynamics.band)
             g, Kb = band_force_graph(self, layout)(xf, par)
-            r = self.mass_mx(cm * xf + y) + g + p
-            x, kmax, dzx = layout.solve_mx(cm * ca.DM(layout.values(self.M)) + Kb, r)
+            r = add(add(self.mass_mx(add(mul(cm, xf), y)), g), p)
+            x, kmax, dzx = layout.solve_mx(add(mul(cm, ca.MX(ca.DM(layout.values(self.M)))), Kb), r)
             self.kkt_sparsity = layout.pattern
-            self.iter_f = ca.Function("newton_iteration", ins, [-x, ca.vertcat(ca.mmax(ca.fabs(r)), 0, dzx, 0, kmax)],
+            self.iter_f = ca.Function("newton_iteration", ins, [neg(x), ca.vertcat(ca.mmax(fabs(r)), 0, dzx, 0, kmax)],
                                       names, ["dz", "norms"])
             return
         out = self.forces_pf(xf, par)
         g, K = out[0], out[1]
         Mdm = dm(self.M)
         Cx, C = damping.rayleigh_mx(self, xf, kel)
-        Mu = self.mass_mx(cm * xf + y)
-        r_q = Mu + cc * Cx + g + p
+        Mu = self.mass_mx(add(mul(cm, xf), y))
+        damped = self.rayleigh is not None  # (else Cx and C are zeros, the terms nothing: not built)
+        r_q = add(add(add(Mu, mul(cc, Cx)), g), p) if damped else add(add(Mu, g), p)
         spS = K.sparsity().unite(Mdm.sparsity())
-        if spS == K.sparsity():  # M placed in K's pattern once: no projection of M at every evaluation
-            S = cm * ca.project(Mdm, spS) + cc * C + K
-        else:
-            S = cm * Mdm + cc * C + K
+        # (M placed in K's pattern once where it fits: no projection of M at every evaluation)
+        cmM = mul(cm, ca.MX(ca.project(Mdm, spS) if spS == K.sparsity() else Mdm))
+        S = add(add(cmM, mul(cc, C)), K) if damped else add(cmM, K)
         if self.damp_f is not None:
             fd, dfx, dfv = self.damp_f(xf, vc + cc * xf)
             r_q += fd
@@ -290,10 +291,10 @@ class StepSystem:
             rc = ca.mmax(ca.fabs(phi))
         else:
             r, rg, KKT, rc = r_q, r_g, S, ca.MX(0)
-        rq = ca.mmax(ca.fabs(r_q))
+        rq = ca.mmax(fabs(r_q))
         kkt_nz = mx_nonzeros(KKT)
         # largest entry (round-off floor): on the diagonal when the step matrix is positive definite
-        kmax = ca.mmax(ca.fabs(ca.diag(KKT))) if self.linsol == "ldl" and not mc else ca.mmax(ca.fabs(kkt_nz))
+        kmax = ca.mmax(fabs(ca.diag(KKT))) if self.linsol == "ldl" and not mc else ca.mmax(fabs(kkt_nz))
         if not full_only:
             self._graphs["res_f"] = ca.Function("step_residual", ins, [rg, ca.vertcat(ca.mmax(ca.fabs(r_g)), rc)],
                                                 names, ["r", "norms"])
@@ -301,9 +302,9 @@ class StepSystem:
                                                 ["r", "norms", "kkt"])
             return
         self.kkt_sparsity = KKT.sparsity()
-        dz = -ca.solve(KKT, r, self.linsol)
-        dzx = ca.mmax(ca.fabs(dz[:nf]))
-        dzl = ca.mmax(ca.fabs(dz[nf:])) if mc else ca.MX(0)
+        dz = neg(ca.solve(KKT, r, self.linsol))
+        dzx = ca.mmax(fabs(dz[:nf]))
+        dzl = ca.mmax(fabs(dz[nf:])) if mc else ca.MX(0)
         # norms: |r_q|inf [N], |Phi|inf [m], |dx|inf, |dlam|inf (scaled: m), max |KKT|
         self.iter_f = ca.Function("newton_iteration", ins, [dz, ca.vertcat(rq, rc, dzx, dzl, kmax)], names,
                                   ["dz", "norms"])
