@@ -76,12 +76,12 @@ def gather_sum(vals: list, target: np.ndarray, n_out: int) -> ca.MX:
     cnt = np.bincount(t, minlength=n_out)
     if not len(order):
         return ca.MX.zeros(n_out)
-    start = np.r_[0, np.cumsum(cnt)[:-1]]
+    start = np.cumsum(cnt) - cnt
     out = None
     for j in range(int(cnt.max())):
         idx = np.where(cnt > j, order[np.minimum(start + j, len(order) - 1)], n_src)
         term = src[idx.tolist()]
-        out = term if out is None else out + term
+        out = term if out is None else ca.MX.binary(ca.OP_ADD, out, term)  # (the + operator: ~30 us to resolve)
     return out
 
 

@@ -35,11 +35,23 @@ def _parameters(S: "StepSystem", par: ca.MX) -> tuple[list, list]:
     return Ps[:len(S.force_terms)], Ps[len(S.force_terms):]
 
 
-def _kernel_calls(S: "StepSystem", x: ca.MX, Pft: list) -> list:
+def _element_coordinates(x: ca.MX, idx: np.ndarray, nd: int, N: int, seen: dict | None = None) -> ca.MX:
+    """The elements' coordinates x[idx] as nd x N; `seen` keeps them by element table, so that the terms on the same
+    elements (a cable's axial and bending energies, its fused force kernel) share one gather of x."""
+    key = (idx.shape, idx.tobytes())
+    if seen is not None and key in seen:
+        return seen[key]
+    Xe = ca.reshape(x[idx.ravel().tolist()], nd, N)
+    if seen is not None:
+        seen[key] = Xe
+    return Xe
+
+
+def _kernel_calls(S: "StepSystem", x: ca.MX, Pft: list, seen: dict | None = None) -> list:
     """(elements, G, H) of every force term's mapped kernel call at the scene coordinates x."""
     calls = []
     for ft, Pk in zip(S.force_terms, Pft):
-        _, G, H = ft.mapped()(ca.reshape(x[ft.idx.ravel().tolist()], ft.nd, ft.N), Pk)
+        _, G, H = ft.mapped()(_element_coordinates(x, ft.idx, ft.nd, ft.N, seen), Pk)
         calls.append((ft.idx, G, H))
     return calls
 
@@ -76,7 +88,7 @@ def gradient_graph(S: "StepSystem") -> ca.Function:
     x = S.x_full_mx(xf)
     gcalls = []
     for ft, Pk in zip(S.force_terms, _parameters(S, par)[0]):
-        Xe = ca.reshape(x[ft.idx.ravel().tolist()], ft.nd, ft.N)
+        Xe = _element_coordinates(x, ft.idx, ft.nd, ft.N)
         gcalls.append((ft.idx, ft.mapped_grad()(Xe, Pk)[1], None))
     gg, _ = assemble_mx(gcalls, S.pos, S.nf, hessian=False)
     pen = _penalty_energy(S, x)
@@ -105,7 +117,8 @@ def build_force_graphs(S: "StepSystem") -> None:
     kel_vals, kel_rows, kel_cols = [], [], []
     weights = S.rayleigh.element_weight if (S.rayleigh is not None and S.rayleigh.beta) else {}
     Pft, Pmk = _parameters(S, par)
-    calls = _kernel_calls(S, x, Pft)  # (elements, G, H); assemble_mx sums calls on the same elements before the scatter
+    seen: dict = {}  # (the elements' coordinates, shared by the force and energy graphs' terms)
+    calls = _kernel_calls(S, x, Pft, seen)  # (elements, G, H); assemble_mx sums calls on the same elements first
     for ft, (_, _, H) in zip(S.force_terms, calls):
         if weights and all(lbl in ELASTIC_LABELS for lbl in ft.labels):
             ti, rows = ft.sources[0]  # fused rows have equal weights (row_keys)
@@ -135,7 +148,7 @@ def build_force_graphs(S: "StepSystem") -> None:
     elist = []
     for mk, Pk in zip(S.nonlinear, Pmk):
         t = mk.term
-        Xe = ca.reshape(x[t.idx.ravel().tolist()], mk.nd, mk.N)
+        Xe = _element_coordinates(x, t.idx, mk.nd, mk.N, seen)
         ef = map_elements(kernels.load_energy(t.element, t.effect, t.gauss),
                           kernels.load_batch(t.element, t.effect, t.gauss, "_energy"), mk.N)
         elist.append((t.label, ca.sum2(ef(Xe, Pk))))
