@@ -45,6 +45,7 @@ from .newton import NewtonOptions
 from .schemes import Scheme
 from .step_system import StepSystem
 
+
 def _without_multipliers(f: ca.Function) -> ca.Function:
     """A step system's iteration function (x, lam, ...) without its empty multiplier input (no constraint rows):
     CasADi analyses the whole graph of a function with an empty input at every symbolic call (~2 ms at 1000
@@ -220,8 +221,7 @@ class AlphaStepGraphs:
         x0, p, cm, cc, kc, vc, y = c["x0"], c["p"], c["cm"], c["cc"], c["kc"], c["vc"], c["y"]
         l0 = ca.MX.binary(ca.OP_DIV, lam, kc) if mc else lam
         extra = [kel] if kel is not None else []
-        # (no multipliers: the iteration without its empty multiplier input, and no empty inputs below)
-        it = S.iter_f if mc else _without_multipliers(S.iter_f)
+        it = S.iteration_f  # (no multipliers: without its empty multiplier input, and no empty inputs below)
         lm = [l0] if mc else []
         dz, n0 = it(x0, *lm, p, cm, cc, kc, vc, *extra, y, par)
         x1 = _add(x0, dz[:nf] if mc else dz)

@@ -130,7 +130,24 @@ class StepSystem:
 
     # compiled functions and what describes them: built once per structure key and shared by later StepSystems
     _GRAPH_ATTRS = ("kel_sparsity", "forces_pf", "_energy_kin_labels",
-                    "_energy_kin_f", "damp_f", "damp_force_f", "kkt_sparsity", "iter_f")
+                    "_energy_kin_f", "damp_f", "damp_force_f", "kkt_sparsity", "iteration_f")
+
+    @property
+    def iter_f(self) -> ca.Function:
+        """newton_iteration(x, lam, p, cm, cc, kc, vc[, kel], y, par) -> (dz, norms): `iteration_f` with the
+        multiplier input also where there are no multipliers (empty), the signature of the Newton in Python.
+        Without multipliers a wrapper inlining iteration_f's graph (evaluated as it is), built on first use:
+        the step graphs call iteration_f itself (CasADi analyses the whole graph of a function with an empty
+        input at every symbolic call)."""
+        if "iter_f" not in self._graphs:
+            f = self.iteration_f
+            if not self.mc:
+                ins = [ca.MX.sym(f.name_in(k), f.sparsity_in(k)) for k in range(f.n_in())]
+                lam = ca.MX.sym("lam", 0)
+                f = ca.Function(f.name(), ins[:1] + [lam] + ins[1:], f.call(ins, True, False),
+                                f.name_in()[:1] + ["lam"] + f.name_in()[1:], f.name_out())
+            self._graphs["iter_f"] = f
+        return self._graphs["iter_f"]
 
     @property
     def grad_pf(self) -> ca.Function:
@@ -230,7 +247,9 @@ class StepSystem:
         return ca.mtimes(A, ca.vertcat(*vals))
 
     def _build_step(self, full_only: bool = True) -> None:
-        """iter_f (and kkt_sparsity); full_only False: res_f and jac_f instead, into the structure's graphs."""
+        """iteration_f (and kkt_sparsity); full_only False: res_f and jac_f instead, into the structure's graphs.
+        iteration_f(x[, lam], p, cm, cc, kc, vc[, kel], y, par) -> (dz, norms): one full Newton iteration, its
+        multiplier input only where there are multipliers (iter_f: always)."""
         nf, mc = self.nf, self.mc
         xf, lam, p_in = ca.MX.sym("x", nf), ca.MX.sym("lam", mc), ca.MX.sym("p", nf + self.nw)
         p, w = (p_in[:nf], p_in[nf:]) if self.nw else (p_in, None)  # w: the drives' time inputs
@@ -243,14 +262,15 @@ class StepSystem:
         par = ca.MX.sym("par", self.par.size)
         ins = [xf, lam, p_in, cm, cc, kc, vc] + ([kel] if kel is not None else []) + [y, par]
         names = ["x", "lam", "p", "cm", "cc", "kc", "vc"] + (["kel"] if kel is not None else []) + ["y", "par"]
+        ins_it, names_it = (ins, names) if mc else ([xf] + ins[2:], [names[0]] + names[2:])
         layout = self._band_layout() if full_only else None
         if layout is not None:  # the Hessian gathered straight into the band, banded LDL^T (ancf_sym.dynamics.band)
             g, Kb = band_force_graph(self, layout)(xf, par)
             r = add(add(self.mass_mx(add(mul(cm, xf), y)), g), p)
             x, kmax, dzx = layout.solve_mx(add(mul(cm, ca.MX(ca.DM(layout.values(self.M)))), Kb), r)
             self.kkt_sparsity = layout.pattern
-            self.iter_f = ca.Function("newton_iteration", ins, [neg(x), ca.vertcat(ca.mmax(fabs(r)), 0, dzx, 0, kmax)],
-                                      names, ["dz", "norms"])
+            norms = ca.vertcat(ca.mmax(fabs(r)), 0, dzx, 0, kmax)
+            self.iteration_f = ca.Function("newton_iteration", ins_it, [neg(x), norms], names_it, ["dz", "norms"])
             return
         out = self.forces_pf(xf, par)
         g, K = out[0], out[1]
@@ -306,8 +326,8 @@ class StepSystem:
         dzx = ca.mmax(fabs(dz[:nf]))
         dzl = ca.mmax(fabs(dz[nf:])) if mc else ca.MX(0)
         # norms: |r_q|inf [N], |Phi|inf [m], |dx|inf, |dlam|inf (scaled: m), max |KKT|
-        self.iter_f = ca.Function("newton_iteration", ins, [dz, ca.vertcat(rq, rc, dzx, dzl, kmax)], names,
-                                  ["dz", "norms"])
+        self.iteration_f = ca.Function("newton_iteration", ins_it, [dz, ca.vertcat(rq, rc, dzx, dzl, kmax)], names_it,
+                                       ["dz", "norms"])
 
 
     def _band_layout(self) -> BandLayout | None:
