@@ -117,3 +117,21 @@ def test_run_on_the_band_equals_the_sparse_ldl(monkeypatch):
     assert res[True].status == res[False].status == "completed"
     assert res[True].counters == res[False].counters
     assert np.max(np.abs(res[True].sensors["tip"] - res[False].sensors["tip"])) < 1e-9
+
+
+def test_band_layout_from_the_index_maps():
+    """The band path is chosen before any graph is built, from the kernels' index maps: its pattern is exactly the
+    step matrix's (forces_pf's Hessian united with M's), and forces_pf, which the band iteration does not use, is
+    built only on first use (then the same graph as on the sparse path)."""
+    clear_graph_cache()
+    S = StepSystem(Assembly(cable(130)))
+    assert "forces_pf" not in S._graphs and "forces_band" in S._graphs
+    M = sp.csc_matrix(S.M)
+    M.sort_indices()
+    expected = S.forces_pf.sparsity_out(1).unite(pattern(M))
+    assert S.kkt_sparsity == expected
+    assert S.gradient_source is S._graphs["forces_band"]
+    x = S.reduce(S.asm.x0) + 1e-3 * np.random.default_rng(3).standard_normal(S.nf)
+    # (the same kernels and gathers: the same gradient, bit for bit)
+    assert np.array_equal(np.asarray(S.gradient_source(x, S.par)[0]), np.asarray(S.forces_pf(x, S.par)[0]))
+    clear_graph_cache()

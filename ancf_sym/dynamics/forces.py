@@ -106,18 +106,29 @@ def _penalty_energy(S: "StepSystem", x: ca.MX) -> ca.MX | None:
     return 0.5 * ca.sum1(ca.DM(pc.k) * c * c)
 
 
-def build_force_graphs(S: "StepSystem") -> None:
-    """Build S.forces_pf, S._energy_kin_f (with its labels) and S.kel_sparsity (None without Rayleigh
-    stiffness damping) from S's kernel calls."""
+def build_force_graphs(S: "StepSystem", forces: bool = True, energies: bool = True) -> None:
+    """Build from S's kernel calls the force graph S._graphs["forces_pf"] and S.kel_sparsity (None without Rayleigh
+    stiffness damping), and the energy graph S._energy_kin_f with its labels: the two read the same element
+    coordinates. forces False: the force graph is left to be built on first use (the band path's iteration has a
+    force graph of its own, and it runs without Rayleigh damping: kel_sparsity None)."""
     asm, nf, pos = S.asm, S.nf, S.pos
     xf = ca.MX.sym("x", nf)
     par = ca.MX.sym("par", S.par.size)
     x = S.x_full_mx(xf)
-    energies = []
-    kel_vals, kel_rows, kel_cols = [], [], []
-    weights = S.rayleigh.element_weight if (S.rayleigh is not None and S.rayleigh.beta) else {}
     Pft, Pmk = _parameters(S, par)
     seen: dict = {}  # (the elements' coordinates, shared by the force and energy graphs' terms)
+    pen = _penalty_energy(S, x)
+    S.kel_sparsity = None
+    if forces:
+        _force_graph(S, xf, par, x, Pft, seen, pen)
+    if energies:
+        _energy_graph(S, xf, par, x, Pmk, seen, pen)
+
+
+def _force_graph(S: "StepSystem", xf: ca.MX, par: ca.MX, x: ca.MX, Pft: list, seen: dict, pen: ca.MX | None) -> None:
+    nf, pos = S.nf, S.pos
+    kel_vals, kel_rows, kel_cols = [], [], []
+    weights = S.rayleigh.element_weight if (S.rayleigh is not None and S.rayleigh.beta) else {}
     calls = _kernel_calls(S, x, Pft, seen)  # (elements, G, H); assemble_mx sums calls on the same elements first
     for ft, (_, _, H) in zip(S.force_terms, calls):
         if weights and all(lbl in ELASTIC_LABELS for lbl in ft.labels):
@@ -131,19 +142,21 @@ def build_force_graphs(S: "StepSystem") -> None:
                 kel_rows.append(ib[keep])
                 kel_cols.append(ia[keep])
     g, K = assemble_mx(calls, pos, nf)
-    S.kel_sparsity = None
     outs = [g, K]
     if kel_vals:
         Kel = scatter(kel_vals, np.concatenate(kel_rows), np.concatenate(kel_cols), nf)
         S.kel_sparsity = Kel.sparsity()
         outs.append(mx_nonzeros(Kel))
-    pen = _penalty_energy(S, x)
     if pen is not None:
         outs[0] = outs[0] + ca.gradient(pen, xf)
         outs[1] = outs[1] + ca.hessian(pen, xf)[0]
-        energies.append(("penalty", pen))
-    S.forces_pf = ca.Function("forces", [xf, par], outs, ["x", "par"],
-                                 ["g", "K"] + (["kel"] if kel_vals else []))
+    S._graphs["forces_pf"] = ca.Function("forces", [xf, par], outs, ["x", "par"],
+                                         ["g", "K"] + (["kel"] if kel_vals else []))
+
+
+def _energy_graph(S: "StepSystem", xf: ca.MX, par: ca.MX, x: ca.MX, Pmk: list, seen: dict,
+                  pen: ca.MX | None) -> None:
+    asm, nf = S.asm, S.nf
     # energies for the outputs from the energy-only compiled functions (no gradient, no Hessian)
     elist = []
     for mk, Pk in zip(S.nonlinear, Pmk):
@@ -152,7 +165,8 @@ def build_force_graphs(S: "StepSystem") -> None:
         ef = map_elements(kernels.load_energy(t.element, t.effect, t.gauss),
                           kernels.load_batch(t.element, t.effect, t.gauss, "_energy"), mk.N)
         elist.append((t.label, ca.sum2(ef(Xe, Pk))))
-    elist += [(lbl, e) for lbl, e in energies if lbl == "penalty"]
+    if pen is not None:
+        elist.append(("penalty", pen))
     # the outputs' energies in one call: the potentials (the linear ones, U = c + G.x, as dot products with the
     # input `lin` = [G_1 .. G_k, c_1 .. c_k, Q]) and the kinetic energy
     lin = ca.MX.sym("lin", S.lin.size)

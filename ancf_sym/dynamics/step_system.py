@@ -26,8 +26,10 @@ from .. import contact, drives
 from ..assembly import Assembly, force_terms
 from ..casadi_buffers import bind
 from ..reduced import full_mx, partition, reduce_shared
-from ..sparsity import casadi_sparsity, dm, kron_identity_factor, kron_product_mx, mx_nonzeros
+from ..sparsity import (casadi_sparsity, csc_pattern, dm, hessian_entries, kron_identity_factor, kron_product_mx,
+                        mx_nonzeros)
 from . import damping
+from . import band
 from .band import BandLayout, band_layout
 from .damping import RayleighData, StrainRateData
 from .forces import band_force_graph, build_force_graphs, gradient_graph
@@ -111,10 +113,13 @@ class StepSystem:
         self.graph_key = structure_key(self)
         graphs = SYSTEM_GRAPHS.get(self.graph_key)
         if graphs is None:
-            build_force_graphs(self)
+            self._graphs = graphs = {}
+            # the band path (ancf_sym.dynamics.band) has a force graph of its own: forces_pf only on first use
+            layout = self._band_layout()
+            build_force_graphs(self, forces=layout is None)
             self.damp_f, self.damp_force_f = damping.dissipation_functions(self)
-            self._build_step()
-            graphs = {k: getattr(self, k) for k in self._GRAPH_ATTRS}
+            self._build_step(layout=layout)
+            graphs.update({k: getattr(self, k) for k in self._GRAPH_ATTRS})
             SYSTEM_GRAPHS[self.graph_key] = graphs
         else:
             for k in self._GRAPH_ATTRS:
@@ -129,8 +134,23 @@ class StepSystem:
                    strain_rate=damping.strain_rate_data(asm), **kw)
 
     # compiled functions and what describes them: built once per structure key and shared by later StepSystems
-    _GRAPH_ATTRS = ("kel_sparsity", "forces_pf", "_energy_kin_labels",
+    _GRAPH_ATTRS = ("kel_sparsity", "_energy_kin_labels",
                     "_energy_kin_f", "damp_f", "damp_force_f", "kkt_sparsity", "iteration_f")
+
+    @property
+    def forces_pf(self) -> ca.Function:
+        """forces(x, par) -> (g, K[, kel]) (ancf_sym.dynamics.forces): built with the system, or on first use where
+        the band path's iteration has its own force graph; shared by the structure's systems."""
+        if "forces_pf" not in self._graphs:
+            build_force_graphs(self, energies=False)
+        return self._graphs["forces_pf"]
+
+    @property
+    def gradient_source(self) -> ca.Function:
+        """A compiled function of (x, par) whose first output is the gradient of the nonlinear potential, of those
+        the system built: the band path's force graph, or forces_pf (the same kernels and gathers: the same
+        numbers)."""
+        return self._graphs["forces_band"] if "forces_band" in self._graphs else self.forces_pf
 
     @property
     def iter_f(self) -> ca.Function:
@@ -246,7 +266,7 @@ class StepSystem:
         A = ca.DM(ca.Sparsity.triplet(self.nf, len(rows), rows, list(range(len(rows)))), 1.0)
         return ca.mtimes(A, ca.vertcat(*vals))
 
-    def _build_step(self, full_only: bool = True) -> None:
+    def _build_step(self, full_only: bool = True, layout: BandLayout | None = None) -> None:
         """iteration_f (and kkt_sparsity); full_only False: res_f and jac_f instead, into the structure's graphs.
         iteration_f(x[, lam], p, cm, cc, kc, vc[, kel], y, par) -> (dz, norms): one full Newton iteration, its
         multiplier input only where there are multipliers (iter_f: always)."""
@@ -263,9 +283,9 @@ class StepSystem:
         ins = [xf, lam, p_in, cm, cc, kc, vc] + ([kel] if kel is not None else []) + [y, par]
         names = ["x", "lam", "p", "cm", "cc", "kc", "vc"] + (["kel"] if kel is not None else []) + ["y", "par"]
         ins_it, names_it = (ins, names) if mc else ([xf] + ins[2:], [names[0]] + names[2:])
-        layout = self._band_layout() if full_only else None
-        if layout is not None:  # the Hessian gathered straight into the band, banded LDL^T (ancf_sym.dynamics.band)
-            g, Kb = band_force_graph(self, layout)(xf, par)
+        if layout is not None and full_only:  # the Hessian gathered straight into the band, banded LDL^T
+            fb = self._graphs["forces_band"] = band_force_graph(self, layout)  # (ancf_sym.dynamics.band)
+            g, Kb = fb(xf, par)
             r = add(add(self.mass_mx(add(mul(cm, xf), y)), g), p)
             x, kmax, dzx = layout.solve_mx(add(mul(cm, ca.MX(ca.DM(layout.values(self.M)))), Kb), r)
             self.kkt_sparsity = layout.pattern
@@ -334,11 +354,18 @@ class StepSystem:
         """The band path's layout of the step matrix (ancf_sym.dynamics.band) where it applies, else None: positive
         definite step matrices (LDL^T) without multipliers, drives, Rayleigh or strain-rate damping, penalty joints."""
         if self.linsol != "ldl" or self.mc or self.drives is not None or self.rayleigh is not None or \
-                self.damp_f is not None or self.asm.penalty is not None:
+                self.strain_rate is not None or contact.dissipation_calls(self.asm.mesh) or \
+                self.asm.penalty is not None or self.nf < band.MIN_SIZE:  # (damp_f: strain-rate or contact damping)
             return None
-        M = sp.csc_matrix(self.M)
-        M.sort_indices()
-        return band_layout(self.forces_pf.sparsity_out(1).unite(casadi_sparsity(self.nf, self.nf, M.indptr, M.indices)))
+        # the pattern of forces_pf's K (the kernels' Hessian entries on the unknowns) and M's, from the index maps
+        M = sp.coo_matrix(self.M)
+        rows, cols = [M.row], [M.col]
+        for ft in self.force_terms:
+            ia, ib, keep = hessian_entries(self.pos, ft.idx)
+            rows.append(ib[keep])
+            cols.append(ia[keep])
+        indptr, indices, _ = csc_pattern(np.concatenate(rows), np.concatenate(cols), self.nf, self.nf)
+        return band_layout(casadi_sparsity(self.nf, self.nf, indptr, indices))
 
     def ensure_factor(self) -> LDLFactor | None:
         """The in-graph LDL^T factorisation of the step matrix (ancf_sym.dynamics.ldl), built on first use and shared
