@@ -26,11 +26,9 @@ from .. import contact, drives
 from ..assembly import Assembly, force_terms
 from ..casadi_buffers import bind
 from ..reduced import full_mx, partition, reduce_shared
-from ..sparsity import (casadi_sparsity, csc_pattern, dm, hessian_entries, kron_identity_factor, kron_product_mx,
-                        mx_nonzeros)
-from . import damping
-from . import band
-from .band import BandLayout, band_layout
+from ..sparsity import dm, hessian_entries, kron_identity_factor, kron_product_mx, mx_nonzeros
+from . import band, damping
+from .band import BandLayout, band_layout_csc
 from .damping import RayleighData, StrainRateData
 from .forces import band_force_graph, build_force_graphs, gradient_graph
 from .graph_cache import SYSTEM_GRAPHS, pooled_buffer, structure_key
@@ -135,7 +133,7 @@ class StepSystem:
 
     # compiled functions and what describes them: built once per structure key and shared by later StepSystems
     _GRAPH_ATTRS = ("kel_sparsity", "_energy_kin_labels",
-                    "_energy_kin_f", "damp_f", "damp_force_f", "kkt_sparsity", "iteration_f")
+                    "_energy_kin_f", "damp_f", "damp_force_f", "iteration_f")
 
     @property
     def forces_pf(self) -> ca.Function:
@@ -144,6 +142,15 @@ class StepSystem:
         if "forces_pf" not in self._graphs:
             build_force_graphs(self, energies=False)
         return self._graphs["forces_pf"]
+
+    @property
+    def kkt_sparsity(self) -> ca.Sparsity:
+        """The pattern of the step (KKT) matrix; on the band path made on first use from the layout's index arrays
+        (the modified step's factorisation, the Newton in Python: a full-Newton run on the band never needs it)."""
+        g = self._graphs
+        if "kkt_sparsity" not in g:
+            g["kkt_sparsity"] = g["band_layout"].pattern
+        return g["kkt_sparsity"]
 
     @property
     def gradient_source(self) -> ca.Function:
@@ -288,7 +295,7 @@ class StepSystem:
             g, Kb = fb(xf, par)
             r = add(add(self.mass_mx(add(mul(cm, xf), y)), g), p)
             x, kmax, dzx = layout.solve_mx(add(mul(cm, ca.MX(ca.DM(layout.values(self.M)))), Kb), r)
-            self.kkt_sparsity = layout.pattern
+            self._graphs["band_layout"] = layout  # (kkt_sparsity: its pattern, made on first use)
             norms = ca.vertcat(ca.mmax(fabs(r)), 0, dzx, 0, kmax)
             self.iteration_f = ca.Function("newton_iteration", ins_it, [neg(x), norms], names_it, ["dz", "norms"])
             return
@@ -341,7 +348,7 @@ class StepSystem:
             self._graphs["jac_f"] = ca.Function("step_jacobian", ins, [r, ca.vertcat(rq, rc, kmax), kkt_nz], names,
                                                 ["r", "norms", "kkt"])
             return
-        self.kkt_sparsity = KKT.sparsity()
+        self._graphs["kkt_sparsity"] = KKT.sparsity()
         dz = neg(ca.solve(KKT, r, self.linsol))
         dzx = ca.mmax(fabs(dz[:nf]))
         dzl = ca.mmax(fabs(dz[nf:])) if mc else ca.MX(0)
@@ -364,8 +371,9 @@ class StepSystem:
             ia, ib, keep = hessian_entries(self.pos, ft.idx)
             rows.append(ib[keep])
             cols.append(ia[keep])
-        indptr, indices, _ = csc_pattern(np.concatenate(rows), np.concatenate(cols), self.nf, self.nf)
-        return band_layout(casadi_sparsity(self.nf, self.nf, indptr, indices))
+        r, c = np.concatenate(rows), np.concatenate(cols)
+        A = sp.csc_matrix((np.ones(len(r)), (r, c)), shape=(self.nf, self.nf))  # (canonical: duplicates summed)
+        return band_layout_csc(self.nf, self.nf, A.indptr, A.indices)
 
     def ensure_factor(self) -> LDLFactor | None:
         """The in-graph LDL^T factorisation of the step matrix (ancf_sym.dynamics.ldl), built on first use and shared
