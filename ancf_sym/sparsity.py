@@ -7,6 +7,8 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
+from .mx_ops import add
+
 
 def csc_pattern(rows: np.ndarray, cols: np.ndarray, n_rows: int,
                 n_cols: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -81,7 +83,7 @@ def gather_sum(vals: list, target: np.ndarray, n_out: int) -> ca.MX:
     for j in range(int(cnt.max())):
         idx = np.where(cnt > j, order[np.minimum(start + j, len(order) - 1)], n_src)
         term = src[idx.tolist()]
-        out = term if out is None else ca.MX.binary(ca.OP_ADD, out, term)  # (the + operator: ~30 us to resolve)
+        out = term if out is None else add(out, term)  # (ancf_sym.mx_ops: the + operator takes ~30 us to resolve)
     return out
 
 
@@ -109,27 +111,38 @@ def hessian_entries(pos: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray, np.nd
     return ia, ib, np.flatnonzero((ia >= 0) & (ib >= 0))
 
 
-def assemble_mx(calls: list, pos: np.ndarray, n: int, hessian: bool = True) -> tuple[ca.MX, ca.MX | None]:
-    """Gradient (n) and Hessian (n x n sparse) of a sum of mapped kernel calls on the unknowns, coordinate k of
-    the scene being unknown pos[k] (-1: fixed, dropped). calls: (idx (N x nd) coordinates of the elements,
-    G (nd x N), H (nd x nd N) or None); calls on the same elements are summed before the scatter."""
+def elements_key(idx: np.ndarray) -> tuple:
+    """An exact key of an element table (N x nd coordinates): calls on equal tables act on the same elements."""
+    return idx.shape, idx.tobytes()
+
+
+def group_calls(calls: list) -> list:
+    """Mapped kernel calls (idx, G, H or None) with those on the same elements summed, in the order first seen
+    (H None where any of a group's is None)."""
     groups: dict = {}
     for idx, G, H in calls:
-        key = (idx.shape, idx.tobytes())
+        key = elements_key(idx)
         if key in groups:
             grp = groups[key]
             grp[1] = grp[1] + G
             grp[2] = None if H is None or grp[2] is None else grp[2] + H
         else:
             groups[key] = [idx, G, H]
+    return list(groups.values())
+
+
+def assemble_mx(calls: list, pos: np.ndarray, n: int, hessian: bool = True) -> tuple[ca.MX, ca.MX | None]:
+    """Gradient (n) and Hessian (n x n sparse) of a sum of mapped kernel calls on the unknowns, coordinate k of
+    the scene being unknown pos[k] (-1: fixed, dropped). calls: (idx (N x nd) coordinates of the elements,
+    G (nd x N), H (nd x nd N) or None); calls on the same elements are summed before the scatter."""
+    groups = group_calls(calls)
     if not groups:
         return ca.MX.zeros(n), (ca.MX(n, n) if hessian else None)
-    g = gather_sum([ca.vec(G) for _, G, _ in groups.values()],
-                   np.concatenate([pos[idx.ravel()] for idx, _, _ in groups.values()]), n)
+    g = gather_sum([ca.vec(G) for _, G, _ in groups], np.concatenate([pos[idx.ravel()] for idx, _, _ in groups]), n)
     if not hessian:
         return g, None
     hvals, rows, cols, hpos, n_h = [], [], [], [], 0
-    for idx, _, H in groups.values():
+    for idx, _, H in groups:
         ia, ib, keep = hessian_entries(pos, idx)
         hvals.append(ca.vec(H))
         rows.append(ib[keep])

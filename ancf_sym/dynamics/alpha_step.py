@@ -40,21 +40,10 @@ import numpy as np
 from .damping import rayleigh_mx
 from .graph_cache import SCHEME_FUNCTIONS
 from .ldl import LDLFactor
-from .mx_ops import add as _add, mul as _mul, sub as _sub  # (the step's vector algebra)
+from ..mx_ops import add as _add, div as _div, mul as _mul, sub as _sub  # (the step's vector algebra)
 from .newton import NewtonOptions
 from .schemes import Scheme
 from .step_system import StepSystem
-
-
-def _without_multipliers(f: ca.Function) -> ca.Function:
-    """A step system's iteration function (x, lam, ...) without its empty multiplier input (no constraint rows):
-    CasADi analyses the whole graph of a function with an empty input at every symbolic call (~2 ms at 1000
-    elements; a step graph calls it several times); this wrapper pays that once and inlines f's graph (evaluated
-    as f is)."""
-    ins = [ca.MX.sym(f.name_in(k), f.sparsity_in(k)) for k in range(f.n_in())]
-    out = f.call(ins[:1] + [ca.MX(0, 1)] + ins[2:], True, False)
-    return ca.Function(f.name(), ins[:1] + ins[2:], out, [f.name_in(k) for k in range(f.n_in()) if k != 1],
-                       f.name_out())
 
 
 class AlphaStepGraphs:
@@ -137,7 +126,7 @@ class AlphaStepGraphs:
 
         def block(x):  # q, v, a, ab of the new state and a_prev
             d = _sub(x, qh)
-            ab1 = ca.MX.binary(ca.OP_DIV, d, k["bhh"])
+            ab1 = _div(d, k["bhh"])
             return ca.vertcat(x, _add(vh, _mul(k["hg"], ab1)), _add(_mul(cm, d), k0), ab1, a)
 
         return dict(x0=x0, p=pload, y=y, cm=cm, cc=k["cc"], kc=kc, vc=vc, lte=lte, block=block)
@@ -219,7 +208,7 @@ class AlphaStepGraphs:
         st, (q, v, a, ab, ap, lam, ctl), h, hp, tols, pload, kel, par = self.step_inputs()
         c = self.step_common(q, v, a, ab, ap, h, hp, pload, kel)
         x0, p, cm, cc, kc, vc, y = c["x0"], c["p"], c["cm"], c["cc"], c["kc"], c["vc"], c["y"]
-        l0 = ca.MX.binary(ca.OP_DIV, lam, kc) if mc else lam
+        l0 = _div(lam, kc) if mc else lam
         extra = [kel] if kel is not None else []
         it = S.iteration_f  # (no multipliers: without its empty multiplier input, and no empty inputs below)
         lm = [l0] if mc else []
@@ -232,7 +221,7 @@ class AlphaStepGraphs:
         # the second iteration and the controls after it, evaluated only when needed (a switch whose keep branch
         # passes x1, l1 and the controls of a step accepted after one iteration on)
         xb, pb = ca.MX.sym("xb", nf), ca.MX.sym("pb", nf + S.nw)
-        lb = ca.MX.sym("lb", mc) if mc else ca.MX(0, 1)  # (no empty inputs: see _without_multipliers)
+        lb = ca.MX.sym("lb", mc) if mc else ca.MX(0, 1)  # (no empty inputs: StepSystem._with_multiplier_input)
         cb, ccb, kb, vb = ca.MX.sym("cmb"), ca.MX.sym("ccb"), ca.MX.sym("kcb"), ca.MX.sym("vcb", nf)
         eb = [ca.MX.sym("kelb", S.kel.size)] if kel is not None else []
         yb, parb = ca.MX.sym("yb", nf), ca.MX.sym("parb", S.par.size)
@@ -380,7 +369,7 @@ class AlphaStepGraphs:
         ks = [ca.MX.sym("kel", S.kel.size)] if kel is not None else []
         ys, pars = ca.MX.sym("y", nf), ca.MX.sym("par", S.par.size)
         args = [xs, Ds, Us, UTs, ps, cms, ccs, vcs] + ks + [ys, pars]
-        res_f, jac_f = _without_multipliers(S.res_f), _without_multipliers(S.jac_f)  # (no multipliers here)
+        res_f, jac_f = S.residual_f, S.jacobian_f  # (no multipliers here: no multiplier input)
         r, nr = res_f(xs, ps, cms, ccs, 1.0, vcs, *ks, ys, pars)
         dz = -fac.solve_mx(Ds, Us, UTs, r)
         f_mod = ca.Function("kept_factor", args, [xs + dz, Ds, Us, UTs, ca.vertcat(nr[0], ca.mmax(ca.fabs(dz)), 0)])

@@ -16,7 +16,7 @@ import numpy as np
 
 from .. import kernels
 from ..assembly import map_elements
-from ..sparsity import assemble_mx, gather_sum, hessian_entries, mx_nonzeros, scatter
+from ..sparsity import assemble_mx, elements_key, gather_sum, group_calls, hessian_entries, mx_nonzeros, scatter
 from .band import PAD_PIVOT
 
 if TYPE_CHECKING:
@@ -38,7 +38,7 @@ def _parameters(S: "StepSystem", par: ca.MX) -> tuple[list, list]:
 def _element_coordinates(x: ca.MX, idx: np.ndarray, nd: int, N: int, seen: dict | None = None) -> ca.MX:
     """The elements' coordinates x[idx] as nd x N; `seen` keeps them by element table, so that the terms on the same
     elements (a cable's axial and bending energies, its fused force kernel) share one gather of x."""
-    key = (idx.shape, idx.tobytes())
+    key = elements_key(idx)
     if seen is not None and key in seen:
         return seen[key]
     Xe = ca.reshape(x[idx.ravel().tolist()], nd, N)
@@ -61,14 +61,10 @@ def band_force_graph(S: "StepSystem", layout: "BandLayout") -> ca.Function:
     lower band storage of `layout` (ancf_sym.dynamics.band; its padding pivots included), for S without penalty
     joints (their Hessian is not a kernel call)."""
     xf, par = ca.MX.sym("x", S.nf), ca.MX.sym("par", S.par.size)
-    calls = _kernel_calls(S, S.x_full_mx(xf), _parameters(S, par)[0])
-    g, _ = assemble_mx(calls, S.pos, S.nf, hessian=False)
-    groups: dict = {}  # (calls on the same elements summed first, as assemble_mx)
-    for idx, _, H in calls:
-        key = (idx.shape, idx.tobytes())
-        groups[key] = (idx, H if key not in groups else groups[key][1] + H)
+    groups = group_calls(_kernel_calls(S, S.x_full_mx(xf), _parameters(S, par)[0]))  # (as assemble_mx sums them)
+    g, _ = assemble_mx(groups, S.pos, S.nf, hessian=False)
     vals, targets = [], []
-    for idx, H in groups.values():
+    for idx, _, H in groups:
         ia, ib, keep = hessian_entries(S.pos, idx)
         t = -np.ones(ia.size, dtype=np.int64)
         t[keep] = layout.slots(ib[keep], ia[keep])  # (row ib, column ia)

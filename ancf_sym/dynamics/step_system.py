@@ -33,7 +33,7 @@ from .damping import RayleighData, StrainRateData
 from .forces import band_force_graph, build_force_graphs, gradient_graph
 from .graph_cache import SYSTEM_GRAPHS, pooled_buffer, structure_key
 from .ldl import LDLFactor, build_ldl
-from .mx_ops import add, fabs, mul, neg
+from ..mx_ops import add, fabs, mul, neg
 
 
 class StepSystem:
@@ -162,19 +162,22 @@ class StepSystem:
     @property
     def iter_f(self) -> ca.Function:
         """newton_iteration(x, lam, p, cm, cc, kc, vc[, kel], y, par) -> (dz, norms): `iteration_f` with the
-        multiplier input also where there are no multipliers (empty), the signature of the Newton in Python.
-        Without multipliers a wrapper inlining iteration_f's graph (evaluated as it is), built on first use:
-        the step graphs call iteration_f itself (CasADi analyses the whole graph of a function with an empty
-        input at every symbolic call)."""
-        if "iter_f" not in self._graphs:
-            f = self.iteration_f
+        multiplier input also where there are no multipliers (the signature of the Newton in Python)."""
+        return self._with_multiplier_input("iter_f", self.iteration_f)
+
+    def _with_multiplier_input(self, name: str, f: ca.Function) -> ca.Function:
+        """f (built with the multiplier input only where there are multipliers: CasADi analyses the whole graph of
+        a function with an empty input at every symbolic call, and the step graphs call these) with its input
+        "lam" also where it is empty, for the Newton in Python: a wrapper inlining f's graph (evaluated as f is),
+        built on first use and kept in the structure's graphs under `name`."""
+        if name not in self._graphs:
             if not self.mc:
                 ins = [ca.MX.sym(f.name_in(k), f.sparsity_in(k)) for k in range(f.n_in())]
                 lam = ca.MX.sym("lam", 0)
                 f = ca.Function(f.name(), ins[:1] + [lam] + ins[1:], f.call(ins, True, False),
                                 f.name_in()[:1] + ["lam"] + f.name_in()[1:], f.name_out())
-            self._graphs["iter_f"] = f
-        return self._graphs["iter_f"]
+            self._graphs[name] = f
+        return self._graphs[name]
 
     @property
     def grad_pf(self) -> ca.Function:
@@ -185,21 +188,32 @@ class StepSystem:
         return self._graphs["grad_pf"]
 
     @property
-    def res_f(self) -> ca.Function:
-        """step_residual(x, lam, p, cm, cc, kc, vc[, kel], y, par) -> (r, norms) from the gradient-only kernels:
-        modified Newton's residual. Built on first use (a full-Newton run that converges in its compiled steps
-        never calls it) and shared by the structure's systems."""
-        if "res_f" not in self._graphs:
+    def residual_f(self) -> ca.Function:
+        """step_residual(x[, lam], p, cm, cc, kc, vc[, kel], y, par) -> (r, norms) from the gradient-only kernels:
+        modified Newton's residual, its multiplier input only where there are multipliers (res_f: always). Built
+        on first use (a full-Newton run that converges in its compiled steps never calls it) and shared by the
+        structure's systems."""
+        if "residual_f" not in self._graphs:
             self._build_step(full_only=False)
-        return self._graphs["res_f"]
+        return self._graphs["residual_f"]
+
+    @property
+    def jacobian_f(self) -> ca.Function:
+        """step_jacobian(x[, lam], ...) -> (r, norms, KKT values): the modified step's refactorisations. Built on
+        first use, like residual_f."""
+        if "jacobian_f" not in self._graphs:
+            self._build_step(full_only=False)
+        return self._graphs["jacobian_f"]
+
+    @property
+    def res_f(self) -> ca.Function:
+        """residual_f with the multiplier input always (the Newton in Python)."""
+        return self._with_multiplier_input("res_f", self.residual_f)
 
     @property
     def jac_f(self) -> ca.Function:
-        """step_jacobian(...) -> (r, norms, KKT values): Newton in Python and the modified step's
-        refactorisations. Built on first use, like res_f."""
-        if "jac_f" not in self._graphs:
-            self._build_step(full_only=False)
-        return self._graphs["jac_f"]
+        """jacobian_f with the multiplier input always (the Newton in Python)."""
+        return self._with_multiplier_input("jac_f", self.jacobian_f)
 
     @property
     def forces_f(self) -> ca.Function:
@@ -274,7 +288,8 @@ class StepSystem:
         return ca.mtimes(A, ca.vertcat(*vals))
 
     def _build_step(self, full_only: bool = True, layout: BandLayout | None = None) -> None:
-        """iteration_f (and kkt_sparsity); full_only False: res_f and jac_f instead, into the structure's graphs.
+        """iteration_f (and kkt_sparsity); full_only False: residual_f and jacobian_f instead, into the structure's
+        graphs (all three with the multiplier input only where there are multipliers).
         iteration_f(x[, lam], p, cm, cc, kc, vc[, kel], y, par) -> (dz, norms): one full Newton iteration, its
         multiplier input only where there are multipliers (iter_f: always)."""
         nf, mc = self.nf, self.mc
@@ -343,10 +358,11 @@ class StepSystem:
         # largest entry (round-off floor): on the diagonal when the step matrix is positive definite
         kmax = ca.mmax(fabs(ca.diag(KKT))) if self.linsol == "ldl" and not mc else ca.mmax(fabs(kkt_nz))
         if not full_only:
-            self._graphs["res_f"] = ca.Function("step_residual", ins, [rg, ca.vertcat(ca.mmax(ca.fabs(r_g)), rc)],
-                                                names, ["r", "norms"])
-            self._graphs["jac_f"] = ca.Function("step_jacobian", ins, [r, ca.vertcat(rq, rc, kmax), kkt_nz], names,
-                                                ["r", "norms", "kkt"])
+            self._graphs["residual_f"] = ca.Function("step_residual", ins_it,
+                                                     [rg, ca.vertcat(ca.mmax(ca.fabs(r_g)), rc)], names_it,
+                                                     ["r", "norms"])
+            self._graphs["jacobian_f"] = ca.Function("step_jacobian", ins_it, [r, ca.vertcat(rq, rc, kmax), kkt_nz],
+                                                     names_it, ["r", "norms", "kkt"])
             return
         self._graphs["kkt_sparsity"] = KKT.sparsity()
         dz = neg(ca.solve(KKT, r, self.linsol))

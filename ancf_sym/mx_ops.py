@@ -1,6 +1,7 @@
 """MX arithmetic through `MX.binary` / `MX.unary`: CasADi's Python operators and overloaded functions (`+`, `*`,
-`ca.fabs`) resolve their overloads at ~30 us a call, these at ~3 us; the step graphs are built at every first run of
-a structure. The same nodes, the same simplifications (CasADi's operators call MX::binary themselves)."""
+`ca.fabs`) resolve their overloads at ~30 us a call, these at ~3 us; the dynamics' step graphs (and the sums of
+their assembly) are built at every first run of a structure. The same nodes, the same simplifications (CasADi's
+operators call MX::binary themselves)."""
 from __future__ import annotations
 
 import casadi as ca
@@ -16,6 +17,10 @@ def sub(x: ca.MX, y: ca.MX) -> ca.MX:
 
 def mul(x: ca.MX, y: ca.MX) -> ca.MX:
     return ca.MX.binary(ca.OP_MUL, x, y)
+
+
+def div(x: ca.MX, y: ca.MX) -> ca.MX:
+    return ca.MX.binary(ca.OP_DIV, x, y)
 
 
 def neg(x: ca.MX) -> ca.MX:
