@@ -46,16 +46,19 @@ def hermite(t0, t1, q0, v0, q1, v1, tau):
 class Recorder:
     """The outputs of a run, one record per output time (see the module docstring). The energies are kept as one
     row per record and returned as columns (`energies`): a record costs ~30 -> ~15 us on a 32-element rope, a
-    few percent of its run."""
+    few percent of its run. The records of compiled chunks (`record_many`) book their energies at once (the
+    energy balance can end the run) and leave the rest (sensors, constraint violation) to be evaluated for all of
+    them together when the outputs are read (`t`, `data`, `viol`)."""
 
     def __init__(self, system: StepSystem, sensors: list[SensorEval], energies: bool = True):
         self.S = system
         self.sensors = sensors
         self.with_energies = energies
-        self.t: list[float] = []
-        self.data: dict[str, list] = {s.sensor.name: [] for s in sensors}
+        self._t: list[float] = []
+        self._data: dict[str, list] = {s.sensor.name: [] for s in sensors}
         self._rows: list[tuple] = []  # (kinetic, potential, potentials by label..., total, works, algorithmic)
-        self.viol: list[float] = []
+        self._viol: list[float] = []
+        self._pending: list[tuple] = []  # (times, Q, V) of record_many whose sensors and violation are to come
         self.reactions: dict[str, list] = {}
         self.E0 = None
         self.scale = 0.0  # running energy scale: |T| + sum |potentials| + |works| + |E0|
@@ -64,16 +67,20 @@ class Recorder:
         self._cons = None
         self._viol_fixed = 0.0  # max |Phi| of the rows on fixed coordinates only: the same at every record
         if cons.m:
-            A = cons.A.tocsr()
             fixed = system.pos < 0
+            A = cons.A.tocsr()  # (a no-op on the CSR rows the constraints hold)
             live = np.zeros(cons.m, bool)  # rows that read an unknown (linear or bilinear term)
             live[np.repeat(np.arange(cons.m), np.diff(A.indptr))[~fixed[A.indices]]] = True
             live[cons.qrow[~(fixed[cons.qi] & fixed[cons.qj])]] = True
-            if not live.all():
-                self._viol_fixed = self._rows_violation(cons.subset(np.flatnonzero(~live)),
-                                                        system.full(np.zeros(system.nf)))
-            if live.any():
-                self._cons = cons if live.all() else cons.subset(np.flatnonzero(live))
+            if live.all():
+                self._cons = cons
+            else:
+                x = system.full(np.zeros(system.nf))
+                if not live.any():
+                    self._viol_fixed = self._rows_violation(cons, x)
+                else:
+                    self._viol_fixed = self._rows_violation(cons.subset(np.flatnonzero(~live)), x)
+                    self._cons = cons.subset(np.flatnonzero(live))
         if self._cons is not None:
             c = self._cons
             self._cA = c.A.toarray() if c.m * c.A.shape[1] <= 200_000 else c.A
@@ -103,34 +110,65 @@ class Recorder:
         T, pot = self.S.energies(qf, vf)
         return T, pot, T + float(sum(pot.values()))
 
+    @property
+    def t(self) -> list[float]:
+        """The output times."""
+        self._flush()
+        return self._t
+
+    @property
+    def data(self) -> dict[str, list]:
+        """The sensors' values by name, one per output time."""
+        self._flush()
+        return self._data
+
+    @property
+    def viol(self) -> list[float]:
+        """The constraint violation at the output times."""
+        self._flush()
+        return self._viol
+
     def record(self, t, qf, vf, damping_work, external_work, lam=None):
+        self._flush()
         S = self.S
         x, v = S.full(qf), S.full_v(vf)
         if self._drives is not None and lam is not None:
             for name, val in self._drives.reactions(x, lam[S.mc - self._drives.m:]).items():
                 self.reactions.setdefault(name, []).append(val)
         for s in self.sensors:
-            self.data[s.sensor.name].append(s(x, v))
+            self._data[s.sensor.name].append(s(x, v))
         if self.with_energies:
             self._book(t, *S.energies_by_label(qf, vf), damping_work, external_work)
-        self.viol.append(self._violation(x, t))
-        self.t.append(float(t))
+        self._viol.append(self._violation(x, t))
+        self._t.append(float(t))
 
     def record_many(self, ts: list, Q: np.ndarray, V: np.ndarray, damping_work: float, external_work: float) -> None:
-        """`record` of the output times ts with the unknowns' positions and velocities as the rows of Q and V, for
-        runs without drives (their reactions need the multipliers) and with the same works at all of them (a chunk
-        of steps with nothing to integrate along them): the scene coordinates in one gather, the constraint
-        violation in one product; the same values as record by record (the violation's product summed in
-        BLAS's order, to round-off)."""
+        """`record` of the output times ts with the unknowns' positions and velocities as the rows of Q and V (kept:
+        not to be changed by the caller), for runs without drives (their reactions need the multipliers) and with
+        the same works at all of them (a chunk of steps with nothing to integrate along them). The energies now,
+        in one call of the energy graph mapped over the records; the sensors and the constraint violation when the
+        outputs are read, for all the chunks' records at once: the same values as record by record (the
+        violation's product summed in BLAS's order, to round-off)."""
         S = self.S
-        X, VX = S.full_rows(Q), S.full_v_rows(V)
-        for s in self.sensors:
-            self.data[s.sensor.name].extend([s(x, v) for x, v in zip(X, VX)])
         if self.with_energies:
             for t, vals in zip(ts, S.energy_values_rows(Q, V)):
                 self._book(t, *S.by_label(vals), damping_work, external_work)
-        self.viol.extend(self._violations(X))
-        self.t.extend(float(t) for t in ts)
+        self._pending.append((ts, Q, V))
+
+    def _flush(self) -> None:
+        """The sensors and the violation of the pending records (record_many), in the order recorded."""
+        if not self._pending:
+            return
+        blocks, self._pending = self._pending, []
+        S = self.S
+        Q = np.concatenate([b[1] for b in blocks]) if len(blocks) > 1 else blocks[0][1]
+        V = np.concatenate([b[2] for b in blocks]) if len(blocks) > 1 else blocks[0][2]
+        X, VX = S.full_rows(Q), S.full_v_rows(V)
+        for s in self.sensors:
+            self._data[s.sensor.name].extend([s(x, v) for x, v in zip(X, VX)])
+        self._viol.extend(self._violations(X))
+        for ts, _, _ in blocks:
+            self._t.extend(float(t) for t in ts)
 
     def _book(self, t, T, pots, damping_work, external_work) -> None:
         """One row of the energy balance; flags the first record where the scheme has created energy."""

@@ -9,6 +9,7 @@ in the energy identity of trapezoidal Newmark).
 """
 from __future__ import annotations
 
+import bisect
 import functools
 import math
 from typing import Any, Callable
@@ -56,6 +57,7 @@ class TimeLoop:
         self.fD_prev = S.drive_force(integ.q, integ.lam, self.t)  # drives' and torques' force (their work: external)
         self.lam_prev = integ.lam.copy()
         self.out_i = 0
+        self._out = outputs.tolist() if outputs is not None else None  # (bisection in _accepted_many)
         if outputs is None or outputs[0] <= self.t + self.eps_t:
             rec.record(self.t, integ.q, integ.v, 0.0, 0.0, integ.lam)
             self.out_i = 1
@@ -170,39 +172,52 @@ class TimeLoop:
     def _accepted_many(self, k: int, n_ok: int, states: np.ndarray, q_old: np.ndarray, v_old: np.ndarray):
         """Bookkeeping of the accepted grid steps k+1 .. k+n_ok of a chunk (nothing to integrate along them): the
         outputs that fall in them, as `_accepted` would record them step by step, recorded together
-        (Recorder.record_many)."""
+        (Recorder.record_many). (Plain float arithmetic and bisection: a handful of numbers per chunk, where numpy
+        calls cost microseconds each right after the compiled chunk.)"""
         if not n_ok:
             return
         nf = self.S.nf
         out, o = self.outputs, self.opts
+        t0, dt, eps_t = o.t_start, o.dt, self.eps_t
         t_first = self.t
         steps0 = self.steps
         self.steps += n_ok
-        self.h_min, self.h_max = min(self.h_min, o.dt), max(self.h_max, o.dt)
+        self.h_min, self.h_max = min(self.h_min, dt), max(self.h_max, dt)
         self.t = self.grid(k + n_ok)
         if out is None:
-            last = self.steps if self.t >= o.t_end - self.eps_t else None
+            last = self.steps if self.t >= o.t_end - eps_t else None
             js = [s - steps0 - 1 for s in range(steps0 + 1, self.steps + 1) if s % self.every == 0 or s == last]
             if js:
-                self._record_many([self.grid(k + j + 1) for j in js], states[js, :nf], states[js, nf:2 * nf])
+                rows = states[js]
+                self._record_many([self.grid(k + j + 1) for j in js], rows[:, :nf], rows[:, nf:2 * nf])
             return
-        T = o.t_start + (k + 1 + np.arange(n_ok)) * o.dt  # = self.grid(k + j + 1), without a Python loop
-        # the outputs in (t_first, T[-1]] and the steps that end at or after each (one search for all of them)
+        # the outputs in (t_first, T(n_ok - 1)] and, for each, the first step j that ends at or after it (T(j) =
+        # t_start + (k + 1 + j) dt, the grid's times as `grid` computes them)
         i0 = self.out_i
-        taus = out[i0:i0 + int(np.searchsorted(out[i0:], T[-1] + self.eps_t, side="right"))]
-        if not len(taus):
+        i1 = bisect.bisect_right(self._out, t0 + (k + n_ok) * dt + eps_t, i0)
+        if i1 == i0:
             return
-        js = np.searchsorted(T, taus - self.eps_t)
-        Q, V = states[js, :nf], states[js, nf:2 * nf]  # (copies: the interpolated rows are written in)
-        for i, (tau, j) in enumerate(zip(taus.tolist(), js.tolist())):
-            if abs(tau - T[j]) > self.eps_t:
+        taus, js = self._out[i0:i1], []
+        for tau in taus:
+            x = tau - eps_t
+            j = min(max(int((x - t0) / dt) - k - 1, 0), n_ok)
+            while j < n_ok and t0 + (k + 1 + j) * dt < x:
+                j += 1
+            while j > 0 and t0 + (k + j) * dt >= x:
+                j -= 1
+            js.append(j)
+        rows = states[js]  # (a copy: the interpolated rows are written in)
+        Q, V = rows[:, :nf], rows[:, nf:2 * nf]
+        for i, (tau, j) in enumerate(zip(taus, js)):
+            tj = t0 + (k + 1 + j) * dt
+            if abs(tau - tj) > eps_t:
                 if j == 0:
-                    t0, q0, v0 = t_first, q_old, v_old
+                    ta, qa, va = t_first, q_old, v_old
                 else:
-                    t0, q0, v0 = T[j - 1], states[j - 1, :nf], states[j - 1, nf:2 * nf]
-                Q[i], V[i] = hermite(t0, T[j], q0, v0, Q[i], V[i], tau)
-        self.out_i += len(taus)
-        self._record_many(taus.tolist(), Q, V)
+                    ta, qa, va = t0 + (k + j) * dt, states[j - 1, :nf], states[j - 1, nf:2 * nf]
+                Q[i], V[i] = hermite(ta, tj, qa, va, Q[i], V[i], tau)
+        self.out_i = i1
+        self._record_many(taus, Q, V)
 
     def _record_many(self, ts: list, Q: np.ndarray, V: np.ndarray) -> None:
         self.rec.record_many(ts, Q, V, self.W_d, self.W_ext)
