@@ -12,12 +12,12 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import bodies, kernels, setup_cache, spatial_bodies
-from .casadi_buffers import bind
+from .casadi_buffers import bind, pooled
 from .constraints import Constraints, build_constraints
 from .loads import load_vector
 from .mesh import Mesh, build_mesh
 from . import registry
-from .scene import Scene
+from .scene import Scene, structure_spec_key
 from .sparsity import casadi_sparsity, csc_pattern
 from .terms import Term, scene_terms
 
@@ -28,6 +28,9 @@ LINEAR_EFFECTS = ("gravity",)  # potential linear in q: zero Hessian, never scat
 
 _MAPPED: dict = {}  # (element, effect, Gauss order, elements) -> the kernel mapped over them (built once)
 MAPPED_CALLS: dict = {}  # (kernel names, elements) -> map_elements' function (cleared with the step graphs)
+# _MAPPED's key -> the bound buffers (with their arrays X, E, G, H) of collected MappedKernels, for the next ones
+# (binding a new buffer is ~20 us of a run's set-up; cleared with the step graphs)
+_BOUND: dict = {}
 
 
 class MappedKernel:
@@ -38,7 +41,7 @@ class MappedKernel:
         self.kernel = kernels.load(term.element, term.effect, term.gauss)
         self.N, self.nd = term.idx.shape
         self.linear = term.effect in LINEAR_EFFECTS
-        key = (term.element, term.effect, term.gauss, self.N)
+        self._key = key = (term.element, term.effect, term.gauss, self.N)
         if key not in _MAPPED:
             _MAPPED[key] = self.kernel.map(self.N)
         self.f = _MAPPED[key]
@@ -51,11 +54,17 @@ class MappedKernel:
         its step graphs call the kernels themselves)."""
         if name not in MappedKernel._BUFFERS or "P" not in self.__dict__:
             raise AttributeError(name)
-        self.X = np.zeros((self.N, self.nd))
-        self.E = np.zeros(self.N)
-        self.G = np.zeros((self.N, self.nd))
-        self.H = np.zeros((self.N, self.nd, self.nd))
-        self.buf, self._eval = bind(self.f, (self.X, self.P), (self.E, self.G, self.H))
+        # (a buffer and its arrays from a collected kernel of the same map (a second run of a structure), else new)
+        be = pooled(_BOUND.setdefault(self._key, []), self.f, self)
+        bound = getattr(be[0], "bound_arrays", None)
+        if bound is not None:
+            (self.X, _), (self.E, self.G, self.H) = bound
+        else:
+            self.X = np.zeros((self.N, self.nd))
+            self.E = np.zeros(self.N)
+            self.G = np.zeros((self.N, self.nd))
+            self.H = np.zeros((self.N, self.nd, self.nd))
+        self.buf, self._eval = bind(self.f, (self.X, self.P), (self.E, self.G, self.H), be)
         return self.__dict__[name]
 
     def __call__(self, x: np.ndarray) -> None:
@@ -99,6 +108,11 @@ class ForceTerm:
                             kernels.load_batch(self.element, self.effect, self.gauss, "_grad"), self.N)
 
 
+def clear_kernel_buffers() -> None:
+    """Forget the pooled buffers of collected MappedKernels (ancf_sym.dynamics.clear_graph_cache)."""
+    _BOUND.clear()
+
+
 def map_elements(one: ca.Function, batch: ca.Function | None, N: int) -> ca.Function:
     """`one` mapped over N elements: its batched version (registry.BATCH_LANES elements per call, SIMD) over the
     whole batches and `one` over the rest; the plain map where no batched version exists. Kept for each (kernel,
@@ -132,10 +146,20 @@ def force_terms(terms: list[Term], fuse: bool = True, row_keys: dict | None = No
     these calls' first output (the step graphs report them from the separate <effect>_energy functions).
 
     row_keys: term index -> per-element values that must also agree for two rows to fuse (Rayleigh weights)."""
+    return force_terms_of(force_term_calls(terms, fuse, row_keys), terms)
+
+
+def force_term_calls(terms: list[Term], fuse: bool = True, row_keys: dict | None = None) -> list[tuple]:
+    """force_terms' calls without their parameters, (element, effect, gauss, idx, labels, sources), kept by what
+    decides them (ancf_sym.setup_cache: the terms' elements, coordinates and lengths, fuse, the row keys)."""
     rk = None if row_keys is None else {i: np.asarray(v, dtype=float) for i, v in row_keys.items()}
     key = setup_cache.array_key([(t.label, t.element, t.effect, t.gauss, t.idx, t.P[:, 0]) for t in terms], fuse,
                                 None if rk is None else sorted(rk.items(), key=lambda kv: kv[0]))
-    calls = setup_cache.cached("force_terms", key, lambda: _force_term_rows(terms, fuse, rk))
+    return setup_cache.cached("force_terms", key, lambda: _force_term_rows(terms, fuse, rk))
+
+
+def force_terms_of(calls: list[tuple], terms: list[Term]) -> list[ForceTerm]:
+    """The ForceTerms of force_term_calls' calls with the terms' parameters."""
     out = []
     for element, effect, gauss, idx, labels, sources in calls:
         if len(sources) > 1:
@@ -205,6 +229,9 @@ class Evaluation:
 class Assembly:
     def __init__(self, scene: Scene):
         self.scene = scene
+        # an exact key of the scene without its element stiffnesses and gravity (None where other parts read them):
+        # what the constraints are made of here, and a dynamic run's structure (ancf_sym.dynamics.step_system)
+        self.spec_key = structure_spec_key(scene)
         self.mesh: Mesh = build_mesh(scene)
         self.n = self.mesh.n
         self.x0 = self.mesh.x0
@@ -214,7 +241,10 @@ class Assembly:
         self.Q = load_vector(self.mesh)  # dead point loads: potential -Q.x
         # rigid bodies' gravity and forces: linear potentials
         (spatial_bodies if scene.dim == 3 else bodies).add_loads(scene, self.mesh.bodies, self.Q)
-        self.constraints: Constraints = build_constraints(self.mesh)
+        # (the constraint rows read no stiffness and no gravity where spec_key is given: shared, read-only, by the
+        # scenes of one structure spec)
+        self.constraints: Constraints = build_constraints(self.mesh) if self.spec_key is None else \
+            setup_cache.cached("constraints", self.spec_key, lambda: build_constraints(self.mesh))
         pen = np.flatnonzero(self.constraints.k > 0)
         self.penalty = self.constraints.subset(pen) if len(pen) else None
         # (no penalty rows: every row is exact, the same rows as a subset of all of them would copy)
@@ -372,14 +402,18 @@ class Assembly:
             out += ca.mtimes(S, x[c.qi.tolist()] * x[c.qj.tolist()])
         return out
 
-    def constant_force(self) -> np.ndarray:
+    def constant_force(self, gradients: list | None = None) -> np.ndarray:
         """Generalized force that does not depend on q (full coordinates): dead point loads minus the gradients of
-        the linear energy terms (gravity, distributed dead loads), evaluated once at the start state."""
+        the linear energy terms (gravity, distributed dead loads), evaluated once at the start state. gradients: a
+        list that receives each linear term's gradient (full coordinates), in the order of self.mapped."""
         f = self.Q.copy()
         for mk in self.mapped:
             if mk.linear:
                 mk(self.x0)
-                f -= np.bincount(mk.term.idx.ravel(), mk.G.ravel(), minlength=self.n)
+                g = np.bincount(mk.term.idx.ravel(), mk.G.ravel(), minlength=self.n)
+                f -= g
+                if gradients is not None:
+                    gradients.append(g)
         return f
 
     def mass_matrix(self) -> sp.csc_matrix:

@@ -9,6 +9,7 @@ The hot path calls the returned `evaluate` directly (it is CasADi's own callable
 """
 from __future__ import annotations
 
+import weakref
 from typing import Callable, Sequence
 
 import casadi as ca
@@ -19,17 +20,28 @@ BufferPair = tuple[ca.FunctionBuffer, Evaluate]
 _F64 = np.dtype(np.float64)  # (native byte order)
 
 
+def _sizes(f: ca.Function) -> tuple[int, int, int, int]:
+    """(n_in, n_out, nnz_in, nnz_out) of f, asked of CasADi once per Function object (~1 us each call) and kept on
+    it: a run binds the same cached functions again."""
+    try:
+        return f._ancf_sizes
+    except AttributeError:
+        f._ancf_sizes = sizes = (f.n_in(), f.n_out(), f.nnz_in(), f.nnz_out())
+        return sizes
+
+
 def _check(f: ca.Function, kind: str, arrays: Sequence[np.ndarray]) -> None:
     """Contiguous float64 arrays of exactly the nonzeros of inputs/outputs 0.. (kind "input" or "output")."""
     n_in = kind == "input"
-    n = f.n_in() if n_in else f.n_out()
+    n_i, n_o, nnz_i, nnz_o = _sizes(f)
+    n = n_i if n_in else n_o
     if len(arrays) > n:
         raise ValueError(f"{f.name()}: {len(arrays)} {kind}s given, it has {n}")
     for a in arrays:
         if not (isinstance(a, np.ndarray) and a.dtype == _F64 and a.flags.c_contiguous):
             break
     else:  # (one call for the total: nnz_in(i) costs ~5 us each; CasADi itself refuses a buffer that is too small)
-        if len(arrays) == n and sum(a.size for a in arrays) == (f.nnz_in() if n_in else f.nnz_out()):
+        if len(arrays) == n and sum(a.size for a in arrays) == (nnz_i if n_in else nnz_o):
             return
     for i, a in enumerate(arrays):  # name the offending array
         name = f.name_in(i) if n_in else f.name_out(i)
@@ -63,3 +75,12 @@ def bind(f: ca.Function, args: Sequence[np.ndarray], res: Sequence[np.ndarray],
         buf.set_res(i, memoryview(r))
     buf.bound_arrays = (tuple(args), tuple(res))  # CasADi holds raw pointers: the buffer keeps their owners alive
     return buf, evaluate
+
+
+def pooled(pool: list, f: ca.Function, owner: object) -> BufferPair:
+    """f.buffer() from `pool` (a buffer of a collected owner), else a new one; it returns to the pool when `owner`
+    is collected. The caller binds every argument and result anew (`bind`), or keeps the pooled arrays it put in
+    the pool with it."""
+    be = pool.pop() if pool else f.buffer()
+    weakref.finalize(owner, pool.append, be)
+    return be

@@ -84,6 +84,8 @@ def vector(name: str, value: Any, n: int) -> np.ndarray:
     """n finite numbers (a list, tuple or array; strings refused)."""
     if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple, np.ndarray)):
         raise fail(name, f"must be a vector of {n} numbers", value)
+    if type(value) in (list, tuple) and len(value) == n and all(type(v) is float and math.isfinite(v) for v in value):
+        return np.array(value, dtype=float)  # (the common case: n finite Python floats, as the loop below gives)
     a = np.asarray(value, dtype=object).ravel()
     if a.size != n:
         raise fail(name, f"must be {n} numbers", value)

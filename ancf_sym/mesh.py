@@ -5,7 +5,7 @@ duplicated and tied by internal rigid joints. Node coordinates: cables [r, r_x],
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -35,6 +35,7 @@ class MemberMesh:
     public_nodes: np.ndarray  # public node index -> internal node (vertex duplicates are hidden)
     vertex_pairs: list[tuple[int, int]]  # internal nodes tied rigidly at polyline vertices
     s_node: np.ndarray  # (n_nodes,) material coordinate of each internal node [m]
+    length: float = 0.0  # the member's unstretched length [m] (Member.length, kept with the geometry it reads)
 
     @property
     def n_nodes(self) -> int:
@@ -45,9 +46,8 @@ class MemberMesh:
 
     def elem_dofs(self) -> np.ndarray:
         """(n_el, 2*node_size) global coordinate indices per element."""
-        base = self.offset + self.elem_nodes * self.node_size  # (n_el, 2)
-        k = np.arange(self.node_size)
-        return np.concatenate([base[:, :1] + k, base[:, 1:] + k], axis=1)
+        ns = self.node_size  # (one broadcast: element e's start node's coordinates, then its end node's)
+        return (self.offset + self.elem_nodes[:, :, None] * ns + np.arange(ns)).reshape(len(self.elem_nodes), 2 * ns)
 
     def node(self, at) -> int:
         """Internal node index of a public location: 'start', 'end' or a public node index."""
@@ -96,7 +96,7 @@ def mesh_closed(m: Member, offset: int) -> MemberMesh:
     le = m.loop_length / n / stretch
     nodes = np.arange(n)
     return MemberMesh(m, offset, node_size(m.element), np.array(rows), np.c_[nodes, (nodes + 1) % n],
-                      np.full(n, le), nodes, [], nodes * le)
+                      np.full(n, le), nodes, [], nodes * le, m.length)
 
 
 def mesh_member(m: Member, offset: int) -> MemberMesh:
@@ -105,7 +105,8 @@ def mesh_member(m: Member, offset: int) -> MemberMesh:
     key = setup_cache.array_key(m.closed, m.points, m.elements, m.element, m.prestrain, m.y_axis, m.tangents,
                                 m.loop_length)
     g = setup_cache.cached("member_mesh", key, lambda: _mesh_member(m, 0))
-    return replace(g, member=m, offset=offset, vertex_pairs=list(g.vertex_pairs))
+    return MemberMesh(m, offset, g.node_size, g.x0, g.elem_nodes, g.elem_length, g.public_nodes,
+                      list(g.vertex_pairs), g.s_node, g.length)
 
 
 def _mesh_member(m: Member, offset: int) -> MemberMesh:
@@ -148,7 +149,7 @@ def _mesh_member(m: Member, offset: int) -> MemberMesh:
         first += share[k] + 1
     rows, elem_nodes, elem_len = np.vstack(rows), np.vstack(elem_nodes), np.concatenate(elem_len)
     public, s_nodes = np.concatenate(public), np.concatenate(s_nodes)
-    return MemberMesh(m, offset, ns, rows, elem_nodes, elem_len, public, pairs, s_nodes)
+    return MemberMesh(m, offset, ns, rows, elem_nodes, elem_len, public, pairs, s_nodes, m.length)
 
 
 def check_stretch(mesh: "Mesh", x: np.ndarray, what: str) -> None:
@@ -198,7 +199,7 @@ class Mesh:
     def length_scale(self) -> float:
         """The longest member's length [m]; in a scene of rigid bodies alone, their joints' reach (at least 1 m)."""
         if self.members:
-            return max(float(mm.member.length) for mm in self.members.values())
+            return max(float(mm.length) for mm in self.members.values())
         reach = [float(np.linalg.norm(j.point - self.scene.bodies[j.body].position)) for j in self.scene.body_joints]
         return max(reach + [1.0])
 

@@ -243,8 +243,8 @@ class Scene:
         if big > MAX_COORDINATE:
             raise fail(f"{at}.points", f"coordinates must lie within +-{MAX_COORDINATE:g} m (lengths and energies "
                        "would overflow); largest", big)
-        seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-        if np.any(seg <= 0):
+        d = pts[1:] - pts[:-1]
+        if np.any((d * d).sum(axis=1) <= 0):  # (a segment's length |d| = 0)
             raise fail(f"{at}.points", "must be distinct (a segment of length 0)", points)
         if isinstance(elements, bool) or not isinstance(elements, (int, np.integer)) or elements < 1:
             raise fail(f"{at}.elements", "must be a positive integer", elements)
@@ -633,3 +633,33 @@ class Scene:
             if not g & supported:
                 raise SceneError(f"member {name!r} has a free rigid-body motion: neither it nor a member joined to "
                                  "it has a support (clamp, pin)")
+
+
+# Fields whose values reach the equations only as element parameters of the stiffness kernels (inputs of the
+# compiled step graphs, ancf_sym.terms): E, G, poisson, I, Iy, Iz, J. A structure key leaves their values out (not
+# whether each is given). Gravity likewise (the gravity term's parameters), but for whether each component is zero.
+VALUE_FIELDS = {Material: frozenset(("E", "G", "poisson")), Section: frozenset(("I", "Iy", "Iz", "J"))}
+
+
+def structure_spec_key(scene: Scene) -> tuple | None:
+    """An exact key of the scene (every field of it, its members, supports, joints, loads and dampings) without
+    the values of VALUE_FIELDS and gravity's, so that scenes that differ only in those share set-up work that does
+    not read them (the reduced coordinates, mass matrix, kernel calls and compiled graphs of a dynamic run:
+    ancf_sym.dynamics.step_system). None where another part of the set-up reads those values: penalty supports
+    and joints (scaled by EA and EI), rigid bodies (their weight), contacts and drives (keyed by the full set-up)."""
+    if scene.contacts or scene.bodies or scene.body_joints or scene.drives or \
+            any(s.method != "exact" for s in scene.supports) or any(j.method != "exact" for j in scene.joints):
+        return None
+    from . import setup_cache  # (a leaf module; imported here to keep scene's imports to the checks)
+
+    def blank(obj: Any) -> Any:
+        names = VALUE_FIELDS.get(type(obj))
+        if names is None:
+            return obj
+        d = vars(obj)
+        return (type(obj), tuple(d)) + tuple(v is None if k in names else v for k, v in d.items())
+
+    members = [(name, type(m), tuple(vars(m)), [blank(v) for v in vars(m).values()])
+               for name, m in scene.members.items()]
+    rest = [(k, v) for k, v in vars(scene).items() if k not in ("members", "gravity")]
+    return setup_cache.array_key(type(scene), members, [bool(g != 0) for g in scene.gravity], rest)

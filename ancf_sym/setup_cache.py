@@ -22,21 +22,57 @@ _VALUES: dict = {}  # kind -> {key: value}
 _KEYS: dict = {}  # id(value) -> (value, kind, key): the key of a value this cache holds (key_of)
 
 
+_FLOATS = frozenset((float, np.float64, np.float32))
+_EXACT = frozenset((int, bool, np.int64, np.int32, np.bool_, bytes, type))
+
+
 def array_key(*xs: Any) -> tuple:
-    """An exact key of arrays, sparse matrices and scalars (arrays by dtype, shape and bytes)."""
+    """An exact key of arrays, sparse matrices, scalars and the containers and objects made of them: arrays by
+    dtype, shape and bytes, floats by their exact hex form (so -0.0 and 0.0 differ), every item tagged by its type
+    where a tag is needed to tell it from another (a str is itself; a float is (type, hex), an array (ndarray,
+    dtype, shape, bytes)), dicts and objects (dataclasses) by their type, names and values in their order, and a
+    value this cache holds by its own key (the exact inputs it was made of: no walk over what it holds). Equal keys
+    mean equal inputs; equal inputs in another order (a dict built otherwise) only miss. The one serialisation
+    behind every key here and the compiled graphs' structure key (ancf_sym.dynamics.graph_cache)."""
     out = []
+    add = out.append
     for x in xs:
-        if isinstance(x, np.ndarray):
-            out.append((x.dtype.str, x.shape, np.ascontiguousarray(x).tobytes()))
+        t = type(x)
+        if t is str or x is None:
+            add(x)
+        elif t in _FLOATS:
+            add((t, float.hex(float(x))))
+        elif t in _EXACT:
+            add((t, x))
+        elif t is tuple:
+            add(array_key(*x))
+        elif t is np.ndarray:
+            add((t, x.dtype.str, x.shape, np.ascontiguousarray(x).tobytes()))
+        elif (k := key_of(x)) is not None:
+            add(k)
+        elif t is list:
+            add(array_key(*x))
+        elif t is dict:
+            add((dict, tuple(x)) + array_key(*x.values()))
+        elif hasattr(t, "__dataclass_fields__") and hasattr(x, "__dict__"):
+            d = vars(x)
+            add((t, tuple(d)) + array_key(*d.values()))
         elif sp.issparse(x) and x.format in ("csr", "csc"):
-            out.append((x.format, x.shape) + array_key(x.indptr, x.indices, x.data))
+            add((t, x.shape) + array_key(x.indptr, x.indices, x.data))
         elif sp.issparse(x):  # (the stored entries as they are: a conversion could sum duplicates)
             x = x.tocoo()
-            out.append(("coo", x.shape) + array_key(x.row, x.col, x.data))
+            add((t, x.shape) + array_key(x.row, x.col, x.data))
+        elif isinstance(x, np.ndarray):
+            add(array_key(np.asarray(x)))
         elif isinstance(x, (tuple, list)):
-            out.append(array_key(*x))
+            add((t,) + array_key(*x))
+        elif isinstance(x, dict):
+            add((t, tuple(x)) + array_key(*x.values()))
+        elif hasattr(x, "__dict__") and not isinstance(x, type):
+            d = vars(x)
+            add((t, tuple(d)) + array_key(*d.values()))
         else:
-            out.append((type(x).__name__, x))
+            add((t, x))
     return tuple(out)
 
 

@@ -38,33 +38,38 @@ def _add(terms: dict, label, element, effect, gauss, idx_rows, p_rows):
 def member_terms(terms: dict, mm: MemberMesh, gravity: np.ndarray) -> None:
     m = mm.member
     idx, L = mm.elem_dofs(), mm.elem_length
-    one = np.ones_like(L)
+    idx.flags.writeable = False  # (shared by the member's terms)
     E, A, nu, sec = m.material.E, m.section.area, m.material.nu, m.section
     try:
         effects = stiffness_effects(m.element, m.axial, m.bending, m.torsion, m.beam_method)
     except SceneError as exc:
         raise SceneError(f"member {m.name!r}: {exc}") from None
+
+    def params(*values: float) -> np.ndarray:
+        """Per element (L, *values): the element's length, then the member's values."""
+        P = np.empty((len(L), 1 + len(values)))
+        P[:, 0] = L
+        P[:, 1:] = values
+        return P
     for label, effect in effects:
         if effect == "continuum":
             # St. Venant's torsion constant: the section's J, else that of the b x h rectangle
             J = sec.J if sec.J is not None else Section.rectangle(sec.b, sec.h).J
-            p = [L, sec.b * one, sec.h * one, E * one, nu * one, J * one]
+            p = params(sec.b, sec.h, E, nu, J)
         elif effect == "line_strain":
-            p = [L, sec.b * one, sec.h * one, E * one, nu * one]
+            p = params(sec.b, sec.h, E, nu)
         elif effect == "line_bending":
-            p = [L, E * sec.Iy * one, E * sec.Iz * one]
+            p = params(E * sec.Iy, E * sec.Iz)
         elif effect == "line_torsion":
-            p = [L, m.material.shear_modulus * sec.J * one]
+            p = params(m.material.shear_modulus * sec.J)
         elif effect == "bending":
-            p = [L, E * sec.bending_inertia * one]
+            p = params(E * sec.bending_inertia)
         else:  # a cable's axial strain measure
-            p = [L, E * A * one]
+            p = params(E * A)
         # (Scene.member checked the Gauss order against the effects; the continuum kernel has only its own)
-        _add(terms, label, m.element, effect, None if effect == "continuum" else m.gauss, idx, np.column_stack(p))
-    if m.gravity and np.any(gravity != 0):
-        rhoA = m.material.density * A
-        _add(terms, "gravity", m.element, "gravity", None, idx,
-             np.column_stack([L, rhoA * one, np.tile(gravity, (len(L), 1))]))
+        _add(terms, label, m.element, effect, None if effect == "continuum" else m.gauss, idx, p)
+    if m.gravity and any(gravity):
+        _add(terms, "gravity", m.element, "gravity", None, idx, params(m.material.density * A, *gravity))
 
 
 def distributed_term(terms: dict, mm: MemberMesh, f: np.ndarray) -> None:
@@ -117,6 +122,6 @@ def scene_terms(mesh: Mesh) -> list[Term]:
             moment_term(terms, mm, mm.node(load.at), load.value)
     contact.energy_terms(terms, mesh, _add)
     out = list(terms.values())
-    for t in out:
-        t.idx, t.P = np.concatenate(t.idx), np.concatenate(t.P)
+    for t in out:  # (a term of one member keeps its blocks: the terms of a member share its idx, read only)
+        t.idx, t.P = (t.idx[0], t.P[0]) if len(t.idx) == 1 else (np.concatenate(t.idx), np.concatenate(t.P))
     return out

@@ -19,10 +19,10 @@ from ancf_sym.constraints import _csr, _take_rows
 from ancf_sym.dynamics import DynamicOptions, StepSystem, clear_graph_cache, simulate
 from ancf_sym.reduced import partition
 
-BASE = dict(n=6, E=2e9, rho=7200.0, g=9.81, dt=1e-3, force=(0.0, -1.0), v0=0.0, support="pin")
-# one value changed at a time (the cache keys on E through nothing, on rho through the mass matrix, on the support
-# through the constraints and the partition; dt, loads and the initial state are run inputs)
-VARIANTS = {"base": {}, "E": dict(E=4e9), "dt": dict(dt=5e-4), "gravity": dict(g=5.0),
+BASE = dict(n=6, E=2e9, I=1e-9, rho=7200.0, g=9.81, dt=1e-3, force=(0.0, -1.0), v0=0.0, support="pin")
+# one value changed at a time (the cache keys on E and I through nothing, on rho through the mass matrix, on the
+# support through the constraints and the partition; dt, loads and the initial state are run inputs)
+VARIANTS = {"base": {}, "E": dict(E=4e9), "I": dict(I=3e-9), "dt": dict(dt=5e-4), "gravity": dict(g=5.0),
             "force": dict(force=(0.5, -2.0)), "v0": dict(v0=0.2), "density": dict(rho=2000.0),
             "support": dict(support="clamp")}
 
@@ -32,7 +32,7 @@ def run_variant(name: str) -> dict:
     c = dict(BASE, **VARIANTS[name])
     s = Scene(dim=2, gravity=(0.0, -c["g"]))
     s.member("m", [(0.0, 0.0), (1.0, 0.0)], c["n"], Material(E=c["E"], density=c["rho"]),
-             Section(area=1e-4, I=1e-9), axial="biot")
+             Section(area=1e-4, I=c["I"]), axial="biot")
     (s.clamp if c["support"] == "clamp" else s.pin)("m", "start")
     s.force("m", "end", c["force"])
     asm = Assembly(s)
@@ -94,7 +94,7 @@ def test_second_runs_with_other_values_equal_fresh_first_runs(tmp_path):
             assert w[name][k] == fresh[name][k], (name, k)
         if name != "base":
             assert not np.array_equal(w[name]["tip"], base["tip"]), name
-    for name in ("E", "dt", "gravity", "force", "v0"):
+    for name in ("E", "I", "dt", "gravity", "force", "v0"):
         assert w[name]["mass_cached"] and w[name]["mass_id"] == base["mass_id"], name
         assert w[name]["graph_key"] == base["graph_key"], name  # the compiled graphs reused too
     for name in ("density", "support"):
@@ -152,3 +152,58 @@ def test_constraint_rows_built_directly_equal_scipys_conversion():
         B, C = _take_rows(A, rows), A[rows]
         assert B.shape == C.shape and np.array_equal(B.indptr, C.indptr)
         assert np.array_equal(B.indices, C.indices) and np.array_equal(B.data, C.data)
+
+
+def _same(a, b) -> bool:
+    """Equal to the last bit: arrays (dtype, shape, bytes), sparse matrices, objects field by field, containers."""
+    if sp.issparse(a) or sp.issparse(b):
+        return type(a) is type(b) and _same((a.shape, a.indptr, a.indices, a.data), (b.shape, b.indptr, b.indices, b.data))
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return (isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and a.dtype == b.dtype and a.shape == b.shape
+                and a.tobytes() == b.tobytes())
+    if isinstance(a, (list, tuple)):
+        return type(a) is type(b) and len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+    if isinstance(a, float):
+        return type(b) is float and a.hex() == b.hex()
+    if hasattr(a, "__dict__") and not isinstance(a, type):
+        return type(a) is type(b) and vars(a).keys() == vars(b).keys() and \
+            all(_same(v, vars(b)[k]) for k, v in vars(a).items())
+    return type(a) is type(b) and a == b
+
+
+def _system(n=6, E=2e9, I=1e-9, rho=7200.0, g=9.81, support="pin", axial="biot", method="exact"):
+    s = Scene(dim=2, gravity=(0.0, -g))
+    s.member("m", [(0.0, 0.0), (1.0, 0.0)], n, Material(E=E, density=rho), Section(area=1e-4, I=I), axial=axial)
+    (s.clamp if support == "clamp" else s.pin)("m", "start", method=method)
+    s.force("m", "end", (0.0, -1.0))
+    return StepSystem.for_scene(Assembly(s))
+
+
+def test_systems_built_on_a_kept_structure_equal_fresh_ones():
+    """A step system whose structure (reduced coordinates, mass matrix, kernel calls, scales, compiled graphs' key)
+    comes from an earlier scene that differs only in element stiffness (E, I) or gravity's magnitude has every
+    attribute of one built in a cleared process, to the last bit (exact keys of both compared), and the structure
+    key computed anew equals the kept one: the values it leaves out reach the run only as graph inputs. The kept
+    structure is used (the same partition object), and scenes that differ in structure (element count, support,
+    axial strain, density, gravity switched off) or read the stiffness elsewhere (penalty supports) do not share it."""
+    from ancf_sym.dynamics.graph_cache import structure_key
+    attrs = [k for k in StepSystem._STRUCTURE_ATTRS if k != "graph_key"] + \
+        ["f_lin", "f_lin_full", "par", "lin", "_lin_energy", "force_terms"]
+    for variant in (dict(E=3e9), dict(I=2e-9), dict(g=5.0), dict(E=5e9, I=4e-9, g=20.0)):
+        clear_graph_cache()
+        base = _system()
+        warm = _system(**variant)
+        assert warm.part is base.part and warm.graph_key == base.graph_key, variant
+        clear_graph_cache()
+        fresh = _system(**variant)
+        for k in attrs:
+            assert _same(getattr(warm, k), getattr(fresh, k)), (variant, k)
+        clear_graph_cache()  # (neither's pieces in the cache: both keys walk their contents)
+        assert structure_key(warm) == structure_key(fresh)
+        assert not np.array_equal(warm.par, base.par) or not np.array_equal(warm.f_lin, base.f_lin)
+    clear_graph_cache()
+    base = _system()
+    for variant in (dict(n=7), dict(support="clamp"), dict(axial="green"), dict(rho=2000.0), dict(g=0.0)):
+        other = _system(**variant)
+        assert other.asm.spec_key != base.asm.spec_key and other.graph_key != base.graph_key, variant
+    assert _system(method="penalty").asm.spec_key is None  # (EA, EI scale the penalty rows)

@@ -2,30 +2,34 @@
 
 A StepSystem's graphs bake in the pattern of the equations (elements, kernels, gathers, sparsity) and a few values
 (mass matrix, fixed coordinates, damping, penalties, constraints, scales); element parameters (E, section, lengths),
-constant and time loads, the step size and the initial state are inputs. `structure_key` hashes what is baked in,
+constant and time loads, the step size and the initial state are inputs. `structure_key` is an exact key of what is baked in,
 so runs that differ only in the inputs share the graphs (and the integrators' step and chunk functions, and the
 buffers those allocate).
 """
 from __future__ import annotations
 
-import hashlib
-import weakref
+import itertools
 from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
-import scipy.sparse as sp
 
 from .. import contact, setup_cache
-from ..assembly import MAPPED_CALLS
+from ..casadi_buffers import pooled
+from ..assembly import MAPPED_CALLS, clear_kernel_buffers
 
 if TYPE_CHECKING:
     from .step_system import StepSystem
 
-# structure key -> the StepSystem's compiled functions (and the in-graph factor, buffers)
+# structure id (structure_id: a number per exact structure key) -> the StepSystem's compiled functions (and the
+# in-graph factor, buffers)
 SYSTEM_GRAPHS: dict = {}
-# (structure key, scheme, Newton options, in-graph factor, further iterations) -> alpha step and chunk functions
+_STRUCTURE_IDS: dict = {}
+_NEXT_ID = itertools.count()
+# (structure id, scheme, Newton options, in-graph factor, further iterations) -> alpha step and chunk functions
 ALPHA_GRAPHS: dict = {}
+# (scene structure spec, damping, options) -> a StepSystem's structural attributes (StepSystem._STRUCTURE_ATTRS)
+STEP_TEMPLATES: dict = {}
 # functions that depend on no scene (the alpha steps' scalar Newton logic, by options): built once per process,
 # like the kernels they sit between, and kept by clear_graph_cache
 SCHEME_FUNCTIONS: dict = {}
@@ -35,65 +39,57 @@ def clear_graph_cache() -> None:
     """Forget the compiled step graphs and the cached numeric set-up (ancf_sym.setup_cache) of this process (the
     next run of every structure builds them again; the scene-independent SCHEME_FUNCTIONS stay)."""
     SYSTEM_GRAPHS.clear()
+    STEP_TEMPLATES.clear()
+    _STRUCTURE_IDS.clear()
     ALPHA_GRAPHS.clear()
     MAPPED_CALLS.clear()
+    clear_kernel_buffers()
     setup_cache.clear()
 
 
-_SCALARS = frozenset((str, int, float, bool, type(None), np.float64, np.int64, np.bool_))
+def structure_id(S: "StepSystem") -> int:
+    """The number of the system's structure (structure_key) in this process: the key of SYSTEM_GRAPHS and
+    ALPHA_GRAPHS (numbers are never reused, also after clear_graph_cache: a system kept from before refers to no
+    later structure's graphs)."""
+    key = structure_key(S)
+    sid = _STRUCTURE_IDS.get(key)
+    if sid is None:
+        sid = _STRUCTURE_IDS[key] = next(_NEXT_ID)
+    return sid
 
 
-def structure_key(S: "StepSystem") -> str:
+def structure_key(S: "StepSystem") -> tuple:
     """What the compiled graphs bake in: the pattern of the equations (elements, kernels, gathers, sparsity),
     and the values that are constants of the graphs (mass matrix, fixed coordinates, Rayleigh and strain-rate
     damping, penalties, constraints, scales). Element parameters (E, section, lengths), constant and time
-    loads, the step size and the initial state are inputs: runs that differ only in those share the graphs."""
-    h = hashlib.sha256()
-    upd = h.update
+    loads, the step size and the initial state are inputs: runs that differ only in those share the graphs.
 
-    def add(*xs):  # (the exact scalar types and arrays first: most items are those)
-        for x in xs:
-            t = type(x)
-            if t in _SCALARS:
-                upd(repr(x).encode())
-            elif t is np.ndarray:
-                upd(repr((x.dtype.str, x.shape)).encode())
-                upd(np.ascontiguousarray(x).tobytes())
-            elif isinstance(x, (list, tuple)):
-                upd(b"[")
-                add(*x)
-                upd(b"]")
-            elif isinstance(x, dict):
-                add(*sorted(x.items(), key=lambda kv: repr(kv[0])))
-            elif sp.issparse(x):
-                x = x if x.format == "csc" else x.tocsc()
-                add(x.shape, x.indptr, x.indices, x.data)
-            elif isinstance(x, np.ndarray):
-                add(np.asarray(x))
-            elif hasattr(x, "__dict__") and not isinstance(x, type):
-                add(type(x).__name__, dict(vars(x)))
-            else:
-                upd(repr(x).encode())
-    asm = S.asm
-    add(asm.n, S.nf, S.mc, S.linsol, S.fuse, S._gather, S.part.c, S.M, S.span,
-        S.length_scale, bool(np.any(asm.Q)), [lbl for *_, lbl in S._lin_energy])
-    add([(ft.element, ft.effect, ft.gauss, ft.idx, ft.P.shape, ft.labels, ft.sources) for ft in S.force_terms])
-    add([(mk.term.element, mk.term.effect, mk.term.gauss, mk.term.idx, mk.P.shape, mk.term.label)
-         for mk in S.nonlinear])
-    r = S.rayleigh
-    add(None if r is None else (r.alpha, r.beta, {k: np.asarray(v, float) for k, v in r.element_weight.items()}))
-    add(S.strain_rate, asm.penalty, S.cons)
-    add(contact.dissipation_calls(asm.mesh))  # contact damping/friction: parameters baked into the graph
-    d = S.drives  # drive rows' pattern (their time functions are inputs)
-    add(None if d is None else (d.nw, d.row, d.wk, d.i, d.j, d.coef, d.torques))
-    return h.hexdigest()
+    An exact key (ancf_sym.setup_cache.array_key: the inputs themselves, no digest): the partition, the reduced
+    mass matrix and the kernel calls come from the set-up cache and stand in by their own keys (the exact inputs
+    they were made of: the constraint rows, the mass inputs, every nonlinear term's elements, coordinates and
+    lengths), so a second run of a structure walks none of their arrays."""
+    asm, r, d = S.asm, S.rayleigh, S.drives
+    return setup_cache.array_key(
+        asm.n, S.nf, S.mc, S.linsol, S.fuse, S.part, S.M, S.span, S.length_scale, bool(np.any(asm.Q)),
+        [lbl for *_, lbl in S._lin_energy], S.force_calls, [ft.P.shape for ft in S.force_terms],
+        [mk.P.shape for mk in S.nonlinear],
+        None if r is None else (r.alpha, r.beta, {k: np.asarray(v, float) for k, v in r.element_weight.items()}),
+        S.strain_rate, asm.penalty, S.cons,
+        contact.dissipation_calls(asm.mesh),  # contact damping/friction: parameters baked into the graph
+        None if d is None else (d.nw, d.row, d.wk, d.i, d.j, d.coef, d.torques))  # drive rows' pattern (their
+    # time functions are inputs)
+
+
+def keep_template(key: tuple, attrs: dict) -> None:
+    """Keep a StepSystem's structural attributes for the systems of the same structure spec (at most
+    setup_cache.LIMIT structures: a sweep over many starts again)."""
+    if len(STEP_TEMPLATES) >= setup_cache.LIMIT:
+        STEP_TEMPLATES.clear()
+    STEP_TEMPLATES[key] = attrs
 
 
 def pooled_buffer(graphs: dict, key, f: ca.Function, owner) -> tuple:
     """f.buffer() from the structure's pool (a buffer of a large graph takes ~10 ms to allocate at 1000 elements:
     a second run of the structure reuses the buffer of a finished run); it returns to the pool when `owner` is
     collected. The caller binds every argument and result anew."""
-    pool = graphs.setdefault("buffers", {}).setdefault(key, [])
-    be = pool.pop() if pool else f.buffer()
-    weakref.finalize(owner, pool.append, be)
-    return be
+    return pooled(graphs.setdefault("buffers", {}).setdefault(key, []), f, owner)

@@ -22,8 +22,8 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from .. import contact, drives
-from ..assembly import Assembly, force_terms
+from .. import contact, drives, setup_cache
+from ..assembly import Assembly, force_term_calls, force_terms_of
 from ..casadi_buffers import bind
 from ..reduced import full_mx, partition, reduce_shared
 from ..sparsity import dm, hessian_entries, kron_identity_factor, kron_product_mx, mx_nonzeros
@@ -31,7 +31,7 @@ from . import band, damping
 from .band import BandLayout, band_layout_csc
 from .damping import RayleighData, StrainRateData
 from .forces import band_force_graph, build_force_graphs, gradient_graph
-from .graph_cache import SYSTEM_GRAPHS, pooled_buffer, structure_key
+from .graph_cache import STEP_TEMPLATES, SYSTEM_GRAPHS, keep_template, pooled_buffer, structure_id
 from .ldl import LDLFactor, build_ldl
 from ..mx_ops import add, fabs, mul, neg
 
@@ -58,57 +58,21 @@ class StepSystem:
         self.asm = asm
         self.fuse = fuse  # axial + bending of a cable in one kernel call (False: one call per term, for tests)
         self.strain_rate = strain_rate
-        self.part = part = partition(asm)
-        n = asm.n
-        nf = part.ny
-        self.nf = nf
-        self.pos = part.pos
-        self._gather = np.where(part.pos >= 0, part.pos, nf)  # full coordinate k = ext[_gather[k]], ext[nf] = 0
-        self.E = part.E
-        self.cons = asm.exact.subset(part.rows) if len(part.rows) else None
-        self.mc = self.cons.m if self.cons is not None else 0
-        # drives and torques: rows and forces whose time functions w(t) are per-step inputs, appended to the step's
-        # constant vector p (and to the integrators' pload): p = [p (nf); w (nw)]
-        self.drives = drives.build(asm)
-        self.nw = self.drives.nw if self.drives is not None else 0
-        if self.drives is not None:
-            drives.check_free(self.drives, part.pos)
-            self.mc += self.drives.m
         self.rayleigh = rayleigh if (rayleigh is not None and (rayleigh.alpha or rayleigh.beta)) else None
-        # sparse LDL^T without pivoting for the symmetric positive definite step matrix; sparse QR when multipliers
-        # make the KKT matrix indefinite (LDL^T meets zero pivots) or strain-rate damping makes it unsymmetric
-        # (d f_d / dq; LDL^T reads one triangle)
-        # (contact friction likewise: d f / d q is unsymmetric)
-        unsym = strain_rate is not None or bool(contact.dissipation_calls(asm.mesh)) or \
-            bool(self.drives is not None and self.drives.torques)  # (a torque's tangent is skew)
-        self.linsol = linsol if linsol != "auto" else ("qr" if (self.mc or unsym) else "ldl")
-
-        M = asm.mass_matrix().tocsc()
-        self.M_full = M
-        self.M = reduce_shared(part, M)
-
-        # linear terms: constant generalized force (gravity, distributed dead loads, point loads)
-        self.nonlinear = [mk for mk in asm.mapped if not mk.linear]
-        f_lin = asm.constant_force()  # (evaluates the linear terms at x0: their G and E below)
-        # U_lin(x) = c + G.x (gradient constant), for the energy outputs
-        self._lin_energy = [(mk.term.idx.ravel().copy(), mk.G.ravel().copy(),
-                             float(mk.E.sum()) - float(mk.G.ravel() @ asm.x0[mk.term.idx.ravel()]), mk.term.label)
-                            for mk in asm.mapped if mk.linear]
-        self.f_lin_full = f_lin
-        self.f_lin = part.reduce_vector(f_lin)
-        self.length_scale = asm.mesh.length_scale
-        self.span = float(np.max(np.abs(asm.x0))) + 1.0
-        # the kernel calls: a cable's axial and bending terms fused into one elastic_<strain> kernel where both
-        # are on (same elements, Gauss order and Rayleigh weight): one B^T f_uu B per point instead of two
-        weights = self.rayleigh.element_weight if (self.rayleigh is not None and self.rayleigh.beta) else {}
-        self.force_terms = force_terms([mk.term for mk in self.nonlinear], fuse=self.fuse, row_keys=weights)
-        # values that are inputs of the compiled graphs (not baked in): the kernels' element parameters (material,
-        # section, lengths) and the linear potentials' coefficients (gravity, dead loads) of the energy outputs
-        self.par = np.concatenate([ft.P.ravel() for ft in self.force_terms] +
-                                  [mk.P.ravel() for mk in self.nonlinear] + [np.zeros(0)])
-        self.lin = np.concatenate([np.bincount(idx, G, minlength=n) for idx, G, _, _ in self._lin_energy] +
-                                  [np.array([c for _, _, c, _ in self._lin_energy]), asm.Q])
-        self.graph_key = structure_key(self)
+        # the structure (what reads no element stiffness and no gravity) of an earlier system of a scene that differs
+        # only in those (ancf_sym.scene.structure_spec_key) and has the same damping and options; else built here
+        key = None if asm.spec_key is None else \
+            (asm.spec_key, setup_cache.array_key(self.rayleigh, strain_rate, linsol, fuse))
+        template = STEP_TEMPLATES.get(key) if key is not None else None
+        if template is not None:
+            self.__dict__.update(template)
+        else:
+            self._structure(asm, linsol)
+        self._values(asm)
+        if template is None:
+            self.graph_key = structure_id(self)
+            if key is not None:
+                keep_template(key, {k: self.__dict__[k] for k in self._STRUCTURE_ATTRS})
         graphs = SYSTEM_GRAPHS.get(self.graph_key)
         if graphs is None:
             self._graphs = graphs = {}
@@ -124,6 +88,66 @@ class StepSystem:
                 setattr(self, k, graphs[k])
         self._graphs = graphs
         self._setup_buffers(self.kel_sparsity is not None)
+
+    # what `_structure` sets (and structure_key from them): shared by the systems of one structure spec
+    _STRUCTURE_ATTRS = ("part", "nf", "pos", "_gather", "E", "cons", "mc", "drives", "nw", "linsol", "M_full", "M",
+                        "length_scale", "span", "force_calls", "graph_key")
+
+    def _structure(self, asm: Assembly, linsol: str) -> None:
+        """The reduced coordinates, kept constraint rows, drives, linear solver, mass matrix, scales and kernel calls:
+        what the scene's element stiffnesses and gravity do not change."""
+        self.part = part = partition(asm)
+        nf = part.ny
+        self.nf = nf
+        self.pos = part.pos
+        self._gather = np.where(part.pos >= 0, part.pos, nf)  # full coordinate k = ext[_gather[k]], ext[nf] = 0
+        self.E = part.E
+        self.cons = asm.exact.subset(part.rows) if len(part.rows) else None
+        self.mc = self.cons.m if self.cons is not None else 0
+        # drives and torques: rows and forces whose time functions w(t) are per-step inputs, appended to the step's
+        # constant vector p (and to the integrators' pload): p = [p (nf); w (nw)]
+        self.drives = drives.build(asm)
+        self.nw = self.drives.nw if self.drives is not None else 0
+        if self.drives is not None:
+            drives.check_free(self.drives, part.pos)
+            self.mc += self.drives.m
+        # sparse LDL^T without pivoting for the symmetric positive definite step matrix; sparse QR when multipliers
+        # make the KKT matrix indefinite (LDL^T meets zero pivots) or strain-rate damping makes it unsymmetric
+        # (d f_d / dq; LDL^T reads one triangle)
+        # (contact friction likewise: d f / d q is unsymmetric)
+        unsym = self.strain_rate is not None or bool(contact.dissipation_calls(asm.mesh)) or \
+            bool(self.drives is not None and self.drives.torques)  # (a torque's tangent is skew)
+        self.linsol = linsol if linsol != "auto" else ("qr" if (self.mc or unsym) else "ldl")
+        M = asm.mass_matrix().tocsc()
+        self.M_full = M
+        self.M = reduce_shared(part, M)
+        self.length_scale = asm.mesh.length_scale
+        self.span = float(np.max(np.abs(asm.x0))) + 1.0
+        # the kernel calls: a cable's axial and bending terms fused into one elastic_<strain> kernel where both
+        # are on (same elements, Gauss order and Rayleigh weight): one B^T f_uu B per point instead of two
+        weights = self.rayleigh.element_weight if (self.rayleigh is not None and self.rayleigh.beta) else {}
+        terms = [mk.term for mk in asm.mapped if not mk.linear]
+        self.force_calls = force_term_calls(terms, fuse=self.fuse, row_keys=weights)  # (set-up cache: its key)
+
+    def _values(self, asm: Assembly) -> None:
+        """What the element stiffnesses, gravity and loads give: the constant force of the linear terms, their
+        energies' coefficients, the kernels' parameters (inputs of the compiled graphs, not baked in)."""
+        # linear terms: constant generalized force (gravity, distributed dead loads, point loads)
+        self.nonlinear = [mk for mk in asm.mapped if not mk.linear]
+        grads: list = []
+        f_lin = asm.constant_force(grads)  # (evaluates the linear terms at x0: their G and E below)
+        # U_lin(x) = c + G.x (gradient constant), for the energy outputs
+        self._lin_energy = [(mk.term.idx.ravel().copy(), mk.G.ravel().copy(),
+                             float(mk.E.sum()) - float(mk.G.ravel() @ asm.x0[mk.term.idx.ravel()]), mk.term.label)
+                            for mk in asm.mapped if mk.linear]
+        self.f_lin_full = f_lin
+        self.f_lin = self.part.reduce_vector(f_lin)
+        self.force_terms = force_terms_of(self.force_calls, [mk.term for mk in self.nonlinear])
+        # values that are inputs of the compiled graphs (not baked in): the kernels' element parameters (material,
+        # section, lengths) and the linear potentials' coefficients (gravity, dead loads) of the energy outputs
+        self.par = np.concatenate([ft.P.ravel() for ft in self.force_terms] +
+                                  [mk.P.ravel() for mk in self.nonlinear] + [np.zeros(0)])
+        self.lin = np.concatenate(grads + [np.array([c for _, _, c, _ in self._lin_energy]), asm.Q])
 
     @classmethod
     def for_scene(cls, asm: Assembly, **kw) -> "StepSystem":
