@@ -16,6 +16,7 @@ import numpy as np
 
 from .. import kernels
 from ..assembly import map_elements
+from ..mx_ops import add, mul, neg
 from ..sparsity import assemble_mx, elements_key, gather_sum, group_calls, hessian_entries, mx_nonzeros, scatter
 from .band import PAD_PIVOT
 
@@ -168,10 +169,10 @@ def _energy_graph(S: "StepSystem", xf: ca.MX, par: ca.MX, x: ca.MX, Pmk: list, s
     lin = ca.MX.sym("lin", S.lin.size)
     n, k = asm.n, len(S._lin_energy)
     for j, (_, _, _, label) in enumerate(S._lin_energy):
-        elist.append((label, lin[k * n + j] + ca.dot(lin[j * n:(j + 1) * n], x)))
+        elist.append((label, add(lin[k * n + j], ca.dot(lin[j * n:(j + 1) * n], x))))
     if np.any(asm.Q):
-        elist.append(("loads", -ca.dot(lin[k * n + k:], x)))
+        elist.append(("loads", neg(ca.dot(lin[k * n + k:], x))))
     S._energy_kin_labels = [lbl for lbl, _ in elist]
     vf = ca.MX.sym("v", nf)
     S._energy_kin_f = ca.Function("energies_kinetic", [xf, vf, par, lin], [
-        ca.vertcat(*[e for _, e in elist], 0.5 * ca.dot(vf, S.mass_mx(vf)))])
+        ca.vertcat(*[e for _, e in elist], mul(0.5, ca.dot(vf, S.mass_mx(vf))))])
