@@ -140,10 +140,10 @@ class AlphaStepGraphs:
         def lte(x):
             return _mul(k["lte"], ca.norm_inf(_sub(_add(_mul(cm, _sub(x, qh)), k0), a)))
 
-        def block(x):  # q, v, a, ab of the new state and a_prev
+        def block(x):  # q, v, a, ab of the new state and a_prev (parts of the state's one concatenation)
             d = _sub(x, qh)
             ab1 = _div(d, k["bhh"])
-            return ca.vertcat(x, _add(vh, _mul(k["hg"], ab1)), _add(_mul(cm, d), k0), ab1, a)
+            return [x, _add(vh, _mul(k["hg"], ab1)), _add(_mul(cm, d), k0), ab1, a]
 
         return dict(x0=x0, p=pload, y=y, cm=cm, cc=k["cc"], kc=kc, vc=vc, lte=lte, block=block)
 
@@ -284,7 +284,7 @@ class AlphaStepGraphs:
         x2, l2, ctl_new, info = ca.Function.conditional("second_iteration", [f_keep], f_second)(
             second, x1, *([l1] if mc else []), p, cm, cc, kc, vc, *extra, y, par, ctl, n0, a1, lte, tols, ctl1,
             info1)
-        new_state = ca.vertcat(c["block"](x2), _mul(l2, kc) if mc else l2, ctl_new)
+        new_state = ca.vertcat(*c["block"](x2), _mul(l2, kc) if mc else l2, ctl_new)
         return self.make_step_f([st], col, [new_state], info)
 
     # carried control vector of the modified step (SX functions between the iterations)
@@ -407,7 +407,7 @@ class AlphaStepGraphs:
             x, Dk, Uk, UTk, n = slot(cv[cf["mode"]], x, Dk, Uk, UTk, p, cm, cc, vc, *extra, y, par)
             cv = (cf["second"] if k == 1 else cf["later"])(cv, n)
         ctl_new, info = cf["final"](ctl, cv, c["lte"](x), h)
-        new_state = ca.vertcat(c["block"](x), lam, ctl_new)
+        new_state = ca.vertcat(*c["block"](x), lam, ctl_new)
         return self.make_step_f([st, D0, U0, UT0], col, [new_state, Dk, Uk, UTk], info)
 
     def make_step_f(self, accum_in, col, accum_out, info) -> ca.Function:
