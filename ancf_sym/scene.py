@@ -19,6 +19,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from . import setup_cache
 from .checks import SceneError, check_fields, fail, number, vector
 from .member_effects import AXIAL  # noqa: F401  (public name: ancf_sym.scene.AXIAL)
 from .member_effects import AXIAL_STRAINS, BEAM_METHODS, axial_strain, gauss_orders, stiffness_effects
@@ -650,8 +651,6 @@ def structure_spec_key(scene: Scene) -> tuple | None:
     if scene.contacts or scene.bodies or scene.body_joints or scene.drives or \
             any(s.method != "exact" for s in scene.supports) or any(j.method != "exact" for j in scene.joints):
         return None
-    from . import setup_cache  # (a leaf module; imported here to keep scene's imports to the checks)
-
     def blank(obj: Any) -> Any:
         names = VALUE_FIELDS.get(type(obj))
         if names is None:

@@ -102,15 +102,24 @@ class AlphaIntegrator:
         return out
 
     def _setup_step_buffers(self) -> None:
-        S, nf = self.S, self.S.nf
-        self._s_in, self._s_out, self._info = np.zeros(self.state_size), np.zeros(self.state_size), \
-            np.zeros(self.info_size)
-        self._f_out = [np.zeros(k) for k in self.fac_sizes]
-        self._h, self._hp, self._pload, self._tols = np.zeros(1), np.zeros(1), np.zeros(nf + S.nw), np.zeros(2)
+        S, nf, nfac = self.S, self.S.nf, len(self.fac_sizes)
+        be = pooled_buffer(self._graphs, "step", self.step_f, self)
+        kept = getattr(be[0], "bound_arrays", None)
+        if kept is not None:  # a finished integrator's arrays, zeroed (as new ones); the factor, kel, par rebound
+            (self._s_in, *_), (self._s_out, *outs) = kept
+            self._h, self._hp, self._pload, self._tols = kept[0][1 + nfac:5 + nfac]
+            self._f_out, self._info = outs[:nfac], outs[nfac]
+            for a in [self._s_in, self._s_out, self._info, self._h, self._hp, self._pload, self._tols] + self._f_out:
+                a[:] = 0.0
+        else:
+            self._s_in, self._s_out, self._info = np.zeros(self.state_size), np.zeros(self.state_size), \
+                np.zeros(self.info_size)
+            self._f_out = [np.zeros(k) for k in self.fac_sizes]
+            self._h, self._hp, self._pload, self._tols = np.zeros(1), np.zeros(1), np.zeros(nf + S.nw), np.zeros(2)
         args = [self._s_in] + self.fac + [self._h, self._hp, self._pload, self._tols] + \
             ([S.kel] if S.kel is not None else []) + [S.par]
         outs = [self._s_out] + self._f_out + [self._info]
-        buf, ev = bind(self.step_f, args, outs, pooled_buffer(self._graphs, "step", self.step_f, self))
+        buf, ev = bind(self.step_f, args, outs, be)
         self._step = (buf, ev, args, outs)
 
     def initialize(self, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray, t0: float = 0.0) -> None:
@@ -272,15 +281,24 @@ class AlphaIntegrator:
             f = g["chunks"][n, guard]
             nf = self.S.nf
             ns = self.state_size + guard
-            bufs = dict(s=np.zeros(ns), h=np.zeros(n), hp=np.zeros(n), pload=np.zeros((nf + self.S.nw) * n),
-                        tols=np.zeros(2 * n), out=np.zeros(ns * n), info=np.zeros(self.info_size * n),
-                        fac_out=[np.zeros(k * n) for k in self.fac_sizes], guard=guard, ones=np.ones(ns - guard))
             S = self.S
-            args = [bufs["s"]] + self.fac + [bufs["h"], bufs["hp"], bufs["pload"], bufs["tols"]] + \
-                ([np.tile(S.kel, n)] if S.kel is not None else []) + [np.tile(S.par, n)]
-            bufs["fixed"] = args[-1 - (S.kel is not None):]  # (kept alive: the buffer holds their memory)
+            be = pooled_buffer(g, (n, guard), f, self)
+            bufs = getattr(be[0], "chunk_arrays", None)
+            if bufs is not None:  # a finished integrator's arrays, zeroed (as new ones); the fixed inputs rewritten
+                for a in [bufs[k] for k in ("s", "h", "hp", "pload", "tols", "out", "info")] + bufs["fac_out"]:
+                    a[:] = 0.0
+                bufs["pload_from"] = None
+                for a, v in zip(bufs["fixed"], ([S.kel] if S.kel is not None else []) + [S.par]):
+                    a.reshape(n, -1)[:] = v  # (np.tile(v, n), in place)
+            else:
+                bufs = dict(s=np.zeros(ns), h=np.zeros(n), hp=np.zeros(n), pload=np.zeros((nf + self.S.nw) * n),
+                            tols=np.zeros(2 * n), out=np.zeros(ns * n), info=np.zeros(self.info_size * n),
+                            fac_out=[np.zeros(k * n) for k in self.fac_sizes], guard=guard, ones=np.ones(ns - guard),
+                            fixed=([np.tile(S.kel, n)] if S.kel is not None else []) + [np.tile(S.par, n)])
+                be[0].chunk_arrays = bufs  # (with the buffer in the pool, for the next integrator)
+            args = [bufs["s"]] + self.fac + [bufs["h"], bufs["hp"], bufs["pload"], bufs["tols"]] + bufs["fixed"]
             outs = [bufs["out"]] + bufs["fac_out"] + [bufs["info"]]
-            buf, ev = bind(f, args, outs, pooled_buffer(g, (n, guard), f, self))
+            buf, ev = bind(f, args, outs, be)
             self._chunks[n, guard] = (buf, ev, bufs)
         return self._chunks[n, guard]
 
