@@ -102,22 +102,23 @@ class AlphaIntegrator:
         return out
 
     def _setup_step_buffers(self) -> None:
-        S, nf, nfac = self.S, self.S.nf, len(self.fac_sizes)
+        S, nfac = self.S, len(self.fac_sizes)
+        lay = self._layout = AlphaStepGraphs.column_layout(S)
         be = pooled_buffer(self._graphs, "step", self.step_f, self)
         kept = getattr(be[0], "bound_arrays", None)
-        if kept is not None:  # a finished integrator's arrays, zeroed (as new ones); the factor, kel, par rebound
-            (self._s_in, *_), (self._s_out, *outs) = kept
-            self._h, self._hp, self._pload, self._tols = kept[0][1 + nfac:5 + nfac]
+        if kept is not None:  # a finished integrator's arrays (zeroed: as new ones); its factor arrays not
+            self._s_in, self._col = kept[0][0], kept[0][-1]
+            self._s_out, *outs = kept[1]
             self._f_out, self._info = outs[:nfac], outs[nfac]
-            for a in [self._s_in, self._s_out, self._info, self._h, self._hp, self._pload, self._tols] + self._f_out:
+            for a in [self._s_in, self._col, self._s_out, self._info] + self._f_out:
                 a[:] = 0.0
         else:
             self._s_in, self._s_out, self._info = np.zeros(self.state_size), np.zeros(self.state_size), \
                 np.zeros(self.info_size)
             self._f_out = [np.zeros(k) for k in self.fac_sizes]
-            self._h, self._hp, self._pload, self._tols = np.zeros(1), np.zeros(1), np.zeros(nf + S.nw), np.zeros(2)
-        args = [self._s_in] + self.fac + [self._h, self._hp, self._pload, self._tols] + \
-            ([S.kel] if S.kel is not None else []) + [S.par]
+            self._col = np.zeros(lay["size"])  # the step's inputs h, h_prev, tols, pload, kel, par (views below)
+        self._h, self._hp, self._tols, self._pload = (self._col[lay[k]] for k in ("h", "hp", "tols", "pload"))
+        args = [self._s_in] + self.fac + [self._col]
         outs = [self._s_out] + self._f_out + [self._info]
         buf, ev = bind(self.step_f, args, outs, be)
         self._step = (buf, ev, args, outs)
@@ -155,6 +156,7 @@ class AlphaIntegrator:
             self._hp[0] = self.h_prev if self.h_prev else 0.0
             self._pload[:] = pload
             self._tols[:] = self.tol_q, self.tol_x
+            self._system_inputs(self._col)
             self._step[1]()
             info = self._info
             k = self._count(info[1], info[2])
@@ -197,6 +199,13 @@ class AlphaIntegrator:
         for dst, src in zip(self._new_fac, self.fac):
             dst[:] = src
         return StepOutcome(True, out.iterations)
+
+    def _system_inputs(self, cols: np.ndarray) -> None:
+        """The system's kel (updated along damped runs) and par into the step input column(s) (rows of cols)."""
+        S, lay = self.S, self._layout
+        if S.kel is not None:
+            cols[..., lay["kel"]] = S.kel
+        cols[..., lay["par"]] = S.par
 
     def _count(self, iterations: float, factorizations: float) -> int:
         """Book a step's (or chunk's) Newton iterations and factorisations from its info (0 if not finite)."""
@@ -279,24 +288,25 @@ class AlphaIntegrator:
             if (n, guard) not in g["chunks"]:  # (without the guard: the step itself over the steps)
                 g["chunks"][n, guard] = chunks.map_steps(g["guarded"] if guard else self.step_f, n, self.n_accum)
             f = g["chunks"][n, guard]
-            nf = self.S.nf
             ns = self.state_size + guard
-            S = self.S
+            lay = self._layout
             be = pooled_buffer(g, (n, guard), f, self)
             bufs = getattr(be[0], "chunk_arrays", None)
-            if bufs is not None:  # a finished integrator's arrays, zeroed (as new ones); the fixed inputs rewritten
-                for a in [bufs[k] for k in ("s", "h", "hp", "pload", "tols", "out", "info")] + bufs["fac_out"]:
+            if bufs is not None:  # a finished integrator's arrays and views (zeroed, forgotten inputs: as new ones)
+                for a in [bufs[k] for k in ("s", "cols", "out", "info")] + bufs["fac_out"]:
                     a[:] = 0.0
-                bufs["pload_from"] = None
-                for a, v in zip(bufs["fixed"], ([S.kel] if S.kel is not None else []) + [S.par]):
-                    a.reshape(n, -1)[:] = v  # (np.tile(v, n), in place)
+                bufs["last"], bufs["pload_from"] = None, None
             else:
-                bufs = dict(s=np.zeros(ns), h=np.zeros(n), hp=np.zeros(n), pload=np.zeros((nf + self.S.nw) * n),
-                            tols=np.zeros(2 * n), out=np.zeros(ns * n), info=np.zeros(self.info_size * n),
-                            fac_out=[np.zeros(k * n) for k in self.fac_sizes], guard=guard, ones=np.ones(ns - guard),
-                            fixed=([np.tile(S.kel, n)] if S.kel is not None else []) + [np.tile(S.par, n)])
+                cols = np.zeros((n, lay["size"]))  # (column j: step j's inputs, as the step graph's)
+                bufs = dict(s=np.zeros(ns), cols=cols, out=np.zeros(ns * n), info=np.zeros(self.info_size * n),
+                            fac_out=[np.zeros(k * n) for k in self.fac_sizes], guard=guard,
+                            ones=np.ones(ns - guard), h=cols[:, lay["h"]], hp=cols[:, lay["hp"]],
+                            tols=cols[:, lay["tols"]], pload=cols[:, lay["pload"]], last=None, flat=cols.reshape(-1))
+                bufs["states"] = bufs["out"].reshape(n, ns)[:, :ns - guard]
+                bufs["info2d"] = bufs["info"].reshape(n, self.info_size)
                 be[0].chunk_arrays = bufs  # (with the buffer in the pool, for the next integrator)
-            args = [bufs["s"]] + self.fac + [bufs["h"], bufs["hp"], bufs["pload"], bufs["tols"]] + bufs["fixed"]
+            self._system_inputs(bufs["cols"])
+            args = [bufs["s"]] + self.fac + [bufs["flat"]]
             outs = [bufs["out"]] + bufs["fac_out"] + [bufs["info"]]
             buf, ev = bind(f, args, outs, be)
             self._chunks[n, guard] = (buf, ev, bufs)
@@ -326,16 +336,18 @@ class AlphaIntegrator:
         b["s"][:ns] = self.state
         if b["guard"]:
             b["s"][-1] = 0.0  # not failed
-        b["h"][:] = h  # (mapaccum maps every input but the state over the steps)
-        b["hp"][:] = h
-        b["hp"][0] = self.h_prev if self.h_prev else 0.0
+        hp0 = self.h_prev if self.h_prev else 0.0
+        if b["last"] != (h, hp0, self.tol_q, self.tol_x):  # (mapaccum maps every input but the state over the steps)
+            b["h"][:] = h
+            b["hp"][:] = h
+            b["hp"][0] = hp0
+            b["tols"][:] = self.tol_q, self.tol_x
+            b["last"] = (h, hp0, self.tol_q, self.tol_x)
         if ploads is not b.get("pload_from"):  # (a constant load array is copied in once)
-            b["pload"][:] = ploads.ravel(order="F")
+            b["pload"][:] = ploads.T
             b["pload_from"] = ploads if not ploads.flags.writeable else None
-        b["tols"][0::2], b["tols"][1::2] = self.tol_q, self.tol_x
         ev()
-        info = b["info"].reshape(n, self.info_size)
-        states = b["out"].reshape(n, ns + b["guard"])[:, :ns]
+        info, states = b["info2d"], b["states"]
         good = info[:, 0] == 1  # (guarded: the failed flag, set at the first unconverged or non-finite step)
         if not b["guard"]:
             good &= np.isfinite(states @ b["ones"])  # (a sum is finite only if every entry is)
@@ -368,7 +380,7 @@ class AlphaIntegrator:
         self._h[0] = h
         self._hp[0] = self.h_prev if self.h_prev else 0.0
         self._tols[:] = self.tol_q, self.tol_x
-        nf = self.S.nf
+        self._system_inputs(self._col)
         n_ok = 0
         try:
             for j in range(n):

@@ -61,11 +61,33 @@ class Recorder:
         self.scale = 0.0  # running energy scale: |T| + sum |potentials| + |works| + |E0|
         self.blowup: tuple | None = None  # (t, energy created, scale) once the scheme has created energy
         cons = system.asm.constraints  # (the violation of every support and joint, eliminated ones included)
-        self._cons = cons if cons.m else None
+        self._cons = None
+        self._viol_fixed = 0.0  # max |Phi| of the rows on fixed coordinates only: the same at every record
+        if cons.m:
+            A = cons.A.tocsr()
+            fixed = system.pos < 0
+            live = np.zeros(cons.m, bool)  # rows that read an unknown (linear or bilinear term)
+            live[np.repeat(np.arange(cons.m), np.diff(A.indptr))[~fixed[A.indices]]] = True
+            live[cons.qrow[~(fixed[cons.qi] & fixed[cons.qj])]] = True
+            if not live.all():
+                self._viol_fixed = self._rows_violation(cons.subset(np.flatnonzero(~live)),
+                                                        system.full(np.zeros(system.nf)))
+            if live.any():
+                self._cons = cons if live.all() else cons.subset(np.flatnonzero(live))
         if self._cons is not None:
-            self._cA = cons.A.toarray() if cons.m * cons.A.shape[1] <= 200_000 else cons.A
+            c = self._cons
+            self._cA = c.A.toarray() if c.m * c.A.shape[1] <= 200_000 else c.A
         d = system.drives
         self._drives = d if d is not None and d.m else None
+
+    @staticmethod
+    def _rows_violation(cons, x: np.ndarray) -> float:
+        """max |Phi(x)| of the rows of cons."""
+        A = cons.A.toarray() if cons.m * cons.A.shape[1] <= 200_000 else cons.A
+        val = A @ x - cons.d
+        if len(cons.qrow):
+            val += np.bincount(cons.qrow, cons.qcoef * x[cons.qi] * x[cons.qj], minlength=cons.m)
+        return float(np.abs(val).max())
 
     @property
     def energies(self) -> dict[str, list]:
@@ -90,27 +112,56 @@ class Recorder:
         for s in self.sensors:
             self.data[s.sensor.name].append(s(x, v))
         if self.with_energies:
-            T, pots = self.S.energies_by_label(qf, vf)
-            E = T + float(sum(pots))
-            algorithmic = self.E0 + external_work - damping_work - E
-            self._rows.append((T, E - T, *pots, E, damping_work, external_work, algorithmic))
-            self.scale = max(self.scale, abs(T) + sum(map(abs, pots)) + abs(damping_work)
-                             + abs(external_work) + abs(self.E0))
-            created = -algorithmic
-            if self.blowup is None and created > ENERGY_CREATION_LIMIT * self.scale:
-                self.blowup = (float(t), created, self.scale)
+            self._book(t, *S.energies_by_label(qf, vf), damping_work, external_work)
         self.viol.append(self._violation(x, t))
         self.t.append(float(t))
 
+    def record_many(self, ts: list, Q: np.ndarray, V: np.ndarray, damping_work: float, external_work: float) -> None:
+        """`record` of the output times ts with the unknowns' positions and velocities as the rows of Q and V, for
+        runs without drives (their reactions need the multipliers) and with the same works at all of them (a chunk
+        of steps with nothing to integrate along them): the scene coordinates in one gather, the constraint
+        violation in one product; the same values as record by record (the violation's product summed in
+        BLAS's order, to round-off)."""
+        S = self.S
+        X, VX = S.full_rows(Q), S.full_v_rows(V)
+        for s in self.sensors:
+            self.data[s.sensor.name].extend([s(x, v) for x, v in zip(X, VX)])
+        if self.with_energies:
+            for t, vals in zip(ts, S.energy_values_rows(Q, V)):
+                self._book(t, *S.by_label(vals), damping_work, external_work)
+        self.viol.extend(self._violations(X))
+        self.t.extend(float(t) for t in ts)
+
+    def _book(self, t, T, pots, damping_work, external_work) -> None:
+        """One row of the energy balance; flags the first record where the scheme has created energy."""
+        E = T + float(sum(pots))
+        algorithmic = self.E0 + external_work - damping_work - E
+        self._rows.append((T, E - T, *pots, E, damping_work, external_work, algorithmic))
+        self.scale = max(self.scale, abs(T) + sum(map(abs, pots)) + abs(damping_work)
+                         + abs(external_work) + abs(self.E0))
+        created = -algorithmic
+        if self.blowup is None and created > ENERGY_CREATION_LIMIT * self.scale:
+            self.blowup = (float(t), created, self.scale)
+
     def _violation(self, x: np.ndarray, t: float) -> float:
-        """max |Phi(x)| over all supports and joints (the linear rows as a small dense matrix when it is small),
-        and the drives' rows at time t."""
+        """max |Phi(x)| over all supports and joints (the linear rows as a small dense matrix when it is small;
+        the rows on fixed coordinates only, once), and the drives' rows at time t."""
         d = self._drives
         drive = float(np.abs(d.value(x, d.w(t))).max()) if d is not None else 0.0
         cons = self._cons
         if cons is None:
-            return drive
+            return max(self._viol_fixed, drive)
         val = self._cA @ x - cons.d
         if len(cons.qrow):
             val += np.bincount(cons.qrow, cons.qcoef * x[cons.qi] * x[cons.qj], minlength=cons.m)
-        return max(float(np.abs(val).max()), drive)
+        return max(float(np.abs(val).max()), self._viol_fixed, drive)
+
+    def _violations(self, X: np.ndarray) -> list[float]:
+        """_violation of each row of X (no drives)."""
+        cons = self._cons
+        if cons is None:
+            return [self._viol_fixed] * len(X)
+        if len(cons.qrow):
+            return [self._violation(x, 0.0) for x in X]
+        val = np.abs(self._cA @ X.T - cons.d[:, None]).max(axis=0)
+        return np.maximum(val, self._viol_fixed).tolist()

@@ -500,6 +500,16 @@ class StepSystem:
         ext[:-1], ext[-1] = vf, 0.0
         return ext[self._gather]
 
+    def full_rows(self, Q: np.ndarray) -> np.ndarray:
+        """`full` of each row of Q (k x nf): the scene coordinates as rows (k x n)."""
+        return self.full_v_rows(Q) + self.part.c
+
+    def full_v_rows(self, V: np.ndarray) -> np.ndarray:
+        """`full_v` of each row of V (k x nf), as rows (k x n)."""
+        ext = np.zeros((len(V), self.nf + 1))
+        ext[:, :-1] = V
+        return ext.take(self._gather, axis=1)
+
     def reduce(self, x_full: np.ndarray) -> np.ndarray:
         """Unknowns from scene coordinates (that satisfy the eliminated constraints)."""
         return np.asarray(x_full)[self.part.roots].copy()
@@ -544,7 +554,10 @@ class StepSystem:
     def energies_by_label(self, xf: np.ndarray, vf: np.ndarray | None) -> tuple[float, list[float]]:
         """(kinetic energy, the potentials summed by label in the order of `potential_labels`) [J]: `energies`
         without the dictionary (the recorder's per-record path)."""
-        vals = self.energy_values(xf, vf)
+        return self.by_label(self.energy_values(xf, vf))
+
+    def by_label(self, vals: list[float]) -> tuple[float, list[float]]:
+        """(kinetic energy, potentials by label) from `energy_values`' list."""
         groups = self._potential_groups()[1]
         if groups is None:
             return vals[-1], vals[:-1]
@@ -567,6 +580,24 @@ class StepSystem:
         self._e_vel[:] = 0.0 if vf is None else vf
         self._ebuf[1]()
         return self._e_v.tolist()
+
+    def energy_values_rows(self, Q: np.ndarray, V: np.ndarray) -> list[list[float]]:
+        """`energy_values` at each row of Q and V (k x nf) in one call of the energy graph mapped over the rows
+        (each row evaluated as energy_values evaluates it: the same numbers); the map of k rows is built on first
+        use and shared like the graphs."""
+        k = len(Q)
+        bufs = self.__dict__.setdefault("_ebufs", {})
+        if k not in bufs:
+            key = ("energies_rows", k)
+            if key not in self._graphs:
+                self._graphs[key] = self._energy_kin_f.map(f"energies_{k}", "serial", k, [2, 3], [])
+            f = self._graphs[key]
+            x, v, out = np.zeros((k, self.nf)), np.zeros((k, self.nf)), np.zeros((k, self._energy_kin_f.nnz_out(0)))
+            bufs[k] = (bind(f, (x, v, self.par, self.lin), (out,)), x, v, out)
+        (buf, ev), x, v, out = bufs[k]
+        x[:], v[:] = Q, V
+        ev()
+        return out.tolist()
 
     def phi(self, xf: np.ndarray, t: float = 0.0) -> np.ndarray:
         x = self.full(xf)

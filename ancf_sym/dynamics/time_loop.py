@@ -169,11 +169,12 @@ class TimeLoop:
 
     def _accepted_many(self, k: int, n_ok: int, states: np.ndarray, q_old: np.ndarray, v_old: np.ndarray):
         """Bookkeeping of the accepted grid steps k+1 .. k+n_ok of a chunk (nothing to integrate along them): the
-        outputs that fall in them, as `_accepted` would record them step by step."""
+        outputs that fall in them, as `_accepted` would record them step by step, recorded together
+        (Recorder.record_many)."""
         if not n_ok:
             return
         nf = self.S.nf
-        rec, out, o = self.rec, self.outputs, self.opts
+        out, o = self.outputs, self.opts
         t_first = self.t
         steps0 = self.steps
         self.steps += n_ok
@@ -181,31 +182,33 @@ class TimeLoop:
         self.t = self.grid(k + n_ok)
         if out is None:
             last = self.steps if self.t >= o.t_end - self.eps_t else None
-            for s in range(steps0 + 1, self.steps + 1):
-                if s % self.every == 0 or s == last:
-                    j = s - steps0 - 1
-                    rec.record(self.grid(k + j + 1), states[j, :nf], states[j, nf:2 * nf], self.W_d, self.W_ext)
-                    if self.progress:
-                        self.progress(self.grid(k + j + 1), o.t_end)
+            js = [s - steps0 - 1 for s in range(steps0 + 1, self.steps + 1) if s % self.every == 0 or s == last]
+            if js:
+                self._record_many([self.grid(k + j + 1) for j in js], states[js, :nf], states[js, nf:2 * nf])
             return
         T = o.t_start + (k + 1 + np.arange(n_ok)) * o.dt  # = self.grid(k + j + 1), without a Python loop
         # the outputs in (t_first, T[-1]] and the steps that end at or after each (one search for all of them)
         i0 = self.out_i
         taus = out[i0:i0 + int(np.searchsorted(out[i0:], T[-1] + self.eps_t, side="right"))]
-        for tau, j in zip(taus.tolist(), np.searchsorted(T, taus - self.eps_t).tolist()):
-            q1, v1 = states[j, :nf], states[j, nf:2 * nf]
-            if abs(tau - T[j]) <= self.eps_t:
-                rec.record(tau, q1, v1, self.W_d, self.W_ext)
-            else:
+        if not len(taus):
+            return
+        js = np.searchsorted(T, taus - self.eps_t)
+        Q, V = states[js, :nf], states[js, nf:2 * nf]  # (copies: the interpolated rows are written in)
+        for i, (tau, j) in enumerate(zip(taus.tolist(), js.tolist())):
+            if abs(tau - T[j]) > self.eps_t:
                 if j == 0:
                     t0, q0, v0 = t_first, q_old, v_old
                 else:
                     t0, q0, v0 = T[j - 1], states[j - 1, :nf], states[j - 1, nf:2 * nf]
-                qi, vi = hermite(t0, T[j], q0, v0, q1, v1, tau)
-                rec.record(tau, qi, vi, self.W_d, self.W_ext)
-            self.out_i += 1
-            if self.progress:
-                self.progress(tau, o.t_end)
+                Q[i], V[i] = hermite(t0, T[j], q0, v0, Q[i], V[i], tau)
+        self.out_i += len(taus)
+        self._record_many(taus.tolist(), Q, V)
+
+    def _record_many(self, ts: list, Q: np.ndarray, V: np.ndarray) -> None:
+        self.rec.record_many(ts, Q, V, self.W_d, self.W_ext)
+        if self.progress:
+            for t in ts:
+                self.progress(t, self.opts.t_end)
 
     def per_step(self, t_stop: float, k_grid: int = 0):
         """Single steps with rejection (halving on Newton failure, error control if adaptive) until t_stop."""
