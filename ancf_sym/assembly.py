@@ -161,14 +161,14 @@ def force_term_calls(terms: list[Term], fuse: bool = True, row_keys: dict | None
 def force_terms_of(calls: list[tuple], terms: list[Term]) -> list[ForceTerm]:
     """The ForceTerms of force_term_calls' calls with the terms' parameters."""
     out = []
-    for element, effect, gauss, idx, labels, sources in calls:
+    for element, effect, gauss, idx, labels, sources in calls:  # (the calls' arrays are read-only: shared)
         if len(sources) > 1:
             (ia, ra), (ib, rb) = sources
             P = np.column_stack([terms[ia].P[ra, :2], terms[ib].P[rb, 1]])  # (L, EA, EI)
         else:
             (i, rows), = sources
             P = terms[i].P[rows]
-        out.append(ForceTerm(element, effect, gauss, idx, P, labels, [(i, np.array(r)) for i, r in sources]))
+        out.append(ForceTerm(element, effect, gauss, idx, P, labels, list(sources)))
     return out
 
 

@@ -69,10 +69,14 @@ def bind(f: ca.Function, args: Sequence[np.ndarray], res: Sequence[np.ndarray],
     _check(f, "input", args)
     _check(f, "output", res)
     buf, evaluate = f.buffer() if buffer is None else buffer
+    # (a pooled buffer keeps the arrays it was bound to: those bound again at the same place are not set again)
+    old_args, old_res = getattr(buf, "bound_arrays", ((), ()))
     for i, a in enumerate(args):
-        buf.set_arg(i, memoryview(a))
+        if i >= len(old_args) or old_args[i] is not a:
+            buf.set_arg(i, memoryview(a))
     for i, r in enumerate(res):
-        buf.set_res(i, memoryview(r))
+        if i >= len(old_res) or old_res[i] is not r:
+            buf.set_res(i, memoryview(r))
     buf.bound_arrays = (tuple(args), tuple(res))  # CasADi holds raw pointers: the buffer keeps their owners alive
     return buf, evaluate
 

@@ -19,6 +19,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from . import setup_cache
 from .checks import SceneError, check_fields, fail, number, vector
 from .member_effects import AXIAL  # noqa: F401  (public name: ancf_sym.scene.AXIAL)
 from .member_effects import AXIAL_STRAINS, BEAM_METHODS, axial_strain, gauss_orders, stiffness_effects
@@ -650,16 +651,20 @@ def structure_spec_key(scene: Scene) -> tuple | None:
     if scene.contacts or scene.bodies or scene.body_joints or scene.drives or \
             any(s.method != "exact" for s in scene.supports) or any(j.method != "exact" for j in scene.joints):
         return None
-    from . import setup_cache  # (a leaf module; imported here to keep scene's imports to the checks)
-
-    def blank(obj: Any) -> Any:
-        names = VALUE_FIELDS.get(type(obj))
-        if names is None:
-            return obj
-        d = vars(obj)
-        return (type(obj), tuple(d)) + tuple(v is None if k in names else v for k, v in d.items())
-
-    members = [(name, type(m), tuple(vars(m)), [blank(v) for v in vars(m).values()])
-               for name, m in scene.members.items()]
-    rest = [(k, v) for k, v in vars(scene).items() if k not in ("members", "gravity")]
-    return setup_cache.array_key(type(scene), members, [bool(g != 0) for g in scene.gravity], rest)
+    parts: list = [type(scene)]
+    for k, v in vars(scene).items():  # (field name, value; a member as one tuple, its values in field order)
+        if k == "members":
+            for name, m in v.items():
+                d = vars(m)
+                member = [name, type(m), tuple(d)]
+                for x in d.values():
+                    names = VALUE_FIELDS.get(type(x))
+                    member.append(x if names is None else  # (a material or section: its value fields given or not)
+                                  (type(x), tuple(vars(x))) + tuple(u is None if f in names else u
+                                                                    for f, u in vars(x).items()))
+                parts += [k, tuple(member)]
+        elif k == "gravity":
+            parts += [k, tuple(bool(g != 0) for g in v)]
+        else:
+            parts += [k, v]
+    return setup_cache.array_key(*parts)

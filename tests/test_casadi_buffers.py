@@ -77,6 +77,23 @@ def test_rebinding_a_pooled_buffer_and_sparse_outputs():
     np.testing.assert_array_equal(r, 0.0)
 
 
+def test_rebinding_with_some_of_the_same_arrays():
+    """A pooled buffer bound again with some of the arrays it holds (not set again) and some new ones reads and
+    writes exactly the arrays of the last binding: the kept ones in place, the new ones instead of the old."""
+    x, y = ca.SX.sym("x", 2), ca.SX.sym("y", 2)
+    f = ca.Function("f", [x, y], [x * y, x + y])
+    a, b, r, s = np.array([1.0, 2.0]), np.array([3.0, 4.0]), np.zeros(2), np.zeros(2)
+    pair = bind(f, (a, b), (r, s))
+    b2, s2 = np.array([5.0, 6.0]), np.zeros(2)
+    buf, ev = bind(f, (a, b2), (r, s2), pair)
+    a[:] = [7.0, 8.0]
+    ev()
+    np.testing.assert_array_equal(r, [35.0, 48.0])
+    np.testing.assert_array_equal(s2, [12.0, 14.0])
+    np.testing.assert_array_equal(s, 0.0)
+    assert buf.bound_arrays == ((a, b2), (r, s2))
+
+
 def test_buffer_keeps_temporaries_alive():
     """CasADi holds raw pointers only: arrays created in the call must live as long as the buffer."""
     x = ca.SX.sym("x", 4)

@@ -163,6 +163,8 @@ def _same(a, b) -> bool:
                 and a.tobytes() == b.tobytes())
     if isinstance(a, (list, tuple)):
         return type(a) is type(b) and len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+    if isinstance(a, dict):
+        return type(b) is dict and a.keys() == b.keys() and all(_same(v, b[k]) for k, v in a.items())
     if isinstance(a, float):
         return type(b) is float and a.hex() == b.hex()
     if hasattr(a, "__dict__") and not isinstance(a, type):
@@ -207,3 +209,61 @@ def test_systems_built_on_a_kept_structure_equal_fresh_ones():
         other = _system(**variant)
         assert other.asm.spec_key != base.asm.spec_key and other.graph_key != base.graph_key, variant
     assert _system(method="penalty").asm.spec_key is None  # (EA, EI scale the penalty rows)
+
+
+def _kind_scene(kind: str, E: float = 2e9, I: float = 1e-9, g: float = 9.81) -> Scene:
+    """Small scenes of the kinds a kept structure must serve: beams (two methods), a 3D cable with a moment,
+    members joined rigidly or by a hinge, a polyline under a distributed load, Rayleigh and strain-rate damping."""
+    s = Scene(dim=3, gravity=(0.0, 0.0, -g)) if kind in ("beam3d", "elastic_line", "cable3d") else \
+        Scene(dim=2, gravity=(0.0, -g))
+    mat, sec = Material(E=E, density=7800.0), Section(area=1e-4, I=I)
+    if kind in ("beam3d", "elastic_line"):
+        s.member("m", [(0, 0, 0), (1, 0, 0)], 4, mat, Section.rectangle(0.02, 0.01), element="beam3d",
+                 beam_method="continuum" if kind == "beam3d" else "elastic_line")
+        s.clamp("m", "start")
+    elif kind == "cable3d":
+        s.member("m", [(0, 0, 0), (1, 0, 0)], 5, mat, sec, axial="green")
+        s.pin("m", "start")
+        s.moment("m", "end", (0.0, 0.5, 0.0))
+    elif kind in ("rigid", "hinge"):
+        s.member("a", [(0, 0), (1, 0)], 3, mat, sec, axial="biot")
+        s.member("b", [(1, 0), (1.5, -1)], 3, mat, sec, axial="green")
+        (s.clamp if kind == "rigid" else s.pin)("a", "start")
+        (s.rigid if kind == "rigid" else s.hinge)(("a", "end"), ("b", "start"))
+    else:
+        s.member("m", [(0, 0), (1, 0), (1.5, -0.5)], 6, mat, sec, axial="decoupled" if kind == "polyline" else "biot")
+        s.clamp("m", "start")
+        if kind == "polyline":
+            s.distributed("m", (0.0, -3.0))
+        elif kind == "rayleigh":
+            s.rayleigh(alpha=0.1, beta=1e-4)
+        else:
+            s.strain_rate_damping(axial=10.0, bending=1e-3)
+    return s
+
+
+@pytest.mark.parametrize("kind", ["beam3d", "elastic_line", "cable3d", "rigid", "hinge", "polyline", "rayleigh",
+                                  "strain_rate"])
+def test_kept_structures_of_other_scene_kinds_equal_fresh_ones(kind):
+    """As above on other kinds of scene (E x 1.5, I x 3, gravity 5 m/s^2 against the kept structure's scene): the
+    structure is kept, every attribute and a 60-step run (states, Newton counters, energies) are bit for bit those of
+    a fresh first run: the stiffnesses and gravity reach the run only as the graphs' inputs whatever the elements,
+    joints, loads and damping."""
+    other = dict(E=3e9, I=3e-9, g=5.0)
+    opts = DynamicOptions(dt=1e-3, t_end=0.06, output_dt=0.02)
+    clear_graph_cache()
+    base = StepSystem.for_scene(Assembly(_kind_scene(kind)))
+    warm = StepSystem.for_scene(Assembly(_kind_scene(kind, **other)))
+    assert warm.part is base.part and warm.graph_key == base.graph_key
+    kept = simulate(warm.asm, opts, system=warm)
+    clear_graph_cache()
+    fresh = StepSystem.for_scene(Assembly(_kind_scene(kind, **other)))
+    attrs = [k for k in StepSystem._STRUCTURE_ATTRS if k != "graph_key"] + \
+        ["f_lin", "par", "lin", "_lin_energy", "force_terms", "rayleigh", "strain_rate"]
+    for k in attrs:
+        assert _same(getattr(warm, k), getattr(fresh, k)), k
+    first = simulate(fresh.asm, opts, system=fresh)
+    assert kept.status == first.status == "completed"
+    assert np.array_equal(kept.x, first.x) and np.array_equal(kept.v, first.v) and kept.counters == first.counters
+    assert all(np.array_equal(kept.energies[k], first.energies[k]) for k in first.energies)
+    assert not np.array_equal(warm.par, base.par)  # (the other values reached the run)

@@ -102,16 +102,25 @@ class AlphaIntegrator:
         return out
 
     def _setup_step_buffers(self) -> None:
-        S, nf = self.S, self.S.nf
-        self._s_in, self._s_out, self._info = np.zeros(self.state_size), np.zeros(self.state_size), \
-            np.zeros(self.info_size)
-        self._f_out = [np.zeros(k) for k in self.fac_sizes]
+        S, nfac = self.S, len(self.fac_sizes)
         lay = self._layout = AlphaStepGraphs.column_layout(S)
-        self._col = np.zeros(lay["size"])  # the step's inputs h, h_prev, tols, pload, kel, par (views below)
+        be = pooled_buffer(self._graphs, "step", self.step_f, self)
+        kept = getattr(be[0], "bound_arrays", None)
+        if kept is not None:  # a finished integrator's arrays (zeroed: as new ones); its factor arrays not
+            self._s_in, self._col = kept[0][0], kept[0][-1]
+            self._s_out, *outs = kept[1]
+            self._f_out, self._info = outs[:nfac], outs[nfac]
+            for a in [self._s_in, self._col, self._s_out, self._info] + self._f_out:
+                a[:] = 0.0
+        else:
+            self._s_in, self._s_out, self._info = np.zeros(self.state_size), np.zeros(self.state_size), \
+                np.zeros(self.info_size)
+            self._f_out = [np.zeros(k) for k in self.fac_sizes]
+            self._col = np.zeros(lay["size"])  # the step's inputs h, h_prev, tols, pload, kel, par (views below)
         self._h, self._hp, self._tols, self._pload = (self._col[lay[k]] for k in ("h", "hp", "tols", "pload"))
         args = [self._s_in] + self.fac + [self._col]
         outs = [self._s_out] + self._f_out + [self._info]
-        buf, ev = bind(self.step_f, args, outs, pooled_buffer(self._graphs, "step", self.step_f, self))
+        buf, ev = bind(self.step_f, args, outs, be)
         self._step = (buf, ev, args, outs)
 
     def initialize(self, q0: np.ndarray, v0: np.ndarray, Q0: np.ndarray, t0: float = 0.0) -> None:
@@ -281,16 +290,24 @@ class AlphaIntegrator:
             f = g["chunks"][n, guard]
             ns = self.state_size + guard
             lay = self._layout
-            cols = np.zeros((n, lay["size"]))  # (column j: step j's inputs, as the step graph's)
-            self._system_inputs(cols)
-            bufs = dict(s=np.zeros(ns), cols=cols, out=np.zeros(ns * n), info=np.zeros(self.info_size * n),
-                        fac_out=[np.zeros(k * n) for k in self.fac_sizes], guard=guard, ones=np.ones(ns - guard),
-                        h=cols[:, lay["h"]], hp=cols[:, lay["hp"]], tols=cols[:, lay["tols"]],
-                        pload=cols[:, lay["pload"]], last=None)
-            bufs["states"] = bufs["out"].reshape(n, ns)[:, :ns - guard]
-            args = [bufs["s"]] + self.fac + [cols.reshape(-1)]
+            be = pooled_buffer(g, (n, guard), f, self)
+            bufs = getattr(be[0], "chunk_arrays", None)
+            if bufs is not None:  # a finished integrator's arrays and views (zeroed, forgotten inputs: as new ones)
+                for a in [bufs[k] for k in ("s", "cols", "out", "info")] + bufs["fac_out"]:
+                    a[:] = 0.0
+                bufs["last"], bufs["pload_from"] = None, None
+            else:
+                cols = np.zeros((n, lay["size"]))  # (column j: step j's inputs, as the step graph's)
+                bufs = dict(s=np.zeros(ns), cols=cols, out=np.zeros(ns * n), info=np.zeros(self.info_size * n),
+                            fac_out=[np.zeros(k * n) for k in self.fac_sizes], guard=guard,
+                            ones=np.ones(ns - guard), h=cols[:, lay["h"]], hp=cols[:, lay["hp"]],
+                            tols=cols[:, lay["tols"]], pload=cols[:, lay["pload"]], last=None, flat=cols.reshape(-1))
+                bufs["states"] = bufs["out"].reshape(n, ns)[:, :ns - guard]
+                be[0].chunk_arrays = bufs  # (with the buffer in the pool, for the next integrator)
+            self._system_inputs(bufs["cols"])
+            args = [bufs["s"]] + self.fac + [bufs["flat"]]
             outs = [bufs["out"]] + bufs["fac_out"] + [bufs["info"]]
-            buf, ev = bind(f, args, outs, pooled_buffer(g, (n, guard), f, self))
+            buf, ev = bind(f, args, outs, be)
             self._chunks[n, guard] = (buf, ev, bufs)
         return self._chunks[n, guard]
 

@@ -101,6 +101,7 @@ class StepSystem:
         self.nf = nf
         self.pos = part.pos
         self._gather = np.where(part.pos >= 0, part.pos, nf)  # full coordinate k = ext[_gather[k]], ext[nf] = 0
+        self._gather.flags.writeable = False  # (shared with the systems of the same structure)
         self.E = part.E
         self.cons = asm.exact.subset(part.rows) if len(part.rows) else None
         self.mc = self.cons.m if self.cons is not None else 0
