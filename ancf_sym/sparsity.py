@@ -26,10 +26,18 @@ def casadi_sparsity(n_rows: int, n_cols: int, indptr: np.ndarray, indices: np.nd
 
 # -- assembling compiled kernel results in CasADi MX graphs (constant index maps, no products with 0/1 matrices) --
 
-def dm(A) -> ca.DM:
-    """A SciPy sparse (or dense) matrix as a CasADi DM with the same pattern."""
+def _sorted_csc(A):
+    """A as CSC with sorted row indices: A itself where it is one already (no copy, no format checks)."""
+    if sp.issparse(A) and A.format == "csc" and A.has_sorted_indices:
+        return A
     A = sp.csc_matrix(A)
     A.sort_indices()
+    return A
+
+
+def dm(A) -> ca.DM:
+    """A SciPy sparse (or dense) matrix as a CasADi DM with the same pattern."""
+    A = _sorted_csc(A)
     return ca.DM(ca.Sparsity(A.shape[0], A.shape[1], A.indptr.tolist(), A.indices.tolist()), A.data.tolist())
 
 
@@ -38,8 +46,7 @@ def kron_identity_factor(A, dims: tuple[int, ...] = (3, 2)) -> tuple[int, sp.csc
     whose directions share their shape functions (cables: r = S(xi) q, M_e = (rho A int s s^T) x I_d) has this form
     on unknowns grouped by d, unless supports, joints or point masses break it. (Compared on the compressed columns:
     column d j + a must hold column d j's entries, rows shifted by a; O(nnz).)"""
-    A = sp.csc_matrix(A)
-    A.sort_indices()
+    A = _sorted_csc(A)
     n = A.shape[0]
     for d in dims:
         if n % d or n < d or A.shape[1] != n:

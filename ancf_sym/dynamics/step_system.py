@@ -270,7 +270,7 @@ class StepSystem:
         instead of 61 us per product, the same sums."""
         if "_mass_kron" not in self.__dict__:
             f = kron_identity_factor(self.M)
-            self._mass_kron = (f[0], dm(f[1].T)) if f is not None else (0, dm(self.M))
+            self._mass_kron = (f[0], dm(f[1]).T) if f is not None else (0, dm(self.M))
         d, B = self._mass_kron
         return kron_product_mx(d, B, u) if d else ca.mtimes(B, u)
 
