@@ -103,11 +103,13 @@ def _penalty_energy(S: "StepSystem", x: ca.MX) -> ca.MX | None:
     return 0.5 * ca.sum1(ca.DM(pc.k) * c * c)
 
 
-def build_force_graphs(S: "StepSystem", forces: bool = True, energies: bool = True) -> None:
+def build_force_graphs(S: "StepSystem", forces: bool = True, energies: bool = True) -> tuple | None:
     """Build from S's kernel calls the force graph S._graphs["forces_pf"] and S.kel_sparsity (None without Rayleigh
     stiffness damping), and the energy graph S._energy_kin_f with its labels: the two read the same element
     coordinates. forces False: the force graph is left to be built on first use (the band path's iteration has a
-    force graph of its own, and it runs without Rayleigh damping: kel_sparsity None)."""
+    force graph of its own, and it runs without Rayleigh damping: kel_sparsity None). Returns the force graph's
+    (x, par, outputs) expressions (None if not built): the step graph built next uses them as they are, where
+    inlining a call of the force graph would copy the same nodes."""
     asm, nf, pos = S.asm, S.nf, S.pos
     xf = ca.MX.sym("x", nf)
     par = ca.MX.sym("par", S.par.size)
@@ -116,13 +118,14 @@ def build_force_graphs(S: "StepSystem", forces: bool = True, energies: bool = Tr
     seen: dict = {}  # (the elements' coordinates, shared by the force and energy graphs' terms)
     pen = _penalty_energy(S, x)
     S.kel_sparsity = None
-    if forces:
-        _force_graph(S, xf, par, x, Pft, seen, pen)
+    outs = _force_graph(S, xf, par, x, Pft, seen, pen) if forces else None
     if energies:
         _energy_graph(S, xf, par, x, Pmk, seen, pen)
+    return None if outs is None else (xf, par, outs)
 
 
-def _force_graph(S: "StepSystem", xf: ca.MX, par: ca.MX, x: ca.MX, Pft: list, seen: dict, pen: ca.MX | None) -> None:
+def _force_graph(S: "StepSystem", xf: ca.MX, par: ca.MX, x: ca.MX, Pft: list, seen: dict,
+                 pen: ca.MX | None) -> list:
     nf, pos = S.nf, S.pos
     kel_vals, kel_rows, kel_cols = [], [], []
     weights = S.rayleigh.element_weight if (S.rayleigh is not None and S.rayleigh.beta) else {}
@@ -149,6 +152,7 @@ def _force_graph(S: "StepSystem", xf: ca.MX, par: ca.MX, x: ca.MX, Pft: list, se
         outs[1] = outs[1] + ca.hessian(pen, xf)[0]
     S._graphs["forces_pf"] = ca.Function("forces", [xf, par], outs, ["x", "par"],
                                          ["g", "K"] + (["kel"] if kel_vals else []))
+    return outs
 
 
 def _energy_graph(S: "StepSystem", xf: ca.MX, par: ca.MX, x: ca.MX, Pmk: list, seen: dict,

@@ -78,9 +78,9 @@ class StepSystem:
             self._graphs = graphs = {}
             # the band path (ancf_sym.dynamics.band) has a force graph of its own: forces_pf only on first use
             layout = self._band_layout()
-            build_force_graphs(self, forces=layout is None)
+            force_exprs = build_force_graphs(self, forces=layout is None)
             self.damp_f, self.damp_force_f = damping.dissipation_functions(self)
-            self._build_step(layout=layout)
+            self._build_step(layout=layout, force_exprs=force_exprs)
             graphs.update({k: getattr(self, k) for k in self._GRAPH_ATTRS})
             SYSTEM_GRAPHS[self.graph_key] = graphs
         else:
@@ -312,13 +312,19 @@ class StepSystem:
         A = ca.DM(ca.Sparsity.triplet(self.nf, len(rows), rows, list(range(len(rows)))), 1.0)
         return ca.mtimes(A, ca.vertcat(*vals))
 
-    def _build_step(self, full_only: bool = True, layout: BandLayout | None = None) -> None:
+    def _build_step(self, full_only: bool = True, layout: BandLayout | None = None,
+                    force_exprs: tuple | None = None) -> None:
         """iteration_f (and kkt_sparsity); full_only False: residual_f and jacobian_f instead, into the structure's
         graphs (all three with the multiplier input only where there are multipliers).
         iteration_f(x[, lam], p, cm, cc, kc, vc[, kel], y, par) -> (dz, norms): one full Newton iteration, its
-        multiplier input only where there are multipliers (iter_f: always)."""
+        multiplier input only where there are multipliers (iter_f: always).
+        force_exprs: (x, par, outputs) of the force graph just built (build_force_graphs), taken as they are (the
+        nodes an inlined call of forces_pf would copy), or None."""
         nf, mc = self.nf, self.mc
-        xf, lam, p_in = ca.MX.sym("x", nf), ca.MX.sym("lam", mc), ca.MX.sym("p", nf + self.nw)
+        if not full_only or layout is not None:
+            force_exprs = None
+        xf = force_exprs[0] if force_exprs is not None else ca.MX.sym("x", nf)
+        lam, p_in = ca.MX.sym("lam", mc), ca.MX.sym("p", nf + self.nw)
         p, w = (p_in[:nf], p_in[nf:]) if self.nw else (p_in, None)  # w: the drives' time inputs
         cm, cc, kc = ca.MX.sym("cm"), ca.MX.sym("cc"), ca.MX.sym("kc")
         kel = ca.MX.sym("kel", self.kel_sparsity.nnz()) if self.kel_sparsity is not None else None
@@ -326,7 +332,7 @@ class StepSystem:
         # y: inertia part of the constant residual, M (cm x + y) (the alpha step graph: one product with M per
         # iteration and none in the step's predictor; other callers pass y = 0 and M y in p)
         y = ca.MX.sym("y", nf)
-        par = ca.MX.sym("par", self.par.size)
+        par = force_exprs[1] if force_exprs is not None else ca.MX.sym("par", self.par.size)
         ins = [xf, lam, p_in, cm, cc, kc, vc] + ([kel] if kel is not None else []) + [y, par]
         names = ["x", "lam", "p", "cm", "cc", "kc", "vc"] + (["kel"] if kel is not None else []) + ["y", "par"]
         ins_it, names_it = (ins, names) if mc else ([xf] + ins[2:], [names[0]] + names[2:])
@@ -340,7 +346,7 @@ class StepSystem:
             self.iteration_f = ca.Function("newton_iteration", ins_it, [neg(x), norms], names_it, ["dz", "norms"])
             return
         # (the force graph inlined: its call node cost ~0.3 us of an iteration's ~22 us)
-        out = self.forces_pf.call([xf, par], True, False)
+        out = force_exprs[2] if force_exprs is not None else self.forces_pf.call([xf, par], True, False)
         g, K = out[0], out[1]
         Mdm = dm(self.M)
         Cx, C = damping.rayleigh_mx(self, xf, kel)
