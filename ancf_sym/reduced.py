@@ -56,8 +56,9 @@ class Partition:
         """E^T A E where every unknown is one coordinate (no identifications): A's entries in free rows and columns,
         renumbered (pos is increasing on the free coordinates, so sorted columns stay sorted; no sums): the result
         of the sparse products E^T A E, entry for entry."""
-        A = sp.csc_matrix(A)
-        A.sum_duplicates()  # (canonical: sorted, duplicates summed)
+        if not (sp.issparse(A) and A.format == "csc" and A.has_canonical_format):  # (else A as it is: no copy)
+            A = sp.csc_matrix(A)
+            A.sum_duplicates()  # (canonical: sorted, duplicates summed)
         pos = self.pos
         cols = np.repeat(np.arange(A.shape[1]), np.diff(A.indptr))
         keep = (pos[A.indices] >= 0) & (pos[cols] >= 0)

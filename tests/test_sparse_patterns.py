@@ -1,0 +1,49 @@
+"""The CSC helpers of ancf_sym.sparsity against SciPy's own conversions: the same pattern, index type and values
+entry for entry (they replace SciPy's conversions in the set-up of every run, whose numbers must not change)."""
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+import scipy.sparse as sp
+
+from ancf_sym.sparsity import casadi_sparsity, csc_pattern, csc_sum, dm
+
+
+def _identical(A: sp.csc_matrix, B: sp.csc_matrix) -> bool:
+    """Same shape, index arrays (values and type) and values bit for bit (-0.0 and 0.0 told apart)."""
+    return (A.shape == B.shape and A.indptr.dtype == B.indptr.dtype and A.indices.dtype == B.indices.dtype
+            and np.array_equal(A.indptr, B.indptr) and np.array_equal(A.indices, B.indices)
+            and np.array_equal(A.data.view(np.int64), B.data.view(np.int64)))
+
+
+def test_csc_sum_is_scipys_conversion():
+    """Random triplets with duplicates (two and more terms), explicit zeros and negative zeros: csc_sum equals
+    coo_matrix(...).tocsc() exactly (a sum of two terms is the same in either order; more terms go to SciPy)."""
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        nr, nc, k = int(rng.integers(1, 30)), int(rng.integers(1, 30)), int(rng.integers(0, 150))
+        r, c, v = rng.integers(0, nr, k), rng.integers(0, nc, k), rng.normal(size=k)
+        v[rng.random(k) < 0.2] = 0.0
+        v[rng.random(k) < 0.1] = -0.0
+        assert _identical(csc_sum(r, c, v, nr, nc), sp.coo_matrix((v, (r, c)), shape=(nr, nc)).tocsc())
+
+
+def test_csc_pattern_merges_duplicates():
+    """indptr and indices are SciPy's canonical pattern of the triplets, and inv maps every triplet to its entry."""
+    rng = np.random.default_rng(3)
+    r, c = rng.integers(0, 20, 300), rng.integers(0, 25, 300)
+    indptr, indices, inv = csc_pattern(r, c, 20, 25)
+    A = sp.coo_matrix((np.ones(300), (r, c)), shape=(20, 25)).tocsc()
+    assert np.array_equal(indptr, A.indptr) and np.array_equal(indices, A.indices)
+    cols = np.repeat(np.arange(25), np.diff(indptr))
+    assert np.array_equal(indices[inv], r) and np.array_equal(cols[inv], c)
+
+
+def test_dm_keeps_pattern_and_values():
+    """dm of a CSC matrix (sorted, taken as it is) and of the same matrix in CSR form: the same DM, and the pattern
+    casadi_sparsity makes is CasADi's four-argument one."""
+    A = sp.random(15, 12, density=0.3, format="csc", random_state=1)
+    D1, D2 = dm(A), dm(A.tocsr())
+    assert D1.sparsity() == D2.sparsity() and np.array_equal(np.array(D1.nonzeros()), np.array(D2.nonzeros()))
+    assert np.array_equal(np.array(D1), A.toarray())
+    assert casadi_sparsity(15, 12, A.indptr, A.indices) == ca.Sparsity(15, 12, A.indptr.tolist(), A.indices.tolist())
