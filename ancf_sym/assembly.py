@@ -18,7 +18,7 @@ from .loads import load_vector
 from .mesh import Mesh, build_mesh
 from . import registry
 from .scene import Scene, structure_spec_key
-from .sparsity import casadi_sparsity, csc_pattern, csc_sum
+from .sparsity import casadi_sparsity, csc_pattern
 from .terms import Term, scene_terms
 
 
@@ -461,4 +461,5 @@ def _mass_matrix(n: int, members: list, body: tuple) -> sp.csc_matrix:
     rows.append(bi)
     cols.append(bj)
     vals.append(bv)
-    return csc_sum(np.concatenate(rows), np.concatenate(cols), np.concatenate(vals), n, n)
+    return sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(n, n)).tocsc()

@@ -27,24 +27,6 @@ def csc_pattern(rows: np.ndarray, cols: np.ndarray, n_rows: int,
     return indptr, uniq % n_rows, inv
 
 
-def csc_sum(rows: np.ndarray, cols: np.ndarray, vals: np.ndarray, n_rows: int, n_cols: int) -> sp.csc_matrix:
-    """coo_matrix((vals, (rows, cols))).tocsc(): duplicates summed, explicit zeros kept, without SciPy's
-    conversions (~70 us on a small mesh) where no entry has more than two terms (a + b is b + a: the same numbers
-    as SciPy's sum in whichever order it takes them); SciPy's own conversion otherwise."""
-    indptr, indices, inv = csc_pattern(rows, cols, n_rows, n_cols)
-    cnt = np.bincount(inv, minlength=len(indices))
-    idx = np.int32 if max(n_rows, n_cols, len(inv)) < 2 ** 31 - 1 else np.int64
-    if (cnt.size and cnt.max() > 2) or idx is np.int64:
-        return sp.coo_matrix((vals, (rows, cols)), shape=(n_rows, n_cols)).tocsc()
-    vals = np.asarray(vals, dtype=float)
-    o = np.argsort(inv, kind="stable")
-    start = np.cumsum(cnt) - cnt
-    data = vals[o[start]]
-    two = np.flatnonzero(cnt == 2)
-    data[two] += vals[o[start[two] + 1]]
-    return sp.csc_matrix((data, indices.astype(idx), indptr.astype(idx)), shape=(n_rows, n_cols))
-
-
 def casadi_sparsity(n_rows: int, n_cols: int, indptr: np.ndarray, indices: np.ndarray) -> ca.Sparsity:
     """A CSC pattern as a CasADi Sparsity (from one list: ~40 % less conversion than the four-argument form)."""
     return ca.Sparsity.compressed([n_rows, n_cols] + np.asarray(indptr).tolist() + np.asarray(indices).tolist())

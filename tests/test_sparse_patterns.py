@@ -6,26 +6,7 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from ancf_sym.sparsity import casadi_sparsity, csc_pattern, csc_sum, dm
-
-
-def _identical(A: sp.csc_matrix, B: sp.csc_matrix) -> bool:
-    """Same shape, index arrays (values and type) and values bit for bit (-0.0 and 0.0 told apart)."""
-    return (A.shape == B.shape and A.indptr.dtype == B.indptr.dtype and A.indices.dtype == B.indices.dtype
-            and np.array_equal(A.indptr, B.indptr) and np.array_equal(A.indices, B.indices)
-            and np.array_equal(A.data.view(np.int64), B.data.view(np.int64)))
-
-
-def test_csc_sum_is_scipys_conversion():
-    """Random triplets with duplicates (two and more terms), explicit zeros and negative zeros: csc_sum equals
-    coo_matrix(...).tocsc() exactly (a sum of two terms is the same in either order; more terms go to SciPy)."""
-    rng = np.random.default_rng(7)
-    for _ in range(200):
-        nr, nc, k = int(rng.integers(1, 30)), int(rng.integers(1, 30)), int(rng.integers(0, 150))
-        r, c, v = rng.integers(0, nr, k), rng.integers(0, nc, k), rng.normal(size=k)
-        v[rng.random(k) < 0.2] = 0.0
-        v[rng.random(k) < 0.1] = -0.0
-        assert _identical(csc_sum(r, c, v, nr, nc), sp.coo_matrix((v, (r, c)), shape=(nr, nc)).tocsc())
+from ancf_sym.sparsity import casadi_sparsity, csc_pattern, dm
 
 
 def test_csc_pattern_merges_duplicates():
