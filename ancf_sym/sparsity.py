@@ -7,7 +7,7 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from .mx_ops import add
+from .mx_ops import add, reshape, vec
 
 
 def csc_pattern(rows: np.ndarray, cols: np.ndarray, n_rows: int,
@@ -81,7 +81,7 @@ def kron_product_mx(d: int, Bt: ca.DM, u: ca.MX) -> ca.MX:
     """kron(B, I_d) u as the product of u reshaped to d x n/d with Bt = B^T (a DM): one pass over B's nonzeros for
     all d directions (at d = 2 half the memory traffic of the product with the whole matrix, same sums in the same
     order)."""
-    return ca.vec(ca.mtimes(ca.reshape(u, d, u.shape[0] // d), Bt))
+    return vec(ca.mtimes(reshape(u, d, u.size1() // d), Bt))
 
 
 def gather_sum(vals: list, target: np.ndarray, n_out: int) -> ca.MX:
@@ -155,13 +155,13 @@ def assemble_mx(calls: list, pos: np.ndarray, n: int, hessian: bool = True) -> t
     groups = group_calls(calls)
     if not groups:
         return ca.MX.zeros(n), (ca.MX(n, n) if hessian else None)
-    g = gather_sum([ca.vec(G) for _, G, _ in groups], np.concatenate([pos[idx.ravel()] for idx, _, _ in groups]), n)
+    g = gather_sum([vec(G) for _, G, _ in groups], np.concatenate([pos[idx.ravel()] for idx, _, _ in groups]), n)
     if not hessian:
         return g, None
     hvals, rows, cols, hpos, n_h = [], [], [], [], 0
     for idx, _, H in groups:
         ia, ib, keep = hessian_entries(pos, idx)
-        hvals.append(ca.vec(H))
+        hvals.append(vec(H))
         rows.append(ib[keep])
         cols.append(ia[keep])
         hpos.append(n_h + keep)

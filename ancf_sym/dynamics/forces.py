@@ -16,7 +16,7 @@ import numpy as np
 
 from .. import kernels
 from ..assembly import map_elements
-from ..mx_ops import add, mul, neg
+from ..mx_ops import add, mul, neg, reshape, vec
 from ..sparsity import assemble_mx, elements_key, gather_sum, group_calls, hessian_entries, mx_nonzeros, scatter
 from .band import PAD_PIVOT
 
@@ -31,7 +31,7 @@ def _parameters(S: "StepSystem", par: ca.MX) -> tuple[list, list]:
     """Each kernel call's parameters (n_p x N) from the input vector: (force terms', nonlinear terms')."""
     Ps, o = [], 0
     for P in [ft.P for ft in S.force_terms] + [mk.P for mk in S.nonlinear]:
-        Ps.append(ca.reshape(par[o:o + P.size], P.shape[1], P.shape[0]))
+        Ps.append(reshape(par[o:o + P.size], P.shape[1], P.shape[0]))
         o += P.size
     return Ps[:len(S.force_terms)], Ps[len(S.force_terms):]
 
@@ -42,7 +42,7 @@ def _element_coordinates(x: ca.MX, idx: np.ndarray, nd: int, N: int, seen: dict 
     key = elements_key(idx)
     if seen is not None and key in seen:
         return seen[key]
-    Xe = ca.reshape(x[idx.ravel().tolist()], nd, N)
+    Xe = reshape(x[idx.ravel().tolist()], nd, N)
     if seen is not None:
         seen[key] = Xe
     return Xe
@@ -69,7 +69,7 @@ def band_force_graph(S: "StepSystem", layout: "BandLayout") -> ca.Function:
         ia, ib, keep = hessian_entries(S.pos, idx)
         t = -np.ones(ia.size, dtype=np.int64)
         t[keep] = layout.slots(ib[keep], ia[keep])  # (row ib, column ia)
-        vals.append(ca.vec(H))
+        vals.append(vec(H))
         targets.append(t)
     pad = layout.padding_slots()
     vals.append(ca.DM.ones(len(pad)) * PAD_PIVOT)
@@ -137,7 +137,7 @@ def _force_graph(S: "StepSystem", xf: ca.MX, par: ca.MX, x: ca.MX, Pft: list, se
             if w is not None and np.any(np.asarray(w)[rows]):
                 ia, ib, keep = hessian_entries(pos, ft.idx)
                 we = np.repeat(np.asarray(w, float)[rows], ft.nd * ft.nd)[keep]
-                hv = ca.vec(H)
+                hv = vec(H)
                 kel_vals.append((hv[keep.tolist()] if len(keep) < hv.shape[0] else hv) * ca.DM(we))
                 kel_rows.append(ib[keep])
                 kel_cols.append(ia[keep])
