@@ -54,26 +54,44 @@ def kron_identity_factor(A, dims: tuple[int, ...] = (3, 2)) -> tuple[int, sp.csc
     whose directions share their shape functions (cables: r = S(xi) q, M_e = (rho A int s s^T) x I_d) has this form
     on unknowns grouped by d, unless supports, joints or point masses break it. (Compared on the compressed columns:
     column d j + a must hold column d j's entries, rows shifted by a; O(nnz).)"""
+    f = _kron_identity_parts(A, dims)
+    if f is None:
+        return None
+    d, m, indptr, indices, data = f
+    return d, sp.csc_matrix((data, indices, indptr), shape=(m, m))
+
+
+def kron_factor_dm(A, dims: tuple[int, ...] = (3, 2)) -> tuple[int, ca.DM] | None:
+    """kron_identity_factor's (d, B) with B as a CasADi DM, made from its compressed arrays (no SciPy matrix)."""
+    f = _kron_identity_parts(A, dims)
+    if f is None:
+        return None
+    d, m, indptr, indices, data = f
+    return d, ca.DM(casadi_sparsity(m, m, indptr, indices), data.tolist())
+
+
+def _kron_identity_parts(A, dims: tuple[int, ...]) -> tuple | None:
+    """(d, m, indptr, indices, data) of B (m x m, sorted CSC) with A = kron(B, I_d), or None."""
     A = _sorted_csc(A)
     n = A.shape[0]
     for d in dims:
         if n % d or n < d or A.shape[1] != n:
             continue
         cnt = np.diff(A.indptr).reshape(-1, d)  # entries per column, by groups of d columns
-        if np.any(cnt != cnt[:, :1]):
+        if (cnt != cnt[:, :1]).any():
             continue
         c0 = cnt[:, 0]
         grp = np.repeat(np.arange(n // d), c0)
         t = np.arange(c0.sum()) - np.repeat(np.cumsum(c0) - c0, c0)
         p0 = A.indptr[d * grp] + t
         rows0 = A.indices[p0]
-        if np.any(rows0 % d):
+        if (rows0 % d).any():
             continue
-        if all(np.array_equal(A.indices[A.indptr[d * grp + a] + t], rows0 + a) and
-               np.array_equal(A.data[A.indptr[d * grp + a] + t], A.data[p0]) for a in range(1, d)):
+        if all((A.indices[A.indptr[d * grp + a] + t] == rows0 + a).all() and
+               (A.data[A.indptr[d * grp + a] + t] == A.data[p0]).all() for a in range(1, d)):
             indptr = np.zeros(len(c0) + 1, dtype=A.indptr.dtype)  # (A's index type: no conversion, no checks)
             np.cumsum(c0, out=indptr[1:])
-            return d, sp.csc_matrix((A.data[p0], rows0 // d, indptr), shape=(n // d, n // d))
+            return d, n // d, indptr, rows0 // d, A.data[p0]
     return None
 
 

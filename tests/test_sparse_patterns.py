@@ -28,3 +28,18 @@ def test_dm_keeps_pattern_and_values():
     assert D1.sparsity() == D2.sparsity() and np.array_equal(np.array(D1.nonzeros()), np.array(D2.nonzeros()))
     assert np.array_equal(np.array(D1), A.toarray())
     assert casadi_sparsity(15, 12, A.indptr, A.indices) == ca.Sparsity(15, 12, A.indptr.tolist(), A.indices.tolist())
+
+
+def test_kron_factor_dm_is_the_factor_as_dm():
+    """kron_factor_dm gives the DM of kron_identity_factor's B (same pattern, same values) and None where there is
+    no factor."""
+    from ancf_sym.sparsity import kron_factor_dm, kron_identity_factor
+    B = sp.random(9, 9, density=0.4, format="csc", random_state=2) + sp.identity(9)
+    A = sp.kron(B, sp.identity(2), format="csc")
+    d, Bd = kron_factor_dm(A)
+    d2, Bs = kron_identity_factor(A)
+    assert d == d2 == 2 and Bd.sparsity() == dm(Bs).sparsity()
+    assert np.array_equal(np.array(Bd.nonzeros()), np.array(dm(Bs).nonzeros()))
+    A2 = A.tolil()
+    A2[0, 0] += 1.0  # (direction 0 heavier than direction 1: no factor)
+    assert kron_factor_dm(A2.tocsc(), dims=(2,)) is None
