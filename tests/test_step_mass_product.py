@@ -86,3 +86,20 @@ def test_plain_product_where_directions_differ():
     assert kron_identity_factor(S.M) is None
     u = np.random.default_rng(4).standard_normal(S.nf)
     assert np.all(np.abs(mass_product(S, u) - S.M @ u) <= bound(S.M, u))
+
+
+def test_mass_dm_is_the_mass_matrix():
+    """The step graphs' M as a DM (kron(Mbar, I_d) where M has that form, else M's own arrays) has M's pattern and
+    entries exactly: b * 1.0 = b, and the factor was checked entry for entry."""
+    s = Scene(dim=2, gravity=(0, -9.81))
+    s.member("m", [(0, 0), (1, 0)], 6, axial="biot", **STEEL)
+    s.pin("m", "start")
+    c = Scene(dim=2, gravity=(0, -9.81))
+    c.member("m", [(0, 0), (1, 0)], 6, axial="biot", **STEEL)
+    c.clamp("m", "start")  # (an odd number of unknowns: no factor)
+    for scene, has_factor in ((s, True), (c, False)):
+        S = StepSystem(Assembly(scene))
+        assert (kron_identity_factor(S.M) is not None) == has_factor
+        Md, M = S.mass_dm(), sp.csc_matrix(S.M)
+        assert Md.sparsity() == ca.Sparsity(M.shape[0], M.shape[1], M.indptr.tolist(), M.indices.tolist())
+        assert np.array_equal(np.array(Md.nonzeros()), M.data)
