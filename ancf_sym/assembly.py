@@ -461,5 +461,6 @@ def _mass_matrix(n: int, members: list, body: tuple) -> sp.csc_matrix:
     rows.append(bi)
     cols.append(bj)
     vals.append(bv)
-    return sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+    it = np.int32 if n < 2 ** 31 - 1 else np.int64  # (SciPy's own index type here: no check of the contents)
+    return sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows).astype(it), np.concatenate(cols).astype(it))),
                          shape=(n, n)).tocsc()
