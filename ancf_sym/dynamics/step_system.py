@@ -359,7 +359,8 @@ class StepSystem:
             norms = ca.vertcat(ca.mmax(fabs(r)), 0, dzx, 0, kmax)
             self.iteration_f = ca.Function("newton_iteration", ins_it, [neg(x), norms], names_it, ["dz", "norms"])
             return
-        # (the force graph inlined: its call node cost ~0.3 us of an iteration's ~22 us)
+        # (the force graph's nodes in the iteration's graph, a call node would cost ~0.3 us of an iteration's ~22 us:
+        # those just built, or copied by an inlined call)
         out = force_exprs[2] if force_exprs is not None else self.forces_pf.call([xf, par], True, False)
         g, K = out[0], out[1]
         Mdm = self.mass_dm()
