@@ -171,8 +171,10 @@ def _partition(ex, n: int) -> Partition:
     rows_e = np.flatnonzero(pos >= 0)
     if identified:
         E = sp.csc_matrix((np.ones(len(rows_e)), (rows_e, pos[rows_e])), shape=(n, len(free_roots)))
-    else:  # one coordinate per unknown, in order: the CSC arrays directly
-        E = sp.csc_matrix((np.ones(len(rows_e)), rows_e, np.arange(len(rows_e) + 1)), shape=(n, len(free_roots)))
+    else:  # one coordinate per unknown, in order: the CSC arrays directly (in SciPy's own index type: no checks)
+        it = np.int32 if n < 2 ** 31 - 1 else np.int64
+        E = sp.csc_matrix((np.ones(len(rows_e)), rows_e.astype(it), np.arange(len(rows_e) + 1, dtype=it)),
+                          shape=(n, len(free_roots)))
     keep = np.array(sorted(set(keep_rows)), dtype=np.int64)
     # rows whose coordinates are all fixed are redundant once the coordinates are eliminated
     if len(keep):
