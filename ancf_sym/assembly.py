@@ -18,7 +18,7 @@ from .loads import load_vector
 from .mesh import Mesh, build_mesh
 from . import registry
 from .scene import Scene, structure_spec_key
-from .sparsity import casadi_sparsity, csc_pattern
+from .sparsity import casadi_sparsity, csc_pattern, index_dtype
 from .terms import Term, scene_terms
 
 
@@ -461,6 +461,6 @@ def _mass_matrix(n: int, members: list, body: tuple) -> sp.csc_matrix:
     rows.append(bi)
     cols.append(bj)
     vals.append(bv)
-    it = np.int32 if n < 2 ** 31 - 1 else np.int64  # (SciPy's own index type here: no check of the contents)
+    it = index_dtype(n)
     return sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows).astype(it), np.concatenate(cols).astype(it))),
                          shape=(n, n)).tocsc()

@@ -16,6 +16,7 @@ import scipy.sparse as sp
 from . import setup_cache
 from .assembly import Assembly
 from .scene import SceneError
+from .sparsity import index_dtype
 
 
 @dataclass
@@ -172,7 +173,7 @@ def _partition(ex, n: int) -> Partition:
     if identified:
         E = sp.csc_matrix((np.ones(len(rows_e)), (rows_e, pos[rows_e])), shape=(n, len(free_roots)))
     else:  # one coordinate per unknown, in order: the CSC arrays directly (in SciPy's own index type: no checks)
-        it = np.int32 if n < 2 ** 31 - 1 else np.int64
+        it = index_dtype(n)
         E = sp.csc_matrix((np.ones(len(rows_e)), rows_e.astype(it), np.arange(len(rows_e) + 1, dtype=it)),
                           shape=(n, len(free_roots)))
     keep = np.array(sorted(set(keep_rows)), dtype=np.int64)

@@ -10,6 +10,12 @@ import scipy.sparse as sp
 from .mx_ops import add, reshape, vec
 
 
+def index_dtype(n: int) -> type:
+    """SciPy's own index type for a matrix of dimension n (int32 below 2^31 - 1): index arrays given in it are taken
+    without a check of their contents."""
+    return np.int32 if n < 2 ** 31 - 1 else np.int64
+
+
 def csc_pattern(rows: np.ndarray, cols: np.ndarray, n_rows: int,
                 n_cols: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(indptr, indices, inv): the merged CSC pattern and, for triplet k, the index of its non-zero inv[k]."""

@@ -91,9 +91,6 @@ class AlphaIntegrator:
         if self.modified_graph:
             self.ctl[2] = -1.0  # contraction rate unknown; ctl[4] = 0: no factor
 
-    def pack(self) -> np.ndarray:
-        return self.state.copy()
-
     def unpack(self, s: np.ndarray) -> dict:
         nf, mc = self.S.nf, self.S.mc
         out = {k: s[i * nf:(i + 1) * nf] for i, k in enumerate(("q", "v", "a", "ab", "a_prev"))}

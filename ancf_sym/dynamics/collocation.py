@@ -242,13 +242,13 @@ def stage_function(system: StepSystem, tab: Tableau, linsol: str = "qr") -> dict
             diag.append(K)
             cols.append(fi)
         return ca.horzcat(*cols)
-    Rq_cols = stage_residual(tab, h, dm(S.M), Q, qn, vn, forces)[0]
+    Rq_cols = stage_residual(tab, h, S.mass_dm(), Q, qn, vn, forces)[0]
     R = ca.vertcat(*[ca.vertcat(Rq_cols[:, i], kc * phis[i]) if mc else Rq_cols[:, i] for i in range(s)])
     # Jacobian by blocks (the kernels give K; the coupling through M and C is constant per step)
     velocity = None
     if S.rayleigh is not None or dfv:
         velocity = [(C if S.rayleigh is not None else 0) + (dfv[i] if dfv else 0) for i in range(s)]
-    blocks = stage_tangent(tab, h, dm(S.M), diag, velocity)
+    blocks = stage_tangent(tab, h, S.mass_dm(), diag, velocity)
     if mc:  # each stage's constraint rows and multiplier columns
         blocks = [[ca.vertcat(ca.horzcat(B, kc * jacs[i].T if i == j else ca.MX(nf, mc)),
                               ca.horzcat(kc * jacs[i] if i == j else ca.MX(mc, nf), ca.MX(mc, mc)))

@@ -131,7 +131,7 @@ def rayleigh_mx(S: "StepSystem", v: ca.MX, kel: ca.MX | None) -> tuple[ca.MX, ca
     Cv, C = ca.MX.zeros(nf), ca.MX(nf, nf)
     if S.rayleigh is None:
         return Cv, C
-    Mdm = dm(S.M)
+    Mdm = S.mass_dm()
     if S.rayleigh.alpha:
         Cv += S.rayleigh.alpha * S.mass_mx(v)
         C = C + S.rayleigh.alpha * Mdm

@@ -76,25 +76,15 @@ class Recorder:
                 self._cons = cons
             else:
                 x = system.full(np.zeros(system.nf))
-                if not live.any():
-                    self._viol_fixed = self._rows_violation(cons, x)
-                else:
-                    self._viol_fixed = self._rows_violation(cons.subset(np.flatnonzero(~live)), x)
+                fixed_rows = cons if not live.any() else cons.subset(np.flatnonzero(~live))
+                self._viol_fixed = float(np.abs(fixed_rows.value(x)).max())
+                if live.any():
                     self._cons = cons.subset(np.flatnonzero(live))
         if self._cons is not None:
             c = self._cons
             self._cA = c.A.toarray() if c.m * c.A.shape[1] <= 200_000 else c.A
         d = system.drives
         self._drives = d if d is not None and d.m else None
-
-    @staticmethod
-    def _rows_violation(cons, x: np.ndarray) -> float:
-        """max |Phi(x)| of the rows of cons."""
-        A = cons.A.toarray() if cons.m * cons.A.shape[1] <= 200_000 else cons.A
-        val = A @ x - cons.d
-        if len(cons.qrow):
-            val += np.bincount(cons.qrow, cons.qcoef * x[cons.qi] * x[cons.qj], minlength=cons.m)
-        return float(np.abs(val).max())
 
     @property
     def energies(self) -> dict[str, list]:
