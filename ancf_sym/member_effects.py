@@ -40,7 +40,7 @@ START_EFFECTS = {
     **{f"elastic_{s}": f"elastic_{START_STRAIN}" for s in FUSED_STRAINS if s != START_STRAIN},
     # the decoupled strain's own equivalent rod with Biot strain: the coupled Biot solution lies outside the decoupled
     # Newton's basin on coarse meshes (6 elements: 13 + 21 iterations), this one inside it (9 + 2, measured)
-    AXIAL_STRAINS["decoupled"].effect: "axial_decoupled_biot"}
+    AXIAL_STRAINS["decoupled"].effect: "axial_decoupled_biot", "elastic_decoupled": "elastic_decoupled_biot"}
 BEAM_METHODS = ("continuum", "elastic_line")
 
 

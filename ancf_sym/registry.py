@@ -71,6 +71,10 @@ _G = GAUSS_ORDERS  # short name for the tables below
 # B^T f_uu B per Gauss point, one accumulation and one mirror instead of two (bench/kernel_forms.py). The step
 # graphs use it where a cable member has both effects at the same Gauss order (assembly.force_terms).
 FUSED_STRAINS = ("green", "biot")
+# The decoupled strain's axial energy is no density of (r_x, r_xx) but a function of three stretch measures (the
+# nodal |r_x| and the deformed length): its kernel fused with bending (elastic_<strain>, p = L, EA, EI) chains its
+# derivatives through them and adds the length's per-point Hessian to bending's (codegen.forms.stretch_kernel).
+FUSED_STRETCH_STRAINS = ("decoupled", "decoupled_biot")
 
 
 def _cable_effects(el: str, dim: int) -> list[Effect]:
@@ -94,6 +98,11 @@ def _cable_effects(el: str, dim: int) -> list[Effect]:
                f"internal: axial_{strain} + bending as one density of (r_x, r_xx) (one kernel instead of two)",
                _G, parts=(f"axial_{strain}", "bending"))
         for strain in FUSED_STRAINS
+    ] + [
+        Effect(el, f"elastic_{strain}", ("L", "EA", "EI"),
+               f"internal: axial_{strain} + bending in one kernel, chained through the stretches (one kernel "
+               "instead of two)", _G, parts=(f"axial_{strain}", "bending"))
+        for strain in FUSED_STRETCH_STRAINS
     ]
 
 
@@ -218,9 +227,9 @@ def fused_effect(element: str, effects: tuple[str, ...]) -> str | None:
 # Batched kernels (codegen.batch): <function>_x4 evaluates BATCH_LANES elements per call in SIMD lanes. Emitted at
 # the default quadrature order for what the dynamics step graphs call at every step or output: the fused elastic
 # effects' kernel and _grad companion, and the _energy companion of the cables' public quadrature effects (the
-# energies per effect at the output times); and the kernel itself of the effects a decoupled-strain cable calls
-# unfused (its axial energy is no density of (r_x, r_xx), so it cannot join the fused form): axial_decoupled[_biot]
-# and bending. Elsewhere the graphs map the one-element function.
+# energies per effect at the output times); and the kernel itself of bending (cables without axial stiffness) and
+# of axial_decoupled[_biot] (the unfused calls, StepSystem(fuse=False), the fused kernel's reference in
+# bench/decoupled_fused.py). Elsewhere the graphs map the one-element function.
 BATCH_LANES = 4
 BATCH_SUFFIX = f"_x{BATCH_LANES}"
 

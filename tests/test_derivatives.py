@@ -106,6 +106,7 @@ LINEAR_PARAM = {"axial_green": ("EA",), "axial_biot": ("EA",), "axial_decoupled"
                 "gravity": ("rhoA",), "moment": ("M",), "continuum": ("E",), "line_strain": ("E",),
                 "line_bending": ("EIy", "EIz"), "line_torsion": ("GIp",), "moment_z": ("M",), "moment_y": ("M",),
                 "elastic_green": ("EA", "EI"), "elastic_biot": ("EA", "EI"),  # fused axial + bending: both factors
+                "elastic_decoupled": ("EA", "EI"), "elastic_decoupled_biot": ("EA", "EI"),
                 "contact_ground": ("k", "kh"), "contact_circle": ("k", "kh"),  # normal law: both stiffnesses
                 "contact_ground_friction": ("k", "kh", "c"), "contact_circle_friction": ("k", "kh", "c"),
                 "contact_drum": ("k", "kh"), "contact_drum_friction": ("k", "kh", "c"),

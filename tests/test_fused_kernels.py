@@ -22,13 +22,14 @@ REL = 1e-12
 
 def test_fused_effects_are_listed_and_internal():
     assert {(el, ef) for el, ef, _ in FUSED} == {(el, f"elastic_{s}") for el in ("cable2d", "cable3d")
-                                                  for s in ("green", "biot")}
+                                                  for s in ("green", "biot", "decoupled", "decoupled_biot")}
     assert {g for *_, g in FUSED} == {3, 4, 5, 7}
     for el, ef, _ in FUSED:
         eff = registry.EFFECTS[(el, ef)]
         assert eff.params == ("L", "EA", "EI") and eff.elastic and len(eff.parts) == 2
         assert registry.fused_effect(el, tuple(reversed(eff.parts))) == ef
-    assert registry.fused_effect("cable2d", ("axial_decoupled", "bending")) is None
+    assert registry.fused_effect("cable2d", ("bending", "axial_decoupled")) == "elastic_decoupled"
+    assert registry.fused_effect("cable2d", ("axial_green", "axial_decoupled")) is None
     assert registry.fused_effect("beam3d", ("line_strain", "line_bending")) is None
 
 
@@ -84,9 +85,11 @@ def test_force_terms_fuse_only_where_both_effects_are_on():
     # a member without bending next to one with: only the second member's elements are fused
     terms, fts = _force_terms(_scene(members=(("a", False, "green", None), ("b", True, "green", None))))
     assert sorted((ft.effect, ft.N) for ft in fts) == [("axial_green", 6), ("elastic_green", 6)]
-    # bending alone, decoupled axial strain, or axial and bending on different members: nothing fused
-    for members in ((("a", True, None, None),), (("a", True, "decoupled", None),),
-                    (("a", False, "green", 3), ("b", True, None, 3))):
+    # the decoupled strain's stretch-chained fused kernel, on every element
+    terms, fts = _force_terms(_scene(members=(("a", True, "decoupled", None),)))
+    assert [(ft.effect, ft.N, ft.labels) for ft in fts] == [("elastic_decoupled", 6, ("axial", "bending"))]
+    # bending alone, or axial and bending on different members: nothing fused
+    for members in ((("a", True, None, None),), (("a", False, "green", 3), ("b", True, None, 3))):
         _, fts = _force_terms(_scene(members=members))
         assert not any(ft.fused for ft in fts), members
     # every (term, element) is covered exactly once
@@ -117,7 +120,9 @@ def test_no_bending_loads_no_fused_kernel(monkeypatch):
     (2, (("a", True, "biot", None),), None),
     (2, (("a", True, "green", None), ("b", False, "green", None)), {"alpha": 0.2, "beta": 2e-3}),
     (3, (("a", True, "biot", 3),), {"beta": 1e-3, "members": ["a"]}),
-], ids=["rope2d", "two_members_rayleigh", "cable3d_g3_rayleigh"])
+    (2, (("a", True, "decoupled", None),), None),
+    (3, (("a", True, "decoupled", 3), ("b", True, "green", 3)), {"beta": 1e-3}),
+], ids=["rope2d", "two_members_rayleigh", "cable3d_g3_rayleigh", "decoupled2d", "decoupled3d_g3_rayleigh"])
 def test_dynamics_fused_matches_separate(dim, members, rayleigh):
     """The same run with the fused step graph and with one kernel call per term: tips and per-effect energies
     agree to round-off accumulated over the run."""
@@ -148,8 +153,9 @@ BATCHED_ENERGY = [(k["element"], k["effect"]) for k in kernels.catalogue()
 
 def test_batched_kernels_are_listed():
     assert sorted(BATCHED) == sorted((el, ef) for el in ("cable2d", "cable3d")
-                                     for ef in ("elastic_green", "elastic_biot", "axial_decoupled",
-                                                "axial_decoupled_biot", "bending"))
+                                     for ef in ("elastic_green", "elastic_biot", "elastic_decoupled",
+                                                "elastic_decoupled_biot", "axial_decoupled", "axial_decoupled_biot",
+                                                "bending"))
     assert sorted(BATCHED_ENERGY) == sorted((el, ef) for el in ("cable2d", "cable3d")
                                             for ef in ("axial_green", "axial_biot", "bending"))
     assert kernels.load_batch("cable2d", "bending", 3) is None and kernels.load_batch("cable2d", "elastic_biot", 3) is None

@@ -135,6 +135,34 @@ def _gap(element: str, effect: str):
     return gap
 
 
+# internal fused effects of the decoupled strain: axial_<strain> + bending through the stretches (forms.stretch_kernel)
+STRETCH = {f"elastic_{s}": "green" if s == "decoupled" else "biot" for s in registry.FUSED_STRETCH_STRAINS}
+
+
+def _stretch_kernel(name: str, element: str, effect: str, gauss: int) -> ca.Function:
+    """axial_decoupled[_biot] + bending of a cable in one kernel, p = (L, EA, EI): the rod energy of the stretches
+    (a, L_D, c) (elements.cable.rod_energy; L_D by the same Gauss points) plus the bending density, in the
+    coordinates y = ((r(L) - r(0))/L, r_x(0), r_x(L)) where the fields (r_x, L r_xx) have numeric coefficients."""
+    dim, strain = registry.ELEMENTS[element].dim, STRETCH[effect]
+    zero = ca.SX.zeros(dim)
+
+    def coordinates(q, p):
+        r0, t0, r1, t1 = cable.nodal(q, dim)
+        return ca.vertcat((r1 - r0) / p[0], t0, t1)
+
+    def basis(xi):  # (r_x, L r_xx) = B y: the element's fields at L = 1 with r(0) = 0, r(1) = the chord
+        y = ca.SX.sym("y", 3 * dim)
+        qy = ca.vertcat(zero, y[dim:2 * dim], y[:dim], y[2 * dim:])
+        return ca.evalf(ca.jacobian(ca.vertcat(cable.slope(qy, 1, xi, dim), cable.curvature_vector(qy, 1, xi, dim)), y))
+
+    invariants = lambda v: cable.bending_invariants(v[:dim], v[dim:])  # (|r_x|^2, r_x x L r_xx)
+    ends = lambda y: (y[dim:2 * dim], y[2 * dim:])
+    rod = lambda s, p: cable.rod_energy(s[0], s[1], s[2], p[0], p[1], gauss, strain)
+    bend = lambda z, p: cable.bending_of_invariants(z[0], z[1:] / p[0], p[2])
+    return forms.stretch_kernel(name, registry.ELEMENTS[element].ndof, 3, gauss, coordinates, basis, invariants,
+                                ends, rod, bend)
+
+
 def _direct_energy(element: str, effect: str, gauss: int | None):
     el = registry.ELEMENTS[element]
     if effect.endswith("_gap"):
@@ -179,6 +207,8 @@ def kernel(element: str, effect: str, gauss: int | None = None) -> ca.Function:
     el, eff = registry.ELEMENTS[element], registry.EFFECTS[(element, effect)]
     gauss = gauss or eff.default_gauss
     name = registry.kernel_name(element, effect, gauss)
+    if effect in STRETCH:
+        return _stretch_kernel(name, element, effect, gauss)
     if effect in _QUADRATURE:
         k = forms.quadrature_kernel(name, point_function(element, effect), gauss)
         # Small kernels run 1.6-3x faster as one straight-line SX function (no per-point calls, the Hessian mirror

@@ -109,3 +109,63 @@ def hvp_function(kernel: ca.Function) -> ca.Function:
     g = sx(q, p)[1]
     d2, hv = ca.hessian(ca.dot(v, g), q)
     return ca.Function(kernel.name() + "_hvp", [q, p, v], [hv, ca.densify(d2)], ["q", "p", "v"], ["hv", "dhv"])
+
+
+
+
+def stretch_kernel(name: str, nq: int, n_p: int, gauss: int, coordinates: Callable, basis: Callable,
+                   invariants: Callable, ends: Callable, stretch_energy: Callable, density: Callable) -> ca.Function:
+    """(q, p) -> (e, g, H) of U = f(s, p) + sum_k w_k L phi(z_k, p): an energy f of three stretch measures
+    s = (a, l, c) = (|t0|, sum_k w_k L |r_x(xi_k)|, |t1|) plus a quadrature density phi of the fields' invariants.
+
+    The energy sees q through fewer coordinates y = coordinates(q, p) = R q (linear, one entry of R per column:
+    a rigid translation drops out, lengths are scaled); at a point the fields are u = B y with a numeric
+    B = basis(xi) (r_x first), phi depends on them through the quadratic forms z = invariants(u) (z_0 = |r_x|^2),
+    and ends(y) = (t0, t1). Chain rule, exact (CasADi AD of the small functions f(s) and
+    psi(z) = w L (mu sqrt(z_0) + phi(z)), mu = f_l: the length's share of each point joins its density):
+      grad_y = sum_k G_k^T psi_z + f_a grad a + f_c grad c,   G_k = dz_k/dy,
+      Hess_y = sum_k (G_k^T psi_zz G_k + sum_i psi_z,i B_k^T Hess(z_i) B_k) + J^T f_ss J + f_a Hess a + f_c Hess c,
+    J = ds/dy; the B_k^T Hess(z_i) B_k are numbers, so their weighted sums cost one product per distinct entry.
+    Then grad = R^T grad_y, Hess = R^T Hess_y R. Common subexpressions (the invariants' repeated entries, the
+    norms of both passes, mirrored entries) are merged once at the end."""
+    q, p = ca.SX.sym("q", nq), ca.SX.sym("p", n_p)
+    L = p[0]
+    yq = coordinates(q, p)
+    R = ca.jacobian(yq, q)
+    y = ca.SX.sym("y", yq.shape[0])
+    ny = y.shape[0]
+    v = ca.SX.sym("v", basis(0.5).shape[0])
+    zv = invariants(v)
+    nz = zv.shape[0]
+    hz = [ca.evalf(ca.hessian(zv[i], v)[0]) for i in range(nz)]  # constant: z quadratic in v
+    zs, mu, wl = ca.SX.sym("z", nz), ca.SX.sym("mu"), ca.SX.sym("wl")
+    phi = density(zs, p)
+    psi_zz, psi_z = ca.hessian(wl * (mu * ca.sqrt(zs[0]) + phi), zs)
+    xs, ws = gauss01(gauss)
+    Bs = [ca.DM(basis(float(x))) for x in xs]
+    zk = [ca.substitute(zv, v, ca.mtimes(B, y)) for B in Bs]
+    ls = L * sum(float(w) * ca.sqrt(z[0]) for z, w in zip(zk, ws))
+    t0, t1 = ends(y)
+    a, c = ca.sqrt(ca.sumsqr(t0)), ca.sqrt(ca.sumsqr(t1))
+    s = ca.SX.sym("s", 3)
+    f = stretch_energy(s, p)
+    fss, fs = ca.hessian(f, s)
+    f, fs, fss = ca.substitute([f, fs, fss], [s], [ca.vertcat(a, ls, c)])
+    e, g, H = f, ca.SX.zeros(ny), ca.SX.zeros(ca.Sparsity.lower(ny))
+    const = [ca.SX.zeros(ca.Sparsity.lower(ny)) for _ in range(nz)]
+    for B, z, w in zip(Bs, zk, ws):
+        ph, pz, pzz = ca.substitute([phi, psi_z, psi_zz], [zs, mu, wl], [z, fs[1], float(w) * L])
+        G = ca.jacobian(z, y)
+        e += float(w) * L * ph
+        g += ca.mtimes(G.T, pz)
+        H += lower_product(G, pzz)
+        for i in range(nz):
+            C = ca.tril(ca.mtimes([B.T, hz[i], B]))
+            const[i] += pz[i] * ca.SX(ca.DM(C.sparsity(), [x + 0.0 for x in C.nonzeros()]))
+    ga, gc = ca.jacobian(a, y), ca.jacobian(c, y)
+    g += fs[0] * ga.T + fs[2] * gc.T
+    J = ca.vertcat(ga, ca.jacobian(ls, y), gc)
+    H += sum(const) + lower_product(J, fss) + ca.tril(fs[0] * ca.hessian(a, y)[0] + fs[2] * ca.hessian(c, y)[0])
+    e, g, H = ca.substitute([e, ca.mtimes(R.T, g), ca.tril(ca.mtimes([R.T, ca.tril2symm(H), R]))], [y], [yq])
+    e, g, H = ca.cse([e, g, ca.densify(ca.tril2symm(H))])
+    return ca.Function(name, [q, p], [e, g, H], KERNEL_IN, KERNEL_OUT)

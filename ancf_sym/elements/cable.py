@@ -58,19 +58,32 @@ def biot_density(rx, EA):
 def bending_density(rx, rxx, EI):
     c = cross2(rx, rxx)
     g = ca.dot(rx, rx)
+    return bending_of_invariants(g, c, EI)
+
+
+def bending_invariants(rx, rxx):
+    """(r_x.r_x, r_x x r_xx): the quadratic forms of the fields bending depends on (a scalar cross product in 2D)."""
+    return ca.vertcat(ca.dot(rx, rx), cross2(rx, rxx))
+
+
+def bending_of_invariants(g, c, EI):
     return EI / 2 * ca.sumsqr(c) / g**3  # kappa^2 = |r_x x r_xx|^2/|r_x|^6: smooth at zero curvature
 
 
 # Whole-element energies (direct form; the decoupled strain needs the whole element at once) ------------------
 
-def decoupled_energy(q, p, dim: int, gauss: int, strain: str = "green"):
-    """Paper 000 sec. 2: axial energy of the equivalent rod q_D = [0, |r_x(0)|, L_D, |r_x(L)|], with the rod's Green
-    strain (the paper's) or its Biot strain r_D,x - 1 (the statics' start for it, as Biot is for coupled Green)."""
-    L, EA = p[0], p[1]
+def decoupled_stretches(q, L, dim: int, gauss: int):
+    """(a, L_D, c) = (|r_x(0)|, int |r_x| dx by `gauss` points, |r_x(L)|): all the decoupled axial energy sees of q."""
     _, t0, _, t1 = nodal(q, dim)
     xs, ws = gauss01(gauss)
     LD = L * sum(w * ca.sqrt(ca.sumsqr(slope(q, L, x, dim))) for x, w in zip(xs, ws))
-    a, c = ca.sqrt(ca.sumsqr(t0)), ca.sqrt(ca.sumsqr(t1))
+    return ca.sqrt(ca.sumsqr(t0)), LD, ca.sqrt(ca.sumsqr(t1))
+
+
+def rod_energy(a, LD, c, L, EA, gauss: int, strain: str = "green"):
+    """Axial energy of the equivalent rod q_D = [0, a, L_D, c] (scalar Hermite functions of x in [0, L]), with
+    its Green strain ((r_D,x)^2 - 1)/2 or Biot strain r_D,x - 1, integrated by `gauss` points."""
+    xs, ws = gauss01(gauss)
     U = 0
     for x, w in zip(xs, ws):
         d = hermite.dh(x)
@@ -78,6 +91,14 @@ def decoupled_energy(q, p, dim: int, gauss: int, strain: str = "green"):
         eps = (rDx**2 - 1) / 2 if strain == "green" else rDx - 1
         U += w * L * EA / 2 * eps**2
     return U
+
+
+def decoupled_energy(q, p, dim: int, gauss: int, strain: str = "green"):
+    """Paper 000 sec. 2: axial energy of the equivalent rod q_D = [0, |r_x(0)|, L_D, |r_x(L)|], with the rod's Green
+    strain (the paper's) or its Biot strain r_D,x - 1 (the statics' start for it, as Biot is for coupled Green)."""
+    L, EA = p[0], p[1]
+    a, LD, c = decoupled_stretches(q, L, dim, gauss)
+    return rod_energy(a, LD, c, L, EA, gauss, strain)
 
 
 def gravity_energy(q, p, dim: int):
