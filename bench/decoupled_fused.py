@@ -49,15 +49,17 @@ def _timer(f, X, P) -> callable:
     return buf, ev
 
 
-def _loop(calls, inner: int, repeats: int) -> tuple[float, float]:
-    times = []
+def _loops(variants: list, inner: int, repeats: int) -> list[tuple[float, float]]:
+    """(min, median) seconds per evaluation of each variant (a list of evaluate calls), rounds interleaved."""
+    times = [[] for _ in variants]
     for _ in range(repeats):
-        t0 = time.perf_counter()
-        for _ in range(inner):
-            for ev in calls:
-                ev()
-        times.append((time.perf_counter() - t0) / inner)
-    return min(times), float(np.median(times))
+        for calls, t in zip(variants, times):
+            t0 = time.perf_counter()
+            for _ in range(inner):
+                for ev in calls:
+                    ev()
+            t.append((time.perf_counter() - t0) / inner)
+    return [(min(t), float(np.median(t))) for t in times]
 
 
 def kernels_part(repeats: int) -> None:
@@ -71,21 +73,19 @@ def kernels_part(repeats: int) -> None:
             fa = kernels.load_batch(element, axial).map(2)
             fb = kernels.load_batch(element, "bending").map(2)
             keep = [_timer(fa, X, P[:, [0, 1]]), _timer(fb, X, P[:, [0, 2]])]
-            t_sep = _loop([k[1] for k in keep], 2000, repeats)
+            variants = [[k[1] for k in keep]]
             if (element, fused) in registry.EFFECTS:
                 n_f = _instructions(element, fused)
-                ff = kernels.load_batch(element, fused).map(2)
-                keepf = [_timer(ff, X, P)]
-                t_f = _loop([keepf[0][1]], 2000, repeats)
-                t_sep = min(t_sep, _loop([k[1] for k in keep], 2000, repeats))  # interleaved again
-                print(f"{line}; {fused} {n_f} ({n_f / (n_ax + n_b):.2f}x)")
-                print(f"  batched, 8 elements, us per evaluation (min / median): two kernels "
-                      f"{t_sep[0] * 1e6:.2f} / {t_sep[1] * 1e6:.2f}, fused {t_f[0] * 1e6:.2f} / {t_f[1] * 1e6:.2f} "
-                      f"(ratio of minima {t_f[0] / t_sep[0]:.2f})")
-            else:
-                print(line)
-                print(f"  batched, 8 elements, us per evaluation (min / median): two kernels "
-                      f"{t_sep[0] * 1e6:.2f} / {t_sep[1] * 1e6:.2f}")
+                keep.append(_timer(kernels.load_batch(element, fused).map(2), X, P))
+                variants.append([keep[-1][1]])
+                line += f"; {fused} {n_f} ({n_f / (n_ax + n_b):.2f}x)"
+            t = _loops(variants, 1000, repeats)
+            print(line)
+            out = f"  batched, 8 elements, us per evaluation (min / median): two kernels {t[0][0] * 1e6:.2f} / " \
+                  f"{t[0][1] * 1e6:.2f}"
+            if len(t) > 1:
+                out += f", fused {t[1][0] * 1e6:.2f} / {t[1][1] * 1e6:.2f} (ratio of minima {t[1][0] / t[0][0]:.2f})"
+            print(out)
 
 
 def dynamics_part(n: int, repeats: int) -> None:

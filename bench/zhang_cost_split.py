@@ -12,7 +12,10 @@ Last, the bound a compiled Newton loop could reach: one whole iteration (kernels
 update norms) as one CasADi graph (the StepSystem's, NewtonStatics), timed alone, times the iterations each setting
 takes, with no per-solve cost at all.
 
-    python bench/zhang_cost_split.py [--repeats 300]
+    python bench/zhang_cost_split.py [--repeats 300] [--separate-decoupled]
+
+--separate-decoupled: the decoupled strain's axial and bending kernels called separately (its fused kernel
+elastic_decoupled hidden), as before that kernel existed.
 """
 from __future__ import annotations
 
@@ -69,7 +72,13 @@ class _Counters:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=300)
+    ap.add_argument("--separate-decoupled", action="store_true")
     args = ap.parse_args()
+    if args.separate_decoupled:
+        from ancf_sym import registry
+        fused = registry.fused_effect
+        registry.fused_effect = lambda el, effs: None if any(e.startswith("axial_decoupled") for e in effs) \
+            else fused(el, effs)
     c = _Counters()
     best = {s: (np.inf, 0.0, {}) for s in SETTINGS}
     results = {}
