@@ -160,8 +160,7 @@ def stretch_kernel(name: str, nq: int, n_p: int, gauss: int, coordinates: Callab
         g += ca.mtimes(G.T, pz)
         H += lower_product(G, pzz)
         for i in range(nz):
-            C = ca.tril(ca.mtimes([B.T, hz[i], B]))
-            const[i] += pz[i] * ca.SX(ca.DM(C.sparsity(), [x + 0.0 for x in C.nonzeros()]))
+            const[i] += pz[i] * ca.SX(ca.tril(ca.mtimes([B.T, hz[i], B])))
     ga, gc = ca.jacobian(a, y), ca.jacobian(c, y)
     g += fs[0] * ga.T + fs[2] * gc.T
     J = ca.vertcat(ga, ca.jacobian(ls, y), gc)
