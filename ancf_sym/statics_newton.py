@@ -41,6 +41,7 @@ from .casadi_buffers import bind
 from scipy.linalg.lapack import dgbsv, dpbtrf, dpbtrs
 
 from .inertia import banded_cholesky, banded_solve
+from .newton_loop import CompiledLoop, compiled_loop
 from .statics_eval import ReducedEvaluation
 from .dynamics.step_system import StepSystem
 from .reduced import partition
@@ -53,6 +54,7 @@ SHIFT, SHIFT_MAX = 1e-4, 1e4  # shifts of an indefinite tangent's diagonal tried
 SHIFT_BELOW = 1e-3  # updates (relative) below which an indefinite tangent's plain Newton step is taken
 EPS = float(np.finfo(float).eps)
 WILD = 1e3  # an update of a thousand structure lengths left every physical equilibrium behind: hand over to IPOPT
+PYTHON_LOOP = False  # True: KernelNewton iterates in Python even where the C loop (newton_loop) takes the scene
 
 
 @dataclass
@@ -241,6 +243,7 @@ class KernelNewton(NewtonStatics):
         self.load = 1.0
         self._mu, self._prev_inc = 0.0, math.inf  # the last shift that made a step go downhill (the next try starts a tenth of it)
         self._trial = None  # the point x + dz of an accepted step whose potential was evaluated (reused by the next _eval)
+        self._loop: CompiledLoop | bool | None = None  # the loop in C (newton_loop), False: the Python loop; bound on first solve
 
     def potential(self, x_full: np.ndarray, load: float = 1.0) -> float:
         """Total potential at x_full with the loads scaled by `load` [J] (linear terms: -load f_lin . x)."""
@@ -308,9 +311,19 @@ class KernelNewton(NewtonStatics):
         self.norms[:] = (abs(r).max(), 0.0, abs(self.dz / self.scale).max(), -_dot(r, self.dz), kmax)
         self._prev_inc = self.norms[2]
 
-    def solve(self, *args, **kw) -> NewtonRun:
+    def solve(self, x_full: np.ndarray, tol: float, max_iter: int, work: float, load: float = 1.0,
+              lam: np.ndarray | None = None, max_step: float = np.inf) -> NewtonRun:
         self._mu, self._prev_inc, self._trial = 0.0, math.inf, None
-        return super().solve(*args, **kw)
+        if self._loop is None:
+            self._loop = compiled_loop(self) or False
+        if self._loop and PYTHON_LOOP is False:
+            out = self._loop.run(x_full, tol, max_iter, work, load, max_step)
+            if out is not None:
+                status, it, x, inc, dec, floor, hist = out
+                return NewtonRun(status == "converged", status, it, x, self.lam.copy(), float(inc), float(dec),
+                                 float(self.norms[0]), floor, hist)
+            self._mu, self._prev_inc, self._trial = 0.0, math.inf, None  # (singular band: this solve in Python)
+        return super().solve(x_full, tol, max_iter, work, load, lam, max_step)
 
     def _shifted_step(self, ab: np.ndarray, r: np.ndarray) -> bool:
         """The tangent is not positive definite: a Newton step there need not go downhill (measured on coarse
