@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import ctypes
 import functools
-from ctypes import POINTER, c_char_p, c_double, c_int, c_longlong, c_void_p, py_object
+from ctypes import c_char_p, c_double, c_int, c_longlong, c_void_p, py_object
 
 import numpy as np
 from scipy.linalg import cython_lapack
@@ -65,7 +65,7 @@ class _Run(ctypes.Structure):
 @functools.lru_cache(maxsize=1)
 def _library() -> ctypes.PyDLL:
     lib = ctypes.PyDLL(str(kernels.library_path(LIBRARY)))  # PyDLL: the GIL held, for the signal check
-    lib.nl_solve.argtypes, lib.nl_solve.restype = [POINTER(_Problem), POINTER(_Run)], c_int
+    lib.nl_solve.argtypes, lib.nl_solve.restype = [c_void_p, c_void_p], c_int  # (_Problem, _Run)
     lib.nl_sum.argtypes, lib.nl_sum.restype = [c_void_p, c_longlong, c_longlong], c_double
     return lib
 
@@ -75,6 +75,7 @@ def _kernel_library(path: str) -> ctypes.CDLL:
     return ctypes.CDLL(path)
 
 
+@functools.lru_cache(maxsize=None)
 def _kernel(element: str, effect: str, gauss: int | None, batched: bool) -> tuple[int, tuple[int, ...]]:
     """(address of the compiled kernel, its work sizes (arg, res, iw, w)): the function casadi.external loads."""
     lib = _kernel_library(str(kernels.library_path(registry.library_name(element, effect))))
@@ -82,6 +83,11 @@ def _kernel(element: str, effect: str, gauss: int | None, batched: bool) -> tupl
     sizes = [c_longlong() for _ in range(4)]
     getattr(lib, name + "_work")(*(ctypes.byref(s) for s in sizes))
     return ctypes.cast(getattr(lib, name), c_void_p).value, tuple(s.value for s in sizes)
+
+
+@functools.lru_cache(maxsize=1)
+def _check_signals() -> int:
+    return ctypes.cast(ctypes.pythonapi.PyErr_CheckSignals, c_void_p).value
 
 
 @functools.lru_cache(maxsize=None)
@@ -113,94 +119,114 @@ def _i64(a) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.int64)
 
 
-def _ptr(a: np.ndarray | None) -> int | None:
-    return None if a is None else a.ctypes.data
+class _Block:
+    """Arrays side by side in one allocation: one address to ask numpy for (~1.5 us each), the others offsets."""
+
+    def __init__(self, dtype, sizes: dict):
+        self.at, total = {}, 0
+        for name, m in sizes.items():
+            self.at[name] = (total, int(m))
+            total += int(m)
+        self.array = np.zeros(max(total, 1), dtype)
+        self.base = self.array.ctypes.data
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        o, m = self.at[name]
+        return self.array[o:o + m]
+
+    def ptr(self, name: str) -> int:
+        return self.base + self.array.itemsize * self.at[name][0]
 
 
 class CompiledLoop:
     """One KernelNewton's loop in C, every pointer and array bound once. `run` returns (status, the run's
-    figures) or None where the solve must run in Python (see the module docstring)."""
+    figures) or None where the solve must run in Python (see the module docstring). KernelNewton's x, dz, p and
+    norms become views of the loop's buffer (the C loop writes them, the Python loop too)."""
 
     def __init__(self, newton):
         from . import statics_newton as sn  # (its constants: one home)
         R, ev = newton.S, newton.ev
         nf, n, bw = R.nf, len(R.part.pos), ev.bw
         self.newton, self.nf, self.n = newton, nf, n
-        keep = self._keep = []  # every array and ctypes object the C side points into
+        calls = [(ft, N, _i64(idx), X, P, local) for ft, N, (idx, X, P, _, _, local) in zip(ev.fts, ev._n, ev.calls)]
+        fns = [_kernel(ft.element, ft.effect, ft.gauss, registry.has_batch(ft.element, ft.effect, ft.gauss))
+               for ft, *_ in calls]
+        sz_arg, sz_res, sz_iw, sz_w = (max([f[1][i] for f in fns] + [least]) for i, least in enumerate((2, 3, 1, 1)))
+        vec, full = ("d", "r", "sol", "dz_try", "xt", "x", "dz", "p", "f_lin", "scale"), \
+            ("xfull", "xtry", "x_eval", "x0", "x_out", "c", "f_lin_full")
+        F = self._f = _Block(np.float64, {
+            "g": nf + 1, "band": (bw + 1) * nf + 1, "ab": (bw + 1) * nf, "lu": (3 * bw + 1) * nf, "norms": 5,
+            "tmp": max(n, nf, ev.E.size), "w": sz_w, **{k: nf for k in vec}, **{k: n for k in full}})
+        locals_ = {f"{k}{t}": len(c[5][0]) for t, c in enumerate(calls) if c[5] is not None for k in ("dst", "src")}
+        I = self._i = _Block(np.int64, {"gather": n, "roots": nf, "ipiv": nf // 2 + 1, "iw": sz_iw, **locals_})
+        for B, name, a in ((F, "c", R.part.c), (F, "f_lin", R.f_lin), (F, "f_lin_full", R.f_lin_full),
+                           (F, "scale", newton.scale), (I, "gather", R._gather), (I, "roots", R.part.roots)):
+            B[name][:] = a
+        for name in ("x", "dz", "p", "norms"):  # KernelNewton's arrays move into the buffer
+            F[name][:] = getattr(newton, name)
+            setattr(newton, name, F[name])
 
-        def hold(a):
-            keep.append(a)
-            return _ptr(a)
-
-        terms = (_Term * len(ev.calls))()
+        terms = (_Term * len(calls))()
+        arg, res = (c_void_p * sz_arg)(), (c_void_p * sz_res)()  # (one kernel call at a time: shared work)
         e0 = g0 = h0 = 0  # the outputs' places in the evaluation's E, G, H (ReducedEvaluation._bind: side by side)
-        for t, ft, N, (idx, X, P, _, _, local) in zip(terms, ev.fts, ev._n, ev.calls):
-            batched = registry.has_batch(ft.element, ft.effect, ft.gauss)
-            lanes = registry.BATCH_LANES if batched else 1
+        E, G, H = (a.ctypes.data for a in (ev.E, ev.G, ev.H))
+        for t, (ft, N, idx, X, P, local), (f, _) in zip(range(len(calls)), calls, fns):
+            T = terms[t]
+            lanes = registry.BATCH_LANES if registry.has_batch(ft.element, ft.effect, ft.gauss) else 1
             assert N % lanes == 0, "padded to whole batches (statics_eval._padded)"
-            t.f, (sz_arg, sz_res, sz_iw, sz_w) = _kernel(ft.element, ft.effect, ft.gauss, batched)
-            t.lanes, t.N, t.nd, t.np = lanes, N, ft.nd, P.shape[1]
-            t.idx, t.X, t.P = hold(_i64(idx)), _ptr(X), _ptr(P)
-            t.E, t.G, t.H = (a.ctypes.data + a.itemsize * o for a, o in ((ev.E, e0), (ev.G, g0), (ev.H, h0)))
+            T.f, T.lanes, T.N, T.nd, T.np = f, lanes, N, ft.nd, P.shape[1]
+            T.idx, T.X, T.P = idx.ctypes.data, X.ctypes.data, P.ctypes.data
+            T.E, T.G, T.H = E + 8 * e0, G + 8 * g0, H + 8 * h0
             e0, g0, h0 = e0 + N, g0 + N * ft.nd, h0 + N * ft.nd * ft.nd
             if local is not None:
-                t.nlocal, t.ldst, t.lsrc = len(local[0]), hold(_i64(local[0])), hold(_i64(local[1]))
-            arg, res = (c_void_p * max(sz_arg, 2))(), (c_void_p * max(sz_res, 3))()
-            t.arg, t.res = ctypes.addressof(arg), ctypes.addressof(res)
-            t.iw, t.w = hold(np.zeros(max(sz_iw, 1), np.int64)), hold(np.zeros(max(sz_w, 1)))
-            keep += [arg, res, X, P]
-        keep += [terms, ev.E, ev.G, ev.H]
-
-        f64 = lambda m: np.zeros(max(m, 1))  # noqa: E731 (work arrays)
-        self.g, self.x_eval = f64(nf + 1), np.zeros(n)
+                I[f"dst{t}"][:], I[f"src{t}"][:] = local
+                T.nlocal, T.ldst, T.lsrc = len(local[0]), I.ptr(f"dst{t}"), I.ptr(f"src{t}")
+            T.arg, T.res, T.iw, T.w = ctypes.addressof(arg), ctypes.addressof(res), I.ptr("iw"), F.ptr("w")
         real = None if ev._real is None else _i64(ev._real)
-        lu = f64((3 * bw + 1) * nf)  # the banded LU's storage, also the Cholesky factor's (never both at once)
+        gpos, hband = _i64(ev._gpos), _i64(ev._hband)
+        # every array and ctypes object the C side points into
+        self._keep = [calls, terms, arg, res, ev.E, ev.G, ev.H, real, gpos, hband]
+        self.g, self.x_eval, self._x0, self._x = F["g"], F["x_eval"], F["x0"], F["x_out"]
         P = self.problem = _Problem(
-            nf=nf, n=n, bw=bw, nterms=len(terms), terms=ctypes.addressof(terms),
-            gather=hold(_i64(R._gather)), roots=hold(_i64(R.part.roots)), c=hold(np.ascontiguousarray(R.part.c, float)),
-            f_lin=hold(np.ascontiguousarray(R.f_lin, float)), f_lin_full=hold(np.ascontiguousarray(R.f_lin_full, float)),
-            scale=hold(np.ascontiguousarray(newton.scale, float)), span=float(newton.span),
-            E=_ptr(ev.E), G=_ptr(ev.G), H=_ptr(ev.H), real=hold(real), gpos=hold(_i64(ev._gpos)),
-            hband=hold(_i64(ev._hband)), ne=ev.E.size, nreal=0 if real is None else real.size, ng=ev.G.size,
-            nh=ev.H.size, sum_block=sum_block(),
-            g=hold(self.g), band=hold(f64((bw + 1) * nf + 1)), ab=hold(f64((bw + 1) * nf)),
-            fac=hold(lu), lu=_ptr(lu), d=hold(f64(nf)), r=hold(f64(nf)),
-            sol=hold(f64(nf)), dz_try=hold(f64(nf)), xt=hold(f64(nf)), tmp=hold(f64(max(n, nf, ev.E.size))),
-            x=_ptr(newton.x), dz=_ptr(newton.dz), p=_ptr(newton.p), norms=_ptr(newton.norms),
-            xfull=hold(f64(n)), xtry=hold(f64(n)), ipiv=hold(np.zeros(nf, np.intc)),
-            dpbtrf=_lapack("dpbtrf"), dpbtrs=_lapack("dpbtrs"), dgbsv=_lapack("dgbsv"),
-            check_signals=ctypes.cast(ctypes.pythonapi.PyErr_CheckSignals, c_void_p).value,
+            nf=nf, n=n, bw=bw, nterms=len(calls), terms=ctypes.addressof(terms),
+            gather=I.ptr("gather"), roots=I.ptr("roots"), span=float(newton.span), E=E, G=G, H=H,
+            real=None if real is None else real.ctypes.data, gpos=gpos.ctypes.data, hband=hband.ctypes.data,
+            ne=ev.E.size, nreal=0 if real is None else real.size, ng=ev.G.size, nh=ev.H.size,
+            sum_block=sum_block(), fac=F.ptr("lu"),  # (the LU's storage holds the Cholesky factor too: never both)
+            ipiv=I.ptr("ipiv"), dpbtrf=_lapack("dpbtrf"), dpbtrs=_lapack("dpbtrs"), dgbsv=_lapack("dgbsv"),
+            check_signals=_check_signals(),
             k=_Constants(stall=sn.STALL, round_off=sn.ROUND_OFF, shift=sn.SHIFT, shift_max=sn.SHIFT_MAX,
                          shift_below=sn.SHIFT_BELOW, wild=sn.WILD, stall_count=sn.STALL_COUNT,
-                         no_progress=sn.NO_PROGRESS))
-        self._run = _Run(x_eval=_ptr(self.x_eval))
+                         no_progress=sn.NO_PROGRESS),
+            **{k: F.ptr(k) for k in ("c", "f_lin", "f_lin_full", "scale", "g", "band", "ab", "lu", "tmp", "norms",
+                                     "xfull", "xtry", "x", "dz", "p", "d", "r", "sol", "dz_try", "xt")})
         self._hist = np.zeros(0)
+        self._run = _Run(x0=F.ptr("x0"), x_out=F.ptr("x_out"), x_eval=F.ptr("x_eval"))
         self._solve = _library().nl_solve
-        self._args = (ctypes.byref(P), ctypes.byref(self._run))
+        self._p, self._r = ctypes.addressof(P), ctypes.addressof(self._run)
 
     def run(self, x_full: np.ndarray, tol: float, max_iter: int, work: float, load: float, max_step: float):
         """The loop from x_full: None where the Python loop must run this solve, else (status, iterations, x,
-        increment, decrement, residual floor, history)."""
-        nw, ev, run = self.newton, self.newton.ev, self._run
-        x0 = np.ascontiguousarray(x_full, dtype=float)
-        max_iter = max(int(max_iter), 0)
+        increment, decrement, residual floor, history). (Its cost around the C call is ~5 us: every pointer but
+        the history's is fixed.)"""
+        run = self._run
+        self._x0[:] = x_full
         if self._hist.size < 2 * max_iter:
             self._hist = np.zeros(2 * max_iter)
-        x = np.empty(self.n)
-        run.x0, run.tol, run.work, run.load, run.max_step = x0.ctypes.data, tol, work, load, max_step
-        run.max_iter, run.hist, run.x_out = max_iter, self._hist.ctypes.data, x.ctypes.data
-        run.status = -1
+            run.hist = self._hist.ctypes.data
+        run.tol, run.work, run.load, run.max_step, run.max_iter = tol, work, load, max_step, max(int(max_iter), 0)
+        run.status = run.evaluations = -1  # (a run under way: both set by the C loop)
         try:
-            status = self._solve(*self._args)
+            status = self._solve(self._p, self._r)
         finally:  # (also after Ctrl-C): the evaluation and KernelNewton hold the loop's last values
             if run.status >= 0:
+                nw, ev = self.newton, self.newton.ev
                 ev.at, ev.energy, ev.g, ev._pen = self.x_eval.copy(), run.ev_energy, self.g[:self.nf].copy(), None
                 nw.energy, nw._mu, nw._prev_inc, nw._trial, nw.load = run.energy, run.mu, run.prev_inc, None, load
         if status == SINGULAR:
             return None
         h = self._hist[:2 * run.nhist].tolist()
-        return (STATUS[status], run.iterations, x, run.inc, run.dec, run.floor, list(zip(h[0::2], h[1::2])))
-
+        return (STATUS[status], run.iterations, self._x.copy(), run.inc, run.dec, run.floor, [*zip(h[::2], h[1::2])])
 
     @property
     def counts(self) -> dict:

@@ -5,11 +5,14 @@ remaining exact rows with Lagrange multipliers). Two ways to evaluate one iterat
 loop; which one depends on the scene, never on how often it is solved:
 - kernels (KernelNewton), every scene without multiplier rows: the compiled kernels called directly, their
   gradients and Hessians scattered onto the free coordinates and LAPACK's band (statics_eval), a banded Cholesky
-  (dpbtrf): nothing to build; measured ~75 us per iteration at 60 elements, ~1.3 ms at 600, ~13.5 ms at 6000;
+  (dpbtrf): nothing to build. The whole loop below runs as one call into hand-written C (newton_loop,
+  csrc/newton_loop.c: the same operations in the same order, so the same steps) where the evaluation is plain
+  (no penalty springs, a band within BAND_LIMIT): measured ~11 - 16 us per iteration on 6 - 18 elements, ~47 us
+  at 60, ~5.5 ms at 6000 (this Python loop: ~50 us, ~87 us, ~6 ms); other scenes iterate here in Python;
 - graph (NewtonStatics), scenes with multiplier rows (rigid joints, skew clamps): the dynamics' StepSystem with
   every kernel, the KKT matrix and its sparse QR in one CasADi Function, ~35 ms (60 elements) to ~1 s (6000) to
   build, then about as fast per iteration.
-Python only loops over the iterations, so Ctrl-C stops a solve between two of them.
+Ctrl-C stops a solve between two iterations (the C loop checks Python's signals before each).
 Where the tangent is not positive definite and the updates are still large, KernelNewton takes the plain step (banded
 LU) if it is small or lowers the potential, else shifts its diagonal until the step does (_shifted_step); full
 Newton steps everywhere else.
@@ -54,7 +57,7 @@ SHIFT, SHIFT_MAX = 1e-4, 1e4  # shifts of an indefinite tangent's diagonal tried
 SHIFT_BELOW = 1e-3  # updates (relative) below which an indefinite tangent's plain Newton step is taken
 EPS = float(np.finfo(float).eps)
 WILD = 1e3  # an update of a thousand structure lengths left every physical equilibrium behind: hand over to IPOPT
-PYTHON_LOOP = False  # True: KernelNewton iterates in Python even where the C loop (newton_loop) takes the scene
+PYTHON_LOOP = False  # True: KernelNewton iterates in Python even where the C loop (newton_loop) takes the scene (to compare)
 
 
 @dataclass
@@ -228,7 +231,9 @@ class KernelNewton(NewtonStatics):
     """The same Newton loop with each iteration evaluated from the compiled kernels (statics_eval: no graph to
     build) and solved by a banded Cholesky (LAPACK dpbtrf; banded LU where the tangent is not positive definite,
     sparse factorisations where the band is wide). Scenes without multiplier rows only (Reduction.mc == 0). evaluation: another strain measure's
-    (ReducedEvaluation.variant) for a start."""
+    (ReducedEvaluation.variant) for a start. `solve` runs the loop in C (newton_loop) where the evaluation allows it
+    (decided at the first solve; a solve the C loop hands back, a singular band, runs here again from its start);
+    afterwards the evaluation holds the kernels' values at the point they were evaluated last, as after this loop."""
 
     def __init__(self, asm: Assembly, reduction: Reduction, evaluation: ReducedEvaluation | None = None):
         assert reduction.mc == 0, "multiplier rows need the graph (NewtonStatics)"
