@@ -266,8 +266,10 @@ class KernelNewton(NewtonStatics):
 
     def positive_definite(self, x_full: np.ndarray, sigma_rel: float) -> bool | None:
         """Reduced Hessian + sigma I positive definite (sigma = sigma_rel x max |H_ii|) by the banded Cholesky; None
-        where the band is wide (the caller then counts the inertia)."""
-        self.ev.evaluate(x_full)
+        where the band is wide (the caller then counts the inertia). An evaluation at this very array (the result's)
+        is reused."""
+        if self.ev.at is not x_full:
+            self.ev.evaluate(x_full)
         ab = self.ev.band()
         if ab is None:
             return None
