@@ -209,12 +209,12 @@ class CompiledLoop:
         """The loop from x_full: None where the Python loop must run this solve, else (status, iterations, x,
         increment, decrement, residual floor, history). (Its cost around the C call is ~5 us: every pointer but
         the history's is fixed.)"""
-        run = self._run
+        run, max_iter = self._run, max(int(max_iter), 0)
         self._x0[:] = x_full
         if self._hist.size < 2 * max_iter:
             self._hist = np.zeros(2 * max_iter)
             run.hist = self._hist.ctypes.data
-        run.tol, run.work, run.load, run.max_step, run.max_iter = tol, work, load, max_step, max(int(max_iter), 0)
+        run.tol, run.work, run.load, run.max_step, run.max_iter = tol, work, load, max_step, max_iter
         run.status = run.evaluations = -1  # (a run under way: both set by the C loop)
         try:
             status = self._solve(self._p, self._r)

@@ -21,6 +21,7 @@ from ancf_sym import statics_newton
 from ancf_sym.statics import BIOT_MAX_ITER, BIOT_TOL, StaticProblem
 from ancf_sym.study.statics_studies import elastica_scene, zhang_scene
 
+from test_beam_locking import _cantilever as beam3d_cantilever
 from test_statics_newton import _two_members, cantilever
 
 
@@ -30,6 +31,15 @@ def _free_cable() -> Scene:
     s.member("c", [(0, 0), (1, 0)], 4, Material(E=1e7, density=1.0), Section(area=1e-2, I=1e-7), axial="green",
              gravity=False)
     s.force("c", "end", (0.0, -1.0))
+    return s
+
+
+def _cable3d(n: int) -> Scene:
+    """Paper 000's cantilever in space (Green strain, gravity along -z)."""
+    s = Scene(dim=3, gravity=(0, 0, -9.81))
+    s.member("beam", [(0, 0, 0), (3.0, 0, 0)], n, Material(E=20e9, density=7200),
+             Section(area=7.854e-5, I=4.909e-10), axial="green", gravity=True)
+    s.clamp("beam", "start")
     return s
 
 
@@ -46,6 +56,8 @@ CASES = {
     "elastica green 10": (lambda: elastica_scene("green", 10, 5), "light", {}, {}),
     "elastica decoupled 10": (lambda: elastica_scene("decoupled", 10, 5), "light", {}, {}),
     "green 1200, element-local positions": (lambda: cantilever(1200, "green"), "light", {}, {}),
+    "beam3d 8, scalar kernels (no batch)": (lambda: beam3d_cantilever("continuum", 8, 0.3, 2, -1e3), "light", {}, {}),
+    "cable3d 400, element-local positions": (lambda: _cable3d(400), "light", {}, {}),
     "load 0.4": (lambda: zhang_scene("green", 18, 5), "light", {"load": 0.4}, {}),
     "max_step 0.1 L (stalls)": (lambda: zhang_scene("green", 18, 5), "light", {"max_step": 0.1}, {}),
     "max_iter 3": (lambda: zhang_scene("decoupled", 6, 5), "light", {"max_iter": 3}, {}),
