@@ -1,5 +1,6 @@
 """Build: compile every kernel in generated/ (committed C from `python -m ancf_sym.codegen`) into a shared library
-inside the installed package, ancf_sym/_kernels/. Nothing is generated or compiled at run time."""
+inside the installed package, ancf_sym/_kernels/, and the hand-written C of csrc/ next to them. Nothing is generated
+or compiled at run time."""
 import json
 import os
 import shutil
@@ -50,5 +51,9 @@ extensions = [
               extra_compile_args=k["cflags"], libraries=["m"])
     for lib, k in sorted(LIBRARIES.items(), key=lambda lk: -(GENERATED / lk[1]["c_file"]).stat().st_size)
 ]
+# hand-written C (csrc/): the statics Newton loop, calling the kernels and LAPACK by pointer (ancf_sym.newton_loop);
+# no floating-point contraction, so that it rounds as the numpy loop it mirrors
+extensions.append(Extension("ancf_sym._kernels.newton_loop", sources=["csrc/newton_loop.c"],
+                            extra_compile_args=["-O2", "-g0", "-ffp-contract=off"], libraries=["m"]))
 
 setup(ext_modules=extensions, cmdclass={"build_ext": ParallelBuildExt, "build_py": BuildPyWithManifest})

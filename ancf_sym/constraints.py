@@ -126,7 +126,10 @@ class Constraints:
         return len(self.d)
 
     def value(self, x: np.ndarray) -> np.ndarray:
-        return self.A @ x + np.bincount(self.qrow, self.qcoef * x[self.qi] * x[self.qj], minlength=self.m) - self.d
+        c = self.A @ x - self.d
+        if len(self.qrow):  # bilinear rows (rigid joints' slope rows)
+            c += np.bincount(self.qrow, self.qcoef * x[self.qi] * x[self.qj], minlength=self.m)
+        return c
 
     def jacobian(self, x: np.ndarray) -> sp.csr_matrix:
         n = self.A.shape[1]

@@ -29,7 +29,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import bodies, contact, contact_exact, fields, spatial_bodies, statics_coarse, statics_contact
-from .assembly import LOAD_LABELS, Assembly
+from .assembly import LOAD_LABELS, Assembly, Evaluation
 from .checks import check_fields
 from .interrupts import interruptible
 from .mesh import check_stretch
@@ -38,7 +38,7 @@ from .schema import STATIC_OPTIONS
 
 from .inertia import STABILITY_EPS, reduced_inertia
 from .member_effects import START_STRAIN
-from .statics_eval import BIOT
+from .statics_eval import BIOT, ResultEnergies
 from .statics_newton import KernelNewton, NewtonRun, NewtonStatics, Reduction
 
 SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
@@ -160,6 +160,7 @@ class StaticProblem:
         self._solvers: dict = {}
         self._biot: KernelNewton | bool | None = None  # Newton on the same scene with Biot strain (a start)
         self._coarse: StaticProblem | bool | None = None  # the scene meshed coarser (a start on fine meshes)
+        self._result_energies: ResultEnergies | None = None  # energies by label for results (kernel path)
         self.work = self.newton.load_work(self.asm.x0)  # the loads' energy scale W [J]
 
     @property
@@ -171,9 +172,10 @@ class StaticProblem:
 
     def _engine(self) -> NewtonStatics:
         """Which evaluation runs the Newton iterations (measured, bench/STATICS_RESULTS.md): the kernels called
-        directly (KernelNewton) cost ~55 us per iteration at 60 elements, ~0.5 ms at 600 and ~9 ms at 6000, with
-        nothing to build; the compiled StepSystem graph ~50 us / ~1.4 ms / ~13 ms after ~35 ms / ~120 ms / ~1 s of
-        building. Only scenes with multiplier rows (rigid joints, skew clamps) need the graph's KKT solve."""
+        directly (KernelNewton, its loop in C where the evaluation is plain) cost ~47 us per iteration at 60
+        elements and ~5.5 ms at 6000, with nothing to build; the compiled StepSystem graph ~50 us / ~13 ms after
+        ~35 ms / ~1 s of building. Only scenes with multiplier rows (rigid joints, skew clamps) need the graph's KKT
+        solve."""
         return self.light if self.light is not None else self.graph
 
     # -- IPOPT --------------------------------------------------------------------------------------------------
@@ -299,7 +301,7 @@ class StaticProblem:
                                           "used": used}
         iters += run.iterations + (biot.iterations if biot is not None else 0)
         path = "newton"
-        ev = a.evaluate(run.x, hessian=False) if run.converged else None
+        ev = self._evaluation(run.x) if run.converged else None
         ok = run.converged and ev.energy <= ceiling
         if run.converged and not ok:
             attempts[-1]["rejected"] = "potential above that of the feasible start point"
@@ -387,11 +389,24 @@ class StaticProblem:
                          "increment": run.increment, "energy_decrement": run.energy_decrement})
         if done < 1.0:
             return run, None, False
-        ev = self.asm.evaluate(run.x, hessian=False)
+        ev = self._evaluation(run.x)
         if ev.energy > ceiling:
             attempts[-1]["rejected"] = "potential above that of the feasible start point"
             return run, None, False
         return run, ev, True
+
+    def _evaluation(self, x: np.ndarray) -> Evaluation:
+        """Potential, energies by label and full gradient at x (no Hessian) for the acceptance test and the result.
+        Kernel path: from the energy-only kernels and the ReducedEvaluation, which is left evaluated at x for the
+        stability check's factorisation (statics_eval.ResultEnergies); else the Assembly's evaluation."""
+        if self.light is None:
+            return self.asm.evaluate(x, hessian=False)
+        if self._result_energies is None:
+            self._result_energies = ResultEnergies(self.asm)
+        re, ev = self._result_energies, self.light.ev
+        ev.evaluate(x)
+        energies = re.energies(x)
+        return Evaluation(float(sum(energies.values())), energies, re.gradient(ev, x), None)
 
     def _unloaded_at_rest(self, x: np.ndarray) -> bool:
         """No load term (gravity, forces, moments) in the scene and the start's residual at its round-off level
@@ -544,7 +559,7 @@ class StaticProblem:
         a = self.asm
         if not ok:  # never hand NaN to the caller: report the start point's energies with the failure
             x = x if np.all(np.isfinite(x)) else a.x0
-        ev = ev or a.evaluate(x, hessian=False)
+        ev = ev or self._evaluation(x)
         forces: dict[str, list] = {}
         if ok and a.exact.m:
             for lbl, v in zip(a.exact.labels, self.multipliers(x, ev.gradient)):

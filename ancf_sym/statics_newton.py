@@ -5,11 +5,14 @@ remaining exact rows with Lagrange multipliers). Two ways to evaluate one iterat
 loop; which one depends on the scene, never on how often it is solved:
 - kernels (KernelNewton), every scene without multiplier rows: the compiled kernels called directly, their
   gradients and Hessians scattered onto the free coordinates and LAPACK's band (statics_eval), a banded Cholesky
-  (dpbtrf): nothing to build; measured ~75 us per iteration at 60 elements, ~1.3 ms at 600, ~13.5 ms at 6000;
+  (dpbtrf): nothing to build. The whole loop below runs as one call into hand-written C (newton_loop,
+  csrc/newton_loop.c: the same operations in the same order, so the same steps) where the evaluation is plain
+  (no penalty springs, a band within BAND_LIMIT): measured ~11 - 16 us per iteration on 6 - 18 elements, ~47 us
+  at 60, ~5.5 ms at 6000 (this Python loop: ~50 us, ~87 us, ~6 ms); other scenes iterate here in Python;
 - graph (NewtonStatics), scenes with multiplier rows (rigid joints, skew clamps): the dynamics' StepSystem with
   every kernel, the KKT matrix and its sparse QR in one CasADi Function, ~35 ms (60 elements) to ~1 s (6000) to
   build, then about as fast per iteration.
-Python only loops over the iterations, so Ctrl-C stops a solve between two of them.
+Ctrl-C stops a solve between two iterations (the C loop checks Python's signals before each).
 Where the tangent is not positive definite and the updates are still large, KernelNewton takes the plain step (banded
 LU) if it is small or lowers the potential, else shifts its diagonal until the step does (_shifted_step); full
 Newton steps everywhere else.
@@ -41,6 +44,7 @@ from .casadi_buffers import bind
 from scipy.linalg.lapack import dgbsv, dpbtrf, dpbtrs
 
 from .inertia import banded_cholesky, banded_solve
+from .newton_loop import CompiledLoop, compiled_loop
 from .statics_eval import ReducedEvaluation
 from .dynamics.step_system import StepSystem
 from .reduced import partition
@@ -53,6 +57,7 @@ SHIFT, SHIFT_MAX = 1e-4, 1e4  # shifts of an indefinite tangent's diagonal tried
 SHIFT_BELOW = 1e-3  # updates (relative) below which an indefinite tangent's plain Newton step is taken
 EPS = float(np.finfo(float).eps)
 WILD = 1e3  # an update of a thousand structure lengths left every physical equilibrium behind: hand over to IPOPT
+PYTHON_LOOP = False  # True: KernelNewton iterates in Python even where the C loop (newton_loop) takes the scene (to compare)
 
 
 @dataclass
@@ -226,7 +231,9 @@ class KernelNewton(NewtonStatics):
     """The same Newton loop with each iteration evaluated from the compiled kernels (statics_eval: no graph to
     build) and solved by a banded Cholesky (LAPACK dpbtrf; banded LU where the tangent is not positive definite,
     sparse factorisations where the band is wide). Scenes without multiplier rows only (Reduction.mc == 0). evaluation: another strain measure's
-    (ReducedEvaluation.variant) for a start."""
+    (ReducedEvaluation.variant) for a start. `solve` runs the loop in C (newton_loop) where the evaluation allows it
+    (decided at the first solve; a solve the C loop hands back, a singular band, runs here again from its start);
+    afterwards the evaluation holds the kernels' values at the point they were evaluated last, as after this loop."""
 
     def __init__(self, asm: Assembly, reduction: Reduction, evaluation: ReducedEvaluation | None = None):
         assert reduction.mc == 0, "multiplier rows need the graph (NewtonStatics)"
@@ -241,6 +248,7 @@ class KernelNewton(NewtonStatics):
         self.load = 1.0
         self._mu, self._prev_inc = 0.0, math.inf  # the last shift that made a step go downhill (the next try starts a tenth of it)
         self._trial = None  # the point x + dz of an accepted step whose potential was evaluated (reused by the next _eval)
+        self._loop: CompiledLoop | bool | None = None  # the loop in C (newton_loop), False: the Python loop; bound on first solve
 
     def potential(self, x_full: np.ndarray, load: float = 1.0) -> float:
         """Total potential at x_full with the loads scaled by `load` [J] (linear terms: -load f_lin . x)."""
@@ -258,8 +266,10 @@ class KernelNewton(NewtonStatics):
 
     def positive_definite(self, x_full: np.ndarray, sigma_rel: float) -> bool | None:
         """Reduced Hessian + sigma I positive definite (sigma = sigma_rel x max |H_ii|) by the banded Cholesky; None
-        where the band is wide (the caller then counts the inertia)."""
-        self.ev.evaluate(x_full)
+        where the band is wide (the caller then counts the inertia). An evaluation at this very array (the result's)
+        is reused."""
+        if self.ev.at is not x_full:
+            self.ev.evaluate(x_full)
         ab = self.ev.band()
         if ab is None:
             return None
@@ -308,9 +318,19 @@ class KernelNewton(NewtonStatics):
         self.norms[:] = (abs(r).max(), 0.0, abs(self.dz / self.scale).max(), -_dot(r, self.dz), kmax)
         self._prev_inc = self.norms[2]
 
-    def solve(self, *args, **kw) -> NewtonRun:
+    def solve(self, x_full: np.ndarray, tol: float, max_iter: int, work: float, load: float = 1.0,
+              lam: np.ndarray | None = None, max_step: float = np.inf) -> NewtonRun:
         self._mu, self._prev_inc, self._trial = 0.0, math.inf, None
-        return super().solve(*args, **kw)
+        if self._loop is None:
+            self._loop = compiled_loop(self) or False
+        if self._loop and PYTHON_LOOP is False:
+            out = self._loop.run(x_full, tol, max_iter, work, load, max_step)
+            if out is not None:
+                status, it, x, inc, dec, floor, hist = out
+                return NewtonRun(status == "converged", status, it, x, self.lam.copy(), float(inc), float(dec),
+                                 float(self.norms[0]), floor, hist)
+            self._mu, self._prev_inc, self._trial = 0.0, math.inf, None  # (singular band: this solve in Python)
+        return super().solve(x_full, tol, max_iter, work, load, lam, max_step)
 
     def _shifted_step(self, ab: np.ndarray, r: np.ndarray) -> bool:
         """The tangent is not positive definite: a Newton step there need not go downhill (measured on coarse

@@ -12,7 +12,7 @@ Last, the bound a compiled Newton loop could reach: one whole iteration (kernels
 update norms) as one CasADi graph (the StepSystem's, NewtonStatics), timed alone, times the iterations each setting
 takes, with no per-solve cost at all.
 
-    python bench/zhang_cost_split.py [--repeats 300] [--separate-decoupled]
+    python bench/zhang_cost_split.py [--repeats 300] [--python-loop] [--separate-decoupled]
 
 --separate-decoupled: the decoupled strain's axial and bending kernels called separately (its fused kernel
 elastic_decoupled hidden), as before that kernel existed.
@@ -25,7 +25,7 @@ import time
 import numpy as np
 from scipy.linalg.lapack import dpbtrf, dpbtrs
 
-from ancf_sym import statics_newton
+from ancf_sym import newton_loop, statics_newton
 from ancf_sym.statics import problem_for, solve_static
 from ancf_sym.statics_eval import ReducedEvaluation
 from ancf_sym.study.statics_studies import zhang_scene
@@ -44,11 +44,12 @@ def _loop_min(f, inner: int = 500, outer: int = 9) -> float:
 
 
 class _Counters:
-    """Wall time inside KernelNewton.solve and the number of ReducedEvaluation.evaluate calls per evaluation object."""
+    """Wall time inside KernelNewton.solve and the number of kernel evaluations per evaluation object (calls of
+    ReducedEvaluation.evaluate, and those the C loop makes, newton_loop)."""
 
     def __init__(self):
         self.newton, self.evals = 0.0, {}
-        solve, evaluate = statics_newton.KernelNewton.solve, ReducedEvaluation.evaluate
+        solve, evaluate, run = statics_newton.KernelNewton.solve, ReducedEvaluation.evaluate, newton_loop.CompiledLoop.run
         counters = self
 
         def timed_solve(self, *a, **k):
@@ -62,8 +63,15 @@ class _Counters:
             counters.evals[id(self)] = counters.evals.get(id(self), 0) + 1
             return evaluate(self, x)
 
+        def counted_run(self, *a, **k):
+            out = run(self, *a, **k)
+            key = id(self.newton.ev)
+            counters.evals[key] = counters.evals.get(key, 0) + self.counts["evaluations"]
+            return out
+
         statics_newton.KernelNewton.solve = timed_solve
         ReducedEvaluation.evaluate = counted_evaluate
+        newton_loop.CompiledLoop.run = counted_run
 
     def reset(self):
         self.newton, self.evals = 0.0, {}
@@ -72,8 +80,10 @@ class _Counters:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=300)
-    ap.add_argument("--separate-decoupled", action="store_true")
+    ap.add_argument("--python-loop", action="store_true", help="KernelNewton's Python loop instead of the C loop")
+    ap.add_argument("--separate-decoupled", action="store_true", help="the decoupled strain's two kernels, unfused")
     args = ap.parse_args()
+    statics_newton.PYTHON_LOOP = args.python_loop
     if args.separate_decoupled:
         from ancf_sym import registry
         fused = registry.fused_effect
