@@ -85,6 +85,9 @@ def _statics(monkeypatch, fuse: bool, strain: str, n: int, gauss: int):
         r = prob.solve(StaticOptions(), None)
         effects = {ft.effect for ft in prob.light.ev.fts}
         assert ("elastic_decoupled" in effects) == fuse and ("axial_decoupled" in effects) != fuse, effects
+        if prob._biot is not None:  # the start: the same calls with the rod's Biot strain (member_effects.START_EFFECTS)
+            start = {ft.effect for ft in prob._biot.ev.fts}
+            assert start == ({"elastic_decoupled_biot"} if fuse else {"axial_decoupled_biot", "bending"}), start
         return r
     finally:
         monkeypatch.undo()
