@@ -1,12 +1,14 @@
 """Turn energies into CasADi Functions (energy, gradient, Hessian) with as few operations as the structure allows.
 
-Two forms:
+Three forms:
 - quadrature form: U = sum_k w_k L f(u(xi_k), p) where the local fields u (slopes, curvature vectors) are linear
   in q, u = B(xi, p) q. Then grad = sum w L B^T f_u and Hess = sum w L B^T f_uu B: the density's small Hessian is
   differentiated once, not the whole element energy twice. One SX point-function is emitted and called per point,
   so gcc compiles it once whatever the quadrature order.
 - direct form: CasADi's own gradient and Hessian of an element energy that is not a sum of local densities
   (decoupled strain, loads).
+- stretch form: an energy of a few stretch measures (nodal norms, a quadrature length) plus a quadrature density,
+  differentiated in those measures and chained (the decoupled strain fused with bending).
 """
 from __future__ import annotations
 
@@ -109,8 +111,6 @@ def hvp_function(kernel: ca.Function) -> ca.Function:
     g = sx(q, p)[1]
     d2, hv = ca.hessian(ca.dot(v, g), q)
     return ca.Function(kernel.name() + "_hvp", [q, p, v], [hv, ca.densify(d2)], ["q", "p", "v"], ["hv", "dhv"])
-
-
 
 
 def stretch_kernel(name: str, nq: int, n_p: int, gauss: int, coordinates: Callable, basis: Callable,
