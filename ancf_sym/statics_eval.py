@@ -38,15 +38,23 @@ def _mapped(ft, n: int) -> ca.Function:
                         kernels.load_batch(ft.element, ft.effect, ft.gauss), n)
 
 
-def _padded(ft) -> int:
-    """Element count a term's kernel is called on: rounded up to whole SIMD batches where a batched kernel exists.
+def _whole_batches(N: int, batched: bool) -> int:
+    """Element count a kernel is called on: N rounded up to whole SIMD batches where a batched version exists.
     The padding elements repeat the first one and their outputs are dropped. A batch of registry.BATCH_LANES costs
     about one scalar call, and a remainder needs a CasADi wrapper around two maps (measured on 6 decoupled elements:
     batched 6 = 4 + 2 slower than batched 8)."""
     lanes = registry.BATCH_LANES
-    if not registry.has_batch(ft.element, ft.effect, ft.gauss) or ft.N % lanes == 0:
-        return ft.N
-    return ft.N + lanes - ft.N % lanes
+    return N if not batched or N % lanes == 0 else N + lanes - N % lanes
+
+
+def _padded(ft) -> int:
+    """_whole_batches of a term's kernel call."""
+    return _whole_batches(ft.N, registry.has_batch(ft.element, ft.effect, ft.gauss))
+
+
+def _padding_rows(N: int, n: int) -> np.ndarray:
+    """Rows of N elements padded to n: each element once, then the first one again."""
+    return np.r_[np.arange(N), np.zeros(n - N, np.int64)]
 
 
 # a cable's Green or decoupled axial effect -> the Biot one on the same elements and parameters (L, EA[, EI])
@@ -135,12 +143,12 @@ class ReducedEvaluation:
         self.calls = []
         e0 = g0 = h0 = 0
         for ft, N in zip(fts, self._n):
-            nd, pad = ft.nd, np.zeros(N - ft.N, np.int64)  # padding repeats the first element (finite outputs)
-            X, P = np.zeros((N, nd)), np.ascontiguousarray(ft.P[np.r_[np.arange(ft.N), pad]], dtype=float)
+            nd, rows = ft.nd, _padding_rows(ft.N, N)  # padding repeats the first element (finite outputs)
+            X, P = np.zeros((N, nd)), np.ascontiguousarray(ft.P[rows], dtype=float)
             buf, ev = bind(_mapped(ft, N), (X, P),
                            (self.E[e0:e0 + N], self.G[g0:g0 + N * nd], self.H[h0:h0 + N * nd * nd]))
             e0, g0, h0 = e0 + N, g0 + N * nd, h0 + N * nd * nd
-            idx = np.ascontiguousarray(ft.idx[np.r_[np.arange(ft.N), pad]])
+            idx = np.ascontiguousarray(ft.idx[rows])
             self.calls.append((idx, X, P, buf, ev, self._local_columns(ft)))
 
     def _local_columns(self, ft: ForceTerm) -> tuple[np.ndarray, np.ndarray] | None:
@@ -229,9 +237,9 @@ class ResultEnergies:
             if t.effect in LINEAR_EFFECTS or not len(t.idx):
                 continue
             batch = kernels.load_batch(t.element, t.effect, t.gauss, "_energy")
-            N = len(t.idx)  # whole batches, the padding repeating the first element (as ReducedEvaluation's calls)
-            n = N if batch is None or N % registry.BATCH_LANES == 0 else N + registry.BATCH_LANES - N % registry.BATCH_LANES
-            rows = np.r_[np.arange(N), np.zeros(n - N, np.int64)]
+            N = len(t.idx)  # whole batches, as ReducedEvaluation's calls
+            n = _whole_batches(N, batch is not None)
+            rows = _padding_rows(N, n)
             f = map_elements(kernels.load_energy(t.element, t.effect, t.gauss), batch, n)
             X, E = np.zeros((n, t.idx.shape[1])), np.zeros(n)
             P = np.ascontiguousarray(t.P[rows], dtype=float)
