@@ -56,10 +56,11 @@ class _Problem(ctypes.Structure):
 
 
 class _Run(ctypes.Structure):
-    _fields_ = [("x0", c_void_p)] + [(k, c_double) for k in ("tol", "work", "load", "max_step")] + \
+    _fields_ = [("x0", c_void_p)] + [(k, c_double) for k in ("tol", "work", "load", "max_step", "finish")] + \
                [("max_iter", c_longlong)] + [(k, c_void_p) for k in ("hist", "x_out", "x_eval")] + \
-               [(k, c_longlong) for k in ("status", "iterations", "nhist", "evaluations", "indefinite", "shifted")] + \
-               [(k, c_double) for k in ("inc", "dec", "floor", "energy", "mu", "prev_inc", "ev_energy")]
+               [(k, c_longlong) for k in ("status", "iterations", "nhist", "evaluations", "indefinite", "shifted",
+                                          "stable")] + \
+               [(k, c_double) for k in ("inc", "dec", "floor", "energy", "mu", "prev_inc", "ev_energy", "potential")]
 
 
 @functools.lru_cache(maxsize=1)
@@ -205,16 +206,19 @@ class CompiledLoop:
         self._solve = _library().nl_solve
         self._p, self._r = ctypes.addressof(P), ctypes.addressof(self._run)
 
-    def run(self, x_full: np.ndarray, tol: float, max_iter: int, work: float, load: float, max_step: float):
+    def run(self, x_full: np.ndarray, tol: float, max_iter: int, work: float, load: float, max_step: float,
+            finish: float = 0.0):
         """The loop from x_full: None where the Python loop must run this solve, else (status, iterations, x,
-        increment, decrement, residual floor, history). (Its cost around the C call is ~5 us: every pointer but
-        the history's is fixed.)"""
+        increment, decrement, residual floor, history, potential, stable). finish > 0: a converged run also
+        evaluates the answer, its potential and whether its tangent + finish x max |K_ii| I is positive definite
+        (True / False, None where the diagonal is zero); else NaN and None. (Its cost around the C call is ~5 us:
+        every pointer but the history's is fixed.)"""
         run, max_iter = self._run, max(int(max_iter), 0)
         self._x0[:] = x_full
         if self._hist.size < 2 * max_iter:
             self._hist = np.zeros(2 * max_iter)
             run.hist = self._hist.ctypes.data
-        run.tol, run.work, run.load, run.max_step, run.max_iter = tol, work, load, max_step, max_iter
+        run.tol, run.work, run.load, run.max_step, run.max_iter, run.finish = tol, work, load, max_step, max_iter, finish
         run.status = run.evaluations = -1  # (a run under way: both set by the C loop)
         try:
             status = self._solve(self._p, self._r)
@@ -226,7 +230,8 @@ class CompiledLoop:
         if status == SINGULAR:
             return None
         h = self._hist[:2 * run.nhist].tolist()
-        return (STATUS[status], run.iterations, self._x.copy(), run.inc, run.dec, run.floor, [*zip(h[::2], h[1::2])])
+        return (STATUS[status], run.iterations, self._x.copy(), run.inc, run.dec, run.floor, [*zip(h[::2], h[1::2])],
+                run.potential, None if run.stable < 0 else bool(run.stable))
 
     @property
     def counts(self) -> dict:

@@ -18,10 +18,10 @@ element count while the nodal loads shrink.
 """
 from __future__ import annotations
 
-import hashlib
-import pickle
+import functools
 import time
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import casadi as ca
@@ -33,7 +33,7 @@ from .assembly import LOAD_LABELS, Assembly, Evaluation
 from .checks import check_fields
 from .interrupts import interruptible
 from .mesh import check_stretch
-from .scene import Scene, SceneError
+from .scene import Scene, SceneError, fingerprint
 from .schema import STATIC_OPTIONS
 
 from .inertia import STABILITY_EPS, reduced_inertia
@@ -71,16 +71,19 @@ class StaticOptions:
             self.tol = 1e-10
 
 
+DEFAULT_OPTIONS = StaticOptions()  # (read only: a solve never changes its options)
+
+
 @dataclass
 class StaticResult:
+    """A static solve's answer. energies, constraint_forces and constraint_violation are worked out from x on first
+    access (the kernels evaluated by effect, the reactions, the constraint rows): a solve pays for them only where
+    they are read."""
     status: str
     success: bool
     iterations: int  # Newton + IPOPT iterations, all attempts
     wall_s: float
     x: np.ndarray
-    energies: dict
-    constraint_forces: dict  # label -> multipliers (exact constraints) or penalty forces
-    constraint_violation: float
     stable: bool | None  # reduced Hessian positive definite (inertia of a sparse factorisation); None if unknown
     attempts: list = field(default_factory=list)  # what was tried, in order
     assembly: Assembly | None = None
@@ -89,6 +92,25 @@ class StaticResult:
     energy_decrement: float = float("nan")  # last -r.dz, relative to the load work
     residual: float = float("nan")  # max |residual| at the last evaluated point [N]
     residual_floor: float = float("nan")  # its round-off level, eps x max |K| x span [N]
+    details: Callable[[], tuple] | None = field(default=None, repr=False, compare=False)  # () -> the three below
+
+    @functools.cached_property
+    def _details(self) -> tuple:
+        return self.details()
+
+    @functools.cached_property
+    def energies(self) -> dict:
+        """label -> energy at x [J]: strain energies by effect, gravity, loads, penalty springs."""
+        return self._details[0]
+
+    @functools.cached_property
+    def constraint_forces(self) -> dict:
+        """label -> multipliers (exact constraints) or penalty forces."""
+        return self._details[1]
+
+    @functools.cached_property
+    def constraint_violation(self) -> float:
+        return self._details[2]
 
     @property
     def potential(self) -> float:
@@ -162,6 +184,9 @@ class StaticProblem:
         self._coarse: StaticProblem | bool | None = None  # the scene meshed coarser (a start on fine meshes)
         self._result_energies: ResultEnergies | None = None  # energies by label for results (kernel path)
         self.work = self.newton.load_work(self.asm.x0)  # the loads' energy scale W [J]
+        a = self.asm
+        self._loaded = bool(np.any(self.S.f_lin) or np.any(a.Q) or any(mk.term.label in LOAD_LABELS for mk in a.mapped))
+        self._contacts = bool(contact.exact_contacts(a))
 
     @property
     def graph(self) -> NewtonStatics:
@@ -253,42 +278,44 @@ class StaticProblem:
 
     # -- the solve ----------------------------------------------------------------------------------------------
     def solve(self, opts: StaticOptions | None = None, x0: np.ndarray | None = None) -> StaticResult:
-        opts = opts or StaticOptions()
+        opts = opts or DEFAULT_OPTIONS
         a = self.asm
         t0 = time.perf_counter()
         self.solves += 1
         self.newton = self._engine()
-        x = a.x0.copy() if x0 is None else np.asarray(x0, float).copy()
-        if x.shape != (a.n,) or not np.all(np.isfinite(x)):
-            raise SceneError(f"warm start x0 must be {a.n} finite numbers, got shape {np.shape(x0)}")
-        if x0 is not None:
+        if x0 is None:
+            x = a.x0.copy()
+        else:
+            x = np.asarray(x0, float).copy()
+            if x.shape != (a.n,) or not np.all(np.isfinite(x)):
+                raise SceneError(f"warm start x0 must be {a.n} finite numbers, got shape {np.shape(x0)}")
             check_stretch(a.mesh, x, "warm start x0")
             x = self.S.full(self.S.reduce(x))  # supports and hinges that fix or identify coordinates hold exactly
-        if contact.exact_contacts(a):  # exact frictionless contact: IPOPT with inequality rows
+        if self._contacts:  # exact frictionless contact: IPOPT with inequality rows
             return statics_contact.solve(self, x, opts, t0)
         attempts: list = []
         work = self.work if self.work > 0 else self.newton.load_work(x)
-        if work == 0.0 or self._unloaded_at_rest(x):  # the start is the equilibrium
+        if work == 0.0 or not self._loaded and self._unloaded_at_rest(x):  # the start is the equilibrium
             attempts.append({"method": "none", "status": "Solve_Succeeded", "iterations": 0,
                              "detail": "no load and no residual force at the start: solved at the start shape"})
             stable, _ = self.stability(x)
             return self._result(True, "Solve_Succeeded", 0, time.perf_counter() - t0, x, stable, attempts, "start",
                                 None)
-        ceiling = self._start_ceiling(x, work, opts.tol)
+        ceiling = self._start_ceiling(x, work, opts.tol, x0 is None)
         n_iter = min(NEWTON_MAX_ITER, int(opts.max_iter))
-        coarse = self._coarse_start(opts) if x0 is None else None
+        coarse = self._coarse_start(opts) if x0 is None and self._coarse is not False else None
         run, used, iters, biot = None, False, 0, None
         if coarse is not None and coarse[0].success:  # Newton from the coarse mesh's solution
-            run = self.newton.solve(coarse[1], opts.tol, n_iter, work)
+            run = self.newton.solve(coarse[1], opts.tol, n_iter, work, finish=STABILITY_EPS)
             used, iters = run.converged, (0 if run.converged else run.iterations)  # a discarded run's count
         coarse_used = used
         if not used:
             biot = self._biot_start(x, opts, work) if x0 is None else None
             if biot is not None and biot.converged:  # Newton from the Biot solution
-                run = self.newton.solve(biot.x, opts.tol, n_iter, work)
+                run = self.newton.solve(biot.x, opts.tol, n_iter, work, finish=STABILITY_EPS)
                 used, iters = run.converged, iters + (0 if run.converged else run.iterations)
         if not used:
-            run = self.newton.solve(x, opts.tol, n_iter, work)
+            run = self.newton.solve(x, opts.tol, n_iter, work, finish=STABILITY_EPS)
         attempts.append(self._newton_attempt("newton", run))
         if coarse is not None:
             members = self._coarse.asm.scene.members
@@ -301,12 +328,11 @@ class StaticProblem:
                                           "used": used}
         iters += run.iterations + (biot.iterations if biot is not None else 0)
         path = "newton"
-        ev = self._evaluation(run.x) if run.converged else None
-        ok = run.converged and ev.energy <= ceiling
+        ok = run.converged and self._potential(run) <= ceiling
         if run.converged and not ok:
             attempts[-1]["rejected"] = "potential above that of the feasible start point"
         if not ok and run.status in ("diverged", "stalled", "max_iter", "not_finite"):
-            run, ev, ok = self._newton_load_steps(x, opts, work, ceiling, attempts)
+            run, ok = self._newton_load_steps(x, opts, work, ceiling, attempts)
             iters += attempts[-1]["iterations"]
             path = "newton load steps"
         if not ok and run.status != "round_off":
@@ -320,19 +346,16 @@ class StaticProblem:
                 run = self._finish(xs, lg, opts, work, attempts)
                 iters += run.iterations
                 ok = run.converged
-                ev = None
         status = "Solve_Succeeded" if ok else self._failure(run, attempts, opts)
         x_out = run.x if ok else x
         stable = None
-        if ok:
-            stable, direction = self.stability(x_out)
+        if ok:  # (the kernel Newton's finish tested the answer's tangent: a positive definite one settles it)
+            stable, direction = (True, None) if run.stable else self.stability(x_out)
             if stable is False and opts.escape_saddle:
                 x_out, status, stable, it = self._leave_saddle(x_out, direction, status, opts, work, attempts)
                 iters += it
-                if direction is not None:
-                    ev = None
         return self._result(ok, status, iters, time.perf_counter() - t0, x_out, stable, attempts, path,
-                            run if ok else None, ev if ok else None)
+                            run if ok else None)
 
     def _coarse_start(self, opts: StaticOptions) -> tuple[StaticResult, np.ndarray] | None:
         """The scene meshed coarser (statics_coarse), solved with the same options, and its solution interpolated
@@ -375,7 +398,8 @@ class StaticProblem:
             target = min(1.0, done + step)
             final = target >= 1.0
             run = self.newton.solve(x, opts.tol if final else max(opts.tol, STEP_TOL),
-                                    min(STEP_MAX_ITER, int(opts.max_iter)), work, load=target)
+                                    min(STEP_MAX_ITER, int(opts.max_iter)), work, load=target,
+                                    finish=STABILITY_EPS if final else 0.0)
             n_runs += 1
             its += run.iterations
             if run.converged:
@@ -388,17 +412,22 @@ class StaticProblem:
                          "iterations": its, "runs": n_runs, "load_reached": done,
                          "increment": run.increment, "energy_decrement": run.energy_decrement})
         if done < 1.0:
-            return run, None, False
-        ev = self._evaluation(run.x)
-        if ev.energy > ceiling:
+            return run, False
+        if self._potential(run) > ceiling:
             attempts[-1]["rejected"] = "potential above that of the feasible start point"
-            return run, None, False
-        return run, ev, True
+            return run, False
+        return run, True
+
+    def _potential(self, run: NewtonRun) -> float:
+        """Total potential at a converged run's answer (the kernel Newton's finish computed it, else here)."""
+        if run.potential == run.potential:  # (not NaN)
+            return run.potential
+        return self.light.potential(run.x) if self.light is not None else self.asm.energy(run.x)
 
     def _evaluation(self, x: np.ndarray) -> Evaluation:
-        """Potential, energies by label and full gradient at x (no Hessian) for the acceptance test and the result.
-        Kernel path: from the energy-only kernels and the ReducedEvaluation, which is left evaluated at x for the
-        stability check's factorisation (statics_eval.ResultEnergies); else the Assembly's evaluation."""
+        """Potential, energies by label and full gradient at x (no Hessian): a result's details. Kernel path: from
+        the energy-only kernels and the ReducedEvaluation (statics_eval.ResultEnergies); else the Assembly's
+        evaluation."""
         if self.light is None:
             return self.asm.evaluate(x, hessian=False)
         if self._result_energies is None:
@@ -412,7 +441,7 @@ class StaticProblem:
         """No load term (gravity, forces, moments) in the scene and the start's residual at its round-off level
         (eps x max|K| x span): nothing loads it and nothing is strained."""
         a = self.asm
-        if np.any(self.S.f_lin) or np.any(a.Q) or any(mk.term.label in LOAD_LABELS for mk in a.mapped):
+        if self._loaded:
             return False
         ev = a.evaluate(x)
         r = self.S.reduce_force(ev.gradient)
@@ -442,7 +471,8 @@ class StaticProblem:
     def _finish(self, x, lam_g, opts, work, attempts) -> NewtonRun:
         """Newton from IPOPT's point (with its multipliers of the rows Newton keeps) to the relative test."""
         lam = np.asarray(lam_g)[self.S.part.rows] if lam_g is not None and self.S.mc else None
-        run = self.newton.solve(x, opts.tol, min(NEWTON_MAX_ITER, int(opts.max_iter)), work, lam=lam)
+        run = self.newton.solve(x, opts.tol, min(NEWTON_MAX_ITER, int(opts.max_iter)), work, lam=lam,
+                                finish=STABILITY_EPS)
         attempts.append(self._newton_attempt("newton finish", run))
         return run
 
@@ -482,12 +512,12 @@ class StaticProblem:
                         return run.x, st if st == "Solve_Succeeded" else "Solve_Succeeded", stable, iters
         return x, status, False, iters
 
-    def _start_ceiling(self, x: np.ndarray, work: float, tol: float) -> float:
+    def _start_ceiling(self, x: np.ndarray, work: float, tol: float, reference: bool = False) -> float:
         """Highest potential an accepted solution may have: that of the start point, if it satisfies the exact
         constraints (a minimiser started there cannot rightly end higher), plus tol x the load work; +inf for an
-        infeasible start."""
+        infeasible start. reference: x is the scene's reference state (else compared)."""
         a = self.asm
-        reference = np.array_equal(x, a.x0)
+        reference = reference or np.array_equal(x, a.x0)
         if reference and hasattr(self, "_e_ref"):
             return self._e_ref + tol * work
         if a.exact.m and np.max(np.abs(a.exact.value(x))) > 1e-9 * self._length_scale():
@@ -555,11 +585,21 @@ class StaticProblem:
         d = None if inertia.direction is None else S.full_v(inertia.direction)
         return inertia.stable, (d / np.max(np.abs(d)) if d is not None and np.any(d) else None)
 
-    def _result(self, ok, status, iters, wall, x, stable, attempts, path, run, ev=None) -> StaticResult:
-        a = self.asm
+    def _result(self, ok, status, iters, wall, x, stable, attempts, path, run) -> StaticResult:
         if not ok:  # never hand NaN to the caller: report the start point's energies with the failure
-            x = x if np.all(np.isfinite(x)) else a.x0
-        ev = ev or self._evaluation(x)
+            x = x if np.all(np.isfinite(x)) else self.asm.x0
+        res = StaticResult(status, ok, iters, wall, x, stable, attempts, self.asm, path if ok else "",
+                           details=functools.partial(self._details, x, ok))
+        if run is not None:
+            res.increment, res.energy_decrement = run.increment, run.energy_decrement
+            res.residual, res.residual_floor = run.residual, run.residual_floor
+        return res
+
+    def _details(self, x: np.ndarray, ok: bool) -> tuple[dict, dict, float]:
+        """A result's energies by label, reactions (multipliers of the exact rows at an equilibrium, penalty
+        forces) and constraint violation at x."""
+        a = self.asm
+        ev = self._evaluation(x)
         forces: dict[str, list] = {}
         if ok and a.exact.m:
             for lbl, v in zip(a.exact.labels, self.multipliers(x, ev.gradient)):
@@ -569,30 +609,25 @@ class StaticProblem:
             for lbl, k, cv in zip(a.penalty.labels, a.penalty.k, c):
                 forces.setdefault(lbl, []).append(float(k * cv))
         viol = float(np.max(np.abs(a.constraints.value(x)))) if a.constraints.m else 0.0
-        res = StaticResult(status, ok, iters, wall, x, ev.energies, forces, viol, stable, attempts, a,
-                           path if ok else "")
-        if run is not None:
-            res.increment, res.energy_decrement = run.increment, run.energy_decrement
-            res.residual, res.residual_floor = run.residual, run.residual_floor
-        return res
+        return ev.energies, forces, viol
 
 
-_CACHE: "OrderedDict[str, StaticProblem]" = OrderedDict()
+_CACHE: "OrderedDict[bytes, StaticProblem]" = OrderedDict()
 
 
 def problem_for(scene: Scene) -> StaticProblem:
-    """The scene's StaticProblem, built once per scene content (fingerprint of the scene's data) and reused: a scene
-    rebuilt with the same members, supports and loads skips the assembly and the Newton index maps."""
-    try:
-        key = hashlib.sha1(pickle.dumps(scene, protocol=4)).hexdigest()
-    except (pickle.PicklingError, TypeError, AttributeError):
-        return StaticProblem(scene)
-    prob = _CACHE.get(key)
+    """The scene's StaticProblem, built once per scene content (scene.fingerprint: every value of the scene's data)
+    and reused: a scene rebuilt with the same members, supports and loads skips the validation, the assembly and
+    the Newton index maps (equal content was validated when its problem was built)."""
+    key = fingerprint(scene)
+    prob = _CACHE.get(key) if key is not None else None
     if prob is None:
+        scene.validate_for_statics()
         prob = StaticProblem(scene)
-        _CACHE[key] = prob
-        if len(_CACHE) > CACHE_SIZE:
-            _CACHE.popitem(last=False)
+        if key is not None:
+            _CACHE[key] = prob
+            if len(_CACHE) > CACHE_SIZE:
+                _CACHE.popitem(last=False)
     else:
         _CACHE.move_to_end(key)
     return prob
@@ -602,9 +637,7 @@ def solve_static(scene: Scene | Assembly, options: StaticOptions | None = None,
                  warm_start: StaticResult | np.ndarray | None = None, **kw) -> StaticResult:
     """Static equilibrium of a scene. Keyword arguments are StaticOptions fields (tol, max_iter, load_steps,
     escape_saddle, print_level). warm_start: a previous result (same scene) or a coordinate vector."""
-    if isinstance(scene, Scene):
-        scene.validate_for_statics()
-    opts = options or StaticOptions(**kw)
+    opts = options or (StaticOptions(**kw) if kw else DEFAULT_OPTIONS)
     x0 = warm_start.x if isinstance(warm_start, StaticResult) else warm_start
     prob = problem_for(scene) if isinstance(scene, Scene) else StaticProblem(scene)
     return prob.solve(opts, x0)

@@ -72,6 +72,8 @@ class NewtonRun:
     residual: float  # max |r| at the last evaluated point [N]
     residual_floor: float  # its round-off level eps x max|K| x span [N]
     history: list = field(default_factory=list)  # (increment, decrement) per iteration
+    potential: float = math.nan  # at x, where the solve was asked to finish (converged runs; NaN: not evaluated)
+    stable: bool | None = None  # there: tangent + finish x max|K_ii| I positive definite (None: not tested)
 
 
 def coordinate_scales(asm: Assembly) -> np.ndarray:
@@ -151,10 +153,11 @@ class NewtonStatics:
         return np.asarray(self.S.grad_f(self.S.reduce(x_full))).ravel()
 
     def solve(self, x_full: np.ndarray, tol: float, max_iter: int, work: float, load: float = 1.0,
-              lam: np.ndarray | None = None, max_step: float = np.inf) -> NewtonRun:
+              lam: np.ndarray | None = None, max_step: float = np.inf, finish: float = 0.0) -> NewtonRun:
         """Newton from x_full (which must satisfy the eliminated supports and hinges) at the given load factor.
 
-        work: the load work W [J] for the energy decrement's scale."""
+        work: the load work W [J] for the energy decrement's scale. finish > 0: a converged run also reports the
+        answer's potential and stability (KernelNewton only; this graph leaves them to the caller)."""
         S = self.S
         self.x[:] = S.reduce(x_full)
         self.lam[:] = 0.0 if lam is None else lam
@@ -319,18 +322,24 @@ class KernelNewton(NewtonStatics):
         self._prev_inc = self.norms[2]
 
     def solve(self, x_full: np.ndarray, tol: float, max_iter: int, work: float, load: float = 1.0,
-              lam: np.ndarray | None = None, max_step: float = np.inf) -> NewtonRun:
+              lam: np.ndarray | None = None, max_step: float = np.inf, finish: float = 0.0) -> NewtonRun:
+        """finish > 0: a converged run also evaluates its answer, the potential and positive_definite(x, finish)
+        (in the same C call where the loop runs in C: the result needs both, and a second pass costs more)."""
         self._mu, self._prev_inc, self._trial = 0.0, math.inf, None
         if self._loop is None:
             self._loop = compiled_loop(self) or False
         if self._loop and PYTHON_LOOP is False:
-            out = self._loop.run(x_full, tol, max_iter, work, load, max_step)
+            out = self._loop.run(x_full, tol, max_iter, work, load, max_step, finish)
             if out is not None:
-                status, it, x, inc, dec, floor, hist = out
+                status, it, x, inc, dec, floor, hist, pot, stable = out
                 return NewtonRun(status == "converged", status, it, x, self.lam.copy(), float(inc), float(dec),
-                                 float(self.norms[0]), floor, hist)
+                                 float(self.norms[0]), floor, hist, pot, stable)
             self._mu, self._prev_inc, self._trial = 0.0, math.inf, None  # (singular band: this solve in Python)
-        return super().solve(x_full, tol, max_iter, work, load, lam, max_step)
+        run = super().solve(x_full, tol, max_iter, work, load, lam, max_step)
+        if run.converged and finish > 0:
+            run.potential = self.potential(run.x, load)
+            run.stable = self.positive_definite(run.x, finish)
+        return run
 
     def _shifted_step(self, ab: np.ndarray, r: np.ndarray) -> bool:
         """The tangent is not positive definite: a Newton step there need not go downhill (measured on coarse

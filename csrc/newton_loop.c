@@ -70,13 +70,17 @@ typedef struct {
 typedef struct {
     const double *x0;        /* start, full coordinates */
     double tol, work, load, max_step;
+    double finish;           /* > 0: after convergence, evaluate at the answer: its potential and whether its tangent
+                                + finish x max |K_ii| I is positive definite (KernelNewton.positive_definite) */
     ll max_iter;
     double *hist;            /* 2 x max_iter: (increment, decrement) per iteration */
     double *x_out;           /* full coordinates after the last applied update */
     double *x_eval;          /* where the kernels were evaluated last */
     ll status, iterations, nhist;
     ll evaluations, indefinite, shifted;  /* kernel evaluations, tangents not positive definite, shifted steps */
+    ll stable;               /* the finish's test: 1 positive definite, 0 not, -1 not done (or a zero diagonal) */
     double inc, dec, floor, energy, mu, prev_inc, ev_energy;
+    double potential;        /* the finish's potential at the answer (NaN: not done) */
 } nl_run;
 
 enum { NL_CONVERGED, NL_ROUND_OFF, NL_STALLED, NL_DIVERGED, NL_NOT_FINITE, NL_MAX_ITER, NL_SINGULAR,
@@ -373,6 +377,24 @@ int nl_solve(const nl_problem *P, nl_run *R)
     if (status == NL_MAX_ITER) it = R->max_iter;  /* ran out (every break sets another status): Python's loop
                                                    variable keeps its last value, 0 without any */
     full(P, P->x, R->x_out);
+    R->stable = -1;
+    R->potential = NAN;
+    if (status == NL_CONVERGED && R->finish > 0) {  /* the answer's potential and tangent: no second pass from Python */
+        R->potential = potential(P, R, R->x_out, R->load, &R->ev_energy);
+        last = R->x_out;
+        band(P);
+        ll w = P->bw + 1;
+        for (ll j = 0; j < nf; j++) P->tmp[j] = P->ab[j * w + P->bw];
+        double hmax = amax(P->tmp, NULL, nf, 0.0);
+        if (hmax > 0) {
+            int n = (int)nf, kd = (int)P->bw, ldab = kd + 1, info = 0;
+            char uplo = 'U';
+            memcpy(P->fac, P->ab, (size_t)(w * nf) * sizeof(double));
+            for (ll j = 0; j < nf; j++) P->fac[j * w + P->bw] += R->finish * hmax;
+            P->dpbtrf(&uplo, &n, &kd, P->fac, &ldab, &info);
+            R->stable = info == 0;
+        }
+    }
     if (last) memcpy(R->x_eval, last, (size_t)P->n * sizeof(double));
     R->status = status;
     R->iterations = it;
