@@ -18,6 +18,7 @@ import pytest
 
 from ancf_sym import Material, Scene, Section, solve_static
 from ancf_sym import statics_newton
+from ancf_sym.inertia import STABILITY_EPS
 from ancf_sym.statics import BIOT_MAX_ITER, BIOT_TOL, StaticProblem
 from ancf_sym.study.statics_studies import elastica_scene, zhang_scene
 
@@ -78,7 +79,7 @@ def test_c_loop_takes_the_python_loops_steps(case, monkeypatch):
     p = StaticProblem(scene())
     kn = _newton(p, which)
     args = (p.asm.x0, kw.get("tol", 1e-10), kw.get("max_iter", 60), p.work)
-    opts = {"load": kw.get("load", 1.0), "max_step": kw.get("max_step", np.inf)}
+    opts = {"load": kw.get("load", 1.0), "max_step": kw.get("max_step", np.inf), "finish": STABILITY_EPS}
     c = kn.solve(*args, **opts)
     assert kn._loop, "this scene is one the C loop takes"
     counts = kn._loop.counts
@@ -88,6 +89,16 @@ def test_c_loop_takes_the_python_loops_steps(case, monkeypatch):
     py = kn.solve(*args, **opts)
     assert (c.status, c.iterations, len(c.history)) == (py.status, py.iterations, len(py.history))
     assert np.max(np.abs(c.x - py.x)) <= 1e-12 * p.asm.mesh.length_scale
+    # the finish at a converged answer: its potential (to round-off of the summed element energies, 1e-12 of the
+    # load work) and the stability test, as the Python loop and the stability check find them
+    assert c.stable == py.stable
+    if c.converged:
+        assert abs(c.potential - py.potential) <= 1e-12 * p.work
+        assert c.stable == p.stability(c.x)[0]
+        if opts["load"] == 1.0 and which == "light":  # (the Biot start minimises another strain energy)
+            assert abs(c.potential - p.asm.energy(c.x)) <= 1e-12 * p.work
+    else:
+        assert np.isnan(c.potential) and np.isnan(py.potential) and c.stable is None
     if case.startswith("elastica"):  # (the evaluation keeps where the loop evaluated last: callers read it)
         ev = kn.ev
         g, e = ev.g.copy(), ev.energy

@@ -75,3 +75,23 @@ def test_clamp_reaction_balances_the_weight():
                        else next(iter(r.constraint_forces.values())))
         w = ZRHO * ZA * ZG * ZL
         assert abs(abs(f[1]) - w) <= 1e-9 * w and abs(f[0]) <= 1e-9 * w, (strain, f[:2], w)
+
+
+def test_details_are_worked_out_on_first_access_at_the_results_point(monkeypatch):
+    """A solve does not evaluate the energies by effect (a result pays for them where they are read); read later,
+    after the problem has evaluated elsewhere and solved again, they are those at the result's own x, once."""
+    from ancf_sym.statics_eval import ResultEnergies
+    calls = []
+    energies = ResultEnergies.energies
+    monkeypatch.setattr(ResultEnergies, "energies", lambda self, x: calls.append(1) or energies(self, x))
+    scene = _penalty_frame()
+    r = solve_static(scene)
+    assert r.success and not calls
+    prob = problem_for(scene)
+    prob.light.ev.evaluate(prob.asm.x0)  # the problem's buffers now hold another point
+    solve_static(_penalty_frame(), warm_start=r.x + 1e-4)
+    ref = prob.asm.evaluate(r.x, hessian=False)
+    scale = sum(abs(v) for v in ref.energies.values())
+    assert all(abs(r.energies[k] - v) <= 1e3 * EPS * scale for k, v in ref.energies.items())
+    assert len(calls) == 1
+    assert r.constraint_forces and r.constraint_violation >= 0.0 and r.energies and len(calls) == 1  # once
