@@ -2,8 +2,8 @@
 
 The study times `solve_static` on a freshly built scene whose problem is cached (the first, untimed solve builds the
 assembly and the Newton index maps). This script splits the same timing, per setting, into
-- the Newton runs (Biot start + the strain's own Newton), per iteration, and the rest of the solve (scene
-  fingerprint, start ceiling, energies by effect, stability check, result);
+- the Newton runs (Biot start + the strain's own Newton, whose finish evaluates the answer and tests its stability),
+  per iteration, and the rest of the solve (scene fingerprint, start ceiling, the Python around the runs, result);
 - what scales with the elements: the kernel calls alone (each evaluation's mapped kernels, the Biot start's and the
   strain's own) and the banded Cholesky (LAPACK dpbtrf + dpbtrs);
 and prints the time ratio decoupled 6 / Green 18 as measured, with the decoupled kernels costing nothing, and for a
