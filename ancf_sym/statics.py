@@ -9,8 +9,9 @@
 2. If Newton does not converge cleanly (diverges, stalls, exceeds its iterations), Newton again along the load
    factor in adaptive steps; if that fails too (or a result lies above the start's potential), IPOPT minimises: first accepting every trial step, then with its line search, then stepping the loads up; Newton
    finishes from IPOPT's point, so every answer passes the same convergence test.
-3. The reduced Hessian's inertia (inertia.py, one sparse factorisation) says whether the point is stable; a
-   saddle (a straight column past its Euler load) is left along its negative-curvature direction.
+3. The reduced Hessian's inertia (inertia.py, one sparse factorisation) says whether the point is stable (settled
+   by the banded Cholesky of the shifted tangent at the answer, which the kernel Newton's last run does, where that
+   succeeds); a saddle (a straight column past its Euler load) is left along its negative-curvature direction.
 
 Convergence is relative (tol): the Newton increment in units of the structure's length and the energy decrement in
 units of the load work (statics_newton.py), not an absolute residual, whose round-off floor grows with the
@@ -71,7 +72,7 @@ class StaticOptions:
             self.tol = 1e-10
 
 
-DEFAULT_OPTIONS = StaticOptions()  # (read only: a solve never changes its options)
+_DEFAULT_OPTIONS = StaticOptions()  # (read only: a solve never changes its options)
 
 
 @dataclass
@@ -278,7 +279,7 @@ class StaticProblem:
 
     # -- the solve ----------------------------------------------------------------------------------------------
     def solve(self, opts: StaticOptions | None = None, x0: np.ndarray | None = None) -> StaticResult:
-        opts = opts or DEFAULT_OPTIONS
+        opts = opts or _DEFAULT_OPTIONS
         a = self.asm
         t0 = time.perf_counter()
         self.solves += 1
@@ -637,7 +638,7 @@ def solve_static(scene: Scene | Assembly, options: StaticOptions | None = None,
                  warm_start: StaticResult | np.ndarray | None = None, **kw) -> StaticResult:
     """Static equilibrium of a scene. Keyword arguments are StaticOptions fields (tol, max_iter, load_steps,
     escape_saddle, print_level). warm_start: a previous result (same scene) or a coordinate vector."""
-    opts = options or (StaticOptions(**kw) if kw else DEFAULT_OPTIONS)
+    opts = options or (StaticOptions(**kw) if kw else _DEFAULT_OPTIONS)
     x0 = warm_start.x if isinstance(warm_start, StaticResult) else warm_start
     prob = problem_for(scene) if isinstance(scene, Scene) else StaticProblem(scene)
     return prob.solve(opts, x0)

@@ -1,6 +1,7 @@
 /* The kernel Newton loop of statics (ancf_sym.statics_newton.KernelNewton) as one call: every iteration's kernel
  * calls, scatter onto the free coordinates and LAPACK's band, banded Cholesky (or the banded LU and the diagonal
- * shifts where the tangent is not positive definite), and the convergence, stall, round-off and divergence tests.
+ * shifts where the tangent is not positive definite), and the convergence, stall, round-off and divergence tests;
+ * asked to, a converged run then evaluates its answer (potential, and the stability check's shifted Cholesky).
  *
  * Hand-written, not generated. It links to nothing: the compiled kernels (CasADi's calling convention), LAPACK
  * (the pointers SciPy exports in scipy.linalg.cython_lapack) and Python's signal check come as function pointers,
