@@ -149,7 +149,8 @@ class CompiledLoop:
         R, ev = newton.S, newton.ev
         nf, n, bw = R.nf, len(R.part.pos), ev.bw
         self.newton, self.nf, self.n = newton, nf, n
-        calls = [(ft, N, _i64(idx), X, P, local) for ft, N, (idx, X, P, _, _, local) in zip(ev.fts, ev._n, ev.calls)]
+        calls = [(ft, N, _i64(idx), X, P, local)
+                 for ft, N, (idx, X, P, _, _, local) in zip(ev.fts, ev.padded, ev.calls)]
         fns = [_kernel(ft.element, ft.effect, ft.gauss, registry.has_batch(ft.element, ft.effect, ft.gauss))
                for ft, *_ in calls]
         sz_arg, sz_res, sz_iw, sz_w = (max([f[1][i] for f in fns] + [least]) for i, least in enumerate((2, 3, 1, 1)))
@@ -183,8 +184,8 @@ class CompiledLoop:
                 I[f"dst{t}"][:], I[f"src{t}"][:] = local
                 T.nlocal, T.ldst, T.lsrc = len(local[0]), I.ptr(f"dst{t}"), I.ptr(f"src{t}")
             T.arg, T.res, T.iw, T.w = ctypes.addressof(arg), ctypes.addressof(res), I.ptr("iw"), F.ptr("w")
-        real = None if ev._real is None else _i64(ev._real)
-        gpos, hband = _i64(ev._gpos), _i64(ev._hband)
+        real = None if ev.real is None else _i64(ev.real)
+        gpos, hband = _i64(ev.gpos), _i64(ev.hband)
         # every array and ctypes object the C side points into
         self._keep = [calls, terms, arg, res, ev.E, ev.G, ev.H, real, gpos, hband]
         self.g, self.x_eval, self._x0, self._x = F["g"], F["x_eval"], F["x0"], F["x_out"]
@@ -218,7 +219,8 @@ class CompiledLoop:
         if self._hist.size < 2 * max_iter:
             self._hist = np.zeros(2 * max_iter)
             run.hist = self._hist.ctypes.data
-        run.tol, run.work, run.load, run.max_step, run.max_iter, run.finish = tol, work, load, max_step, max_iter, finish
+        run.tol, run.work, run.load, run.max_step, run.max_iter = tol, work, load, max_step, max_iter
+        run.finish = finish
         run.status = run.evaluations = -1  # (a run under way: both set by the C loop)
         try:
             status = self._solve(self._p, self._r)
@@ -244,7 +246,7 @@ def compiled_loop(newton) -> CompiledLoop | None:
     """The C loop for a KernelNewton, None where its evaluation needs the Python loop: penalty springs, a band
     wider than BAND_LIMIT, no free coordinate, element-local columns beyond LOCAL_MAX."""
     ev = newton.ev
-    if ev.pen is not None or ev._hband is None or newton.S.nf == 0:
+    if ev.pen is not None or ev.hband is None or newton.S.nf == 0:
         return None
     if any(local is not None and len(local[0]) > LOCAL_MAX for *_, local in ev.calls):
         return None

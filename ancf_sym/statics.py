@@ -93,11 +93,11 @@ class StaticResult:
     energy_decrement: float = float("nan")  # last -r.dz, relative to the load work
     residual: float = float("nan")  # max |residual| at the last evaluated point [N]
     residual_floor: float = float("nan")  # its round-off level, eps x max |K| x span [N]
-    details: Callable[[], tuple] | None = field(default=None, repr=False, compare=False)  # () -> the three below
+    _work_out: Callable[[], tuple] | None = field(default=None, repr=False, compare=False)  # () -> the three below
 
     @functools.cached_property
     def _details(self) -> tuple:
-        return self.details()
+        return self._work_out()
 
     @functools.cached_property
     def energies(self) -> dict:
@@ -296,7 +296,7 @@ class StaticProblem:
             return statics_contact.solve(self, x, opts, t0)
         attempts: list = []
         work = self.work if self.work > 0 else self.newton.load_work(x)
-        if work == 0.0 or not self._loaded and self._unloaded_at_rest(x):  # the start is the equilibrium
+        if work == 0.0 or self._unloaded_at_rest(x):  # the start is the equilibrium
             attempts.append({"method": "none", "status": "Solve_Succeeded", "iterations": 0,
                              "detail": "no load and no residual force at the start: solved at the start shape"})
             stable, _ = self.stability(x)
@@ -590,13 +590,13 @@ class StaticProblem:
         if not ok:  # never hand NaN to the caller: report the start point's energies with the failure
             x = x if np.all(np.isfinite(x)) else self.asm.x0
         res = StaticResult(status, ok, iters, wall, x, stable, attempts, self.asm, path if ok else "",
-                           details=functools.partial(self._details, x, ok))
+                           _work_out=functools.partial(self._result_details, x, ok))
         if run is not None:
             res.increment, res.energy_decrement = run.increment, run.energy_decrement
             res.residual, res.residual_floor = run.residual, run.residual_floor
         return res
 
-    def _details(self, x: np.ndarray, ok: bool) -> tuple[dict, dict, float]:
+    def _result_details(self, x: np.ndarray, ok: bool) -> tuple[dict, dict, float]:
         """A result's energies by label, reactions (multipliers of the exact rows at an equilibrium, penalty
         forces) and constraint violation at x."""
         a = self.asm

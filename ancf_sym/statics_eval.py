@@ -89,7 +89,12 @@ class ReducedEvaluation:
 
     After `evaluate(x_full)`: `energy` (nonlinear terms and penalties [J]), `g` (their gradient on the free
     coordinates), `band()` (upper banded tangent, None if the band is wider than BAND_LIMIT) and `matrix()` (the
-    sparse tangent, for what a band cannot do: factorisations in another order, LU, the inertia)."""
+    sparse tangent, for what a band cannot do: factorisations in another order, LU, the inertia).
+
+    Its layout, which the C Newton loop (newton_loop) reads as well: `calls` (per fused term: input indices, inputs,
+    parameters, ...), `padded` (elements per call, whole SIMD batches), `real` (the outputs' rows that are elements,
+    None without padding), `gpos` (gradient entry -> free coordinate, nf: none) and `hband` (Hessian entry -> slot of
+    LAPACK's upper band, None for a wide band)."""
 
     def __init__(self, asm: Assembly, reduction):
         self.asm, self.R = asm, reduction
@@ -98,17 +103,17 @@ class ReducedEvaluation:
         self.fts = fts = fused_terms([t for t in asm.terms if t.effect not in LINEAR_EFFECTS])
         lengths = [mm.elem_length.min() for mm in asm.mesh.members.values()]
         self.local = bool(lengths) and reduction.span > LOCAL_ABOVE * min(lengths)
-        self._n = [_padded(ft) for ft in fts]  # kept by variants: the index maps below are laid out for it
+        self.padded = [_padded(ft) for ft in fts]  # kept by variants: the index maps below are laid out for it
         self._bind()
         gp, rows, cols = [], [], []
-        for ft, N in zip(fts, self._n):
+        for ft, N in zip(fts, self.padded):
             nd = ft.nd
             p = np.r_[pos[ft.idx], np.full((N - ft.N, nd), -1)]  # padding rows: on no free coordinate
             gp.append(p.ravel())
             rows.append(np.broadcast_to(p[:, None, :], (N, nd, nd)).ravel())  # H[e, b, a] = d2U/dx_a dx_b
             cols.append(np.broadcast_to(p[:, :, None], (N, nd, nd)).ravel())
         gp = np.concatenate(gp) if gp else np.zeros(0, np.int64)
-        self._gpos = np.where(gp >= 0, gp, nf)
+        self.gpos = np.where(gp >= 0, gp, nf)
         hr = np.concatenate(rows) if rows else np.zeros(0, np.int64)
         hc = np.concatenate(cols) if cols else np.zeros(0, np.int64)
         self._free = np.flatnonzero((hr >= 0) & (hc >= 0))  # kernel Hessian entries on two free coordinates
@@ -123,11 +128,11 @@ class ReducedEvaluation:
             keep = (pr >= 0) & (pc >= 0)
             self.bw = max(self.bw, int(np.max(np.abs(pc - pr)[keep], initial=0)))
         self._dump = (self.bw + 1) * nf  # band slot of the entries left out (fixed coordinates, lower triangle)
-        self._hband = None
+        self.hband = None
         if self.bw <= BAND_LIMIT:  # kernel entry -> LAPACK's upper banded storage ab[bw + i - j, j]
             flat = np.full(len(hr), self._dump)
             flat[self._free[up]] = (self.bw + self._hr[up] - self._hc[up]) * nf + self._hc[up]
-            self._hband = flat
+            self.hband = flat
         self.energy, self.g = 0.0, np.zeros(nf)
         self._pen = None  # penalty Hessian entries at the last evaluation: (rows, cols, values) on free coordinates
         self.at = None  # the array of the last evaluation (the object, not a copy: identity says none came since)
@@ -135,14 +140,14 @@ class ReducedEvaluation:
     def _bind(self) -> None:
         """Output buffers (every call's gradients and Hessians side by side) and the mapped kernel calls."""
         fts = self.fts
-        self.E = np.zeros(sum(self._n))
-        self.G = np.zeros(sum(N * ft.nd for ft, N in zip(fts, self._n)))
-        self.H = np.zeros(sum(N * ft.nd * ft.nd for ft, N in zip(fts, self._n)))
-        real = [np.arange(ft.N) + sum(self._n[:i]) for i, ft in enumerate(fts)]
-        self._real = np.concatenate(real) if sum(self._n) > sum(ft.N for ft in fts) else None  # energies to sum
+        self.E = np.zeros(sum(self.padded))
+        self.G = np.zeros(sum(N * ft.nd for ft, N in zip(fts, self.padded)))
+        self.H = np.zeros(sum(N * ft.nd * ft.nd for ft, N in zip(fts, self.padded)))
+        real = [np.arange(ft.N) + sum(self.padded[:i]) for i, ft in enumerate(fts)]
+        self.real = np.concatenate(real) if sum(self.padded) > sum(ft.N for ft in fts) else None  # energies to sum
         self.calls = []
         e0 = g0 = h0 = 0
-        for ft, N in zip(fts, self._n):
+        for ft, N in zip(fts, self.padded):
             nd, rows = ft.nd, _padding_rows(ft.N, N)  # padding repeats the first element (finite outputs)
             X, P = np.zeros((N, nd)), np.ascontiguousarray(ft.P[rows], dtype=float)
             buf, ev = bind(_mapped(ft, N), (X, P),
@@ -181,8 +186,8 @@ class ReducedEvaluation:
             if local is not None:  # both copies are taken before the assignment: the first node's column too
                 X[:, local[0]] -= X[:, local[1]]
             ev()
-        self.energy = float(self.E.sum() if self._real is None else self.E[self._real].sum())
-        self.g = np.bincount(self._gpos, self.G, minlength=self.nf + 1)[:self.nf]
+        self.energy = float(self.E.sum() if self.real is None else self.E[self.real].sum())
+        self.g = np.bincount(self.gpos, self.G, minlength=self.nf + 1)[:self.nf]
         self._pen = None
         if self.pen is not None:
             pc = self.pen
@@ -198,10 +203,10 @@ class ReducedEvaluation:
 
     def band(self) -> np.ndarray | None:
         """The reduced tangent in LAPACK's upper banded storage ((bw + 1) x nf), None for a wide band."""
-        if self._hband is None:
+        if self.hband is None:
             return None
         size = self._dump
-        ab = np.bincount(self._hband, self.H, minlength=size + 1)[:size]
+        ab = np.bincount(self.hband, self.H, minlength=size + 1)[:size]
         if self._pen is not None:
             r, c, v = self._pen
             up = r <= c

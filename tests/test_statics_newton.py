@@ -152,7 +152,7 @@ def test_kernel_evaluation_is_the_assembly_reduced(axial):
     from ancf_sym.statics_eval import BIOT
     p = StaticProblem(_two_members(axial))
     R, ev = p.S, p.light.ev
-    assert any(n > ft.N for ft, n in zip(ev.fts, ev._n))  # the padded path is the one checked
+    assert any(n > ft.N for ft, n in zip(ev.fts, ev.padded))  # the padded path is the one checked
     x = R.full(R.reduce(p.asm.x0) + 0.02 * np.random.default_rng(1).standard_normal(R.nf))
     for evaluation, start in ((ev, False), (ev.variant(BIOT), True)):
         asm = Assembly(_two_members(axial))

@@ -135,8 +135,10 @@ def _gap(element: str, effect: str):
     return gap
 
 
+# the strain of each decoupled variant's rod energy (elements.cable.rod_energy of its stretches)
+ROD_STRAIN = {"decoupled": "green", "decoupled_biot": "biot"}
 # internal fused effects of the decoupled strain: axial_<strain> + bending through the stretches (forms.stretch_kernel)
-STRETCH = {f"elastic_{s}": "green" if s == "decoupled" else "biot" for s in registry.FUSED_STRETCH_STRAINS}
+STRETCH = {f"elastic_{s}": ROD_STRAIN[s] for s in registry.FUSED_STRETCH_STRAINS}
 
 
 def _stretch_kernel(name: str, element: str, effect: str, gauss: int) -> ca.Function:
@@ -169,8 +171,8 @@ def _direct_energy(element: str, effect: str, gauss: int | None):
         return _gap(element, effect)
     if element.startswith("cable"):
         dim = el.dim
-        if effect in ("axial_decoupled", "axial_decoupled_biot"):
-            strain = "green" if effect == "axial_decoupled" else "biot"
+        if effect.removeprefix("axial_") in ROD_STRAIN:
+            strain = ROD_STRAIN[effect.removeprefix("axial_")]
             return lambda q, p: cable.decoupled_energy(q, p, dim, gauss, strain)
         if effect == "gravity":
             return lambda q, p: cable.gravity_energy(q, p, dim)
