@@ -277,7 +277,7 @@ class ResultEnergies:
         a = self.asm
         if self._gidx is None:  # padding elements (copies of a batch's first) onto a dump slot past the end
             self._gidx = np.concatenate([np.r_[ft.idx.ravel(), np.full((N - ft.N) * ft.nd, a.n)]
-                                         for ft, N in zip(ev.fts, ev._n)]) if ev.fts else np.zeros(0, np.int64)
+                                         for ft, N in zip(ev.fts, ev.padded)]) if ev.fts else np.zeros(0, np.int64)
         g = np.bincount(self._gidx, ev.G, minlength=a.n + 1)[:a.n] - ev.R.f_lin_full
         if a.penalty is not None:
             pc = a.penalty
