@@ -196,16 +196,32 @@ static void band(const nl_problem *P)
         for (ll j = 0; j < nf; j++) P->ab[j * w + row] = P->band[row * nf + j];
 }
 
-/* Cholesky of ab + shift diag (shift NULL: none) and the solve of -sol = K^-1 r into out; the LAPACK info */
-static int cholesky_step(const nl_problem *P, const double *shift, double *out)
+/* max |K_jj| over the band's diagonal (ab's last row), NaN if any is NaN */
+static double diagonal_max(const nl_problem *P)
 {
-    int n = (int)P->nf, kd = (int)P->bw, ldab = kd + 1, nrhs = 1, info = 0;
+    ll w = P->bw + 1;
+    for (ll j = 0; j < P->nf; j++) P->tmp[j] = P->ab[j * w + P->bw];
+    return amax(P->tmp, NULL, P->nf, 0.0);
+}
+
+/* banded Cholesky of ab + shift diag (shift NULL: none) into fac; the LAPACK info */
+static int factor(const nl_problem *P, const double *shift)
+{
+    int n = (int)P->nf, kd = (int)P->bw, ldab = kd + 1, info = 0;
     char uplo = 'U';
     ll w = P->bw + 1;
     memcpy(P->fac, P->ab, (size_t)(w * P->nf) * sizeof(double));
     if (shift)
         for (ll j = 0; j < P->nf; j++) P->fac[j * w + P->bw] += shift[j];
     P->dpbtrf(&uplo, &n, &kd, P->fac, &ldab, &info);
+    return info;
+}
+
+/* factor(shift) and the solve of -sol = K^-1 r into out; the LAPACK info */
+static int cholesky_step(const nl_problem *P, const double *shift, double *out)
+{
+    int n = (int)P->nf, kd = (int)P->bw, ldab = kd + 1, nrhs = 1, info = factor(P, shift);
+    char uplo = 'U';
     if (info != 0) return info;
     memcpy(P->sol, P->r, (size_t)P->nf * sizeof(double));
     P->dpbtrs(&uplo, &n, &kd, &nrhs, P->fac, &ldab, P->sol, &n, &info);
@@ -246,8 +262,7 @@ static void trial_point(const nl_problem *P, const double *dz)
 static int shifted_step(const nl_problem *P, nl_run *R, int *trial, const double **last)
 {
     ll nf = P->nf, w = P->bw + 1;
-    for (ll j = 0; j < nf; j++) P->tmp[j] = P->ab[j * w + P->bw];
-    double dmax = amax(P->tmp, NULL, nf, 0.0);
+    double dmax = diagonal_max(P);
     for (ll j = 0; j < nf; j++) P->d[j] = fabs(P->ab[j * w + P->bw]) + DBL_EPSILON * dmax;
     double mu = P->k.shift > R->mu * 0.1 ? P->k.shift : R->mu * 0.1;
     while (mu <= P->k.shift_max) {
@@ -272,7 +287,7 @@ static int shifted_step(const nl_problem *P, nl_run *R, int *trial, const double
  * the kernels were evaluated at last. NL_SINGULAR where the Python loop would turn to a sparse factorisation. */
 static int iteration(const nl_problem *P, nl_run *R, int *trial, const double **last)
 {
-    ll nf = P->nf, w = P->bw + 1;
+    ll nf = P->nf;
     full(P, P->x, P->xfull);
     int reuse = *trial;
     for (ll i = 0; reuse && i < P->n; i++)
@@ -283,8 +298,7 @@ static int iteration(const nl_problem *P, nl_run *R, int *trial, const double **
     *last = P->xfull;  /* (equal to the trial point where reused) */
     for (ll k = 0; k < nf; k++) P->r[k] = P->g[k] + P->p[k];
     band(P);
-    for (ll j = 0; j < nf; j++) P->tmp[j] = P->ab[j * w + P->bw];
-    double kmax = amax(P->tmp, NULL, nf, 0.0);
+    double kmax = diagonal_max(P);
     int done = 0;
     if (cholesky_step(P, NULL, P->dz) == 0) {
         done = 1;
@@ -384,16 +398,10 @@ int nl_solve(const nl_problem *P, nl_run *R)
         R->potential = potential(P, R, R->x_out, R->load, &R->ev_energy);
         last = R->x_out;
         band(P);
-        ll w = P->bw + 1;
-        for (ll j = 0; j < nf; j++) P->tmp[j] = P->ab[j * w + P->bw];
-        double hmax = amax(P->tmp, NULL, nf, 0.0);
+        double hmax = diagonal_max(P);
         if (hmax > 0) {
-            int n = (int)nf, kd = (int)P->bw, ldab = kd + 1, info = 0;
-            char uplo = 'U';
-            memcpy(P->fac, P->ab, (size_t)(w * nf) * sizeof(double));
-            for (ll j = 0; j < nf; j++) P->fac[j * w + P->bw] += R->finish * hmax;
-            P->dpbtrf(&uplo, &n, &kd, P->fac, &ldab, &info);
-            R->stable = info == 0;
+            for (ll j = 0; j < nf; j++) P->tmp[j] = R->finish * hmax;
+            R->stable = factor(P, P->tmp) == 0;
         }
     }
     if (last) memcpy(R->x_eval, last, (size_t)P->n * sizeof(double));
