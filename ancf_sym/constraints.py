@@ -5,7 +5,8 @@ and its Hessian are exact sparse arrays without any symbolic work at run time:
 - pin: r = r0; clamp: pin + slope direction (n . r_x = 0 for each normal n of the reference slope; beam3d:
   all gradients fixed); fix_slope: the slope part alone;
 - hinge: r_a = r_b; rigid: hinge + the relative slope direction (planar: (R t_a) x t_b = 0 with R the reference
-  rotation from t_a to t_b; beam3d: J_b = J_a R0 with R0 = J_a0^T J_b0).
+  rotation from t_a to t_b; beam3d: the relative rotation of the two node frames, three rows that see rotations
+  only (_frame_rows); cable3d polyline corners: the angle between the slopes).
 The penalty form of paper 002 adds 1/2 k c^2 per row instead (k from EA/(1 m) for positions, EI/(1 m) for slopes).
 """
 from __future__ import annotations
@@ -81,15 +82,9 @@ def joint_rows(rows: Rows, dim: int, ma: MemberMesh, na: int, mb: MemberMesh, nb
     if kind != "rigid":
         return
     if ma.member.element == "beam3d":
-        Ja0 = ma.x0[na].reshape(4, 3)[1:].T  # columns r_x, r_y, r_z
-        Jb0 = mb.x0[nb].reshape(4, 3)[1:].T
-        R0 = np.linalg.solve(Ja0, Jb0)
-        for c in range(3):  # column c of J_b - J_a R0 = 0
-            for k in range(3):
-                coefs = {int(pb[1 + c][k]): 1.0}
-                for m in range(3):
-                    coefs[int(pa[1 + m][k])] = coefs.get(int(pa[1 + m][k]), 0.0) - R0[m, c]
-                rows.row(coefs, 0.0, label, "slope")
+        _frame_rows(rows, ma, pa, na, mb, pb, nb, label)
+    elif dim == 3:
+        _cable3d_corner_rows(rows, ma.x0[na][3:6], mb.x0[nb][3:6], pa[1], pb[1], label)
     else:
         ta, tb = ma.x0[na][dim:2 * dim], mb.x0[nb][dim:2 * dim]
         ang = np.arctan2(ta[0] * tb[1] - ta[1] * tb[0], ta @ tb)
@@ -99,6 +94,83 @@ def joint_rows(rows: Rows, dim: int, ma: MemberMesh, na: int, mb: MemberMesh, nb
         ia, ib = pa[1], pb[1]
         quad = [(int(ia[m]), int(ib[1]), R[0, m]) for m in range(2)] + [(int(ia[m]), int(ib[0]), -R[1, m]) for m in range(2)]
         rows.row({}, 0.0, label, "slope", quad)
+
+
+def rotation_sensor(J0: np.ndarray, e: np.ndarray, method: str) -> np.ndarray:
+    """(3, 3) gradient (columns: d/dr_x, d/dr_y, d/dr_z) of e . omega, the small rotation of a beam3d node's frame
+    from its reference gradients J0 = [r_x r_y r_z], as each form defines that frame:
+    - elastic_line: the bending part (normal to the tangent t) from the centre-line slope, t x dt, and the twist
+      about t from the section vectors, (z . dr_y - y . dr_z) / 2 (the torsion kernel's twist). The elements bend
+      through r_xx and twist through r_y, r_z; the slope-to-section shear is a local penalty (G A per element).
+    - continuum: the section's rotation from r_y and r_z alone (about y: t . dr_z, about z: -t . dr_y, twist as
+      above): the continuum form bends through the section field (Timoshenko), the slope differs by the shear.
+    Neither sees stretch or shear of the node: a joint built from these sensors cannot be satisfied by a local
+    strain of one element, whose stiffness vanishes with the element length."""
+    s = np.linalg.norm(J0, axis=0)
+    t, y, z = (J0 / s).T
+    et = float(e @ t)
+    if method == "elastic_line":
+        g = [np.cross(e, t), et / 2 * z, -et / 2 * y]
+    else:
+        g = [np.zeros(3), et / 2 * z - float(e @ z) * t, -et / 2 * y + float(e @ y) * t]
+    return np.stack(g, axis=1) / s
+
+
+def _frame_rows(rows: Rows, ma: MemberMesh, pa, na: int, mb: MemberMesh, pb, nb: int, label: str) -> None:
+    """Three rows fixing the relative rotation of the two beam3d node frames at its reference value.
+
+    Each row is a sum of dot products of the nodes' gradients (so it is unchanged by any rigid rotation of the
+    joint as a whole): sum M_ij a_i . b_j + A_ij a_i . a_j + B_ij b_i . b_j = its reference value, with a_i, b_j the
+    columns of J_a, J_b. Its gradient at the reference state is the sensor e . (omega_a - omega_b) of the two
+    frames (rotation_sensor, each side's own form), for e along side a's three axes: the rows measure the three
+    components of the relative rotation (independent), and no strain of either node. Solved for (M, A, B) by
+    least squares, checked exact."""
+    Ja0 = ma.x0[na].reshape(4, 3)[1:].T
+    Jb0 = mb.x0[nb].reshape(4, 3)[1:].T
+    basis = (Ja0 / np.linalg.norm(Ja0, axis=0)).T
+    # unknowns (M, A, B) row-major; gradient wrt a_i: sum_j M_ij b_j + (A_ij + A_ji) a_j; wrt b_j: sum_i M_ij a_i + ...
+    K = np.zeros((18, 27))
+    for i in range(3):
+        for j in range(3):
+            K[3 * i:3 * i + 3, 3 * i + j] += Jb0[:, j]  # M_ij -> d/da_i
+            K[9 + 3 * j:9 + 3 * j + 3, 3 * i + j] += Ja0[:, i]  # M_ij -> d/db_j
+            K[3 * i:3 * i + 3, 9 + 3 * i + j] += Ja0[:, j]  # A_ij -> d/da_i
+            K[3 * j:3 * j + 3, 9 + 3 * i + j] += Ja0[:, i]  # A_ij -> d/da_j
+            K[9 + 3 * i:9 + 3 * i + 3, 18 + 3 * i + j] += Jb0[:, j]
+            K[9 + 3 * j:9 + 3 * j + 3, 18 + 3 * i + j] += Jb0[:, i]
+    for e in basis:
+        g = np.r_[rotation_sensor(Ja0, e, ma.member.beam_method).T.ravel(),
+                  -rotation_sensor(Jb0, e, mb.member.beam_method).T.ravel()]
+        coef = np.linalg.lstsq(K, g, rcond=None)[0]
+        if np.linalg.norm(K @ coef - g) > 1e-9 * np.linalg.norm(g):  # the sensors disagree on a rigid rotation
+            raise AssertionError(f"{label}: no objective row measures this relative rotation")
+        M, A, B = coef.reshape(3, 3, 3)
+        quad, d = [], 0.0
+        for C, P, Q, X, Y in ((M, pa, pb, Ja0, Jb0), (A, pa, pa, Ja0, Ja0), (B, pb, pb, Jb0, Jb0)):
+            for i in range(3):
+                for j in range(3):
+                    if abs(C[i, j]) > 1e-14 * np.abs(coef).max():
+                        quad += [(int(P[1 + i][k]), int(Q[1 + j][k]), float(C[i, j])) for k in range(3)]
+                        d += C[i, j] * float(X[:, i] @ Y[:, j])
+        rows.row({}, d, label, "slope", quad)
+
+
+def _cable3d_corner_rows(rows: Rows, ta, tb, ia, ib, label: str) -> None:
+    """A rigid corner of a cable3d polyline: a cable has no section vectors, so all a corner of two slopes can tie is
+    the angle between them (the corner's plane may turn about either side's axis: a cable carries no torsion).
+    Row r_a . r_b - cos0 / 2 (s_b / s_a |r_a|^2 + s_a / s_b |r_b|^2) = 0: unchanged by rigid rotations, blind to
+    either slope's stretch, it measures the relative rotation about t_a x t_b. Collinear sides (no angle to
+    measure): the slopes are equal, as at an inner node."""
+    sa, sb = np.linalg.norm(ta), np.linalg.norm(tb)
+    cos0 = float(ta @ tb) / (sa * sb)
+    if 1.0 - abs(cos0) < 1e-9:
+        for k in range(3):
+            rows.row({int(ib[k]): 1.0, int(ia[k]): -float(np.sign(cos0)) * sb / sa}, 0.0, label, "slope")
+        return
+    quad = [(int(ia[k]), int(ib[k]), 1.0) for k in range(3)]
+    quad += [(int(ia[k]), int(ia[k]), -cos0 / 2 * sb / sa) for k in range(3)]
+    quad += [(int(ib[k]), int(ib[k]), -cos0 / 2 * sa / sb) for k in range(3)]
+    rows.row({}, 0.0, label, "slope", quad)
 
 
 def _penalty_scale(mm: MemberMesh, kind: str) -> float:
