@@ -96,14 +96,17 @@ def joint_rows(rows: Rows, dim: int, ma: MemberMesh, na: int, mb: MemberMesh, nb
         rows.row({}, 0.0, label, "slope", quad)
 
 
-def rotation_sensor(J0: np.ndarray, e: np.ndarray, method: str) -> np.ndarray:
+def rotation_sensor(J0: np.ndarray, e: np.ndarray, method: str, section_b: float = 1.0, section_h: float = 1.0
+                    ) -> np.ndarray:
     """(3, 3) gradient (columns: d/dr_x, d/dr_y, d/dr_z) of e . omega, the small rotation of a beam3d node's frame
     from its reference gradients J0 = [r_x r_y r_z], as each form defines that frame:
     - elastic_line: the bending part (normal to the tangent t) from the centre-line slope, t x dt, and the twist
       about t from the section vectors, (z . dr_y - y . dr_z) / 2 (the torsion kernel's twist). The elements bend
       through r_xx and twist through r_y, r_z; the slope-to-section shear is a local penalty (G A per element).
-    - continuum: the section's rotation from r_y and r_z alone (about y: t . dr_z, about z: -t . dr_y, twist as
-      above): the continuum form bends through the section field (Timoshenko), the slope differs by the shear.
+    - continuum: the section's rotation from r_y and r_z alone (about y: t . dr_z, about z: -t . dr_y): the
+      continuum form bends through the section field (Timoshenko), the slope differs by the shear. Its twist weighs
+      the turns of r_y and r_z as the section resists them (b^2 : h^2, the fibres' int y^2 dA : int z^2 dA), so a
+      torque through the joint turns both alike instead of shearing the node's section (its G A, one element's).
     Neither sees stretch or shear of the node: a joint built from these sensors cannot be satisfied by a local
     strain of one element, whose stiffness vanishes with the element length."""
     s = np.linalg.norm(J0, axis=0)
@@ -112,7 +115,8 @@ def rotation_sensor(J0: np.ndarray, e: np.ndarray, method: str) -> np.ndarray:
     if method == "elastic_line":
         g = [np.cross(e, t), et / 2 * z, -et / 2 * y]
     else:
-        g = [np.zeros(3), et / 2 * z - float(e @ z) * t, -et / 2 * y + float(e @ y) * t]
+        wy = section_b**2 / (section_b**2 + section_h**2)
+        g = [np.zeros(3), et * wy * z - float(e @ z) * t, -et * (1 - wy) * y + float(e @ y) * t]
     return np.stack(g, axis=1) / s
 
 
@@ -139,8 +143,10 @@ def _frame_rows(rows: Rows, ma: MemberMesh, pa, na: int, mb: MemberMesh, pb, nb:
             K[9 + 3 * i:9 + 3 * i + 3, 18 + 3 * i + j] += Jb0[:, j]
             K[9 + 3 * j:9 + 3 * j + 3, 18 + 3 * i + j] += Jb0[:, i]
     for e in basis:
-        g = np.r_[rotation_sensor(Ja0, e, ma.member.beam_method).T.ravel(),
-                  -rotation_sensor(Jb0, e, mb.member.beam_method).T.ravel()]
+        g = np.r_[rotation_sensor(Ja0, e, ma.member.beam_method, ma.member.section.b or 1.0,
+                                  ma.member.section.h or 1.0).T.ravel(),
+                  -rotation_sensor(Jb0, e, mb.member.beam_method, mb.member.section.b or 1.0,
+                                   mb.member.section.h or 1.0).T.ravel()]
         coef = np.linalg.lstsq(K, g, rcond=None)[0]
         if np.linalg.norm(K @ coef - g) > 1e-9 * np.linalg.norm(g):  # the sensors disagree on a rigid rotation
             raise AssertionError(f"{label}: no objective row measures this relative rotation")
