@@ -107,8 +107,9 @@ def rotation_sensor(J0: np.ndarray, e: np.ndarray, method: str, section_b: float
       continuum form bends through the section field (Timoshenko), the slope differs by the shear. Its twist weighs
       the turns of r_y and r_z as the section resists them (b^2 : h^2, the fibres' int y^2 dA : int z^2 dA), so a
       torque through the joint turns both alike instead of shearing the node's section (its G A, one element's).
-    Neither sees stretch or shear of the node: a joint built from these sensors cannot be satisfied by a local
-    strain of one element, whose stiffness vanishes with the element length."""
+    Neither sees a gradient's stretch, nor the tilt between slope and sections that the form resists only by one
+    element's shear (elastic line: the sections' tilt; continuum: the slope's): a joint built from these sensors
+    cannot be satisfied by such a local strain, whose stiffness vanishes with the element length."""
     s = np.linalg.norm(J0, axis=0)
     t, y, z = (J0 / s).T
     et = float(e @ t)
