@@ -4,7 +4,7 @@ Every support and joint of this package is linear or bilinear in the nodal coord
 and its Hessian are exact sparse arrays without any symbolic work at run time:
 - pin: r = r0; clamp: pin + slope direction (n . r_x = 0 for each normal n of the reference slope; beam3d:
   all gradients fixed); fix_slope: the slope part alone;
-- hinge: r_a = r_b; rigid: hinge + the relative slope direction (planar: (R t_a) x t_b = 0 with R the reference
+- hinge: r_a = r_b (beam3d with an axis: + the relative rotations normal to it); rigid: hinge + the relative slope direction (planar: (R t_a) x t_b = 0 with R the reference
   rotation from t_a to t_b; beam3d: the relative rotation of the two node frames, three rows that see rotations
   only (_frame_rows); cable3d polyline corners: the angle between the slopes).
 The penalty form of paper 002 adds 1/2 k c^2 per row instead (k from EA/(1 m) for positions, EI/(1 m) for slopes).
@@ -73,16 +73,21 @@ def support_rows(rows: Rows, mesh: Mesh, s) -> None:
                 rows.row({int(i): float(v) for i, v in zip(parts[1], n)}, 0.0, label, "slope")
 
 
-def joint_rows(rows: Rows, dim: int, ma: MemberMesh, na: int, mb: MemberMesh, nb: int, kind: str, label: str) -> None:
-    """Rows of a hinge or rigid joint between internal node na of ma and nb of mb."""
+def joint_rows(rows: Rows, dim: int, ma: MemberMesh, na: int, mb: MemberMesh, nb: int, kind: str, label: str,
+               axis: np.ndarray | None = None) -> None:
+    """Rows of a hinge or rigid joint between internal node na of ma and nb of mb (a beam3d hinge with an axis:
+    the relative rotations normal to it fixed)."""
     pa, pb = _slices(ma, na, dim), _slices(mb, nb, dim)
     gap = ma.x0[na][:dim] - mb.x0[nb][:dim]  # reference offset kept (zero for coincident nodes)
     for k in range(dim):
         rows.row({int(pa[0][k]): 1.0, int(pb[0][k]): -1.0}, float(gap[k]), label, "position")
+    if kind == "hinge" and axis is not None:
+        _frame_rows(rows, ma, pa, na, mb, pb, nb, label, affine_rows.normals(axis))
     if kind != "rigid":
         return
     if ma.member.element == "beam3d":
-        _frame_rows(rows, ma, pa, na, mb, pb, nb, label)
+        J0 = ma.x0[na].reshape(4, 3)[1:]
+        _frame_rows(rows, ma, pa, na, mb, pb, nb, label, J0 / np.linalg.norm(J0, axis=1)[:, None])
     elif dim == 3:
         _cable3d_corner_rows(rows, ma.x0[na][3:6], mb.x0[nb][3:6], pa[1], pb[1], label)
     else:
@@ -121,18 +126,18 @@ def rotation_sensor(J0: np.ndarray, e: np.ndarray, method: str, section_b: float
     return np.stack(g, axis=1) / s
 
 
-def _frame_rows(rows: Rows, ma: MemberMesh, pa, na: int, mb: MemberMesh, pb, nb: int, label: str) -> None:
-    """Three rows fixing the relative rotation of the two beam3d node frames at its reference value.
+def _frame_rows(rows: Rows, ma: MemberMesh, pa, na: int, mb: MemberMesh, pb, nb: int, label: str, basis) -> None:
+    """Rows fixing the components along `basis` (unit vectors; side a's three axes for a rigid joint, the two
+    normals of a hinge's axis) of the relative rotation of two beam3d node frames at their reference value.
 
     Each row is a sum of dot products of the nodes' gradients (so it is unchanged by any rigid rotation of the
     joint as a whole): sum M_ij a_i . b_j + A_ij a_i . a_j + B_ij b_i . b_j = its reference value, with a_i, b_j the
     columns of J_a, J_b. Its gradient at the reference state is the sensor e . (omega_a - omega_b) of the two
-    frames (rotation_sensor, each side's own form), for e along side a's three axes: the rows measure the three
-    components of the relative rotation (independent), and no strain of either node. Solved for (M, A, B) by
-    least squares, checked exact."""
+    frames (rotation_sensor, each side's own form), for e along each basis vector: the rows measure independent
+    components of the relative rotation, and no strain of either node. Solved for (M, A, B) by least squares,
+    checked exact."""
     Ja0 = ma.x0[na].reshape(4, 3)[1:].T
     Jb0 = mb.x0[nb].reshape(4, 3)[1:].T
-    basis = (Ja0 / np.linalg.norm(Ja0, axis=0)).T
     # unknowns (M, A, B) row-major; gradient wrt a_i: sum_j M_ij b_j + (A_ij + A_ji) a_j; wrt b_j: sum_i M_ij a_i + ...
     K = np.zeros((18, 27))
     for i in range(3):
@@ -280,7 +285,7 @@ def build_constraints(mesh: Mesh) -> Constraints:
         start = len(rows.d)
         ma, mb = mesh.members[j.a[0]], mesh.members[j.b[0]]
         label = f"{j.kind} {j.a[0]}@{j.a[1]}-{j.b[0]}@{j.b[1]}"
-        joint_rows(rows, dim, ma, ma.node(j.a[1]), mb, mb.node(j.b[1]), j.kind, label)
+        joint_rows(rows, dim, ma, ma.node(j.a[1]), mb, mb.node(j.b[1]), j.kind, label, j.axis)
         close(start, j.method, j.penalty, ma)
     for name, mm in mesh.members.items():
         for a, b in mm.vertex_pairs:

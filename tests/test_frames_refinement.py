@@ -79,9 +79,10 @@ CASES = [(m, load, bent) for bent in (False, True) for load in ("in_plane", "nor
 IDS = [f"{'bent' if bent else 'two_members'}-{load}-{m}" for m, load, bent in CASES]
 
 
-def _check(errs: list[float], ns: list[int]) -> None:
+def _check(errs: list[float], ns: list[int], coarse: float = 2e-3) -> None:
+    """Within 2e-3 (the first mesh within `coarse`), falling from the first mesh to the second, not growing after."""
     e = np.abs(errs)
-    assert np.all(e <= 2e-3), dict(zip(ns, errs))
+    assert e[0] <= coarse and np.all(e[1:] <= 2e-3), dict(zip(ns, errs))
     assert e[1] < e[0], f"no fall from {ns[0]} to {ns[1]} elements: {dict(zip(ns, errs))}"
     assert np.all(e[2:] <= np.maximum(e[1:-1], FLOOR)), f"error grows: {dict(zip(ns, errs))}"
 
@@ -167,3 +168,100 @@ def test_rigid_joint_rows_see_rotations_only(method):
             dx = np.zeros_like(x0)
             dx[d[3:6]] = y
             assert np.abs(Jc @ dx).max() > 0.5
+
+
+def _hinged_link(method: str, n: int) -> tuple[Scene, float]:
+    """Leg a clamped, leg b hinged to it about the frame's normal z and pinned at its far end: in the plane, b is a
+    simply supported span; a force F along -x at b's middle node. Returns the scene and the middle's deflection by
+    beam theory: F c^3 / (48 E I) (I about z), + F c / (4 G A) for the continuum's shear, + F a / (4 E A) from the
+    corner's support, a, shortening under F / 2 (half of it reaches the middle)."""
+    F = 0.01
+    s, _ = _frame(method, n, "in_plane", False)
+    s.loads.clear()
+    s.joints.clear()
+    s.hinge(("m1", "end"), ("m2", "start"), axis=(0.0, 0.0, 1.0))
+    s.pin("m2", at="end")
+    s.force("m2", at=n // 2, force=(-F, 0.0, 0.0))
+    w = F * LEG_C**3 / (48 * E * IZ) + F * LEG_A / (4 * E * A_SEC)
+    return s, w + (F * LEG_C / (4 * G * A_SEC) if method == "continuum" else 0.0)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_hinge_axis_frees_exactly_that_rotation(method):
+    """A beam3d hinge with an axis: its rows see the relative rotations normal to the axis and not the one about it
+    (rank 2); in a frame, the span hinged about z and pinned at its end is simply supported in the plane (the rigid
+    joint would clamp it elastically into leg a: 24 % stiffer at midspan, measured), while the rotations normal to z still
+    carry leg a's twist and bending. Error against beam theory <= 2e-3 at 64 and 256 elements, falling; at 16
+    (8 elements a half span) the continuum's linear section field is 4.1e-3 stiff (measured; it falls as 1 / n^2,
+    3.0e-4 at 64), so 16 elements are held to 5e-3."""
+    from ancf_sym.constraints import build_constraints
+    from ancf_sym.mesh import build_mesh
+    s, _ = _hinged_link(method, 4)
+    mesh = build_mesh(s)
+    cons = build_constraints(mesh)
+    rows = [k for k, lab in enumerate(cons.labels) if lab.startswith("hinge")]
+    assert len(rows) == 5  # 3 positions, 2 rotations
+    Jc = cons.subset(np.array(rows[3:])).jacobian(mesh.x0).toarray()
+    mm = mesh.members["m2"]
+    d = mm.node_dofs(0)
+    for axis, seen in (((0, 0, 1.0), False), ((1.0, 0, 0), True), ((0, 1.0, 0), True)):
+        dx = np.zeros(mesh.n)  # a small rotation of b's node frame about axis
+        for g in range(1, 4):
+            dx[d[3 * g:3 * g + 3]] = np.cross(axis, mesh.x0[d[3 * g:3 * g + 3]])
+        assert (np.abs(Jc @ dx).max() > 0.1) == seen, (axis, Jc @ dx)
+    errs, ns = [], [16, 64, 256]
+    for n in ns:
+        s, w = _hinged_link(method, n)
+        r = solve_static(s)
+        assert r.success, r.status
+        errs.append((LEG_A - r.nodes("m2")[n // 2][0]) / w - 1)
+    _check(errs, ns, coarse=5e-3)
+
+
+def test_hinge_axis_in_toml_and_its_refusals(tmp_path):
+    """[[joints]] axis reaches Scene.hinge; a rigid joint, a cable, or a zero axis is refused naming the field."""
+    from ancf_sym.checks import SceneError
+    from ancf_sym.scene_toml import load_scene
+    text = """[scene]
+dim = 3
+[materials.steel]
+E = 2e11
+density = 7850
+poisson = 0.3
+[sections.bar]
+shape = "rectangle"
+b = 0.04
+h = 0.02
+[[members]]
+name = "m1"
+points = [[0, 0, 0], [1, 0, 0]]
+elements = 4
+material = "steel"
+section = "bar"
+element = "{el}"
+[[members]]
+name = "m2"
+points = [[1, 0, 0], [1, 0.6, 0]]
+elements = 4
+material = "steel"
+section = "bar"
+element = "{el}"
+[[supports]]
+type = "clamp"
+member = "m1"
+at = "start"
+[[joints]]
+type = "{kind}"
+a = ["m1", "end"]
+b = ["m2", "start"]
+axis = {axis}
+"""
+    f = tmp_path / "s.toml"
+    f.write_text(text.format(el="beam3d", kind="hinge", axis="[0, 0, 2]"))
+    assert np.allclose(load_scene(f)[0].joints[0].axis, [0, 0, 1])
+    for el, kind, axis, why in (("beam3d", "rigid", "[0, 0, 1]", "is for hinges"),
+                                ("cable3d", "hinge", "[0, 0, 1]", "needs beam3d members"),
+                                ("beam3d", "hinge", "[0, 0, 0]", "nonzero")):
+        f.write_text(text.format(el=el, kind=kind, axis=axis))
+        with pytest.raises(SceneError, match=rf"joints\[0\]\.axis.*{why}"):
+            load_scene(f)
