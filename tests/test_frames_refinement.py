@@ -265,3 +265,42 @@ axis = {axis}
         f.write_text(text.format(el=el, kind=kind, axis=axis))
         with pytest.raises(SceneError, match=rf"joints\[0\]\.axis.*{why}"):
             load_scene(f)
+
+
+def test_cable3d_corner_ties_the_angle_between_its_slopes():
+    """A cable3d polyline corner: a cable carries no section vectors, so all its corner can tie is the angle between
+    the two slopes (one row; the corner may spin about either side's axis, which a torsion-free cable does not
+    resist). The L of a cable clamped at one end and pinned at the other (the pin holds the spin) loaded in its
+    plane: in the x-z plane and in a tilted plane it deflects as the cable2d L in the x-y plane, node by node (same
+    mesh, same energies: agreement to round-off, 1e-9 of the deflection allows for the solver's stopping). The
+    former corner row took the x-y components of the slopes only, and left these corners free."""
+    from ancf_sym.mesh import build_mesh
+    from ancf_sym.constraints import build_constraints
+    sec, P = Section.circle(0.02), 10.0
+    swap = np.array([[1.0, 0, 0], [0, 0, 1], [0, 1, 0]])  # x-y plane -> x-z plane
+    c, s_ = np.cos(0.5), np.sin(0.5)
+    tilt = np.array([[1.0, 0, 0], [0, c, -s_], [0, s_, c]]) @ swap
+    p2 = np.array([(0.0, 0.0), (LEG_A, 0.0), (LEG_A, LEG_C)])
+    disp = []
+    for R in (None, swap, tilt):
+        dim = 2 if R is None else 3
+        sc = Scene(dim=dim, gravity=(0.0,) * dim)
+        pts = p2 if R is None else (R @ np.c_[p2, np.zeros(3)].T).T
+        f = np.array([-P, 0.0]) if R is None else R @ np.array([-P, 0.0, 0.0])
+        sc.member("m", points=[tuple(p) for p in pts], elements=24, material=Material(E=E, density=7850.0),
+                  section=sec, gravity=False)
+        sc.clamp("m", at="start")
+        sc.pin("m", at="end")
+        sc.force("m", at=20, force=tuple(f))
+        if R is not None:
+            labels = build_constraints(build_mesh(sc)).labels  # the corner: 3 position rows and 1 angle row
+            assert sum(lab.startswith("vertex") for lab in labels) == 4
+        r = solve_static(sc)
+        assert r.success, r.status
+        mm = build_mesh(sc).members["m"]
+        u = np.asarray(r.nodes("m")) - mm.x0[mm.public_nodes, :dim]
+        disp.append(u if R is None else (u @ R)[:, :2])
+    scale = np.abs(disp[0]).max()
+    assert scale > 1e-6  # the load does bend the L
+    for d in disp[1:]:
+        assert np.abs(d - disp[0]).max() <= 1e-9 * scale + 1e-15, np.abs(d - disp[0]).max() / scale
