@@ -85,9 +85,15 @@ def joint_rows(rows: Rows, dim: int, ma: MemberMesh, na: int, mb: MemberMesh, nb
         _frame_rows(rows, ma, pa, na, mb, pb, nb, label, affine_rows.normals(axis))
     if kind != "rigid":
         return
-    if ma.member.element == "beam3d":
-        J0 = ma.x0[na].reshape(4, 3)[1:]
-        _frame_rows(rows, ma, pa, na, mb, pb, nb, label, J0 / np.linalg.norm(J0, axis=1)[:, None])
+    if "beam3d" in (ma.member.element, mb.member.element):
+        if mb.member.element != "beam3d":  # a cable side: the relative rotations normal to its slope
+            basis = affine_rows.normals(mb.x0[nb][3:6] / np.linalg.norm(mb.x0[nb][3:6]))
+        elif ma.member.element != "beam3d":
+            basis = affine_rows.normals(ma.x0[na][3:6] / np.linalg.norm(ma.x0[na][3:6]))
+        else:
+            J0 = _gradients(ma, na).T
+            basis = J0 / np.linalg.norm(J0, axis=1)[:, None]
+        _frame_rows(rows, ma, pa, na, mb, pb, nb, label, basis)
     elif dim == 3:
         _cable3d_corner_rows(rows, ma.x0[na][3:6], mb.x0[nb][3:6], pa[1], pb[1], label)
     else:
@@ -126,9 +132,22 @@ def rotation_sensor(J0: np.ndarray, e: np.ndarray, method: str, section_b: float
     return np.stack(g, axis=1) / s
 
 
+def _gradients(mm: MemberMesh, node: int) -> np.ndarray:
+    """(3, k) reference gradients of a 3D node: beam3d [r_x r_y r_z], cable3d [r_x]."""
+    return mm.x0[node].reshape(-1, 3)[1:].T
+
+
+def _sensor(mm: MemberMesh, J0: np.ndarray, e: np.ndarray) -> np.ndarray:
+    m = mm.member
+    if m.element != "beam3d":  # a cable's slope: e . omega for e normal to it
+        return (np.cross(e, J0[:, 0]) / float(J0[:, 0] @ J0[:, 0]))[:, None]
+    return rotation_sensor(J0, e, m.beam_method, m.section.b or 1.0, m.section.h or 1.0)
+
+
 def _frame_rows(rows: Rows, ma: MemberMesh, pa, na: int, mb: MemberMesh, pb, nb: int, label: str, basis) -> None:
     """Rows fixing the components along `basis` (unit vectors; side a's three axes for a rigid joint, the two
-    normals of a hinge's axis) of the relative rotation of two beam3d node frames at their reference value.
+    normals of a hinge's axis or of a cable side's slope) of the relative rotation of two node frames (beam3d; a
+    cable3d side has its slope only) at their reference value.
 
     Each row is a sum of dot products of the nodes' gradients (so it is unchanged by any rigid rotation of the
     joint as a whole): sum M_ij a_i . b_j + A_ij a_i . a_j + B_ij b_i . b_j = its reference value, with a_i, b_j the
@@ -136,31 +155,33 @@ def _frame_rows(rows: Rows, ma: MemberMesh, pa, na: int, mb: MemberMesh, pb, nb:
     frames (rotation_sensor, each side's own form), for e along each basis vector: the rows measure independent
     components of the relative rotation, and no strain of either node. Solved for (M, A, B) by least squares,
     checked exact."""
-    Ja0 = ma.x0[na].reshape(4, 3)[1:].T
-    Jb0 = mb.x0[nb].reshape(4, 3)[1:].T
-    # unknowns (M, A, B) row-major; gradient wrt a_i: sum_j M_ij b_j + (A_ij + A_ji) a_j; wrt b_j: sum_i M_ij a_i + ...
-    K = np.zeros((18, 27))
-    for i in range(3):
-        for j in range(3):
-            K[3 * i:3 * i + 3, 3 * i + j] += Jb0[:, j]  # M_ij -> d/da_i
-            K[9 + 3 * j:9 + 3 * j + 3, 3 * i + j] += Ja0[:, i]  # M_ij -> d/db_j
-            K[3 * i:3 * i + 3, 9 + 3 * i + j] += Ja0[:, j]  # A_ij -> d/da_i
-            K[3 * j:3 * j + 3, 9 + 3 * i + j] += Ja0[:, i]  # A_ij -> d/da_j
-            K[9 + 3 * i:9 + 3 * i + 3, 18 + 3 * i + j] += Jb0[:, j]
-            K[9 + 3 * j:9 + 3 * j + 3, 18 + 3 * i + j] += Jb0[:, i]
+    Ja0, Jb0 = _gradients(ma, na), _gradients(mb, nb)
+    ka, kb = Ja0.shape[1], Jb0.shape[1]
+    # unknowns M (ka x kb), A (ka x ka), B (kb x kb), row-major; d/da_i = sum_j M_ij b_j + (A_ij + A_ji) a_j, ...
+    oA, oB = ka * kb, ka * kb + ka * ka
+    K = np.zeros((3 * (ka + kb), oB + kb * kb))
+    for i in range(ka):
+        for j in range(kb):
+            K[3 * i:3 * i + 3, i * kb + j] += Jb0[:, j]  # M_ij -> d/da_i
+            K[3 * (ka + j):3 * (ka + j) + 3, i * kb + j] += Ja0[:, i]  # M_ij -> d/db_j
+        for j in range(ka):
+            K[3 * i:3 * i + 3, oA + i * ka + j] += Ja0[:, j]  # A_ij -> d/da_i
+            K[3 * j:3 * j + 3, oA + i * ka + j] += Ja0[:, i]  # A_ij -> d/da_j
+    for i in range(kb):
+        for j in range(kb):
+            K[3 * (ka + i):3 * (ka + i) + 3, oB + i * kb + j] += Jb0[:, j]
+            K[3 * (ka + j):3 * (ka + j) + 3, oB + i * kb + j] += Jb0[:, i]
     for e in basis:
-        g = np.r_[rotation_sensor(Ja0, e, ma.member.beam_method, ma.member.section.b or 1.0,
-                                  ma.member.section.h or 1.0).T.ravel(),
-                  -rotation_sensor(Jb0, e, mb.member.beam_method, mb.member.section.b or 1.0,
-                                   mb.member.section.h or 1.0).T.ravel()]
+        g = np.r_[_sensor(ma, Ja0, e).T.ravel(), -_sensor(mb, Jb0, e).T.ravel()]
         coef = np.linalg.lstsq(K, g, rcond=None)[0]
         if np.linalg.norm(K @ coef - g) > 1e-9 * np.linalg.norm(g):  # the sensors disagree on a rigid rotation
             raise AssertionError(f"{label}: no objective row measures this relative rotation")
-        M, A, B = coef.reshape(3, 3, 3)
+        blocks = ((coef[:oA].reshape(ka, kb), pa, pb, Ja0, Jb0), (coef[oA:oB].reshape(ka, ka), pa, pa, Ja0, Ja0),
+                  (coef[oB:].reshape(kb, kb), pb, pb, Jb0, Jb0))
         quad, d = [], 0.0
-        for C, P, Q, X, Y in ((M, pa, pb, Ja0, Jb0), (A, pa, pa, Ja0, Ja0), (B, pb, pb, Jb0, Jb0)):
-            for i in range(3):
-                for j in range(3):
+        for C, P, Q, X, Y in blocks:
+            for i in range(C.shape[0]):
+                for j in range(C.shape[1]):
                     if abs(C[i, j]) > 1e-14 * np.abs(coef).max():
                         quad += [(int(P[1 + i][k]), int(Q[1 + j][k]), float(C[i, j])) for k in range(3)]
                         d += C[i, j] * float(X[:, i] @ Y[:, j])

@@ -486,7 +486,9 @@ class Scene:
         return j
 
     def rigid(self, a: tuple[str, Any], b: tuple[str, Any], method: str = "exact", penalty: float | None = None) -> Joint:
-        """Shared point and relative slope direction fixed at its reference angle (e.g. a T)."""
+        """Shared point and relative slope direction fixed at its reference angle (e.g. a T); beam3d members: the
+        relative rotation of the two node frames; a beam3d and a cable3d member: the cable's slope direction in the
+        beam's frame."""
         return self._joint("rigid", a, b, method, penalty)
 
     def _joint(self, kind, a, b, method, penalty) -> Joint:
@@ -496,9 +498,11 @@ class Scene:
             self.check_at(end[0], end[1], node_only=True, field_name=f"{kind}.{label}")
         if a[0] == b[0]:
             raise SceneError(f"{kind}: a and b must be different members, got {a!r} and {b!r}")
-        if kind == "rigid" and self.members[a[0]].element == "cable3d":
-            raise SceneError(f"rigid joint on cable3d member {a[0]!r}: a cable carries no section orientation; "
-                             "use beam3d members or a planar scene")
+        if kind == "rigid" and self.members[a[0]].element == self.members[b[0]].element == "cable3d":
+            raise SceneError(f"rigid joint between cable3d members {a[0]!r} and {b[0]!r}: a cable carries no section "
+                             "orientation (all two slopes could fix is their angle, and the joint would spin freely "
+                             "about either); use beam3d members (or one, which holds the cable's slope direction) "
+                             "or a planar scene")
         self._check_method(kind, method, penalty)
         j = Joint(kind, tuple(a), tuple(b), method, penalty)
         self.joints.append(j)
