@@ -352,3 +352,29 @@ def test_rigid_joint_of_two_cable3d_members_is_refused():
         s.member(name, points=pts, elements=2, element="cable3d", section=SEC, material=Material(E=E, density=7850.0))
     with pytest.raises(SceneError, match="cable3d members 'c1' and 'c2'"):
         s.rigid(("c1", "end"), ("c2", "start"))
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_large_deflection_frame_is_the_same_in_a_turned_scene(method):
+    """The joint's rows are sums of dot products, so a frame bent far (tip moved 0.5 m by 3 kN in and normal to its
+    plane, 16 elements per member) and the same scene turned by 1.1 rad about an oblique axis give the same shape,
+    turned, to round-off (1e-12 m; both solves stop at increments of that size)."""
+    ax = np.array([1.0, 2.0, -0.5]) / np.linalg.norm([1.0, 2.0, -0.5])
+    K = np.array([[0, -ax[2], ax[1]], [ax[2], 0, -ax[0]], [-ax[1], ax[0], 0]])
+    shapes = []
+    for R in (np.eye(3), np.eye(3) + np.sin(1.1) * K + (1 - np.cos(1.1)) * K @ K):
+        s = Scene(dim=3, gravity=(0.0, 0.0, 0.0))
+        kw = dict(element="beam3d", beam_method=method, section=SEC, material=Material(E=E, density=7850.0, poisson=NU),
+                  gravity=False, torsion=method == "elastic_line")
+        s.member("m1", points=[tuple(R @ p) for p in np.array([(0, 0, 0), (LEG_A, 0, 0)])], elements=16,
+                 y_axis=tuple(R @ [0, 1, 0]), **kw)
+        s.member("m2", points=[tuple(R @ p) for p in np.array([(LEG_A, 0, 0), (LEG_A, LEG_C, 0)])], elements=16,
+                 y_axis=tuple(R @ [-1, 0, 0]), **kw)
+        s.clamp("m1", at="start")
+        s.rigid(("m1", "end"), ("m2", "start"))
+        s.force("m2", at="end", force=tuple(R @ [-3000.0, 0.0, 3000.0]))
+        r = solve_static(s)
+        assert r.success and r.stable, r.status
+        shapes.append(np.asarray(r.nodes("m2")) @ R)
+    assert np.linalg.norm(shapes[0][-1] - [LEG_A, LEG_C, 0.0]) > 0.3
+    assert np.abs(shapes[1] - shapes[0]).max() < 1e-12
