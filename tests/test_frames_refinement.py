@@ -358,7 +358,8 @@ def test_rigid_joint_of_two_cable3d_members_is_refused():
 def test_large_deflection_frame_is_the_same_in_a_turned_scene(method):
     """The joint's rows are sums of dot products, so a frame bent far (tip moved 0.5 m by 3 kN in and normal to its
     plane, 16 elements per member) and the same scene turned by 1.1 rad about an oblique axis give the same shape,
-    turned, to round-off (1e-12 m; both solves stop at increments of that size)."""
+    turned: the statics stop when the Newton increment is below tol = 1e-10 L and answer the point after it (within
+    about tol^2 L of the discrete solution), so 1e-10 m bounds the difference (measured 1e-15 m)."""
     ax = np.array([1.0, 2.0, -0.5]) / np.linalg.norm([1.0, 2.0, -0.5])
     K = np.array([[0, -ax[2], ax[1]], [ax[2], 0, -ax[0]], [-ax[1], ax[0], 0]])
     shapes = []
@@ -377,4 +378,4 @@ def test_large_deflection_frame_is_the_same_in_a_turned_scene(method):
         assert r.success and r.stable, r.status
         shapes.append(np.asarray(r.nodes("m2")) @ R)
     assert np.linalg.norm(shapes[0][-1] - [LEG_A, LEG_C, 0.0]) > 0.3
-    assert np.abs(shapes[1] - shapes[0]).max() < 1e-12
+    assert np.abs(shapes[1] - shapes[0]).max() < 1e-10
