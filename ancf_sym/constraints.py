@@ -1,12 +1,13 @@
 """Supports and joints as equality constraints c(x) = A x + sum_k coef_k x_i x_j - d = 0.
 
-Every support and joint of this package is linear or bilinear in the nodal coordinates, so c, its Jacobian
-and its Hessian are exact sparse arrays without any symbolic work at run time:
+Every support and joint of this package is linear or quadratic (sums of products x_i x_j) in the nodal coordinates,
+so c, its Jacobian and its Hessian are exact sparse arrays without any symbolic work at run time:
 - pin: r = r0; clamp: pin + slope direction (n . r_x = 0 for each normal n of the reference slope; beam3d:
   all gradients fixed); fix_slope: the slope part alone;
-- hinge: r_a = r_b (beam3d with an axis: + the relative rotations normal to it); rigid: hinge + the relative slope direction (planar: (R t_a) x t_b = 0 with R the reference
-  rotation from t_a to t_b; beam3d: the relative rotation of the two node frames, three rows that see rotations
-  only (_frame_rows); cable3d polyline corners: the angle between the slopes).
+- hinge: r_a = r_b (beam3d with an axis: + the relative rotations normal to it); rigid: hinge + the relative slope
+  direction (planar: (R t_a) x t_b = 0 with R the reference rotation from t_a to t_b; beam3d: the relative rotation
+  of the two node frames, three rows that see rotations only (_frame_rows); a beam3d and a cable3d member: the
+  cable's slope direction in the beam's frame; cable3d polyline corners: the angle between the slopes).
 The penalty form of paper 002 adds 1/2 k c^2 per row instead (k from EA/(1 m) for positions, EI/(1 m) for slopes).
 """
 from __future__ import annotations

@@ -189,9 +189,9 @@ def _hinged_link(method: str, n: int) -> tuple[Scene, float]:
 @pytest.mark.parametrize("method", METHODS)
 def test_hinge_axis_frees_exactly_that_rotation(method):
     """A beam3d hinge with an axis: its rows see the relative rotations normal to the axis and not the one about it
-    (rank 2); in a frame, the span hinged about z and pinned at its end is simply supported in the plane (the rigid
-    joint would clamp it elastically into leg a: 24 % stiffer at midspan, measured), while the rotations normal to z still
-    carry leg a's twist and bending. Error against beam theory <= 2e-3 at 64 and 256 elements, falling; at 16
+    (rank 2); in a frame, the span hinged about z and pinned at its end is simply supported in the plane (the
+    rigid joint would clamp it elastically into leg a: 24 % stiffer at midspan, measured), while the rotations
+    normal to z still carry leg a's twist and bending. Error against beam theory <= 2e-3 at 64 and 256 elements, falling; at 16
     (8 elements a half span) the continuum's linear section field is 4.1e-3 stiff (measured; it falls as 1 / n^2,
     3.0e-4 at 64), so 16 elements are held to 5e-3."""
     from ancf_sym.constraints import build_constraints
