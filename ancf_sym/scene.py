@@ -175,6 +175,7 @@ class Joint:
     b: tuple[str, Any]
     method: str = "exact"
     penalty: float | None = None
+    axis: np.ndarray | None = None  # a hinge of beam3d members: the relative rotation left free (unit, world)
 
 
 @dataclass
@@ -463,12 +464,31 @@ class Scene:
         """Slope direction fixed to its reference direction, position free."""
         return self._support("slope", member, at, method, penalty)
 
-    def hinge(self, a: tuple[str, Any], b: tuple[str, Any], method: str = "exact", penalty: float | None = None) -> Joint:
-        """Shared point, independent slopes."""
-        return self._joint("hinge", a, b, method, penalty)
+    def hinge(self, a: tuple[str, Any], b: tuple[str, Any], method: str = "exact", penalty: float | None = None,
+              axis: Sequence[float] | None = None) -> Joint:
+        """Shared point, independent slopes. Between beam3d members with `axis` (world, reference state): a revolute
+        joint, the node frames turn relative to each other about that axis only; without it every relative rotation
+        is free (a ball joint)."""
+        if axis is None:
+            return self._joint("hinge", a, b, method, penalty)
+        if self.dim != 3:
+            raise fail("hinge.axis", "is for beam3d members (3D scenes): a planar hinge turns about z", axis)
+        ax = vector("hinge.axis", axis, 3)
+        if not np.linalg.norm(ax) > 0:
+            raise fail("hinge.axis", "must be a nonzero vector", axis)
+        for label, end in (("a", a), ("b", b)):
+            m = self.members.get(end[0]) if isinstance(end, (tuple, list)) and len(end) == 2 else None
+            if m is not None and m.element != "beam3d":
+                raise fail("hinge.axis", f"needs beam3d members (a cable carries no section orientation; member "
+                           f"{end[0]!r} is {m.element})", axis)
+        j = self._joint("hinge", a, b, method, penalty)
+        j.axis = ax / np.linalg.norm(ax)
+        return j
 
     def rigid(self, a: tuple[str, Any], b: tuple[str, Any], method: str = "exact", penalty: float | None = None) -> Joint:
-        """Shared point and relative slope direction fixed at its reference angle (e.g. a T)."""
+        """Shared point and relative slope direction fixed at its reference angle (e.g. a T); beam3d members: the
+        relative rotation of the two node frames; a beam3d and a cable3d member: the cable's slope direction in the
+        beam's frame."""
         return self._joint("rigid", a, b, method, penalty)
 
     def _joint(self, kind, a, b, method, penalty) -> Joint:
@@ -478,9 +498,11 @@ class Scene:
             self.check_at(end[0], end[1], node_only=True, field_name=f"{kind}.{label}")
         if a[0] == b[0]:
             raise SceneError(f"{kind}: a and b must be different members, got {a!r} and {b!r}")
-        if kind == "rigid" and self.members[a[0]].element == "cable3d":
-            raise SceneError(f"rigid joint on cable3d member {a[0]!r}: a cable carries no section orientation; "
-                             "use beam3d members or a planar scene")
+        if kind == "rigid" and self.members[a[0]].element == self.members[b[0]].element == "cable3d":
+            raise SceneError(f"rigid joint between cable3d members {a[0]!r} and {b[0]!r}: a cable carries no section "
+                             "orientation (all two slopes could fix is their angle, and the joint would spin freely "
+                             "about either); use beam3d members (or one, which holds the cable's slope direction) "
+                             "or a planar scene")
         self._check_method(kind, method, penalty)
         j = Joint(kind, tuple(a), tuple(b), method, penalty)
         self.joints.append(j)

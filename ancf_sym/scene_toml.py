@@ -8,7 +8,7 @@ The file mirrors the Python API (docs/scenes.md has the full schema and an annot
     [[members]]          name, points, elements, material, section, element, axial, bending, torsion, gravity,
                          beam_method, gauss, y_axis
     [[supports]]         type = "clamp" | "pin" | "slope", member, at, method, penalty
-    [[joints]]           type = "hinge" | "rigid", a = [member, at], b = [member, at], method, penalty
+    [[joints]]           type = "hinge" | "rigid", a = [member, at], b = [member, at], method, penalty, axis
     [[loads]]            type = "force" | "distributed" | "moment" | "tension", member, at, value
     [[dampings]]         type = "rayleigh" (alpha, beta, members) | "strain_rate" (axial, bending, members)
     [[loops]]            name, path = [["line", a, b], ["arc", centre, radius, angle0, sweep], ...] or
@@ -203,10 +203,13 @@ def _joint_end(scene: Scene, path: str, v: Any) -> tuple[str, Any]:
 
 
 def _joint(scene: Scene, path: str, d: dict) -> None:
-    _keys(path, d, ("type", "a", "b", "method", "penalty"), ("type", "a", "b"))
+    _keys(path, d, ("type", "a", "b", "method", "penalty", "axis"), ("type", "a", "b"))
     kind = _str(f"{path}.type", d["type"], JOINT_TYPES)
     a, b = _joint_end(scene, f"{path}.a", d["a"]), _joint_end(scene, f"{path}.b", d["b"])
-    _api(path, scene.hinge if kind == "hinge" else scene.rigid, a, b, root=kind, **_method(path, d))
+    if "axis" in d and kind != "hinge":
+        raise _fail(f"{path}.axis", "is for hinges (the rotation a beam3d hinge leaves free)", d["axis"])
+    kw = {"axis": d["axis"]} if "axis" in d else {}
+    _api(path, scene.hinge if kind == "hinge" else scene.rigid, a, b, root=kind, **_method(path, d), **kw)
 
 
 def _body(scene: Scene, path: str, d: dict) -> None:

@@ -1,6 +1,9 @@
-"""beam3d under mesh refinement: the frame normal to its plane (rigid joint) and the end-moment case, both methods.
+"""beam3d under mesh refinement: angled frames (rigid joint, bent member), the frame normal to its plane of
+tests/test_beam_locking.py and the end-moment case, both methods.
 
-Prints the relative tip error of the frame against linear frame theory and, for the end moment, the tip distance
+Prints the relative tip error of the angled frames of tests/test_frames_refinement.py (two members joined by `rigid`
+or one bent member; load in the frame's plane or normal to it) against linear frame theory (the continuum's with its
+transverse shear), the same for the frame normal to its plane and, for the end moment, the tip distance
 (in L) from the quarter circle and from each form's own limit (extensible elastica; continuum uniform bending),
 plus the elastic line's end-section turn past the tangent. The cases and references are those of
 tests/test_beam_locking.py. Usage: python bench/beam3d_refinement.py [--max-n 64]
@@ -14,6 +17,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "tests"))
+from test_frames_refinement import frame_error  # noqa: E402
 from test_beam_locking import (B, E, H, IY, IZ, L, METHODS, SEC, _continuum_uniform_bending_tip,  # noqa: E402
                                _extensible_elastica_tip, _frame, _member)
 
@@ -23,7 +27,17 @@ from ancf_sym import Scene, solve_static  # noqa: E402
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--max-n", type=int, default=64)
-    ns = [n for n in (8, 16, 32, 64, 128, 256) if n <= ap.parse_args().max_n]
+    ap.add_argument("--frames-only", action="store_true")
+    args = ap.parse_args()
+    for bent in (False, True):
+        for load in ("in_plane", "normal"):
+            for method in METHODS:
+                errs = [frame_error(method, n, load, bent) for n in (16, 64, 256)]
+                print(f"angled frame {'bent member' if bent else 'two members'} {load:8s} {method:12s}",
+                      "  ".join(f"n={n}: {e:+.2e}" for n, e in zip((16, 64, 256), errs)), flush=True)
+    if args.frames_only:
+        return
+    ns = [n for n in (8, 16, 32, 64, 128, 256) if n <= args.max_n]
     nu, P, a, c = 0.3, 100.0, 0.5, 0.5
     G = E / (2 * (1 + nu))
     ref = P * a**3 / (3 * E * IY) + P * c**2 * a / (G * SEC.J) + P * c**3 / (3 * E * IY)

@@ -101,10 +101,10 @@ def _frame(method, n, nu, P, a, c):
 @pytest.mark.parametrize("method", METHODS)
 def test_frame_normal_to_its_plane_against_linear_frame_theory(method):
     """w = P a^3 / (3 E I) + P c^2 a / (G J) + P c^3 / (3 E I), torsion 59 % of it (nu = 0.3, a = c = 0.5 m, 8 elements
-    per member, w = 3.8e-3 m). Frame theory neglects transverse shear (+4e-4 here) and the joint's local section
-    coupling (the rigid joint ties the whole deformation gradient, so m2's axial strain is m1's section strain):
-    measured +1.3e-3 (continuum) and +2e-5 (elastic line); 3e-3 allows for them, far below the 34 % by which the plain
-    continuum form (torsion G I_p, Poisson locking) missed."""
+    per member, w = 3.8e-3 m). Frame theory neglects transverse shear (+4e-4 here, the continuum's limit) and the
+    coarse mesh's stiffness (-1 / (4 n^2) of the linear section field): measured -1.2e-3 (continuum) and -7.4e-4
+    (elastic line); 3e-3 allows for them, far below the 34 % by which the plain continuum form (torsion G I_p,
+    Poisson locking) missed."""
     nu, P, a, c = 0.3, 100.0, 0.5, 0.5
     G = E / (2 * (1 + nu))
     ref = P * a**3 / (3 * E * IY) + P * c**2 * a / (G * SEC.J) + P * c**3 / (3 * E * IY)
@@ -197,14 +197,12 @@ def test_end_moment_converges_under_refinement(method):
     assert errs[0] > errs[1] > errs[2] and errs[2] < 1e-4, errs
 
 
-@pytest.mark.xfail(strict=True, reason="open defect: the full-gradient rigid joint hands the other member's end moment to "
-                   "single section vectors, whose relative rotation the elements resist only over the end element; "
-                   "the frame softens as the mesh is refined (docs/kernels.md, beam3d section)")
 @pytest.mark.parametrize("method", METHODS)
 def test_frame_error_does_not_grow_under_refinement(method):
-    """Frame normal to its plane at 8, 16, 32 elements per member: a consistent joint gives an error that falls (or
-    settles at frame theory's neglected transverse shear, +4e-4) under refinement. Today it grows: +1.3e-3, +5.0e-3,
-    +9.1e-3 (continuum), +2e-5, +1.5e-3, +3.1e-3 (elastic line). Strict: passes as soon as the joint is fixed."""
+    """Frame normal to its plane at 8, 16, 32 elements per member: the joint ties each form's own frame rotation,
+    so the error falls (or settles at frame theory's neglected transverse shear, +4e-4). With the former joint
+    (J_b = J_a R0) it grew: +1.3e-3, +5.0e-3, +9.1e-3 (continuum), +2e-5, +1.5e-3, +3.1e-3 (elastic line).
+    tests/test_frames_refinement.py has the refinement study against frame theory to 256 elements."""
     nu, P, a, c = 0.3, 100.0, 0.5, 0.5
     G = E / (2 * (1 + nu))
     ref = P * a**3 / (3 * E * IY) + P * c**2 * a / (G * SEC.J) + P * c**3 / (3 * E * IY)
