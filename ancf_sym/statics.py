@@ -389,12 +389,12 @@ class StaticProblem:
             return None
         return self._biot.solve(x, max(opts.tol, BIOT_TOL), min(BIOT_MAX_ITER, int(opts.max_iter)), work)
 
-    def _newton_load_steps(self, x, opts, work, ceiling, attempts):
+    def _newton_load_steps(self, x, opts, work, ceiling, attempts, first: float = 0.5, grow: float = 2.0):
         """Full-step Newton along the load factor with an adaptive step (as Exudyn's static solver adapts its load
         steps): a converged step doubles the next one, a failed one is retried at a quarter. Intermediate loads only
         need a point inside the next one's basin (tol STEP_TOL); a Newton iteration costs ~50 us at 60 elements,
         so even a hundred of them undercut one IPOPT run. (run, evaluation, ok)."""
-        done, step, run, n_runs, its = 0.0, 0.5, None, 0, 0
+        done, step, run, n_runs, its = 0.0, first, None, 0, 0
         while done < 1.0:
             target = min(1.0, done + step)
             final = target >= 1.0
@@ -404,7 +404,7 @@ class StaticProblem:
             n_runs += 1
             its += run.iterations
             if run.converged:
-                x, done, step = run.x, target, 2.0 * step
+                x, done, step = run.x, target, grow * step
             else:
                 step *= 0.25
                 if step < MIN_LOAD_STEP:
