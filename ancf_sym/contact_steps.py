@@ -16,6 +16,7 @@ contacts need no limit: a half-space has no far side.
 """
 from __future__ import annotations
 
+import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
@@ -81,3 +82,41 @@ def limiter(asm) -> StepLimit | None:
     """The scene's step limit, None without penalty drum contacts."""
     drums = [c for c in getattr(asm.scene, "contacts", ()) if isinstance(c, DrumContact) and c.method == "penalty"]
     return StepLimit(asm, drums) if drums else None
+
+
+class IterateWatch(ca.Callback):
+    """IPOPT's iteration callback for a scene with a StepLimit: IPOPT's steps cannot be cut back, so each one (from
+    iterate to iterate) is checked and `crossed` records one that carried a contact point to a drum's axis; the
+    statics then rejects that run's answer (it may lie on a branch past the drum)."""
+
+    def __init__(self, limit: StepLimit, nx: int, ng: int, n_p: int):
+        ca.Callback.__init__(self)
+        self.limit, self.sizes = limit, {"x": nx, "lam_x": nx, "g": ng, "lam_g": ng, "f": 1, "lam_p": n_p}
+        self.prev: np.ndarray | None = None
+        self.crossed = False
+        self.construct("contact_step_watch", {})
+
+    def reset(self, x0: np.ndarray) -> None:
+        self.prev, self.crossed = np.asarray(x0, float).copy(), False
+
+    def get_n_in(self):
+        return ca.nlpsol_n_out()
+
+    def get_n_out(self):
+        return 1
+
+    def get_name_in(self, i):
+        return ca.nlpsol_out(i)
+
+    def get_name_out(self, i):
+        return "ret"
+
+    def get_sparsity_in(self, i):
+        return ca.Sparsity.dense(self.sizes[ca.nlpsol_out(i)], 1)
+
+    def eval(self, arg):
+        x = np.asarray(arg[0], float).ravel()
+        if self.prev is not None and not self.crossed and self.limit(self.prev, x - self.prev) < 1.0:
+            self.crossed = True
+        self.prev = x
+        return [0]

@@ -37,13 +37,15 @@ from .mesh import check_stretch
 from .scene import Scene, SceneError, fingerprint
 from .schema import STATIC_OPTIONS
 
+from .contact_steps import IterateWatch
 from .inertia import STABILITY_EPS, reduced_inertia
 from .member_effects import START_STRAIN
 from .statics_eval import BIOT, ResultEnergies
 from .statics_newton import KernelNewton, NewtonRun, NewtonStatics, Reduction
 
 SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
-INTERRUPTED = ("User_Requested_Stop", "User_Interrupt")  # IPOPT swallows SIGINT and returns one of these
+INTERRUPTED = ("User_Requested_Stop", "User_Interrupt")
+TUNNELLED = "Step_Through_Contact"  # an IPOPT step carried a contact point to a drum's axis (contact_steps)  # IPOPT swallows SIGINT and returns one of these
 NEWTON_MAX_ITER = 30  # full steps before load steps take over (a cantilever needs 8-20 at any mesh size, 24 at E = 1 GPa Green)
 STEP_TOL = 1e-2  # relative tolerance at intermediate load factors (a start inside the next basin is enough)
 STEP_MAX_ITER = 15  # Newton iterations per load step (from a nearby converged load a few suffice)
@@ -181,6 +183,7 @@ class StaticProblem:
         self.solves = 0
         self._nlp = None
         self._solvers: dict = {}
+        self._watch: IterateWatch | None = None  # IPOPT's steps checked against the contact step limit
         self._biot: KernelNewton | bool | None = None  # Newton on the same scene with Biot strain (a start)
         self._coarse: StaticProblem | bool | None = None  # the scene meshed coarser (a start on fine meshes)
         self._result_energies: ResultEnergies | None = None  # energies by label for results (kernel path)
@@ -234,9 +237,14 @@ class StaticProblem:
                      "nlp_scaling_method": "none", "print_level": opts.print_level, "sb": "yes"}
             if not line_search:
                 ipopt["accept_every_trial_step"] = "yes"
+            watch = {}
+            if self.newton.step_limit is not None:  # penalty drums: every IPOPT step checked for a crossing
+                if self._watch is None:
+                    self._watch = IterateWatch(self.newton.step_limit, self.asm.n, self._nlp["g"].shape[0], 1)
+                watch = {"iteration_callback": self._watch}
             self._solvers[key] = ca.nlpsol("statics", "ipopt", self._nlp, {
                 "ipopt": ipopt, "print_time": False, "grad_f": self.grad_f, "hess_lag": self.hess_lag,
-                "error_on_fail": False})
+                "error_on_fail": False, **watch})
         return self._solvers[key]
 
     def _run(self, x0, lam_g0, load, line_search, opts):
@@ -248,6 +256,8 @@ class StaticProblem:
         # inside too: CasADi checks for signals while it builds and swallows the exception there as well.
         with interruptible() as rec:
             S = self.solver(line_search, opts)
+            if self._watch is not None:
+                self._watch.reset(x0)
             if rec.exc is None:  # a signal swallowed while building: raised on leaving the block, no solve first
                 sol = S(**args)
         st = S.stats()
@@ -255,7 +265,10 @@ class StaticProblem:
             raise KeyboardInterrupt
         x = np.asarray(sol["x"]).ravel()
         ok = st["return_status"] in SUCCESS and np.all(np.isfinite(x))
-        return ok, st["return_status"], int(st["iter_count"]), x, np.asarray(sol["lam_g"]).ravel()
+        status = st["return_status"]
+        if self._watch is not None and self._watch.crossed:  # its answer may lie past a drum: not an answer
+            ok, status = False, TUNNELLED
+        return ok, status, int(st["iter_count"]), x, np.asarray(sol["lam_g"]).ravel()
 
     def _ipopt(self, x, opts, attempts, ceiling):
         """IPOPT's attempts: full steps, line search, load steps. (ok, x, lam_g, path)."""
