@@ -66,6 +66,7 @@ class StaticOptions:
     max_iter: int = 500  # iterations per attempt (Newton runs stop at min(this, 60))
     load_steps: int = 8  # continuation steps if the direct solves fail
     escape_saddle: bool = True
+    load_stepping: bool = False  # Newton along the load factor from the start (docs/statics.md, Load steps)
     print_level: int = 0
 
     def __post_init__(self):
@@ -191,6 +192,7 @@ class StaticProblem:
         a = self.asm
         self._loaded = bool(np.any(self.S.f_lin) or np.any(a.Q) or any(mk.term.label in LOAD_LABELS for mk in a.mapped))
         self._contacts = bool(contact.exact_contacts(a))
+        self._penalty_contact = any(c.method == "penalty" for c in getattr(a.scene, "contacts", ()))
 
     @property
     def graph(self) -> NewtonStatics:
@@ -317,6 +319,11 @@ class StaticProblem:
                                 None)
         ceiling = self._start_ceiling(x, work, opts.tol, x0 is None)
         n_iter = min(NEWTON_MAX_ITER, int(opts.max_iter))
+        if opts.load_stepping:  # the loads in steps from the start, as asked
+            run, ok = self._newton_load_steps(x, opts, work, ceiling, attempts, first=1.0 / opts.load_steps,
+                                              cap=1.0 / opts.load_steps)
+            return self._after_newton(run, ok, attempts[-1]["iterations"], "newton load steps", x, opts, work,
+                                      ceiling, attempts, t0)
         coarse = self._coarse_start(opts) if x0 is None and self._coarse is not False else None
         run, used, iters, biot = None, False, 0, None
         if coarse is not None and coarse[0].success:  # Newton from the coarse mesh's solution
@@ -349,6 +356,17 @@ class StaticProblem:
             run, ok = self._newton_load_steps(x, opts, work, ceiling, attempts)
             iters += attempts[-1]["iterations"]
             path = "newton load steps"
+        elif ok and self._penalty_contact and x0 is None:  # which contact state a solve reaches depends on its path: the
+            steps, ok_steps = self._newton_load_steps(x, opts, work, ceiling, attempts)  # continuation's, if lower
+            iters += attempts[-1]["iterations"]
+            if ok_steps and self._potential(steps) < self._potential(run) - opts.tol * work:
+                attempts[-1]["chosen"] = (f"potential {self._potential(steps):.6g} J below the direct Newton's "
+                                          f"{self._potential(run):.6g} J")
+                run, path = steps, "newton load steps"
+        return self._after_newton(run, ok, iters, path, x, opts, work, ceiling, attempts, t0)
+
+    def _after_newton(self, run, ok, iters, path, x, opts, work, ceiling, attempts, t0) -> StaticResult:
+        """IPOPT where Newton did not converge, then the stability of the answer (escape_saddle)."""
         if not ok and run.status != "round_off":
             if self._unresolvable(attempts):
                 return self._result(False, "Round_Off_Floor_Above_Loads", iters, time.perf_counter() - t0, x, None,
@@ -402,7 +420,7 @@ class StaticProblem:
             return None
         return self._biot.solve(x, max(opts.tol, BIOT_TOL), min(BIOT_MAX_ITER, int(opts.max_iter)), work)
 
-    def _newton_load_steps(self, x, opts, work, ceiling, attempts, first: float = 0.5, grow: float = 2.0):
+    def _newton_load_steps(self, x, opts, work, ceiling, attempts, first: float = 0.5, cap: float = 1.0):
         """Full-step Newton along the load factor with an adaptive step (as Exudyn's static solver adapts its load
         steps): a converged step doubles the next one, a failed one is retried at a quarter. Intermediate loads only
         need a point inside the next one's basin (tol STEP_TOL); a Newton iteration costs ~50 us at 60 elements,
@@ -417,7 +435,7 @@ class StaticProblem:
             n_runs += 1
             its += run.iterations
             if run.converged:
-                x, done, step = run.x, target, grow * step
+                x, done, step = run.x, target, min(2.0 * step, cap)
             else:
                 step *= 0.25
                 if step < MIN_LOAD_STEP:
