@@ -78,6 +78,19 @@ class StepLimit:
         return t
 
 
+def deep_starts(limit: StepLimit, x: np.ndarray) -> list[str]:
+    """Per drum whose points at x lie within DEPTH x rho of its axis (a start cutting through a drum, where the
+    law's normal is arbitrary): 'member (k points) in the drum at centre c, radius R'."""
+    out = []
+    for c, P, rho in limit.blocks:
+        d = np.linalg.norm(limit._relative(c, P, x), axis=1)
+        k = int(np.sum(d < DEPTH * rho))
+        if k:
+            out.append(f"member {c.member!r} ({k} points) in the drum at centre {np.round(c.centre, 6).tolist()}, "
+                       f"radius {c.radius:g}")
+    return out
+
+
 def limiter(asm) -> StepLimit | None:
     """The scene's step limit, None without penalty drum contacts."""
     drums = [c for c in getattr(asm.scene, "contacts", ()) if isinstance(c, DrumContact) and c.method == "penalty"]

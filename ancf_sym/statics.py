@@ -37,7 +37,7 @@ from .mesh import check_stretch
 from .scene import Scene, SceneError, fingerprint
 from .schema import STATIC_OPTIONS
 
-from .contact_steps import IterateWatch
+from .contact_steps import IterateWatch, deep_starts
 from .inertia import STABILITY_EPS, reduced_inertia
 from .member_effects import START_STRAIN
 from .statics_eval import BIOT, ResultEnergies
@@ -378,7 +378,7 @@ class StaticProblem:
                 run = self._finish(xs, lg, opts, work, attempts)
                 iters += run.iterations
                 ok = run.converged
-        status = "Solve_Succeeded" if ok else self._failure(run, attempts, opts)
+        status = "Solve_Succeeded" if ok else self._failure(run, attempts, opts, x)
         x_out = run.x if ok else x
         stable = None
         if ok:  # (the kernel Newton's finish tested the answer's tangent: a positive definite one settles it)
@@ -508,7 +508,7 @@ class StaticProblem:
         attempts.append(self._newton_attempt("newton finish", run))
         return run
 
-    def _failure(self, run: NewtonRun, attempts: list, opts: StaticOptions) -> str:
+    def _failure(self, run: NewtonRun, attempts: list, opts: StaticOptions, start: np.ndarray | None = None) -> str:
         """Status of a failed solve; Newton's updates stalled above tol mean round-off, not a lack of effort."""
         if run.status == "round_off":
             attempts.append({"method": "none", "status": "Round_Off_Floor_Above_Loads", "iterations": 0,
@@ -519,6 +519,13 @@ class StaticProblem:
                                        "double precision at these loads"})
             return "Round_Off_Floor_Above_Loads"
         last = attempts[-1]["status"]
+        if last == TUNNELLED:
+            deep = deep_starts(self.newton.step_limit, self.asm.x0 if start is None else start)
+            attempts.append({"method": "none", "status": TUNNELLED, "iterations": 0,
+                             "detail": "Newton did not converge and IPOPT's steps carried a contact point to a drum's "
+                                       "axis (an answer past the drum is no answer)" +
+                                       (": the start cuts through a drum: " + "; ".join(deep) if deep else "") +
+                                       ". Try load_stepping, a warm start outside the drums or a Hertz law"})
         return last if last not in ("converged", "max_iter", "diverged", "not_finite", "stalled") else "Unresolved_Residual"
 
     def _leave_saddle(self, x, direction, status, opts, work, attempts):
