@@ -9,6 +9,9 @@
 2. If Newton does not converge cleanly (diverges, stalls, exceeds its iterations), Newton again along the load
    factor in adaptive steps; if that fails too (or a result lies above the start's potential), IPOPT minimises: first accepting every trial step, then with its line search, then stepping the loads up; Newton
    finishes from IPOPT's point, so every answer passes the same convergence test.
+   With penalty drums every Newton step is cut back before a contact point reaches a drum's axis and an IPOPT run
+   with such a step is rejected (contact_steps); with penalty contact a converged full-load Newton is compared with
+   the load-step continuation, the lower potential kept. load_stepping: load steps from the start, as asked.
 3. The reduced Hessian's inertia (inertia.py, one sparse factorisation) says whether the point is stable (settled
    by the banded Cholesky of the shifted tangent at the answer, which the kernel Newton's last run does, where that
    succeeds); a saddle (a straight column past its Euler load) is left along its negative-curvature direction.
