@@ -244,9 +244,10 @@ class CompiledLoop:
 
 def compiled_loop(newton) -> CompiledLoop | None:
     """The C loop for a KernelNewton, None where its evaluation needs the Python loop: penalty springs, a band
-    wider than BAND_LIMIT, no free coordinate, element-local columns beyond LOCAL_MAX."""
+    wider than BAND_LIMIT, no free coordinate, element-local columns beyond LOCAL_MAX, a contact step limit
+    (penalty drums, ancf_sym.contact_steps)."""
     ev = newton.ev
-    if ev.pen is not None or ev.hband is None or newton.S.nf == 0:
+    if ev.pen is not None or ev.hband is None or newton.S.nf == 0 or newton.step_limit is not None:
         return None
     if any(local is not None and len(local[0]) > LOCAL_MAX for *_, local in ev.calls):
         return None

@@ -21,7 +21,7 @@ The file mirrors the Python API (docs/scenes.md has the full schema and an annot
                          position) | "torque" (body, torque); motions: numbers or [[t, [a0, a1, ...]], ...]
     [[contacts]]         type = "ground" (normal, level) | "circle" (centre, radius, axis), member, stiffness, hertz,
                          thickness, damping, mu, eps, gauss, method (ancf_sym.contact.from_toml)
-    [analysis]           type = "statics" (tol, max_iter, load_steps, escape_saddle) | "dynamics" (passed through;
+    [analysis]           type = "statics" (tol, max_iter, load_steps, escape_saddle, load_stepping) | "dynamics" (passed through;
                          start = "static", [[analysis.initial]] member, velocity | omega, centre)
 
 Everything is checked before any solving. Every error is a SceneError whose message starts with the TOML path of
@@ -411,7 +411,7 @@ def load_scene(path: str | Path) -> tuple[Scene, dict]:
     """(Scene, analysis dict) from a TOML file; SceneError (naming the TOML path of the field) on bad input.
 
     The scene name defaults to the file's stem. analysis: {"type": "statics", tol?, max_iter?, load_steps?,
-    escape_saddle?} (StaticOptions fields) or the [analysis] table as written for "dynamics"."""
+    escape_saddle?, load_stepping?} (StaticOptions fields) or the [analysis] table as written for "dynamics"."""
     p = Path(path)
     try:
         text = p.read_bytes().decode("utf-8")

@@ -31,6 +31,8 @@ STATIC_OPTIONS = {
     "max_iter": Field("int", positive=True, doc="IPOPT iterations per attempt"),
     "load_steps": Field("int", positive=True, doc="continuation steps of the fallback"),
     "escape_saddle": Field("bool", doc="leave an unstable equilibrium along its negative mode"),
+    "load_stepping": Field("bool", doc="apply the loads in steps from the start: Newton along the load factor, "
+                           "steps of 1 / load_steps (a quarter after a failed one), not only as a fallback"),
     "print_level": Field("int", span=(0, 12), doc="IPOPT's print level (Python API only)", api_only=True),
 }
 

@@ -9,6 +9,9 @@
 2. If Newton does not converge cleanly (diverges, stalls, exceeds its iterations), Newton again along the load
    factor in adaptive steps; if that fails too (or a result lies above the start's potential), IPOPT minimises: first accepting every trial step, then with its line search, then stepping the loads up; Newton
    finishes from IPOPT's point, so every answer passes the same convergence test.
+   With penalty drums every Newton step is cut back before a contact point reaches a drum's axis and an IPOPT run
+   with such a step is rejected (contact_steps); with penalty contact a converged full-load Newton is compared with
+   the load-step continuation, the lower potential kept. load_stepping: load steps from the start, as asked.
 3. The reduced Hessian's inertia (inertia.py, one sparse factorisation) says whether the point is stable (settled
    by the banded Cholesky of the shifted tangent at the answer, which the kernel Newton's last run does, where that
    succeeds); a saddle (a straight column past its Euler load) is left along its negative-curvature direction.
@@ -37,13 +40,15 @@ from .mesh import check_stretch
 from .scene import Scene, SceneError, fingerprint
 from .schema import STATIC_OPTIONS
 
+from .contact_steps import IterateWatch, deep_starts
 from .inertia import STABILITY_EPS, reduced_inertia
 from .member_effects import START_STRAIN
 from .statics_eval import BIOT, ResultEnergies
 from .statics_newton import KernelNewton, NewtonRun, NewtonStatics, Reduction
 
 SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
-INTERRUPTED = ("User_Requested_Stop", "User_Interrupt")  # IPOPT swallows SIGINT and returns one of these
+INTERRUPTED = ("User_Requested_Stop", "User_Interrupt")
+TUNNELLED = "Step_Through_Contact"  # an IPOPT step carried a contact point to a drum's axis (contact_steps)  # IPOPT swallows SIGINT and returns one of these
 NEWTON_MAX_ITER = 30  # full steps before load steps take over (a cantilever needs 8-20 at any mesh size, 24 at E = 1 GPa Green)
 STEP_TOL = 1e-2  # relative tolerance at intermediate load factors (a start inside the next basin is enough)
 STEP_MAX_ITER = 15  # Newton iterations per load step (from a nearby converged load a few suffice)
@@ -64,6 +69,7 @@ class StaticOptions:
     max_iter: int = 500  # iterations per attempt (Newton runs stop at min(this, 60))
     load_steps: int = 8  # continuation steps if the direct solves fail
     escape_saddle: bool = True
+    load_stepping: bool = False  # Newton along the load factor from the start (docs/statics.md, Load steps)
     print_level: int = 0
 
     def __post_init__(self):
@@ -181,6 +187,7 @@ class StaticProblem:
         self.solves = 0
         self._nlp = None
         self._solvers: dict = {}
+        self._watch: IterateWatch | None = None  # IPOPT's steps checked against the contact step limit
         self._biot: KernelNewton | bool | None = None  # Newton on the same scene with Biot strain (a start)
         self._coarse: StaticProblem | bool | None = None  # the scene meshed coarser (a start on fine meshes)
         self._result_energies: ResultEnergies | None = None  # energies by label for results (kernel path)
@@ -188,6 +195,7 @@ class StaticProblem:
         a = self.asm
         self._loaded = bool(np.any(self.S.f_lin) or np.any(a.Q) or any(mk.term.label in LOAD_LABELS for mk in a.mapped))
         self._contacts = bool(contact.exact_contacts(a))
+        self._penalty_contact = any(c.method == "penalty" for c in getattr(a.scene, "contacts", ()))
 
     @property
     def graph(self) -> NewtonStatics:
@@ -234,9 +242,14 @@ class StaticProblem:
                      "nlp_scaling_method": "none", "print_level": opts.print_level, "sb": "yes"}
             if not line_search:
                 ipopt["accept_every_trial_step"] = "yes"
+            watch = {}
+            if self.newton.step_limit is not None:  # penalty drums: every IPOPT step checked for a crossing
+                if self._watch is None:
+                    self._watch = IterateWatch(self.newton.step_limit, self.asm.n, self._nlp["g"].shape[0], 1)
+                watch = {"iteration_callback": self._watch}
             self._solvers[key] = ca.nlpsol("statics", "ipopt", self._nlp, {
                 "ipopt": ipopt, "print_time": False, "grad_f": self.grad_f, "hess_lag": self.hess_lag,
-                "error_on_fail": False})
+                "error_on_fail": False, **watch})
         return self._solvers[key]
 
     def _run(self, x0, lam_g0, load, line_search, opts):
@@ -248,6 +261,8 @@ class StaticProblem:
         # inside too: CasADi checks for signals while it builds and swallows the exception there as well.
         with interruptible() as rec:
             S = self.solver(line_search, opts)
+            if self._watch is not None:
+                self._watch.reset(x0)
             if rec.exc is None:  # a signal swallowed while building: raised on leaving the block, no solve first
                 sol = S(**args)
         st = S.stats()
@@ -255,7 +270,10 @@ class StaticProblem:
             raise KeyboardInterrupt
         x = np.asarray(sol["x"]).ravel()
         ok = st["return_status"] in SUCCESS and np.all(np.isfinite(x))
-        return ok, st["return_status"], int(st["iter_count"]), x, np.asarray(sol["lam_g"]).ravel()
+        status = st["return_status"]
+        if self._watch is not None and self._watch.crossed:  # its answer may lie past a drum: not an answer
+            ok, status = False, TUNNELLED
+        return ok, status, int(st["iter_count"]), x, np.asarray(sol["lam_g"]).ravel()
 
     def _ipopt(self, x, opts, attempts, ceiling):
         """IPOPT's attempts: full steps, line search, load steps. (ok, x, lam_g, path)."""
@@ -304,6 +322,11 @@ class StaticProblem:
                                 None)
         ceiling = self._start_ceiling(x, work, opts.tol, x0 is None)
         n_iter = min(NEWTON_MAX_ITER, int(opts.max_iter))
+        if opts.load_stepping:  # the loads in steps from the start, as asked
+            run, ok = self._newton_load_steps(x, opts, work, ceiling, attempts, first=1.0 / opts.load_steps,
+                                              cap=1.0 / opts.load_steps)
+            return self._after_newton(run, ok, attempts[-1]["iterations"], "newton load steps", x, opts, work,
+                                      ceiling, attempts, t0)
         coarse = self._coarse_start(opts) if x0 is None and self._coarse is not False else None
         run, used, iters, biot = None, False, 0, None
         if coarse is not None and coarse[0].success:  # Newton from the coarse mesh's solution
@@ -336,6 +359,17 @@ class StaticProblem:
             run, ok = self._newton_load_steps(x, opts, work, ceiling, attempts)
             iters += attempts[-1]["iterations"]
             path = "newton load steps"
+        elif ok and self._penalty_contact and x0 is None:  # which contact state a solve reaches depends on its path: the
+            steps, ok_steps = self._newton_load_steps(x, opts, work, ceiling, attempts)  # continuation's, if lower
+            iters += attempts[-1]["iterations"]
+            if ok_steps and self._potential(steps) < self._potential(run) - opts.tol * work:
+                attempts[-1]["chosen"] = (f"potential {self._potential(steps):.6g} J below the direct Newton's "
+                                          f"{self._potential(run):.6g} J")
+                run, path = steps, "newton load steps"
+        return self._after_newton(run, ok, iters, path, x, opts, work, ceiling, attempts, t0)
+
+    def _after_newton(self, run, ok, iters, path, x, opts, work, ceiling, attempts, t0) -> StaticResult:
+        """IPOPT where Newton did not converge, then the stability of the answer (escape_saddle)."""
         if not ok and run.status != "round_off":
             if self._unresolvable(attempts):
                 return self._result(False, "Round_Off_Floor_Above_Loads", iters, time.perf_counter() - t0, x, None,
@@ -347,7 +381,7 @@ class StaticProblem:
                 run = self._finish(xs, lg, opts, work, attempts)
                 iters += run.iterations
                 ok = run.converged
-        status = "Solve_Succeeded" if ok else self._failure(run, attempts, opts)
+        status = "Solve_Succeeded" if ok else self._failure(run, attempts, opts, x)
         x_out = run.x if ok else x
         stable = None
         if ok:  # (the kernel Newton's finish tested the answer's tangent: a positive definite one settles it)
@@ -389,12 +423,12 @@ class StaticProblem:
             return None
         return self._biot.solve(x, max(opts.tol, BIOT_TOL), min(BIOT_MAX_ITER, int(opts.max_iter)), work)
 
-    def _newton_load_steps(self, x, opts, work, ceiling, attempts):
+    def _newton_load_steps(self, x, opts, work, ceiling, attempts, first: float = 0.5, cap: float = 1.0):
         """Full-step Newton along the load factor with an adaptive step (as Exudyn's static solver adapts its load
         steps): a converged step doubles the next one, a failed one is retried at a quarter. Intermediate loads only
         need a point inside the next one's basin (tol STEP_TOL); a Newton iteration costs ~50 us at 60 elements,
         so even a hundred of them undercut one IPOPT run. (run, evaluation, ok)."""
-        done, step, run, n_runs, its = 0.0, 0.5, None, 0, 0
+        done, step, run, n_runs, its = 0.0, first, None, 0, 0
         while done < 1.0:
             target = min(1.0, done + step)
             final = target >= 1.0
@@ -404,7 +438,7 @@ class StaticProblem:
             n_runs += 1
             its += run.iterations
             if run.converged:
-                x, done, step = run.x, target, 2.0 * step
+                x, done, step = run.x, target, min(2.0 * step, cap)
             else:
                 step *= 0.25
                 if step < MIN_LOAD_STEP:
@@ -477,7 +511,7 @@ class StaticProblem:
         attempts.append(self._newton_attempt("newton finish", run))
         return run
 
-    def _failure(self, run: NewtonRun, attempts: list, opts: StaticOptions) -> str:
+    def _failure(self, run: NewtonRun, attempts: list, opts: StaticOptions, start: np.ndarray | None = None) -> str:
         """Status of a failed solve; Newton's updates stalled above tol mean round-off, not a lack of effort."""
         if run.status == "round_off":
             attempts.append({"method": "none", "status": "Round_Off_Floor_Above_Loads", "iterations": 0,
@@ -488,6 +522,13 @@ class StaticProblem:
                                        "double precision at these loads"})
             return "Round_Off_Floor_Above_Loads"
         last = attempts[-1]["status"]
+        if last == TUNNELLED:
+            deep = deep_starts(self.newton.step_limit, self.asm.x0 if start is None else start)
+            attempts.append({"method": "none", "status": TUNNELLED, "iterations": 0,
+                             "detail": "Newton did not converge and IPOPT's steps carried a contact point to a drum's "
+                                       "axis (an answer past the drum is no answer)" +
+                                       (": the start cuts through a drum: " + "; ".join(deep) if deep else "") +
+                                       ". Try load_stepping, a warm start outside the drums or a Hertz law"})
         return last if last not in ("converged", "max_iter", "diverged", "not_finite", "stalled") else "Unresolved_Residual"
 
     def _leave_saddle(self, x, direction, status, opts, work, attempts):

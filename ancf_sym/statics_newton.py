@@ -41,6 +41,7 @@ from scipy.sparse.linalg import splu
 
 from .assembly import Assembly
 from .casadi_buffers import bind
+from .contact_steps import limiter
 from scipy.linalg.lapack import dgbsv, dpbtrf, dpbtrs
 
 from .inertia import banded_cholesky, banded_solve
@@ -142,6 +143,7 @@ class NewtonStatics:
         self._buf, self._eval = bind(f, (self.x, self.lam, self.p), (self.dz, self.norms))
         self.f = f
         self.span = S.span
+        self.step_limit = limiter(asm)  # penalty drums: steps cut back before a point reaches a drum's axis
 
     def load_work(self, x_full: np.ndarray, load: float = 1.0) -> float:
         """W = sum |r_i| s_i of the residual at x_full without multipliers (free rows): the loads' energy scale
@@ -181,18 +183,27 @@ class NewtonStatics:
             if inc > max_step:  # a step longer than max_step structure lengths is cut back along its direction
                 self.dz *= max_step / inc
                 inc, dec = max_step, dec * (max_step / inc)
+            cut = 1.0
+            if self.step_limit is not None:  # no contact point carried through a drum (ancf_sym.contact_steps)
+                cut = self.step_limit(S.full(self.x), S.full_v(self.dz[:nf]))
+                if cut < 1.0:
+                    self.dz *= cut
+                    inc, dec = inc * cut, dec * cut
             self.x += self.dz[:nf]
             if S.mc:
                 self.lam += self.dz[nf:]
             hist.append((inc, dec))
             if inc < best:
                 best, best_at = inc, it
-            if inc <= tol and dec <= tol:
+            if inc <= tol and dec <= tol and cut == 1.0:  # (a cut step is no Newton step: never the last one)
                 status = "converged"
                 break
             if inc > WILD:
                 status = "diverged"
                 break
+            if cut < 1.0:  # a cut step makes its way toward a contact, not a Newton contraction: no stall test
+                stall, best, best_at = 0, inc, it
+                continue
             if len(hist) > 1:
                 stall = stall + 1 if inc > STALL * hist[-2][0] else 0
                 if hist[-1][0] > 1e8 * hist[0][0] + 1e8:
@@ -247,6 +258,7 @@ class KernelNewton(NewtonStatics):
         self.x, self.lam, self.p = np.zeros(nf), np.zeros(0), np.zeros(nf)
         self.dz, self.norms = np.zeros(nf), np.zeros(5)
         self.span = reduction.span
+        self.step_limit = limiter(asm)
         self.energy = None
         self.load = 1.0
         self._mu, self._prev_inc = 0.0, math.inf  # the last shift that made a step go downhill (the next try starts a tenth of it)
