@@ -186,6 +186,15 @@ class Load:
 
 
 @dataclass
+class PointMass:
+    """A lumped mass [kg] at a member point (node or material coordinate): its mass enters the mass matrix through
+    the interpolation weights of that point (m S^T S), its weight m g acts there as a dead force."""
+    member: str
+    at: Any
+    mass: float
+
+
+@dataclass
 class Damping:
     """Dynamics only. kind "rayleigh": C = alpha M + beta K_el, alpha [1/s] on absolute velocities (one value for
     the scene), beta [s] on the elastic tangent stiffness (at the start of each step) of `members` (None: all).
@@ -213,6 +222,7 @@ class Scene:
     bodies: dict = field(default_factory=dict)  # rigid bodies by name (bodies.Body in 2D, spatial_bodies in 3D)
     body_joints: list = field(default_factory=list)  # ancf_sym.bodies.BodyJoint
     drives: list = field(default_factory=list)  # ancf_sym.drives: prescribed angles/positions, applied torques
+    point_masses: list = field(default_factory=list)  # PointMass
 
     def __post_init__(self):
         if isinstance(self.dim, bool) or self.dim not in (2, 3):
@@ -531,6 +541,14 @@ class Scene:
         self.check_at(member, at, node_only=True, field_name="tension.at")
         return self._add_load(Load("tension", member, at, _finite("tension.tension", tension)))
 
+    def point_mass(self, member: str, at: Any, mass: float) -> PointMass:
+        """A point mass [kg] at a node or material coordinate s [m] (float) of a member: added to the mass matrix
+        through the interpolation weights at that point; gravity acts on it (a dead force m g at the point)."""
+        self.check_at(member, at, node_only=False, field_name="point_mass.at")
+        p = PointMass(member, at, _positive("point_mass.mass", mass))
+        self.point_masses.append(p)
+        return p
+
     def rayleigh(self, alpha: float = 0.0, beta: float = 0.0, members: Sequence[str] | None = None) -> Damping:
         """Rayleigh damping for dynamics, C = alpha M + beta K_el: alpha [1/s] damps absolute velocities (whole
         scene, one value), beta [s] the elastic tangent stiffness of `members` (default all) at the start of each
@@ -685,7 +703,7 @@ def _array(a: np.ndarray):
 def _dispatch() -> dict:
     table = copyreg.dispatch_table.copy()
     table[np.ndarray] = _array
-    for cls in (Material, Section, Member, Support, Joint, Load, Damping, Scene):
+    for cls in (Material, Section, Member, Support, Joint, Load, PointMass, Damping, Scene):
         table[cls] = _values(f"{cls.__module__}.{cls.__qualname__}")
     return table
 

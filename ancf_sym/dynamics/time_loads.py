@@ -7,9 +7,10 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..assembly import Assembly
-from ..checks import check_keys
+from ..checks import check_keys, fail
 from ..loads import point_force
 from ..scene import SceneError, _vector
+from ..schema import TIME_LOAD
 
 
 @dataclass
@@ -26,8 +27,10 @@ class TimeLoad:
         if isinstance(d, TimeLoad):
             return d
         if not isinstance(d, dict):
-            raise SceneError(f"loads[{index}] must be a table with member, at, force, history; got {d!r}")
-        check_keys(f"loads[{index}]", d, ("member", "at", "force", "history"), required=("member", "force", "history"))
+            raise SceneError(f"analysis.loads[{index}] must be a table with member, at, force, history; got {d!r}")
+        # the keys declared in ancf_sym.schema
+        check_keys(f"analysis.loads[{index}]", d, TIME_LOAD, required=("member", "force", "history"))
+        TIME_LOAD["member"].check(f"analysis.loads[{index}].member", d["member"])
         return cls(d["member"], d.get("at", "end"), d["force"], d["history"])
 
 
@@ -38,15 +41,15 @@ class LoadSum:
     def __init__(self, loads: list[TimeLoad], asm: Assembly, free: np.ndarray):
         self.vecs, self.hist = [], []
         for i, ld in enumerate(loads):
-            asm.scene.check_at(ld.member, ld.at, node_only=False, field_name=f"loads[{i}].at")
-            F = _vector(f"loads[{i}].force", ld.force, asm.scene.dim)
+            asm.scene.check_at(ld.member, ld.at, node_only=False, field_name=f"analysis.loads[{i}].at")
+            F = _vector(f"analysis.loads[{i}].force", ld.force, asm.scene.dim)
             try:
                 H = np.asarray(ld.history, dtype=float)
             except (TypeError, ValueError):
-                raise SceneError(f"loads[{i}].history must be a list of [t, factor] pairs, got {ld.history!r}") from None
+                raise fail(f"analysis.loads[{i}].history", "must be a list of [t, factor] pairs", ld.history) from None
             if H.ndim != 2 or H.shape[1] != 2 or len(H) < 1 or not np.all(np.isfinite(H)) or np.any(np.diff(H[:, 0]) <= 0):
-                raise SceneError(f"loads[{i}].history must be [t, factor] pairs with increasing finite times, got "
-                                 f"{ld.history!r}")
+                raise fail(f"analysis.loads[{i}].history", "must be [t, factor] pairs with increasing finite times",
+                           ld.history)
             mm = asm.mesh.members[ld.member]
             idx, val = point_force(mm, mm.coordinate(ld.at), F)
             q = np.zeros(asm.n)
