@@ -5,8 +5,8 @@ The file mirrors the Python API (docs/scenes.md has the full schema and an annot
     [scene]              name, dim, gravity
     [materials.NAME]     E, density, G | poisson
     [sections.NAME]      area, I | Iy, Iz, J, b, h   or  shape = "circle", diameter   or  shape = "rectangle", b, h
-    [[members]]          name, points, elements, material, section, element, axial, bending, torsion, gravity,
-                         beam_method, gauss, y_axis
+    [[members]]          name, points | arc = {centre, radius, angle0, sweep} | {through}, elements, material,
+                         section, element, axial, bending, torsion, gravity, beam_method, gauss, y_axis
     [[supports]]         type = "clamp" | "pin" | "slope", member, at, method, penalty
     [[joints]]           type = "hinge" | "rigid", a = [member, at], b = [member, at], method, penalty
     [[loads]]            type = "force" | "distributed" | "moment" | "tension", member, at, value
@@ -40,7 +40,7 @@ from . import contact, drives
 from .checks import check_keys, fail, number, vector
 from .mesh import build_mesh
 from .scene import Material, Scene, SceneError, Section
-from .schema import BODY, BODY_JOINT, LOOP, MATERIAL, POINT_MASS, SECTION, STATIC_OPTIONS
+from .schema import ARC, BODY, BODY_JOINT, LOOP, MATERIAL, POINT_MASS, SECTION, STATIC_OPTIONS
 from .statics import StaticOptions
 from .terms import scene_terms
 
@@ -159,12 +159,20 @@ def _named(path: str, v: Any, table: dict, what: str) -> Any:
 
 
 def _member(scene: Scene, path: str, d: dict, materials: dict, sections: dict) -> None:
-    """Names resolved here (material, section); every value checked by Scene.member (axial = "none" included)."""
-    _keys(path, d, MEMBER_KEYS, ("name", "points", "elements", "material", "section"))
+    """Names resolved here (material, section); every value checked by Scene.member (axial = "none" included), or
+    by Scene.arc for a curved member (arc = {centre, radius, angle0, sweep} or {through}, instead of points)."""
+    _keys(path, d, MEMBER_KEYS + ("arc",), ("name", "elements", "material", "section"))
+    if ("points" in d) == ("arc" in d):
+        raise _fail(path, "give points (a straight or polyline member) or arc (a curved one), not both or neither")
     name = _str(f"{path}.name", d["name"])
-    kw = {k: v for k, v in d.items() if k not in ("name", "points")}
+    kw = {k: v for k, v in d.items() if k not in ("name", "points", "arc")}
     kw["material"] = _named(f"{path}.material", d["material"], materials, "material ([materials.NAME])")
     kw["section"] = _named(f"{path}.section", d["section"], sections, "section ([sections.NAME])")
+    if "arc" in d:
+        arc = _table(f"{path}.arc", d["arc"])
+        _keys(f"{path}.arc", arc, ARC)
+        _api(path, scene.arc, name, root=f"members[{name!r}]", **kw, **arc)
+        return
     _api(path, scene.member, name, d["points"], root=f"members[{name!r}]", **kw)
 
 

@@ -172,3 +172,13 @@ POINT_MASS = {
     "mass": Field("number", "kg", positive=True, doc="mass: in the mass matrix through the interpolation weights "
                   "at that point; its weight (scene gravity) acts there as a dead force"),
 }
+
+# [[members]] arc = {...}: a curved member, a circular arc in the x-y plane (Scene.arc), instead of points
+ARC = {
+    "centre": Field("any", "m", optional=True, doc="centre [x, y]"),
+    "radius": Field("number", "m", positive=True, optional=True, doc="radius"),
+    "angle0": Field("number", "rad", optional=True, doc="angle of the start point about the centre, from x"),
+    "sweep": Field("number", "rad", optional=True, doc="angle swept from the start, > 0 counter-clockwise, "
+                   "0 < \\|sweep\\| < 2 pi"),
+    "through": Field("any", "m", optional=True, doc="instead of the four above: [start, a point between, end]"),
+}
