@@ -82,7 +82,8 @@ def curved_reference_term(terms: dict, mm: MemberMesh) -> None:
     L (EA/2 eps(lam)^2 + EI/2 k^2) - M k lam L is stationary at k = M lam / EI and EA eps eps' = EI k^2 / lam: with
     M = EI k0 / lam and the member's stretch lam = 1 + prestrain solving the second (Scene.arc; lam - 1 ~ EI k0^2 /
     EA, 2.5e-5 for a 20 mm rod on a 1 m radius) the drawn arc is the unloaded equilibrium, exactly in the limit of
-    fine meshes. Reported with the bending energy, which so counts from the curved reference less EI k0^2 L / 2."""
+    fine meshes. Reported with the bending energy (phi counts from the reference tangents: the bending energy is
+    the straight-state measure, EI k0^2 L / 2 in the drawn arc)."""
     m = mm.member
     M = m.material.E * m.section.bending_inertia * m.arc_curvature / (1.0 + m.prestrain)
     L = mm.elem_length

@@ -134,3 +134,12 @@ def test_bad_arcs_refused_naming_the_toml_field(old, new, path):
 def test_arcs_are_planar():
     with pytest.raises(SceneError, match=r"^members\['a'\]\.arc: curved members \(arcs\) are planar"):
         Scene(dim=3).arc("a", 4, STEEL, ROD, centre=(0, 0), radius=1.0, angle0=0.0, sweep=1.0)
+
+
+def test_docs_show_the_declared_arc_keys():
+    from pathlib import Path
+
+    from ancf_sym.schema import ARC, fields_table
+
+    page = (Path(__file__).resolve().parents[1] / "docs" / "scenes.md").read_text()
+    assert fields_table(ARC) in page
