@@ -9,7 +9,9 @@ In 2D omega is the scalar rate about z. Rigid bodies (centre r and unit vectors 
 the axes e1, e2, e3) take uniform (r' = v, u' = 0) and rotation (r' = omega x (r - c), u' = omega x u) under
 their names. Members not named keep zero velocity; later entries overwrite earlier ones.
 A start from a static result is DynamicOptions(q0=static_result.x) (with these velocities or at rest), or
-start = "static". The same per-member velocities as tables (TOML [[initial]], DynamicOptions.initial): `from_specs`.
+start = "static" (with `release`: supports that hold that statics and not the run, `released_scene`), or a
+result.json of an earlier run (from_result: `read_result`). The same per-member velocities as tables (TOML
+[[initial]], DynamicOptions.initial): `from_specs`.
 """
 from __future__ import annotations
 

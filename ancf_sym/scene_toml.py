@@ -433,6 +433,8 @@ def scene_from_dict(doc: dict, default_name: str = "scene", base: str | Path | N
             _member_name(scene, f"{path}.member", d["member"])
             scene.check_at(d["member"], d.get("at", "end"), node_only=d.get("kind") == "coordinates",
                            field_name=f"{path}.at")
+            if kind == "loads":
+                _vector(f"{path}.force", d["force"], scene.dim)
     if analysis.get("release") is not None:  # (its form checked with the analysis, its labels here)
         from .initial import check_release, released_scene
         released_scene(scene, check_release(analysis["release"]))

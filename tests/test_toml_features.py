@@ -279,3 +279,31 @@ def test_bundled_hook_scene_uses_the_features_and_runs():
     assert r.success
     assert r.sensors["payload"][-1, 1] < -1e-3
     assert r.sensors["root curvature"][0, 0] == pytest.approx(1 / 0.3, rel=0.05)
+
+
+@pytest.mark.parametrize("load, path", [
+    ('{member = "b", force = [0.0, 1.0], history = [[0.0, 1.0], [0.0, 2.0]]}', "analysis.loads[0].history"),
+    ('{member = "b", force = [0.0, 1.0], history = [[0.0, "1"]]}', "analysis.loads[0].history[0][1]"),
+    ('{member = "b", force = [0.0, 1.0, 2.0], history = [[0.0, 1.0]]}', "analysis.loads[0].force"),
+    ('{member = "c", force = [0.0, 1.0], history = [[0.0, 1.0]]}', "analysis.loads[0].member"),
+    ('{member = "b", at = 9, force = [0.0, 1.0], history = [[0.0, 1.0]]}', "analysis.loads[0].at"),
+])
+def test_time_loads_refused_when_the_file_is_read(load, path):
+    text = BEAM + f'[analysis]\ntype = "dynamics"\ndt = 1e-3\nt_end = 0.01\nloads = [{load}]\n'
+    with pytest.raises(SceneError) as exc:
+        load_scene_text(text)
+    assert str(exc.value).startswith(path), str(exc.value)
+
+
+def test_sensors_refused_when_the_file_is_read():
+    for sensor, path in (('{kind = "position", member = "c"}', "analysis.sensors[0].member"),
+                         ('{kind = "coordinates", member = "b", at = 0.5}', "analysis.sensors[0].at"),
+                         ('{kind = "body", member = "b"}', "analysis.sensors[0].member"),
+                         ('{kind = "spin", member = "b"}', "analysis.sensors[0].kind")):
+        text = BEAM + f'[analysis]\ntype = "dynamics"\ndt = 1e-3\nt_end = 0.01\nsensors = [{sensor}]\n'
+        with pytest.raises(SceneError) as exc:
+            load_scene_text(text)
+        assert str(exc.value).startswith(path), str(exc.value)
+
+
+load_scene_text = load
