@@ -307,3 +307,27 @@ def test_sensors_refused_when_the_file_is_read():
 
 
 load_scene_text = load
+
+
+def test_a_result_that_breaks_a_support_names_from_result(tmp_path):
+    """The sagged cantilever's state read into a scene that also pins the tip where it was drawn: refused naming
+    analysis.from_result and the support (the tip sits its sag, ~1e-3 m, off the pin)."""
+    from ancf_sym.output_json import static_result_dict, write_json
+
+    cantilever = BEAM.replace('type = "pin"\nmember = "b"\nat = "end"', 'type = "slope"\nmember = "b"\nat = "start"')
+    st = solve_static(load(cantilever)[0])
+    write_json(tmp_path / "result.json", static_result_dict(st))
+    text = cantilever + """[[supports]]
+type = "pin"
+member = "b"
+at = "end"
+[analysis]
+type = "dynamics"
+dt = 1e-3
+t_end = 0.01
+from_result = "result.json"
+"""
+    scene, analysis = load(text, base=tmp_path)
+    with pytest.raises(SceneError, match=r"^analysis\.from_result \(its coordinates\) violates constraint "
+                                         r"'pin b@end'"):
+        run_dynamics(scene, analysis)

@@ -31,11 +31,20 @@ def _velocity_form(cons, q: np.ndarray, v: np.ndarray) -> np.ndarray:
                                     minlength=cons.m)
 
 
+def _position_source(opts: DynamicOptions) -> str:
+    """The field that gave the initial coordinates, as the user wrote it."""
+    if opts.from_result is not None:
+        return "analysis.from_result (its coordinates)"
+    if opts.start == "static":
+        return "analysis.start = 'static' (the static equilibrium)"
+    return "q0" if opts.q0 is not None else "the reference state (the members as given)"
+
+
 def _velocity_source(asm: Assembly, opts: DynamicOptions, coords: np.ndarray) -> str:
     """The field that gave the initial velocity of these coordinates: `analysis.initial[i]` (naming its member or
     body) when [[analysis.initial]] tables gave it, else `v0` (the Python API's full vector)."""
     if not opts.initial:
-        return "analysis.from_result: its velocities" if opts.from_result is not None else "v0"
+        return "analysis.from_result (its velocities)" if opts.from_result is not None else "v0"
     owners = {name for name, mm in asm.mesh.members.items()
               if np.any((coords >= mm.offset) & (coords < mm.offset + mm.x0.size))}
     owners |= {name for name, o in asm.mesh.bodies.items()
@@ -103,8 +112,7 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
         viol = np.abs(asm.exact.value(q0))
         if viol.max() > cons_tol:
             k = int(np.argmax(viol))
-            src = "analysis.from_result: its coordinates" if opts.from_result is not None else "q0"
-            raise SceneError(f"{src} violate{'s' if src == 'q0' else ''} constraint {asm.exact.labels[k]!r} by "
+            raise SceneError(f"{_position_source(opts)} violates constraint {asm.exact.labels[k]!r} by "
                              f"{viol[k]:.3g} m (tolerance {cons_tol:.3g} m)")
         vv = np.abs(_velocity_form(asm.exact, q0, v0))
         if vv.max() > 1e-8 * max(1.0, float(np.abs(v0).max())):
@@ -120,7 +128,9 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
         for what, arr, tol in (("q0", viol, cons_tol), ("v0 (velocity form)", vv, 1e-8 * max(1.0, float(np.abs(v0).max())))):
             if arr.max() > tol:
                 k = int(np.argmax(arr))
-                if what != "q0" and opts.initial:
+                if what == "q0":
+                    what = _position_source(opts)
+                elif opts.initial or opts.from_result is not None:
                     what = f"{_velocity_source(asm, opts, drv.jacobian(q0, w0).getrow(k).indices)} (velocity form)"
                 raise SceneError(f"{what} violates drive {drv.labels[k]!r} at t_start = {opts.t_start:g} s by "
                                  f"{arr[k]:.3g} (start the body or node where and as fast as the drive prescribes, "
