@@ -14,7 +14,7 @@ import scipy.sparse as sp
 from . import bodies, kernels, setup_cache, spatial_bodies
 from .casadi_buffers import bind, pooled
 from .constraints import Constraints, build_constraints
-from .loads import load_vector
+from .loads import load_vector, point_mass_triplets
 from .mesh import Mesh, build_mesh
 from . import registry
 from .scene import Scene, structure_spec_key
@@ -429,7 +429,8 @@ class Assembly:
         else:  # diag(m, m, J, J) per planar body
             bi, bv = bodies.mass_entries(self.scene, self.mesh.bodies)
             bj = bi
-        body = tuple(np.asarray(a) for a in (bi, bj, bv))
+        pi, pj, pv = point_mass_triplets(self.mesh)  # (empty without point masses)
+        body = tuple(np.concatenate([np.asarray(a, dtype=b.dtype), b]) for a, b in zip((bi, bj, bv), (pi, pj, pv)))
         key = setup_cache.array_key(self.n, mass, body)
         return setup_cache.cached("mass_matrix", key, lambda: _mass_matrix(self.n, members, body))
 

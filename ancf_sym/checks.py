@@ -94,9 +94,10 @@ def vector(name: str, value: Any, n: int) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Field:
-    """One declared field: kind "number" | "int" | "bool" | "str" | "vector" | "any" (checked by its owner),
-    unit, bounds (positive, nonneg, an open interval `between`, an integer range `span`), allowed `choices`, and
-    whether None is allowed. `doc` is the one-line description docs/scenes.md gives."""
+    """One declared field: kind "number" | "int" | "bool" | "str" | "vector" | "any" | "location" (these two checked
+    by their owner; a location is "start", "end", a node index or a material coordinate), unit, bounds (positive,
+    nonneg, an open interval `between`, an integer range `span`), allowed `choices`, and whether None is allowed.
+    `doc` is the one-line description docs/scenes.md gives."""
     kind: str
     unit: str = ""
     positive: bool = False

@@ -1,5 +1,5 @@
 """Closed members (belts, track chains): a path of straight segments and circular arcs, sampled into the nodes of a
-loop whose last element ends on its first node.
+loop whose last element ends on its first node; and open circular arcs (curved members, `arc_nodes`).
 
 A path is a list of pieces, each ("line", a, b) or ("arc", centre, radius, angle0, sweep) in the x-y plane (angles
 in rad, sweep > 0 counter-clockwise); consecutive pieces must join. `belt_path` builds the path of a belt wrapped
@@ -110,3 +110,35 @@ def belt_path(pulleys: list[tuple[tuple[float, float], float]]) -> list:
         sweep = (np.arctan2(n_out[1], n_out[0]) - a0) % (2 * np.pi)
         path.append(("arc", tuple(cs[j]), Rs[j], float(a0), float(sweep)))
     return path
+
+
+def arc_through(a, m, b) -> tuple[np.ndarray, float, float, float]:
+    """(centre, radius, angle0, sweep) of the circular arc from a through m to b (planar points; sweep > 0
+    counter-clockwise); SceneError if the points are (nearly) collinear or coincide."""
+    a, m, b = (np.asarray(p, float)[:2] for p in (a, m, b))
+    d = 2 * ((m[0] - a[0]) * (b[1] - a[1]) - (m[1] - a[1]) * (b[0] - a[0]))
+    size = max(np.linalg.norm(m - a), np.linalg.norm(b - a), np.linalg.norm(b - m))
+    if not size > 0 or abs(d) <= 1e-12 * size**2:
+        raise SceneError("arc through: the three points are collinear or coincide (a straight member takes "
+                         f"points), got {[a.tolist(), m.tolist(), b.tolist()]}")
+    # circumcentre: |c - a| = |c - m| = |c - b|
+    am, ab = m - a, b - a
+    c = a + np.array([ab[1] * (am @ am) - am[1] * (ab @ ab), am[0] * (ab @ ab) - ab[0] * (am @ am)]) / d
+    R = float(np.linalg.norm(a - c))
+    ang = [float(np.arctan2(*(p - c)[::-1])) for p in (a, m, b)]
+    ccw_b, ccw_m = (ang[2] - ang[0]) % (2 * np.pi), (ang[1] - ang[0]) % (2 * np.pi)
+    sweep = ccw_b if ccw_m < ccw_b else ccw_b - 2 * np.pi
+    return c, R, ang[0], float(sweep)
+
+
+def arc_nodes(centre, radius: float, angle0: float, sweep: float, n: int, dim: int = 2
+              ) -> tuple[np.ndarray, np.ndarray, float]:
+    """(points (n + 1, dim), unit tangents (n + 1, dim), arc length) of n elements of equal arc length along the
+    arc from angle0 [rad] by sweep [rad] (> 0 counter-clockwise) about centre, in the x-y plane."""
+    piece = ("arc", tuple(np.asarray(centre, float)[:2]), float(radius), float(angle0), float(sweep))
+    total = _piece_length(piece)
+    pts, tans = np.zeros((n + 1, dim)), np.zeros((n + 1, dim))
+    for k in range(n + 1):
+        r, t = _piece_point(piece, total * k / n)
+        pts[k, :2], tans[k, :2] = r, t
+    return pts, tans, total

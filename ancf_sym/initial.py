@@ -9,7 +9,9 @@ In 2D omega is the scalar rate about z. Rigid bodies (centre r and unit vectors 
 the axes e1, e2, e3) take uniform (r' = v, u' = 0) and rotation (r' = omega x (r - c), u' = omega x u) under
 their names. Members not named keep zero velocity; later entries overwrite earlier ones.
 A start from a static result is DynamicOptions(q0=static_result.x) (with these velocities or at rest), or
-start = "static". The same per-member velocities as tables (TOML [[initial]], DynamicOptions.initial): `from_specs`.
+start = "static" (with `release`: supports that hold that statics and not the run, `released_scene`), or a
+result.json of an earlier run (from_result: `read_result`). The same per-member velocities as tables (TOML
+[[initial]], DynamicOptions.initial): `from_specs`.
 """
 from __future__ import annotations
 
@@ -151,3 +153,84 @@ def static_start(scene) -> np.ndarray:
     if not r.success:
         raise SceneError(f"analysis.start: the static solve to start from failed with status {r.status!r}")
     return np.asarray(r.x, float).copy()
+
+
+def check_release(release: Any) -> list:
+    """`release` checked for its form: a non-empty list of support labels ("pin beam@end", as the results name
+    them) or indices of the scene's supports; `released_scene` checks them against the scene."""
+    from .checks import fail, is_integer
+
+    if isinstance(release, (str, int)) and not isinstance(release, bool):
+        release = [release]
+    if not isinstance(release, (list, tuple)) or not release:
+        raise fail("analysis.release", "must be a list of support labels (\"pin beam@end\") or [[supports]] "
+                   "indices", release)
+    for i, r in enumerate(release):
+        if not (isinstance(r, str) and r) and not is_integer(r):
+            raise fail(f"analysis.release[{i}]", "must be a support label (\"pin beam@end\") or an index of "
+                       "[[supports]]", r)
+    return list(release)
+
+
+def support_label(s) -> str:
+    """A support's label, as the results' constraint forces name it (ancf_sym.constraints)."""
+    return f"{s.kind} {s.member}@{s.at}"
+
+
+def released_scene(scene, release: list):
+    """A copy of the scene without the supports `release` names (labels or indices; errors name
+    analysis.release[i] and list the supports there are)."""
+    import copy
+
+    from .checks import fail, is_integer
+
+    labels = [support_label(s) for s in scene.supports]
+    drop = set()
+    for i, r in enumerate(release):
+        if is_integer(r):
+            if not 0 <= r < len(labels):
+                raise fail(f"analysis.release[{i}]", f"the scene has supports 0..{len(labels) - 1}: {labels}", r)
+            drop.add(int(r))
+        elif r in labels:
+            drop.add(labels.index(r))
+        else:
+            raise fail(f"analysis.release[{i}]", f"names no support; supports: {labels}", r)
+    out = copy.copy(scene)
+    out.supports = [s for k, s in enumerate(scene.supports) if k not in drop]
+    return out
+
+
+def read_result(path, n: int, field: str = "analysis.from_result") -> tuple[np.ndarray, np.ndarray | None]:
+    """(coordinates, velocities or None) of a result.json written by `ancf-sym run` (statics: "x"; dynamics: the
+    final "x" and "v"), refused unless they are n finite numbers (the same mesh); errors name `field`."""
+    import json
+    from pathlib import Path
+
+    from .checks import fail
+
+    p = Path(path)
+    try:
+        doc = json.loads(p.read_text())
+    except FileNotFoundError:
+        raise fail(field, "no such file", str(p)) from None
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise fail(field, f"cannot read it as a result.json ({exc})", str(p)) from None
+    if not isinstance(doc, dict) or not isinstance(doc.get("x"), list):
+        raise fail(field, "is not a result.json with coordinates \"x\" (written by ancf-sym run)", str(p))
+    if doc.get("success") is False:
+        raise fail(field, f"is a failed run (status {doc.get('status')!r}); start from a successful one", str(p))
+    out = []
+    for key in ("x", "v"):
+        if key not in doc:
+            out.append(None)
+            continue
+        a = np.asarray([np.nan if v is None else v for v in doc[key]], dtype=float) \
+            if isinstance(doc[key], list) else None
+        if a is None or a.ndim != 1 or a.size != n:
+            size = a.size if a is not None else doc[key]
+            raise fail(field, f"{key!r} has {size} coordinates, this scene's mesh {n} (the result is of another "
+                       "mesh: same members, elements, bodies and order needed)", str(p))
+        if not np.all(np.isfinite(a)):
+            raise fail(field, f"{key!r} has non-finite entries", str(p))
+        out.append(a)
+    return out[0], out[1]

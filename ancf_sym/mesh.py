@@ -84,8 +84,11 @@ def _frame(t: np.ndarray, y_axis: np.ndarray | None) -> tuple[np.ndarray, np.nda
 
 def mesh_closed(m: Member, offset: int) -> MemberMesh:
     """A loop: node k at points[k] with slope (1 + prestrain) tangents[k], element k from node k to node k+1 (the
-    last to node 0), all of reference length loop_length / (elements (1 + prestrain))."""
+    last to node 0), all of reference length loop_length / (elements (1 + prestrain)). An open arc alike, with its
+    elements + 1 nodes and no element closing it."""
     n, stretch = m.elements, 1.0 + m.prestrain
+    if not m.closed:
+        return _mesh_arc(m, offset)
     rows = []
     for r, t in zip(m.points, m.tangents):
         if m.element == "beam3d":
@@ -99,18 +102,26 @@ def mesh_closed(m: Member, offset: int) -> MemberMesh:
                       np.full(n, le), nodes, [], nodes * le, m.length)
 
 
+def _mesh_arc(m: Member, offset: int) -> MemberMesh:
+    rows = np.hstack([m.points, (1.0 + m.prestrain) * m.tangents])
+    le = m.loop_length / m.elements / (1.0 + m.prestrain)
+    nodes = np.arange(m.elements + 1)
+    return MemberMesh(m, offset, node_size(m.element), rows, np.c_[nodes[:-1], nodes[1:]],
+                      np.full(m.elements, le), nodes, [], nodes * le, m.length)
+
+
 def mesh_member(m: Member, offset: int) -> MemberMesh:
     """The member's nodes and elements from `offset` on. The geometry is kept by the exact member fields it reads
     (ancf_sym.setup_cache: shared, read-only, by members that differ only in material or section)."""
     key = setup_cache.array_key(m.closed, m.points, m.elements, m.element, m.prestrain, m.y_axis, m.tangents,
-                                m.loop_length)
+                                m.loop_length, m.arc_curvature)
     g = setup_cache.cached("member_mesh", key, lambda: _mesh_member(m, 0))
     return MemberMesh(m, offset, g.node_size, g.x0, g.elem_nodes, g.elem_length, g.public_nodes,
                       list(g.vertex_pairs), g.s_node, g.length)
 
 
 def _mesh_member(m: Member, offset: int) -> MemberMesh:
-    if m.closed:
+    if m.tangents is not None:  # a loop, or an open arc (its nodes and tangents sampled: Scene.arc)
         return mesh_closed(m, offset)
     pts = m.points
     seg_len = np.linalg.norm(np.diff(pts, axis=0), axis=1)

@@ -8,7 +8,7 @@ Layout (all lengths in m, energies in J, forces in N):
      "solver": {"iterations", "attempts": [{method, status, iterations}], "stable"},
      "constraint_violation", "constraint_forces": {label: [...]}, "constraint_forces_sign": "...",
      "members": {name: {"nodes": [[x, y(, z)], ...], "slopes": [...], "tip": [...]}},
-     "kernels": [{label, element, effect, gauss, elements}]}
+     "kernels": [{label, element, effect, gauss, elements}], "x": [all coordinates]}
 
 Non-finite numbers are written as null (the file is strict JSON).
 """
@@ -80,6 +80,7 @@ def static_result_dict(result: StaticResult, scene_file: str | Path | None = Non
         "members": {name: {**v, "tip": v["nodes"][-1]} for name, v in base["members"].items()},
         "kernels": [{"label": t.label, "element": t.element, "effect": t.effect, "gauss": t.gauss,
                      "elements": int(t.idx.shape[0])} for t in asm.terms],
+        "x": np.asarray(result.x, float),  # all coordinates: a later run starts from them (analysis.from_result)
     }
     return _clean(doc)
 

@@ -141,15 +141,18 @@ class Member:
     # element ends on the first node; loop_length is the path's length (else None: an open polyline)
     tangents: np.ndarray | None = None
     loop_length: float | None = None
+    # open circular arc (Scene.arc): its signed reference curvature 1/R [1/m] (> 0 counter-clockwise); the points
+    # are its nodes, tangents their unit tangents, loop_length the arc's length
+    arc_curvature: float | None = None
 
     @property
     def closed(self) -> bool:
-        return self.tangents is not None
+        return self.tangents is not None and self.arc_curvature is None
 
     @property
     def length(self) -> float:
         """Unstretched (reference) length [m]: material coordinates run over [0, length]."""
-        if self.closed:
+        if self.tangents is not None:
             return self.loop_length / (1.0 + self.prestrain)
         return float(np.sum(np.linalg.norm(np.diff(self.points, axis=0), axis=1))) / (1.0 + self.prestrain)
 
@@ -187,6 +190,15 @@ class Load:
 
 
 @dataclass
+class PointMass:
+    """A lumped mass [kg] at a member point (node or material coordinate): its mass enters the mass matrix through
+    the interpolation weights of that point (m S^T S), its weight m g acts there as a dead force."""
+    member: str
+    at: Any
+    mass: float
+
+
+@dataclass
 class Damping:
     """Dynamics only. kind "rayleigh": C = alpha M + beta K_el, alpha [1/s] on absolute velocities (one value for
     the scene), beta [s] on the elastic tangent stiffness (at the start of each step) of `members` (None: all).
@@ -214,6 +226,7 @@ class Scene:
     bodies: dict = field(default_factory=dict)  # rigid bodies by name (bodies.Body in 2D, spatial_bodies in 3D)
     body_joints: list = field(default_factory=list)  # ancf_sym.bodies.BodyJoint
     drives: list = field(default_factory=list)  # ancf_sym.drives: prescribed angles/positions, applied torques
+    point_masses: list = field(default_factory=list)  # PointMass
 
     def __post_init__(self):
         if isinstance(self.dim, bool) or self.dim not in (2, 3):
@@ -319,6 +332,61 @@ class Scene:
             pts = pts + vector(f"loop {name!r}: offset", offset, self.dim)
         m = self.member(name, pts, int(elements), material, section, **options)
         m.tangents, m.loop_length = tans, total
+        return m
+
+    def arc(self, name: str, elements: int, material: Material, section: Section, centre: Any = None,
+            radius: float | None = None, angle0: float | None = None, sweep: float | None = None,
+            through: Any = None, **options: Any) -> Member:
+        """Add a curved member: a circular arc in the x-y plane of a 2D scene, stress-free in its reference state.
+        Give centre [m], radius [m], angle0 and sweep [rad] (sweep > 0 counter-clockwise, |sweep| < 2 pi), or
+        `through` = three points [start, any point between, end]. Its nodes lie on the arc at equal arc length
+        with the arc's unit tangents as slopes; the bending energy is that of the curvature change
+        1/2 int EI (kappa - kappa0)^2 (kappa0 = +-1/R), up to a constant (docs/scenes.md). Options as `member`."""
+        from . import closed
+
+        at = f"members[{name!r}]"
+        if self.dim != 2:
+            raise fail(f"{at}.arc", "curved members (arcs) are planar: a 2D scene's cable2d members", self.dim)
+        if isinstance(elements, bool) or not isinstance(elements, (int, np.integer)) or elements < 1:
+            raise fail(f"{at}.elements", "must be a positive integer", elements)
+        given = {k: v for k, v in (("centre", centre), ("radius", radius), ("angle0", angle0), ("sweep", sweep))
+                 if v is not None}
+        if (through is None) == (not given):
+            raise fail(f"{at}.arc", "give centre, radius, angle0, sweep or through = [start, middle, end], not "
+                       "both or neither", {**given, **({"through": through} if through is not None else {})})
+        if through is not None:
+            if isinstance(through, (str, bytes)) or not isinstance(through, (list, tuple, np.ndarray)) \
+                    or len(through) != 3:
+                raise fail(f"{at}.arc.through", "must be 3 points [start, a point between, end]", through)
+            pts3 = [vector(f"{at}.arc.through[{i}]", p, 2) for i, p in enumerate(through)]
+            try:
+                c, R, a0, sw = closed.arc_through(*pts3)
+            except SceneError as exc:
+                raise fail(f"{at}.arc.through", str(exc).split(": ", 1)[-1]) from None
+        else:
+            for k in ("centre", "radius", "angle0", "sweep"):
+                if k not in given:
+                    raise fail(f"{at}.arc.{k}", "missing (an arc needs centre, radius, angle0, sweep)")
+            c = vector(f"{at}.arc.centre", centre, 2)
+            R = number(f"{at}.arc.radius", radius, positive=True)
+            a0 = number(f"{at}.arc.angle0", angle0)
+            sw = number(f"{at}.arc.sweep", sweep)
+            if not 0 < abs(sw) < 2 * math.pi:
+                raise fail(f"{at}.arc.sweep", "must be non-zero and less than 2 pi in size (a closed ring is a loop)",
+                           sweep)
+        if "prestrain" in options:
+            raise fail(f"{at}.prestrain", "does not apply to arcs: a curved member is stress-free in its reference "
+                       "state", options["prestrain"])
+        pts, tans, total = closed.arc_nodes(c, R, a0, sw, int(elements), self.dim)
+        m = self.member(name, pts, int(elements), material, section, **options)
+        if m.bending and m.axial is None:
+            del self.members[name]
+            raise fail(f"{at}.axial", "a curved member with bending stiffness needs an axial strain measure", "none")
+        m.tangents, m.loop_length, m.arc_curvature = tans, total, math.copysign(1.0 / R, sw)
+        if m.bending:  # the stretch at which the arc is an equilibrium of the model (ancf_sym.terms, arc_reference)
+            a = material.E * section.bending_inertia / (material.E * section.area) / R**2
+            lam = (1 + math.sqrt(1 + 4 * a)) / 2 if m.axial == "biot" else math.sqrt((1 + math.sqrt(1 + 8 * a)) / 2)
+            m.prestrain = lam - 1.0
         return m
 
     def contact_ground(self, member: str, **options: Any):
@@ -553,6 +621,14 @@ class Scene:
         self.check_at(member, at, node_only=True, field_name="tension.at")
         return self._add_load(Load("tension", member, at, _finite("tension.tension", tension)))
 
+    def point_mass(self, member: str, at: Any, mass: float) -> PointMass:
+        """A point mass [kg] at a node or material coordinate s [m] (float) of a member: added to the mass matrix
+        through the interpolation weights at that point; gravity acts on it (a dead force m g at the point)."""
+        self.check_at(member, at, node_only=False, field_name="point_mass.at")
+        p = PointMass(member, at, _positive("point_mass.mass", mass))
+        self.point_masses.append(p)
+        return p
+
     def rayleigh(self, alpha: float = 0.0, beta: float = 0.0, members: Sequence[str] | None = None) -> Damping:
         """Rayleigh damping for dynamics, C = alpha M + beta K_el: alpha [1/s] damps absolute velocities (whole
         scene, one value), beta [s] the elastic tangent stiffness of `members` (default all) at the start of each
@@ -707,7 +783,7 @@ def _array(a: np.ndarray):
 def _dispatch() -> dict:
     table = copyreg.dispatch_table.copy()
     table[np.ndarray] = _array
-    for cls in (Material, Section, Member, Support, Joint, Load, Damping, Scene):
+    for cls in (Material, Section, Member, Support, Joint, Load, PointMass, Damping, Scene):
         table[cls] = _values(f"{cls.__module__}.{cls.__qualname__}")
     return table
 

@@ -5,11 +5,12 @@ The file mirrors the Python API (docs/scenes.md has the full schema and an annot
     [scene]              name, dim, gravity
     [materials.NAME]     E, density, G | poisson
     [sections.NAME]      area, I | Iy, Iz, J, b, h   or  shape = "circle", diameter   or  shape = "rectangle", b, h
-    [[members]]          name, points, elements, material, section, element, axial, bending, torsion, gravity,
-                         beam_method, gauss, y_axis
+    [[members]]          name, points | arc = {centre, radius, angle0, sweep} | {through}, elements, material,
+                         section, element, axial, bending, torsion, gravity, beam_method, gauss, y_axis
     [[supports]]         type = "clamp" | "pin" | "slope", member, at, method, penalty
     [[joints]]           type = "hinge" | "rigid", a = [member, at], b = [member, at], method, penalty, axis
     [[loads]]            type = "force" | "distributed" | "moment" | "tension", member, at, value
+    [[masses]]           member, at, mass (a point mass: mass matrix and weight)
     [[dampings]]         type = "rayleigh" (alpha, beta, members) | "strain_rate" (axial, bending, members)
     [[loops]]            name, path = [["line", a, b], ["arc", centre, radius, angle0, sweep], ...] or
                          pulleys = [[centre, radius], ...], elements, material, section, and the member keys
@@ -21,8 +22,9 @@ The file mirrors the Python API (docs/scenes.md has the full schema and an annot
                          position) | "torque" (body, torque); motions: numbers or [[t, [a0, a1, ...]], ...]
     [[contacts]]         type = "ground" (normal, level) | "circle" (centre, radius, axis), member, stiffness, hertz,
                          thickness, damping, mu, eps, gauss, method (ancf_sym.contact.from_toml)
-    [analysis]           type = "statics" (tol, max_iter, load_steps, escape_saddle, load_stepping) | "dynamics" (passed through;
-                         start = "static", [[analysis.initial]] member, velocity | omega, centre)
+    [analysis]           type = "statics" (tol, max_iter, load_steps, escape_saddle, load_stepping) | "dynamics"
+                         (passed through; start = "static", release, from_result, [[analysis.initial]] member,
+                         velocity | omega, centre; [[analysis.sensors]], [[analysis.loads]])
 
 Everything is checked before any solving. Every error is a SceneError whose message starts with the TOML path of
 the offending field (array indices count from 0), e.g. "members[1].elements: must be a positive integer, got 0".
@@ -38,7 +40,7 @@ from . import contact, drives
 from .checks import check_keys, fail, number, vector
 from .mesh import build_mesh
 from .scene import Material, Scene, SceneError, Section
-from .schema import BODY, BODY_JOINT, LOOP, MATERIAL, SECTION, STATIC_OPTIONS
+from .schema import ARC, BODY, BODY_JOINT, LOOP, MATERIAL, POINT_MASS, SECTION, STATIC_OPTIONS
 from .statics import StaticOptions
 from .terms import scene_terms
 
@@ -47,8 +49,8 @@ try:
 except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
-TOP_KEYS = ("scene", "materials", "sections", "members", "loops", "supports", "joints", "loads", "dampings",
-            "contacts", "bodies", "drives", "analysis")
+TOP_KEYS = ("scene", "materials", "sections", "members", "loops", "supports", "joints", "loads", "masses",
+            "dampings", "contacts", "bodies", "drives", "analysis")
 SCENE_KEYS = ("name", "dim", "gravity")
 SECTION_KEYS = {None: tuple(SECTION), "circle": ("diameter",), "rectangle": ("b", "h")}
 MEMBER_KEYS = tuple(inspect.signature(Scene.member).parameters)[1:]  # the keywords of Scene.member
@@ -157,12 +159,20 @@ def _named(path: str, v: Any, table: dict, what: str) -> Any:
 
 
 def _member(scene: Scene, path: str, d: dict, materials: dict, sections: dict) -> None:
-    """Names resolved here (material, section); every value checked by Scene.member (axial = "none" included)."""
-    _keys(path, d, MEMBER_KEYS, ("name", "points", "elements", "material", "section"))
+    """Names resolved here (material, section); every value checked by Scene.member (axial = "none" included), or
+    by Scene.arc for a curved member (arc = {centre, radius, angle0, sweep} or {through}, instead of points)."""
+    _keys(path, d, MEMBER_KEYS + ("arc",), ("name", "elements", "material", "section"))
+    if ("points" in d) == ("arc" in d):
+        raise _fail(path, "give points (a straight or polyline member) or arc (a curved one), not both or neither")
     name = _str(f"{path}.name", d["name"])
-    kw = {k: v for k, v in d.items() if k not in ("name", "points")}
+    kw = {k: v for k, v in d.items() if k not in ("name", "points", "arc")}
     kw["material"] = _named(f"{path}.material", d["material"], materials, "material ([materials.NAME])")
     kw["section"] = _named(f"{path}.section", d["section"], sections, "section ([sections.NAME])")
+    if "arc" in d:
+        arc = _table(f"{path}.arc", d["arc"])
+        _keys(f"{path}.arc", arc, ARC)
+        _api(path, scene.arc, name, root=f"members[{name!r}]", **kw, **arc)
+        return
     _api(path, scene.member, name, d["points"], root=f"members[{name!r}]", **kw)
 
 
@@ -327,6 +337,15 @@ def _load(scene: Scene, path: str, d: dict) -> None:
         _api(f"{path}.at", call, member, at, value, root=f"{kind}.at")
 
 
+def _mass(scene: Scene, path: str, d: dict) -> None:
+    """A point mass (Scene.point_mass, schema.POINT_MASS): member, at, mass [kg]."""
+    _keys(path, d, POINT_MASS, tuple(POINT_MASS))
+    member = _member_name(scene, f"{path}.member", d["member"])
+    at = _at(f"{path}.at", d["at"], node_only=False)
+    POINT_MASS["mass"].check(f"{path}.mass", d["mass"])
+    _api(f"{path}.at", scene.point_mass, member, at, d["mass"], root="point_mass.at")
+
+
 def _damping(scene: Scene, path: str, d: dict) -> None:
     """Dynamics only: Scene.rayleigh (alpha [1/s], beta [s]) or Scene.strain_rate_damping (axial [N s],
     bending [N m^2 s]), which check the values; members (default all) is an array of member names."""
@@ -356,8 +375,9 @@ def _analysis(d: Any) -> dict:
     return {"type": "statics", **opts}
 
 
-def scene_from_dict(doc: dict, default_name: str = "scene") -> tuple[Scene, dict]:
-    """The scene and the analysis table of a parsed TOML document (see the module docstring)."""
+def scene_from_dict(doc: dict, default_name: str = "scene", base: str | Path | None = None) -> tuple[Scene, dict]:
+    """The scene and the analysis table of a parsed TOML document (see the module docstring); relative paths in it
+    (analysis.from_result) are taken from the folder `base` (the scene file's; default the working folder)."""
     _check_finite("", doc)
     _keys("", doc, TOP_KEYS, ("scene",))
     sd = _table("scene", doc["scene"])
@@ -381,6 +401,8 @@ def scene_from_dict(doc: dict, default_name: str = "scene") -> tuple[Scene, dict
         _joint(scene, f"joints[{i}]", d)
     for i, d in enumerate(_array_of_tables("loads", doc.get("loads", []))):
         _load(scene, f"loads[{i}]", d)
+    for i, d in enumerate(_array_of_tables("masses", doc.get("masses", []))):
+        _mass(scene, f"masses[{i}]", d)
     for i, d in enumerate(_array_of_tables("dampings", doc.get("dampings", []))):
         _damping(scene, f"dampings[{i}]", d)
     bodies = _array_of_tables("bodies", doc.get("bodies", []))
@@ -404,6 +426,27 @@ def scene_from_dict(doc: dict, default_name: str = "scene") -> tuple[Scene, dict
                         f", bodies: {sorted(scene.bodies)}", d["member"])
     if analysis.get("start") == "static":
         _api("analysis.start", scene.validate_for_statics)
+    for kind in ("sensors", "loads"):  # members and locations against the scene now (their form: the analysis)
+        for i, d in enumerate(analysis.get(kind) or []):
+            path = f"analysis.{kind}[{i}]"
+            if d.get("kind") == "body":
+                if d["member"] not in scene.bodies:
+                    raise _fail(f"{path}.member", f"names no body; bodies: {sorted(scene.bodies)}", d["member"])
+                continue
+            _member_name(scene, f"{path}.member", d["member"])
+            scene.check_at(d["member"], d.get("at", "end"), node_only=d.get("kind") == "coordinates",
+                           field_name=f"{path}.at")
+            if kind == "loads":
+                _vector(f"{path}.force", d["force"], scene.dim)
+    if analysis.get("release") is not None:  # (its form checked with the analysis, its labels here)
+        from .initial import check_release, released_scene
+        released_scene(scene, check_release(analysis["release"]))
+    if analysis.get("from_result") is not None:  # read now: a file of another mesh is refused before any work
+        from .initial import read_result
+        src = Path(analysis["from_result"])
+        src = src if src.is_absolute() or base is None else Path(base) / src
+        read_result(src, build_mesh(scene).n)
+        analysis["from_result"] = str(src)
     return scene, analysis
 
 
@@ -423,4 +466,4 @@ def load_scene(path: str | Path) -> tuple[Scene, dict]:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{p}: not valid TOML: {exc}") from None
-    return scene_from_dict(doc, default_name=p.stem)
+    return scene_from_dict(doc, default_name=p.stem, base=p.parent)

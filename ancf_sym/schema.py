@@ -56,14 +56,20 @@ DYNAMIC_OPTIONS = {
     "output_dt": Field("number", "s", positive=True, optional=True, doc="record at t_start + k output_dt"),
     "output_times": Field("any", "s", optional=True, doc="record at these times"),
     "newton": Field("any", doc="Newton options table"),
-    "sensors": Field("any", doc="what to record"),
-    "loads": Field("any", doc="time-dependent loads"),
+    "sensors": Field("any", doc="what to record: [[analysis.sensors]] tables (SENSOR)"),
+    "loads": Field("any", doc="time-dependent point forces: [[analysis.loads]] tables (TIME_LOAD)"),
     "energies": Field("bool", doc="record the energy balance"),
     "q0": Field("any", optional=True, doc="initial coordinates (Python API)"),
     "v0": Field("any", optional=True, doc="initial velocities (Python API)"),
     "initial": Field("any", optional=True, doc="initial velocities per member or body: a list of [[initial]] tables"),
     "start": Field("str", choices=("reference", "static"), optional=True,
                    doc="start from the reference state (default) or from the static equilibrium"),
+    "release": Field("any", optional=True, doc="with start = \"static\": supports that hold the starting statics "
+                     "and are released for the dynamics: labels as in the results (\"pin beam@end\") or indices "
+                     "of [[supports]]"),
+    "from_result": Field("str", optional=True, doc="start from the state of an earlier result.json (statics: its "
+                         "coordinates, at rest; dynamics: its final coordinates and velocities) of the same mesh; a "
+                         "relative path is taken from the scene file's folder"),
 }
 
 # [[bodies]]: one rigid body and its joints (planar in 2D scenes, spatial in 3D ones)
@@ -114,7 +120,8 @@ INITIAL = {
 
 
 def _kind(f: Field) -> str:
-    k = {"number": "number", "int": "integer", "bool": "true/false", "str": "string", "any": "table/array"}[f.kind]
+    k = {"number": "number", "int": "integer", "bool": "true/false", "str": "string", "any": "table/array",
+         "location": "string/integer/number"}[f.kind]
     lim = [("> 0" if f.kind == "number" else ">= 1")] if f.positive else []
     lim += [f"in ({f.between[0]:g}, {f.between[1]:g})"] if f.between else []
     lim += [f"{f.span[0]}..{f.span[1]}"] if f.span else []
@@ -134,3 +141,46 @@ def analysis_table() -> str:
     for kind, table in (("statics", STATIC_OPTIONS), ("dynamics", DYNAMIC_OPTIONS)):
         rows += [f"| `{k}` | {kind} | {_kind(f)} | {f.unit or '-'} | {f.doc} |" for k, f in table.items()]
     return "\n".join(rows) + "\n"
+
+
+# [[analysis.sensors]]: what a dynamic run records at its output times (ancf_sym.dynamics.sensors)
+SENSOR = {
+    "name": Field("str", optional=True, doc="key of the recorded series (default `<kind>_<member>_<at>`); unique"),
+    "kind": Field("str", choices=("position", "displacement", "velocity", "strain", "curvature", "coordinates",
+                                  "body"),
+                  doc="position / displacement (from the reference) [m] or velocity [m/s] of a centreline point "
+                  "(dim components); strain \\|r_x\\| - 1 [-]; curvature \\|r_x x r_xx\\| / \\|r_x\\|^3 [1/m]; "
+                  "coordinates: all nodal coordinates of a node; body: a rigid body's x, y [m], angle [rad], "
+                  "angular velocity [rad/s] (3D: centre, angular velocity, axes e1, e2, e3)"),
+    "member": Field("str", doc="member name (kind = body: body name)"),
+    "at": Field("location", optional=True, doc="\"start\", \"end\" (default), a node index (integer) or a material "
+                "coordinate in m (float; not for coordinates)"),
+}
+
+# [[analysis.loads]]: a time-dependent point force F(t) = factor(t) force (ancf_sym.dynamics.time_loads)
+TIME_LOAD = {
+    "member": Field("str", doc="member name"),
+    "at": Field("location", optional=True, doc="\"start\", \"end\" (default), a node index (integer) or a material "
+                "coordinate in m (float)"),
+    "force": Field("any", "N", doc="force vector (dim numbers), scaled by the factor"),
+    "history": Field("any", "[s, -]", doc="[[t, factor], ...] with increasing t: the factor is linear between "
+                     "them and holds the first / last value before / after"),
+}
+
+# [[masses]]: a point mass at a member point (Scene.point_mass)
+POINT_MASS = {
+    "member": Field("str", doc="member name"),
+    "at": Field("location", doc="\"start\", \"end\", a node index (integer) or a material coordinate in m (float)"),
+    "mass": Field("number", "kg", positive=True, doc="mass: in the mass matrix through the interpolation weights "
+                  "at that point; its weight (scene gravity) acts there as a dead force"),
+}
+
+# [[members]] arc = {...}: a curved member, a circular arc in the x-y plane (Scene.arc), instead of points
+ARC = {
+    "centre": Field("any", "m", optional=True, doc="centre [x, y]"),
+    "radius": Field("number", "m", positive=True, optional=True, doc="radius"),
+    "angle0": Field("number", "rad", optional=True, doc="angle of the start point about the centre, from x"),
+    "sweep": Field("number", "rad", optional=True, doc="angle swept from the start, > 0 counter-clockwise, "
+                   "0 < \\|sweep\\| < 2 pi"),
+    "through": Field("any", "m", optional=True, doc="instead of the four above: [start, a point between, end]"),
+}

@@ -58,7 +58,7 @@ def coarse_scene(scene: Scene) -> Scene | None:
     def place(member: str, at: Any) -> Any:
         return _coarse_at(at, scene.members[member], COARSE_FACTOR) if member in long else at
 
-    for item in c.supports + c.loads:
+    for item in c.supports + c.loads + c.point_masses:
         if item.at is not None:
             item.at = place(item.member, item.at)
             if item.at is None:

@@ -70,6 +70,27 @@ def member_terms(terms: dict, mm: MemberMesh, gravity: np.ndarray) -> None:
         _add(terms, label, m.element, effect, None if effect == "continuum" else m.gauss, idx, p)
     if m.gravity and any(gravity):
         _add(terms, "gravity", m.element, "gravity", None, idx, params(m.material.density * A, *gravity))
+    if m.arc_curvature is not None and m.bending:
+        curved_reference_term(terms, mm)
+
+
+def curved_reference_term(terms: dict, mm: MemberMesh) -> None:
+    """The bending of a planar arc (Scene.arc) measured from its curved reference: the cable's bending energy
+    1/2 int EI k^2 dx (k the curvature, x the material coordinate) plus the potential -M (phi_end - phi_start) of
+    the tangent's turn (the moment kernel's -M phi, phi from the reference tangent): M at the end, -M at the start.
+    For a uniform arc of material length L, stretch lam and curvature k (turn k lam L) the energy
+    L (EA/2 eps(lam)^2 + EI/2 k^2) - M k lam L is stationary at k = M lam / EI and EA eps eps' = EI k^2 / lam: with
+    M = EI k0 / lam and the member's stretch lam = 1 + prestrain solving the second (Scene.arc; lam - 1 ~ EI k0^2 /
+    EA, 2.5e-5 for a 20 mm rod on a 1 m radius) the drawn arc is the unloaded equilibrium, exactly in the limit of
+    fine meshes. Reported with the bending energy (phi counts from the reference tangents: the bending energy is
+    the straight-state measure, EI k0^2 L / 2 in the drawn arc)."""
+    m = mm.member
+    M = m.material.E * m.section.bending_inertia * m.arc_curvature / (1.0 + m.prestrain)
+    L = mm.elem_length
+    last = mm.n_nodes - 1
+    for node, e, xi, sign in ((0, 0, 0.0, -1.0), (last, len(L) - 1, 1.0, 1.0)):
+        t0 = mm.x0[node][2:4]
+        _add(terms, "bending", "cable2d", "moment", None, [mm.elem_dofs()[e]], [[L[e], xi, sign * M, t0[0], t0[1]]])
 
 
 def distributed_term(terms: dict, mm: MemberMesh, f: np.ndarray) -> None:

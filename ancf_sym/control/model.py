@@ -18,36 +18,30 @@ from ..interpolation import Probe
 from ..assembly import LINEAR_EFFECTS
 from ..reduced import full_mx, partition
 from ..loads import point_force
+from ..scene import PointMass as ScenePointMass
 from ..scene import Scene, SceneError, _vector
 from ..sparsity import assemble_mx
 from .ingredients import PointForce, PointMass, SupportMotion
 
 
 class ControlAssembly(Assembly):
-    """A scene's Assembly with point masses: their mass on the node's position coordinates, their weight (under
-    scene.gravity) among the dead loads Q. Also what the dynamics integrator runs for the re-simulation."""
+    """A scene's Assembly with point masses (at nodes): they join the scene's own (Scene.point_mass: mass matrix
+    and weight under scene.gravity, ancf_sym.loads) in a copy of the scene, the user's scene left as it is. Also
+    what the dynamics integrator runs for the re-simulation."""
 
     def __init__(self, scene: Scene, point_masses: Sequence[PointMass] = ()):
-        super().__init__(scene)
+        import copy
+
         self.point_masses = list(point_masses)
-        self._pm_dofs = []
-        dim = scene.dim
+        with_masses = copy.copy(scene)
+        with_masses.point_masses = list(scene.point_masses)
         for i, pm in enumerate(self.point_masses):
             if not isinstance(pm, PointMass):
                 raise SceneError(f"point_masses[{i}] must be a PointMass, got {pm!r}")
             scene.check_at(pm.member, pm.at, node_only=True, field_name=f"point_masses[{i}].at")
             m = _num(f"point_masses[{i}].mass", pm.mass, positive=True)
-            mm = self.mesh.members[pm.member]
-            dofs = mm.node_dofs(mm.node(pm.at))[:dim]
-            self._pm_dofs.append((dofs, m))
-            self.Q[dofs] += m * np.asarray(scene.gravity, float)
-
-    def mass_matrix(self) -> sp.csc_matrix:
-        M = super().mass_matrix().tolil()
-        for dofs, m in self._pm_dofs:
-            for d in dofs:
-                M[d, d] += m
-        return M.tocsc()
+            with_masses.point_masses.append(ScenePointMass(pm.member, pm.at, m))
+        super().__init__(with_masses)
 
 
 def newton(residual: Callable, x: np.ndarray, tol: float, max_iter: int, halvings: int,
@@ -94,6 +88,10 @@ class ModelMixin:
             if not m.element.startswith("cable"):
                 raise SceneError(f"member {m.name!r}: optimal control is available for cable elements (cable2d, "
                                  f"cable3d), got {m.element!r}")
+            if m.arc_curvature is not None and m.bending:
+                raise SceneError(f"member {m.name!r}: curved members (arcs) are not supported by the control module "
+                                 "(their reference curvature acts through moment kernels, which have no "
+                                 "third-derivative companion)")
             if len(m.points) > 2:
                 raise SceneError(f"member {m.name!r}: polyline members (internal rigid joints) are not supported by "
                                  "the control module; use straight members")

@@ -50,6 +50,8 @@ class DynamicOptions:
     v0: np.ndarray | None = None  # initial velocities (full, default zero)
     initial: list | None = None  # initial velocities per member/body ([[initial]] tables, ancf_sym.initial)
     start: str | None = None  # "reference" (default) | "static": start from the static equilibrium
+    release: list | None = None  # supports of the static start released for the run (labels or indices)
+    from_result: str | None = None  # a result.json to start from (ancf_sym.initial.from_result)
 
     def __post_init__(self):
         check_fields(self, DYNAMIC_OPTIONS, "analysis")  # types and ranges as declared in ancf_sym.schema
@@ -59,6 +61,16 @@ class DynamicOptions:
                 raise fail("analysis.initial", "and v0 both give the initial velocities: give one", self.initial)
         if self.start == "static" and self.q0 is not None:
             raise fail("analysis.start", "= 'static' and q0 both give the initial state: give one", self.start)
+        if self.release is not None:
+            if self.start != "static":
+                raise fail("analysis.release", "releases supports after the starting statics: give start = "
+                           "\"static\" with it", self.release)
+            self.release = initial_state.check_release(self.release)
+        if self.from_result is not None:
+            for other in ("q0", "v0", "start"):
+                if getattr(self, other) is not None:
+                    raise fail("analysis.from_result", f"and {other} both give the initial state: give one",
+                               self.from_result)
         if self.t_end <= self.t_start:
             raise fail("analysis.t_end", f"must be greater than t_start = {self.t_start:g}", self.t_end)
         if self.dt > self.t_end - self.t_start:

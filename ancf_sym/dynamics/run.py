@@ -31,6 +31,30 @@ def _velocity_form(cons, q: np.ndarray, v: np.ndarray) -> np.ndarray:
                                     minlength=cons.m)
 
 
+def _position_source(opts: DynamicOptions) -> str:
+    """The field that gave the initial coordinates, as the user wrote it."""
+    if opts.from_result is not None:
+        return "analysis.from_result (its coordinates)"
+    if opts.start == "static":
+        return "analysis.start = 'static' (the static equilibrium)"
+    return "q0" if opts.q0 is not None else "the reference state (the members as given)"
+
+
+def _velocity_source(asm: Assembly, opts: DynamicOptions, coords: np.ndarray) -> str:
+    """The field that gave the initial velocity of these coordinates: `analysis.initial[i]` (naming its member or
+    body) when [[analysis.initial]] tables gave it, else `v0` (the Python API's full vector)."""
+    if not opts.initial:
+        return "analysis.from_result (its velocities)" if opts.from_result is not None else "v0"
+    owners = {name for name, mm in asm.mesh.members.items()
+              if np.any((coords >= mm.offset) & (coords < mm.offset + mm.x0.size))}
+    owners |= {name for name, o in asm.mesh.bodies.items()
+               if np.any((coords >= o) & (coords < o + len(asm.scene.bodies[name].q0)))}
+    for i, spec in enumerate(opts.initial):
+        if spec["member"] in owners:
+            return f"analysis.initial[{i}] (member {spec['member']!r})"
+    return "analysis.initial"
+
+
 def make_integrator(system: StepSystem, opts: DynamicOptions, counters: Counters, tol_q: float,
                     tol_x: float) -> Integrator:
     """The integrator the options name: an alpha scheme or collocation (Radau IIA, Gauss-Legendre)."""
@@ -44,6 +68,12 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
              system: StepSystem | None = None) -> DynamicResult:
     """Integrate a scene from options.t_start to options.t_end (see ancf_sym.dynamics)."""
     opts = options
+    held = None  # with release: the scene whose statics starts the run (the run's scene lacks those supports)
+    if opts.release:
+        if system is not None:
+            raise SceneError("analysis.release: give the scene (not a prepared step system) to release supports")
+        held = scene.scene if isinstance(scene, Assembly) else scene
+        scene = initial_state.released_scene(held, opts.release)
     asm = scene if isinstance(scene, Assembly) else Assembly(scene)
     scene = asm.scene
     if not scene.members and not scene.bodies:
@@ -60,8 +90,12 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
     # initial state
     q0 = asm.x0.copy() if opts.q0 is None else np.asarray(opts.q0, dtype=float).ravel()
     if opts.start == "static":
-        q0 = initial_state.static_start(scene)
+        q0 = initial_state.static_start(held or scene)
     v0 = np.zeros(asm.n) if opts.v0 is None else np.asarray(opts.v0, dtype=float).ravel()
+    if opts.from_result is not None:
+        q0, v_read = initial_state.read_result(opts.from_result, asm.n)
+        if v_read is not None:
+            v0 = v_read
     if opts.initial:
         v0 = initial_state.from_specs(asm, q0, opts.initial)
     for name, arr in (("q0", q0), ("v0", v0)):
@@ -69,8 +103,8 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
             raise SceneError(f"{name} must have {asm.n} entries (the scene's coordinates), got {arr.size}")
         if not np.all(np.isfinite(arr)):
             raise SceneError(f"{name} must be finite")
-    if opts.q0 is not None:
-        check_stretch(asm.mesh, q0, "q0")
+    if opts.q0 is not None or opts.from_result is not None:
+        check_stretch(asm.mesh, q0, "q0" if opts.from_result is None else "analysis.from_result")
     L = S.length_scale
     tol_x = opts.newton.xtol * L
     cons_tol = max(1e-8 * L, 10 * tol_x)
@@ -78,12 +112,14 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
         viol = np.abs(asm.exact.value(q0))
         if viol.max() > cons_tol:
             k = int(np.argmax(viol))
-            raise SceneError(f"q0 violates constraint {asm.exact.labels[k]!r} by {viol[k]:.3g} m (tolerance "
-                             f"{cons_tol:.3g} m)")
+            raise SceneError(f"{_position_source(opts)} violates constraint {asm.exact.labels[k]!r} by "
+                             f"{viol[k]:.3g} m (tolerance {cons_tol:.3g} m)")
         vv = np.abs(_velocity_form(asm.exact, q0, v0))
         if vv.max() > 1e-8 * max(1.0, float(np.abs(v0).max())):
             k = int(np.argmax(vv))
-            raise SceneError(f"v0 violates the velocity form of constraint {asm.exact.labels[k]!r} by {vv[k]:.3g}")
+            what = f"violates the velocity form of constraint {asm.exact.labels[k]!r} by {vv[k]:.3g}"
+            raise SceneError(f"{_velocity_source(asm, opts, asm.exact.jacobian(q0).getrow(k).indices)}: {what}"
+                             " (give a velocity the supports and joints allow, e.g. a rotation about a pin)")
     drv = S.drives
     if drv is not None and drv.m:  # the drives at t_start: position and velocity
         w0 = drv.w(opts.t_start)
@@ -92,6 +128,10 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
         for what, arr, tol in (("q0", viol, cons_tol), ("v0 (velocity form)", vv, 1e-8 * max(1.0, float(np.abs(v0).max())))):
             if arr.max() > tol:
                 k = int(np.argmax(arr))
+                if what == "q0":
+                    what = _position_source(opts)
+                elif opts.initial or opts.from_result is not None:
+                    what = f"{_velocity_source(asm, opts, drv.jacobian(q0, w0).getrow(k).indices)} (velocity form)"
                 raise SceneError(f"{what} violates drive {drv.labels[k]!r} at t_start = {opts.t_start:g} s by "
                                  f"{arr[k]:.3g} (start the body or node where and as fast as the drive prescribes, "
                                  "e.g. a motion that starts from rest)")

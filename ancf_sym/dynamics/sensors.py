@@ -11,8 +11,9 @@ from ..assembly import Assembly
 from ..checks import check_keys, fail
 from ..interpolation import Probe
 from ..scene import SceneError
+from ..schema import SENSOR
 
-SENSOR_KINDS = ("position", "displacement", "velocity", "strain", "curvature", "coordinates", "body")
+SENSOR_KINDS = SENSOR["kind"].choices
 
 
 @dataclass
@@ -36,12 +37,13 @@ class Sensor:
         if isinstance(d, Sensor):
             return d
         if not isinstance(d, dict):
-            raise SceneError(f"sensors[{index}] must be a table with kind, member, at; got {d!r}")
-        check_keys(f"sensors[{index}]", d, ("name", "kind", "member", "at"))
-        kind = d.get("kind")
-        if kind not in SENSOR_KINDS:
-            raise fail(f"sensors[{index}].kind", f"must be one of {' | '.join(SENSOR_KINDS)}", kind)
-        member = d.get("member")
+            raise SceneError(f"analysis.sensors[{index}] must be a table with kind, member, at; got {d!r}")
+        check_keys(f"analysis.sensors[{index}]", d, SENSOR, ("kind",))  # the keys declared in ancf_sym.schema
+        kind = SENSOR["kind"].check(f"analysis.sensors[{index}].kind", d["kind"])
+        check_keys(f"analysis.sensors[{index}]", d, SENSOR, ("member",))
+        member = SENSOR["member"].check(f"analysis.sensors[{index}].member", d["member"])
+        if "name" in d:
+            SENSOR["name"].check(f"analysis.sensors[{index}].name", d["name"])
         at = d.get("at", "end")
         name = d.get("name") or f"{kind}_{member}_{at}"
         return cls(str(name), kind, member, at)
@@ -55,17 +57,17 @@ class SensorEval:
         self.sensor = sensor
         if sensor.kind == "body":
             if sensor.member not in asm.mesh.bodies:
-                raise SceneError(f"sensors[{index}].member={sensor.member!r} names no body; bodies: "
-                                 f"{sorted(asm.mesh.bodies)}")
+                raise fail(f"analysis.sensors[{index}].member", f"names no body; bodies: {sorted(asm.mesh.bodies)}",
+                           sensor.member)
             self.offset = asm.mesh.bodies[sensor.member]
             self.spatial = scene.dim == 3
             return
         if sensor.member not in asm.mesh.members:
-            raise SceneError(f"sensors[{index}].member={sensor.member!r} names no member; members: "
-                             f"{sorted(asm.mesh.members)}")
+            raise fail(f"analysis.sensors[{index}].member", f"names no member; members: {sorted(asm.mesh.members)}",
+                       sensor.member)
         try:
             scene.check_at(sensor.member, sensor.at, node_only=sensor.kind == "coordinates",
-                            field_name=f"sensors[{index}].at")
+                            field_name=f"analysis.sensors[{index}].at")
         except SceneError:
             raise
         mm = asm.mesh.members[sensor.member]

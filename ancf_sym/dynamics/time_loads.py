@@ -7,9 +7,10 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..assembly import Assembly
-from ..checks import check_keys
+from ..checks import check_keys, fail, is_number
 from ..loads import point_force
 from ..scene import SceneError, _vector
+from ..schema import TIME_LOAD
 
 
 @dataclass
@@ -26,9 +27,27 @@ class TimeLoad:
         if isinstance(d, TimeLoad):
             return d
         if not isinstance(d, dict):
-            raise SceneError(f"loads[{index}] must be a table with member, at, force, history; got {d!r}")
-        check_keys(f"loads[{index}]", d, ("member", "at", "force", "history"), required=("member", "force", "history"))
+            raise SceneError(f"analysis.loads[{index}] must be a table with member, at, force, history; got {d!r}")
+        # the keys declared in ancf_sym.schema
+        check_keys(f"analysis.loads[{index}]", d, TIME_LOAD, required=("member", "force", "history"))
+        TIME_LOAD["member"].check(f"analysis.loads[{index}].member", d["member"])
+        check_history(f"analysis.loads[{index}].history", d["history"])
         return cls(d["member"], d.get("at", "end"), d["force"], d["history"])
+
+
+def check_history(path: str, history: Any) -> np.ndarray:
+    """[[t, factor], ...] as an (n, 2) array: finite numbers, times increasing; errors name `path`."""
+    pairs = history if isinstance(history, (list, tuple, np.ndarray)) else None
+    if pairs is None or not all(isinstance(p, (list, tuple, np.ndarray)) and len(p) == 2 for p in pairs):
+        raise fail(path, "must be a list of [t, factor] pairs", history)
+    for k, p in enumerate(pairs):  # (strings and booleans are not numbers)
+        for j, v in enumerate(p):
+            if not is_number(v):
+                raise fail(f"{path}[{k}][{j}]", "must be a number", v)
+    H = np.asarray(pairs, dtype=float).reshape(-1, 2)
+    if H.ndim != 2 or H.shape[1] != 2 or len(H) < 1 or not np.all(np.isfinite(H)) or np.any(np.diff(H[:, 0]) <= 0):
+        raise fail(path, "must be [t, factor] pairs with increasing finite times", history)
+    return H
 
 
 class LoadSum:
@@ -38,15 +57,9 @@ class LoadSum:
     def __init__(self, loads: list[TimeLoad], asm: Assembly, free: np.ndarray):
         self.vecs, self.hist = [], []
         for i, ld in enumerate(loads):
-            asm.scene.check_at(ld.member, ld.at, node_only=False, field_name=f"loads[{i}].at")
-            F = _vector(f"loads[{i}].force", ld.force, asm.scene.dim)
-            try:
-                H = np.asarray(ld.history, dtype=float)
-            except (TypeError, ValueError):
-                raise SceneError(f"loads[{i}].history must be a list of [t, factor] pairs, got {ld.history!r}") from None
-            if H.ndim != 2 or H.shape[1] != 2 or len(H) < 1 or not np.all(np.isfinite(H)) or np.any(np.diff(H[:, 0]) <= 0):
-                raise SceneError(f"loads[{i}].history must be [t, factor] pairs with increasing finite times, got "
-                                 f"{ld.history!r}")
+            asm.scene.check_at(ld.member, ld.at, node_only=False, field_name=f"analysis.loads[{i}].at")
+            F = _vector(f"analysis.loads[{i}].force", ld.force, asm.scene.dim)
+            H = check_history(f"analysis.loads[{i}].history", ld.history)
             mm = asm.mesh.members[ld.member]
             idx, val = point_force(mm, mm.coordinate(ld.at), F)
             q = np.zeros(asm.n)
