@@ -67,7 +67,7 @@ STATICS_STAGES = ["read scene", "assemble", "build IPOPT problem", "solve", "wri
 
 
 def run_statics(scene: Scene, analysis: dict, scene_file: Path, out: Path, progress: Progress, t_start: float,
-                samples: int, animation: bool = True) -> tuple[bool, str]:
+                samples: int | None, animation: bool = True) -> tuple[bool, str]:
     """Solve and write the outputs into `out`; (success, one-line summary)."""
     from .assembly import Assembly
     from .output_json import static_result_dict, write_json
@@ -93,14 +93,14 @@ def run_statics(scene: Scene, analysis: dict, scene_file: Path, out: Path, progr
     r = problem.solve(opts)
     wall_total = time.perf_counter() - t_start
     progress.stage("write result.json")
-    write_json(out / RESULT_FILE, static_result_dict(r, scene_file, analysis, wall_total))
+    write_json(out / RESULT_FILE, static_result_dict(r, scene_file, analysis, wall_total), clean=False)
     if r.success:
         from .plots import write_plots
-        from .vtk_out import write_vtu
+        from .vtk_out import DEFAULT_SAMPLES, samples_per_element, write_vtu
         progress.stage("plots")
-        write_plots(r, out, samples)
+        write_plots(r, out, samples or DEFAULT_SAMPLES)
         progress.stage("VTK")
-        write_vtu(r, out / "result.vtu", samples)
+        write_vtu(r, out / "result.vtu", samples_per_element(asm.mesh, samples))
     summary = (f"{scene.name}: {r.status}, {r.iterations} IPOPT iterations in {len(r.attempts)} attempt(s), "
                f"solve {r.wall_s:.3f} s, total {wall_total:.3f} s")
     if r.success:
@@ -112,7 +112,7 @@ DYNAMICS_STAGES = ["read scene", "assemble", "integrate", "write result.json, pl
 
 
 def run_dynamics_cli(scene: Scene, analysis: dict, scene_file: Path, out: Path, progress: Progress, t_start: float,
-                     samples: int, animation: bool = True) -> tuple[bool, str]:
+                     samples: int | None, animation: bool = True) -> tuple[bool, str]:
     """Integrate the scene (progress: simulated time) and write result.json, history.png, series.pvd + frames,
     motion.gif (animation)."""
     from .assembly import Assembly
@@ -140,7 +140,7 @@ def run_dynamics_cli(scene: Scene, analysis: dict, scene_file: Path, out: Path, 
 
 
 # analysis type -> (runner, its progress stages). A runner gets (scene, analysis dict, scene file, output directory
-# to fill, Progress, start time, samples per element, animation (dynamics: write motion.gif)) and returns
+# to fill, Progress, start time, samples per element (None: ancf_sym.vtk_out.samples_per_element), animation (dynamics: write motion.gif)) and returns
 # (success, one-line summary).
 ANALYSES = {"statics": (run_statics, STATICS_STAGES), "dynamics": (run_dynamics_cli, DYNAMICS_STAGES)}
 
@@ -163,7 +163,7 @@ def _cmd_run(args) -> int:
     scene_file = Path(args.scene)
     try:
         rd = ResultDir(Path(args.out))
-        if args.samples < 1:
+        if args.samples is not None and args.samples < 1:
             raise SceneError(f"--samples must be a positive integer, got {args.samples}")
         scene, analysis = load_scene(scene_file)
     except SceneError as exc:
@@ -292,7 +292,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("scene", help="scene file (TOML; see docs/scenes.md)")
     p.add_argument("--out", required=True, help="output directory (replaced only when the run succeeds)")
     p.add_argument("--quiet", action="store_true", help="no progress display, no summary line")
-    p.add_argument("--samples", type=int, default=8, help="samples per element in plots and VTK (default 8)")
+    p.add_argument("--samples", type=int, default=None,
+                   help="samples per element in plots and VTK (default 8; fewer on meshes of over 25 000 elements)")
     p.add_argument("--no-animation", action="store_true", help="dynamics: do not write motion.gif")
     p.set_defaults(func=cmd_run)
     k = sub.add_parser("kernels", help="list the compiled kernels")

@@ -17,7 +17,7 @@ from matplotlib.figure import Figure
 
 from . import contact, fields
 from .output_json import _clean, write_json
-from .vtk_out import section_point_data
+from .vtk_out import samples_per_element, section_point_data, write_mesh
 
 FRAME_PREFIX = "__node"
 
@@ -206,7 +206,7 @@ def write_series(result, directory: Path, per_element: int = 8) -> Path:
     section_data = section_point_data(result.assembly.mesh, per_element)
     full = _full_states(result) if result.assembly.scene.contacts else None
     for k, t in enumerate(result.t):
-        pts, cells, s_all, strain, curv, member = [], [], [], [], [], []
+        pts, cells, s_all, strain, axial, curv, member = [], [], [], [], [], [], []
         n0 = 0
         for m, (name, X) in enumerate(states.items()):
             f = fields.sample(result.assembly.mesh.members[name], X[k], per_element)
@@ -215,15 +215,17 @@ def write_series(result, directory: Path, per_element: int = 8) -> Path:
             pts.append(r)
             idx = n0 + np.arange(len(r))
             cells.append(("line", np.c_[idx[:-1], idx[1:]]))
-            s_all.append(f["s"]); strain.append(f["strain"]); curv.append(f["curvature"])
+            s_all.append(f["s"]); strain.append(f["strain"]); axial.append(f["axial_strain"])
+            curv.append(f["curvature"])
             member.append(np.full(len(r), m, dtype=np.int32))
             n0 += len(r)
         mesh = meshio.Mesh(np.vstack(pts), cells, point_data={
-            "s": np.concatenate(s_all), "strain": np.concatenate(strain), "curvature": np.concatenate(curv),
+            "s": np.concatenate(s_all), "strain": np.concatenate(strain), "axial_strain": np.concatenate(axial),
+            "curvature": np.concatenate(curv),
             "member": np.concatenate(member), **section_data,
             **(contact.point_data(result.assembly, full[k], per_element) if full else {})})
         fn = frames / f"frame_{k:05d}.vtu"
-        meshio.write(fn, mesh, file_format="vtu")
+        write_mesh(fn, mesh)
         entries.append(f'    <DataSet timestep={quoteattr(repr(float(t)))} part="0" file="frames/{fn.name}"/>')
     pvd = directory / "series.pvd"
     pvd.write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n  <Collection>\n'
@@ -231,10 +233,12 @@ def write_series(result, directory: Path, per_element: int = 8) -> Path:
     return pvd
 
 
-def write_outputs(result, scene_file, analysis: dict, out: Path, wall_total: float, per_element: int = 8,
+def write_outputs(result, scene_file, analysis: dict, out: Path, wall_total: float, per_element: int | None = 8,
                   animation: bool = True) -> None:
-    """result.json, history.png, the VTK series and (animation) motion.gif."""
+    """result.json, history.png, the VTK series and (animation) motion.gif; per_element None: as many samples per
+    element as vtk_out.samples_per_element gives the mesh."""
     write_json(out / "result.json", result_dict(result, scene_file, analysis, wall_total))
+    per_element = samples_per_element(result.assembly.mesh, per_element)
     if len(result.t):
         plot_histories(result, out / "history.png")
         write_series(result, out, per_element)

@@ -48,10 +48,11 @@ def element_fields(mm: MemberMesh, xn: np.ndarray, xi: np.ndarray) -> tuple[np.n
     # interpolation.weights with the element length moved onto the coefficients: one (k, 4) matrix for all elements
     one = np.ones_like(L)
 
-    def scaled(f_pos: np.ndarray, f_slope: np.ndarray) -> np.ndarray:  # (n_el, 4, dim)
-        return c * np.concatenate([f_pos, f_slope, f_pos, f_slope], axis=1)
+    def apply(m: np.ndarray, f_pos: np.ndarray, f_slope: np.ndarray) -> np.ndarray:
+        return m @ (c * np.concatenate([f_pos, f_slope, f_pos, f_slope], axis=1))  # (n_el, k, dim)
 
-    return h @ scaled(one, L), dh @ scaled(1 / L, one), ddh @ scaled(1 / L**2, 1 / L)
+    return apply(h, one, L), apply(dh, 1 / L, one), apply(ddh, 1 / L**2, 1 / L)
+
 
 
 def _norm(v: np.ndarray) -> np.ndarray:
@@ -83,6 +84,15 @@ def axial_strain(mm: MemberMesh, xn: np.ndarray, xi: np.ndarray) -> np.ndarray:
     if m.element == "beam3d" or m.axial == "green":
         return (g - 1) / 2
     return np.sqrt(g) - 1
+
+
+def positions(mm: MemberMesh, xn: np.ndarray, per_element: int = 8) -> np.ndarray:
+    """(k, dim) centre-line points along the member at the points of sample() (positions only: the cheap part)."""
+    h = np.stack(hermite.h(np.linspace(0.0, 1.0, per_element + 1)), axis=1)  # (k, 4)
+    c = _element_coefficients(mm, xn)
+    c[:, 1::2] *= mm.elem_length[:, None, None]  # r = h1 r(0) + L h2 r_x(0) + h3 r(L) + L h4 r_x(L)
+    r = h @ c  # (n_el, k, dim)
+    return np.concatenate([r[0, :1], r[:, 1:].reshape(-1, r.shape[2])])
 
 
 def sample(mm: MemberMesh, xn: np.ndarray, per_element: int = 8) -> dict:

@@ -82,7 +82,6 @@ def static_result_dict(result: StaticResult, scene_file: str | Path | None = Non
     """The JSON document of a static result (see the module docstring)."""
     asm = result.assembly
     scene = asm.scene
-    base = result.to_dict()
     members = {}
     for name, m in scene.members.items():
         effects = list(dict.fromkeys(t.label for t in asm.terms if name in _members_of(asm, t)))
@@ -95,17 +94,19 @@ def static_result_dict(result: StaticResult, scene_file: str | Path | None = Non
         "status": result.status,
         "success": result.success,
         "wall_s": {"solve": result.wall_s, "total": wall_total},
-        "energies": base["energies"],
-        "potential": base["potential"],
+        "energies": result.energies,
+        "potential": result.potential if result.success else None,
         "strain_energy": result.strain_energy,
         "solver": {"iterations": result.iterations, "attempts": result.attempts, "stable": result.stable},
         "constraint_violation": result.constraint_violation,
-        "constraint_forces": base["constraint_forces"],
+        "constraint_forces": {k: np.asarray(v) for k, v in result.constraint_forces.items()},
         "constraint_forces_sign": CONSTRAINT_FORCES_SIGN,
         # per contact: min_gap [m], normal_force [N]; exact ones also per point gaps and forces (the multipliers)
         "contacts": contact.report(asm, result.x)
         + contact_exact.report(asm, result.x, result.constraint_forces.get("contact")),
-        "members": {name: {**v, "tip": v["nodes"][-1]} for name, v in base["members"].items()},
+        # (arrays, as StaticResult.to_dict's lists: converted once, by _clean)
+        "members": {name: {"nodes": result.nodes(name), "slopes": result.slopes(name), "tip": result.tip(name)}
+                    for name in asm.mesh.members},
         "kernels": [{"label": t.label, "element": t.element, "effect": t.effect, "gauss": t.gauss,
                      "elements": int(t.idx.shape[0])} for t in asm.terms],
     }
@@ -119,11 +120,12 @@ def _members_of(asm, term) -> set:
             if np.any((first >= mm.offset) & (first < mm.offset + mm.x0.size))}
 
 
-def write_json(path: str | Path, doc: dict) -> Path:
+def write_json(path: str | Path, doc: dict, clean: bool = True) -> Path:
     """Strict JSON, one key per line; a list of numbers on one line, a list of such lists one row per line (json's
-    indenting encoder is pure Python: ~3 s for a 150 000-node result; this writes with json's C encoder)."""
+    indenting encoder is pure Python: ~3 s for a 150 000-node result; this writes with json's C encoder).
+    clean=False: doc is already _clean's output (static_result_dict), not converted twice."""
     path = Path(path)
-    path.write_text(_dumps(_clean(doc), 0) + "\n")
+    path.write_text(_dumps(_clean(doc) if clean else doc, 0) + "\n")
     return path
 
 
@@ -134,10 +136,10 @@ def _dumps(v, level: int) -> str:
             return "{}"
         items = [f"{inner}{json.dumps(k)}: {_dumps(x, level + 1)}" for k, x in v.items()]
         return "{\n" + ",\n".join(items) + "\n" + pad + "}"
-    if isinstance(v, list) and v and any(isinstance(x, dict) for x in v):
+    if isinstance(v, list) and v and isinstance(v[0], dict):
         return "[\n" + ",\n".join(inner + _dumps(x, level + 1) for x in v) + "\n" + pad + "]"
     text = json.dumps(v, allow_nan=False)
-    if isinstance(v, list) and v and all(isinstance(x, list) for x in v) and '"' not in text and \
-            text.count("[") == len(v) + 1:  # rows of numbers (no strings, no deeper lists): one row per line
+    if isinstance(v, list) and len(v) > 1 and '"' not in text and "{" not in text and \
+            text.count("[") == len(v) + 1:  # rows of numbers (every item a list, none deeper): one row per line
         return "[\n" + inner + text[1:-1].replace("], [", "],\n" + inner + "[") + "\n" + pad + "]"
     return text

@@ -23,6 +23,7 @@ from .interpolation import Probe
 from .statics import StaticResult
 
 MAX_POINTS = 2000  # points per curve: a few per pixel column of the saved figures
+ENVELOPE_POINTS = 200_000  # samples a field's envelope is taken from (per member; at least 2 per element)
 SMALL_DEFLECTION = 0.05  # max displacement below this fraction of the structure's size: the shape is magnified
 SHOWN_DEFLECTION = 0.15  # ... so that it is drawn as about this fraction (a 1-2-5 factor)
 
@@ -51,7 +52,7 @@ def member_shapes(assembly, x: np.ndarray, per_element: int = 8) -> dict[str, np
     out = {}
     for name, mm in assembly.mesh.members.items():
         pe = plot_per_element(len(mm.elem_nodes), per_element)
-        out[name] = _decimate(fields.sample(mm, assembly.member_coordinates(x, name), pe)["r"])
+        out[name] = _decimate(fields.positions(mm, assembly.member_coordinates(x, name), pe))
     return out
 
 
@@ -250,8 +251,8 @@ def plot_shape(result: StaticResult, path: str | Path, per_element: int = 8) -> 
     refs, curs = {}, {}
     for name, mm in asm.mesh.members.items():
         pe = plot_per_element(len(mm.elem_nodes), per_element)
-        refs[name] = _decimate(fields.sample(mm, mm.x0, pe)["r"])
-        curs[name] = _decimate(fields.sample(mm, asm.member_coordinates(result.x, name), pe)["r"])
+        refs[name] = _decimate(fields.positions(mm, mm.x0, pe))
+        curs[name] = _decimate(fields.positions(mm, asm.member_coordinates(result.x, name), pe))
     factor, dmax, size = magnification(list(refs.values()), list(curs.values()))
     view = _View(result, factor)
     fig = Figure(figsize=(8, 5), layout="constrained")
@@ -299,9 +300,9 @@ def plot_fields(result: StaticResult, path: str | Path, per_element: int = 8) ->
     measures = {name: fields.axial_measure(m) for name, m in scene.members.items()}
     one = len(set(measures.values())) == 1
     for k, (name, mm) in enumerate(asm.mesh.members.items()):
-        # the envelope needs every element's extremes: at least 4 samples per element (cheap: vectorised)
-        f = fields.sample(mm, asm.member_coordinates(result.x, name), max(4, per_element)
-                          if len(mm.elem_nodes) * per_element <= 2_000_000 else 1)
+        # the envelope shows every element's extremes: a few samples per element (ends and middle at least)
+        f = fields.sample(mm, asm.member_coordinates(result.x, name), max(2, min(per_element,
+                          ENVELOPE_POINTS // len(mm.elem_nodes))))
         ax_e.plot(*envelope(f["s"], f["axial_strain"]), color=f"C{k % 10}",
                   label=name if one else f"{name}: {measures[name]}")
         ax_k.plot(*envelope(f["s"], f["curvature"]), color=f"C{k % 10}", label=name)
