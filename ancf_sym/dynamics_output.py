@@ -122,6 +122,14 @@ def energy_terms(energies: dict) -> tuple[dict, list[str]]:
 
 
 def plot_histories(result, path: Path) -> Path:
+    """history_figure saved as a PNG."""
+    fig = history_figure(result)
+    FigureCanvasAgg(fig)
+    fig.savefig(path, dpi=110)
+    return path
+
+
+def history_figure(result) -> Figure:
     """One panel per sensor quantity (its unit and component names on the axis and in the legend), the energies
     that are not zero throughout, and the energy the integrator removed (if any); legends beside the data."""
     asm = result.assembly
@@ -165,9 +173,7 @@ def plot_histories(result, path: Path) -> Path:
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel("time t [s]")
     axes[0].set_title(f"{asm.scene.name}: {result.integrator}, {result.status} at t = {result.t_reached:.4g} s")
-    FigureCanvasAgg(fig)
-    fig.savefig(path, dpi=110)
-    return path
+    return fig
 
 
 def write_animation(result, path: Path, per_element: int = 8) -> Path:

@@ -245,6 +245,11 @@ def draw_gravity(ax, gravity) -> None:
 
 
 def plot_shape(result: StaticResult, path: str | Path, per_element: int = 8) -> Path:
+    """shape_figure saved as a PNG."""
+    return _save(shape_figure(result, per_element), Path(path))
+
+
+def shape_figure(result: StaticResult, per_element: int = 8) -> Figure:
     """Deformed shape (solid, magnified where small, the factor in the title and legend), the undeformed reference
     (dashed), supports, joints, contacts and loads of every member."""
     scene, asm = result.assembly.scene, result.assembly
@@ -287,10 +292,15 @@ def plot_shape(result: StaticResult, path: str | Path, per_element: int = 8) -> 
         title += f"\ndisplacements drawn magnified x {factor:g}"
     ax.set_title(title)
     fig.legend(loc="outside right upper", fontsize="small")
-    return _save(fig, Path(path))
+    return fig
 
 
 def plot_fields(result: StaticResult, path: str | Path, per_element: int = 8) -> Path:
+    """fields_figure saved as a PNG."""
+    return _save(fields_figure(result, per_element), Path(path))
+
+
+def fields_figure(result: StaticResult, per_element: int = 8) -> Figure:
     """The axial strain each member's energy uses (its measure on the axis or in the legend) [-] and the curvature
     [1/m] against the material coordinate s [m], per member; min/max envelopes where the mesh is finer than the
     screen."""
@@ -317,7 +327,7 @@ def plot_fields(result: StaticResult, path: str | Path, per_element: int = 8) ->
         ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
     fig.legend(*ax_e.get_legend_handles_labels(), loc="outside right upper", fontsize="small")
     fig.suptitle(f"{scene.name}: strain and curvature along the members")
-    return _save(fig, Path(path))
+    return fig
 
 
 def write_plots(result: StaticResult, directory: str | Path, per_element: int = 8) -> list[Path]:
