@@ -171,6 +171,7 @@ def history_figure(result) -> Figure:
         axes[-1].set_ylabel("removed by the\nintegrator [J]", fontsize="small")
     for ax in axes:
         ax.grid(alpha=0.3)
+        ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 4))
     axes[-1].set_xlabel("time t [s]")
     axes[0].set_title(f"{asm.scene.name}: {result.integrator}, {result.status} at t = {result.t_reached:.4g} s")
     return fig

@@ -250,8 +250,8 @@ def plot_shape(result: StaticResult, path: str | Path, per_element: int = 8) -> 
 
 
 def shape_figure(result: StaticResult, per_element: int = 8) -> Figure:
-    """Deformed shape (solid, magnified where small, the factor in the title and legend), the undeformed reference
-    (dashed), supports, joints, contacts and loads of every member."""
+    """Deformed shape (solid, magnified where small, the factor in the title and legend; never in a scene with
+    contacts), the undeformed reference (dashed), supports, joints, contacts and loads of every member."""
     scene, asm = result.assembly.scene, result.assembly
     refs, curs = {}, {}
     for name, mm in asm.mesh.members.items():
@@ -259,6 +259,8 @@ def shape_figure(result: StaticResult, per_element: int = 8) -> Figure:
         refs[name] = _decimate(fields.positions(mm, mm.x0, pe))
         curs[name] = _decimate(fields.positions(mm, asm.member_coordinates(result.x, name), pe))
     factor, dmax, size = magnification(list(refs.values()), list(curs.values()))
+    if scene.contacts:  # a magnified shape would cross the grounds and drums it touches: drawn as it is
+        factor = 1.0
     view = _View(result, factor)
     fig = Figure(figsize=(8, 5), layout="constrained")
     ax = fig.add_subplot(projection="3d" if scene.dim == 3 else None)

@@ -4,7 +4,7 @@ against the solve's total that result.json states, wall_s.total = reading the sc
 output stages one by one in this process on the same result (result.json, shape.png, fields.png, result.vtu).
 
 Run: python bench/output_cost.py [N ...]   (default 150000)
-The figure (issue: "150 000-element statics through the CLI: wall time <= 3x the solve's total") and the log are in
+The figure (150 000-element statics through the command line: wall time <= 3x the solve's total) and the log are in
 bench/OUTPUT_RESULTS.md.
 """
 from __future__ import annotations
