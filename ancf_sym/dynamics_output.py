@@ -244,7 +244,7 @@ def write_outputs(result, scene_file, analysis: dict, out: Path, wall_total: flo
                   animation: bool = True) -> None:
     """result.json, history.png, the VTK series and (animation) motion.gif; per_element None: as many samples per
     element as vtk_out.samples_per_element gives the mesh."""
-    write_json(out / "result.json", result_dict(result, scene_file, analysis, wall_total))
+    write_json(out / "result.json", result_dict(result, scene_file, analysis, wall_total), clean=False)
     per_element = samples_per_element(result.assembly.mesh, per_element)
     if len(result.t):
         plot_histories(result, out / "history.png")
