@@ -1,13 +1,15 @@
 """Command line.
 
-    ancf-sym run SCENE.toml --out DIR [--quiet] [--samples N]   solve the scene's [analysis], write DIR/
+    ancf-sym run SCENE.toml --out DIR [--quiet] [--samples N] [--no-animation]
+                                                                solve the scene's [analysis], write DIR/
     ancf-sym kernels [--json]                                   the compiled kernel catalogue
     ancf-sym study NAME --out DIR [--quick] [--jobs N | --scheduler ADDRESS] [--sweep AXIS=V1,V2 ...] [--target E]
                                                                 what accuracy costs in time (ancf_sym.study)
     ancf-sym study --list                                       the studies
 
 `run` writes DIR/result.json, DIR/shape.png, DIR/fields.png, DIR/result.vtu and a copy of the scene as
-DIR/scene.toml. Everything is written into a temporary sibling directory first (ancf_sym.result_dir); DIR is
+DIR/scene.toml (dynamics: DIR/history.png, DIR/series.pvd with DIR/frames/, and DIR/motion.gif unless
+--no-animation). Everything is written into a temporary sibling directory first (ancf_sym.result_dir); DIR is
 replaced only when the solve succeeded, so a failed run never overwrites a previous good DIR: its status goes to
 DIR.failed/ instead. Exit codes: 0 success, 1 the solve failed (or an unexpected error, traceback in
 DIR.failed/traceback.txt; or finished results that could not replace DIR, kept beside it), 2 bad input (the scene's
@@ -65,7 +67,7 @@ STATICS_STAGES = ["read scene", "assemble", "build IPOPT problem", "solve", "wri
 
 
 def run_statics(scene: Scene, analysis: dict, scene_file: Path, out: Path, progress: Progress, t_start: float,
-                samples: int) -> tuple[bool, str]:
+                samples: int | None, animation: bool = True) -> tuple[bool, str]:
     """Solve and write the outputs into `out`; (success, one-line summary)."""
     from .assembly import Assembly
     from .output_json import static_result_dict, write_json
@@ -91,14 +93,14 @@ def run_statics(scene: Scene, analysis: dict, scene_file: Path, out: Path, progr
     r = problem.solve(opts)
     wall_total = time.perf_counter() - t_start
     progress.stage("write result.json")
-    write_json(out / RESULT_FILE, static_result_dict(r, scene_file, analysis, wall_total))
+    write_json(out / RESULT_FILE, static_result_dict(r, scene_file, analysis, wall_total), clean=False)
     if r.success:
         from .plots import write_plots
-        from .vtk_out import write_vtu
+        from .vtk_out import DEFAULT_SAMPLES, samples_per_element, write_vtu
         progress.stage("plots")
-        write_plots(r, out, samples)
+        write_plots(r, out, samples or DEFAULT_SAMPLES)
         progress.stage("VTK")
-        write_vtu(r, out / "result.vtu", samples)
+        write_vtu(r, out / "result.vtu", samples_per_element(asm.mesh, samples))
     summary = (f"{scene.name}: {r.status}, {r.iterations} IPOPT iterations in {len(r.attempts)} attempt(s), "
                f"solve {r.wall_s:.3f} s, total {wall_total:.3f} s")
     if r.success:
@@ -106,12 +108,13 @@ def run_statics(scene: Scene, analysis: dict, scene_file: Path, out: Path, progr
     return r.success, summary
 
 
-DYNAMICS_STAGES = ["read scene", "assemble", "integrate", "write result.json, plots, VTK series"]
+DYNAMICS_STAGES = ["read scene", "assemble", "integrate", "write result.json, plots, VTK series, animation"]
 
 
 def run_dynamics_cli(scene: Scene, analysis: dict, scene_file: Path, out: Path, progress: Progress, t_start: float,
-                     samples: int) -> tuple[bool, str]:
-    """Integrate the scene (progress: simulated time) and write result.json, history.png, series.pvd + frames."""
+                     samples: int | None, animation: bool = True) -> tuple[bool, str]:
+    """Integrate the scene (progress: simulated time) and write result.json, history.png, series.pvd + frames,
+    motion.gif (animation)."""
     from .assembly import Assembly
     from .dynamics import options_from_dict, simulate
     from .dynamics_output import frame_sensors, write_outputs
@@ -128,8 +131,8 @@ def run_dynamics_cli(scene: Scene, analysis: dict, scene_file: Path, out: Path, 
 
     r = simulate(asm, opts, report)
     wall_total = time.perf_counter() - t_start
-    progress.stage("write result.json, plots, VTK series")
-    write_outputs(r, scene_file, analysis, out, wall_total, samples)
+    progress.stage("write result.json, plots, VTK series, animation")
+    write_outputs(r, scene_file, analysis, out, wall_total, samples, animation)
     summary = (f"{scene.name}: {r.status} at t = {r.t_reached:.6g} s, {r.steps} steps, "
                f"{r.newton_iterations} Newton iterations, {len(r.rejected)} rejected; integrate {r.wall_s:.3f} s, "
                f"total {wall_total:.3f} s")
@@ -137,7 +140,8 @@ def run_dynamics_cli(scene: Scene, analysis: dict, scene_file: Path, out: Path, 
 
 
 # analysis type -> (runner, its progress stages). A runner gets (scene, analysis dict, scene file, output directory
-# to fill, Progress, start time, samples per element) and returns (success, one-line summary).
+# to fill, Progress, start time, samples per element (None: ancf_sym.vtk_out.samples_per_element), animation (dynamics: write motion.gif)) and returns
+# (success, one-line summary).
 ANALYSES = {"statics": (run_statics, STATICS_STAGES), "dynamics": (run_dynamics_cli, DYNAMICS_STAGES)}
 
 
@@ -159,7 +163,7 @@ def _cmd_run(args) -> int:
     scene_file = Path(args.scene)
     try:
         rd = ResultDir(Path(args.out))
-        if args.samples < 1:
+        if args.samples is not None and args.samples < 1:
             raise SceneError(f"--samples must be a positive integer, got {args.samples}")
         scene, analysis = load_scene(scene_file)
     except SceneError as exc:
@@ -192,7 +196,8 @@ def _run_in(rd: ResultDir, scene, analysis, scene_file, runner, progress, t_star
     tmp = rd.tmp
     try:
         shutil.copyfile(scene_file, tmp / "scene.toml")
-        ok, summary = runner(scene, analysis, scene_file, tmp, progress, t_start, args.samples)
+        ok, summary = runner(scene, analysis, scene_file, tmp, progress, t_start, args.samples,
+                             not args.no_animation)
     except SceneError:  # a value only the assembly or solver could refuse
         raise
     except Exception as exc:  # noqa: BLE001 - one line to the user, the traceback into DIR.failed
@@ -287,7 +292,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("scene", help="scene file (TOML; see docs/scenes.md)")
     p.add_argument("--out", required=True, help="output directory (replaced only when the run succeeds)")
     p.add_argument("--quiet", action="store_true", help="no progress display, no summary line")
-    p.add_argument("--samples", type=int, default=8, help="samples per element in plots and VTK (default 8)")
+    p.add_argument("--samples", type=int, default=None,
+                   help="samples per element in plots and VTK (default 8; fewer on meshes of over 25 000 elements)")
+    p.add_argument("--no-animation", action="store_true", help="dynamics: do not write motion.gif")
     p.set_defaults(func=cmd_run)
     k = sub.add_parser("kernels", help="list the compiled kernels")
     k.add_argument("--json", action="store_true", help="the full catalogue as JSON")

@@ -155,7 +155,8 @@ class StaticResult:
         return dict(zip(("x", "y", "angle"), self.body(name)))
 
     def along(self, member: str, per_element: int = 8) -> dict:
-        """s, r, axial strain |r_x|-1 and curvature along the member."""
+        """s, r, stretch |r_x|-1 ("strain"), the member's own axial strain measure ("axial_strain",
+        fields.axial_measure) and curvature along the member (ancf_sym.fields.sample)."""
         mm = self.assembly.mesh.members[member]
         return fields.sample(mm, self.assembly.member_coordinates(self.x, member), per_element)
 
