@@ -1,0 +1,155 @@
+"""The linearised equations of motion of a scene about a state (an equilibrium, usually), on its reduced coordinates:
+
+    M y'' + D y' + K_L y + G^T mu = B u,    G y = 0
+
+y are the unknowns left once supports and hinges are eliminated (x = E y + c, ancf_sym.reduced); G is the Jacobian of
+the exact rows that keep multipliers (rigid joints, skew clamps); K_L the exact Hessian of the Lagrangian: the
+potential's Hessian from the kernels (geometric stiffness of the prestress and penalty springs and penalty contacts
+included) plus sum_i lambda_i Hess(Phi_i) of the multiplier rows (bilinear: a constant curvature). D is Rayleigh
+damping alpha M + beta K_el (K_el: the elastic terms' Hessian at the state, per member as the scene declares it).
+B maps point forces at the members' nodes (world components) to generalized forces.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from .. import contact
+from ..assembly import Assembly
+from ..dynamics import damping
+from ..reduced import Partition, partition
+from ..scene import Scene, SceneError
+from ..statics import StaticProblem, StaticResult, problem_for
+
+
+@dataclass
+class Linearization:
+    """The linear model about a state x (full coordinates). Matrices act on the reduced unknowns y (x = E y + c):
+    M (mass), K (Hessian of the Lagrangian K_L), D (Rayleigh damping; None without damping), G (Jacobian of the
+    exact rows with multipliers, m x ny), B (generalized forces of the inputs, ny x nu: the point forces at every
+    member node, labelled by `inputs`)."""
+    M: sp.csc_matrix
+    K: sp.csc_matrix
+    D: sp.csc_matrix | None
+    G: sp.csr_matrix
+    B: sp.csc_matrix
+    E: sp.csc_matrix  # full coordinates of the unknowns: dx = E dy
+    x: np.ndarray  # the state (full coordinates)
+    multipliers: np.ndarray  # lambda of the rows of G (the exact rows kept with multipliers)
+    inputs: list = field(default_factory=list)  # (member, node, component) of each column of B
+    assembly: Assembly | None = field(default=None, repr=False)
+
+    @property
+    def size(self) -> int:
+        return self.M.shape[0]
+
+    def full(self, y: np.ndarray) -> np.ndarray:
+        """Full-coordinate perturbations of reduced ones (columns of y too)."""
+        return self.E @ y
+
+    def condensed_stiffness(self, points: list[tuple[str, object]]) -> np.ndarray:
+        """The static stiffness the structure offers at chosen points: [(member, at), ...] with at a node ("start",
+        "end" or an index of the member's public nodes); returns the (dim k) x (dim k) matrix of forces on the
+        points' positions per unit displacement of them, the rest of the structure free (its equilibrium with the
+        constraints: the Schur complement of K_L). Needs a stable, constrained state (K_L regular)."""
+        asm = self.assembly
+        cols = []
+        for member, at in points:
+            mm = asm.mesh.members[member]
+            node = {"start": mm.public_nodes[0], "end": mm.public_nodes[-1]}.get(at) if isinstance(at, str) else \
+                mm.public_nodes[int(at)]
+            if node is None:
+                raise SceneError(f"condensed_stiffness: at={at!r} for member {member!r} is not 'start', 'end' or a "
+                                 "node index")
+            cols.extend(mm.node_dofs(node)[:asm.scene.dim])
+        P = self.E.T.tocsr()[cols].T.tocsc()  # unknowns of the chosen coordinates
+        if np.any(np.asarray(abs(P).sum(axis=0)).ravel() == 0):
+            raise SceneError(f"condensed_stiffness: a point of {points!r} is held by a support (no free coordinate)")
+        # the flexibility P^T K^-1 P with the constraints (KKT), inverted: the condensed stiffness
+        m = self.G.shape[0]
+        kkt = sp.bmat([[self.K, self.G.T], [self.G, None]], format="csc")
+        rhs = np.vstack([P.toarray(), np.zeros((m, P.shape[1]))])
+        sol = sp.linalg.splu(kkt).solve(rhs)[:self.size]
+        flex = P.T @ sol
+        return np.linalg.inv(0.5 * (flex + flex.T))
+
+
+def _state(prob: StaticProblem, state) -> np.ndarray:
+    if state is None:
+        res = prob.solve()
+        if not res.success:
+            raise SceneError(f"linearize: the static equilibrium failed ({res.status}); pass a state")
+        return res.x
+    x = state.x if isinstance(state, StaticResult) else np.asarray(state, float)
+    if x.shape != (prob.asm.n,) or not np.all(np.isfinite(x)):
+        raise SceneError(f"linearize: state must be a StaticResult or {prob.asm.n} finite coordinates, got shape "
+                         f"{np.shape(x)}")
+    return x
+
+
+def check_modal_scene(asm: Assembly, what: str) -> None:
+    """Refuse, before any work, what the linear model does not hold."""
+    exact = contact.exact_contacts(asm)
+    if exact:
+        raise SceneError(f"{what}: contact on member {exact[0].member!r} has method='exact' (unilateral rows); the "
+                         "linear model takes penalty contacts (method='penalty'), whose tangent it includes")
+
+
+def linearize(scene: Scene, state: StaticResult | np.ndarray | None = None, damping_matrix: bool = True,
+              problem: StaticProblem | None = None) -> Linearization:
+    """M, K_L, D, G, B about `state` (a StaticResult or full coordinates; None: the static equilibrium, solved
+    here). At an equilibrium the multipliers are exact; elsewhere they are the least-squares ones (K_L then holds
+    the constraint curvature of that estimate). damping_matrix=False skips D."""
+    prob = problem if problem is not None else problem_for(scene)
+    asm = prob.asm
+    check_modal_scene(asm, "linearize")
+    srd = damping.strain_rate_data(asm) if damping_matrix else None
+    if srd is not None:
+        raise SceneError("linearize: strain_rate_damping has no linear damping matrix here yet; use rayleigh "
+                         "damping, or damping_matrix=False for the undamped model")
+    x = _state(prob, state)
+    part: Partition = partition(asm)
+    ev = asm.evaluate(x, hessian=True)
+    H = ev.hessian
+    lam_all = prob.multipliers(x, ev.gradient) if asm.exact.m else np.zeros(0)
+    if len(asm.exact.qrow):  # bilinear rows (rigid joints' slopes): their curvature, lambda-weighted
+        H = (H + asm.exact.hessian(lam_all)).tocsc()
+    K = part.reduce_matrix(H)
+    K = (0.5 * (K + K.T)).tocsc()  # (the kernels' Hessians are symmetric to round-off; eigsh reads both triangles)
+    M = part.reduce_matrix(asm.mass_matrix())
+    rows = part.rows
+    if len(rows):
+        cons = asm.exact.subset(rows)
+        G = (cons.jacobian(x) @ part.E).tocsr()
+        lam = lam_all[rows]
+    else:
+        G, lam = sp.csr_matrix((0, part.ny)), np.zeros(0)
+    D = _rayleigh(asm, x, part, M) if damping_matrix else None
+    cols, inputs = [], []
+    for name, mm in asm.mesh.members.items():
+        for k, node in enumerate(mm.public_nodes):
+            for d, dof in enumerate(mm.node_dofs(node)[:asm.scene.dim]):
+                cols.append(dof)
+                inputs.append((name, k, "xyz"[d]))
+    P = sp.csc_matrix((np.ones(len(cols)), (np.asarray(cols), np.arange(len(cols)))), shape=(asm.n, len(cols)))
+    B = (part.E.T @ P).tocsc()
+    return Linearization(M, K, D, G, B, part.E, x, lam, inputs, asm)
+
+
+def _rayleigh(asm: Assembly, x: np.ndarray, part: Partition, M: sp.csc_matrix) -> sp.csc_matrix | None:
+    """alpha M + beta K_el: K_el the elastic terms' Hessian at x weighted per member (dynamics' Rayleigh data)."""
+    ray = damping.rayleigh_data(asm, asm.curved)
+    if ray is None or not (ray.alpha or ray.beta):
+        return None
+    D = ray.alpha * M
+    if ray.beta:
+        vals = []
+        for ti, mk in enumerate(asm.curved):
+            mk(x)
+            w = ray.element_weight.get(ti)
+            vals.append((mk.H * (w[:, None, None] if w is not None else 1.0)).ravel())
+        Kel = part.reduce_matrix(asm.hessian_of(np.concatenate(vals)))
+        D = D + ray.beta * 0.5 * (Kel + Kel.T)
+    return sp.csc_matrix(D)
