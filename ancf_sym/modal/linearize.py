@@ -64,7 +64,7 @@ class Linearization:
                 raise SceneError(f"condensed_stiffness: at={at!r} for member {member!r} is not 'start', 'end' or a "
                                  "node index")
             cols.extend(mm.node_dofs(node)[:asm.scene.dim])
-        P = self.E.T.tocsr()[cols].T.tocsc()  # unknowns of the chosen coordinates
+        P = self.E.tocsr()[cols].T.tocsc()  # (ny, k): the unknowns of the chosen coordinates
         if np.any(np.asarray(abs(P).sum(axis=0)).ravel() == 0):
             raise SceneError(f"condensed_stiffness: a point of {points!r} is held by a support (no free coordinate)")
         # the flexibility P^T K^-1 P with the constraints (KKT), inverted: the condensed stiffness

@@ -1,0 +1,278 @@
+"""Modal analysis about an equilibrium (ancf_sym.modal) against closed-form frequencies: each case's tolerance is the
+discretisation error of its mesh (cubic Hermite elements: the error falls ~h^4 for cables and Euler-Bernoulli beams,
+~h^2 for the beam3d continuum) or the modelling error of the reference theory, and refinement tests assert the error
+falls toward the reference."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+from ancf_sym import Material, Scene, SceneError, Section, linearize, modal_analysis
+from ancf_sym.modal import eigen
+
+G = 9.81
+STEEL = Material(E=2e11, density=7800.0)
+BAR = Section.rectangle(0.01, 0.01)
+
+
+def cantilever(n: int, free: bool = False) -> Scene:
+    s = Scene(dim=2, gravity=(0.0, 0.0))
+    s.member("beam", [(0, 0), (1.0, 0)], n, STEEL, BAR)
+    if not free:
+        s.clamp("beam", "start")
+    return s
+
+
+def beta_l(freq: np.ndarray) -> np.ndarray:
+    """beta L = (w^2 rho A / EI)^(1/4) L of an Euler-Bernoulli beam of length 1."""
+    w = 2 * np.pi * np.asarray(freq)
+    return (w ** 2 * STEEL.density * BAR.area / (STEEL.E * BAR.bending_inertia)) ** 0.25
+
+
+CLAMPED_FREE = np.array([1.875104, 4.694091, 7.854757])
+
+
+def test_cantilever_euler_bernoulli_and_refinement():
+    # Euler-Bernoulli beam (slender: h/L = 1/100, the shear and rotary-inertia corrections are ~(h/L)^2 ~ 1e-4 of
+    # beta L and the ANCF cable has neither): within 1e-3 at 16 elements (the issue's bar); the third mode's error
+    # falls with refinement (cubic Hermite: ~h^4 in w^2)
+    errs = []
+    for n in (4, 8, 16):
+        r = modal_analysis(cantilever(n), modes=4)
+        assert r.success and not np.any(r.zero)
+        errs.append(np.abs(beta_l(r.frequencies[:3]) / CLAMPED_FREE - 1))
+    assert np.all(errs[-1] < 1e-3)
+    assert errs[0][2] > errs[1][2] > errs[2][2]
+    # mode shapes: mass-normalised, the tip moves in the first mode
+    lin = r.linearization
+    Y = lin.E.T @ r.shapes  # (E's columns are unit selections: E^T x_full gives the unknowns)
+    assert np.allclose(Y.T @ lin.M @ Y, np.eye(r.modes), atol=1e-9)
+    assert abs(r.displacements(0, "beam")[-1, 1]) > 0 and r.modal_masses[0] > 0
+
+
+def test_free_beam_zero_modes_shift_invert():
+    # free-free beam, 120 elements (484 unknowns: the sparse shift-invert path): three rigid motions reported at
+    # zero, then beta L = 4.730041, 7.853205 (refinement error at 120 elements ~1e-8)
+    r = modal_analysis(cantilever(120, free=True), modes=5)
+    assert r.method.startswith("shift-invert")
+    assert list(r.zero) == [True, True, True, False, False]
+    assert np.all(r.frequencies[:3] == 0.0)
+    assert np.allclose(beta_l(r.frequencies[3:]), [4.730041, 7.853205], rtol=1e-5)
+
+
+def test_shift_invert_fine_mesh_and_dense_agree():
+    # 120 elements: shift-invert resolves the lowest modes to their own precision (the discretisation error is
+    # ~1e-9 there): beta L within 1e-6; on 8 elements the dense pencil and shift-invert give the same w^2 to 1e-6
+    # (the dense solve's error is round-off of the highest w^2, an axial mode ~1e4 x... 1e8 above the lowest: ~1e-8)
+    r = modal_analysis(cantilever(120), modes=3)
+    assert r.method.startswith("shift-invert") and np.allclose(beta_l(r.frequencies), CLAMPED_FREE, rtol=1e-6)
+    lin = linearize(cantilever(8))
+    w_d, _ = eigen.dense_modes(lin.K, lin.M, lin.G, 3)
+    w_s, _, sigma = eigen.sparse_modes(lin.K, lin.M, lin.G, 3)
+    assert sigma == 0.0 and np.allclose(w_s, w_d, rtol=1e-6)
+
+
+def hanging_chain(n: int) -> Scene:
+    # a chain: cable without bending, EA large (gravity strain rho g L / E = 1e-6)
+    s = Scene(dim=2, gravity=(0.0, -G))
+    s.member("chain", [(0, 0), (0, -1.0)], n, Material(E=1e10, density=1000.0), Section(area=1e-4), bending=False)
+    s.pin("chain", "start")
+    return s
+
+
+def test_hanging_chain_bessel():
+    # omega_n = (j0_n / 2) sqrt(g / L) (inextensible chain; the extension 1e-6 shifts it by ~1e-6): within 1e-5 at
+    # 16 elements, the third mode's error falling with refinement
+    j0 = np.array([2.404826, 5.520078, 8.653728])
+    exact = j0 / 2 * np.sqrt(G / 1.0)
+    errs = []
+    for n in (4, 16):
+        r = modal_analysis(hanging_chain(n), modes=3)
+        assert r.success and r.static.success
+        errs.append(np.abs(2 * np.pi * r.frequencies / exact - 1))
+    assert np.all(errs[1] < 1e-5)
+    assert errs[0][2] > 10 * errs[1][2]
+
+
+def sagging_cable(lam2: float, dim: int = 2, n: int = 40) -> tuple[Scene, float]:
+    """A cable between two pins 100 m apart, sag/span 1/50, EA chosen for Irvine's lambda^2; returns (scene, EA)."""
+    span, A, rho, d = 100.0, 1e-3, 1000.0, 1 / 50
+    m = rho * A
+    H = m * G * span / (8 * d)
+    EA = lam2 * H ** 3 / (m * G * span) ** 2 * (1 + 8 * d ** 2)
+    arc = span * (1 + 8 / 3 * d ** 2)
+    prestrain = span / (arc / (1 + H / EA)) - 1  # negative: the chord is shorter than the unstretched cable
+    s = Scene(dim=dim, gravity=(0.0, -G) if dim == 2 else (0.0, 0.0, -G))
+    s.member("cable", [(0, 0), (span, 0)] if dim == 2 else [(0, 0, 0), (span, 0, 0)], n,
+             Material(E=EA / A, density=rho), Section(area=A), bending=False, prestrain=prestrain)
+    s.pin("cable", "start")
+    s.pin("cable", "end")
+    return s, EA
+
+
+@pytest.mark.parametrize("lam2", [100.0, 1000.0])
+def test_irvine_sagging_cable(lam2):
+    # Irvine's shallow-cable theory (sag/span 1/50: its own error O((sag/span)^2) ~ 1e-3): the first symmetric
+    # in-plane mode x/L sqrt(H/m), tan(x/2) = x/2 - (4/lambda^2)(x/2)^3, the antisymmetric 2 pi/L sqrt(H/m), within
+    # 5e-3, with H and lambda^2 from the computed equilibrium; 3D: the first out-of-plane pi/L sqrt(H/m)
+    s, EA = sagging_cable(lam2, dim=3)
+    r = modal_analysis(s, modes=4)
+    st = r.static
+    span, m = 100.0, 1.0
+    H = abs(st.constraint_forces["pin cable@start"][0])
+    sag = -st.nodes("cable")[:, 2].min()
+    lam2_m = (m * G * span / H) ** 2 * span / (H * span * (1 + 8 * (sag / span) ** 2) / EA)
+    x = brentq(lambda x: np.tan(x / 2) - x / 2 + 4 / lam2_m * (x / 2) ** 3, np.pi * (1 + 1e-9), 3 * np.pi * (1 - 1e-9))
+    base = np.sqrt(H / m) / span  # [rad/s per unit x]
+    w = 2 * np.pi * r.frequencies
+    # mode kinds from the shapes: out-of-plane (y), in-plane (z) symmetric / antisymmetric about midspan
+    kinds = []
+    for k in range(r.modes):
+        u = r.displacements(k, "cable")
+        if np.abs(u[:, 1]).max() > np.abs(u[:, 2]).max():
+            kinds.append("out")
+        else:
+            kinds.append("sym" if abs(u[len(u) // 2, 2]) > 0.1 * np.abs(u[:, 2]).max() else "anti")
+    out = w[kinds.index("out")]
+    assert abs(out / (np.pi * base) - 1) < 5e-3
+    assert abs(w[kinds.index("anti")] / (2 * np.pi * base) - 1) < 5e-3
+    assert abs(w[kinds.index("sym")] / (x * base) - 1) < 5e-3
+
+
+def test_taut_string():
+    # a string held by two pins at tension T = EA prestrain (no gravity): f_n = n/(2L) sqrt(T/mu) with T the
+    # element's axial force at the prestrain (Green: EA(eps + eps^2/2)(1 + eps)) and mu = rho A / (1 + eps); within 1e-4
+    # at 20 elements (the refinement error of the 3rd mode at 20 cubic elements ~1e-6), EI = 0
+    L, A, E, rho, eps = 1.0, 3.14e-8, 2e11, 7800.0, 5.0 / (2e11 * 3.14e-8)
+    s = Scene(dim=2, gravity=(0.0, 0.0))
+    s.member("string", [(0, 0), (L, 0)], 20, Material(E=E, density=rho), Section(area=A), bending=False,
+             prestrain=eps)
+    s.pin("string", "start")
+    s.pin("string", "end")
+    r = modal_analysis(s, modes=3)
+    T = E * A * (eps + eps ** 2 / 2) * (1 + eps)
+    mu = rho * A / (1 + eps)
+    assert np.allclose(r.frequencies, np.arange(1, 4) / (2 * L) * np.sqrt(T / mu), rtol=1e-4)
+
+
+def beam3d_bar(n: int) -> Scene:
+    s = Scene(dim=3, gravity=(0.0, 0.0, 0.0))
+    s.member("bar", [(0, 0, 0), (1.0, 0, 0)], n, Material(E=2e11, density=7800.0, poisson=0.3),
+             Section.rectangle(0.02, 0.01), element="beam3d")
+    s.clamp("bar", "start")
+    return s
+
+
+def test_beam3d_bending_and_torsion():
+    # beam3d (continuum): bending about both axes (beta L = 1.875104 with Iy, Iz) and torsion
+    # omega = pi/(2L) sqrt(G J / (rho Ip)); second-order element: error ~h^2 (measured 1.6e-3 -> 4e-4 -> 1e-4 at
+    # 8 -> 16 -> 32 elements), within 1e-3 at 16 and falling by ~4 with each halving
+    sec, rho, E = Section.rectangle(0.02, 0.01), 7800.0, 2e11
+    Gm = E / 2.6
+    bend = [1.875104 ** 2 * np.sqrt(E * I / (rho * sec.area)) / (2 * np.pi) for I in (sec.Iy, sec.Iz)]
+    tors = np.pi / 2 * np.sqrt(Gm * sec.J / (rho * (sec.Iy + sec.Iz))) / (2 * np.pi)
+    errs = []
+    for n in (8, 16):
+        r = modal_analysis(beam3d_bar(n), modes=12)
+        f = {}
+        for k in range(r.modes):
+            u = r.displacements(k, "bar")
+            if np.abs(u).max() < 1e-6 * np.abs(r.shapes[:, k]).max():  # no node moves: torsion
+                f.setdefault("tors", r.frequencies[k])
+            elif abs(u[-1, 2]) > abs(u[-1, 1]):
+                f.setdefault("z", r.frequencies[k])
+            else:
+                f.setdefault("y", r.frequencies[k])
+        errs.append(np.abs([f["z"] / bend[0] - 1, f["y"] / bend[1] - 1, f["tors"] / tors - 1]))
+    assert np.all(errs[1] < 1e-3)
+    assert np.all(errs[1] < errs[0] / 2.5)
+
+
+def test_rigid_joint_multipliers():
+    # a cantilever sagging under gravity (E low: a large deflection, prestress) made of two members joined rigidly
+    # (the slope rows keep multipliers: the KKT path with their curvature) has the modes of the single member
+    # (the same discrete model: they agree to the static tolerance, 1e-6 is far above it and far below the shift
+    # the prestress makes, 300 % on the first mode)
+    mat, sec = Material(E=1e7, density=1000.0), Section.rectangle(0.01, 0.01)
+
+    def scene(split: bool) -> Scene:
+        s = Scene(dim=2, gravity=(0.0, -G))
+        if split:
+            s.member("a", [(0, 0), (0.5, 0)], 8, mat, sec)
+            s.member("b", [(0.5, 0), (1.0, 0)], 8, mat, sec)
+            s.rigid(("a", "end"), ("b", "start"))
+        else:
+            s.member("a", [(0, 0), (1.0, 0)], 16, mat, sec)
+        s.clamp("a", "start")
+        return s
+
+    one, two = modal_analysis(scene(False), modes=5), modal_analysis(scene(True), modes=5)
+    assert two.linearization.G.shape[0] > 0
+    assert np.allclose(two.frequencies, one.frequencies, rtol=1e-6)
+
+
+def test_penalty_contact_winkler_foundation():
+    # a pinned-free beam pressed into the ground by gravity (linear penalty contact, penetrated everywhere): a beam
+    # on a Winkler foundation, w^2 = (EI beta^4 + k) / (rho A) with beta L = 0 (the rigid rotation on the
+    # foundation), 3.926602, 7.068583; within 1e-4 at 16 elements, the third mode's error falling
+    k, EI, rA = 5e3, STEEL.E * BAR.bending_inertia, STEEL.density * BAR.area
+    exact = np.sqrt((EI * np.array([0.0, 3.926602, 7.068583]) ** 4 + k) / rA) / (2 * np.pi)
+    errs = []
+    for n in (4, 16):
+        s = Scene(dim=2, gravity=(0.0, -G))
+        s.member("beam", [(0, 0.004), (1.0, 0.004)], n, STEEL, BAR)
+        s.pin("beam", "start")
+        s.contact_ground("beam", stiffness=k, thickness=0.005, gauss=5)
+        r = modal_analysis(s, modes=3)
+        errs.append(np.abs(r.frequencies / exact - 1))
+    assert np.all(errs[1] < 1e-4) and errs[0][2] > 10 * errs[1][2]
+
+
+def test_condensed_stiffness_cantilever_tip():
+    # the tip's 2x2 stiffness of an unloaded cantilever: EA/L axially, 3EI/L^3 transversally (Euler-Bernoulli; the
+    # cubic element is exact for a tip load)
+    lin = linearize(cantilever(4))
+    K = lin.condensed_stiffness([("beam", "end")])
+    EA, EI = STEEL.E * BAR.area, STEEL.E * BAR.bending_inertia
+    assert np.allclose(np.diag(K), [EA, 3 * EI], rtol=1e-8)
+    assert abs(K[0, 1]) < 1e-8 * EA
+
+
+def test_linearize_matrices():
+    lin = linearize(cantilever(4))
+    n = lin.size
+    assert lin.M.shape == lin.K.shape == (n, n) and lin.G.shape == (0, n) and lin.D is None
+    assert lin.B.shape == (n, 2 * 5) and len(lin.inputs) == 10  # 5 nodes x (x, y)
+    # B maps a tip force to the tip's coordinate: the static response K^-1 B u is the tip deflection F L^3 / 3EI
+    u = np.zeros(10)
+    u[lin.inputs.index(("beam", 4, "y"))] = 1.0
+    dy = lin.full(np.linalg.solve(lin.K.toarray(), lin.B @ u))
+    tip = lin.assembly.mesh.members["beam"].node_dofs(4)[1]
+    assert np.isclose(dy[tip], 1.0 / (3 * STEEL.E * BAR.bending_inertia), rtol=1e-8)
+
+
+def test_rayleigh_damping_matrix():
+    s = cantilever(4)
+    s.rayleigh(alpha=0.5, beta=1e-4)
+    lin = linearize(s)
+    assert np.allclose(lin.D.toarray(), 0.5 * lin.M.toarray() + 1e-4 * lin.K.toarray(), rtol=1e-10, atol=1e-12)
+
+
+def test_bad_input_refused():
+    s = cantilever(4)
+    for bad in (0, -1, 2.5, "3", True):
+        with pytest.raises(SceneError, match="modes"):
+            modal_analysis(s, modes=bad)
+    with pytest.raises(SceneError, match="modes = 100 exceeds"):
+        modal_analysis(s, modes=100)
+    free = Scene(dim=2, gravity=(0.0, -G))
+    free.member("beam", [(0, 0), (1.0, 0)], 4, STEEL, BAR)
+    with pytest.raises(SceneError, match="free structure"):
+        modal_analysis(free, modes=2)
+    c = Scene(dim=2, gravity=(0.0, -G))
+    c.member("rope", [(0, 0.1), (1.0, 0.1)], 4, STEEL, BAR)
+    c.pin("rope", "start")
+    c.contact_ground("rope", method="exact")
+    with pytest.raises(SceneError, match="method='exact'"):
+        modal_analysis(c, modes=2)
