@@ -276,3 +276,46 @@ def test_bad_input_refused():
     c.contact_ground("rope", method="exact")
     with pytest.raises(SceneError, match="method='exact'"):
         modal_analysis(c, modes=2)
+
+
+SAGGING = __import__("pathlib").Path(__file__).resolve().parents[1] / "examples" / "scenes" / "sagging_cable_modes.toml"
+
+
+def test_cli_modal_run(tmp_path):
+    # `ancf-sym run` of the sagging-cable scene: result.json with the equilibrium under a statics result's keys and
+    # the modes; the first two against Irvine (lambda^2 = 100, sag/span 1/50: 5e-3, as in test_irvine_sagging_cable)
+    import json
+
+    import meshio
+
+    from helpers import cli
+
+    out = tmp_path / "modes"
+    r = cli("run", SAGGING, "--out", out, "--quiet", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((out / "result.json").read_text())
+    assert doc["success"] and doc["static_success"] and doc["analysis"]["type"] == "modal"
+    assert len(doc["frequencies"]) == 6 and doc["frequencies"] == sorted(doc["frequencies"])
+    H = abs(doc["constraint_forces"]["pin cable@start"][0])
+    f0 = np.sqrt(H / 1.0) / 100.0  # sqrt(H/m)/L [Hz]: the antisymmetric mode
+    assert abs(doc["frequencies"][0] / f0 - 1) < 5e-3 and abs(doc["frequencies"][1] / (1.298698 * f0) - 1) < 5e-3
+    assert len(doc["members"]["cable"]["nodes"]) == 41
+    assert len(doc["modes"][0]["members"]["cable"]["displacements"]) == 41
+    assert 40 < doc["modal_masses"][0] < 60  # a half sine of a 100 kg cable: 50 kg
+    vtu = meshio.read(out / "modes.vtu")
+    assert vtu.point_data["mode_6"].shape == (len(vtu.points), 3)
+    assert (out / "modes.png").stat().st_size > 10_000
+
+
+def test_toml_modal_keys(tmp_path):
+    from ancf_sym.scene_toml import load_scene
+
+    text = SAGGING.read_text()
+    scene, analysis = load_scene(SAGGING)
+    assert analysis == {"type": "modal", "modes": 6}
+    for bad, match in (("modes = 0", "analysis.modes"), ("modes = 2.5", "analysis.modes"),
+                       ("mode = 6", "analysis.*mode")):
+        p = tmp_path / "bad.toml"
+        p.write_text(text.replace("modes = 6", bad))
+        with pytest.raises(SceneError, match=match):
+            load_scene(p)

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..reduced import partition
 from ..scene import Scene, SceneError
+from ..schema import MODAL_OPTIONS
 from ..statics import StaticOptions, StaticProblem, StaticResult, problem_for
 from .eigen import ZERO_REL, lowest_modes, stiffness_scale
 from .linearize import check_modal_scene, linearize
@@ -16,9 +17,7 @@ from .result import ModalResult
 
 
 def check_modes(modes) -> int:
-    if isinstance(modes, bool) or not isinstance(modes, (int, np.integer)) or modes < 1:
-        raise SceneError(f"modes must be a positive integer (the number of lowest modes), got {modes!r}")
-    return int(modes)
+    return int(MODAL_OPTIONS["modes"].check("modes", modes))
 
 
 def modal_analysis(scene: Scene, modes: int = 10, static: StaticResult | None = None,
