@@ -71,6 +71,11 @@ def plot_modes(result: ModalResult, path: str | Path, count: int = 6, per_elemen
         if scene.dim == 2:
             ax.set_aspect("equal", adjustable="datalim")
             ax.grid(True, lw=0.3)
+        else:  # a cube around what is drawn (autoscaling would blow a flat direction's round-off up to full size)
+            drawn = np.vstack([eq[n] + sg * a * u[n] for n in scene.members for sg in (1, -1)])
+            c, h = 0.5 * (drawn.max(axis=0) + drawn.min(axis=0)), 0.5 * float(np.max(np.ptp(drawn, axis=0)))
+            ax.set(xlim=(c[0] - h, c[0] + h), ylim=(c[1] - h, c[1] + h), zlim=(c[2] - h, c[2] + h))
+            ax.set_box_aspect((1, 1, 1))
         ax.set_title(_frequency_label(result, k) + ("" if a else " (no node moves)"), fontsize="small")
     fig.suptitle(f"{scene.name}: lowest modes on the equilibrium (grey)", fontsize="medium")
     FigureCanvasAgg(fig)
