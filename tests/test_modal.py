@@ -319,3 +319,21 @@ def test_toml_modal_keys(tmp_path):
         p.write_text(text.replace("modes = 6", bad))
         with pytest.raises(SceneError, match=match):
             load_scene(p)
+
+
+def test_examples_modal(tmp_path_factory):
+    # the examples' quick runs: each case's finest mesh within its tolerance (the tests above give the reasons; the
+    # coarser meshes are there for the refinement figure)
+    from helpers import run_example
+
+    _, beams = run_example("modal_beams", tmp_path_factory)
+    _, cables = run_example("modal_cables", tmp_path_factory)
+    tol = {"cantilever": 1e-3, "free_free": 1e-5, "foundation": 1e-2, "beam3d_z": 3e-3, "beam3d_y": 3e-3,
+           "beam3d_torsion": 2e-3, "hanging_chain": 1e-3, "taut_string": 1e-4, "irvine": 5e-3}
+    finest = {}
+    for rec in beams + cables:
+        finest[rec["case"]] = max(finest.get(rec["case"], 0), rec["n"])
+    for rec in beams + cables:
+        if rec["n"] == finest[rec["case"]]:
+            assert rec["rel_error"] < tol[rec["case"]], rec
+    assert sum(r["zero"] for r in beams if r["case"] == "free_free") == 3
