@@ -337,3 +337,28 @@ def test_examples_modal(tmp_path_factory):
         if rec["n"] == finest[rec["case"]]:
             assert rec["rel_error"] < tol[rec["case"]], rec
     assert sum(r["zero"] for r in beams if r["case"] == "free_free") == 3
+
+
+def test_column_frequency_falls_to_zero_at_the_euler_load():
+    # a clamped-free column under a dead axial tip load P (EI = 1, EA = 1e5, no gravity): the geometric stiffness of
+    # the prestress lowers w1^2 to zero at P_cr = pi^2 EI / (4 L^2); the straight state past it (statics asked not
+    # to leave the saddle) is unstable: w1^2 < 0, a negative frequency. w1^2(P) is nearly linear near P_cr: the
+    # secant through 0.95 and 0.99 P_cr reaches zero within 1e-3 of P_cr (the extensibility shifts P_cr by ~P/EA
+    # ~ 2e-5, the mesh by less)
+    from ancf_sym import StaticOptions
+
+    pcr = np.pi ** 2 / 4
+
+    def w2(f: float) -> tuple[float, bool]:
+        s = Scene(dim=2, gravity=(0.0, 0.0))
+        s.member("col", [(0, 0), (0, 1.0)], 16, Material(E=1e5, density=1.0), Section(area=1.0, I=1e-5),
+                 axial="decoupled")
+        s.clamp("col", "start")
+        s.force("col", "end", (0.0, -f * pcr))
+        r = modal_analysis(s, modes=2, options=StaticOptions(escape_saddle=False))
+        return float(r.omega2[0]), bool(r.static.stable)
+
+    (a, sa), (b, sb), (c, sc) = w2(0.95), w2(0.99), w2(1.1)
+    zero = 0.99 + b * (0.99 - 0.95) / (a - b)
+    assert a > b > 0 and sa and sb and abs(zero - 1) < 1e-3
+    assert c < 0 and not sc
