@@ -148,8 +148,8 @@ def run_modal(scene: Scene, analysis: dict, scene_file: Path, out: Path, progres
     from .statics import StaticOptions
 
     progress.stage("solve statics, modes")
-    opts = StaticOptions(**{k: v for k, v in analysis.items() if k not in ("type", "modes")})
-    r = modal_analysis(scene, modes=analysis.get("modes", 10), options=opts)
+    opts = StaticOptions(**{k: v for k, v in analysis.items() if k not in ("type", "modes", "damped")})
+    r = modal_analysis(scene, modes=analysis.get("modes", 10), options=opts, damped=analysis.get("damped", False))
     wall_total = time.perf_counter() - t_start
     progress.stage("write result.json, modes.png, modes.vtu")
     write_json(out / RESULT_FILE, modal_result_dict(r, scene_file, analysis, wall_total))

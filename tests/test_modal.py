@@ -362,3 +362,28 @@ def test_column_frequency_falls_to_zero_at_the_euler_load():
     zero = 0.99 + b * (0.99 - 0.95) / (a - b)
     assert a > b > 0 and sa and sb and abs(zero - 1) < 1e-3
     assert c < 0 and not sc
+
+
+@pytest.mark.parametrize("split", [False, True])
+def test_damped_modes_rayleigh(split):
+    # Rayleigh damping alpha M + beta K on an unloaded cantilever (K_el = K: proportional damping): each mode's
+    # damping ratio is alpha/(2 w) + beta w/2 and its damped frequency w sqrt(1 - zeta^2), exactly (the same pencil):
+    # 1e-8 is round-off of the Arnoldi solve. split: two members joined rigidly (a multiplier row: the projected
+    # first-order operator)
+    mat, sec = Material(E=2e11, density=7800.0), Section.rectangle(0.01, 0.01)
+    s = Scene(dim=2, gravity=(0.0, 0.0))
+    if split:
+        s.member("a", [(0, 0), (0.5, 0)], 8, mat, sec)
+        s.member("b", [(0.5, 0), (1.0, 0)], 8, mat, sec)
+        s.rigid(("a", "end"), ("b", "start"))
+    else:
+        s.member("a", [(0, 0), (1.0, 0)], 16, mat, sec)
+    s.clamp("a", "start")
+    alpha, beta = 2.0, 1e-4
+    s.rayleigh(alpha=alpha, beta=beta)
+    r = modal_analysis(s, modes=4, damped=True)
+    assert (r.linearization.G.shape[0] > 0) == split
+    w = np.sqrt(r.omega2)
+    zeta = alpha / (2 * w) + beta * w / 2
+    assert np.allclose(r.damped.damping_ratios, zeta, rtol=1e-8)
+    assert np.allclose(r.damped.frequencies, w * np.sqrt(1 - zeta ** 2) / (2 * np.pi), rtol=1e-8)

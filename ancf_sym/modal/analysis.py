@@ -11,9 +11,9 @@ from ..reduced import partition
 from ..scene import Scene, SceneError
 from ..schema import MODAL_OPTIONS
 from ..statics import StaticOptions, StaticProblem, StaticResult, problem_for
-from .eigen import ZERO_REL, lowest_modes, stiffness_scale
+from .eigen import ZERO_REL, damped_modes, lowest_modes, stiffness_scale
 from .linearize import check_modal_scene, linearize
-from .result import ModalResult
+from .result import DampedModes, ModalResult
 
 
 def check_modes(modes) -> int:
@@ -21,12 +21,14 @@ def check_modes(modes) -> int:
 
 
 def modal_analysis(scene: Scene, modes: int = 10, static: StaticResult | None = None,
-                   options: StaticOptions | None = None, **static_options) -> ModalResult:
+                   options: StaticOptions | None = None, damped: bool = False, **static_options) -> ModalResult:
     """The `modes` lowest natural modes of a scene about its static equilibrium.
 
     static: an equilibrium already solved for this scene (else solved here with `options` or keyword StaticOptions
-    fields). A failed static solve gives a result with success False, its status and no modes."""
+    fields). A failed static solve gives a result with success False, its status and no modes. damped: also the
+    complex eigenvalues of the damped system (the scene's Rayleigh damping): result.damped."""
     modes = check_modes(modes)
+    damped = bool(MODAL_OPTIONS["damped"].check("damped", damped))
     t0 = time.perf_counter()
     try:
         prob = problem_for(scene)
@@ -49,7 +51,7 @@ def modal_analysis(scene: Scene, modes: int = 10, static: StaticResult | None = 
         n = prob.asm.n
         return ModalResult(f"static: {static.status}", False, np.zeros(0), np.zeros(0), np.zeros(0, bool),
                            np.zeros((n, 0)), [], static, wall_s=time.perf_counter() - t0)
-    lin = linearize(scene, static, damping_matrix=False, problem=prob)
+    lin = linearize(scene, static, damping_matrix=damped, problem=prob)
     w2, Y, method = lowest_modes(lin.K, lin.M, lin.G, modes)
     zero = np.abs(w2) <= ZERO_REL * stiffness_scale(lin.K, lin.M)
     freq = np.where(zero, 0.0, np.sign(w2) * np.sqrt(np.abs(w2)) / (2 * np.pi))
@@ -60,5 +62,12 @@ def modal_analysis(scene: Scene, modes: int = 10, static: StaticResult | None = 
     umax = np.max(np.abs(shapes[pos]), axis=0) if len(pos) else np.zeros(len(w2))
     masses = [float(1.0 / u ** 2) if u > 0 else None for u in umax]
     status = "Solve_Succeeded" if np.all(np.isfinite(w2)) else "Eigen_Solve_Failed"
+    complex_modes = None
+    if damped and status == "Solve_Succeeded":
+        D = lin.D if lin.D is not None else 0.0 * lin.M
+        # the shift: below the lowest mode (a tenth of its undamped w), where the pencil is regular
+        w_low = np.sqrt(np.abs(w2[~zero])).min() if np.any(~zero) else np.sqrt(stiffness_scale(lin.K, lin.M)) * 1e-3
+        lam = damped_modes(lin.K, lin.M, D, lin.G, modes, -0.1 * float(w_low))
+        complex_modes = DampedModes(lam)
     return ModalResult(status, status == "Solve_Succeeded", w2, freq, zero, shapes, masses, static, method,
-                       time.perf_counter() - t0, lin)
+                       time.perf_counter() - t0, lin, complex_modes)

@@ -88,3 +88,43 @@ def lowest_modes(K, M, G, k: int) -> tuple[np.ndarray, np.ndarray, str]:
     big = np.argmax(np.abs(Y), axis=0)
     Y = Y * np.sign(Y[big, np.arange(Y.shape[1])])
     return w2, Y, method
+
+
+def damped_modes(K, M, D, G, k: int, sigma: float) -> np.ndarray:
+    """The k eigenvalues lambda (Im >= 0, by |lambda|) of (lambda^2 M + lambda D + K) y + G' mu = 0, G y = 0 nearest
+    the real shift sigma (< 0, below the lowest mode), by shift-invert Arnoldi (scipy.sparse.linalg.eigs) on the
+    first-order form z = (y, v = lambda y). The operator (A - sigma B)^-1 B solves one KKT system with
+    K + sigma D + sigma^2 M (factorised once) and returns v = P w1 + sigma y, P the M-orthogonal projector onto G v = 0
+    (so the constraint directions, which are no modes, map to 0 instead of to spurious eigenvalues)."""
+    n, m = K.shape[0], G.shape[0]
+    Ks = (K + sigma * D + sigma ** 2 * M).tocsc()
+    kkt = sp.bmat([[Ks, G.T], [G, None]], format="csc") if m else Ks
+    lu = sla.splu(kkt)
+    C = (D + sigma * M).tocsr()
+    if m:
+        mlu = sla.splu(M.tocsc())
+        MiGt = mlu.solve(G.T.toarray())
+        S = la.cho_factor(G @ MiGt)
+
+        def project(w):
+            return w - MiGt @ la.cho_solve(S, G @ w)
+    else:
+        def project(w):
+            return w
+    pad = np.zeros(m)
+
+    def op(w):
+        w = np.ravel(w)
+        w1, w2 = w[:n], w[n:]
+        rhs = -(M @ w2) - C @ w1
+        y = lu.solve(np.r_[rhs, pad])[:n] if m else lu.solve(rhs)
+        return np.r_[y, project(w1) + sigma * y]
+
+    A = sla.LinearOperator((2 * n, 2 * n), matvec=op, dtype=float)
+    nev = min(2 * k + 2, 2 * n - 2)
+    nu = sla.eigs(A, k=nev, which="LM", return_eigenvectors=False, ncv=min(2 * n, max(2 * nev + 1, nev + 20)))
+    nu = nu[np.abs(nu) > 1e-12 * np.max(np.abs(nu))]
+    lam = sigma + 1.0 / nu
+    lam = lam[lam.imag >= -1e-9 * np.abs(lam)]  # one of each conjugate pair (real ones: every one)
+    lam = lam[np.argsort(np.abs(lam))]
+    return lam[:k]

@@ -11,6 +11,26 @@ from .linearize import Linearization
 
 
 @dataclass
+class DampedModes:
+    """The complex eigenvalues lambda [1/s] of the damped linear system (one of each conjugate pair, by |lambda|):
+    frequencies = Im lambda / 2 pi [Hz] (the damped natural frequencies; 0 for an overdamped, real lambda),
+    damping_ratios = -Re lambda / |lambda|."""
+    eigenvalues: np.ndarray
+
+    @property
+    def frequencies(self) -> np.ndarray:
+        return np.abs(self.eigenvalues.imag) / (2 * np.pi)
+
+    @property
+    def damping_ratios(self) -> np.ndarray:
+        return -self.eigenvalues.real / np.abs(self.eigenvalues)
+
+    def to_dict(self) -> dict:
+        return {"eigenvalues_real": self.eigenvalues.real.tolist(), "eigenvalues_imag": self.eigenvalues.imag.tolist(),
+                "frequencies": self.frequencies.tolist(), "damping_ratios": self.damping_ratios.tolist()}
+
+
+@dataclass
 class ModalResult:
     """status/success: the static solve's and the eigen solve's. frequencies [Hz], ascending: sqrt(w^2)/(2 pi); a
     negative value -sqrt(-w^2)/(2 pi) marks an unstable mode (the equilibrium is a saddle), a zero one a rigid
@@ -28,6 +48,7 @@ class ModalResult:
     method: str = ""
     wall_s: float = 0.0
     linearization: Linearization | None = field(default=None, repr=False)
+    damped: DampedModes | None = None  # with modal_analysis(..., damped=True): the damped system's eigenvalues
 
     @property
     def modes(self) -> int:
@@ -62,5 +83,6 @@ class ModalResult:
                        "members": {name: {"displacements": self.displacements(k, name).tolist(),
                                           "slopes": self.slopes(k, name).tolist()} for name in members}}
                       for k in range(self.modes)],
+            "damped": self.damped.to_dict() if self.damped is not None else None,
             "static": self.static.to_dict(),
         }
