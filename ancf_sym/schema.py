@@ -37,7 +37,7 @@ STATIC_OPTIONS = {
 # [analysis] type = "modal": the statics options above (the equilibrium first) and these (ancf_sym.modal)
 MODAL_OPTIONS = {
     "modes": Field("int", positive=True, doc="the number of lowest natural modes about the static equilibrium"),
-    "damped": Field("bool", doc="also the damped modes' complex eigenvalues (the scene's Rayleigh damping)"),
+    "damped": Field("bool", doc="also the damped modes' complex eigenvalues (the scene's damping)"),
 }
 
 # the fields DynamicOptions checks by kind; "any" fields are checked by DynamicOptions itself (integrator names,

@@ -387,3 +387,19 @@ def test_damped_modes_rayleigh(split):
     zeta = alpha / (2 * w) + beta * w / 2
     assert np.allclose(r.damped.damping_ratios, zeta, rtol=1e-8)
     assert np.allclose(r.damped.frequencies, w * np.sqrt(1 - zeta ** 2) / (2 * np.pi), rtol=1e-8)
+
+
+def test_damped_modes_strain_rate():
+    # Kelvin-Voigt bending damping (moment c_b kappa_dot) on an unloaded cantilever: for its bending modes D = (c_b /
+    # EI) K_bending, so zeta = c_b w / (2 EI) exactly (D from the dynamics' AD graph of the dissipation; 1e-8: the
+    # Arnoldi solve's round-off). Modes 1-3 only: higher ones are overdamped (zeta > 1), their slow real roots
+    # -w (zeta - sqrt(zeta^2 - 1)) -> -EI / c_b come next by |lambda|
+    s = cantilever(16)
+    EI = STEEL.E * BAR.bending_inertia
+    cb = 1e-3 * EI
+    s.strain_rate_damping(bending=cb)
+    r = modal_analysis(s, modes=4, damped=True)
+    w = np.sqrt(r.omega2[:3])
+    zeta = cb * w / (2 * EI)
+    assert np.allclose(r.damped.damping_ratios[:3], zeta, rtol=1e-8)
+    assert np.allclose(r.damped.frequencies[:3], w * np.sqrt(1 - zeta ** 2) / (2 * np.pi), rtol=1e-8)

@@ -26,7 +26,7 @@ def modal_analysis(scene: Scene, modes: int = 10, static: StaticResult | None = 
 
     static: an equilibrium already solved for this scene (else solved here with `options` or keyword StaticOptions
     fields). A failed static solve gives a result with success False, its status and no modes. damped: also the
-    complex eigenvalues of the damped system (the scene's Rayleigh damping): result.damped."""
+    complex eigenvalues of the damped system (the scene's damping, linearize's D): result.damped."""
     modes = check_modes(modes)
     damped = bool(MODAL_OPTIONS["damped"].check("damped", damped))
     t0 = time.perf_counter()

@@ -5,9 +5,10 @@
 y are the unknowns left once supports and hinges are eliminated (x = E y + c, ancf_sym.reduced); G is the Jacobian of
 the exact rows that keep multipliers (rigid joints, skew clamps); K_L the exact Hessian of the Lagrangian: the
 potential's Hessian from the kernels (geometric stiffness of the prestress and penalty springs and penalty contacts
-included) plus sum_i lambda_i Hess(Phi_i) of the multiplier rows (bilinear: a constant curvature). D is Rayleigh
-damping alpha M + beta K_el (K_el: the elastic terms' Hessian at the state, per member as the scene declares it).
-B maps point forces at the members' nodes (world components) to generalized forces.
+included) plus sum_i lambda_i Hess(Phi_i) of the multiplier rows (bilinear: a constant curvature). D is the
+damping: Rayleigh alpha M + beta K_el (K_el: the elastic terms' Hessian at the state, per member as the scene
+declares it) plus d f_d / d v at v = 0 of strain-rate damping and dissipative contact (exact, by the dynamics' AD
+graph; friction makes it unsymmetric). B maps point forces at the members' nodes (world components) to generalized forces.
 """
 from __future__ import annotations
 
@@ -27,7 +28,7 @@ from ..statics import StaticProblem, StaticResult, problem_for
 @dataclass
 class Linearization:
     """The linear model about a state x (full coordinates). Matrices act on the reduced unknowns y (x = E y + c):
-    M (mass), K (Hessian of the Lagrangian K_L), D (Rayleigh damping; None without damping), G (Jacobian of the
+    M (mass), K (Hessian of the Lagrangian K_L), D (damping; None without damping), G (Jacobian of the
     exact rows with multipliers, m x ny), B (generalized forces of the inputs, ny x nu: the point forces at every
     member node, labelled by `inputs`)."""
     M: sp.csc_matrix
@@ -101,14 +102,11 @@ def linearize(scene: Scene, state: StaticResult | np.ndarray | None = None, damp
               problem: StaticProblem | None = None) -> Linearization:
     """M, K_L, D, G, B about `state` (a StaticResult or full coordinates; None: the static equilibrium, solved
     here). At an equilibrium the multipliers are exact; elsewhere they are the least-squares ones (K_L then holds
-    the constraint curvature of that estimate). damping_matrix=False skips D."""
+    the constraint curvature of that estimate). damping_matrix=False skips D (strain-rate damping and contact
+    friction build the dynamics' step system for it: about a second on large models)."""
     prob = problem if problem is not None else problem_for(scene)
     asm = prob.asm
     check_modal_scene(asm, "linearize")
-    srd = damping.strain_rate_data(asm) if damping_matrix else None
-    if srd is not None:
-        raise SceneError("linearize: strain_rate_damping has no linear damping matrix here yet; use rayleigh "
-                         "damping, or damping_matrix=False for the undamped model")
     x = _state(prob, state)
     part: Partition = partition(asm)
     ev = asm.evaluate(x, hessian=True)
@@ -126,7 +124,7 @@ def linearize(scene: Scene, state: StaticResult | np.ndarray | None = None, damp
         lam = lam_all[rows]
     else:
         G, lam = sp.csr_matrix((0, part.ny)), np.zeros(0)
-    D = _rayleigh(asm, x, part, M) if damping_matrix else None
+    D = _damping(asm, x, part, M) if damping_matrix else None
     cols, inputs = [], []
     for name, mm in asm.mesh.members.items():
         for k, node in enumerate(mm.public_nodes):
@@ -138,7 +136,20 @@ def linearize(scene: Scene, state: StaticResult | np.ndarray | None = None, damp
     return Linearization(M, K, D, G, B, part.E, x, lam, inputs, asm)
 
 
-def _rayleigh(asm: Assembly, x: np.ndarray, part: Partition, M: sp.csc_matrix) -> sp.csc_matrix | None:
+def _damping(asm: Assembly, x: np.ndarray, part: Partition, M: sp.csc_matrix) -> sp.csc_matrix | None:
+    """Rayleigh damping plus d f_d / d v at (x, v = 0) of strain-rate damping and dissipative contact (the dynamics'
+    own exact dissipation graph, ancf_sym.dynamics.damping, built only where the scene has either)."""
+    D = _rayleigh(asm, x, M, part)
+    if damping.strain_rate_data(asm) is not None or contact.dissipation_calls(asm.mesh):
+        from ..dynamics.step_system import StepSystem
+        S = StepSystem.for_scene(asm)
+        Dv = S.damp_f(S.reduce(x), np.zeros(S.nf))[2]
+        Dv = sp.csc_matrix(Dv.sparse() if hasattr(Dv, "sparse") else np.asarray(Dv))
+        D = Dv if D is None else (D + Dv).tocsc()
+    return D
+
+
+def _rayleigh(asm: Assembly, x: np.ndarray, M: sp.csc_matrix, part: Partition) -> sp.csc_matrix | None:
     """alpha M + beta K_el: K_el the elastic terms' Hessian at x weighted per member (dynamics' Rayleigh data)."""
     ray = damping.rayleigh_data(asm, asm.curved)
     if ray is None or not (ray.alpha or ray.beta):
