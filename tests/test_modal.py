@@ -403,3 +403,25 @@ def test_damped_modes_strain_rate():
     zeta = cb * w / (2 * EI)
     assert np.allclose(r.damped.damping_ratios[:3], zeta, rtol=1e-8)
     assert np.allclose(r.damped.frequencies[:3], w * np.sqrt(1 - zeta ** 2) / (2 * np.pi), rtol=1e-8)
+
+
+def test_hinge_identified_penalty_and_mechanism():
+    # a beam clamped at 0, hinged at midspan (identified coordinates: the reduced map E sums them), pinned at 1 m:
+    # the same modes as with a penalty hinge (its springs 1e3 EA/L stiff: their compliance shifts w^2 by
+    # ~1e-6, below the 1e-5 asked); pinned - hinge - pinned is a mechanism: exactly one zero mode, then elastic ones
+    def scene(method: str, first: str = "clamp") -> Scene:
+        s = Scene(dim=2, gravity=(0.0, 0.0))
+        s.member("a", [(0, 0), (0.5, 0)], 8, STEEL, BAR)
+        s.member("b", [(0.5, 0), (1.0, 0)], 8, STEEL, BAR)
+        if method == "exact":
+            s.hinge(("a", "end"), ("b", "start"))
+        else:
+            s.hinge(("a", "end"), ("b", "start"), method="penalty", penalty=1e3)
+        getattr(s, first)("a", "start")
+        s.pin("b", "end")
+        return s
+
+    exact, pen = modal_analysis(scene("exact"), modes=3), modal_analysis(scene("penalty"), modes=3)
+    assert not np.any(exact.zero) and np.allclose(exact.frequencies, pen.frequencies, rtol=1e-5)
+    mech = modal_analysis(scene("exact", first="pin"), modes=3)
+    assert list(mech.zero) == [True, False, False] and mech.frequencies[1] > 10.0
