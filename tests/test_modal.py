@@ -239,6 +239,23 @@ def test_condensed_stiffness_cantilever_tip():
     assert abs(K[0, 1]) < 1e-8 * EA
 
 
+def test_condensed_stiffness_at_a_pin_of_a_taut_string():
+    # the "fairlead" case: the stiffness a taut string (Biot strain, no bending, no gravity, tension T = EA p) offers
+    # the pin it hangs from, moved with the pin: axially EA/L0 (L0 = L/(1 + p) its unstretched length), transversally
+    # the geometric stiffness T/L; the element is exact for both (linear fields): 1e-8 is round-off of the solve
+    EA, L, p = 1e6, 2.0, 1e-3
+    s = Scene(dim=2, gravity=(0.0, 0.0))
+    s.member("line", [(0, 0), (L, 0)], 6, Material(E=EA / 1e-4, density=1000.0), Section(area=1e-4), axial="biot",
+             bending=False, prestrain=p)
+    s.pin("line", "start")
+    s.pin("line", "end")
+    K = linearize(s).condensed_stiffness([("line", "end")])
+    assert np.allclose(np.diag(K), [EA * (1 + p) / L, EA * p / L], rtol=1e-8)
+    assert abs(K[0, 1]) < 1e-8 * EA / L
+    with pytest.raises(SceneError, match="at='middle'"):
+        linearize(s).condensed_stiffness([("line", "middle")])
+
+
 def test_linearize_matrices():
     lin = linearize(cantilever(4))
     n = lin.size

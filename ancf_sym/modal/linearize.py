@@ -41,6 +41,8 @@ class Linearization:
     multipliers: np.ndarray  # lambda of the rows of G (the exact rows kept with multipliers)
     inputs: list = field(default_factory=list)  # (member, node, component) of each column of B
     assembly: Assembly | None = field(default=None, repr=False)
+    _H_full: sp.csc_matrix | None = field(default=None, repr=False)  # K_L on the full coordinates
+    _G_full: sp.csr_matrix | None = field(default=None, repr=False)  # G on the full coordinates
 
     @property
     def size(self) -> int:
@@ -51,30 +53,46 @@ class Linearization:
         return self.E @ y
 
     def condensed_stiffness(self, points: list[tuple[str, object]]) -> np.ndarray:
-        """The static stiffness the structure offers at chosen points: [(member, at), ...] with at a node ("start",
-        "end" or an index of the member's public nodes); returns the (dim k) x (dim k) matrix of forces on the
-        points' positions per unit displacement of them, the rest of the structure free (its equilibrium with the
-        constraints: the Schur complement of K_L). Needs a stable, constrained state (K_L regular)."""
+        """The static stiffness the structure offers at chosen nodes: [(member, at), ...] with at "start", "end" or
+        an index of the member's public nodes; returns the (dim k) x (dim k) matrix of the forces on the nodes'
+        positions per unit displacement of them, the rest of the structure in its (linear) equilibrium with its
+        supports and constraints. A node held by a support is moved with it (a mooring line's fairlead: the force
+        on the pin); its other supported coordinates (a clamp's slopes) stay held. Formula: with x = E_r y_r + S d
+        (E_r: the unknowns other than the chosen ones), Lagrangian 1/2 x'Hx + mu'Gx, K_c = S'H S + S'H E_r Y +
+        S'G' Mu where [[E_r'H E_r, E_r'G'], [G E_r, 0]] [Y; Mu] = -[E_r'H S; G S]: one KKT factorisation."""
         asm = self.assembly
         cols = []
         for member, at in points:
-            mm = asm.mesh.members[member]
-            node = {"start": mm.public_nodes[0], "end": mm.public_nodes[-1]}.get(at) if isinstance(at, str) else \
-                mm.public_nodes[int(at)]
-            if node is None:
+            mm = asm.mesh.members.get(member)
+            if mm is None:
+                raise SceneError(f"condensed_stiffness: member {member!r} is not in the scene")
+            ends = {"start": mm.public_nodes[0], "end": mm.public_nodes[-1]}
+            if isinstance(at, str) and at not in ends or not isinstance(at, (str, int, np.integer)) or \
+                    isinstance(at, (int, np.integer)) and not -len(mm.public_nodes) <= at < len(mm.public_nodes):
                 raise SceneError(f"condensed_stiffness: at={at!r} for member {member!r} is not 'start', 'end' or a "
-                                 "node index")
+                                 f"public node index (0..{len(mm.public_nodes) - 1})")
+            node = ends[at] if isinstance(at, str) else mm.public_nodes[int(at)]
             cols.extend(mm.node_dofs(node)[:asm.scene.dim])
-        P = self.E.tocsr()[cols].T.tocsc()  # (ny, k): the unknowns of the chosen coordinates
-        if np.any(np.asarray(abs(P).sum(axis=0)).ravel() == 0):
-            raise SceneError(f"condensed_stiffness: a point of {points!r} is held by a support (no free coordinate)")
-        # the flexibility P^T K^-1 P with the constraints (KKT), inverted: the condensed stiffness
-        m = self.G.shape[0]
-        kkt = sp.bmat([[self.K, self.G.T], [self.G, None]], format="csc")
-        rhs = np.vstack([P.toarray(), np.zeros((m, P.shape[1]))])
-        sol = sp.linalg.splu(kkt).solve(rhs)[:self.size]
-        flex = P.T @ sol
-        return np.linalg.inv(0.5 * (flex + flex.T))
+        cols = np.asarray(cols)
+        if len(np.unique(cols)) < len(cols):
+            raise SceneError(f"condensed_stiffness: {points!r} names a node twice")
+        E = self.E.tocsr()
+        chosen = np.unique(E[cols].indices)  # unknowns that a chosen coordinate is
+        shared = np.asarray(abs(E[:, chosen]).sum(axis=0)).ravel() > 1
+        if np.any(shared):
+            raise SceneError(f"condensed_stiffness: a node of {points!r} shares its coordinates with another member's "
+                             "(a hinge or joint): choose one side's node of a joint that is not identified")
+        keep = np.setdiff1d(np.arange(self.size), chosen)
+        Er = self.E[:, keep].tocsc()
+        S = sp.csc_matrix((np.ones(len(cols)), (cols, np.arange(len(cols)))), shape=(self.E.shape[0], len(cols)))
+        H, Gf = self._H_full, self._G_full
+        A, B = (Er.T @ H @ Er).tocsc(), (Gf @ Er).tocsc()
+        kkt = sp.bmat([[A, B.T], [B, None]], format="csc") if B.shape[0] else A
+        rhs = -np.vstack([(Er.T @ H @ S).toarray(), (Gf @ S).toarray()])
+        sol = sp.linalg.splu(kkt).solve(rhs)
+        Y, Mu = sol[:len(keep)], sol[len(keep):]
+        Kc = (S.T @ H @ S).toarray() + (S.T @ H @ Er) @ Y + (S.T @ Gf.T) @ Mu
+        return 0.5 * (Kc + Kc.T)
 
 
 def _state(prob: StaticProblem, state) -> np.ndarray:
@@ -119,11 +137,11 @@ def linearize(scene: Scene, state: StaticResult | np.ndarray | None = None, damp
     M = part.reduce_matrix(asm.mass_matrix())
     rows = part.rows
     if len(rows):
-        cons = asm.exact.subset(rows)
-        G = (cons.jacobian(x) @ part.E).tocsr()
+        Gf = asm.exact.subset(rows).jacobian(x).tocsr()
         lam = lam_all[rows]
     else:
-        G, lam = sp.csr_matrix((0, part.ny)), np.zeros(0)
+        Gf, lam = sp.csr_matrix((0, asm.n)), np.zeros(0)
+    G = (Gf @ part.E).tocsr()
     D = _damping(asm, x, part, M) if damping_matrix else None
     cols, inputs = [], []
     for name, mm in asm.mesh.members.items():
@@ -133,7 +151,7 @@ def linearize(scene: Scene, state: StaticResult | np.ndarray | None = None, damp
                 inputs.append((name, k, "xyz"[d]))
     P = sp.csc_matrix((np.ones(len(cols)), (np.asarray(cols), np.arange(len(cols)))), shape=(asm.n, len(cols)))
     B = (part.E.T @ P).tocsc()
-    return Linearization(M, K, D, G, B, part.E, x, lam, inputs, asm)
+    return Linearization(M, K, D, G, B, part.E, x, lam, inputs, asm, H.tocsc(), Gf)
 
 
 def _damping(asm: Assembly, x: np.ndarray, part: Partition, M: sp.csc_matrix) -> sp.csc_matrix | None:
