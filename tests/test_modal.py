@@ -442,3 +442,37 @@ def test_hinge_identified_penalty_and_mechanism():
     assert not np.any(exact.zero) and np.allclose(exact.frequencies, pen.frequencies, rtol=1e-5)
     mech = modal_analysis(scene("exact", first="pin"), modes=3)
     assert list(mech.zero) == [True, False, False] and mech.frequencies[1] > 10.0
+
+
+def test_condensed_stiffness_of_a_sagging_line_against_moved_pins():
+    # a sagging line's stiffness at its end pin (a fairlead) against the derivative of the pin's reaction when the
+    # pin is moved and the statics solved again (central differences of a solver output: a derivative check, the
+    # only place finite differences belong). Moving the pin keeps the unstretched length (the prestrain follows the
+    # chord). The reaction is the multiplier lambda of the pin's rows (grad Pi + lambda = 0 there): the force on the
+    # pin is -lambda, so K = -d lambda / d u. delta = 1 mm on a 100 m line: the differences' error ~ (delta/sag)^2
+    # ~ 1e-6, the statics' tolerance below; 1e-4 relative per entry is asked
+    span, A, rho, EA = 100.0, 1e-3, 1000.0, 2.4e7
+    unstretched = span / (1 - 8.105e-4)
+
+    def line(end) -> Scene:
+        chord = float(np.hypot(*end))
+        s = Scene(dim=2, gravity=(0.0, -G))
+        s.member("line", [(0, 0), tuple(end)], 40, Material(E=EA / A, density=rho), Section(area=A), bending=False,
+                 prestrain=chord / unstretched - 1)
+        s.pin("line", "start")
+        s.pin("line", "end")
+        return s
+
+    K = linearize(line((span, 0.0))).condensed_stiffness([("line", "end")])
+    d = 1e-3
+    Kfd = np.zeros((2, 2))
+    for j in range(2):
+        lam = []
+        for sgn in (1, -1):
+            end = np.array([span, 0.0])
+            end[j] += sgn * d
+            r = modal_analysis(line(end), modes=1).static  # (the statics through the same entry point)
+            lam.append(np.array(r.constraint_forces["pin line@end"]))
+        Kfd[:, j] = -(lam[0] - lam[1]) / (2 * d)
+    assert np.allclose(np.diag(K), np.diag(Kfd), rtol=1e-4)  # (measured 3e-5 axially, 3e-8 transversally)
+    assert abs(K[0, 1]) < 1e-6 * K[1, 1] and abs(Kfd[0, 1]) < 1e-6 * K[1, 1]  # (a symmetric sag: uncoupled)
