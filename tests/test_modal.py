@@ -478,3 +478,17 @@ def test_condensed_stiffness_of_a_sagging_line_against_moved_pins():
     assert np.allclose(np.diag(K), np.diag(Kfd), rtol=1e-5)
     # a symmetric sag: uncoupled; the differences' own noise is the statics' tolerance, ~1e-10 L K / 2 delta
     assert abs(K[0, 1]) < 1e-9 * K[0, 0] and abs(Kfd[0, 1]) < 1e-6 * K[0, 0]
+
+
+def test_compound_pendulum_body():
+    # a rigid body on a revolute joint: its rows keep multipliers and the body's unit-vector row is quadratic, and
+    # gravity's potential is linear in the coordinates: all the stiffness is sum lambda_i Hess(Phi_i) (without it
+    # the frequency would be 0). Small oscillations at sqrt(m g d / (I_c + m d^2)) exactly (one degree of freedom)
+    m, Ic, d = 2.0, 0.05, 0.3
+    s = Scene(dim=2, gravity=(0.0, -G))
+    s.body("b", m, Ic, (0.0, -d))
+    s.revolute("b", point=(0.0, 0.0))
+    r = modal_analysis(s, modes=1)
+    assert r.linearization.G.shape[0] > 0
+    assert np.isclose(r.frequencies[0], np.sqrt(m * G * d / (Ic + m * d * d)) / (2 * np.pi), rtol=1e-9)
+    assert np.isclose(r.modal_masses[0], (Ic + m * d * d) / d ** 2, rtol=1e-9)  # the centre moves d per radian

@@ -57,8 +57,10 @@ def modal_analysis(scene: Scene, modes: int = 10, static: StaticResult | None = 
     freq = np.where(zero, 0.0, np.sign(w2) * np.sqrt(np.abs(w2)) / (2 * np.pi))
     shapes = lin.full(Y)
     dim = prob.asm.scene.dim
+    # the position coordinates: member nodes and body centres (bodies: the centre first in their coordinates)
     pos = np.concatenate([mm.offset + (np.arange(mm.n_nodes)[:, None] * mm.node_size + np.arange(dim)).ravel()
-                          for mm in prob.asm.mesh.members.values()])
+                          for mm in prob.asm.mesh.members.values()] +
+                         [off + np.arange(dim) for off in prob.asm.mesh.bodies.values()] + [np.zeros(0, int)])
     umax = np.max(np.abs(shapes[pos]), axis=0) if len(pos) else np.zeros(len(w2))
     masses = [float(1.0 / u ** 2) if u > 0 else None for u in umax]
     status = "Solve_Succeeded" if np.all(np.isfinite(w2)) else "Eigen_Solve_Failed"

@@ -35,8 +35,8 @@ class ModalResult:
     """status/success: the static solve's and the eigen solve's. frequencies [Hz], ascending: sqrt(w^2)/(2 pi); a
     negative value -sqrt(-w^2)/(2 pi) marks an unstable mode (the equilibrium is a saddle), a zero one a rigid
     motion (`zero`: |w^2| below round-off of the tangent). shapes: mode vectors on the full coordinates (columns,
-    M-normalised: phi' M phi = 1 [1/kg]). modal_masses [kg]: phi' M phi with each mode scaled to a largest nodal
-    displacement of 1 m (None where a mode moves no node, e.g. pure torsion of a beam3d)."""
+    M-normalised: phi' M phi = 1 [1/kg]). modal_masses [kg]: phi' M phi with each mode scaled to a largest
+    displacement of a member node or body centre of 1 m (None where none moves, e.g. pure torsion of a beam3d)."""
     status: str
     success: bool
     omega2: np.ndarray  # w^2 [1/s^2]
