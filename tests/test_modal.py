@@ -492,3 +492,20 @@ def test_compound_pendulum_body():
     assert r.linearization.G.shape[0] > 0
     assert np.isclose(r.frequencies[0], np.sqrt(m * G * d / (Ic + m * d * d)) / (2 * np.pi), rtol=1e-9)
     assert np.isclose(r.modal_masses[0], (Ic + m * d * d) / d ** 2, rtol=1e-9)  # the centre moves d per radian
+
+
+def test_damped_free_structure_zero_modes():
+    # a free bar with mass-proportional damping alpha: each rigid mode is one lambda = 0 (reported first, exactly)
+    # and the real root -alpha (its velocity decays: M v' = -alpha M v), which come next by |lambda|; then the
+    # elastic ones with zeta = alpha / (2 w) (proportional damping: exact to the solve's round-off)
+    s = cantilever(60, free=True)
+    s.rayleigh(alpha=3.0)
+    r = modal_analysis(s, modes=8, damped=True)
+    lam = r.damped.eigenvalues
+    assert list(r.zero) == [True] * 3 + [False] * 5
+    assert np.all(lam[:3] == 0) and np.all(np.isnan(r.damped.damping_ratios[:3]))
+    # (-alpha up to the rigid modes' round-off: lambda^2 + alpha lambda + w^2 = 0 with |w^2| at its round-off moves
+    # the root by ~w^2 / alpha)
+    assert np.allclose(lam[3:6], -3.0, rtol=0, atol=3 * np.abs(r.omega2[:3]).max() / 3.0 + 1e-12)
+    w = np.sqrt(r.omega2[3:5])
+    assert np.allclose(r.damped.damping_ratios[6:8], 3.0 / (2 * w), rtol=1e-8)

@@ -69,7 +69,12 @@ def modal_analysis(scene: Scene, modes: int = 10, static: StaticResult | None = 
         D = lin.D if lin.D is not None else 0.0 * lin.M
         # the shift: below the lowest mode (a tenth of its undamped w), where the pencil is regular
         w_low = np.sqrt(np.abs(w2[~zero])).min() if np.any(~zero) else np.sqrt(stiffness_scale(lin.K, lin.M)) * 1e-3
-        lam = damped_modes(lin.K, lin.M, D, lin.G, modes, -0.1 * float(w_low))
+        # a zero (rigid) mode is a double root lambda = 0 (and -alpha with mass-proportional damping): its pair
+        # comes out as round-off; reported as one exact 0 per zero mode, the rest after them
+        nz = int(np.sum(zero))
+        lam = damped_modes(lin.K, lin.M, D, lin.G, modes + nz, -0.1 * float(w_low))
+        tiny = np.abs(lam) ** 2 <= ZERO_REL * stiffness_scale(lin.K, lin.M)
+        lam = np.r_[np.zeros(nz, complex), lam[~tiny]][:modes]
         complex_modes = DampedModes(lam)
     return ModalResult(status, status == "Solve_Succeeded", w2, freq, zero, shapes, masses, static, method,
                        time.perf_counter() - t0, lin, complex_modes)

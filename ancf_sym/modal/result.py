@@ -14,7 +14,8 @@ from .linearize import Linearization
 class DampedModes:
     """The complex eigenvalues lambda [1/s] of the damped linear system (one of each conjugate pair, by |lambda|):
     frequencies = Im lambda / 2 pi [Hz] (the damped natural frequencies; 0 for an overdamped, real lambda),
-    damping_ratios = -Re lambda / |lambda|."""
+    damping_ratios = -Re lambda / |lambda|. A zero (rigid) mode of the undamped analysis is one exact lambda = 0
+    here, first."""
     eigenvalues: np.ndarray
 
     @property
@@ -23,7 +24,9 @@ class DampedModes:
 
     @property
     def damping_ratios(self) -> np.ndarray:
-        return -self.eigenvalues.real / np.abs(self.eigenvalues)
+        """-Re lambda / |lambda|; undefined for a zero (rigid) mode: NaN there (null in result.json)."""
+        a = np.abs(self.eigenvalues)
+        return np.divide(-self.eigenvalues.real, a, out=np.full(len(a), np.nan), where=a > 0)
 
     def to_dict(self) -> dict:
         return {"eigenvalues_real": self.eigenvalues.real.tolist(), "eigenvalues_imag": self.eigenvalues.imag.tolist(),
