@@ -23,6 +23,7 @@ from ..dynamics import damping
 from ..reduced import Partition, partition
 from ..scene import Scene, SceneError
 from ..statics import StaticProblem, StaticResult, problem_for
+from .contact_rows import active_rows, exact_multipliers
 
 
 @dataclass
@@ -95,41 +96,40 @@ class Linearization:
         return 0.5 * (Kc + Kc.T)
 
 
-def _state(prob: StaticProblem, state) -> np.ndarray:
+def _state(prob: StaticProblem, state) -> tuple[np.ndarray, StaticResult | None]:
+    """(x, the StaticResult if there is one)."""
     if state is None:
-        res = prob.solve()
-        if not res.success:
-            raise SceneError(f"linearize: the static equilibrium failed ({res.status}); pass a state")
-        return res.x
+        state = prob.solve()
+        if not state.success:
+            raise SceneError(f"linearize: the static equilibrium failed ({state.status}); pass a state")
     x = state.x if isinstance(state, StaticResult) else np.asarray(state, float)
     if x.shape != (prob.asm.n,) or not np.all(np.isfinite(x)):
         raise SceneError(f"linearize: state must be a StaticResult or {prob.asm.n} finite coordinates, got shape "
                          f"{np.shape(x)}")
-    return x
-
-
-def check_modal_scene(asm: Assembly, what: str) -> None:
-    """Refuse, before any work, what the linear model does not hold."""
-    exact = contact.exact_contacts(asm)
-    if exact:
-        raise SceneError(f"{what}: contact on member {exact[0].member!r} has method='exact' (unilateral rows); the "
-                         "linear model takes penalty contacts (method='penalty'), whose tangent it includes")
+    return x, (state if isinstance(state, StaticResult) else None)
 
 
 def linearize(scene: Scene, state: StaticResult | np.ndarray | None = None, damping_matrix: bool = True,
               problem: StaticProblem | None = None) -> Linearization:
     """M, K_L, D, G, B about `state` (a StaticResult or full coordinates; None: the static equilibrium, solved
-    here). At an equilibrium the multipliers are exact; elsewhere they are the least-squares ones (K_L then holds
+    here; a scene with exact contact needs a StaticResult: its contact forces say which points are held, and those
+    points' gap rows join G). At an equilibrium the multipliers are exact; elsewhere they are the least-squares ones (K_L then holds
     the constraint curvature of that estimate). damping_matrix=False skips D (strain-rate damping and contact
     friction build the dynamics' step system for it: about a second on large models)."""
     prob = problem if problem is not None else problem_for(scene)
     asm = prob.asm
-    check_modal_scene(asm, "linearize")
-    x = _state(prob, state)
+    x, result = _state(prob, state)
     part: Partition = partition(asm)
     ev = asm.evaluate(x, hessian=True)
     H = ev.hessian
-    lam_all = prob.multipliers(x, ev.gradient) if asm.exact.m else np.zeros(0)
+    exact_contact = bool(contact.exact_contacts(asm))
+    if exact_contact:  # the points in contact: equality rows (ancf_sym.modal.contact_rows)
+        Jc, Hc, fc = active_rows(asm, result)
+        H = (H + Hc).tocsc()
+        lam_all = exact_multipliers(asm, result) if asm.exact.m else np.zeros(0)
+    else:
+        Jc, fc = sp.csr_matrix((0, asm.n)), np.zeros(0)
+        lam_all = prob.multipliers(x, ev.gradient) if asm.exact.m else np.zeros(0)
     if len(asm.exact.qrow):  # bilinear rows (rigid joints' slopes): their curvature, lambda-weighted
         H = (H + asm.exact.hessian(lam_all)).tocsc()
     K = part.reduce_matrix(H)
@@ -141,6 +141,8 @@ def linearize(scene: Scene, state: StaticResult | np.ndarray | None = None, damp
         lam = lam_all[rows]
     else:
         Gf, lam = sp.csr_matrix((0, asm.n)), np.zeros(0)
+    if Jc.shape[0]:  # (contact rows after the joints'; their multipliers are minus the contact forces)
+        Gf, lam = sp.vstack([Gf, Jc]).tocsr(), np.r_[lam, -fc]
     G = (Gf @ part.E).tocsr()
     D = _damping(asm, x, part, M) if damping_matrix else None
     cols, inputs = [], []
