@@ -1,4 +1,4 @@
-"""Modal analysis about the static equilibrium: statics first (the prestress of gravity, loads, prestrain, penalty
+"""Modal analysis about the static equilibrium: statics first (the prestress of gravity, loads, prestrain,
 contacts), then the lowest eigenpairs of the exact Hessian of the Lagrangian and the mass matrix on the reduced
 coordinates, the remaining exact constraints eliminated (ancf_sym.modal.eigen). User guide: docs/modal.md."""
 from __future__ import annotations

@@ -4,9 +4,9 @@ IPOPT's answer holds every point's force f_i and gap g_i at f_i g_i = mu (its la
 point has exactly zero force or gap. A point is active (in contact, held for small motions: its gap row g_i(x) = 0
 joins the constraints) where its gap is the smaller of the two relative to their scales, g_i / L < f_i / f_max (L
 the structure's length scale); the others lift off freely (a point touching with zero force counts as free: the
-linear model cannot hold a one-sided constraint). The rows' curvature enters the Hessian of the Lagrangian with the statics'
-sign: min Pi subject to g >= 0 has L = Pi - sum f_i g_i, so K_L gets -sum f_i Hess g_i (drum rows; ground rows are
-linear). The rows and their derivatives are the statics' own (ancf_sym.contact_exact.casadi_rows: the gap kernels).
+linear model cannot hold a one-sided constraint). The rows' curvature enters the Hessian of the Lagrangian with the
+statics' sign: min Pi subject to g >= 0 has L = Pi - sum f_i g_i, so K_L gets -sum f_i Hess g_i (drum rows; ground
+rows are linear). The rows and their derivatives are the statics' own (ancf_sym.contact_exact.casadi_rows: the gap kernels).
 """
 from __future__ import annotations
 

@@ -17,6 +17,8 @@ import scipy.linalg as la
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
+from ..scene import SceneError
+
 DENSE_MAX = 40  # unknowns (or modes + this) up to which the dense pencil is used: measured on a 120-element
 # cantilever, the dense solve of the whole spectrum puts its round-off, eps x the highest w^2, on the lowest mode
 # too (4e-6 of it), where shift-invert resolves the lowest modes to their own relative precision
@@ -77,6 +79,9 @@ def sparse_modes(K, M, G, k: int) -> tuple[np.ndarray, np.ndarray, float]:
 def lowest_modes(K, M, G, k: int) -> tuple[np.ndarray, np.ndarray, str]:
     """(w^2 ascending, M-normalised mode vectors as columns, method)."""
     n = K.shape[0]
+    if k > n - G.shape[0]:
+        raise SceneError(f"modes = {k} exceeds the {n - G.shape[0]} degrees of freedom the supports, joints and "
+                         "contacts leave")
     if n - G.shape[0] <= DENSE_MAX + 2 * k:
         w2, Y = dense_modes(K, M, G, k)
         method = "dense"

@@ -8,7 +8,8 @@ potential's Hessian from the kernels (geometric stiffness of the prestress and p
 included) plus sum_i lambda_i Hess(Phi_i) of the multiplier rows (bilinear: a constant curvature). D is the
 damping: Rayleigh alpha M + beta K_el (K_el: the elastic terms' Hessian at the state, per member as the scene
 declares it) plus d f_d / d v at v = 0 of strain-rate damping and dissipative contact (exact, by the dynamics' AD
-graph; friction makes it unsymmetric). B maps point forces at the members' nodes (world components) to generalized forces.
+graph; friction makes it unsymmetric). B maps point forces at the members' nodes (world components) to generalized
+forces.
 """
 from __future__ import annotations
 
@@ -113,9 +114,9 @@ def linearize(scene: Scene, state: StaticResult | np.ndarray | None = None, damp
               problem: StaticProblem | None = None) -> Linearization:
     """M, K_L, D, G, B about `state` (a StaticResult or full coordinates; None: the static equilibrium, solved
     here; a scene with exact contact needs a StaticResult: its contact forces say which points are held, and those
-    points' gap rows join G). At an equilibrium the multipliers are exact; elsewhere they are the least-squares ones (K_L then holds
-    the constraint curvature of that estimate). damping_matrix=False skips D (strain-rate damping and contact
-    friction build the dynamics' step system for it: about a second on large models)."""
+    points' gap rows join G). At an equilibrium the multipliers are exact; elsewhere they are the least-squares
+    ones (K_L then holds the constraint curvature of that estimate). damping_matrix=False skips D (strain-rate
+    damping and contact friction build the dynamics' step system for it: about a second on large models)."""
     prob = problem if problem is not None else problem_for(scene)
     asm = prob.asm
     x, result = _state(prob, state)
