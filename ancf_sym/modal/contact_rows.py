@@ -6,7 +6,8 @@ joins the constraints) where its gap is the smaller of the two relative to their
 the structure's length scale); the others lift off freely (a point touching with zero force counts as free: the
 linear model cannot hold a one-sided constraint). The rows' curvature enters the Hessian of the Lagrangian with the
 statics' sign: min Pi subject to g >= 0 has L = Pi - sum f_i g_i, so K_L gets -sum f_i Hess g_i (drum rows; ground
-rows are linear). The rows and their derivatives are the statics' own (ancf_sym.contact_exact.casadi_rows: the gap kernels).
+rows are linear). The rows and their derivatives are the statics' own (ancf_sym.contact_exact.casadi_rows: the gap
+kernels).
 """
 from __future__ import annotations
 
