@@ -13,7 +13,9 @@ from .scene import Material, Scene, SceneError, Section
 from .statics import StaticOptions, StaticResult, solve_static
 from .dynamics import DynamicOptions, DynamicResult, run_dynamics, simulate
 from . import initial
+from .modal import ModalResult, linearize, modal_analysis
 
 __all__ = ["Material", "Scene", "SceneError", "Section", "StaticOptions", "StaticResult", "solve_static",
-           "DynamicOptions", "DynamicResult", "run_dynamics", "simulate"]
+           "DynamicOptions", "DynamicResult", "run_dynamics", "simulate",
+           "modal_analysis", "linearize", "ModalResult"]
 __version__ = "0.1.0"

@@ -320,6 +320,12 @@ class Assembly:
             H = sp.csc_matrix((data, self.h_indices, self.h_indptr), shape=(self.n, self.n))
         return Evaluation(float(sum(energies.values())), energies, g, H)
 
+    def hessian_of(self, kernel_values: np.ndarray) -> sp.csc_matrix:
+        """The global sparse matrix of per-element Hessian values laid out as the curved terms' kernels give them
+        (each term's H raveled, terms in self.curved's order): a weighted tangent (Rayleigh's elastic stiffness)."""
+        data = np.bincount(self._hpos[:self._n_kernel_entries], kernel_values, minlength=self.h_nnz)
+        return sp.csc_matrix((data, self.h_indices, self.h_indptr), shape=(self.n, self.n))
+
     def _scatter_dense(self, Hp: sp.csc_matrix) -> np.ndarray:
         """Penalty Hessian values laid out on the tail of the pattern (J^T J and quadratic entries)."""
         coo = Hp.tocoo()

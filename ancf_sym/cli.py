@@ -9,7 +9,9 @@
 
 `run` writes DIR/result.json, DIR/shape.png, DIR/fields.png, DIR/result.vtu and a copy of the scene as
 DIR/scene.toml (dynamics: DIR/history.png, DIR/series.pvd with DIR/frames/, and DIR/motion.gif unless
---no-animation). Everything is written into a temporary sibling directory first (ancf_sym.result_dir); DIR is
+--no-animation; a modal analysis: result.json with the equilibrium and the modes, modes.png, modes.vtu, and
+modes.gif unless --no-animation). Everything is written into a temporary sibling directory first
+(ancf_sym.result_dir); DIR is
 replaced only when the solve succeeded, so a failed run never overwrites a previous good DIR: its status goes to
 DIR.failed/ instead. Exit codes: 0 success, 1 the solve failed (or an unexpected error, traceback in
 DIR.failed/traceback.txt; or finished results that could not replace DIR, kept beside it), 2 bad input (the scene's
@@ -139,10 +141,39 @@ def run_dynamics_cli(scene: Scene, analysis: dict, scene_file: Path, out: Path, 
     return r.success, summary
 
 
+MODAL_STAGES = ["read scene", "solve statics, modes", "write result.json, modes.png, modes.vtu"]
+
+
+def run_modal(scene: Scene, analysis: dict, scene_file: Path, out: Path, progress: Progress, t_start: float,
+              samples: int | None, animation: bool = True) -> tuple[bool, str]:
+    """The static equilibrium and the lowest modes about it (ancf_sym.modal); result.json, modes.png, modes.vtu."""
+    from .modal import modal_analysis
+    from .modal.output import animate_modes, modal_result_dict, plot_modes, write_modes_vtu
+    from .output_json import write_json
+    from .statics import StaticOptions
+    from .vtk_out import DEFAULT_SAMPLES, samples_per_element
+
+    progress.stage("solve statics, modes")
+    opts = StaticOptions(**{k: v for k, v in analysis.items() if k not in ("type", "modes", "damped")})
+    r = modal_analysis(scene, modes=analysis.get("modes", 10), options=opts, damped=analysis.get("damped", False))
+    wall_total = time.perf_counter() - t_start
+    progress.stage("write result.json, modes.png, modes.vtu")
+    write_json(out / RESULT_FILE, modal_result_dict(r, scene_file, analysis, wall_total))
+    if r.success:
+        plot_modes(r, out / "modes.png", per_element=samples or DEFAULT_SAMPLES)
+        write_modes_vtu(r, out / "modes.vtu", samples_per_element(r.static.assembly.mesh, samples))
+        if animation:
+            animate_modes(r, out / "modes.gif", per_element=samples or DEFAULT_SAMPLES)
+    f = ", ".join(f"{v:.5g}" for v in r.frequencies[:5])
+    summary = f"{scene.name}: {r.status}; lowest frequencies [Hz]: {f}; total {wall_total:.3f} s"
+    return r.success, summary
+
+
 # analysis type -> (runner, its progress stages). A runner gets (scene, analysis dict, scene file, output directory
-# to fill, Progress, start time, samples per element (None: ancf_sym.vtk_out.samples_per_element), animation (dynamics: write motion.gif)) and returns
-# (success, one-line summary).
-ANALYSES = {"statics": (run_statics, STATICS_STAGES), "dynamics": (run_dynamics_cli, DYNAMICS_STAGES)}
+# to fill, Progress, start time, samples per element (None: ancf_sym.vtk_out.samples_per_element), animation
+# (dynamics, modal: write a GIF)) and returns (success, one-line summary).
+ANALYSES = {"statics": (run_statics, STATICS_STAGES), "dynamics": (run_dynamics_cli, DYNAMICS_STAGES),
+            "modal": (run_modal, MODAL_STAGES)}
 
 
 # -- the run command ---------------------------------------------------------------------------------------------

@@ -699,8 +699,9 @@ class Scene:
         raise fail(field_name, "expected 'start', 'end', a node index"
                    + ("" if node_only else " or a material coordinate in metres (float)"), at)
 
-    def validate_for_statics(self) -> None:
-        """Refuse scenes with a free rigid-body motion: every connected group of members needs a support."""
+    def validate_for_statics(self, allow_free: bool = False) -> None:
+        """Refuse scenes with a free rigid-body motion: every connected group of members needs a support.
+        allow_free: only the other checks (a modal analysis of a free structure about its unloaded reference)."""
         if not self.members and not self.bodies:
             raise SceneError("scene has no members")
         if self.drives:
@@ -721,6 +722,8 @@ class Scene:
                         ga |= gb
                         for n in gb:
                             groups[n] = ga
+        if allow_free:
+            return
         from .bodies import connected_supported
         supported = {s.member for s in self.supports if s.kind in ("clamp", "pin")}
         held = connected_supported(self)

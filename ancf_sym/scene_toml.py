@@ -24,7 +24,8 @@ The file mirrors the Python API (docs/scenes.md has the full schema and an annot
                          thickness, damping, mu, eps, gauss, method (ancf_sym.contact.from_toml)
     [analysis]           type = "statics" (tol, max_iter, load_steps, escape_saddle, load_stepping) | "dynamics"
                          (passed through; start = "static", release, from_result, [[analysis.initial]] member,
-                         velocity | omega, centre; [[analysis.sensors]], [[analysis.loads]])
+                         velocity | omega, centre; [[analysis.sensors]], [[analysis.loads]]) | "modal" (modes,
+                         damped, and the statics options of its equilibrium)
 
 Everything is checked before any solving. Every error is a SceneError whose message starts with the TOML path of
 the offending field (array indices count from 0), e.g. "members[1].elements: must be a positive integer, got 0".
@@ -40,7 +41,7 @@ from . import contact, drives
 from .checks import check_keys, fail, number, vector
 from .mesh import build_mesh
 from .scene import Material, Scene, SceneError, Section
-from .schema import ARC, BODY, BODY_JOINT, LOOP, MATERIAL, POINT_MASS, SECTION, STATIC_OPTIONS
+from .schema import ARC, BODY, BODY_JOINT, LOOP, MATERIAL, MODAL_OPTIONS, POINT_MASS, SECTION, STATIC_OPTIONS
 from .statics import StaticOptions
 from .terms import scene_terms
 
@@ -59,7 +60,7 @@ JOINT_TYPES = ("hinge", "rigid")
 LOAD_TYPES = ("force", "distributed", "moment", "tension")
 DAMPINGS = {"rayleigh": "rayleigh", "strain_rate": "strain_rate_damping"}  # [[dampings]] type -> the Scene method
 METHODS = ("exact", "penalty")
-ANALYSIS_TYPES = ("statics", "dynamics")
+ANALYSIS_TYPES = ("statics", "dynamics", "modal")
 STATICS_OPTIONS = tuple(k for k, f in STATIC_OPTIONS.items() if not f.api_only)
 
 
@@ -369,10 +370,12 @@ def _analysis(d: Any) -> dict:
         from .dynamics import options_from_dict
         _api("analysis", options_from_dict, d, root="analysis")
         return {**d, "type": "dynamics"}
-    _keys("analysis", d, ("type",) + STATICS_OPTIONS)
-    opts = {k: v for k, v in d.items() if k != "type"}
+    modal = tuple(MODAL_OPTIONS) if kind == "modal" else ()  # (modal: the statics options for its equilibrium too)
+    _keys("analysis", d, ("type",) + STATICS_OPTIONS + modal)
+    opts = {k: v for k, v in d.items() if k not in ("type",) + modal}
     _api("analysis", StaticOptions, root="analysis", **opts)  # checks the values (ancf_sym.schema)
-    return {"type": "statics", **opts}
+    extra = {k: MODAL_OPTIONS[k].check(f"analysis.{k}", d[k]) for k in modal if k in d}
+    return {"type": kind, **opts, **extra}
 
 
 def scene_from_dict(doc: dict, default_name: str = "scene", base: str | Path | None = None) -> tuple[Scene, dict]:
@@ -420,6 +423,8 @@ def scene_from_dict(doc: dict, default_name: str = "scene", base: str | Path | N
     analysis = _analysis(doc.get("analysis", {"type": "statics"}))
     if analysis["type"] == "statics":
         _api("supports", scene.validate_for_statics)
+    elif analysis["type"] == "modal":  # (a free structure: its modes about the unloaded reference)
+        _api("supports", scene.validate_for_statics, allow_free=True)
     for i, d in enumerate(analysis.get("initial") or []):  # (their form is checked with the analysis)
         if d["member"] not in scene.members and d["member"] not in scene.bodies:
             raise _fail(f"analysis.initial[{i}].member", f"names no member or body; members: {sorted(scene.members)}"

@@ -36,6 +36,12 @@ STATIC_OPTIONS = {
     "print_level": Field("int", span=(0, 12), doc="IPOPT's print level (Python API only)", api_only=True),
 }
 
+# [analysis] type = "modal": the statics options above (the equilibrium first) and these (ancf_sym.modal)
+MODAL_OPTIONS = {
+    "modes": Field("int", positive=True, doc="the number of lowest natural modes about the static equilibrium"),
+    "damped": Field("bool", doc="also the damped modes' complex eigenvalues (the scene's damping)"),
+}
+
 # the fields DynamicOptions checks by kind; "any" fields are checked by DynamicOptions itself (integrator names,
 # sensors, loads, Newton options, initial states) and listed so that the TOML reader knows every key
 DYNAMIC_OPTIONS = {
@@ -138,7 +144,7 @@ def fields_table(table: dict) -> str:
 def analysis_table() -> str:
     """The [analysis] keys as the markdown table in docs/scenes.md (a test keeps the page equal to this)."""
     rows = ["| key | analysis | type | unit | meaning |", "|---|---|---|---|---|"]
-    for kind, table in (("statics", STATIC_OPTIONS), ("dynamics", DYNAMIC_OPTIONS)):
+    for kind, table in (("statics", STATIC_OPTIONS), ("modal", MODAL_OPTIONS), ("dynamics", DYNAMIC_OPTIONS)):
         rows += [f"| `{k}` | {kind} | {_kind(f)} | {f.unit or '-'} | {f.doc} |" for k, f in table.items()]
     return "\n".join(rows) + "\n"
 

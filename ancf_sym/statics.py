@@ -473,6 +473,10 @@ class StaticProblem:
         energies = re.energies(x)
         return Evaluation(float(sum(energies.values())), energies, re.gradient(ev, x), None)
 
+    def unloaded_at_rest(self, x: np.ndarray) -> bool:
+        """Is x an equilibrium because nothing loads the scene and nothing is strained there? (See below.)"""
+        return self._unloaded_at_rest(x)
+
     def _unloaded_at_rest(self, x: np.ndarray) -> bool:
         """No load term (gravity, forces, moments) in the scene and the start's residual at its round-off level
         (eps x max|K| x span): nothing loads it and nothing is strained."""

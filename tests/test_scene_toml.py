@@ -223,7 +223,7 @@ BAD = [  # (mutation of t_frame.toml, field path expected at the start of the me
     (_set("analysis.max_iter", 0), "analysis.max_iter", "positive integer, got 0"),
     (_set("analysis.tol", -1e-3), "analysis.tol", "(0, 1), got -0.001"),
     (_set("analysis.tolerance", 1e-3), "analysis.tolerance", "unknown key"),
-    (_set("analysis.type", "modal"), "analysis.type", "statics | dynamics"),
+    (_set("analysis.type", "buckling"), "analysis.type", "statics | dynamics | modal"),
     (_set("analysis", {"type": "dynamics", "dt": math.nan}), "analysis.dt", "finite"),
     (_set("scene.dim", 4), "scene.dim", "2 or 3"),
     (_set("scene.dim", None), "scene.dim", "missing"),
