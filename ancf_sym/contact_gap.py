@@ -33,15 +33,17 @@ from .elements.quadrature import gauss01
 
 SAMPLES = 16  # sample intervals per element for the start of the drum projection (f has at most 3 local minima)
 NEWTON_ITER = 30  # Newton's iterations on f' (quadratic convergence: 4-6 from a sample within 1/16 of the minimum)
-# A true gap deeper than this multiple of the law's own deepest sampled penetration, plus the sagitta of the
-# sampling (below), is hidden from the law. Where the law holds the centre line, the cubic between two sample points
-# deviates from the sampled values by its own interpolation error, far below the penetration itself; a factor 2
-# leaves room for that and for touch-down edges.
-HIDDEN_FACTOR = 2.0
-# The sagitta: a centre line held at two of the law's points a distance s apart on a drum of radius rho = R + t
-# crosses the arc between them as a chord, up to s^2 / (8 rho) deeper than at the points (falling as h^2 under
-# refinement). It is allowed only where the points resolve the drum, s <= rho; where they lie farther apart the drum
-# can sit between two of them and the allowance is 0.
+# A true gap deeper than this multiple of the law's own deepest sampled penetration p (plus the sagitta below) is
+# hidden from the law. At a point-like contact whose apex lies between two loaded points the centre line reaches
+# about 2 p (measured 2.01 p: a rope pushed up by a drum 13x wider than its elements, tests/test_contact_drum.py).
+HIDDEN_FACTOR = 3.0
+# The law resolves a drum of radius rho = R + t where its points lie no farther apart than RESOLVE x rho (an arc of
+# 14 degrees between points): there the cubic held at two points s apart may cut the arc between them like a chord,
+# by up to the sagitta s^2 / (8 rho) <= rho / 128, which falls as h^2 under refinement (a rope landing on a drum
+# touches between points first). Where the points lie farther apart the allowance is 0: a rope over a drum of radius
+# 0.02 m reached 82 p and 7 p at 32 and 64 elements (points 0.017 and 0.008 m apart), with a contact force 42 % and
+# 2 % off the converged one; at 128 elements (0.004 m) 1.05 p (tests/test_contact_gap.py).
+RESOLVE = 0.25
 STATUS = "Hidden_Contact_Penetration"  # statics status of a state the check refuses
 FLOOR = 1e-9  # x element length: below it a negative gap is round-off of the positions, not penetration
 
@@ -132,14 +134,15 @@ def _bounds(n: int) -> np.ndarray:
 
 def allowance(c, xi: np.ndarray, h: np.ndarray) -> np.ndarray:
     """The sagitta s^2 / (8 rho) of the law's sampling at xi of elements of length h (s: the spacing of the two
-    points around xi), where s <= rho = R + t; 0 on the ground and where the points lie farther apart than rho."""
+    points around xi), where the points resolve the drum (s <= RESOLVE rho, rho = R + t); 0 elsewhere and on the
+    ground."""
     if not is_drum(c):
         return np.zeros(len(xi))
     b = _bounds(c.gauss)
     k = np.clip(np.searchsorted(b, xi), 1, len(b) - 1)
     s = (b[k] - b[k - 1]) * h
     rho = c.radius + c.thickness
-    return np.where(s <= rho, s * s / (8 * rho), 0.0)
+    return np.where(s <= RESOLVE * rho, s * s / (8 * rho), 0.0)
 
 
 def project(c, A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -239,20 +242,23 @@ class Closest:
         return f"the drum of radius {c.radius:g} m {where} (contact {self.index})"
 
     def message(self) -> str:
-        c = self.contact
-        n_pts = c.gauss
-        size = ""
-        if is_drum(c):  # the law sees the drum where its points lie no farther apart than rho = R + t
-            rho = c.radius + c.thickness
-            frac = float(np.diff(_bounds(n_pts)).max())
-            size = (f"; its points lie up to {frac * self.element_length:.3g} m apart (elements of "
-                    f"{self.element_length:.4g} m), wider than the drum (radius {c.radius:g} m + half thickness "
-                    f"{c.thickness:g} m): mesh member {c.member!r} with elements no longer than {rho / frac:.3g} m "
-                    f"(or more points per element, gauss = 7: {rho / float(np.diff(_bounds(7)).max()):.3g} m)")
-        return (f"member {c.member!r} passes through {self.name()}: its centre line reaches a gap of "
-                f"{self.gap:.3g} m at element {self.element} (xi = {self.xi:.3f}, s = {self.s:.4g} m) while the "
-                f"penalty law, sampled at its {n_pts} Gauss points per element, sees a penetration of at most "
-                f"{self.sampled_penetration:.3g} m{size}")
+        c, h = self.contact, self.element_length
+        frac = float(np.diff(_bounds(c.gauss)).max())  # the widest spacing of the law's points, per element length
+        spacing = frac * h
+        rho = c.radius + c.thickness if is_drum(c) else np.inf
+        if spacing > RESOLVE * rho:  # the law's points do not resolve the drum
+            advice = (f"its points lie up to {spacing:.3g} m apart (elements of {h:.4g} m), more than {RESOLVE:g} x "
+                      f"the drum's radius {c.radius:g} m + half thickness {c.thickness:g} m: mesh member "
+                      f"{c.member!r} with elements no longer than {RESOLVE * rho / frac:.3g} m where it meets the "
+                      f"drum (with gauss = 7: {RESOLVE * rho / float(np.diff(_bounds(7)).max()):.3g} m)")
+        else:  # the points see the surface but the cubic crosses it between them
+            advice = (f"its points lie up to {spacing:.3g} m apart (elements of {h:.4g} m), too far apart for the "
+                      f"curvature of the contact: mesh member {c.member!r} finer (elements of at most {h / 2:.3g} m) "
+                      f"where it meets {('the drum' if is_drum(c) else 'the ground')}")
+        return (f"member {c.member!r} passes through {self.name()}: its centre line reaches a gap of {self.gap:.3g} m "
+                f"at element {self.element} (xi = {self.xi:.3f}, s = {self.s:.4g} m), deeper than {HIDDEN_FACTOR:g} x "
+                f"the penetration {self.sampled_penetration:.3g} m the penalty law sees at its {c.gauss} Gauss points "
+                f"per element; {advice}")
 
     def record(self) -> dict:
         return {"smallest_gap": self.gap if np.isfinite(self.gap) else None, "element": self.element,
