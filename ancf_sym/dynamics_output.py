@@ -78,9 +78,10 @@ def result_dict(result, scene_file, analysis: dict, wall_total: float) -> dict:
     scene = result.assembly.scene
     if scene.contacts:  # per penalty contact, at the output times: min_gap, smallest_gap [m], normal_force [N]
         reps = [contact.report(result.assembly, x) for x in _full_states(result)]
+        ts = list(result.t) if len(reps) == len(result.t) else list(result.t[-1:])  # (no frames: the final state)
         d["contacts"] = [{"type": reps[0][i]["type"], "member": reps[0][i]["member"],
                           **{k: [r[i][k] for r in reps] for k in ("min_gap", "normal_force", "smallest_gap")},
-                          **_deepest(result.t, [r[i] for r in reps])} for i in range(len(reps[0]))] \
+                          **_deepest(ts, [r[i] for r in reps])} for i in range(len(reps[0]))] \
             if reps and reps[0] else []
     return _clean({"format": "ancf_sym.dynamics/1", "scene": {"name": scene.name, "file": str(Path(scene_file).resolve()),
                                                                "dim": scene.dim},
