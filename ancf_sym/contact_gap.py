@@ -32,7 +32,8 @@ import numpy as np
 from .elements.quadrature import gauss01
 
 SAMPLES = 16  # sample intervals per element for the start of the drum projection (f has at most 3 local minima)
-NEWTON_ITER = 30  # Newton's iterations on f' (quadratic convergence: 4-6 from a sample within 1/16 of the minimum)
+NEWTON_ITER = 30  # Newton's iterations on f' at most (quadratic convergence: 4-6 from a sample within 1/16)
+NEWTON_DONE = 1e-9  # a step below this in xi was taken where the error is ~ its square: the iteration stops
 # A true gap deeper than this multiple of the law's own deepest sampled penetration p (plus the sagitta below) is
 # hidden from the law. At a point-like contact whose apex lies between two loaded points the centre line reaches
 # about 2 p (measured 2.01 p: a rope pushed up by a drum 13x wider than its elements, tests/test_contact_drum.py).
@@ -100,14 +101,20 @@ def _relative(c, A: np.ndarray, centre: np.ndarray, P: np.ndarray) -> np.ndarray
 
 
 def gap_lower_bound(c, A: np.ndarray) -> np.ndarray:
-    """(N,) a lower bound of each cubic's smallest gap, from the convex hull of its Bezier control points; A: the
-    cubics (ground) or their radial parts (drums, _relative)."""
-    B = np.stack([A[:, 0], A[:, 0] + A[:, 1] / 3, A[:, 0] + (2 * A[:, 1] + A[:, 2]) / 3, A.sum(axis=1)], axis=1)
+    """(N,) a lower bound of each cubic's smallest gap, from the convex hull of its Bezier control points b_k (the
+    ground: the lowest of them; a drum: a ball about the chord's midpoint holding them all); A: the cubics (ground)
+    or their radial parts (drums, _relative)."""
+    b1 = A[:, 0] + A[:, 1] / 3
+    b2 = b1 + (A[:, 1] + A[:, 2]) / 3
+    b3 = A.sum(axis=1)
     if not is_drum(c):
-        return (B @ c.normal).min(axis=1) - c.level - c.thickness
-    m = B.mean(axis=1)
-    spread = np.linalg.norm(B - m[:, None], axis=2).max(axis=1)
-    return np.linalg.norm(m, axis=1) - spread - c.radius - c.thickness
+        n = c.normal
+        return np.minimum(np.minimum(A[:, 0] @ n, b1 @ n), np.minimum(b2 @ n, b3 @ n)) - c.level - c.thickness
+    m = 0.5 * (A[:, 0] + b3)
+    h = b3 - m
+    r2 = np.maximum(np.einsum("nd,nd->n", h, h),
+                    np.maximum(np.einsum("nd,nd->n", b1 - m, b1 - m), np.einsum("nd,nd->n", b2 - m, b2 - m)))
+    return np.sqrt(np.einsum("nd,nd->n", m, m)) - np.sqrt(r2) - c.radius - c.thickness
 
 
 def sampled_gaps(c, A: np.ndarray) -> np.ndarray:
@@ -185,7 +192,7 @@ def project(c, A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         convex = g2 > 0  # (else a quarter of the bracket downhill)
         step = np.where(convex, -g1 / np.where(convex, g2, 1.0), -np.sign(g1) * (hi - lo) / 4)
         new = np.clip(xi + step, lo, hi)
-        done = np.all(np.abs(new - xi) <= 4 * np.finfo(float).eps)
+        done = np.all(np.abs(new - xi) <= NEWTON_DONE)
         xi = new
         if done:
             break
@@ -205,8 +212,15 @@ def _rows(asm, c, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     A = A.reshape(S * N, 4, -1)
     state = np.repeat(np.arange(S), N)
     if is_drum(c):
-        centre, P = surfaces(asm, c, X)
-        A = _relative(c, A, centre[state], P[state])
+        if c.body is None:  # a fixed drum: one projector for all rows (none in 2D)
+            if c.axis is not None:
+                A = A - np.einsum("nkd,d->nk", A, c.axis)[:, :, None] * c.axis
+                A[:, 0] -= c.centre - (c.centre @ c.axis) * c.axis
+            else:
+                A[:, 0] -= c.centre
+        else:
+            centre, P = surfaces(asm, c, X)
+            A = _relative(c, A, centre[state], P[state])
     return A, state
 
 
