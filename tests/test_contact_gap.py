@@ -189,3 +189,11 @@ def test_scenes_pay_only_for_penalty_contact():
     sc = _one_element()
     assert StaticProblem(sc)._gaps is False
     assert contact_gap.penalty_contacts(sc) == []
+
+
+if __name__ == "__main__":  # the table of docs/contact.md (What the law samples)
+    for n in (8, 24, 32, 64, 128):
+        r = solve_static(_rope_over_small_drum(n))
+        (rep,) = contact.report(r.assembly, r.x)
+        print(f"{n:4d} elements: {r.status}, smallest true gap {rep['smallest_gap']:.3g} m, law's penetration "
+              f"{rep['sampled_penetration']:.3g} m, drum force {rep['normal_force']:.4g} N")
