@@ -313,17 +313,17 @@ def report(asm, x: np.ndarray) -> list[dict]:
             if c.method == "penalty"]
 
 
-def hidden(asm, X: np.ndarray) -> tuple[int, list[Closest]]:
-    """The first of the states X (S, n) (or one state x (n,)) in which a penalty contact's centre line reaches into
-    the surface deeper than the law's sampled penetration allows (Closest.hidden): (its index, the contacts so
-    found); (-1, []) when none does. Vectorised over states and elements; only elements whose hull reaches into a
-    surface are sampled and projected."""
-    X = np.atleast_2d(np.asarray(X, float))
-    first = len(X)
+def _scan(asm, X: np.ndarray) -> tuple[int, list[tuple[float, int, float]]]:
+    """(the first of the states X (S, n) with a hidden penetration, or -1; per penalty contact (its smallest true
+    gap among the elements in reach over all states, or inf, the state it is in, the law's sampled penetration
+    there)). Vectorised over states and elements; only elements whose hull reaches into a surface are sampled and
+    projected."""
+    first, deepest = len(X), []
     for c in penalty_contacts(asm.scene):
         A, state = _rows(asm, c, X)
         sel = np.flatnonzero(gap_lower_bound(c, A) < 0.0)
         if not len(sel):
+            deepest.append((np.inf, -1, 0.0))
             continue
         pen = np.zeros(len(X))
         np.maximum.at(pen, state[sel], np.maximum(0.0, -sampled_gaps(c, A[sel]).min(axis=1)))
@@ -334,10 +334,21 @@ def hidden(asm, X: np.ndarray) -> tuple[int, list[Closest]]:
         bad = state[sel][g < -tol]
         if len(bad):
             first = min(first, int(bad.min()))
-    if first == len(X):
+        j = int(np.argmin(g))
+        k = int(state[sel][j])
+        deepest.append((float(g[j]), k, float(pen[k])))
+    return (first if first < len(X) else -1), deepest
+
+
+def hidden(asm, X: np.ndarray) -> tuple[int, list[Closest]]:
+    """The first of the states X (S, n) (or one state x (n,)) in which a penalty contact's centre line reaches into
+    the surface deeper than the law's sampled penetration allows (Closest.hidden): (its index, the contacts so
+    found); (-1, []) when none does."""
+    X = np.atleast_2d(np.asarray(X, float))
+    first, _ = _scan(asm, X)
+    if first < 0:
         return -1, []
-    x = X[first]
-    found = [closest(asm, c, x, i, reach=0.0) for i, c in enumerate(getattr(asm.scene, "contacts", ()))
+    found = [closest(asm, c, X[first], i, reach=0.0) for i, c in enumerate(getattr(asm.scene, "contacts", ()))
              if c.method == "penalty"]
     return first, [f for f in found if f.hidden]
 
@@ -362,6 +373,9 @@ class Watch:
         self.t: list[float] = []
         self.Q: list[np.ndarray] = []
         self.found: tuple[float, str] | None = None  # (time, message) of the first hidden penetration
+        # per penalty contact: the smallest true gap among elements in reach over the checked steps, its time and
+        # the law's sampled penetration then
+        self.deepest = [(np.inf, float("nan"), 0.0) for _ in penalty_contacts(self.asm.scene)]
 
     def add(self, t: float, q: np.ndarray) -> None:
         """One accepted step's unknowns q at time t (checked with the batch)."""
@@ -384,6 +398,19 @@ class Watch:
     def _check(self, ts: list, Q: np.ndarray) -> None:
         if self.found is not None or not len(ts):
             return
-        k, found = hidden(self.asm, self.S.full_rows(Q))
-        if found:
-            self.found = (float(ts[k]), refusal(found))
+        X = self.S.full_rows(Q)
+        first, deepest = _scan(self.asm, X)
+        for i, (g, k, p) in enumerate(deepest):
+            if g < self.deepest[i][0]:
+                self.deepest[i] = (g, float(ts[k]), p)
+        if first >= 0:
+            _, found = hidden(self.asm, X[first])
+            self.found = (float(ts[first]), refusal(found))
+
+    def record(self) -> list[dict]:
+        """Per penalty contact over the checked steps: its smallest true gap [m] (None: no element ever reached
+        into the surface, all gaps >= 0), when [s], and the law's sampled penetration then [m]."""
+        return [{"type": "circle" if is_drum(c) else "ground", "member": c.member,
+                 "smallest_gap": g if np.isfinite(g) else None, "t": t if np.isfinite(g) else None,
+                 "sampled_penetration": p}
+                for c, (g, t, p) in zip(penalty_contacts(self.asm.scene), self.deepest)]

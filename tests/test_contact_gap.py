@@ -45,7 +45,7 @@ def test_ground_gap_is_the_minimum_of_the_cubic():
     x = _state(asm, (-1.0, 0.0), (1.0, 2.0), (1.0, 0.0), (1.0, 2.0))
     cl = contact_gap.closest(asm, c, x)
     assert cl.gap == pytest.approx(-2 / (3 * math.sqrt(3)) - 0.1, abs=ROUND_OFF)
-    assert cl.xi == pytest.approx((1 + 1 / math.sqrt(3)) / 2, abs=1e-12)  # (the gap is flat there: xi to sqrt(eps) is enough; it is exact here)
+    assert cl.xi == pytest.approx((1 + 1 / math.sqrt(3)) / 2, abs=1e-12)  # the root of the quadratic: exact
     assert np.allclose(cl.point, (1 / math.sqrt(3), -2 / (3 * math.sqrt(3))), atol=ROUND_OFF)
     x = _state(asm, (0.0, 0.5), (0.8, -0.6), (1.6, -0.7), (0.8, -0.6))  # straight, slope -3/4
     cl = contact_gap.closest(asm, c, x)
@@ -169,6 +169,8 @@ def test_dynamics_stop_when_a_rope_falls_through_a_small_drum(integrator):
     assert not res.success and res.status == contact_gap.DYNAMIC_STATUS
     assert "member 'rope'" in res.message and "drum of radius 0.02 m" in res.message
     assert 0.04 < res.t[-1] < 0.3
+    (deep,) = res.contact_gaps  # the deepest true gap over the accepted steps: through the drum
+    assert deep["smallest_gap"] < -R / 4 and deep["sampled_penetration"] == 0.0
 
 
 def test_dynamics_find_the_small_drum_on_the_finer_mesh():
@@ -180,6 +182,9 @@ def test_dynamics_find_the_small_drum_on_the_finer_mesh():
     assert res.success, res.message
     y = np.asarray(res.sensors["y"])[:, 1]
     assert -0.013 < y.min() < -0.0115
+    (deep,) = res.contact_gaps  # it touched (the law's penetration is ~1e-5 m) and never went through
+    assert -1e-3 < deep["smallest_gap"] < 0 and 0.04 < deep["t"] < 0.3
+    assert res.to_dict()["contact_gaps"] == res.contact_gaps
 
 
 def test_scenes_pay_only_for_penalty_contact():
