@@ -1,7 +1,8 @@
-"""The true smallest gap between a member's centre line and a contact surface, and the check that the penalty law
+"""The true smallest gap between a member's centre line and a contact surface, and the check that the contact law
 saw it.
 
-The penalty law samples the gap at the Gauss points of every element only (ancf_sym.contact). A surface smaller
+The penalty law samples the gap at the Gauss points of every element only (ancf_sym.contact), and exact contact
+puts its rows there (ancf_sym.contact_exact). A surface smaller
 than the spacing of those points, a drum of radius R against an element of length h, can sit between two of them:
 the centre line passes through it and no point feels it. This module finds, per element and surface, the closest
 point of the element's cubic Hermite centre line r(xi) = A0 + A1 xi + A2 xi^2 + A3 xi^3 (xi in [0, 1]):
@@ -19,7 +20,8 @@ r1 - L r_x1/3, r1), which bounds the gap from below per element; elements whose 
 are skipped. A scene without penalty contact builds nothing here.
 
 Hidden penetration: a true gap deeper than HIDDEN_FACTOR x the deepest penetration the law sees at its own sample
-points (plus a floor of FLOOR x the element length, round-off of the geometry) means the law missed the surface:
+points, plus the sampling's sagitta where its points resolve a
+drum and a floor of FLOOR x the element length (round-off of the geometry), means the law missed the surface:
 statics (ancf_sym.statics) and dynamics (the time loop) do not report such a state as success.
 """
 from __future__ import annotations
@@ -53,8 +55,11 @@ def is_drum(c) -> bool:
     return hasattr(c, "radius")
 
 
-def penalty_contacts(scene) -> list:
-    """The scene's penalty contacts (the ones whose law samples points), in declaration order."""
+def checked_contacts(scene) -> list:
+    """The scene's penalty contacts (the law sampled at Gauss points), in declaration order. Exact contact's rows sit
+    at the same points, but with no penetration scale of their own they are reported (report(..., "exact")), not
+    checked: between the points the cubic dips by its interpolation error (45 um at the touchdown of a rope with
+    I = 1e-15 m^4 on 0.25 m elements, examples/rope_on_ground.py)."""
     return [c for c in getattr(scene, "contacts", ()) if c.method == "penalty"]
 
 
@@ -271,8 +276,8 @@ class Closest:
                       f"where it meets {('the drum' if is_drum(c) else 'the ground')}")
         return (f"member {c.member!r} passes through {self.name()}: its centre line reaches a gap of {self.gap:.3g} m "
                 f"at element {self.element} (xi = {self.xi:.3f}, s = {self.s:.4g} m), deeper than {HIDDEN_FACTOR:g} x "
-                f"the penetration {self.sampled_penetration:.3g} m the penalty law sees at its {c.gauss} Gauss points "
-                f"per element; {advice}")
+                f"the penetration {self.sampled_penetration:.3g} m the penalty law sees at its {c.gauss} Gauss points per element; "
+                f"{advice}")
 
     def record(self) -> dict:
         return {"smallest_gap": self.gap if np.isfinite(self.gap) else None, "element": self.element,
@@ -307,19 +312,23 @@ def closest(asm, c, x: np.ndarray, index: int = 0, reach: float | None = None) -
     return Closest(c, index, float(g[k]), e, float(xi[k]), s, r, pen, float(mm.elem_length[e]))
 
 
-def report(asm, x: np.ndarray) -> list[dict]:
-    """Per penalty contact (the order of ancf_sym.contact.report): the true smallest gap and where it is."""
-    return [closest(asm, c, x, i).record() for i, c in enumerate(getattr(asm.scene, "contacts", ()))
-            if c.method == "penalty"]
+def report(asm, x: np.ndarray, method: str = "penalty") -> list[dict]:
+    """Per contact of that method (the order of ancf_sym.contact.report, resp. contact_exact.report): the true
+    smallest gap and where it is; penalty contacts also what the law sees and whether it missed the surface."""
+    out = [closest(asm, c, x, i).record() for i, c in enumerate(getattr(asm.scene, "contacts", ()))
+           if c.method == method]
+    if method != "penalty":  # (no law, no penetration scale: not checked)
+        out = [{k: v for k, v in r.items() if k not in ("sampled_penetration", "hidden_penetration")} for r in out]
+    return out
 
 
 def _scan(asm, X: np.ndarray) -> tuple[int, list[tuple[float, int, float]]]:
-    """(the first of the states X (S, n) with a hidden penetration, or -1; per penalty contact (its smallest true
+    """(the first of the states X (S, n) with a hidden penetration, or -1; per contact (its smallest true
     gap among the elements in reach over all states, or inf, the state it is in, the law's sampled penetration
     there)). Vectorised over states and elements; only elements whose hull reaches into a surface are sampled and
     projected."""
     first, deepest = len(X), []
-    for c in penalty_contacts(asm.scene):
+    for c in checked_contacts(asm.scene):
         A, state = _rows(asm, c, X)
         sel = np.flatnonzero(gap_lower_bound(c, A) < 0.0)
         if not len(sel):
@@ -341,7 +350,7 @@ def _scan(asm, X: np.ndarray) -> tuple[int, list[tuple[float, int, float]]]:
 
 
 def hidden(asm, X: np.ndarray) -> tuple[int, list[Closest]]:
-    """The first of the states X (S, n) (or one state x (n,)) in which a penalty contact's centre line reaches into
+    """The first of the states X (S, n) (or one state x (n,)) in which a contact's centre line reaches into
     the surface deeper than the law's sampled penetration allows (Closest.hidden): (its index, the contacts so
     found); (-1, []) when none does."""
     X = np.atleast_2d(np.asarray(X, float))
@@ -373,9 +382,9 @@ class Watch:
         self.t: list[float] = []
         self.Q: list[np.ndarray] = []
         self.found: tuple[float, str] | None = None  # (time, message) of the first hidden penetration
-        # per penalty contact: the smallest true gap among elements in reach over the checked steps, its time and
+        # per contact: the smallest true gap among elements in reach over the checked steps, its time and
         # the law's sampled penetration then
-        self.deepest = [(np.inf, float("nan"), 0.0) for _ in penalty_contacts(self.asm.scene)]
+        self.deepest = [(np.inf, float("nan"), 0.0) for _ in checked_contacts(self.asm.scene)]
 
     def add(self, t: float, q: np.ndarray) -> None:
         """One accepted step's unknowns q at time t (checked with the batch)."""
@@ -408,9 +417,9 @@ class Watch:
             self.found = (float(ts[first]), refusal(found))
 
     def record(self) -> list[dict]:
-        """Per penalty contact over the checked steps: its smallest true gap [m] (None: no element ever reached
+        """Per contact over the checked steps: its smallest true gap [m] (None: no element ever reached
         into the surface, all gaps >= 0), when [s], and the law's sampled penetration then [m]."""
         return [{"type": "circle" if is_drum(c) else "ground", "member": c.member,
                  "smallest_gap": g if np.isfinite(g) else None, "t": t if np.isfinite(g) else None,
                  "sampled_penetration": p}
-                for c, (g, t, p) in zip(penalty_contacts(self.asm.scene), self.deepest)]
+                for c, (g, t, p) in zip(checked_contacts(self.asm.scene), self.deepest)]

@@ -188,7 +188,7 @@ class StaticProblem:
         a = self.asm
         self._loaded = bool(np.any(self.S.f_lin) or np.any(a.Q) or any(mk.term.label in LOAD_LABELS for mk in a.mapped))
         self._contacts = bool(contact.exact_contacts(a))
-        self._gaps = bool(contact_gap.penalty_contacts(a.scene))  # penalty laws: check what they did not sample
+        self._gaps = bool(contact_gap.checked_contacts(a.scene))  # contact held at points: check between them
 
     @property
     def graph(self) -> NewtonStatics:

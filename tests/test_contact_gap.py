@@ -160,6 +160,19 @@ def test_unloaded_rope_through_a_small_drum_is_not_a_solution():
     assert not r.success and r.status == contact_gap.STATUS
 
 
+def test_exact_contact_reports_the_true_gap_between_its_rows():
+    """Exact contact holds the same Gauss points (rows g >= 0) and is not checked between them (no penetration scale
+    of its own): its result.json record carries the true smallest gap, which shows the 8-element rope through the
+    small drum while every row holds (gaps at the points >= -1e-9 m, IPOPT's constraint tolerance 1e-10)."""
+    sc = _rope_over_small_drum(8)
+    sc.contacts.clear()
+    sc.contact_drum("rope", (1.09, -0.012 - R - T), R, method="exact")
+    r = solve_static(sc)
+    (rep,) = static_result_dict(r)["contacts"]
+    assert rep["method"] == "exact" and rep["min_gap"] > -1e-9
+    assert rep["smallest_gap"] < -5e-3 and "hidden_penetration" not in rep
+
+
 @pytest.mark.parametrize("integrator", ["generalized_alpha", "radau"])  # compiled chunks; single steps
 def test_dynamics_stop_when_a_rope_falls_through_a_small_drum(integrator):
     """The coarse rope released straight falls through the drum between its points: the run ends with status
@@ -193,7 +206,7 @@ def test_scenes_pay_only_for_penalty_contact():
 
     sc = _one_element()
     assert StaticProblem(sc)._gaps is False
-    assert contact_gap.penalty_contacts(sc) == []
+    assert contact_gap.checked_contacts(sc) == []
 
 
 if __name__ == "__main__":  # the table of docs/contact.md (What the law samples)
