@@ -160,6 +160,33 @@ def test_unloaded_rope_through_a_small_drum_is_not_a_solution():
     assert not r.success and r.status == contact_gap.STATUS
 
 
+def _bar_on_ground(n: int):
+    """A 1 m steel wire (4 mm) clamped 5 cm above a stiff ground (k = 1e7 N/m^2), bending down onto it under its
+    weight."""
+    sc = Scene(dim=2, gravity=(0.0, -9.81))
+    sc.member("bar", [(0, 0.05), (1, 0.05)], n, Material(E=2e9, density=7800.0), Section.circle(0.004))
+    sc.clamp("bar", "start")
+    sc.contact_ground("bar", stiffness=1e7)
+    return sc
+
+
+def test_ground_seen_between_points_too():
+    """At 2 elements the wire's free end lies on the ground beyond the last Gauss point (0.047 h from the end): it
+    sinks 0.38 mm where the law sees 0.3 um, and the ground force is 24 % below the converged one: refused, naming
+    the ground. At 16 elements the true gap is within the law's penetration and the force within 0.1 % of 32
+    elements' (measured 0.6089 N both)."""
+    coarse = solve_static(_bar_on_ground(2))
+    assert coarse.status == contact_gap.STATUS and "the ground" in coarse.attempts[-1]["detail"]
+    (rep,) = contact.report(coarse.assembly, coarse.x)
+    assert rep["xi"] == 1.0 and rep["element"] == 1  # the tip
+    fine = [solve_static(_bar_on_ground(n)) for n in (16, 32)]
+    assert all(r.success for r in fine)
+    reps = [contact.report(r.assembly, r.x)[0] for r in fine]
+    assert not reps[0]["hidden_penetration"] and reps[0]["smallest_gap"] >= -3 * reps[0]["sampled_penetration"]
+    assert reps[0]["normal_force"] == pytest.approx(reps[1]["normal_force"], rel=1e-3)
+    assert rep["normal_force"] < 0.9 * reps[1]["normal_force"]
+
+
 def test_exact_contact_reports_the_true_gap_between_its_rows():
     """Exact contact holds the same Gauss points (rows g >= 0) and is not checked between them (no penetration scale
     of its own): its result.json record carries the true smallest gap, which shows the 8-element rope through the
