@@ -286,9 +286,10 @@ class Closest:
 
 
 def closest(asm, c, x: np.ndarray, index: int = 0, reach: float | None = None) -> Closest:
-    """The contact's smallest true gap in the state x. reach = None: the exact global smallest gap (elements whose
-    hull bound is above the smallest nodal gap are skipped); reach = 0: only elements the hull lets reach into the
-    surface are projected (a check of penetration: gap inf when none does)."""
+    """The contact's smallest true gap in the state x, or where the law missed the surface (Closest.hidden) the
+    deepest such element's. reach = None: the exact global smallest gap (elements whose hull bound is above both the
+    smallest nodal gap and 0 are skipped); reach = 0: only elements the hull lets reach into the surface are
+    projected (a check of penetration: gap inf when none does)."""
     mm = asm.mesh.members[c.member]
     x = np.asarray(x, float)
     A, _ = _rows(asm, c, x[None])
@@ -297,7 +298,7 @@ def closest(asm, c, x: np.ndarray, index: int = 0, reach: float | None = None) -
         ends = np.r_[A[:1, 0], A.sum(axis=1)]
         ub = (ends @ c.normal - c.level if not is_drum(c) else np.linalg.norm(ends, axis=1) - c.radius).min() \
             - c.thickness
-        sel = np.flatnonzero(lb <= ub)
+        sel = np.flatnonzero(lb <= max(ub, 0.0))
     else:
         sel = np.flatnonzero(lb < reach)
     if not len(sel):
@@ -305,7 +306,9 @@ def closest(asm, c, x: np.ndarray, index: int = 0, reach: float | None = None) -
                        float(mm.elem_length.max()))
     pen = float(max(0.0, -sampled_gaps(c, A[sel]).min()))
     xi, g = project(c, A[sel])
-    k = int(np.argmin(g))
+    h = mm.elem_length[sel]
+    bad = g < -(HIDDEN_FACTOR * pen + allowance(c, xi, h) + FLOOR * h)  # as _scan
+    k = int(np.argmin(np.where(bad, g, np.inf))) if bad.any() else int(np.argmin(g))
     e = int(sel[k])
     r = _poly(cubic(asm, c, x[None])[0, e:e + 1], np.array([[xi[k]]]))[0, 0]
     s = float(mm.s_node[mm.elem_nodes[e, 0]] + xi[k] * mm.elem_length[e])
