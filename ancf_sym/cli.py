@@ -107,6 +107,8 @@ def run_statics(scene: Scene, analysis: dict, scene_file: Path, out: Path, progr
                f"solve {r.wall_s:.3f} s, total {wall_total:.3f} s")
     if r.success:
         summary += f"; potential {r.potential:.6g} J, constraint violation {r.constraint_violation:.2g}"
+    elif r.attempts and r.attempts[-1].get("detail"):  # why it is not a solution (e.g. a contact the law missed)
+        summary += f"; {r.attempts[-1]['detail']}"
     return r.success, summary
 
 
@@ -138,6 +140,8 @@ def run_dynamics_cli(scene: Scene, analysis: dict, scene_file: Path, out: Path, 
     summary = (f"{scene.name}: {r.status} at t = {r.t_reached:.6g} s, {r.steps} steps, "
                f"{r.newton_iterations} Newton iterations, {len(r.rejected)} rejected; integrate {r.wall_s:.3f} s, "
                f"total {wall_total:.3f} s")
+    if not r.success and r.message:
+        summary += f"; {r.message}"
     return r.success, summary
 
 

@@ -15,7 +15,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from . import contact_body, kernels
+from . import contact_body, contact_gap, kernels
 from .checks import table_type
 from .scene import SceneError
 
@@ -270,8 +270,10 @@ def check_dynamics(asm) -> None:
 
 def report(asm, x: np.ndarray) -> list[dict]:
     """Per penalty contact: kind, smallest gap of the section surface at the nodes [m] and the total normal force
-    [N] (from the normal law's gradient along each node's contact normal)."""
-    return [r for r, _ in _reports(asm, x)]
+    [N] (from the normal law's gradient along each node's contact normal); the true smallest gap of the centre
+    line between the nodes, where it is and what the law sees at its points (ancf_sym.contact_gap.Closest.record:
+    smallest_gap, element, xi, s, point, sampled_penetration, hidden_penetration)."""
+    return [{**r, **g} for (r, _), g in zip(_reports(asm, x), contact_gap.report(asm, x))]
 
 
 def node_fields(asm, x: np.ndarray) -> dict[str, dict[str, np.ndarray]]:

@@ -7,6 +7,7 @@ node takes its public twin's coordinates (same position; the slope of the segmen
 """
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
@@ -60,14 +61,27 @@ def _full_states(result) -> list[np.ndarray]:
     return out
 
 
+def _deepest(t, recs: list[dict]) -> dict:
+    """The smallest true gap over the output times, when and where (contact_gap.Closest.record per time)."""
+    gaps = [r["smallest_gap"] if r["smallest_gap"] is not None else math.inf for r in recs]
+    k = int(np.argmin(gaps))
+    r = recs[k]
+    return {"smallest_gap_min": {"gap": r["smallest_gap"], "t": float(t[k]) if len(t) > k else None,
+                                 "element": r["element"], "xi": r["xi"], "s": r["s"],
+                                 "sampled_penetration": r["sampled_penetration"]},
+            "hidden_penetration": any(r["hidden_penetration"] for r in recs)}
+
+
 def result_dict(result, scene_file, analysis: dict, wall_total: float) -> dict:
     d = result.to_dict()
     d["sensors"] = {k: v for k, v in d["sensors"].items() if not k.startswith(FRAME_PREFIX)}
     scene = result.assembly.scene
-    if scene.contacts:  # per penalty contact, at the output times: min_gap [m], normal_force [N]
+    if scene.contacts:  # per penalty contact, at the output times: min_gap, smallest_gap [m], normal_force [N]
         reps = [contact.report(result.assembly, x) for x in _full_states(result)]
-        d["contacts"] = [{**reps[0][i], "min_gap": [r[i]["min_gap"] for r in reps],
-                          "normal_force": [r[i]["normal_force"] for r in reps]} for i in range(len(reps[0]))] \
+        ts = list(result.t) if len(reps) == len(result.t) else list(result.t[-1:])  # (no frames: the final state)
+        d["contacts"] = [{"type": reps[0][i]["type"], "member": reps[0][i]["member"],
+                          **{k: [r[i][k] for r in reps] for k in ("min_gap", "normal_force", "smallest_gap")},
+                          **_deepest(ts, [r[i] for r in reps])} for i in range(len(reps[0]))] \
             if reps and reps[0] else []
     return _clean({"format": "ancf_sym.dynamics/1", "scene": {"name": scene.name, "file": str(Path(scene_file).resolve()),
                                                                "dim": scene.dim},

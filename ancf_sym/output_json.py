@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import contact, contact_exact
+from . import contact, contact_exact, contact_gap
 from .statics import StaticResult
 
 FORMAT = "ancf_sym.statics/1"
@@ -101,9 +101,11 @@ def static_result_dict(result: StaticResult, scene_file: str | Path | None = Non
         "constraint_violation": result.constraint_violation,
         "constraint_forces": {k: np.asarray(v) for k, v in result.constraint_forces.items()},
         "constraint_forces_sign": CONSTRAINT_FORCES_SIGN,
-        # per contact: min_gap [m], normal_force [N]; exact ones also per point gaps and forces (the multipliers)
+        # per contact: min_gap [m], normal_force [N], the true smallest gap between the points (contact_gap); exact
+        # ones also per point gaps and forces (the multipliers)
         "contacts": contact.report(asm, result.x)
-        + contact_exact.report(asm, result.x, result.constraint_forces.get("contact")),
+        + [{**r, **g} for r, g in zip(contact_exact.report(asm, result.x, result.constraint_forces.get("contact")),
+                                      contact_gap.report(asm, result.x, "exact"))],
         # (arrays, as StaticResult.to_dict's lists: converted once, by _clean)
         "members": {name: {"nodes": result.nodes(name), "slopes": result.slopes(name), "tip": result.tip(name)}
                     for name in asm.mesh.members},

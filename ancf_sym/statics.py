@@ -32,7 +32,7 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from . import bodies, contact, contact_exact, fields, spatial_bodies, statics_coarse, statics_contact
+from . import bodies, contact, contact_exact, contact_gap, fields, spatial_bodies, statics_coarse, statics_contact
 from .assembly import LOAD_LABELS, Assembly, Evaluation
 from .checks import check_fields
 from .interrupts import interruptible
@@ -197,6 +197,7 @@ class StaticProblem:
         self._loaded = bool(np.any(self.S.f_lin) or np.any(a.Q) or any(mk.term.label in LOAD_LABELS for mk in a.mapped))
         self._contacts = bool(contact.exact_contacts(a))
         self._penalty_contact = any(c.method == "penalty" for c in getattr(a.scene, "contacts", ()))
+        self._gaps = bool(contact_gap.checked_contacts(a.scene))  # contact held at points: check between them
 
     @property
     def graph(self) -> NewtonStatics:
@@ -633,6 +634,12 @@ class StaticProblem:
         return inertia.stable, (d / np.max(np.abs(d)) if d is not None and np.any(d) else None)
 
     def _result(self, ok, status, iters, wall, x, stable, attempts, path, run) -> StaticResult:
+        if ok and self._gaps:  # a penalty law that missed a surface between its points: no success
+            _, found = contact_gap.hidden(self.asm, x)
+            if found:
+                ok, status = False, contact_gap.STATUS
+                attempts.append({"method": "contact check", "status": status, "iterations": 0,
+                                 "detail": contact_gap.refusal(found)})
         if not ok:  # never hand NaN to the caller: report the start point's energies with the failure
             x = x if np.all(np.isfinite(x)) else self.asm.x0
         res = StaticResult(status, ok, iters, wall, x, stable, attempts, self.asm, path if ok else "",

@@ -11,7 +11,7 @@ from .options import DynamicOptions
 
 @dataclass
 class DynamicResult:
-    status: str  # "completed" | "newton_failed" | "step_size_underflow" | "energy_blowup"
+    status: str  # "completed" | "newton_failed" | "step_size_underflow" | "energy_blowup" | "contact_penetration_hidden"
     success: bool
     message: str
     integrator: str
@@ -35,6 +35,9 @@ class DynamicResult:
     # per drive (ancf_sym.drives): what it applies at the output times, (len(t), k): an angle drive's torque on its
     # body [N m], a position drive's force [N] (from the multipliers; linear in time between steps)
     drive_reactions: dict = field(default_factory=dict)
+    # per penalty contact (ancf_sym.contact_gap.Watch.record): the smallest true gap of the centre line over every
+    # accepted step [m] (None: never below 0), its time [s] and the law's sampled penetration then [m]
+    contact_gaps: list = field(default_factory=list)
 
     @property
     def newton_iterations(self) -> int:
@@ -71,5 +74,6 @@ class DynamicResult:
             "x": self.x.tolist(), "v": self.v.tolist(),
             **({"drive_reactions": {k: np.asarray(v).tolist() for k, v in self.drive_reactions.items()}}
                if self.drive_reactions else {}),
+            **({"contact_gaps": self.contact_gaps} if self.contact_gaps else {}),
         }
 

@@ -172,11 +172,14 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
     t, status, message, steps, rejected = run.t, run.status, run.message, run.steps, run.rejected
     h_used = [run.h_min, run.h_max] if steps else []
     ener = {k: np.array(v) for k, v in rec.energies.items()}
-    return DynamicResult(status, status == "completed", message, opts.integrator, np.array(rec.t), sens, ener,
-                         np.array(rec.viol), float(t), steps, rejected, counters.as_dict(), wall,
-                         S.full(integ.q), S.full_v(integ.v), opts, asm,
-                         float(min(h_used)) if h_used else float("nan"), float(max(h_used)) if h_used else float("nan"),
-                         setup, cpu, {k: np.array(v) for k, v in rec.reactions.items()})
+    res = DynamicResult(status, status == "completed", message, opts.integrator, np.array(rec.t), sens, ener,
+                        np.array(rec.viol), float(t), steps, rejected, counters.as_dict(), wall,
+                        S.full(integ.q), S.full_v(integ.v), opts, asm,
+                        float(min(h_used)) if h_used else float("nan"), float(max(h_used)) if h_used else float("nan"),
+                        setup, cpu, {k: np.array(v) for k, v in rec.reactions.items()})
+    if run.gaps is not None:  # penalty contact: the smallest true gaps over every accepted step
+        res.contact_gaps = run.gaps.record()
+    return res
 
 
 def run_dynamics(scene: Scene | Assembly, analysis: dict | DynamicOptions,

@@ -16,6 +16,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .. import contact_gap
 from .integrator import ChunkedIntegrator, Integrator
 from .options import DynamicOptions
 from .recording import ENERGY_CREATION_LIMIT, Recorder, hermite
@@ -56,6 +57,8 @@ class TimeLoop:
         self.Qn = loads(opts.t_start) if loads else None
         self.fD_prev = S.drive_force(integ.q, integ.lam, self.t)  # drives' and torques' force (their work: external)
         self.lam_prev = integ.lam.copy()
+        # penalty contact: every accepted state checked for a surface the law's points missed (contact_gap)
+        self.gaps = contact_gap.Watch(S) if contact_gap.checked_contacts(S.asm.scene) else None
         self.out_i = 0
         self._out = outputs.tolist() if outputs is not None else None  # (bisection in _accepted_many)
         if outputs is None or outputs[0] <= self.t + self.eps_t:
@@ -105,6 +108,16 @@ class TimeLoop:
             if self.progress:
                 self.progress(tau, self.opts.t_end)
 
+    def _check_gaps(self, flush: bool = False) -> None:
+        """End the run (status contact_penetration_hidden) once an accepted state's centre line reached into a
+        surface that the penalty law's points did not see."""
+        w = self.gaps
+        if flush:
+            w.flush()
+        if w.found is not None and self.status == "completed":
+            self.status = contact_gap.DYNAMIC_STATUS
+            self.message = (f"at t = {w.found[0]:.6g} s {w.found[1]}; outputs after that time are not valid")
+
     def _check_energy(self) -> None:
         """End the run (status energy_blowup) once the recorded energy balance shows the scheme creating energy."""
         b = self.rec.blowup
@@ -118,7 +131,10 @@ class TimeLoop:
     def go(self):
         o = self.opts
         if o.adaptive:
-            return self.per_step(o.t_end)
+            self.per_step(o.t_end)
+            if self.gaps is not None:
+                self._check_gaps(flush=True)
+            return
         n_grid = o.n_grid
         k = 0
         if self.integ.chunkable:
@@ -135,6 +151,8 @@ class TimeLoop:
             self.per_step(o.t_start + n_grid * o.dt, 0)
         if self.status == "completed" and self.t < o.t_end - self.eps_t:
             self.per_step(o.t_end, n_grid)
+        if self.gaps is not None:
+            self._check_gaps(flush=True)
 
     def grid(self, k: int) -> float:
         return self.opts.t_start + k * self.opts.dt
@@ -155,6 +173,9 @@ class TimeLoop:
             pl = np.vstack([pl, np.column_stack([S.w(self.grid(k + j + 1)) for j in range(n)])])
         q_old, v_old = integ.q.copy(), integ.v.copy()
         states, n_ok = integ.run_chunk(o.dt, pl)
+        if self.gaps is not None and n_ok:
+            self.gaps.check([self.grid(k + j + 1) for j in range(n_ok)], states[:n_ok, :nf])
+            self._check_gaps()
         t_old = self.t
         if not S.damped and self.loads is None and S.drives is None:  # no work to book per step: only the outputs
             self._accepted_many(k, n_ok, states, q_old, v_old)
@@ -268,6 +289,9 @@ class TimeLoop:
             integ.accept()
             self._accepted(t, t_new, q_old, v_old, q_new, v_new, fd, integ.lam)
             self._check_energy()
+            if self.gaps is not None:
+                self.gaps.add(t_new, q_new)
+                self._check_gaps()
             if o.adaptive:  # grow only with a clear margin (the estimate is noisy on stiff, slender members)
                 f = 0.8 * max(err_ratio, 1e-10) ** (-1.0 / (integ.order + 1))
                 h = min(h_try * min(1.25, max(1.0, f)), self.dt_max) if err_ratio < 0.5 else h_try
