@@ -111,23 +111,31 @@ def _ipopt(problem, P: _Nlp, x, lam_g, opts, line_search: bool, mu: float | None
     if lam_g is not None:
         args["lam_g0"] = lam_g
     with interruptible() as rec:  # Ctrl-C / SIGTERM inside IPOPT (or its build) stop the solve, not this attempt
-        S = ca.nlpsol("statics_contact", "ipopt", P.nlp, {
-            "ipopt": P.solvers[key], "print_time": False, "grad_f": P.grad_f, "jac_g": P.jac_g,
-            "hess_lag": P.hess_lag, "error_on_fail": False})
+        if isinstance(P.solvers[key], dict):  # built once per (options) and kept
+            P.solvers[key] = ca.nlpsol("statics_contact", "ipopt", P.nlp, {
+                "ipopt": P.solvers[key], "print_time": False, "grad_f": P.grad_f, "jac_g": P.jac_g,
+                "hess_lag": P.hess_lag, "error_on_fail": False})
+        S = P.solvers[key]
         if rec.exc is None:
             sol = S(**args)
     st = S.stats()
+    if st["return_status"] in ("User_Requested_Stop", "User_Interrupt"):  # Ctrl-C inside IPOPT: stop the solve
+        raise KeyboardInterrupt
     xs = np.asarray(sol["x"]).ravel()
     ok = st["return_status"] in SUCCESS and bool(np.all(np.isfinite(xs)))
     return ok, st["return_status"], int(st["iter_count"]), xs, np.asarray(sol["lam_g"]).ravel()
 
 
-def _active(problem, P: _Nlp, gap: np.ndarray, force: np.ndarray) -> np.ndarray:
-    """Strongly active contact rows: force / F above gap / L (F = W / L the load scale, L the structure's length),
-    i.e. the point's complementarity leans to contact. IPOPT's interior point leaves forces ~ mu / gap on free
-    points (1e-9 .. 1e-5 N measured) and gaps of ~1e-9 m on loaded ones (forces ~0.1 N): they separate by orders."""
+def _force_scale(problem, lam_g: np.ndarray) -> float:
+    """F [N]: the load work over the length, or the largest multiplier (a prestressed scene without loads)."""
+    return max(problem.work / problem.asm.mesh.length_scale, float(np.max(np.abs(lam_g), initial=0.0)), 1e-300)
+
+
+def _active(problem, gap: np.ndarray, force: np.ndarray, F: float) -> np.ndarray:
+    """Strongly active contact rows: force / F above gap / L (L the structure's length), i.e. the point's
+    complementarity leans to contact. IPOPT's interior point leaves forces ~ mu / gap on free points (1e-9 .. 1e-5 N
+    measured) and gaps of ~1e-9 m on loaded ones (forces ~0.1 N): they separate by orders."""
     L = problem.asm.mesh.length_scale
-    F = max(problem.work, 1e-300) / L
     return (force > 0) & (force / F > np.maximum(gap, 0.0) / L)
 
 
@@ -140,8 +148,8 @@ def stability(problem, x: np.ndarray, lam_g: np.ndarray) -> tuple[bool | None, n
     g, J = P.jac_g(x, 1.0)
     gap = np.asarray(g).ravel()[m:] - P.lb
     force = -np.asarray(lam_g, float)[m:]  # an active lower bound has a negative multiplier
-    F = max(problem.work, 1e-300) / problem.asm.mesh.length_scale
-    act = _active(problem, P, gap, force)
+    F = _force_scale(problem, lam_g)
+    act = _active(problem, gap, force, F)
     pulling = force < -1e-6 * F  # (interior point: >= 0 up to round-off)
     if np.any(pulling & (gap <= 1e-9 * problem.asm.mesh.length_scale)):
         k = int(np.argmin(force))
@@ -260,6 +268,7 @@ def solve(problem, x: np.ndarray, opts, t0: float, warm_given: bool = False):
             "Coarser_Mesh_Lower_Potential" if reasons else (attempts[-1]["status"] if attempts else "not run"))
         if status == "Solve_Succeeded":
             status = "Unresolved"
+        reasons = list(dict.fromkeys(reasons))
         if reasons:
             attempts.append({"method": "none", "status": status, "iterations": 0, "detail": "; ".join(reasons)})
         res = problem._result(False, status, iters, wall, x, None, attempts, "", None)
