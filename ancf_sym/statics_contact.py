@@ -303,8 +303,10 @@ def _settle(problem, P: _Nlp, x, lam_g, opts, attempts):
     if d is None or not opts.escape_saddle:
         return None, 0
     L = a.mesh.length_scale
+    d = d * np.sign(d[np.argmax(np.abs(d))])  # an eigenvector's sign is arbitrary: its largest entry positive, so
+    # equal problems (a drum fixed or on a held body) leave the same saddle for the same branch
     for scale in (1e-3, 1e-2, 1e-1):
-        for sign in (1.0, -1.0):
+        for sign in (1.0, -1.0):  # (IPOPT's own barrier start: measured, a warm one found no twisted beam3d branch)
             ok, st, it, xs, lg = _ipopt(problem, P, x + sign * scale * L * d, None, opts, True, None)
             its += it
             entry = {"method": f"leave saddle ({sign * scale:g} L, line search)", "status": st, "iterations": it}
