@@ -225,3 +225,19 @@ def test_saddle_is_left_for_the_buckled_minimum():
     y = r.nodes("rod")[:, 1]
     assert np.abs(y).max() == pytest.approx(1e-3, abs=1e-6)  # against a wall: its gap closed (nodes lie between the contact points)
     assert min(contact_exact.gaps(r.assembly, r.x)) > -1e-9
+
+
+def test_inertia_counts_the_rank_of_dependent_rows():
+    """Five contact points on an element's four transverse coordinates make dependent rows. H = diag(1, -1, 1) on
+    the null space of J = [e1; e1] (span e2, e3) has one negative eigenvalue; counting the rows instead of their
+    rank would call it stable (neg(H_rho) + pos(S) - m = 1 + 1 - 2 = 0)."""
+    import scipy.sparse as sp
+
+    from ancf_sym.inertia import reduced_inertia
+
+    H = sp.diags([1.0, -1.0, 1.0])
+    J = sp.csr_matrix(np.array([[1.0, 0.0, 0.0], [1.0, 0.0, 0.0]]))
+    got = reduced_inertia(H, J, rank_tol=1e-9)
+    assert got.stable is False and got.negative == 1
+    assert abs(got.direction[1]) == pytest.approx(1.0) and abs(got.direction[0]) < 1e-12
+    assert reduced_inertia(sp.diags([1.0, 2.0, 1.0]), J, rank_tol=1e-9).stable is True
