@@ -13,8 +13,9 @@ order of contact_exact.rows, >= 0 [N]) and so are the supports' reactions.
    at the size of the start's complementarity (WARM_MU) instead of IPOPT's 0.1: measured on a slack rope on the
    ground (EA 1e7 N, 5 N/m, 12 m between pins 10 m apart), mu = 0.1 means 1 m of slack at forces of 0.1 N per
    point, the first step threw the warm start 0.37 m off and IPOPT never came back (500 iterations at 128
-   elements); from the coarse solution with WARM_MU, 20 - 70 iterations at 64 - 512 elements. Else (or if that
-   fails) IPOPT from the given start: full steps, then its line search.
+   elements); from the coarse solution with WARM_MU, 13 - 55 iterations per mesh at 64 - 512 elements
+   (bench/exact_contact_refinement.py). Else (or if that fails) IPOPT from the given start: full steps, then its
+   line search.
 2. Second-order check (stability): the reduced Hessian of the Lagrangian (the kernels' Hessian plus the drum rows'
    curvature and the joints' times their multipliers: IPOPT's own hess_lag) on the tangent space of the equality
    rows and of the strongly active contact rows (force above the complementarity scale, see _active) must be
@@ -23,8 +24,9 @@ order of contact_exact.rows, >= 0 [N]) and so are the supports' reactions.
    Cholesky of H + rho J^T J settles the usual stable case in O(n). A stationary point that fails is left along its
    direction of negative curvature (IPOPT from there), the lower stable point kept; none found: not a success.
 3. Continuation check: the answer's potential may not lie above the coarse mesh's answer (COARSE_MARGIN): the fine
-   space holds every coarse shape, so a higher fine answer is another, worse stationary point. Then IPOPT restarts
-   from the interpolated coarse solution, and if that fails too the solve fails saying so.
+   space holds every coarse shape, so a higher fine answer is another, worse stationary point. Then the next start
+   is tried (IPOPT from the given start); if none gives a stable answer at or below the coarse one, the solve fails
+   with status Coarser_Mesh_Lower_Potential and the potentials in its attempts.
 """
 from __future__ import annotations
 
