@@ -241,3 +241,15 @@ def test_inertia_counts_the_rank_of_dependent_rows():
     assert got.stable is False and got.negative == 1
     assert abs(got.direction[1]) == pytest.approx(1.0) and abs(got.direction[0]) < 1e-12
     assert reduced_inertia(sp.diags([1.0, 2.0, 1.0]), J, rank_tol=1e-9).stable is True
+
+
+def test_answer_above_the_coarse_mesh_is_refused(monkeypatch):
+    """The continuation check's refusal path: with the margin made negative (-1 x the load work), every fine answer
+    lies 'above' the coarse one, and the solve fails saying so, with both potentials, instead of succeeding."""
+    from ancf_sym import statics_contact
+
+    monkeypatch.setattr(statics_contact, "COARSE_MARGIN", -1.0)
+    r = solve_static(rope_scene(64))
+    assert not r.success and r.status == "Coarser_Mesh_Lower_Potential", (r.status, r.attempts)
+    assert "above the coarse mesh's" in r.attempts[-1]["detail"]
+    assert np.all(np.isfinite(r.x))
