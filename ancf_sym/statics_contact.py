@@ -7,8 +7,8 @@ rows of supports and joints. Newton's full steps know equalities only, so a scen
 IPOPT; the contact forces are IPOPT's multipliers (result.constraint_forces["contact"], one per contact point in the
 order of contact_exact.rows, >= 0 [N]) and so are the supports' reactions.
 
-1. Start. A member with exact contact finer than HALVE_ABOVE elements: the scene meshed twice coarser is solved
-   first (recursively, down to HALVE_ABOVE), and IPOPT starts from its solution interpolated onto this mesh, with
+1. Start. Members with exact contact of more than HALVE_ABOVE elements together: the scene with them meshed twice
+   coarser is solved first (recursively, down to HALVE_ABOVE), and IPOPT starts from its solution interpolated onto this mesh, with
    its multipliers (a point's force halved onto the two elements that split its element) and a barrier parameter
    at the size of the start's complementarity (WARM_MU) instead of IPOPT's 0.1: measured on a slack rope on the
    ground (EA 1e7 N, 5 N/m, 12 m between pins 10 m apart), mu = 0.1 means 1 m of slack at forces of 0.1 N per
@@ -42,7 +42,8 @@ from .inertia import STABILITY_EPS, banded_cholesky, reduced_inertia
 from .interrupts import interruptible
 
 SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
-HALVE_ABOVE = 48  # elements of a contact member above which the twice coarser mesh's solution is the start
+HALVE_ABOVE = 48  # elements of the contact members (together) above which the twice coarser mesh is the start
+HALVE_MIN = 4  # elements a halved member keeps at least
 WARM_MU = 1e-10  # IPOPT's initial barrier parameter from a coarse start, relative to the load work W [J]
 RANK_TOL = 1e-9  # dependent contact rows: eigenvalues of J H^-1 J^T below this (relative) are their round-off
 COARSE_MARGIN = 1e-6  # relative to W: a fine answer above the coarse one by more is a worse stationary point
@@ -189,8 +190,12 @@ def _coarse_start(problem, opts):
     """(coarse result, x on this mesh, lam_g on this mesh) from the twice coarser mesh, or None."""
     if getattr(problem, "_contact_coarse", None) is None:
         sc = problem.asm.scene
-        long = {c.member for c in sc.contacts if c.method == "exact"
-                and sc.members[c.member].elements > HALVE_ABOVE}
+        members = {c.member for c in sc.contacts if c.method == "exact"}
+        total = sum(sc.members[m].elements for m in members)
+        # every contact member halved that stays at HALVE_MIN elements or more (a rope in three members joined by
+        # hinges halves all three: halving only the long one left a 96-element coarse mesh that IPOPT could not
+        # solve from the reference)
+        long = {m for m in members if sc.members[m].elements >= 2 * HALVE_MIN} if total > HALVE_ABOVE else set()
         coarse = statics_coarse.coarsened(sc, long, 2) if long else None
         if coarse is not None:
             from .statics import StaticProblem
