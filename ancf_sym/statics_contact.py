@@ -197,13 +197,16 @@ def _coarse_start(problem, opts):
         # solve from the reference)
         long = {m for m in members if sc.members[m].elements >= 2 * HALVE_MIN} if total > HALVE_ABOVE else set()
         coarse = statics_coarse.coarsened(sc, long, 2) if long else None
+        problem._contact_coarse = False
         if coarse is not None:
+            from .scene import SceneError
             from .statics import StaticProblem
 
-            coarse.validate_for_statics()
-            problem._contact_coarse = (StaticProblem(coarse), long)
-        else:
-            problem._contact_coarse = False
+            try:  # a coarse mesh the scene's checks refuse (too coarse for a curve, say) is no start
+                coarse.validate_for_statics()
+                problem._contact_coarse = (StaticProblem(coarse), long)
+            except SceneError:
+                pass
     if problem._contact_coarse is False:
         return None
     cp, long = problem._contact_coarse
