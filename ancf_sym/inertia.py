@@ -39,8 +39,12 @@ class Inertia:
     direction: np.ndarray | None  # a direction of negative curvature (max-norm 1), None if stable
 
 
-def reduced_inertia(H: sp.spmatrix, J: sp.spmatrix | None = None) -> Inertia:
-    """Inertia of the Hessian H (n x n, symmetric) reduced to the null space of J (m x n, full row rank)."""
+def reduced_inertia(H: sp.spmatrix, J: sp.spmatrix | None = None, rank_tol: float | None = None) -> Inertia:
+    """Inertia of the Hessian H (n x n, symmetric) reduced to the null space of J (m x n, full row rank).
+
+    rank_tol: J may have dependent rows (exact contact: five contact points per element on four transverse
+    coordinates); its rank r is then the number of eigenvalues of S = J H_rho^-1 J^T above rank_tol x their largest
+    magnitude (S has rank r exactly, its other m - r eigenvalues are round-off), and neg = neg(H_rho) + pos(S) - r."""
     H = sp.csc_matrix(H)
     n = H.shape[0]
     m = 0 if J is None else J.shape[0]
@@ -72,7 +76,11 @@ def reduced_inertia(H: sp.spmatrix, J: sp.spmatrix | None = None) -> Inertia:
     if m:
         X = lu.solve(np.asarray(J.T.todense()))
         w = np.linalg.eigvalsh(0.5 * (J @ X + (J @ X).T))
-        pos_s = int(np.sum(w > 0))
+        if rank_tol is None:
+            pos_s = int(np.sum(w > 0))
+        else:
+            cut = rank_tol * float(np.max(np.abs(w), initial=0.0))
+            pos_s, m = int(np.sum(w > cut)), int(np.sum(np.abs(w) > cut))
     negative = neg_h + pos_s - m
     if negative <= 0:
         return Inertia(True, 0, None)

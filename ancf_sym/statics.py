@@ -313,7 +313,7 @@ class StaticProblem:
             check_stretch(a.mesh, x, "warm start x0")
             x = self.S.full(self.S.reduce(x))  # supports and hinges that fix or identify coordinates hold exactly
         if self._contacts:  # exact frictionless contact: IPOPT with inequality rows
-            return statics_contact.solve(self, x, opts, t0)
+            return statics_contact.solve(self, x, opts, t0, x0 is not None)
         attempts: list = []
         work = self.work if self.work > 0 else self.newton.load_work(x)
         if work == 0.0 or self._unloaded_at_rest(x):  # the start is the equilibrium

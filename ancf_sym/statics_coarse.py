@@ -45,18 +45,28 @@ def coarse_scene(scene: Scene) -> Scene | None:
     """The scene with its long members meshed COARSE_FACTOR times coarser, or None where there is no coarse start
     (no member that long, or a scene the module docstring excludes)."""
     long = {name for name, m in scene.members.items() if m.elements >= COARSE_ABOVE}
-    if not long or scene.bodies or scene.body_joints or scene.contacts or scene.drives:
+    if scene.contacts:
+        return None
+    return coarsened(scene, long, COARSE_FACTOR)
+
+
+def coarsened(scene: Scene, long: set, factor: int) -> Scene | None:
+    """The scene with the members named in `long` meshed `factor` times coarser, or None where that is not a
+    coarse start (no such member, rigid bodies, drives, a polyline, closed or beam3d member, an element count not
+    divisible by `factor`, a support, load or joint at a node the coarse mesh lacks). Contacts are kept as declared
+    (their points per element follow the mesh)."""
+    if not long or scene.bodies or scene.body_joints or scene.drives:
         return None
     for name in long:
         m = scene.members[name]
-        if m.closed or len(m.points) != 2 or not m.element.startswith("cable") or m.elements % COARSE_FACTOR:
+        if m.closed or len(m.points) != 2 or not m.element.startswith("cable") or m.elements % factor:
             return None
     c = copy.deepcopy(scene)
     for name in long:
-        c.members[name].elements //= COARSE_FACTOR
+        c.members[name].elements //= factor
 
     def place(member: str, at: Any) -> Any:
-        return _coarse_at(at, scene.members[member], COARSE_FACTOR) if member in long else at
+        return _coarse_at(at, scene.members[member], factor) if member in long else at
 
     for item in c.supports + c.loads + c.point_masses:
         if item.at is not None:
