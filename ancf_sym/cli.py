@@ -61,7 +61,7 @@ class Progress:
 
 # -- analyses ----------------------------------------------------------------------------------------------------
 
-STATICS_STAGES = ["read scene", "assemble", "build IPOPT problem", "solve", "write result.json", "plots", "VTK"]
+STATICS_STAGES = ["read scene", "assemble", "build solver", "solve", "write result.json", "plots", "VTK"]
 
 
 def run_statics(scene: Scene, analysis: dict, scene_file: Path, out: Path, progress: Progress, t_start: float,
@@ -84,7 +84,7 @@ def run_statics(scene: Scene, analysis: dict, scene_file: Path, out: Path, progr
     progress.stage("assemble")
     asm = Assembly(scene)
     progress.note(f"{asm.n} coordinates, {len(asm.terms)} kernel terms")
-    progress.stage("build IPOPT problem")
+    progress.stage("build solver")
     problem = ReportingProblem(asm)
     progress.stage("solve")
     opts = StaticOptions(**{k: v for k, v in analysis.items() if k != "type"})
@@ -99,7 +99,8 @@ def run_statics(scene: Scene, analysis: dict, scene_file: Path, out: Path, progr
         write_plots(r, out, samples)
         progress.stage("VTK")
         write_vtu(r, out / "result.vtu", samples)
-    summary = (f"{scene.name}: {r.status}, {r.iterations} IPOPT iterations in {len(r.attempts)} attempt(s), "
+    # who answered, in its own words (Newton's "converged", IPOPT's return code): result.json's solver.solved_by
+    summary = (f"{scene.name}: {'solved by ' if r.success else r.status + ': '}{r.solved_by}, "
                f"solve {r.wall_s:.3f} s, total {wall_total:.3f} s")
     if r.success:
         summary += f"; potential {r.potential:.6g} J, constraint violation {r.constraint_violation:.2g}"

@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..assembly import Assembly
+from ..names import NamedDict
 from .options import DynamicOptions
 
 
@@ -35,6 +36,32 @@ class DynamicResult:
     # per drive (ancf_sym.drives): what it applies at the output times, (len(t), k): an angle drive's torque on its
     # body [N m], a position drive's force [N] (from the multipliers; linear in time between steps)
     drive_reactions: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        # a wrong sensor or energy name is refused listing the names there are
+        self.sensors = NamedDict("sensor", self.sensors)
+        self.energies = NamedDict("energy label", self.energies)
+        self.drive_reactions = NamedDict("drive", self.drive_reactions)
+
+    def summary(self) -> str:
+        """One line: status, time reached, steps, Newton iterations, wall time."""
+        return (f"{self.integrator} {self.status}" + ("" if self.success else f" ({self.message})")
+                + f" at t = {self.t_reached:.6g} s: {self.steps} steps, {len(self.rejected)} rejected, "
+                f"{self.newton_iterations} Newton iterations, {self.wall_s:.3g} s (+ {self.setup_s:.3g} s setup)")
+
+    def __repr__(self) -> str:
+        return (f"<DynamicResult {self.summary()}; {len(self.t)} output times; sensors {list(self.sensors)}; "
+                f"energies {list(self.energies)}>")
+
+    def _repr_html_(self) -> str:
+        from ..statics import _html_table
+        err = self.energy_error()
+        return _html_table("DynamicResult", self.summary(), [
+            ("status", self.status), ("integrator", self.integrator), ("t reached", f"{self.t_reached:.6g} s"),
+            ("steps (rejected)", f"{self.steps} ({len(self.rejected)})"), ("Newton iterations", self.newton_iterations),
+            ("wall time (setup)", f"{self.wall_s:.3g} s ({self.setup_s:.3g} s)"), ("output times", len(self.t)),
+            ("sensors", ", ".join(self.sensors) or "-"), ("energies", ", ".join(self.energies) or "-"),
+            ("energy error", "-" if err is None else f"{err:.2g}")])
 
     @property
     def newton_iterations(self) -> int:
