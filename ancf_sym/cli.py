@@ -17,18 +17,38 @@ Also runnable as `python -m ancf_sym.cli`.
 """
 from __future__ import annotations
 
-import argparse
 import os
-import shutil
 import signal
 import sys
-import time
-import traceback
-from pathlib import Path
 
-from .interrupts import Terminated, terminate_raises
-from .result_dir import RESULT_FILE, ResultDir
-from .scene import Scene, SceneError
+
+def _exit_while_loading(signum: int, frame) -> None:
+    """Ctrl-C while this module's imports load (nothing started, nothing to clean up): one line, the shell's code.
+    From main() on, the commands' own handling takes over."""
+    os.write(2, b"ancf-sym: interrupted (Ctrl-C)\n")
+    os._exit(128 + signum)
+
+
+_HANDLER = signal.getsignal(signal.SIGINT)
+if _HANDLER is signal.default_int_handler:  # (an ignored SIGINT, e.g. a background job, stays ignored)
+    try:
+        signal.signal(signal.SIGINT, _exit_while_loading)
+    except ValueError:  # imported outside the main thread: signals are not ours to handle
+        pass
+
+import argparse  # noqa: E402 - after the handler above
+import shutil  # noqa: E402
+import time  # noqa: E402
+import traceback  # noqa: E402
+from pathlib import Path  # noqa: E402
+from typing import TYPE_CHECKING  # noqa: E402
+
+from .checks import SceneError  # noqa: E402 - (the package itself imports nothing until used)
+from .interrupts import Terminated, terminate_raises  # noqa: E402
+from .result_dir import RESULT_FILE, ResultDir  # noqa: E402
+
+if TYPE_CHECKING:
+    from .scene import Scene
 
 
 class Progress:
@@ -282,7 +302,20 @@ def cmd_study(args) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="ancf-sym", description="ANCF cables and beams: scenes, kernels, solvers")
+    """The command line; Ctrl-C or SIGTERM at any moment (also while argparse or a command's imports load) exits
+    with one line and the shell's code, never a traceback."""
+    try:
+        return _main(argv)
+    except (KeyboardInterrupt, Terminated) as exc:
+        _fail(_stop_reason(exc))
+        return _stop_code(exc)
+
+
+def _main(argv: list[str] | None = None) -> int:
+    from . import __version__
+    parser = argparse.ArgumentParser(prog="ancf-sym", description="ANCF cables and beams: scenes (statics by Newton, "
+                                     "IPOPT where Newton fails; dynamics), compiled kernels, studies of accuracy vs time")
+    parser.add_argument("--version", action="version", version=f"ancf-sym {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("run", help="solve a TOML scene and write result.json, PNG plots and a .vtu into --out")
     p.add_argument("scene", help="scene file (TOML; see docs/scenes.md)")
@@ -316,6 +349,9 @@ def main(argv: list[str] | None = None) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
 
+
+if signal.getsignal(signal.SIGINT) is _exit_while_loading:  # loaded: Ctrl-C raises KeyboardInterrupt again
+    signal.signal(signal.SIGINT, _HANDLER)
 
 if __name__ == "__main__":
     sys.exit(main())
