@@ -5,6 +5,7 @@
     ancf-sym study NAME --out DIR [--quick] [--jobs N | --scheduler ADDRESS] [--sweep AXIS=V1,V2 ...] [--target E]
                                                                 what accuracy costs in time (ancf_sym.study)
     ancf-sym study --list                                       the studies
+    ancf-sym --version
 
 `run` writes DIR/result.json, DIR/shape.png, DIR/fields.png, DIR/result.vtu and a copy of the scene as
 DIR/scene.toml. Everything is written into a temporary sibling directory first (ancf_sym.result_dir); DIR is

@@ -19,15 +19,15 @@ class UnknownName(KeyError):
 class NamedDict(dict):
     """A dict whose missing key raises UnknownName naming the keys it has (e.g. result.sensors["tip"])."""
 
-    def __init__(self, kind: str, *args, **kwargs):
-        super().__init__(*args, **kwargs)
+    def __init__(self, items=(), kind: str = "key"):  # (items first: dataclasses.asdict and copy rebuild it so)
+        super().__init__(items)
         self.kind = kind
 
     def __missing__(self, key):
         raise UnknownName(self.kind, key, self.keys())
 
     def __reduce__(self):  # picklable (results cross process boundaries in studies)
-        return (self.__class__, (self.kind, dict(self)))
+        return (self.__class__, (dict(self), self.kind))
 
 
 def lookup(kind: str, name: object, known: dict | list | tuple):

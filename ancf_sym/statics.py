@@ -103,12 +103,12 @@ class StaticResult:
     @functools.cached_property
     def energies(self) -> dict:
         """label -> energy at x [J]: strain energies by effect, gravity, loads, penalty springs."""
-        return NamedDict("energy label", self._details[0])
+        return NamedDict(self._details[0], kind="energy label")
 
     @functools.cached_property
     def constraint_forces(self) -> dict:
         """label -> multipliers (exact constraints) or penalty forces."""
-        return NamedDict("constraint label", self._details[1])
+        return NamedDict(self._details[1], kind="constraint label")
 
     @functools.cached_property
     def constraint_violation(self) -> float:

@@ -39,9 +39,9 @@ class DynamicResult:
 
     def __post_init__(self) -> None:
         # a wrong sensor or energy name is refused listing the names there are
-        self.sensors = NamedDict("sensor", self.sensors)
-        self.energies = NamedDict("energy label", self.energies)
-        self.drive_reactions = NamedDict("drive", self.drive_reactions)
+        self.sensors = NamedDict(self.sensors, kind="sensor")
+        self.energies = NamedDict(self.energies, kind="energy label")
+        self.drive_reactions = NamedDict(self.drive_reactions, kind="drive")
 
     def summary(self) -> str:
         """One line: status, time reached, steps, Newton iterations, wall time."""
