@@ -102,22 +102,36 @@ def test_ctrl_c_during_start_up_exits_cleanly(tmp_path, delay):
     assert "interrupted (Ctrl-C)" in err.splitlines()[-1], err
 
 
-def _fake_history(calls: list, stop_at: int | None = None):
-    """A stand-in for the dynamics run of the studies: a tip history with a known mesh error C/n^4 and step error
-    D dt^5, so that the reference's Richardson extrapolation has something to extrapolate."""
+def _tip(n: int, dt: float, t_end: float) -> np.ndarray:
+    """A tip history with a known mesh error C/n^4 and step error D dt^5, so that the reference's Richardson
+    extrapolation has something to extrapolate."""
+    t = np.arange(0.0, t_end + 1e-12, 0.01)
+    return np.stack([np.sin(t), -t * t], axis=1) * (1 + 1.0 / n**4 + 1e3 * dt**5)
+
+
+REC = {"status": "completed", "success": True, "wall_s": 0.01, "loop_s": 0.01, "setup_s": 0.0, "steps": 1,
+       "newton_iterations": 1, "factorizations": 1}
+
+
+def _fakes(calls: list, stop_at: int | None = None):
+    """Stand-ins for the studies' dynamics runs: the settings' run (_tip_history) and the reference's run in
+    checkpointed pieces (_segmented_history, here two pieces); KeyboardInterrupt at the reference's call stop_at,
+    after its first piece was saved."""
     def tip_history(scene, integrator, dt, t_end, member, progress=None):
-        calls.append((integrator, scene.members["rope"].elements, dt))
+        calls.append((integrator, scene.members["rope"].elements, dt, None))
+        return dict(REC), _tip(scene.members["rope"].elements, dt, t_end)
+
+    def segmented(scene, dt, t_end, member, report=None, state=None, save=None):
+        n = scene.members["rope"].elements
+        calls.append(("radau", n, dt, None if state is None else state["piece"]))
+        if state is None:
+            save({"piece": 1})
+            if report is not None:
+                report(t_end / 2)
         if stop_at is not None and len(calls) == stop_at:
             raise KeyboardInterrupt
-        n = scene.members["rope"].elements
-        t = np.arange(0.0, t_end + 1e-12, 0.01)
-        exact = np.stack([np.sin(t), -t * t], axis=1)
-        tip = exact * (1 + 1.0 / n**4 + 1e3 * dt**5)
-        if progress is not None:
-            progress(t_end / 2, t_end)
-        return {"status": "completed", "success": True, "wall_s": 0.01, "loop_s": 0.01, "setup_s": 0.0, "steps": 1,
-                "newton_iterations": 1, "factorizations": 1}, tip
-    return tip_history
+        return {**REC, "tip": _tip(n, dt, t_end).tolist()}
+    return tip_history, segmented
 
 
 def test_study_reference_is_announced_stored_by_parts_and_resumed(tmp_path, monkeypatch, capsys):
@@ -125,22 +139,30 @@ def test_study_reference_is_announced_stored_by_parts_and_resumed(tmp_path, monk
     out = tmp_path / "rope"
     sweep = {"integrator": ["hht"], "dt": [2e-3], "n": [8]}
     calls: list = []
-    monkeypatch.setattr(dynamics_studies, "_tip_history", _fake_history(calls, stop_at=3))
-    with pytest.raises(KeyboardInterrupt):  # Ctrl-C during the reference's third run
+    tip_history, segmented = _fakes(calls, stop_at=3)
+    monkeypatch.setattr(dynamics_studies, "_tip_history", tip_history)
+    monkeypatch.setattr(dynamics_studies, "_segmented_history", segmented)
+    with pytest.raises(KeyboardInterrupt):  # Ctrl-C in the second piece of the reference's third run
         run_study("rope", out, quick=True, jobs=1, sweep=sweep, target=2e-3)
     err = capsys.readouterr().err
     assert err.index("computing the reference first") < err.index("reference part 1/4")
-    assert "interrupted while computing the reference; 2 finished part(s) kept" in err
-    assert len(list((out / "reference").glob("*.json"))) == 2 and not (out / "reference.json").exists()
+    assert "interrupted while computing the reference; 2 finished part(s) and 1 checkpoint(s)" in err
+    stored = sorted(f.name for f in (out / "reference").iterdir())
+    assert len(stored) == 3 and sum(f.endswith(".partial.json") for f in stored) == 1, stored
+    assert not (out / "reference.json").exists()
 
     calls.clear()
-    monkeypatch.setattr(dynamics_studies, "_tip_history", _fake_history(calls))
+    tip_history, segmented = _fakes(calls)
+    monkeypatch.setattr(dynamics_studies, "_tip_history", tip_history)
+    monkeypatch.setattr(dynamics_studies, "_segmented_history", segmented)
     rep = run_study("rope", out, quick=True, jobs=1, sweep=sweep, target=2e-3)
     err = capsys.readouterr().err
-    assert err.count("stored, reused") == 2 and "reference part 4/4" in err
-    # the two stored parts are not run again: two reference runs (radau, the larger n), then the setting
-    assert [c[:2] for c in calls if c[0] == "radau"] == [("radau", 32), ("radau", 32)], calls
+    assert err.count("stored, reused") == 2 and "resumed from its checkpoint" in err and "part 4/4" in err
+    # the stored parts are not run again, the interrupted one continues from its checkpoint (piece 1)
+    ref_calls = [c for c in calls if c[0] == "radau"]
+    assert [c[3] for c in ref_calls] == [1, None], calls
     assert calls[-1][:2] == ("hht", 8), calls
+    assert not list((out / "reference").glob("*.partial.json"))
     ref = json.loads((out / "reference.json").read_text())
     assert ref["success"] and ref["wall_s"] > 0 and rep.complete
     # report.md states the target that was given, not the study's default (1e-2)
@@ -150,3 +172,22 @@ def test_study_reference_is_announced_stored_by_parts_and_resumed(tmp_path, monk
     calls.clear()
     run_study("rope", out, quick=True, jobs=1, sweep=sweep)
     assert "radau" not in [c[0] for c in calls] and "the study's default" in (out / "report.md").read_text()
+
+
+def test_reference_in_pieces_equals_one_run():
+    """The reference's checkpointed Radau run (pieces restarted from the saved coordinates and velocities) follows
+    the one-piece run: a one-step method with a fixed step, so the pieces differ only by each step's Newton
+    tolerance (the residual tolerance on ~1e3 N forces moves the tip by ~1e-10 m; asserted at 1e-8 of the 2.4 m
+    tip travel, far below the reference's own error bound of ~1e-5)."""
+    from ancf_sym.study import dynamics_studies as D
+    rec, tip = D._tip_history(D.rope_scene(8), "radau", 2e-3, 1.0, "rope")
+    saved: list = []
+    seg = D._segmented_history(D.rope_scene(8), 2e-3, 1.0, "rope", save=saved.append)
+    a, b = np.asarray(tip), np.asarray(seg["tip"])
+    assert a.shape == b.shape == (101, 2) and seg["steps"] == rec["steps"] == 500
+    travel = np.linalg.norm(a - a[0], axis=1).max()
+    assert np.abs(a - b).max() < 1e-8 * travel
+    assert len(saved) == D.REFERENCE_SEGMENTS - 1  # a checkpoint after every piece but the last
+    # resuming from a checkpoint gives the same history
+    resumed = D._segmented_history(D.rope_scene(8), 2e-3, 1.0, "rope", state=json.loads(json.dumps(saved[4])))
+    assert np.abs(np.asarray(resumed["tip"]) - b).max() < 1e-8 * travel

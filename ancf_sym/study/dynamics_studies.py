@@ -55,12 +55,11 @@ def _reference(scene_fn, n: int, dt: float, t_end: float, member: str, parts=Non
     if parts is not None:
         parts.total = len(plan)
     for key, (nn, h) in plan.items():
-        def compute(report, nn=nn, h=h) -> dict:
-            rec, tip = _tip_history(scene_fn(nn), "radau", h, t_end, member,
-                                    None if report is None else (lambda t, t_end: report(t)))
-            return {**rec, "tip": None if tip is None else np.asarray(tip).tolist()}
+        def compute(report, state=None, save=None, nn=nn, h=h) -> dict:
+            return _segmented_history(scene_fn(nn), h, t_end, member, report, state, save)
         label = f"Radau IIA, n = {nn}, dt = {h:g} s, {t_end:g} s simulated"
-        rec = compute(None) if parts is None else parts.run(f"radau_n{nn}_dt{h:g}", label, compute, span=t_end)
+        rec = compute(None) if parts is None else parts.run(f"radau_n{nn}_dt{h:g}", label, compute, span=t_end,
+                                                            checkpoints=True)
         if not rec["success"]:
             return {"success": False, "status": f"{rec['status']} (radau, n = {nn}, dt = {h:g})"}
         runs[key] = np.asarray(rec["tip"])
@@ -76,6 +75,47 @@ def _reference(scene_fn, n: int, dt: float, t_end: float, member: str, parts=Non
             "how": f"3-stage Radau IIA, dt = {dt:g} s, Richardson-extrapolated in the mesh from n = {n // 2} and "
                    f"{n} elements (order {p:.2f} observed with n = {n // 4}, {n // 2}, {n}); error estimated by the "
                    f"same extrapolation from n = {n // 4} and {n // 2}, and by a run with 2 dt"}
+
+
+REFERENCE_SEGMENTS = 10  # checkpoints of a reference run: an interrupt loses at most a tenth of it
+
+
+def _segmented_history(scene, dt: float, t_end: float, member: str, report=None, state: dict | None = None,
+                       save=None) -> dict:
+    """A Radau IIA run of the reference in REFERENCE_SEGMENTS pieces of whole steps, each starting from the
+    previous piece's end state (coordinates and velocities: a one-step method with a fixed step continues exactly
+    as one run would, up to the Newton tolerance of each step); save(state) after each piece, `state` the piece to
+    resume from. The record: status, counters summed, the tip at every output time."""
+    from ..dynamics import DynamicOptions, run_dynamics
+    steps = int(round(t_end / dt))
+    cuts = [round(k * steps / REFERENCE_SEGMENTS) for k in range(REFERENCE_SEGMENTS + 1)]
+    cuts = sorted(set(c for c in cuts if c % max(1, int(round(OUTPUT_DT / dt))) == 0) | {0, steps})
+    st = state or {"piece": 0, "tip": [], "x": None, "v": None,
+                   "rec": {"status": "completed", "success": True, "wall_s": 0.0, "loop_s": 0.0, "setup_s": 0.0,
+                           "steps": 0, "newton_iterations": 0, "factorizations": 0}}
+    sensor = [{"name": "tip", "kind": "position", "member": member, "at": "end"}]
+    for k in range(st["piece"], len(cuts) - 1):
+        t0, t1 = cuts[k] * dt, (cuts[k + 1] * dt if cuts[k + 1] < steps else t_end)
+        opts = DynamicOptions(integrator="radau", dt=dt, t_start=t0, t_end=t1, output_dt=OUTPUT_DT, energies=False,
+                              sensors=sensor, q0=None if st["x"] is None else np.asarray(st["x"]),
+                              v0=None if st["v"] is None else np.asarray(st["v"]))
+        w0 = time.perf_counter()
+        r = run_dynamics(scene, opts, None if report is None else (lambda t, _end: report(t)))
+        rec = dict(st["rec"])
+        rec["wall_s"] += time.perf_counter() - w0
+        rec["loop_s"] += r.wall_s
+        rec["setup_s"] += r.setup_s
+        rec["steps"] += r.steps
+        rec["newton_iterations"] += r.newton_iterations
+        rec["factorizations"] += r.factorizations
+        if not r.success:
+            return {**rec, "status": r.status, "success": False, "tip": None}
+        tip = np.asarray(r.sensors["tip"]).tolist()
+        st = {"piece": k + 1, "tip": st["tip"] + (tip if k == 0 else tip[1:]), "x": r.x.tolist(), "v": r.v.tolist(),
+              "rec": rec}
+        if save is not None and k + 2 < len(cuts):
+            save(st)
+    return {**st["rec"], "tip": st["tip"]}
 
 
 def _run(scene_fn, member: str, t_end: float):

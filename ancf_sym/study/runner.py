@@ -61,9 +61,13 @@ class ReferenceParts:
         if self.progress:
             print(f"{self.study}: {text}", file=sys.stderr, flush=True)
 
-    def run(self, key: str, label: str, compute, span: float | None = None) -> dict:
+    def run(self, key: str, label: str, compute, span: float | None = None, checkpoints: bool = False) -> dict:
         """compute(report) -> JSON-able dict, where report(done, span) shows its progress (e.g. simulated time
-        of span seconds); stored under `key`. A stored part is returned without computing it again."""
+        of span seconds); stored under `key`. A stored part is returned without computing it again.
+
+        checkpoints: compute(report, state, save) instead, where save(dict) stores an intermediate state (e.g. the
+        coordinates and velocities at a time) in DIR/reference/<key>.partial.json and `state` is the last one saved
+        (None the first time): an interrupted part resumes from its last checkpoint."""
         self.count += 1
         of = f" {self.count}/{self.total}" if self.total else f" {self.count}"
         path = self.folder / f"{key}.json"
@@ -83,17 +87,31 @@ class ReferenceParts:
         def report(done: float, total: float | None = None) -> None:
             bar.n = done
             bar.refresh()
+        partial = self.folder / f"{key}.partial.json"
+        self.folder.mkdir(parents=True, exist_ok=True)
+
+        def save(state: dict) -> None:
+            write_json_atomic(partial, state)
         try:
             t0 = time.perf_counter()
-            part = compute(report)
+            if checkpoints:
+                try:
+                    state = json.loads(partial.read_text()) if partial.is_file() else None
+                except (OSError, json.JSONDecodeError):
+                    state = None
+                if state is not None:
+                    self.announce(f"reference part{of} ({label}): resumed from its checkpoint ({partial})")
+                part = compute(report, state, save)
+            else:
+                part = compute(report)
             if span:
                 report(span)
         finally:
             bar.close()
         part = {**part, "part_wall_s": time.perf_counter() - t0}
         self.wall_s += part["part_wall_s"]
-        self.folder.mkdir(parents=True, exist_ok=True)
         write_json_atomic(path, part)
+        partial.unlink(missing_ok=True)
         return part
 
 
@@ -114,8 +132,11 @@ def load_reference(study: Study, variant: str, out: Path, progress: bool = True)
         ref = study.reference(variant, parts=parts) if parted else study.reference(variant)
     except KeyboardInterrupt:
         if progress:
-            kept = len(list((out / "reference").glob("*.json"))) if (out / "reference").is_dir() else 0
-            print(f"{study.name}: interrupted while computing the reference; {kept} finished part(s) kept in "
+            files = [f.name for f in (out / "reference").glob("*.json")] if (out / "reference").is_dir() else []
+            kept = sum(1 for f in files if not f.endswith(".partial.json"))
+            ckpt = len(files) - kept
+            print(f"{study.name}: interrupted while computing the reference; {kept} finished part(s)"
+                  + (f" and {ckpt} checkpoint(s) of the part under way" if ckpt else "") + f" kept in "
                   f"{out / 'reference'}: run the same command again to resume", file=sys.stderr, flush=True)
         raise
     except Exception as exc:  # noqa: BLE001 - any failure of the reference stops the study before its runs
