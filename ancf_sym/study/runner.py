@@ -79,6 +79,14 @@ class ReferenceParts:
                 return part
             except (OSError, json.JSONDecodeError):
                 pass  # (writes are atomic, but never trust a file): compute it again
+        partial = self.folder / f"{key}.partial.json"
+        state = None
+        if checkpoints and partial.is_file():
+            try:
+                state = json.loads(partial.read_text())
+                self.announce(f"reference part{of} ({label}): resumed from its checkpoint ({partial})")
+            except (OSError, json.JSONDecodeError):
+                state = None
         from tqdm import tqdm
         bar = tqdm(total=span, desc=f"{self.study}: reference part{of} ({label})", disable=not self.progress,
                    dynamic_ncols=True, leave=True, file=sys.stderr,
@@ -87,7 +95,6 @@ class ReferenceParts:
         def report(done: float, total: float | None = None) -> None:
             bar.n = done
             bar.refresh()
-        partial = self.folder / f"{key}.partial.json"
         self.folder.mkdir(parents=True, exist_ok=True)
 
         def save(state: dict) -> None:
@@ -95,12 +102,6 @@ class ReferenceParts:
         try:
             t0 = time.perf_counter()
             if checkpoints:
-                try:
-                    state = json.loads(partial.read_text()) if partial.is_file() else None
-                except (OSError, json.JSONDecodeError):
-                    state = None
-                if state is not None:
-                    self.announce(f"reference part{of} ({label}): resumed from its checkpoint ({partial})")
                 part = compute(report, state, save)
             else:
                 part = compute(report)
@@ -108,7 +109,8 @@ class ReferenceParts:
                 report(span)
         finally:
             bar.close()
-        part = {**part, "part_wall_s": time.perf_counter() - t0}
+        # (a resumed part's own record may count the time of the pieces an earlier, interrupted run computed)
+        part = {**part, "part_wall_s": max(time.perf_counter() - t0, float(part.get("wall_s") or 0.0))}
         self.wall_s += part["part_wall_s"]
         write_json_atomic(path, part)
         partial.unlink(missing_ok=True)
