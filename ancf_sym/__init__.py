@@ -1,7 +1,8 @@
 """ancf_sym: ANCF cables and beams with symbolic energies, exact derivatives and compiled C kernels.
 
 Pipeline (the README's layout): scene -> mesh -> terms (only the effects asked for) -> assembly over
-mapped compiled kernels -> solvers (statics: IPOPT; dynamics) -> results.
+mapped compiled kernels -> solvers (statics: Newton on the exact tangent, IPOPT where Newton alone does not
+converge; dynamics; optimal control) -> results.
 """
 import os
 
@@ -9,13 +10,30 @@ import os
 # eigen-decomposition took 2.2 s instead of 0.018 s. Acts only if NumPy is not loaded yet; an explicit setting wins.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-from .scene import Material, Scene, SceneError, Section
-from .statics import StaticOptions, StaticResult, solve_static
-from .dynamics import DynamicOptions, DynamicResult, run_dynamics, simulate
-from . import initial
-from .modal import ModalResult, linearize, modal_analysis
+import importlib
+import importlib.util
 
-__all__ = ["Material", "Scene", "SceneError", "Section", "StaticOptions", "StaticResult", "solve_static",
-           "DynamicOptions", "DynamicResult", "run_dynamics", "simulate",
-           "modal_analysis", "linearize", "ModalResult"]
 __version__ = "0.1.0"
+
+# The public names are imported on first use (PEP 562): `import ancf_sym` costs nothing, so the command line
+# answers --version at once and handles a Ctrl-C that arrives while NumPy, CasADi or Matplotlib load.
+_PUBLIC = {"Material": "scene", "Scene": "scene", "SceneError": "scene", "Section": "scene",
+           "StaticOptions": "statics", "StaticResult": "statics", "solve_static": "statics",
+           "DynamicOptions": "dynamics", "DynamicResult": "dynamics", "run_dynamics": "dynamics",
+           "simulate": "dynamics", "modal_analysis": "modal", "linearize": "modal", "ModalResult": "modal"}
+__all__ = list(_PUBLIC)
+
+
+def __getattr__(name: str):
+    if name in _PUBLIC:
+        value = getattr(importlib.import_module(f".{_PUBLIC[name]}", __name__), name)
+    elif not name.startswith("_") and importlib.util.find_spec(f"{__name__}.{name}") is not None:
+        value = importlib.import_module(f".{name}", __name__)  # a submodule: ancf_sym.initial, ancf_sym.kernels
+    else:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_PUBLIC))

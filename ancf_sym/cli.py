@@ -6,6 +6,7 @@
     ancf-sym study NAME --out DIR [--quick] [--jobs N | --scheduler ADDRESS] [--sweep AXIS=V1,V2 ...] [--target E]
                                                                 what accuracy costs in time (ancf_sym.study)
     ancf-sym study --list                                       the studies
+    ancf-sym --version
 
 `run` writes DIR/result.json, DIR/shape.png, DIR/fields.png, DIR/result.vtu and a copy of the scene as
 DIR/scene.toml (dynamics: DIR/history.png, DIR/series.pvd with DIR/frames/, and DIR/motion.gif unless
@@ -21,18 +22,38 @@ Also runnable as `python -m ancf_sym.cli`.
 """
 from __future__ import annotations
 
-import argparse
 import os
-import shutil
 import signal
 import sys
-import time
-import traceback
-from pathlib import Path
 
-from .interrupts import Terminated, terminate_raises
-from .result_dir import RESULT_FILE, ResultDir
-from .scene import Scene, SceneError
+
+def _exit_while_loading(signum: int, frame) -> None:
+    """Ctrl-C while this module's imports load (nothing started, nothing to clean up): one line, the shell's code.
+    From main() on, the commands' own handling takes over."""
+    os.write(2, b"ancf-sym: interrupted (Ctrl-C)\n")
+    os._exit(128 + signum)
+
+
+_HANDLER = signal.getsignal(signal.SIGINT)
+if _HANDLER is signal.default_int_handler:  # (an ignored SIGINT, e.g. a background job, stays ignored)
+    try:
+        signal.signal(signal.SIGINT, _exit_while_loading)
+    except ValueError:  # imported outside the main thread: signals are not ours to handle
+        pass
+
+import argparse  # noqa: E402 - after the handler above
+import shutil  # noqa: E402
+import time  # noqa: E402
+import traceback  # noqa: E402
+from pathlib import Path  # noqa: E402
+from typing import TYPE_CHECKING  # noqa: E402
+
+from .checks import SceneError  # noqa: E402 - (the package itself imports nothing until used)
+from .interrupts import Terminated, terminate_raises  # noqa: E402
+from .result_dir import RESULT_FILE, ResultDir  # noqa: E402
+
+if TYPE_CHECKING:
+    from .scene import Scene
 
 
 class Progress:
@@ -65,7 +86,7 @@ class Progress:
 
 # -- analyses ----------------------------------------------------------------------------------------------------
 
-STATICS_STAGES = ["read scene", "assemble", "build IPOPT problem", "solve", "write result.json", "plots", "VTK"]
+STATICS_STAGES = ["read scene", "assemble", "build solver", "solve", "write result.json", "plots", "VTK"]
 
 
 def run_statics(scene: Scene, analysis: dict, scene_file: Path, out: Path, progress: Progress, t_start: float,
@@ -88,7 +109,7 @@ def run_statics(scene: Scene, analysis: dict, scene_file: Path, out: Path, progr
     progress.stage("assemble")
     asm = Assembly(scene)
     progress.note(f"{asm.n} coordinates, {len(asm.terms)} kernel terms")
-    progress.stage("build IPOPT problem")
+    progress.stage("build solver")
     problem = ReportingProblem(asm)
     progress.stage("solve")
     opts = StaticOptions(**{k: v for k, v in analysis.items() if k != "type"})
@@ -103,7 +124,8 @@ def run_statics(scene: Scene, analysis: dict, scene_file: Path, out: Path, progr
         write_plots(r, out, samples or DEFAULT_SAMPLES)
         progress.stage("VTK")
         write_vtu(r, out / "result.vtu", samples_per_element(asm.mesh, samples))
-    summary = (f"{scene.name}: {r.status}, {r.iterations} IPOPT iterations in {len(r.attempts)} attempt(s), "
+    # who answered, in its own words (Newton's "converged", IPOPT's return code): result.json's solver.solved_by
+    summary = (f"{scene.name}: {'solved by ' if r.success else r.status + ': '}{r.solved_by}, "
                f"solve {r.wall_s:.3f} s, total {wall_total:.3f} s")
     if r.success:
         summary += f"; potential {r.potential:.6g} J, constraint violation {r.constraint_violation:.2g}"
@@ -321,7 +343,20 @@ def cmd_study(args) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="ancf-sym", description="ANCF cables and beams: scenes, kernels, solvers")
+    """The command line; Ctrl-C or SIGTERM at any moment (also while argparse or a command's imports load) exits
+    with one line and the shell's code, never a traceback."""
+    try:
+        return _main(argv)
+    except (KeyboardInterrupt, Terminated) as exc:
+        _fail(_stop_reason(exc))
+        return _stop_code(exc)
+
+
+def _main(argv: list[str] | None = None) -> int:
+    from . import __version__
+    parser = argparse.ArgumentParser(prog="ancf-sym", description="ANCF cables and beams: scenes (statics by Newton, "
+                                     "IPOPT where Newton fails; dynamics), compiled kernels, studies of accuracy vs time")
+    parser.add_argument("--version", action="version", version=f"ancf-sym {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("run", help="solve a TOML scene and write result.json, PNG plots and a .vtu into --out")
     p.add_argument("scene", help="scene file (TOML; see docs/scenes.md)")
@@ -357,6 +392,9 @@ def main(argv: list[str] | None = None) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
 
+
+if signal.getsignal(signal.SIGINT) is _exit_while_loading:  # loaded: Ctrl-C raises KeyboardInterrupt again
+    signal.signal(signal.SIGINT, _HANDLER)
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -51,10 +51,23 @@ class Kernel(ca.Function):
         self.element, self.effect, self.params, self.library = element, effect, params, library
 
     def __call__(self, *args, **kwargs):
+        """k(q, p) with numbers (lists, NumPy arrays, DMs) returns NumPy: a float for a scalar output (the
+        energy), else a 2-D array of the output's shape (the gradient a column (n, 1), as CasADi's own, so that it
+        mixes with the outputs of the mapped and companion kernels; the Hessian (n, n)). With CasADi symbols (MX,
+        SX) it returns symbols, as any casadi.Function."""
         named = dict(zip(("q", "p"), args), **kwargs)
         if set(named) == {"q", "p"} and len(args) + len(kwargs) == 2:
             check_inputs(self.element, self.effect, named["q"], named["p"])
-        return super().__call__(*args, **kwargs)
+        out = super().__call__(*args, **kwargs)
+        if kwargs or not all(isinstance(o, ca.DM) for o in (out if isinstance(out, (tuple, list)) else [out])):
+            return out  # symbolic, or CasADi's keyword form (a dict of DMs)
+        return tuple(_to_numpy(o) for o in out) if isinstance(out, (tuple, list)) else _to_numpy(out)
+
+
+def _to_numpy(x: ca.DM) -> float | np.ndarray:
+    """A DM as NumPy: a float if 1 x 1, else its dense 2-D array."""
+    a = x.full()
+    return float(a[0, 0]) if a.shape == (1, 1) else a
 
 
 def _as_numeric(x: Any, name: str = "input") -> np.ndarray | None:

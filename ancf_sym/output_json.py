@@ -5,7 +5,8 @@ Layout (all lengths in m, energies in J, forces in N):
     {"format": "ancf_sym.statics/1", "scene": {"name", "file", "dim", "members": {name: {element, elements,
      length, effects}}}, "analysis": {...}, "status", "success", "wall_s": {"solve", "total"},
      "energies": {axial, bending, gravity, loads, ...}, "potential", "strain_energy",
-     "solver": {"iterations", "attempts": [{method, status, iterations}], "stable"},
+     "solver": {"solved_by" (who produced the answer, with its own status), "path", "iterations" (Newton +
+                IPOPT, all attempts), "attempts": [{method, status, iterations}], "stable"},
      "constraint_violation", "constraint_forces": {label: [...]}, "constraint_forces_sign": "...",
      "members": {name: {"nodes": [[x, y(, z)], ...], "slopes": [...], "tip": [...]}},
      "kernels": [{label, element, effect, gauss, elements}], "x": [all coordinates]}
@@ -97,7 +98,8 @@ def static_result_dict(result: StaticResult, scene_file: str | Path | None = Non
         "energies": result.energies,
         "potential": result.potential if result.success else None,
         "strain_energy": result.strain_energy,
-        "solver": {"iterations": result.iterations, "attempts": result.attempts, "stable": result.stable},
+        "solver": {"solved_by": result.solved_by, "path": result.path, "iterations": result.iterations,
+                   "attempts": result.attempts, "stable": result.stable},
         "constraint_violation": result.constraint_violation,
         "constraint_forces": {k: np.asarray(v) for k, v in result.constraint_forces.items()},
         "constraint_forces_sign": CONSTRAINT_FORCES_SIGN,

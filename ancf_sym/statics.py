@@ -37,6 +37,7 @@ from .assembly import LOAD_LABELS, Assembly, Evaluation
 from .checks import check_fields
 from .interrupts import interruptible
 from .mesh import check_stretch
+from .names import NamedDict, lookup
 from .scene import Scene, SceneError, fingerprint
 from .schema import STATIC_OPTIONS
 
@@ -108,12 +109,12 @@ class StaticResult:
     @functools.cached_property
     def energies(self) -> dict:
         """label -> energy at x [J]: strain energies by effect, gravity, loads, penalty springs."""
-        return self._details[0]
+        return NamedDict(self._details[0], kind="energy label")
 
     @functools.cached_property
     def constraint_forces(self) -> dict:
         """label -> multipliers (exact constraints) or penalty forces."""
-        return self._details[1]
+        return NamedDict(self._details[1], kind="constraint label")
 
     @functools.cached_property
     def constraint_violation(self) -> float:
@@ -127,14 +128,53 @@ class StaticResult:
     def strain_energy(self) -> float:
         return float(sum(v for k, v in self.energies.items() if k not in ("gravity", "loads", "penalty")))
 
+    @property
+    def solved_by(self) -> str:
+        """Which solver produced x, in its own words: e.g. "Newton (converged, 2 iterations; from a Biot-strain
+        start, 7 iterations)" or "IPOPT line search (Solve_Succeeded, 31 iterations), then Newton (converged, 1
+        iteration)". `status` keeps one vocabulary for every path (IPOPT's return codes); this says who answered."""
+        if not self.success:
+            last = self.attempts[-1] if self.attempts else {}
+            return f"no solver succeeded (last: {_attempt_text(last)})" if last else "no solver succeeded"
+        done = [a for a in self.attempts if _attempt_produced(a)]
+        return ", then ".join(_attempt_text(a) for a in done) or self.path or "?"
+
+    def summary(self) -> str:
+        """One line: status, who solved it, the key numbers."""
+        text = f"statics {'succeeded' if self.success else 'FAILED: ' + self.status}: {self.solved_by}, {self.wall_s:.3g} s"
+        if self.success and self.assembly is not None:
+            text += f"; potential {self.potential:.6g} J"
+            if self.stable is not None:
+                text += ", stable" if self.stable else ", UNSTABLE equilibrium"
+        return text
+
+    def __repr__(self) -> str:
+        members = list(self.assembly.mesh.members) if self.assembly is not None else []
+        tips = "; ".join(f"tip({m!r}) = {np.array2string(self.tip(m), precision=5)} m" for m in members[:3])
+        more = f" (+{len(members) - 3} members)" if len(members) > 3 else ""
+        return f"<StaticResult {self.summary()}" + (f"; {tips}{more}" if tips else "") + ">"
+
+    def _repr_html_(self) -> str:
+        return _html_table("StaticResult", self.summary(), [
+            ("status", self.status), ("solved by", self.solved_by), ("iterations", self.iterations),
+            ("wall time", f"{self.wall_s:.3g} s"),
+            ("potential", f"{self.potential:.6g} J" if self.success and self.assembly is not None else "-"),
+            ("stable", self.stable), ("coordinates", self.x.size)]
+            + [(f"tip('{m}')", f"{np.array2string(self.tip(m), precision=5)} m")
+               for m in (list(self.assembly.mesh.members)[:5] if self.assembly is not None else [])])
+
+    def _member(self, member: str):
+        """The mesh of a member by name; a wrong name is refused listing the members there are."""
+        return lookup("member", member, self.assembly.mesh.members)
+
     def nodes(self, member: str) -> np.ndarray:
         """Node positions (public nodes) [m]."""
-        mm = self.assembly.mesh.members[member]
+        mm = self._member(member)
         xn = self.assembly.member_coordinates(self.x, member)
         return xn[mm.public_nodes, :self.assembly.scene.dim]
 
     def slopes(self, member: str) -> np.ndarray:
-        mm = self.assembly.mesh.members[member]
+        mm = self._member(member)
         d = self.assembly.scene.dim
         return self.assembly.member_coordinates(self.x, member)[mm.public_nodes, d:2 * d]
 
@@ -145,8 +185,8 @@ class StaticResult:
         """Planar: (x, y, angle) of a rigid body's centre of mass [m, m, rad]. Spatial: (centre [m], axes), the
         axes' rows its x, y, z axes in world components."""
         if self.assembly.scene.dim == 3:
-            return spatial_bodies.state(self.x, self.assembly.mesh.bodies[name])
-        return bodies.state(self.x, self.assembly.mesh.bodies[name])
+            return spatial_bodies.state(self.x, lookup("body", name, self.assembly.mesh.bodies))
+        return bodies.state(self.x, lookup("body", name, self.assembly.mesh.bodies))
 
     def _body_record(self, name: str) -> dict:
         if self.assembly.scene.dim == 3:
@@ -157,7 +197,7 @@ class StaticResult:
     def along(self, member: str, per_element: int = 8) -> dict:
         """s, r, stretch |r_x|-1 ("strain"), the member's own axial strain measure ("axial_strain",
         fields.axial_measure) and curvature along the member (ancf_sym.fields.sample)."""
-        mm = self.assembly.mesh.members[member]
+        mm = self._member(member)
         return fields.sample(mm, self.assembly.member_coordinates(self.x, member), per_element)
 
     def to_dict(self) -> dict:
@@ -172,6 +212,35 @@ class StaticResult:
             "bodies": {name: self._body_record(name) for name in self.assembly.mesh.bodies},
             "constraint_forces": {k: np.asarray(v).tolist() for k, v in self.constraint_forces.items()},
         }
+
+
+def _attempt_produced(a: dict) -> bool:
+    """An attempt whose answer was kept: Newton converged, or IPOPT succeeded and was not rejected."""
+    return a.get("method") != "none" and not a.get("rejected") and a.get("status") in ("converged",) + SUCCESS \
+        or (a.get("method") == "none" and a.get("status") in SUCCESS)
+
+
+def _attempt_text(a: dict) -> str:
+    m = a.get("method", "?")
+    if m == "none":
+        return a.get("detail") or f"no solve ({a.get('status')})"
+    name = ("IPOPT" + m[len("ipopt"):]) if m.startswith("ipopt") else ("Newton" + m[len("newton"):]) \
+        if m.startswith("newton") else m
+    it = a.get("iterations", 0)
+    text = f"{name} ({a.get('status')}, {it} iteration{'' if it == 1 else 's'}"
+    for key, what in (("biot_start", "a Biot-strain start"), ("coarse_start", "a coarser mesh's solution")):
+        st = a.get(key)
+        if st and st.get("used"):
+            text += f"; from {what}, {st.get('iterations', 0)} iterations"
+    return text + ")"
+
+
+def _html_table(kind: str, title: str, rows: list) -> str:
+    """A small HTML table for notebooks (Jupyter calls _repr_html_)."""
+    import html
+    body = "".join(f"<tr><th style='text-align:left'>{html.escape(str(k))}</th><td style='text-align:left'>"
+                   f"{html.escape(str(v))}</td></tr>" for k, v in rows)
+    return f"<div><b>{html.escape(kind)}</b>: {html.escape(title)}<table>{body}</table></div>"
 
 
 class StaticProblem:

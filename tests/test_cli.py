@@ -26,9 +26,12 @@ def test_run_writes_json_png_vtu_then_a_failed_run_keeps_them(tmp_path):
     out = tmp_path / "out" / "cantilever"
     r = cli("run", CANTILEVER, "--out", out, cwd=tmp_path)
     assert r.returncode == 0, r.stderr
-    assert "Solve_Succeeded" in r.stdout and str(out) in r.stdout
+    assert str(out) in r.stdout
     doc = json.loads((out / "result.json").read_text())
     assert doc["status"] == "Solve_Succeeded" and doc["success"] is True
+    # the summary names the solver that produced the answer, as result.json does: Newton alone here, no IPOPT word
+    assert doc["solver"]["path"] == "newton" and doc["solver"]["solved_by"].startswith("Newton (converged")
+    assert f"solved by {doc['solver']['solved_by']}" in r.stdout and "IPOPT" not in r.stdout
     assert doc["scene"]["name"] == "cantilever" and doc["scene"]["file"] == str(CANTILEVER)
     assert set(doc["energies"]) == {"axial", "bending", "gravity"}
     assert doc["potential"] == sum(doc["energies"].values())

@@ -5,6 +5,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..names import lookup
 from ..scene import SceneError
 from .resimulation import ResimulationReport, resimulate_motion
 from ..dynamics.collocation import lagrange_basis as _basis
@@ -39,18 +40,35 @@ class ControlResult:
         self.s, self.sv = Z[:, 2 * nf:2 * nf + nc], Z[:, 2 * nf + nc:]
         self.controls = U
 
+    def summary(self) -> str:
+        """One line: status, cost, iterations, wall time, horizon."""
+        return (f"IPOPT {self.status}: cost {self.cost:.6g}, {self.iterations} iterations, {self.wall_s:.3g} s "
+                f"(+ {self.warm_start_s:.3g} s warm start), horizon {self.T:.4g} s, constraint violation "
+                f"{self.constraint_violation:.2g}")
+
+    def __repr__(self) -> str:
+        return f"<ControlResult {self.summary()}; controls {self.prob.channels + self.prob.force_names}>"
+
+    def _repr_html_(self) -> str:
+        from ..statics import _html_table
+        return _html_table("ControlResult", self.summary(), [
+            ("status", self.status), ("cost", f"{self.cost:.6g}"), ("IPOPT iterations", self.iterations),
+            ("solve (warm start, build)", f"{self.wall_s:.3g} s ({self.warm_start_s:.3g} s, {self.build_s:.3g} s)"),
+            ("horizon", f"{self.T:.4g} s"), ("constraint violation", f"{self.constraint_violation:.2g}"),
+            ("controls", ", ".join(self.prob.channels + self.prob.force_names))])
+
     @property
     def q(self) -> np.ndarray:
         p = self.prob
         return (p.part.E @ self.q_free.T + p.part.c[:, None] + p.B @ self.s.T).T
 
     def channel(self, name: str):
-        k = self.prob.channels.index(name)
+        k = lookup("support channel", name, self.prob.channels)
         return self.s[:, k], self.sv[:, k]
 
     def control(self, name: str) -> np.ndarray:
         names = self.prob.channels + self.prob.force_names
-        return self.U[:, names.index(name)]
+        return self.U[:, lookup("control", name, names)]
 
     def point(self, member: str, at: Any = "end", t: np.ndarray | None = None) -> np.ndarray:
         """Position of a centreline point at the state nodes (t=None) or at times t (collocation polynomials)."""

@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..assembly import Assembly
+from ..names import NamedDict
 from .options import DynamicOptions
 
 
@@ -38,6 +39,32 @@ class DynamicResult:
     # per penalty contact (ancf_sym.contact_gap.Watch.record): the smallest true gap of the centre line over every
     # accepted step [m] (None: never below 0), its time [s] and the law's sampled penetration then [m]
     contact_gaps: list = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        # a wrong sensor or energy name is refused listing the names there are
+        self.sensors = NamedDict(self.sensors, kind="sensor")
+        self.energies = NamedDict(self.energies, kind="energy label")
+        self.drive_reactions = NamedDict(self.drive_reactions, kind="drive")
+
+    def summary(self) -> str:
+        """One line: status, time reached, steps, Newton iterations, wall time."""
+        return (f"{self.integrator} {self.status}" + ("" if self.success else f" ({self.message})")
+                + f" at t = {self.t_reached:.6g} s: {self.steps} steps, {len(self.rejected)} rejected, "
+                f"{self.newton_iterations} Newton iterations, {self.wall_s:.3g} s (+ {self.setup_s:.3g} s setup)")
+
+    def __repr__(self) -> str:
+        return (f"<DynamicResult {self.summary()}; {len(self.t)} output times; sensors {list(self.sensors)}; "
+                f"energies {list(self.energies)}>")
+
+    def _repr_html_(self) -> str:
+        from ..statics import _html_table
+        err = self.energy_error()
+        return _html_table("DynamicResult", self.summary(), [
+            ("status", self.status), ("integrator", self.integrator), ("t reached", f"{self.t_reached:.6g} s"),
+            ("steps (rejected)", f"{self.steps} ({len(self.rejected)})"), ("Newton iterations", self.newton_iterations),
+            ("wall time (setup)", f"{self.wall_s:.3g} s ({self.setup_s:.3g} s)"), ("output times", len(self.t)),
+            ("sensors", ", ".join(self.sensors) or "-"), ("energies", ", ".join(self.energies) or "-"),
+            ("energy error", "-" if err is None else f"{err:.2g}")])
 
     @property
     def newton_iterations(self) -> int:

@@ -92,9 +92,10 @@ def run_study(name: str, out: str | Path, *, quick: bool = False, jobs: int | No
     settings = study.settings(variant, sweep)
     out = Path(out)
     prepare_folder(out, study, variant)
-    reference = load_reference(study, variant, out)
+    reference = load_reference(study, variant, out, progress)
+    target_given = target is not None
     target = float(target if target is not None else study.target)
-    meta = {"variant": variant, "jobs": jobs if scheduler is None else "Dask cluster", "cores": cores, "date": datetime.date.today().isoformat(),
+    meta = {"target_given": target_given, "variant": variant, "jobs": jobs if scheduler is None else "Dask cluster", "cores": cores, "date": datetime.date.today().isoformat(),
             "timing": study.extra.get("timing", "wall time of the run, min over repeats"),
             "command": command or f"ancf-sym study {name} --out {shlex.quote(str(out))}" + (" --quick" if quick else "")}
     from .report import write_report

@@ -299,6 +299,8 @@ def write_report(out: Path, study: Study, records: list[dict], reference: dict, 
     lines = [f"# {study.title}", "", study.notes.strip(), "",
              f"Reference: {reference.get('how', '?')}" +
              (f" (its own error is below {floor:.2g})" if floor else "") + "." + worth, "",
+             f"Target: {study.error_name} <= {target:g} (" + ("as given" if meta.get("target_given") else
+                                                              "the study's default") + ").", "",
              f"Error: {study.error_name}. Time: {meta['timing']}. Variant `{meta['variant']}`, "
              f"{len(records)} of {planned} settings finished, {meta['jobs']} worker process(es) on {meta['cores']} "
              f"core(s) ({meta['date']}; parallel workers on a shared machine inflate times: use `--jobs 1` for "
