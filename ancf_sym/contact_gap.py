@@ -144,17 +144,29 @@ def _bounds(n: int) -> np.ndarray:
     return np.r_[p[-1] - 1.0, p, 1.0 + p[0]]
 
 
-def allowance(c, xi: np.ndarray, h: np.ndarray) -> np.ndarray:
-    """The sagitta s^2 / (8 rho) of the law's sampling at xi of elements of length h (s: the spacing of the two
-    points around xi), where the points resolve the drum (s <= RESOLVE rho, rho = R + t); 0 elsewhere and on the
-    ground."""
-    if not is_drum(c):
-        return np.zeros(len(xi))
+def allowance(c, xi: np.ndarray, h: np.ndarray, A: np.ndarray | None = None) -> np.ndarray:
+    """How far the centre line may dip below the law's points where they resolve the contact's geometry, at xi of
+    elements of length h (s: the spacing of the two points around xi):
+    - a drum: the sagitta s^2 / (8 rho) where s <= RESOLVE rho (rho = R + t);
+    - the ground, given the cubics A: the interpolation bound max|g''| d^2 / 8 of the gap g(xi) between two points
+      d = s / h apart (g'' in xi; exact for the cubic: a curve bent onto the ground dips below the chord of its two
+      loaded points by at most this), where the points resolve the gap's bend, s <= RESOLVE / kappa with kappa =
+      max|g''| / h^2 its curvature per metre (the drum's rule with rho = 1 / kappa). This dip falls as h^2 under
+      refinement, like the sagitta. (At a free end, beyond the last point, the centre line is extrapolated, not
+      interpolated: a tip pressed into the ground is found there whenever its dip exceeds this small allowance.)
+    0 elsewhere."""
     b = _bounds(c.gauss)
     k = np.clip(np.searchsorted(b, xi), 1, len(b) - 1)
-    s = (b[k] - b[k - 1]) * h
-    rho = c.radius + c.thickness
-    return np.where(s <= RESOLVE * rho, s * s / (8 * rho), 0.0)
+    d = b[k] - b[k - 1]
+    s = d * h
+    if is_drum(c):
+        rho = c.radius + c.thickness
+        return np.where(s <= RESOLVE * rho, s * s / (8 * rho), 0.0)
+    if A is None:
+        return np.zeros(len(xi))
+    a = A @ c.normal
+    g2 = np.maximum(np.abs(2 * a[:, 2]), np.abs(2 * a[:, 2] + 6 * a[:, 3]))  # max |g''(xi)| on [0, 1] (linear)
+    return np.where(s * g2 <= RESOLVE * h * h, g2 * d * d / 8, 0.0)
 
 
 def project(c, A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -241,13 +253,12 @@ class Closest:
     point: np.ndarray  # the closest centre-line point
     sampled_penetration: float  # the deepest penetration at the law's own points [m] (0: none)
     element_length: float
+    sag: float = 0.0  # the dip below the law's points allowed there (allowance)
 
     @property
     def tolerance(self) -> float:
         """How deep a true gap may be before it counts as hidden from the law."""
-        sag = allowance(self.contact, np.array([self.xi]), np.array([self.element_length]))[0] \
-            if self.element >= 0 else 0.0
-        return HIDDEN_FACTOR * self.sampled_penetration + sag + FLOOR * self.element_length
+        return HIDDEN_FACTOR * self.sampled_penetration + self.sag + FLOOR * self.element_length
 
     @property
     def hidden(self) -> bool:
@@ -307,12 +318,13 @@ def closest(asm, c, x: np.ndarray, index: int = 0, reach: float | None = None) -
     pen = float(max(0.0, -sampled_gaps(c, A[sel]).min()))
     xi, g = project(c, A[sel])
     h = mm.elem_length[sel]
-    bad = g < -(HIDDEN_FACTOR * pen + allowance(c, xi, h) + FLOOR * h)  # as _scan
+    bad = g < -(HIDDEN_FACTOR * pen + allowance(c, xi, h, A[sel]) + FLOOR * h)  # as _scan
     k = int(np.argmin(np.where(bad, g, np.inf))) if bad.any() else int(np.argmin(g))
     e = int(sel[k])
     r = _poly(cubic(asm, c, x[None])[0, e:e + 1], np.array([[xi[k]]]))[0, 0]
     s = float(mm.s_node[mm.elem_nodes[e, 0]] + xi[k] * mm.elem_length[e])
-    return Closest(c, index, float(g[k]), e, float(xi[k]), s, r, pen, float(mm.elem_length[e]))
+    return Closest(c, index, float(g[k]), e, float(xi[k]), s, r, pen, float(mm.elem_length[e]),
+                   float(allowance(c, xi[k:k + 1], h[k:k + 1], A[sel][k:k + 1])[0]))
 
 
 def report(asm, x: np.ndarray, method: str = "penalty") -> list[dict]:
@@ -342,7 +354,7 @@ def _scan(asm, X: np.ndarray) -> tuple[int, list[tuple[float, int, float]]]:
         xi, g = project(c, A[sel])
         h = asm.mesh.members[c.member].elem_length
         h = h[sel % len(h)]
-        tol = HIDDEN_FACTOR * pen[state[sel]] + allowance(c, xi, h) + FLOOR * h
+        tol = HIDDEN_FACTOR * pen[state[sel]] + allowance(c, xi, h, A[sel]) + FLOOR * h
         bad = state[sel][g < -tol]
         if len(bad):
             first = min(first, int(bad.min()))
