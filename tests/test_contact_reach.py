@@ -46,3 +46,19 @@ def test_reach_switch_equals_all_pairs_bitwise(kind):
             assert np.array_equal(np.asarray(ca.densify(g)), np.asarray(ca.densify(r)))
         touched += float(ca.norm_inf(ref[0])) > 0
     assert touched >= 3  # the comparison covers states in contact, not only zeros
+
+
+def test_chunk_damping_forces_in_one_call_equal_per_state():
+    """The time loop books the damping work of a chunk's steps from one mapped call: the same forces as one call
+    per state (states out of reach and in contact, random velocities)."""
+    from ancf_sym.dynamics.damping import damping_force, damping_force_rows
+
+    asm = Assembly(_scene("ground"))
+    S = StepSystem(asm)
+    rng = np.random.default_rng(2)
+    Q = np.array([S.reduce(asm.x0 + np.tile([0.0, dy, 0.0, 0.0], asm.n // 4)) for dy in (0.0, -0.046, -0.05)])
+    V = rng.normal(size=Q.shape)
+    rows = damping_force_rows(S, Q, V)
+    assert np.any(rows != 0.0)
+    for j in range(len(Q)):
+        assert np.array_equal(rows[j], damping_force(S, Q[j], V[j]))

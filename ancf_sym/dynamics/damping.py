@@ -280,6 +280,21 @@ def damping_force(S: "StepSystem", xf: np.ndarray, vf: np.ndarray) -> np.ndarray
     return f
 
 
+def damping_force_rows(S: "StepSystem", Q: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """(n, nf) damping_force at the states Q, V (n, nf) of a chunk's accepted steps: without Rayleigh damping one
+    mapped call of the dissipation force over the states (per-call overhead paid once per chunk, not per step: the
+    same values), else row by row."""
+    if len(Q) == 0:
+        return np.zeros((0, S.nf))
+    if S.rayleigh is not None or S.damp_force_f is None:
+        return np.array([damping_force(S, q, v) for q, v in zip(Q, V)])
+    mapped = S.__dict__.setdefault("_damp_force_maps", {})
+    f = mapped.get(len(Q))
+    if f is None:
+        f = mapped[len(Q)] = S.damp_force_f.map(len(Q))
+    return np.asarray(f(Q.T, V.T)).T
+
+
 class StiffnessDamping:
     """Rayleigh beta K_el: the elastic tangent at the start of each step, kept in system.kel (shared by the alpha and
     collocation integrators)."""
