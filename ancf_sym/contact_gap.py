@@ -438,3 +438,35 @@ class Watch:
                  "smallest_gap": g if np.isfinite(g) else None, "t": t if np.isfinite(g) else None,
                  "sampled_penetration": p}
                 for c, (g, t, p) in zip(checked_contacts(self.asm.scene), self.deepest)]
+
+
+def gap_lower_bound_mx(asm, c, X):
+    """casadi (N, 1): gap_lower_bound of every element of a fixed surface's member, in the full coordinates X (a
+    casadi column; MX inside a step graph): the same Bezier hull bound written on the nodal r and r_x, for graphs that
+    skip a contact's kernels while no element is in reach (its law is exactly 0 where the gap is positive). A drum
+    carried by a body has no fixed centre: None."""
+    import casadi as ca
+
+    if getattr(c, "body", None) is not None:
+        return None
+    mm = asm.mesh.members[c.member]
+    d = asm.scene.dim
+    idx, L = mm.elem_dofs(), ca.DM(mm.elem_length)
+    node = idx.shape[1] // 2
+    col = [X[idx[:, j].tolist()] for j in range(idx.shape[1])]
+    r0, r1 = col[:d], col[node:node + d]
+    b = [r0, [r0[j] + L * col[d + j] / 3 for j in range(d)], [r1[j] - L * col[node + d + j] / 3 for j in range(d)],
+         r1]
+    if not is_drum(c):
+        n = c.normal
+        heights = [sum(float(n[j]) * bk[j] for j in range(d)) for bk in b]
+        return ca.fmin(ca.fmin(heights[0], heights[1]), ca.fmin(heights[2], heights[3])) - c.level - c.thickness
+    P = np.eye(d) if c.axis is None else np.eye(d) - np.outer(c.axis, c.axis)
+    rel = [[sum(float(P[i, j]) * (bk[j] - float(c.centre[j])) for j in range(d)) for i in range(d)] for bk in b]
+    m = [0.5 * (rel[0][i] + rel[3][i]) for i in range(d)]
+
+    def sq(u):
+        return sum((u[i] - m[i]) ** 2 for i in range(d))
+
+    r2 = ca.fmax(sq(rel[3]), ca.fmax(sq(rel[1]), sq(rel[2])))
+    return ca.sqrt(sum(mi ** 2 for mi in m)) - ca.sqrt(r2) - c.radius - c.thickness

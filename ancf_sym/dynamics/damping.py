@@ -218,6 +218,31 @@ def contact_dissipation_mx(S: "StepSystem", X: ca.MX, V: ca.MX):
     return f, dfx, dfv
 
 
+def _reach_switch(S: "StepSystem", xf: ca.MX, vf: ca.MX, X: ca.MX, dc: tuple) -> tuple:
+    """The contact dissipation dc = (f, df/dx, df/dv) evaluated only where some element is in reach of a dissipative
+    contact's surface at the iterate x itself: elsewhere every kernel returns exact zeros (the law is 0 at a positive
+    gap, contact_gap's hull bound is below every gap the kernels sample), so a switch that skips them gives the same
+    values bit for bit, and no margin is needed (the test is made at each point the step evaluates). A drum carried
+    by a body (no fixed centre for the bound) keeps the kernels always on."""
+    from .. import contact_gap
+
+    bounds = []
+    for c in getattr(S.asm.scene, "contacts", ()):
+        if not c.dissipative:
+            continue
+        b = contact_gap.gap_lower_bound_mx(S.asm, c, X)
+        if b is None:
+            return dc
+        # out of reach only by more than round-off of the positions: the kernels' own gaps then stay positive
+        floor = contact_gap.FLOOR * float(np.max(S.asm.mesh.members[c.member].elem_length))
+        bounds.append(ca.mmin(b) - floor)
+    reach = ca.Function("contact_dissipation_all", [xf, vf], list(dc))
+    none = ca.Function("contact_out_of_reach", [xf, vf], [ca.MX.zeros(o.sparsity()) for o in dc])
+    switch = ca.Function.conditional("contact_dissipation_in_reach", [none], reach)  # 0: none in reach
+    in_reach = ca.mmin(ca.vertcat(*bounds)) <= 0
+    return tuple(switch(in_reach, xf, vf))
+
+
 def dissipation_functions(S: "StepSystem") -> tuple[ca.Function | None, ca.Function | None]:
     """(damp_f, damp_force_f) of the step system: damp_f(x, v) -> (f_d, df_d/dx, df_d/dv) of the strain-rate
     damping and dissipative contact together, damp_force_f(x, v) -> f_d alone; (None, None) without either."""
@@ -228,6 +253,8 @@ def dissipation_functions(S: "StepSystem") -> tuple[ca.Function | None, ca.Funct
     xf, vf = ca.MX.sym("x", nf), ca.MX.sym("v", nf)
     X, V = S.x_full_mx(xf), ca.mtimes(dm(S.E), vf)
     dc = contact_dissipation_mx(S, X, V)
+    if dc is not None:
+        dc = _reach_switch(S, xf, vf, X, dc)
     if sr is None:
         if dc is None:
             return None, None
@@ -251,6 +278,21 @@ def damping_force(S: "StepSystem", xf: np.ndarray, vf: np.ndarray) -> np.ndarray
         fd = np.asarray(S.damp_force_f(xf, vf)).ravel()
         f = fd if f is None else f + fd
     return f
+
+
+def damping_force_rows(S: "StepSystem", Q: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """(n, nf) damping_force at the states Q, V (n, nf) of a chunk's accepted steps: without Rayleigh damping one
+    mapped call of the dissipation force over the states (per-call overhead paid once per chunk, not per step: the
+    same values), else row by row."""
+    if len(Q) == 0:
+        return np.zeros((0, S.nf))
+    if S.rayleigh is not None or S.damp_force_f is None:
+        return np.array([damping_force(S, q, v) for q, v in zip(Q, V)])
+    mapped = S.__dict__.setdefault("_damp_force_maps", {})
+    f = mapped.get(len(Q))
+    if f is None:
+        f = mapped[len(Q)] = S.damp_force_f.map(len(Q))
+    return np.asarray(f(Q.T, V.T)).T
 
 
 class StiffnessDamping:

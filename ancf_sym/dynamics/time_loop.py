@@ -17,6 +17,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .. import contact_gap
+from .damping import damping_force_rows
 from .integrator import ChunkedIntegrator, Integrator
 from .options import DynamicOptions
 from .recording import ENERGY_CREATION_LIMIT, Recorder, hermite
@@ -181,10 +182,11 @@ class TimeLoop:
             self._accepted_many(k, n_ok, states, q_old, v_old)
             self._check_energy()
             return n_ok
+        FD = damping_force_rows(S, states[:n_ok, :nf], states[:n_ok, nf:2 * nf]) if S.damped else None
         for j in range(n_ok):
             t_new = self.grid(k + j + 1)
             q_new, v_new = states[j, :nf], states[j, nf:2 * nf]
-            fd = S.damping_force(q_new, v_new) if S.damped else None
+            fd = None if FD is None else FD[j]
             self._accepted(t_old, t_new, q_old, v_old, q_new, v_new, fd, states[j, 5 * nf:5 * nf + S.mc])
             t_old, q_old, v_old = t_new, q_new, v_new
         self._check_energy()
