@@ -238,12 +238,21 @@ def _pushed3d(element: str, body: bool):
 def test_drum_on_a_held_spatial_body_acts_as_the_fixed_cylinder(element):
     """The kernel <element>_contact_body_drum_gap on a spatial body held by a revolute joint about the drum axis gives
     the fixed cylinder's equilibrium (1e-6 of the push) and contact forces (1e-5 relative: IPOPT's tolerance); no
-    point penetrates and the forces push (>= 0)."""
+    point penetrates and the forces push (>= 0).
+
+    The beam3d strip, pushed about its stiff axis, twists onto its weak axis (a lateral-torsional saddle left by the
+    statics): it may turn either way (two mirror states of equal potential; which one the escape takes rests on
+    round-off in the negative-curvature direction, which differs between LAPACK builds), so there the centre line,
+    the potential and the forces are compared, not the section vectors' sign."""
     fixed = solve_static(_pushed3d(element, False))
     held = solve_static(_pushed3d(element, True))
     assert fixed.success and held.success, (fixed.status, held.status)
     n = fixed.x.size
-    assert np.abs(held.x[:n] - fixed.x).max() < 1e-6 * 0.02
+    if element == "beam3d":
+        assert np.abs(held.nodes("strip") - fixed.nodes("strip")).max() < 1e-6 * 0.02
+        assert held.potential == pytest.approx(fixed.potential, rel=1e-6)
+    else:
+        assert np.abs(held.x[:n] - fixed.x).max() < 1e-6 * 0.02
     ff, fh = (np.asarray(r.constraint_forces["contact"]) for r in (fixed, held))
     assert ff.max() > 0 and np.all(fh >= 0) and np.abs(fh - ff).max() < 1e-5 * ff.max()
     assert min(contact_exact.gaps(held.assembly, held.x)) > -1e-9
