@@ -61,7 +61,7 @@ def test_node_force_sensitivity_matches_central_differences(doc):
     100x less at 1e-2 N: the h^2 law)."""
     import numpy as np
     from ancf_sym.modal.linearize import linearize
-    from ancf_sym.sensitivity.loads import node_force_sensitivity
+    from ancf_sym.sensitivity.loads import load_value_sensitivity, node_force_sensitivity
     from ancf_sym.statics import solve_static
 
     def solved(f: float):
@@ -72,7 +72,13 @@ def test_node_force_sensitivity_matches_central_differences(doc):
 
     scene, res = solved(0.0)
     assert res.success
-    dx = node_force_sensitivity(linearize(scene, res, damping_matrix=False), "rope", 4, 0)
+    lin = linearize(scene, res, damping_matrix=False)
+    dx = node_force_sensitivity(lin, "rope", 4, 0)
+    d = dict(doc, loads=[{"type": "force", "member": "rope", "at": 4, "value": [0.0, -20.0]},
+                         {"type": "distributed", "member": "rope", "value": [0.0, -1.0]}])
+    assert np.array_equal(load_value_sensitivity(d, lin, "loads[0].value[0]"), dx)  # the same column by path
+    with pytest.raises(ValueError, match="'distributed' load"):
+        load_value_sensitivity(d, lin, "loads[1].value[1]")
     h = 1e-2
     fd = (solved(h)[1].x - solved(-h)[1].x) / (2 * h)
     assert np.linalg.norm(dx - fd) <= 1e-6 * np.linalg.norm(fd)

@@ -27,3 +27,22 @@ def node_force_sensitivity(lin: Linearization, member: str, node: int, component
     else:
         dy = spla.spsolve(lin.K.tocsc(), rhs)
     return lin.E @ dy
+
+
+def load_value_sensitivity(doc: dict, lin: Linearization, path: str) -> np.ndarray:
+    """d x*/d p for p = ``loads[i].value[j]`` of a scene document: a force at a node (``at`` an integer, "start"
+    or "end"). Other loads (distributed, moments, tensions, forces between nodes) are refused by name: not
+    handled yet."""
+    from .paths import get_parameter, parse_path
+
+    p = parse_path(path)
+    get_parameter(doc, p)  # names a number, or a clear error
+    if len(p.keys) != 4 or p.keys[0] != "loads" or p.keys[2] != "value":
+        raise ValueError(f"parameter path {path!r}: expected loads[i].value[j]")
+    load = doc["loads"][p.keys[1]]
+    at = load.get("at")
+    if load.get("type") != "force" or not (at in ("start", "end") or (isinstance(at, int) and not isinstance(at, bool))):
+        raise ValueError(f"parameter path {path!r}: a {load.get('type')!r} load at {at!r}; only forces at a node "
+                         "are handled")
+    node = {"start": 0, "end": -1}.get(at, at)
+    return node_force_sensitivity(lin, load["member"], node, p.keys[3])
