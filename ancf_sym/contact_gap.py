@@ -318,13 +318,13 @@ def closest(asm, c, x: np.ndarray, index: int = 0, reach: float | None = None) -
     pen = float(max(0.0, -sampled_gaps(c, A[sel]).min()))
     xi, g = project(c, A[sel])
     h = mm.elem_length[sel]
-    bad = g < -(HIDDEN_FACTOR * pen + allowance(c, xi, h, A[sel]) + FLOOR * h)  # as _scan
+    sag = allowance(c, xi, h, A[sel])
+    bad = g < -(HIDDEN_FACTOR * pen + sag + FLOOR * h)  # as _scan
     k = int(np.argmin(np.where(bad, g, np.inf))) if bad.any() else int(np.argmin(g))
     e = int(sel[k])
     r = _poly(cubic(asm, c, x[None])[0, e:e + 1], np.array([[xi[k]]]))[0, 0]
     s = float(mm.s_node[mm.elem_nodes[e, 0]] + xi[k] * mm.elem_length[e])
-    return Closest(c, index, float(g[k]), e, float(xi[k]), s, r, pen, float(mm.elem_length[e]),
-                   float(allowance(c, xi[k:k + 1], h[k:k + 1], A[sel][k:k + 1])[0]))
+    return Closest(c, index, float(g[k]), e, float(xi[k]), s, r, pen, float(mm.elem_length[e]), float(sag[k]))
 
 
 def report(asm, x: np.ndarray, method: str = "penalty") -> list[dict]:
