@@ -313,17 +313,16 @@ class Assembly:
                 Hp.sum_duplicates()
                 pen_vals = self._scatter_dense(Hp)
         if hessian:
-            kern = np.concatenate(vals) if vals else np.zeros(0)
-            data = np.bincount(self._hpos[:self._n_kernel_entries], kern, minlength=self.h_nnz)
-            if pen_vals is not None:
-                data += pen_vals
-            H = sp.csc_matrix((data, self.h_indices, self.h_indptr), shape=(self.n, self.n))
+            H = self.hessian_of(np.concatenate(vals) if vals else np.zeros(0), pen_vals)
         return Evaluation(float(sum(energies.values())), energies, g, H)
 
-    def hessian_of(self, kernel_values: np.ndarray) -> sp.csc_matrix:
+    def hessian_of(self, kernel_values: np.ndarray, penalty_values: np.ndarray | None = None) -> sp.csc_matrix:
         """The global sparse matrix of per-element Hessian values laid out as the curved terms' kernels give them
-        (each term's H raveled, terms in self.curved's order): a weighted tangent (Rayleigh's elastic stiffness)."""
+        (each term's H raveled, terms in self.curved's order), plus penalty values on the pattern's tail if given:
+        the tangent (evaluate) or a weighted one (Rayleigh's elastic stiffness)."""
         data = np.bincount(self._hpos[:self._n_kernel_entries], kernel_values, minlength=self.h_nnz)
+        if penalty_values is not None:
+            data += penalty_values
         return sp.csc_matrix((data, self.h_indices, self.h_indptr), shape=(self.n, self.n))
 
     def _scatter_dense(self, Hp: sp.csc_matrix) -> np.ndarray:
