@@ -25,6 +25,7 @@ from ancf_sym import Material, Scene, Section, linearize, modal_analysis
 from ancf_sym import statics
 from ancf_sym.modal.eigen import lowest_modes
 from ancf_sym.statics import StaticProblem
+from statics_vs_exudyn import static_settings  # (bench/ is the script's folder, on sys.path)
 
 L, A, RHO, E, T, EI, G = 100.0, 1e-3, 1000.0, 2.4e10, 5e4, 24.0, 9.81
 P = T / (E * A)  # prestrain
@@ -79,13 +80,7 @@ def exudyn(n: int) -> dict:
         mbs.AddObject(CoordinateConstraint(markerNumbers=[mg, mbs.AddMarker(
             MarkerNodeCoordinate(nodeNumber=nodes[c // 4 if c < 4 else n], coordinate=c % 4))]))
     mbs.Assemble()
-    ss = exu.SimulationSettings()
-    ss.staticSolver.newton.useModifiedNewton = False
-    ss.staticSolver.verboseMode = 0
-    ss.linearSolver.solverType = exu.LinearSolverType.EigenSparse
-    ss.solution.file.write = False
-    ss.displayStatistics = False
-    ss.displayComputationTime = False
+    ss = static_settings(exu)
     t1 = time.perf_counter()
     try:
         exu.SolveStatic(mbs, ss)

@@ -52,6 +52,18 @@ def tip_error(p: StaticProblem, r) -> float:
     return float(np.linalg.norm(tip - r.tip("beam")))
 
 
+def static_settings(exu):
+    """Exudyn's static solver as these benches run it: full Newton, sparse solver, no files, no printing."""
+    ss = exu.SimulationSettings()
+    ss.staticSolver.newton.useModifiedNewton = False
+    ss.staticSolver.verboseMode = 0
+    ss.linearSolver.solverType = exu.LinearSolverType.EigenSparse
+    ss.solution.file.write = False
+    ss.displayStatistics = False
+    ss.displayComputationTime = False
+    return ss
+
+
 def exudyn_static(n: int, E: float):
     """(wall of SolveStatic, wall of build + Assemble + SolveStatic, tip, converged)."""
     import exudyn as exu
@@ -72,14 +84,8 @@ def exudyn_static(n: int, E: float):
         mbs.AddObject(CoordinateConstraint(markerNumbers=[mg, mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=nodes[0],
                                                                                                     coordinate=k))]))
     mbs.Assemble()
-    ss = exu.SimulationSettings()
+    ss = static_settings(exu)
     ss.staticSolver.numberOfLoadSteps = 1
-    ss.staticSolver.newton.useModifiedNewton = False
-    ss.staticSolver.verboseMode = 0
-    ss.linearSolver.solverType = exu.LinearSolverType.EigenSparse
-    ss.solution.file.write = False
-    ss.displayStatistics = False
-    ss.displayComputationTime = False
     t1 = time.perf_counter()
     ok = True
     try:
