@@ -367,6 +367,11 @@ class StaticProblem:
         return True, xk, lgk, "ipopt load steps+newton"
 
     # -- the solve ----------------------------------------------------------------------------------------------
+    def coarser(self, scene: Scene) -> "StaticProblem":
+        """The problem of a coarser mesh of this scene, a start for this one (statics_contact builds it through
+        this, so that it needs no import of this module)."""
+        return StaticProblem(scene)
+
     def solve(self, opts: StaticOptions | None = None, x0: np.ndarray | None = None) -> StaticResult:
         opts = opts or _DEFAULT_OPTIONS
         a = self.asm
@@ -469,7 +474,7 @@ class StaticProblem:
         is built once and kept (it may start from a coarser mesh itself)."""
         if self._coarse is None:
             c = statics_coarse.coarse_scene(self.asm.scene)
-            self._coarse = StaticProblem(c) if c is not None else False
+            self._coarse = self.coarser(c) if c is not None else False
         if self._coarse is False:
             return None
         rc = self._coarse.solve(opts)

@@ -200,11 +200,10 @@ def _coarse_start(problem, opts):
         problem._contact_coarse = False
         if coarse is not None:
             from .scene import SceneError
-            from .statics import StaticProblem
 
             try:  # a coarse mesh the scene's checks refuse (too coarse for a curve, say) is no start
                 coarse.validate_for_statics()
-                problem._contact_coarse = (StaticProblem(coarse), long)
+                problem._contact_coarse = (problem.coarser(coarse), long)
             except SceneError:
                 pass
     if problem._contact_coarse is False:
