@@ -1,8 +1,9 @@
 """ancf_sym: ANCF cables and beams with symbolic energies, exact derivatives and compiled C kernels.
 
-Pipeline (the README's layout): scene -> mesh -> terms (only the effects asked for) -> assembly over
-mapped compiled kernels -> solvers (statics: Newton on the exact tangent, IPOPT where Newton alone does not
-converge; dynamics; optimal control) -> results.
+The data flow, one package per stage (docs/code_map.md): scene (what the user describes) -> model (mesh, one
+energy term per effect asked for, assembly over mapped compiled kernels, reduced coordinates) -> system (the step
+system statics and dynamics share) -> statics (Newton on the exact tangent, IPOPT where Newton alone does not
+converge) / modal / dynamics / control -> io (result.json, plots, VTK) and the command line.
 """
 import os
 
@@ -28,7 +29,7 @@ def __getattr__(name: str):
     if name in _PUBLIC:
         value = getattr(importlib.import_module(f".{_PUBLIC[name]}", __name__), name)
     elif not name.startswith("_") and importlib.util.find_spec(f"{__name__}.{name}") is not None:
-        value = importlib.import_module(f".{name}", __name__)  # a submodule: ancf_sym.initial, ancf_sym.kernels
+        value = importlib.import_module(f".{name}", __name__)  # a submodule: ancf_sym.dynamics.initial, ancf_sym.kernels
     else:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
     globals()[name] = value

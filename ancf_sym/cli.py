@@ -12,7 +12,7 @@
 DIR/scene.toml (dynamics: DIR/history.png, DIR/series.pvd with DIR/frames/, and DIR/motion.gif unless
 --no-animation; a modal analysis: result.json with the equilibrium and the modes, modes.png, modes.vtu, and
 modes.gif unless --no-animation). Everything is written into a temporary sibling directory first
-(ancf_sym.result_dir); DIR is
+(ancf_sym.io.result_dir); DIR is
 replaced only when the solve succeeded, so a failed run never overwrites a previous good DIR: its status goes to
 DIR.failed/ instead. Exit codes: 0 success, 1 the solve failed (or an unexpected error, traceback in
 DIR.failed/traceback.txt; or finished results that could not replace DIR, kept beside it), 2 bad input (the scene's
@@ -48,12 +48,12 @@ import traceback  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import TYPE_CHECKING  # noqa: E402
 
-from .checks import SceneError  # noqa: E402 - (the package itself imports nothing until used)
-from .interrupts import Terminated, terminate_raises  # noqa: E402
-from .result_dir import RESULT_FILE, ResultDir  # noqa: E402
+from ancf_sym.util.checks import SceneError  # noqa: E402 - (the package itself imports nothing until used)
+from ancf_sym.util.interrupts import Terminated, terminate_raises  # noqa: E402
+from ancf_sym.io.result_dir import RESULT_FILE, ResultDir  # noqa: E402
 
 if TYPE_CHECKING:
-    from .scene import Scene
+    from ancf_sym.scene.builder import Scene
 
 
 class Progress:
@@ -92,25 +92,15 @@ STATICS_STAGES = ["read scene", "assemble", "build solver", "solve", "write resu
 def run_statics(scene: Scene, analysis: dict, scene_file: Path, out: Path, progress: Progress, t_start: float,
                 samples: int | None, animation: bool = True) -> tuple[bool, str]:
     """Solve and write the outputs into `out`; (success, one-line summary)."""
-    from .assembly import Assembly
-    from .output_json import static_result_dict, write_json
-    from .statics import StaticOptions, StaticProblem
-
-    class ReportingProblem(StaticProblem):
-        """Shows each IPOPT attempt (full steps, line search, load steps, saddle escape) as it runs."""
-
-        def _run(self, x0, lam_g0, load, line_search, opts):
-            what = ("line search" if line_search else "full steps") + ("" if load == 1.0 else f", load {load:.3g}")
-            progress.note(f"IPOPT {what} ...")
-            ok, status, it, x, lam = super()._run(x0, lam_g0, load, line_search, opts)
-            progress.note(f"IPOPT {what}: {status}, {it} it")
-            return ok, status, it, x, lam
+    from ancf_sym.model.assembly import Assembly
+    from ancf_sym.io.json_out import static_result_dict, write_json
+    from ancf_sym.statics.problem import StaticOptions, StaticProblem
 
     progress.stage("assemble")
     asm = Assembly(scene)
     progress.note(f"{asm.n} coordinates, {len(asm.terms)} kernel terms")
     progress.stage("build solver")
-    problem = ReportingProblem(asm)
+    problem = StaticProblem(asm, progress=progress.note)  # shows each IPOPT attempt as it runs
     progress.stage("solve")
     opts = StaticOptions(**{k: v for k, v in analysis.items() if k != "type"})
     r = problem.solve(opts)
@@ -118,8 +108,8 @@ def run_statics(scene: Scene, analysis: dict, scene_file: Path, out: Path, progr
     progress.stage("write result.json")
     write_json(out / RESULT_FILE, static_result_dict(r, scene_file, analysis, wall_total), clean=False)
     if r.success:
-        from .plots import write_plots
-        from .vtk_out import DEFAULT_SAMPLES, samples_per_element, write_vtu
+        from ancf_sym.io.plots import write_plots
+        from ancf_sym.io.vtk import DEFAULT_SAMPLES, samples_per_element, write_vtu
         progress.stage("plots")
         write_plots(r, out, samples or DEFAULT_SAMPLES)
         progress.stage("VTK")
@@ -141,9 +131,9 @@ def run_dynamics_cli(scene: Scene, analysis: dict, scene_file: Path, out: Path, 
                      samples: int | None, animation: bool = True) -> tuple[bool, str]:
     """Integrate the scene (progress: simulated time) and write result.json, history.png, series.pvd + frames,
     motion.gif (animation)."""
-    from .assembly import Assembly
-    from .dynamics import options_from_dict, simulate
-    from .dynamics_output import frame_sensors, write_outputs
+    from ancf_sym.model.assembly import Assembly
+    from ancf_sym.dynamics import options_from_dict, simulate
+    from ancf_sym.io.dynamics_output import frame_sensors, write_outputs
 
     progress.stage("assemble")
     table = dict(analysis)
@@ -173,11 +163,11 @@ MODAL_STAGES = ["read scene", "solve statics, modes", "write result.json, modes.
 def run_modal(scene: Scene, analysis: dict, scene_file: Path, out: Path, progress: Progress, t_start: float,
               samples: int | None, animation: bool = True) -> tuple[bool, str]:
     """The static equilibrium and the lowest modes about it (ancf_sym.modal); result.json, modes.png, modes.vtu."""
-    from .modal import modal_analysis
-    from .modal.output import animate_modes, modal_result_dict, plot_modes, write_modes_vtu
-    from .output_json import write_json
-    from .statics import StaticOptions
-    from .vtk_out import DEFAULT_SAMPLES, samples_per_element
+    from ancf_sym.modal import modal_analysis
+    from ancf_sym.modal.output import animate_modes, modal_result_dict, plot_modes, write_modes_vtu
+    from ancf_sym.io.json_out import write_json
+    from ancf_sym.statics.problem import StaticOptions
+    from ancf_sym.io.vtk import DEFAULT_SAMPLES, samples_per_element
 
     progress.stage("solve statics, modes")
     opts = StaticOptions(**{k: v for k, v in analysis.items() if k not in ("type", "modes", "damped")})
@@ -196,7 +186,7 @@ def run_modal(scene: Scene, analysis: dict, scene_file: Path, out: Path, progres
 
 
 # analysis type -> (runner, its progress stages). A runner gets (scene, analysis dict, scene file, output directory
-# to fill, Progress, start time, samples per element (None: ancf_sym.vtk_out.samples_per_element), animation
+# to fill, Progress, start time, samples per element (None: ancf_sym.io.vtk.samples_per_element), animation
 # (dynamics, modal: write a GIF)) and returns (success, one-line summary).
 ANALYSES = {"statics": (run_statics, STATICS_STAGES), "dynamics": (run_dynamics_cli, DYNAMICS_STAGES),
             "modal": (run_modal, MODAL_STAGES)}
@@ -214,7 +204,7 @@ def cmd_run(args) -> int:
 
 
 def _cmd_run(args) -> int:
-    from .scene_toml import load_scene
+    from ancf_sym.io.scene_toml import load_scene
 
     t_start = time.perf_counter()
     scene_file = Path(args.scene)
@@ -260,7 +250,7 @@ def _run_in(rd: ResultDir, scene, analysis, scene_file, runner, progress, t_star
     except Exception as exc:  # noqa: BLE001 - one line to the user, the traceback into DIR.failed
         progress.close()
         (tmp / "traceback.txt").write_text(traceback.format_exc())
-        from .output_json import write_json
+        from ancf_sym.io.json_out import write_json
         write_json(tmp / RESULT_FILE, {"status": "error", "success": False, "error": f"{type(exc).__name__}: {exc}",
                                        "scene": {"name": scene.name, "file": str(scene_file.resolve())}})
         where, problem = rd.commit(False)
@@ -291,7 +281,7 @@ def _stop_code(exc: BaseException) -> int:
 
 
 def cmd_kernels(args) -> int:
-    from . import kernels
+    from ancf_sym import kernels
     try:
         cat = kernels.catalogue()
     except FileNotFoundError as exc:
@@ -314,7 +304,7 @@ def cmd_kernels(args) -> int:
 
 
 def cmd_study(args) -> int:
-    from .study import StudyError, get_study, run_study, studies
+    from ancf_sym.study import StudyError, get_study, run_study, studies
     if args.list or not args.name:
         for name, title in studies().items():
             st = get_study(name)
@@ -353,9 +343,10 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _main(argv: list[str] | None = None) -> int:
-    from . import __version__
-    parser = argparse.ArgumentParser(prog="ancf-sym", description="ANCF cables and beams: scenes (statics by Newton, "
-                                     "IPOPT where Newton fails; dynamics), compiled kernels, studies of accuracy vs time")
+    from ancf_sym import __version__
+    parser = argparse.ArgumentParser(prog="ancf-sym", description="ANCF cables and beams: scenes (statics by Newton on "
+                                     "the exact tangent, IPOPT where Newton alone fails; modal analysis; dynamics), "
+                                     "compiled kernels, studies of accuracy vs time")
     parser.add_argument("--version", action="version", version=f"ancf-sym {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("run", help="solve a TOML scene and write result.json, PNG plots and a .vtu into --out")

@@ -14,7 +14,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from . import registry
+from ancf_sym import registry
 
 KERNEL_DIR = Path(__file__).resolve().parent / "_kernels"
 

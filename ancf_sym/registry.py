@@ -158,7 +158,7 @@ def _contact_effects(el: str, dim: int) -> list[Effect]:
         *([Effect(el, "contact_body_friction", law + axis + friction,
                   "body-carried drum damping + regularised Coulomb friction: dissipation of [q, x, y, c, s; rates]",
                   CONTACT_GAUSS, elastic=False, obstacle=4, rates=True)] if dim == 2 else []),
-        # a drum carried by a spatial rigid body (natural coordinates r, e1, e2, e3, ancf_sym.spatial_bodies): axis
+        # a drum carried by a spatial rigid body (natural coordinates r, e1, e2, e3, ancf_sym.bodies.spatial): axis
         # a = sum a_k e_k through the body point r + sum s_k e_k (a, s in body components, parameters)
         *([Effect(el, "contact_body_drum", law + axis + offset,
                   "spatial-body-carried drum contact energy: [q, r, e1, e2, e3]", CONTACT_GAUSS, elastic=False,
@@ -279,7 +279,7 @@ def all_kernels() -> list[tuple[str, str, int | None]]:
     return out
 
 
-# Banded LDL^T kernels (codegen.band; ancf_sym.dynamics.band): (half-bandwidth w, columns per call m). w = 7: a chain of
+# Banded LDL^T kernels (codegen.band; ancf_sym.system.band): (half-bandwidth w, columns per call m). w = 7: a chain of
 # 4-coordinate nodes (planar cables) in its natural order.
 BAND_LDL = ((7, 128),)
 BAND_LIBRARY = "ancf_band"

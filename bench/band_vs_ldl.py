@@ -15,10 +15,10 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import numpy as np  # noqa: E402
 from dynamics_vs_exudyn import CASES, ancf_scene  # noqa: E402
 
-from ancf_sym.assembly import Assembly  # noqa: E402
-from ancf_sym.casadi_buffers import bind  # noqa: E402
+from ancf_sym.model.assembly import Assembly  # noqa: E402
+from ancf_sym.util.casadi_buffers import bind  # noqa: E402
 from ancf_sym.dynamics import StepSystem, clear_graph_cache  # noqa: E402
-from ancf_sym.dynamics import band as band_mod  # noqa: E402
+from ancf_sym.system import band as band_mod  # noqa: E402
 
 
 def compare(n: int) -> dict:

@@ -43,9 +43,9 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "examples"))
 import belt_drive as BD  # noqa: E402  (the example's scene)
 
-from ancf_sym.assembly import Assembly  # noqa: E402
+from ancf_sym.model.assembly import Assembly  # noqa: E402
 from ancf_sym.dynamics import DynamicOptions, simulate  # noqa: E402
-from ancf_sym.integrators import clear_graph_cache  # noqa: E402
+from ancf_sym.system.graph_cache import clear_graph_cache  # noqa: E402
 
 R2, OMEGA, TORQUE, T_END, DT = 0.15, 20.0, 20.0, 0.6, 1e-3
 K_N = 1e8  # linear penalty [N/m^2], both codes
@@ -166,10 +166,10 @@ def breakdown(n: int, k_n: float | None, repeats: int = 20) -> dict:
     factorisation and solve), the residual alone, the contact damping/friction graph (the drums' dissipation
     kernels and the scatter of their Hessian blocks) and the belt's strain-rate damping graph."""
     import casadi as ca
-    from ancf_sym.dynamics import damping
+    from ancf_sym.system import damping
     from ancf_sym.dynamics.schemes import Scheme
-    from ancf_sym.dynamics.step_system import StepSystem
-    from ancf_sym.sparsity import dm
+    from ancf_sym.system.step_system import StepSystem
+    from ancf_sym.util.sparsity import dm
 
     clear_graph_cache()
     asm = Assembly(BD.scene(R2, OMEGA, TORQUE, n, k_n=k_n))

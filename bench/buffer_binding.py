@@ -17,7 +17,7 @@ import timeit
 import numpy as np
 
 from ancf_sym import kernels
-from ancf_sym.casadi_buffers import bind
+from ancf_sym.util.casadi_buffers import bind
 
 
 def by_hand(f, args, res):

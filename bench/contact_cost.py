@@ -15,9 +15,9 @@ import statistics
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from ancf_sym import Material, Scene, Section  # noqa: E402
-from ancf_sym.assembly import Assembly  # noqa: E402
+from ancf_sym.model.assembly import Assembly  # noqa: E402
 from ancf_sym.dynamics import DynamicOptions, simulate  # noqa: E402
-from ancf_sym.integrators import StepSystem  # noqa: E402
+from ancf_sym.system.step_system import StepSystem  # noqa: E402
 
 CASES = {
     "no contact": ({}, "auto"),

@@ -17,8 +17,8 @@ import casadi as ca  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ancf_sym import Material, Scene, Section, contact, kernels  # noqa: E402
-from ancf_sym.assembly import Assembly  # noqa: E402
-from ancf_sym.integrators import StepSystem  # noqa: E402
+from ancf_sym.model.assembly import Assembly  # noqa: E402
+from ancf_sym.system.step_system import StepSystem  # noqa: E402
 
 LAW = dict(stiffness=1e4, damping=3e4, mu=0.3, eps=1e-3)
 

@@ -22,7 +22,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from ancf_sym import Material, Scene, Section  # noqa: E402
-from ancf_sym.assembly import Assembly  # noqa: E402
+from ancf_sym.model.assembly import Assembly  # noqa: E402
 from ancf_sym.dynamics import DynamicOptions, simulate  # noqa: E402
 
 D, K, RHO, G = 0.01, 1e4, 1000.0, 9.81

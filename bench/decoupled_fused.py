@@ -21,7 +21,7 @@ import time
 import numpy as np
 
 from ancf_sym import kernels, registry
-from ancf_sym.casadi_buffers import bind
+from ancf_sym.util.casadi_buffers import bind
 
 ELEMENTS = ("cable2d", "cable3d")
 PAIRS = (("axial_decoupled", "elastic_decoupled"), ("axial_decoupled_biot", "elastic_decoupled_biot"))
@@ -89,7 +89,7 @@ def kernels_part(repeats: int) -> None:
 
 
 def dynamics_part(n: int, repeats: int) -> None:
-    from ancf_sym.assembly import Assembly
+    from ancf_sym.model.assembly import Assembly
     from ancf_sym.dynamics import DynamicOptions, StepSystem, simulate
     from ancf_sym.study.dynamics_studies import zhang_scene
 

@@ -26,7 +26,7 @@ if (Path.cwd() / "ancf_sym").is_dir():
     sys.exit("run this from outside the project root (any other directory), so that the installed, compiled ancf_sym is imported")
 
 from ancf_sym import Material, Scene, Section  # noqa: E402
-from ancf_sym.assembly import Assembly  # noqa: E402
+from ancf_sym.model.assembly import Assembly  # noqa: E402
 
 CONFIGS = [  # (label, dim, axial, bending, gravity)
     ("cable3d axial (green) only", 3, "green", False, False),

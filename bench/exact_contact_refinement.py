@@ -2,7 +2,7 @@
 (0, 1.5) and (10, 1.5)) against the closed form (two elastic catenaries with their vertex at the touchdown), with
 the decoupled and the coupled Biot strain, and the slack rope over a drum; per n: status, stability, the relative
 error of the horizontal force H, the potential, the wall time of a new problem's solve (its chain of coarser
-meshes included) and the IPOPT iterations on this mesh alone (from the coarser mesh's solution where there is one). The scenes and the closed form are those of tests/test_contact_exact_refinement.py.
+meshes included) and the IPOPT iterations on this mesh alone (from the coarser mesh's solution where there is one). The scenes and the closed form are those of tests/contact/test_contact_exact_refinement.py.
 
 Run: python bench/exact_contact_refinement.py [n ...]   (default 32 64 128 256 512; from the repository root)
 """

@@ -35,7 +35,7 @@ if (Path.cwd() / "ancf_sym").is_dir():
     sys.exit("run this from outside the project root (any other directory), so that the installed, compiled ancf_sym is imported")
 
 from ancf_sym import kernels, registry  # noqa: E402
-from ancf_sym.casadi_buffers import bind  # noqa: E402
+from ancf_sym.util.casadi_buffers import bind  # noqa: E402
 
 PARAM_DEFAULTS = {"L": 0.5, "xi": 0.5, "nu": 0.3, "E": 2e11, "b": 0.02, "h": 0.03, "J": 4.7e-8, "EA": 1.6e7, "EI": 1e2,
                   "nx": 0.0, "ny": 0.0, "nz": 1.0, "t0x": 1.0, "t0y": 0.0, "t0z": 0.0,

@@ -22,10 +22,10 @@ import casadi as ca  # noqa: E402
 import numpy as np  # noqa: E402
 from dynamics_vs_exudyn import CASES, ancf_scene  # noqa: E402
 
-from ancf_sym.assembly import Assembly  # noqa: E402
-from ancf_sym.casadi_buffers import bind  # noqa: E402
+from ancf_sym.model.assembly import Assembly  # noqa: E402
+from ancf_sym.util.casadi_buffers import bind  # noqa: E402
 from ancf_sym.dynamics import StepSystem  # noqa: E402
-from ancf_sym.sparsity import dm  # noqa: E402
+from ancf_sym.util.sparsity import dm  # noqa: E402
 
 
 def parts(S: StepSystem, x: np.ndarray) -> dict:

@@ -1,4 +1,4 @@
-"""The statics Newton loop in C (ancf_sym.newton_loop) against the Python loop, per iteration.
+"""The statics Newton loop in C (ancf_sym.statics.newton_loop) against the Python loop, per iteration.
 
 One KernelNewton run from the straight beam (tol 1e-10) per setting, timed with the C loop and with the Python loop
 (statics_newton.PYTHON_LOOP) alternately on the same problem; min over repeats, divided by the run's iterations.
@@ -15,7 +15,8 @@ import time
 
 import numpy as np
 
-from ancf_sym import Material, Scene, Section, statics_newton
+from ancf_sym import Material, Scene, Section
+from ancf_sym.statics import newton as statics_newton
 from ancf_sym.statics import StaticProblem
 from ancf_sym.study.statics_studies import zhang_scene
 

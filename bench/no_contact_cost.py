@@ -28,8 +28,8 @@ import json, os, sys, time
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import ancf_sym
 from ancf_sym import DynamicOptions, Material, Scene, Section, simulate
-from ancf_sym.assembly import Assembly
-from ancf_sym.integrators import StepSystem
+from ancf_sym.model.assembly import Assembly
+from ancf_sym.system.step_system import StepSystem
 
 def rope():
     s = Scene(dim=2, gravity=(0.0, -9.81))

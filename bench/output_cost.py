@@ -36,11 +36,11 @@ def cli_run(path: Path, out: Path) -> dict:
 
 
 def stages(path: Path, out: Path) -> dict:
-    from ancf_sym.output_json import static_result_dict, write_json
-    from ancf_sym.plots import plot_fields, plot_shape
-    from ancf_sym.scene_toml import load_scene
+    from ancf_sym.io.json_out import static_result_dict, write_json
+    from ancf_sym.io.plots import plot_fields, plot_shape
+    from ancf_sym.io.scene_toml import load_scene
     from ancf_sym.statics import StaticProblem
-    from ancf_sym.vtk_out import samples_per_element, write_vtu
+    from ancf_sym.io.vtk import samples_per_element, write_vtu
 
     scene, analysis = load_scene(path)
     t = time.perf_counter()

@@ -5,7 +5,7 @@ import tomllib
 from pathlib import Path
 
 from ancf_sym.modal.linearize import linearize
-from ancf_sym.scene_toml import scene_from_dict
+from ancf_sym.io.scene_toml import scene_from_dict
 from ancf_sym.sensitivity.loads import node_force_sensitivity
 from ancf_sym.statics import solve_static
 

@@ -39,7 +39,7 @@ import scipy.sparse.linalg as spla  # noqa: E402
 
 import tracked_vehicle as TV  # noqa: E402
 from ancf_sym import contact  # noqa: E402
-from ancf_sym.assembly import Assembly  # noqa: E402
+from ancf_sym.model.assembly import Assembly  # noqa: E402
 from ancf_sym.dynamics import DynamicOptions, simulate  # noqa: E402
 from ancf_sym.dynamics import StepSystem  # noqa: E402
 from ancf_sym.dynamics.newton import NewtonOptions  # noqa: E402

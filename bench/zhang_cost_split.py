@@ -25,9 +25,9 @@ import time
 import numpy as np
 from scipy.linalg.lapack import dpbtrf, dpbtrs
 
-from ancf_sym import newton_loop, statics_newton
+from ancf_sym.statics import newton_loop, newton as statics_newton
 from ancf_sym.statics import problem_for, solve_static
-from ancf_sym.statics_eval import ReducedEvaluation
+from ancf_sym.statics.evaluation import ReducedEvaluation
 from ancf_sym.study.statics_studies import zhang_scene
 
 SETTINGS = (("decoupled", 6, 5), ("green", 18, 5))

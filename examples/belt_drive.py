@@ -37,8 +37,8 @@ import _common as C  # noqa: E402  (first: it limits BLAS threads before numpy l
 import numpy as np  # noqa: E402
 
 from ancf_sym import Material, Scene, Section  # noqa: E402
-from ancf_sym.closed import belt_path  # noqa: E402
-from ancf_sym.assembly import Assembly  # noqa: E402
+from ancf_sym.scene.closed import belt_path  # noqa: E402
+from ancf_sym.model.assembly import Assembly  # noqa: E402
 from ancf_sym.dynamics import run_dynamics  # noqa: E402
 from ancf_sym.statics import solve_static  # noqa: E402
 

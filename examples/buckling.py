@@ -14,7 +14,7 @@ load and the post-buckled shape by ~P/EA <= 1e-4 relative (measured: the tip rot
 2.5e-4 rad above the elastica with n; it drops to 2.4e-5 rad with EA x 10).
 
 The full run adds a stiff wire, EA L^2/EI = 1e7, 32 elements. Before the fix in StaticProblem.stability (threshold
-100 eps ||H|| instead of 1e-10 ||H||, tests/test_statics_stability.py) that column at 1.1 and 2 P_cr came back
+100 eps ||H|| instead of 1e-10 ||H||, tests/statics/test_statics_stability.py) that column at 1.1 and 2 P_cr came back
 straight with stable=True after 2 iterations ('full steps' only, no attempt to leave): its negative eigenvalue,
 -0.063 at 2 P_cr, was below 1e-10 of the reduced Hessian's norm (1.5e9). Already at EA L^2/EI = 1e5, 32 elements,
 1.01 P_cr was missed the same way (eigenvalue -4e-11 of the norm).

@@ -31,7 +31,7 @@ import _common as C  # noqa: E402  (first: it limits BLAS threads before numpy l
 import numpy as np  # noqa: E402
 
 from ancf_sym import Material, Scene, Section  # noqa: E402
-from ancf_sym.assembly import Assembly  # noqa: E402
+from ancf_sym.model.assembly import Assembly  # noqa: E402
 from ancf_sym.dynamics import DynamicOptions, Sensor, simulate  # noqa: E402
 
 G = 9.81

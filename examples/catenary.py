@@ -115,7 +115,7 @@ def build(case: str, n: int) -> tuple[Scene, list[tuple[str, float]]]:
 
 def parabola_start(scene: Scene, members, case) -> np.ndarray:
     """Fallback initial guess: every node on a parabola through the pins with sag span/10, slopes along it."""
-    from ancf_sym.assembly import Assembly
+    from ancf_sym.model.assembly import Assembly
     span, height, L0, _ = CASES[case]
     a = Assembly(scene)
     x = a.x0.copy()

@@ -31,7 +31,7 @@ import numpy as np  # noqa: E402
 
 from ancf_sym import Material, Scene, Section  # noqa: E402
 from ancf_sym.control import ControlProblem, Effort, PointMass, SupportMotion, resimulate_motion  # noqa: E402
-from ancf_sym.fields import sample  # noqa: E402
+from ancf_sym.model.fields import sample  # noqa: E402
 
 L, AREA, E, RHO, EI, PAYLOAD, G = 5.0, 7.85e-5, 100e9, 7850.0, 1.0, 100.0, 9.81
 T_MOVE, DISTANCE = 4.0, 2.0

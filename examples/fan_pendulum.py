@@ -110,7 +110,7 @@ def force_eval_cost(n: int = 64, repeat: int = 30) -> list[dict]:
     """Cost of the elastic forces alone: energy, gradient and Hessian of the n-element pendulum (a slightly perturbed
     straight state), the best of `repeat` calls, CMM vs ELM. The time loop adds the same linear solves and step
     bookkeeping to both, which dilutes this ratio at small n."""
-    from ancf_sym.assembly import Assembly
+    from ancf_sym.model.assembly import Assembly
     out = {}
     for m in METHODS:
         asm = Assembly(scene(m, n, "gravity"))

@@ -24,8 +24,7 @@ import _common as C  # noqa: E402  (first: it limits BLAS threads before numpy l
 import numpy as np  # noqa: E402
 
 from crane_ocp import DISTANCE, PAYLOAD, crane_scene  # noqa: E402
-from ancf_sym.control import (ControlProblem, Effort, MinimumTime, PathConstraint, PointMass,  # noqa: E402
-                              SupportMotion)
+from ancf_sym.control import ControlProblem, Effort, MinimumTime, PathConstraint, PointMass, SupportMotion
 
 A_MAX, V_MAX = 1.0, 1.0
 

@@ -35,7 +35,7 @@ from scipy.optimize import brentq  # noqa: E402
 
 from ancf_sym import Material, Scene, Section, solve_static  # noqa: E402
 from ancf_sym import contact  # noqa: E402
-from ancf_sym.assembly import Assembly  # noqa: E402
+from ancf_sym.model.assembly import Assembly  # noqa: E402
 from ancf_sym.dynamics import DynamicOptions, simulate  # noqa: E402
 
 G = 9.81

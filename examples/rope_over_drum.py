@@ -37,10 +37,11 @@ import _common as C  # noqa: E402  (first: it limits BLAS threads before numpy l
 import numpy as np  # noqa: E402
 from scipy.optimize import brentq  # noqa: E402
 
-from ancf_sym import Material, Scene, Section, contact_exact, solve_static  # noqa: E402
-from ancf_sym.assembly import Assembly  # noqa: E402
+from ancf_sym import Material, Scene, Section, solve_static  # noqa: E402
+from ancf_sym.contact import exact as contact_exact  # noqa: E402
+from ancf_sym.model.assembly import Assembly  # noqa: E402
 from ancf_sym.elements.quadrature import gauss01  # noqa: E402
-from ancf_sym.interpolation import weights  # noqa: E402
+from ancf_sym.elements.hermite import weights  # noqa: E402
 
 G = 9.81
 D, R, A, H, ZOFF = 0.01, 0.2, 0.5, 0.4, 0.2

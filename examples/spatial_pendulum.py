@@ -28,9 +28,9 @@ import numpy as np  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
 from ancf_sym import Material, Scene, Section  # noqa: E402
-from ancf_sym.assembly import Assembly  # noqa: E402
+from ancf_sym.model.assembly import Assembly  # noqa: E402
 from ancf_sym.dynamics import run_dynamics  # noqa: E402
-from ancf_sym.initial import velocities  # noqa: E402
+from ancf_sym.dynamics.initial import velocities  # noqa: E402
 
 G, M = 9.81, 1.5
 IC = np.diag([0.02, 0.05, 0.06])

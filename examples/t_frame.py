@@ -32,7 +32,8 @@ import _common as C  # noqa: E402  (first: it limits BLAS threads before numpy l
 
 import numpy as np  # noqa: E402
 
-from ancf_sym import Material, Scene, Section, fields, solve_static  # noqa: E402
+from ancf_sym import Material, Scene, Section, solve_static  # noqa: E402
+from ancf_sym.model import fields  # noqa: E402
 
 STEEL = Material(E=210e9, density=7850.0)
 SEC = Section.circle(0.02)

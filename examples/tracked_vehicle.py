@@ -66,11 +66,13 @@ import scipy.sparse as sp  # noqa: E402
 import scipy.sparse.linalg as spla  # noqa: E402
 from scipy.optimize import brentq  # noqa: E402
 
-from ancf_sym import Material, Scene, Section, closed, contact, drives  # noqa: E402
-from ancf_sym.assembly import Assembly  # noqa: E402
+from ancf_sym import Material, Scene, Section, contact  # noqa: E402
+from ancf_sym.scene import closed  # noqa: E402
+from ancf_sym.bodies import drives  # noqa: E402
+from ancf_sym.model.assembly import Assembly  # noqa: E402
 from ancf_sym.dynamics import DynamicOptions, Sensor, simulate  # noqa: E402
 from ancf_sym.dynamics.newton import NewtonOptions  # noqa: E402
-from ancf_sym.dynamics_output import frame_sensors, write_series  # noqa: E402
+from ancf_sym.io.dynamics_output import frame_sensors, write_series  # noqa: E402
 from ancf_sym.statics import solve_static  # noqa: E402
 
 # -- paper 001's chain ------------------------------------------------------------------------------------------

@@ -10,8 +10,9 @@ Re-run `pip install .` after any change under ancf_sym/ or generated/: the tests
 site-packages, not from the working tree. `python -m` puts the current directory (the project root) first on
 sys.path, where the source tree's `ancf_sym/` (without `_kernels/`) would shadow the installed package; this file
 removes the project root from sys.path before anything imports ancf_sym, and stops the run with a clear message if
-ancf_sym still resolves to the source tree. Only tests/test_codegen.py uses the working tree, on purpose, in a
-subprocess. tests/ itself is on sys.path (pytest's default rootdir-relative import), so tests import helpers.py.
+ancf_sym still resolves to the source tree. Only tests/elements/test_codegen.py uses the working tree, on purpose, in a
+subprocess. The tests live in folders by part (tests/statics/, tests/contact/, ...); tests/ itself is put on sys.path
+here, so every folder imports the shared helpers.py.
 """
 from __future__ import annotations
 
@@ -49,6 +50,7 @@ def _is_source(module_file: str) -> bool:
 
 
 sys.path[:] = [p for p in sys.path if not _is_root(p)]
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # tests/: helpers.py
 if "ancf_sym" in sys.modules and _is_source(sys.modules["ancf_sym"].__file__):
     pytest.exit(f"ancf_sym was imported from the source tree {ROOT} before tests/conftest.py ran; "
                 "run the tests with `python -m pytest -p no:cacheprovider tests` from the project root", returncode=4)

@@ -1,5 +1,5 @@
 """Shared states, parameters and rotations for the kernel tests (numpy only, nothing symbolic), and the runner of
-the examples for tests/test_examples_*.py.
+the examples for the tests/*/test_examples_*.py files.
 
 States are nodal coordinate vectors in the layout of ancf_sym.registry:
 cable (dim 2 or 3): q = [r(0), r_x(0), r(L), r_x(L)]; beam3d: per node r, r_x, r_y, r_z.
@@ -263,7 +263,7 @@ def step_history(res) -> tuple:
 
 def same_motion_tol(a, b) -> float:
     """Tolerance on the sensor velocities [m/s] of two fixed-step runs (dt = 1e-3 s) of a rope started at rest over
-    a drum (tests/test_contact_body*.py rope_over) whose systems are the same equations in differently structured
+    a drum (tests/contact/test_contact_body*.py rope_over) whose systems are the same equations in differently structured
     unknowns (a held body adds its coordinates and the multipliers of its joint and drive), Newton run to its
     update tolerance (1e-10 m) every step.
 

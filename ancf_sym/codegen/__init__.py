@@ -13,7 +13,7 @@ from pathlib import Path
 
 import casadi as ca
 
-from .. import registry
+from ancf_sym import registry
 
 ROOT = Path(__file__).resolve().parents[2]
 GENERATED = ROOT / "generated"
@@ -39,7 +39,7 @@ def source_hash() -> str:
 
 
 def generate(out_dir: Path = GENERATED, verbose: bool = False) -> dict:
-    from . import definitions, writer
+    from ancf_sym.codegen import definitions, writer
 
     out_dir.mkdir(parents=True, exist_ok=True)
     entries, groups, batched = [], {}, {}
@@ -75,7 +75,7 @@ def generate(out_dir: Path = GENERATED, verbose: bool = False) -> dict:
     entries.append({"name": "ancf_mass", "element": None, "effect": "mass", "gauss": None, "params": None,
                      "library": "ancf_mass", "c_file": "ancf_mass.c", "cflags": DEFAULT_CFLAGS, "functions": [m.name() for m in mass],
                      "sha256": hashlib.sha256(files["ancf_mass.c"].encode()).hexdigest()})
-    from . import band
+    from ancf_sym.codegen import band
 
     fns = band.functions()
     files = writer.write_c(registry.BAND_LIBRARY, fns, out_dir)

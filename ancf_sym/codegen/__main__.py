@@ -6,7 +6,7 @@ import sys
 import time
 from pathlib import Path
 
-from . import GENERATED, check, generate
+from ancf_sym.codegen import GENERATED, check, generate
 
 
 def main(argv: list[str] | None = None) -> int:

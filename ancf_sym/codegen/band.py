@@ -1,7 +1,7 @@
 """Banded LDL^T kernels: the factorisation and solve of a symmetric positive definite matrix of half-bandwidth w
 (a_ij = 0 for |i - j| > w), as straight-line SX over chunks of m columns, generated to C like the element kernels.
 
-A step graph calls them once per chunk (n / m calls in sequence, ancf_sym.dynamics.band): the sparse LDL^T of a
+A step graph calls them once per chunk (n / m calls in sequence, ancf_sym.system.band): the sparse LDL^T of a
 general pattern runs at one dependent multiply-add at a time (a sparse dot product per entry of the factor), where
 a band's rank-one updates are independent operations the processor overlaps. No pivoting, as CasADi's "ldl".
 
@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import casadi as ca
 
-from .. import registry
+from ancf_sym import registry
 
 
 def forward(w: int, m: int) -> ca.Function:

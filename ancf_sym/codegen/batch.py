@@ -23,7 +23,7 @@ from pathlib import Path
 
 import casadi as ca
 
-from .. import registry
+from ancf_sym import registry
 
 LANES = registry.BATCH_LANES
 SUFFIX = registry.BATCH_SUFFIX

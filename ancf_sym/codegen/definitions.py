@@ -3,10 +3,10 @@ from __future__ import annotations
 
 import casadi as ca
 
-from .. import registry
-from ..elements import beam, cable, contact
-from ..elements.quadrature import gauss01
-from . import forms
+from ancf_sym import registry
+from ancf_sym.elements import beam, cable, contact
+from ancf_sym.elements.quadrature import gauss01
+from ancf_sym.codegen import forms
 
 
 def _cable_station(effect: str, dim: int):
@@ -38,7 +38,7 @@ def _cable_station(effect: str, dim: int):
 SECTION_GAUSS = 2
 
 
-def _beam_station(effect: str):
+def beam_station(effect: str):
     def station(q, p, xi, w):
         L = p[0]
         if effect == "continuum":
@@ -198,7 +198,7 @@ def point_function(element: str, effect: str) -> ca.Function:
         if effect in CONTACT:
             station = _contact_station(element, effect)
         else:
-            station = _cable_station(effect, el.dim) if element.startswith("cable") else _beam_station(effect)
+            station = _cable_station(effect, el.dim) if element.startswith("cable") else beam_station(effect)
         _POINT_CACHE[key] = forms.point_function(f"{element}_{effect}_point", registry.input_size(element, effect),
                                                  len(eff.params), station)
     return _POINT_CACHE[key]

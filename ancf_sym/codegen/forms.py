@@ -16,7 +16,7 @@ from typing import Callable
 
 import casadi as ca
 
-from ..elements.quadrature import gauss01
+from ancf_sym.elements.quadrature import gauss01
 
 KERNEL_IN = ["q", "p"]
 KERNEL_OUT = ["energy", "gradient", "hessian"]

@@ -17,7 +17,7 @@ def companions(kernel: ca.Function, energy: ca.Function, grad: ca.Function, thir
     casadi.external(<name>_energy) finds adj1_<name>_energy in the same library, so an MX objective built from it
     (e.g. an IPOPT problem) gets its gradient from compiled code; the Hessian comes from the kernel itself.
     """
-    from .forms import hvp_function
+    from ancf_sym.codegen.forms import hvp_function
 
     return [kernel, energy, energy.reverse(1), grad] + ([hvp_function(kernel)] if third else [])
 
@@ -38,7 +38,7 @@ def write_c(name: str, functions: list[ca.Function], out_dir: Path,
             os.chdir(cwd)
         files = {fn: (Path(tmp) / fn).read_text() for fn in (name + ".c", name + ".h")}
     if batched:
-        from . import batch
+        from ancf_sym.codegen import batch
 
         files[name + ".c"] += batch.PRELUDE + "\n".join(batch.batch_c(f) for f in batched)
         h = files[name + ".h"]

@@ -47,12 +47,11 @@ optimal controls).
 """
 from __future__ import annotations
 
-from .ingredients import (Effort, MinimumTime, PathConstraint, PointForce, PointMass, StateView, SupportMotion,
-                          Swing)
-from .model import ControlAssembly
-from .problem import ControlProblem
-from .resimulation import ResimulationReport, moving_frame_ok, resimulate_motion, tracked_point
-from .result import ControlResult
+from ancf_sym.control.ingredients import Effort, MinimumTime, PathConstraint, PointForce, PointMass, StateView, SupportMotion, Swing
+from ancf_sym.control.model import ControlAssembly
+from ancf_sym.control.problem import ControlProblem
+from ancf_sym.control.resimulation import ResimulationReport, moving_frame_ok, resimulate_motion, tracked_point
+from ancf_sym.control.result import ControlResult
 
 __all__ = ["ControlProblem", "ControlResult", "ControlAssembly", "PointMass", "SupportMotion", "PointForce", "Effort",
            "MinimumTime", "Swing", "PathConstraint", "StateView", "ResimulationReport", "resimulate_motion",

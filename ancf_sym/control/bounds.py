@@ -6,10 +6,10 @@ import math
 import casadi as ca
 import numpy as np
 
-from ..checks import number as _num
-from ..scene import SceneError
-from ..sparsity import dm as _dm
-from .ingredients import Effort, MinimumTime, StateView, Swing
+from ancf_sym.util.checks import number as _num
+from ancf_sym.scene.builder import SceneError
+from ancf_sym.util.sparsity import dm as _dm
+from ancf_sym.control.ingredients import Effort, MinimumTime, StateView, Swing
 
 
 class BoundsMixin:

@@ -3,15 +3,13 @@ constraints, and the view of one instant that path constraints are written again
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Callable, Sequence
+from typing import Any, Callable, Sequence
 
 import casadi as ca
 import numpy as np
 
-from ..scene import SceneError
+from ancf_sym.scene.builder import SceneError
 
-if TYPE_CHECKING:
-    from .problem import ControlProblem
 
 
 @dataclass(frozen=True)

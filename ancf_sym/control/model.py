@@ -11,22 +11,23 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from .. import registry
-from ..assembly import Assembly
-from ..checks import number as _num
-from ..interpolation import Probe
-from ..assembly import LINEAR_EFFECTS
-from ..reduced import full_mx, partition
-from ..loads import point_force
-from ..scene import PointMass as ScenePointMass
-from ..scene import Scene, SceneError, _vector
-from ..sparsity import assemble_mx
-from .ingredients import PointForce, PointMass, SupportMotion
+from ancf_sym import registry
+from ancf_sym.model.assembly import Assembly
+from ancf_sym.util.checks import number as _num
+from ancf_sym.model.mesh import Probe
+from ancf_sym.model.assembly import LINEAR_EFFECTS
+from ancf_sym.model.reduced import full_mx, partition
+from ancf_sym.model.loads import point_force
+from ancf_sym.scene.builder import PointMass as ScenePointMass
+from ancf_sym.scene.builder import Scene, SceneError
+from ancf_sym.util.checks import vector
+from ancf_sym.util.sparsity import assemble_mx
+from ancf_sym.control.ingredients import PointForce, PointMass, SupportMotion
 
 
 class ControlAssembly(Assembly):
     """A scene's Assembly with point masses (at nodes): they join the scene's own (Scene.point_mass: mass matrix
-    and weight under scene.gravity, ancf_sym.loads) in a copy of the scene, the user's scene left as it is. Also
+    and weight under scene.gravity, ancf_sym.model.loads) in a copy of the scene, the user's scene left as it is. Also
     what the dynamics integrator runs for the re-simulation."""
 
     def __init__(self, scene: Scene, point_masses: Sequence[PointMass] = ()):
@@ -165,7 +166,7 @@ class ModelMixin:
                     raise SceneError(f"controls[{i}]: member {c.member!r} does not exist; members: "
                                      f"{sorted(sc.members)}")
                 sc.check_at(c.member, c.at, node_only=False, field_name=f"controls[{i}].at")
-                d = _vector(f"controls[{i}].direction", c.direction, dim)
+                d = vector(f"controls[{i}].direction", c.direction, dim)
                 if np.linalg.norm(d) == 0:
                     raise SceneError(f"controls[{i}].direction must not be zero")
                 if c.name in names:

@@ -7,16 +7,16 @@ from typing import Any, Sequence
 import casadi as ca
 import numpy as np
 
-from ..checks import number as _num
-from ..collocation import tableau
-from ..interrupts import interruptible
-from ..scene import Scene, SceneError
-from .bounds import BoundsMixin
-from .ingredients import Effort, MinimumTime, PathConstraint, PointMass, Swing
-from .model import ControlAssembly, ModelMixin
-from .result import ControlResult
-from .transcription import TranscriptionMixin
-from .warm_start import WarmStartMixin
+from ancf_sym.util.checks import number as _num
+from ancf_sym.dynamics.collocation import tableau
+from ancf_sym.util.interrupts import interruptible
+from ancf_sym.scene.builder import Scene, SceneError
+from ancf_sym.control.bounds import BoundsMixin
+from ancf_sym.control.ingredients import Effort, MinimumTime, PathConstraint, PointMass, Swing
+from ancf_sym.control.model import ControlAssembly, ModelMixin
+from ancf_sym.control.result import ControlResult
+from ancf_sym.control.transcription import TranscriptionMixin
+from ancf_sym.control.warm_start import WarmStartMixin
 
 SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 FULL_STEP_ITERATIONS = 150  # cap of the full-step attempt before IPOPT's line search takes over

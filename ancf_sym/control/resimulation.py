@@ -5,17 +5,14 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Callable
+from typing import Callable
 
 import numpy as np
 
-from ..checks import number as _num
-from ..scene import SceneError
-from .ingredients import PointForce
+from ancf_sym.util.checks import number as _num
+from ancf_sym.scene.builder import SceneError
+from ancf_sym.control.ingredients import PointForce
 
-if TYPE_CHECKING:
-    from .problem import ControlProblem
-    from .result import ControlResult
 
 
 @dataclass
@@ -75,7 +72,7 @@ def resimulate_motion(p: ControlProblem, T: float, motion: Callable, res: Contro
     there): Radau IIA's stages lie in (t, t + dt], so no step sees a joint from the wrong side. Trapezoidal-type
     schemes (Newmark, generalized-alpha) smear such a jump over one step: a swing error of order jump x dt /
     omega, which they show as a residual swing that shrinks with dt."""
-    from ..dynamics import DynamicOptions, TimeLoad, simulate
+    from ancf_sym.dynamics import DynamicOptions, TimeLoad, simulate
     if not moving_frame_ok(p):
         return None
     omega = p.modes[0]

@@ -1,17 +1,15 @@
 """The result of a control problem: the optimum's trajectories, controls, timings and the re-simulation."""
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-from ..names import lookup
-from ..scene import SceneError
-from .resimulation import ResimulationReport, resimulate_motion
-from ..dynamics.collocation import lagrange_basis as _basis
+from ancf_sym.util.names import lookup
+from ancf_sym.scene.builder import SceneError
+from ancf_sym.control.resimulation import ResimulationReport, resimulate_motion
+from ancf_sym.dynamics.collocation import lagrange_basis as _basis
 
-if TYPE_CHECKING:
-    from .problem import ControlProblem
 
 
 class ControlResult:
@@ -50,8 +48,8 @@ class ControlResult:
         return f"<ControlResult {self.summary()}; controls {self.prob.channels + self.prob.force_names}>"
 
     def _repr_html_(self) -> str:
-        from ..statics import _html_table
-        return _html_table("ControlResult", self.summary(), [
+        from ancf_sym.util.html import html_table
+        return html_table("ControlResult", self.summary(), [
             ("status", self.status), ("cost", f"{self.cost:.6g}"), ("IPOPT iterations", self.iterations),
             ("solve (warm start, build)", f"{self.wall_s:.3g} s ({self.warm_start_s:.3g} s, {self.build_s:.3g} s)"),
             ("horizon", f"{self.T:.4g} s"), ("constraint violation", f"{self.constraint_violation:.2g}"),

@@ -9,10 +9,10 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from .. import kernels
-from ..casadi_buffers import bind
-from ..dynamics.collocation import interval_end, stage_residual
-from ..sparsity import dm as _dm, gather_sum, scatter
+from ancf_sym import kernels
+from ancf_sym.util.casadi_buffers import bind
+from ancf_sym.dynamics.collocation import interval_end, stage_residual
+from ancf_sym.util.sparsity import dm as _dm, gather_sum, scatter
 
 
 class TranscriptionMixin:

@@ -7,8 +7,8 @@ from typing import Callable
 import numpy as np
 import scipy.sparse as sp
 
-from ..dynamics.collocation import interval_end, stage_rates, stage_residual, stage_tangent
-from .model import newton
+from ancf_sym.dynamics.collocation import interval_end, stage_rates, stage_residual, stage_tangent
+from ancf_sym.control.model import newton
 
 
 class WarmStartMixin:

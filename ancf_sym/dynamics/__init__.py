@@ -21,27 +21,27 @@ The modules, in the order of the data flow:
 
 - options, sensors, time_loads: what a run asks for (checked before any work);
 - step_system (with forces, damping, ldl, graph_cache): the equations on the reduced coordinates
-  (ancf_sym.reduced) as compiled CasADi Functions, one Newton iteration per call, cached by scene structure;
+  (ancf_sym.model.reduced) as compiled CasADi Functions, one Newton iteration per call, cached by scene structure;
 - newton: Newton's method on a step system (full, or modified in Python);
 - schemes, alpha_step, alpha, chunks: the Newmark / HHT / generalized-alpha family, its compiled step graph and
   chunks of many steps per call; collocation: Radau IIA and Gauss-Legendre;
 - integrator: the protocol the time loop drives, and the consistent initial acceleration;
 - time_loop, recording, result, run: the loop, its outputs, the result, and `simulate` / `run_dynamics`.
 """
-from ..assembly import LINEAR_EFFECTS
-from .alpha import AlphaIntegrator
-from .collocation import CollocationIntegrator
-from .damping import RayleighData, StrainRateData, rayleigh_data, strain_rate_data
-from .graph_cache import clear_graph_cache
-from .integrator import ChunkedIntegrator, Integrator
-from .newton import Counters, NewtonOptions
-from .options import DynamicOptions, options_from_dict
-from .result import DynamicResult
-from .run import make_integrator, run_dynamics, simulate
-from .schemes import Scheme
-from .sensors import Sensor
-from .step_system import StepSystem
-from .time_loads import TimeLoad
+from ancf_sym.model.assembly import LINEAR_EFFECTS
+from ancf_sym.dynamics.alpha import AlphaIntegrator
+from ancf_sym.dynamics.collocation import CollocationIntegrator
+from ancf_sym.system.damping import RayleighData, StrainRateData, rayleigh_data, strain_rate_data
+from ancf_sym.system.graph_cache import clear_graph_cache
+from ancf_sym.dynamics.integrator import ChunkedIntegrator, Integrator
+from ancf_sym.dynamics.newton import Counters, NewtonOptions
+from ancf_sym.dynamics.options import DynamicOptions, options_from_dict
+from ancf_sym.dynamics.result import DynamicResult
+from ancf_sym.dynamics.run import make_integrator, run_dynamics, simulate
+from ancf_sym.dynamics.schemes import Scheme
+from ancf_sym.dynamics.sensors import Sensor
+from ancf_sym.system.step_system import StepSystem
+from ancf_sym.dynamics.time_loads import TimeLoad
 
 __all__ = ["LINEAR_EFFECTS", "AlphaIntegrator", "ChunkedIntegrator", "CollocationIntegrator", "Counters",
            "DynamicOptions", "DynamicResult", "Integrator", "NewtonOptions", "RayleighData", "Scheme", "Sensor",

@@ -15,15 +15,15 @@ import math
 
 import numpy as np
 
-from ..casadi_buffers import bind
-from . import chunks
-from .alpha_step import AlphaStepGraphs
-from .damping import StiffnessDamping
-from .graph_cache import ALPHA_GRAPHS, pooled_buffer
-from .integrator import StepOutcome, initial_acceleration
-from .newton import Counters, Factor, NewtonOptions, newton
-from .schemes import Scheme
-from .step_system import StepSystem
+from ancf_sym.util.casadi_buffers import bind
+from ancf_sym.dynamics import chunks
+from ancf_sym.dynamics.alpha_step import AlphaStepGraphs
+from ancf_sym.dynamics.stiffness_damping import StiffnessDamping
+from ancf_sym.system.graph_cache import ALPHA_GRAPHS, pooled_buffer
+from ancf_sym.dynamics.integrator import StepOutcome, initial_acceleration
+from ancf_sym.dynamics.newton import Counters, Factor, NewtonOptions, newton
+from ancf_sym.dynamics.schemes import Scheme
+from ancf_sym.system.step_system import StepSystem
 
 
 class AlphaIntegrator:

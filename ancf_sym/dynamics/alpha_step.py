@@ -10,7 +10,7 @@ Two step graphs:
   tolerance. omega is re-measured at least every `refresh_every` steps, up to 8x less often when the
   estimate is below a tenth of the tolerance; up to `extra_iterations` more iterations behind one switch.
 - modified Newton (newton.modified true, symmetric step matrix: no multipliers, no strain-rate damping). The
-  LDL^T factor of the step matrix (values D, U, U^T, ancf_sym.dynamics.ldl) is carried from step to step as
+  LDL^T factor of the step matrix (values D, U, U^T, ancf_sym.system.ldl) is carried from step to step as
   accumulated inputs of the step function and kept across iterations and steps while the iteration contracts. An
   iteration on the kept factor costs the gradient-only kernels and two triangular solves; a refactorisation is a
   full Newton iteration (energy, gradient, Hessian kernels, assembly, LDL^T) that stores its factor. An iteration
@@ -37,13 +37,13 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from .damping import rayleigh_mx
-from .graph_cache import SCHEME_FUNCTIONS
-from .ldl import LDLFactor
-from ..mx_ops import add as _add, div as _div, mul as _mul, sub as _sub  # (the step's vector algebra)
-from .newton import NewtonOptions
-from .schemes import Scheme
-from .step_system import StepSystem
+from ancf_sym.system.damping import rayleigh_mx
+from ancf_sym.system.graph_cache import SCHEME_FUNCTIONS
+from ancf_sym.system.ldl import LDLFactor
+from ancf_sym.util.mx_ops import add as _add, div as _div, mul as _mul, sub as _sub  # (the step's vector algebra)
+from ancf_sym.dynamics.newton import NewtonOptions
+from ancf_sym.dynamics.schemes import Scheme
+from ancf_sym.system.step_system import StepSystem
 
 
 class AlphaStepGraphs:

@@ -29,13 +29,14 @@ import numpy as np
 import numpy.polynomial.legendre as leg
 import scipy.sparse as sp
 
-from ..casadi_buffers import bind
-from ..scene import SceneError
-from ..sparsity import dm, mx_nonzeros
-from .damping import StiffnessDamping, rayleigh_mx
-from .integrator import StepOutcome, initial_acceleration
-from .newton import Counters, Factor, NewtonOptions, newton
-from .step_system import StepSystem
+from ancf_sym.util.casadi_buffers import bind
+from ancf_sym.scene.builder import SceneError
+from ancf_sym.util.sparsity import dm, mx_nonzeros
+from ancf_sym.dynamics.stiffness_damping import StiffnessDamping
+from ancf_sym.system.damping import rayleigh_mx
+from ancf_sym.dynamics.integrator import StepOutcome, initial_acceleration
+from ancf_sym.dynamics.newton import Counters, Factor, NewtonOptions, newton
+from ancf_sym.system.step_system import StepSystem
 
 
 @dataclass(frozen=True)

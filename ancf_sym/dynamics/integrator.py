@@ -9,9 +9,9 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .. import setup_cache
-from ..casadi_buffers import bind
-from .step_system import StepSystem
+from ancf_sym.util import setup_cache
+from ancf_sym.util.casadi_buffers import bind
+from ancf_sym.system.step_system import StepSystem
 
 
 @dataclass
@@ -91,7 +91,7 @@ def initial_acceleration(S: StepSystem, q0: np.ndarray, v0: np.ndarray, Q0: np.n
 
 
 def mass_factor(M: sp.spmatrix) -> spla.SuperLU:
-    """The sparse LU of the reduced mass matrix, kept with it when M comes from ancf_sym.setup_cache (a second run of
+    """The sparse LU of the reduced mass matrix, kept with it when M comes from ancf_sym.util.setup_cache (a second run of
     the same structure solves for its initial acceleration without factorising again: ~0.2 ms of a ~1.2 ms set-up
     on 32 elements)."""
     key = setup_cache.key_of(M)

@@ -18,11 +18,11 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ..checks import fail
-from ..scene import SceneError
+from ancf_sym.util.checks import fail
+from ancf_sym.scene.builder import SceneError
 
 if TYPE_CHECKING:
-    from .step_system import StepSystem
+    from ancf_sym.system.step_system import StepSystem
 
 
 @dataclass

@@ -1,5 +1,5 @@
 """Options of a dynamic analysis (the [analysis] table of type "dynamics"): declared once as DynamicOptions fields,
-checked against ancf_sym.schema, read by the Python API, the TOML reader and the CLI."""
+checked against ancf_sym.scene.schema, read by the Python API, the TOML reader and the CLI."""
 from __future__ import annotations
 
 import math
@@ -9,14 +9,14 @@ from typing import Sequence
 
 import numpy as np
 
-from .. import initial as initial_state
-from ..checks import check_fields, check_keys, fail, number
-from ..scene import SceneError
-from ..schema import DYNAMIC_OPTIONS
-from .newton import NewtonOptions
-from .schemes import Scheme
-from .sensors import Sensor
-from .time_loads import TimeLoad
+from ancf_sym.dynamics import initial as initial_state
+from ancf_sym.util.checks import check_fields, check_keys, fail, number
+from ancf_sym.scene.builder import SceneError
+from ancf_sym.scene.schema import DYNAMIC_OPTIONS
+from ancf_sym.dynamics.newton import NewtonOptions
+from ancf_sym.dynamics.schemes import Scheme
+from ancf_sym.dynamics.sensors import Sensor
+from ancf_sym.dynamics.time_loads import TimeLoad
 
 INTEGRATORS = {"newmark": "newmark", "hht": "hht", "hht_alpha": "hht", "generalized_alpha": "generalized_alpha",
                "generalized-alpha": "generalized_alpha", "genalpha": "generalized_alpha",
@@ -48,13 +48,13 @@ class DynamicOptions:
     energies: bool = True  # record the energy balance at output times (one energy evaluation per output)
     q0: np.ndarray | None = None  # initial coordinates (full, default the reference state)
     v0: np.ndarray | None = None  # initial velocities (full, default zero)
-    initial: list | None = None  # initial velocities per member/body ([[initial]] tables, ancf_sym.initial)
+    initial: list | None = None  # initial velocities per member/body ([[initial]] tables, ancf_sym.dynamics.initial)
     start: str | None = None  # "reference" (default) | "static": start from the static equilibrium
     release: list | None = None  # supports of the static start released for the run (labels or indices)
-    from_result: str | None = None  # a result.json to start from (ancf_sym.initial.from_result)
+    from_result: str | None = None  # a result.json to start from (ancf_sym.dynamics.initial.from_result)
 
     def __post_init__(self):
-        check_fields(self, DYNAMIC_OPTIONS, "analysis")  # types and ranges as declared in ancf_sym.schema
+        check_fields(self, DYNAMIC_OPTIONS, "analysis")  # types and ranges as declared in ancf_sym.scene.schema
         if self.initial is not None:
             self.initial = initial_state.check_specs(self.initial)
             if self.v0 is not None:

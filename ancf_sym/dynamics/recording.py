@@ -12,10 +12,10 @@ import math
 
 import numpy as np
 
-from ..interpolation import weights
-from .options import DynamicOptions
-from .sensors import SensorEval
-from .step_system import StepSystem
+from ancf_sym.elements.hermite import weights
+from ancf_sym.dynamics.options import DynamicOptions
+from ancf_sym.dynamics.sensors import SensorEval
+from ancf_sym.system.step_system import StepSystem
 
 # The alpha schemes dissipate (or, Newmark, conserve to O(h^2)); a run whose energy balance shows the scheme
 # *creating* more than this fraction of the energy scale has gone unstable (Newton can still "converge" every step

@@ -5,9 +5,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..assembly import Assembly
-from ..names import NamedDict
-from .options import DynamicOptions
+from ancf_sym.model.assembly import Assembly
+from ancf_sym.util.names import NamedDict
+from ancf_sym.dynamics.options import DynamicOptions
 
 
 @dataclass
@@ -33,10 +33,10 @@ class DynamicResult:
     h_max: float = float("nan")
     setup_s: float = 0.0  # building the compiled step functions (before the time loop; not in wall_s)
     cpu_s: float = 0.0  # CPU time of the time loop (process time: what other processes on the machine take counts less)
-    # per drive (ancf_sym.drives): what it applies at the output times, (len(t), k): an angle drive's torque on its
+    # per drive (ancf_sym.bodies.drives): what it applies at the output times, (len(t), k): an angle drive's torque on its
     # body [N m], a position drive's force [N] (from the multipliers; linear in time between steps)
     drive_reactions: dict = field(default_factory=dict)
-    # per penalty contact (ancf_sym.contact_gap.Watch.record): the smallest true gap of the centre line over every
+    # per penalty contact (ancf_sym.contact.gap.Watch.record): the smallest true gap of the centre line over every
     # accepted step [m] (None: never below 0), its time [s] and the law's sampled penetration then [m]
     contact_gaps: list = field(default_factory=list)
 
@@ -57,9 +57,9 @@ class DynamicResult:
                 f"energies {list(self.energies)}>")
 
     def _repr_html_(self) -> str:
-        from ..statics import _html_table
+        from ancf_sym.util.html import html_table
         err = self.energy_error()
-        return _html_table("DynamicResult", self.summary(), [
+        return html_table("DynamicResult", self.summary(), [
             ("status", self.status), ("integrator", self.integrator), ("t reached", f"{self.t_reached:.6g} s"),
             ("steps (rejected)", f"{self.steps} ({len(self.rejected)})"), ("Newton iterations", self.newton_iterations),
             ("wall time (setup)", f"{self.wall_s:.3g} s ({self.setup_s:.3g} s)"), ("output times", len(self.t)),

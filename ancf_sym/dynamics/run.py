@@ -7,22 +7,22 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .. import contact
-from .. import initial as initial_state
-from ..assembly import Assembly
-from ..mesh import check_stretch
-from ..scene import Scene, SceneError
-from .alpha import AlphaIntegrator
-from .collocation import CollocationIntegrator
-from .integrator import Integrator
-from .newton import Counters
-from .options import DynamicOptions, options_from_dict
-from .recording import DEFAULT_OUTPUTS, Recorder, output_grid
-from .result import DynamicResult
-from .sensors import SensorEval
-from .step_system import StepSystem
-from .time_loads import LoadSum
-from .time_loop import TimeLoop, chunk_size
+from ancf_sym.contact import laws as contact
+from ancf_sym.dynamics import initial as initial_state
+from ancf_sym.model.assembly import Assembly
+from ancf_sym.model.mesh import check_stretch
+from ancf_sym.scene.builder import Scene, SceneError
+from ancf_sym.dynamics.alpha import AlphaIntegrator
+from ancf_sym.dynamics.collocation import CollocationIntegrator
+from ancf_sym.dynamics.integrator import Integrator
+from ancf_sym.dynamics.newton import Counters
+from ancf_sym.dynamics.options import DynamicOptions, options_from_dict
+from ancf_sym.dynamics.recording import DEFAULT_OUTPUTS, Recorder, output_grid
+from ancf_sym.dynamics.result import DynamicResult
+from ancf_sym.dynamics.sensors import SensorEval
+from ancf_sym.system.step_system import StepSystem
+from ancf_sym.dynamics.time_loads import LoadSum
+from ancf_sym.dynamics.time_loop import TimeLoop, chunk_size
 
 
 def _velocity_form(cons, q: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ..checks import fail
+from ancf_sym.util.checks import fail
 
 
 @dataclass(frozen=True)

@@ -6,12 +6,12 @@ from typing import Any
 
 import numpy as np
 
-from .. import bodies, spatial_bodies
-from ..assembly import Assembly
-from ..checks import check_keys, fail
-from ..interpolation import Probe
-from ..scene import SceneError
-from ..schema import SENSOR
+from ancf_sym.bodies import planar as bodies, spatial as spatial_bodies
+from ancf_sym.model.assembly import Assembly
+from ancf_sym.util.checks import check_keys, fail
+from ancf_sym.model.mesh import Probe
+from ancf_sym.scene.builder import SceneError
+from ancf_sym.scene.schema import SENSOR
 
 SENSOR_KINDS = SENSOR["kind"].choices
 
@@ -23,7 +23,7 @@ class Sensor:
     kind: "position" | "displacement" (from the reference) | "velocity" of a centreline point;
     "strain" (|r_x| - 1) | "curvature" (|r_x x r_xx| / |r_x|^3) at a point; "coordinates" (all nodal
     coordinates of a node); "body": a rigid body's (x, y, angle, angular velocity), `member` naming the body
-    (spatial: centre (3), angular velocity (3, world), axes e1, e2, e3 (9), ancf_sym.spatial_bodies.sensor).
+    (spatial: centre (3), angular velocity (3, world), axes e1, e2, e3 (9), ancf_sym.bodies.spatial.sensor).
     member and at ("start", "end", node index or material coordinate s [m]) name the
     point. Energies and the constraint violation are always recorded.
     """
@@ -38,7 +38,7 @@ class Sensor:
             return d
         if not isinstance(d, dict):
             raise SceneError(f"analysis.sensors[{index}] must be a table with kind, member, at; got {d!r}")
-        check_keys(f"analysis.sensors[{index}]", d, SENSOR, ("kind",))  # the keys declared in ancf_sym.schema
+        check_keys(f"analysis.sensors[{index}]", d, SENSOR, ("kind",))  # the keys declared in ancf_sym.scene.schema
         kind = SENSOR["kind"].check(f"analysis.sensors[{index}].kind", d["kind"])
         check_keys(f"analysis.sensors[{index}]", d, SENSOR, ("member",))
         member = SENSOR["member"].check(f"analysis.sensors[{index}].member", d["member"])

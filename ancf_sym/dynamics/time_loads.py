@@ -6,11 +6,11 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..assembly import Assembly
-from ..checks import check_keys, fail, is_number
-from ..loads import point_force
-from ..scene import SceneError, _vector
-from ..schema import TIME_LOAD
+from ancf_sym.model.assembly import Assembly
+from ancf_sym.util.checks import check_keys, fail, is_number
+from ancf_sym.model.loads import point_force
+from ancf_sym.util.checks import SceneError, vector
+from ancf_sym.scene.schema import TIME_LOAD
 
 
 @dataclass
@@ -28,7 +28,7 @@ class TimeLoad:
             return d
         if not isinstance(d, dict):
             raise SceneError(f"analysis.loads[{index}] must be a table with member, at, force, history; got {d!r}")
-        # the keys declared in ancf_sym.schema
+        # the keys declared in ancf_sym.scene.schema
         check_keys(f"analysis.loads[{index}]", d, TIME_LOAD, required=("member", "force", "history"))
         TIME_LOAD["member"].check(f"analysis.loads[{index}].member", d["member"])
         check_history(f"analysis.loads[{index}].history", d["history"])
@@ -58,7 +58,7 @@ class LoadSum:
         self.vecs, self.hist = [], []
         for i, ld in enumerate(loads):
             asm.scene.check_at(ld.member, ld.at, node_only=False, field_name=f"analysis.loads[{i}].at")
-            F = _vector(f"analysis.loads[{i}].force", ld.force, asm.scene.dim)
+            F = vector(f"analysis.loads[{i}].force", ld.force, asm.scene.dim)
             H = check_history(f"analysis.loads[{i}].history", ld.history)
             mm = asm.mesh.members[ld.member]
             idx, val = point_force(mm, mm.coordinate(ld.at), F)

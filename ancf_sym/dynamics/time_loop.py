@@ -16,13 +16,13 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .. import contact_gap
-from .damping import damping_force_rows
-from .integrator import ChunkedIntegrator, Integrator
-from .options import DynamicOptions
-from .recording import ENERGY_CREATION_LIMIT, Recorder, hermite
-from .step_system import StepSystem
-from .time_loads import LoadSum
+from ancf_sym.contact import gap as contact_gap
+from ancf_sym.system.damping import damping_force_rows
+from ancf_sym.dynamics.integrator import ChunkedIntegrator, Integrator
+from ancf_sym.dynamics.options import DynamicOptions
+from ancf_sym.dynamics.recording import ENERGY_CREATION_LIMIT, Recorder, hermite
+from ancf_sym.system.step_system import StepSystem
+from ancf_sym.dynamics.time_loads import LoadSum
 
 CHUNK = 64  # steps per compiled call in fixed-step runs of the alpha schemes (the rest of the grid: step by step)
 

@@ -13,9 +13,9 @@ from __future__ import annotations
 
 import casadi as ca
 
-from . import hermite
-from .cable import planar_angle
-from .quadrature import gauss01
+from ancf_sym.elements import hermite
+from ancf_sym.elements.cable import planar_angle
+from ancf_sym.elements.quadrature import gauss01
 
 
 def nodal(q):

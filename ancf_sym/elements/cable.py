@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import casadi as ca
 
-from . import hermite
-from .quadrature import gauss01
+from ancf_sym.elements import hermite
+from ancf_sym.elements.quadrature import gauss01
 
 
 def nodal(q: ca.SX, dim: int) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX]:

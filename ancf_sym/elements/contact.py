@@ -130,7 +130,7 @@ def body_drum_gap(u, p):
 
 def body_drum_energy(u, p):
     """u = (r - r_b, e1, e2, e3): a centre-line point relative to the centre r_b of a spatial body (natural
-    coordinates, ancf_sym.spatial_bodies) and its axis vectors; p = (L, k, kh, t, R, a (3), s (3))."""
+    coordinates, ancf_sym.bodies.spatial) and its axis vectors; p = (L, k, kh, t, R, a (3), s (3))."""
     k, kh, t, R = p[1], p[2], p[3], p[4]
     dp = _body_drum_geometry(u[:3], (u[3:6], u[6:9], u[9:12]), p)
     return normal_energy(penetration(ca.sqrt(ca.dot(dp, dp)) - R - t), k, kh)

@@ -1,6 +1,6 @@
 """Linearisation and modal analysis about an equilibrium (docs/modal.md)."""
-from .analysis import modal_analysis
-from .linearize import Linearization, linearize
-from .result import ModalResult
+from ancf_sym.modal.analysis import modal_analysis
+from ancf_sym.modal.linearize import Linearization, linearize
+from ancf_sym.modal.result import ModalResult
 
 __all__ = ["modal_analysis", "linearize", "Linearization", "ModalResult"]

@@ -7,13 +7,13 @@ import time
 
 import numpy as np
 
-from ..reduced import partition
-from ..scene import Scene, SceneError
-from ..schema import MODAL_OPTIONS
-from ..statics import StaticOptions, StaticProblem, StaticResult, problem_for
-from .eigen import ZERO_REL, damped_modes, lowest_modes, stiffness_scale
-from .linearize import linearize
-from .result import DampedModes, ModalResult
+from ancf_sym.model.reduced import partition
+from ancf_sym.scene.builder import Scene, SceneError
+from ancf_sym.scene.schema import MODAL_OPTIONS
+from ancf_sym.statics.problem import StaticOptions, StaticProblem, StaticResult, problem_for
+from ancf_sym.modal.eigen import ZERO_REL, damped_modes, lowest_modes, stiffness_scale
+from ancf_sym.modal.linearize import linearize
+from ancf_sym.modal.result import DampedModes, ModalResult
 
 
 def check_modes(modes) -> int:

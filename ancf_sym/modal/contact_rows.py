@@ -6,7 +6,7 @@ joins the constraints) where its gap is the smaller of the two relative to their
 the structure's length scale); the others lift off freely (a point touching with zero force counts as free: the
 linear model cannot hold a one-sided constraint). The rows' curvature enters the Hessian of the Lagrangian with the
 statics' sign: min Pi subject to g >= 0 has L = Pi - sum f_i g_i, so K_L gets -sum f_i Hess g_i (drum rows; ground
-rows are linear). The rows and their derivatives are the statics' own (ancf_sym.contact_exact.casadi_rows: the gap
+rows are linear). The rows and their derivatives are the statics' own (ancf_sym.contact.exact.casadi_rows: the gap
 kernels).
 """
 from __future__ import annotations
@@ -15,9 +15,9 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from .. import contact_exact
-from ..scene import SceneError
-from ..statics import StaticResult
+from ancf_sym.contact import exact as contact_exact
+from ancf_sym.scene.builder import SceneError
+from ancf_sym.statics.problem import StaticResult
 
 
 def exact_multipliers(asm, result: StaticResult) -> np.ndarray:

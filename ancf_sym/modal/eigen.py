@@ -17,7 +17,7 @@ import scipy.linalg as la
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
-from ..scene import SceneError
+from ancf_sym.scene.builder import SceneError
 
 DENSE_MAX = 40  # unknowns (or modes + this) up to which the dense pencil is used: measured on a 120-element
 # cantilever, the dense solve of the whole spectrum puts its round-off, eps x the highest w^2, on the lowest mode

@@ -2,7 +2,7 @@
 
     M y'' + D y' + K_L y + G^T mu = B u,    G y = 0
 
-y are the unknowns left once supports and hinges are eliminated (x = E y + c, ancf_sym.reduced); G is the Jacobian of
+y are the unknowns left once supports and hinges are eliminated (x = E y + c, ancf_sym.model.reduced); G is the Jacobian of
 the exact rows that keep multipliers (rigid joints, skew clamps); K_L the exact Hessian of the Lagrangian: the
 potential's Hessian from the kernels (geometric stiffness of the prestress and penalty springs and penalty contacts
 included) plus sum_i lambda_i Hess(Phi_i) of the multiplier rows (bilinear: a constant curvature). D is the
@@ -18,13 +18,13 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from .. import contact
-from ..assembly import Assembly
-from ..dynamics import damping
-from ..reduced import Partition, partition
-from ..scene import Scene, SceneError
-from ..statics import StaticProblem, StaticResult, problem_for
-from .contact_rows import active_rows, exact_multipliers
+from ancf_sym.contact import laws as contact
+from ancf_sym.model.assembly import Assembly
+from ancf_sym.system import damping
+from ancf_sym.model.reduced import Partition, partition
+from ancf_sym.scene.builder import Scene, SceneError
+from ancf_sym.statics.problem import StaticProblem, StaticResult, problem_for
+from ancf_sym.modal.contact_rows import active_rows, exact_multipliers
 
 
 @dataclass
@@ -159,10 +159,10 @@ def linearize(scene: Scene, state: StaticResult | np.ndarray | None = None, damp
 
 def _damping(asm: Assembly, x: np.ndarray, part: Partition, M: sp.csc_matrix) -> sp.csc_matrix | None:
     """Rayleigh damping plus d f_d / d v at (x, v = 0) of strain-rate damping and dissipative contact (the dynamics'
-    own exact dissipation graph, ancf_sym.dynamics.damping, built only where the scene has either)."""
+    own exact dissipation graph, ancf_sym.system.damping, built only where the scene has either)."""
     D = _rayleigh(asm, x, M, part)
     if damping.strain_rate_data(asm) is not None or contact.dissipation_calls(asm.mesh):
-        from ..dynamics.step_system import StepSystem
+        from ancf_sym.system.step_system import StepSystem
         S = StepSystem.for_scene(asm)
         Dv = S.damp_f(S.reduce(x), np.zeros(S.nf))[2]
         Dv = sp.csc_matrix(Dv.sparse() if hasattr(Dv, "sparse") else np.asarray(Dv))

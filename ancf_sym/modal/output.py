@@ -10,10 +10,10 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from .. import fields
-from ..output_json import static_result_dict
-from ..vtk_out import static_mesh
-from .result import ModalResult
+from ancf_sym.model import fields
+from ancf_sym.io.json_out import static_result_dict
+from ancf_sym.io.vtk import static_mesh
+from ancf_sym.modal.result import ModalResult
 
 
 def modal_result_dict(result: ModalResult, scene_file: str | Path | None = None, analysis: dict | None = None,
@@ -85,7 +85,7 @@ def plot_modes(result: ModalResult, path: str | Path, count: int = 6, per_elemen
 
 
 def modes_mesh(result: ModalResult, per_element: int = 8) -> meshio.Mesh:
-    """The equilibrium's VTK mesh (ancf_sym.vtk_out.static_mesh) with point data mode_1, mode_2, ... (3 components,
+    """The equilibrium's VTK mesh (ancf_sym.io.vtk.static_mesh) with point data mode_1, mode_2, ... (3 components,
     mass-normalised displacements) at its sample points."""
     mesh = static_mesh(result.static, per_element)
     dim = result.static.assembly.scene.dim
@@ -107,7 +107,7 @@ def animate_modes(result: ModalResult, path: str | Path, count: int = 4, per_ele
                   frames_per_mode: int = 24) -> Path:
     """A GIF of the lowest `count` modes, one period each, on the equilibrium shape (dashed), each scaled to a
     largest displacement of 10 % of the structure's size as in plot_modes (plots.animate_shapes draws it)."""
-    from ..plots import animate_shapes, oscillation
+    from ancf_sym.io.plots import animate_shapes, oscillation
 
     static = result.static
     scene = static.assembly.scene

@@ -6,8 +6,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..statics import StaticResult
-from .linearize import Linearization
+from ancf_sym.statics.problem import StaticResult
+from ancf_sym.modal.linearize import Linearization
 
 
 @dataclass

@@ -8,7 +8,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ..modal.linearize import Linearization
+from ancf_sym.modal.linearize import Linearization
 
 
 def node_force_sensitivity(lin: Linearization, member: str, node: int, component: int) -> np.ndarray:
@@ -33,7 +33,7 @@ def load_value_sensitivity(doc: dict, lin: Linearization, path: str) -> np.ndarr
     """d x*/d p for p = ``loads[i].value[j]`` of a scene document: a force at a node (``at`` an integer, "start"
     or "end"). Other loads (distributed, moments, tensions, forces between nodes) are refused by name: not
     handled yet."""
-    from .paths import get_parameter, parse_path
+    from ancf_sym.sensitivity.paths import get_parameter, parse_path
 
     p = parse_path(path)
     get_parameter(doc, p)  # names a number, or a clear error

@@ -16,33 +16,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from .base import Study, StudyError, parse_sweep, setting_key
-from .runner import finished_records, load_reference, prepare_folder, run_settings
-from .sweep import run_sweep
-
-_MODULES = ("statics_studies", "dynamics_studies", "beam_studies", "kernel_studies")
-
-
-def _registry() -> dict[str, Study]:
-    import importlib
-    out = {}
-    for m in _MODULES:
-        for s in importlib.import_module(f"{__name__}.{m}").STUDIES:
-            out[s.name] = s
-    return out
-
-
-def get_study(name: str) -> Study:
-    reg = _registry()
-    if name not in reg:
-        raise StudyError(f"unknown study {name!r}; known: {sorted(reg)}")
-    return reg[name]
-
-
-def studies() -> dict[str, str]:
-    """name -> title of every study."""
-    return {k: s.title for k, s in sorted(_registry().items())}
-
+from ancf_sym.study.base import Study, StudyError, parse_sweep, setting_key
+from ancf_sym.study.runner import finished_records, load_reference, prepare_folder, run_settings
+from ancf_sym.study.sweep import run_sweep
+from ancf_sym.study.catalog import get_study, studies
 
 @dataclass
 class StudyReport:
@@ -84,8 +61,8 @@ def run_study(name: str, out: str | Path, *, quick: bool = False, jobs: int | No
     if study.max_jobs is not None and jobs > study.max_jobs:
         jobs = study.max_jobs  # the study's timings need it (stated in the report)
     if scheduler is not None:
-        from .sweep import _client
-        client, close = _client(scheduler)  # (bad address or a missing extra: refused before any run)
+        from ancf_sym.study.sweep import dask_client
+        client, close = dask_client(scheduler)  # (bad address or a missing extra: refused before any run)
         if close:
             client.close()
     variant = "quick" if quick else "full"
@@ -98,7 +75,7 @@ def run_study(name: str, out: str | Path, *, quick: bool = False, jobs: int | No
     meta = {"target_given": target_given, "variant": variant, "jobs": jobs if scheduler is None else "Dask cluster", "cores": cores, "date": datetime.date.today().isoformat(),
             "timing": study.extra.get("timing", "wall time of the run, min over repeats"),
             "command": command or f"ancf-sym study {name} --out {shlex.quote(str(out))}" + (" --quick" if quick else "")}
-    from .report import write_report
+    from ancf_sym.study.report import write_report
     try:
         records = run_settings(study, variant, settings, out, reference, jobs, progress, scheduler)
     except KeyboardInterrupt:

@@ -11,7 +11,7 @@ import re
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-from ..checks import SceneError
+from ancf_sym.util.checks import SceneError
 
 
 class StudyError(SceneError):

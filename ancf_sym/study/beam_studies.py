@@ -4,15 +4,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Axis, Study
-from .statics_studies import MIN_TIME, REPEATS, _TIMING, _rod_reference, _timed_static, _tip_error, static_record
+from ancf_sym.study.base import Axis, Study
+from ancf_sym.study.references import rod_reference
+from ancf_sym.study.statics_studies import MIN_TIME, REPEATS, TIMING, static_record, timed_static, tip_error
 
 BL, BB, BE, BLOAD = 1.0, 0.02, 210e9, 1.0  # square 20 mm steel bar, 1 m; PL^2/EI = 1
 BIZ = BB**4 / 12
 
 
 def beam_scene(method: str, n: int, poisson: float):
-    from ..scene import Material, Scene, Section
+    from ancf_sym.scene.builder import Material, Scene, Section
     s = Scene(dim=3, gravity=(0.0, 0.0, 0.0), name="beam3d_cantilever")
     s.member("beam", points=[(0.0, 0.0, 0.0), (BL, 0.0, 0.0)], elements=n, element="beam3d", beam_method=method,
              material=Material(E=BE, density=7850.0, poisson=poisson), section=Section.rectangle(BB, BB),
@@ -24,14 +25,14 @@ def beam_scene(method: str, n: int, poisson: float):
 
 def beam_reference(variant: str) -> dict:
     """The rod reference (shooting, cross-checked by solve_bvp and the biot rod: references.rod_reference)."""
-    ref = _rod_reference(BL, BE * BB * BB, BE * BIZ, tip_force=(0.0, -BLOAD * BE * BIZ / BL**2),
+    ref = rod_reference(BL, BE * BB * BB, BE * BIZ, tip_force=(0.0, -BLOAD * BE * BIZ / BL**2),
                          quick=variant == "quick")
     ref["how"] += " (Euler-Bernoulli rod: no shear, no section deformation)"
     return ref
 
 
 def beam_run(setting: dict, variant: str) -> dict:
-    r, wall = _timed_static(lambda: beam_scene(setting["method"], setting["n"], setting["poisson"]),
+    r, wall = timed_static(lambda: beam_scene(setting["method"], setting["n"], setting["poisson"]),
                             *((1, 0.0) if variant == "quick" else (REPEATS, MIN_TIME)))
     return static_record(r, wall)
 
@@ -60,9 +61,9 @@ STUDIES = [
                 ("continuum", "elastic_line")),
            Axis("poisson", (0.0, 0.3), (0.0,), float, positive=False),
            Axis("n", (1, 2, 4, 8, 16, 32, 64), (2, 4), int)),
-          beam_run, beam_reference, _tip_error, "relative tip displacement error", 1e-3,
+          beam_run, beam_reference, tip_error, "relative tip displacement error", 1e-3,
           columns=("tip_x", "tip_y", "iterations"), conclusions=beam_conclusions,
-          extra={"timing": _TIMING},
+          extra={"timing": TIMING},
           notes="Paper 001's 24-DOF beam (beam3d): a 1 m steel bar, square 20 x 20 mm, clamped, dead tip force "
                 "PL^2/EI = 1 in -y (w/L = 0.30). h/L = 0.02: the section terms are of relative "
                 "size (kappa h)^2 ~ 4e-4 here, extensibility P/EA ~ 3e-5. Elastic line = "

@@ -6,7 +6,7 @@ import time
 
 import numpy as np
 
-from .base import Axis, Study
+from ancf_sym.study.base import Axis, Study
 
 INTEGRATORS = ("newmark", "hht", "generalized_alpha", "radau", "gauss")
 OUTPUT_DT = 0.01  # the tip is compared at these times
@@ -14,7 +14,7 @@ OUTPUT_DT = 0.01  # the tip is compared at these times
 
 def _tip_history(scene, integrator: str, dt: float, t_end: float, member: str,
                  progress=None) -> tuple[dict, np.ndarray]:
-    from ..dynamics import run_dynamics
+    from ancf_sym.dynamics import run_dynamics
     t0 = time.perf_counter()
     r = run_dynamics(scene, {"integrator": integrator, "dt": dt, "t_end": t_end, "output_dt": OUTPUT_DT,
                              "energies": False,
@@ -86,7 +86,7 @@ def _segmented_history(scene, dt: float, t_end: float, member: str, report=None,
     previous piece's end state (coordinates and velocities: a one-step method with a fixed step continues exactly
     as one run would, up to the Newton tolerance of each step); save(state) after each piece, `state` the piece to
     resume from. The record: status, counters summed, the tip at every output time."""
-    from ..dynamics import DynamicOptions, run_dynamics
+    from ancf_sym.dynamics import DynamicOptions, run_dynamics
     steps = int(round(t_end / dt))
     cuts = [round(k * steps / REFERENCE_SEGMENTS) for k in range(REFERENCE_SEGMENTS + 1)]
     cuts = sorted(set(c for c in cuts if c % max(1, int(round(OUTPUT_DT / dt))) == 0) | {0, steps})
@@ -149,7 +149,7 @@ ZL, ZA, ZI, ZRHO, ZE, ZG, ZT = 3.0, 7.854e-5, 4.909e-10, 7200.0, 20e9, 9.81, 1.0
 
 
 def zhang_scene(n: int):
-    from ..scene import Material, Scene, Section
+    from ancf_sym.scene.builder import Material, Scene, Section
     s = Scene(dim=2, gravity=(0.0, -ZG), name="zhang_pendulum")
     s.member("beam", points=[(0.0, 0.0), (ZL, 0.0)], elements=n, material=Material(E=ZE, density=ZRHO),
              section=Section(area=ZA, I=ZI), axial="decoupled", bending=True, gravity=True)
@@ -162,7 +162,7 @@ RL, RA, RI, RRHO, RE, RG, RT = 1.2, 0.0018, 1.215e-8, 5540.0, 0.7e6, 9.81, 1.0
 
 
 def rope_scene(n: int):
-    from ..scene import Material, Scene, Section
+    from ancf_sym.scene.builder import Material, Scene, Section
     s = Scene(dim=2, gravity=(0.0, -RG), name="rope_fall")
     s.member("rope", points=[(0.0, 0.0), (RL, 0.0)], elements=n, material=Material(E=RE, density=RRHO),
              section=Section(area=RA, I=RI), axial="green", bending=True, gravity=True)

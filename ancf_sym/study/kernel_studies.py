@@ -25,9 +25,9 @@ import time
 
 import numpy as np
 
-from ..casadi_buffers import bind
-from ..registry import GAUSS_ORDERS
-from .base import Axis, Study
+from ancf_sym.util.casadi_buffers import bind
+from ancf_sym.registry import GAUSS_ORDERS
+from ancf_sym.study.base import Axis, Study
 
 ELEMENTS = ("cable2d", "cable3d", "beam3d")
 FORMS = ("compiled", "sx_vm")
@@ -61,7 +61,7 @@ def element_states(element: str, n: int, seed: int = 6) -> np.ndarray:
     """n random deformed elements (n, ndof), C order = CasADi's column-major (ndof, n) of a mapped call: straight
     elements of length L along x with positions perturbed by N(0, (0.1 L)^2) and gradients by N(0, 0.1^2)
     (about 10 % stretch and 0.1 rad of bending per element, never near a degenerate |r_x|)."""
-    from .. import registry
+    from ancf_sym import registry
     el = registry.ELEMENTS[element]
     rng = np.random.default_rng(seed)
     if element.startswith("cable"):
@@ -83,7 +83,7 @@ def param_matrix(names: tuple[str, ...], n: int) -> np.ndarray:
 def installed_fused(element: str, gauss: int):
     """The compiled fused kernel of the installed package (cables: internal effect axial_green + bending), or None
     when this installation has none."""
-    from .. import kernels, registry
+    from ancf_sym import kernels, registry
     find = getattr(registry, "fused_effect", None)
     effect = find(element, PARTS[element]) if find else None
     if effect is None:
@@ -97,9 +97,9 @@ def installed_fused(element: str, gauss: int):
 def _fused_station(element: str):
     """Quadrature station of the fused kernel: (u, density, scale) triples, p = the fused parameter vector."""
     import casadi as ca
-    from .. import registry
-    from ..codegen import definitions
-    from ..elements import cable
+    from ancf_sym import registry
+    from ancf_sym.codegen import definitions
+    from ancf_sym.elements import cable
 
     if element.startswith("cable"):
         dim = registry.ELEMENTS[element].dim
@@ -115,7 +115,7 @@ def _fused_station(element: str):
         for eff in PARTS[element]:
             names = registry.EFFECTS[(element, eff)].params
             psub = ca.vertcat(*[p[BEAM_FUSED_PARAMS.index(k)] for k in names])
-            for u, dens, scale in definitions._beam_station(eff)(q, psub, xi, w):
+            for u, dens, scale in definitions.beam_station(eff)(q, psub, xi, w):
                 yield u, (lambda v, _p, dens=dens, psub=psub: dens(v, psub)), scale
     return station
 
@@ -130,8 +130,8 @@ def fused_symbolic(element: str, gauss: int):
     one (so the SX VM runs exactly what was compiled), else built here; cables as one straight-line SX function
     (like the shipped cable kernels), beam3d as one point function called per Gauss point (like the shipped beam
     kernels)."""
-    from .. import registry
-    from ..codegen import definitions, forms
+    from ancf_sym import registry
+    from ancf_sym.codegen import definitions, forms
 
     find = getattr(registry, "fused_effect", None)
     effect = find(element, PARTS[element]) if find else None
@@ -146,7 +146,7 @@ def fused_symbolic(element: str, gauss: int):
 
 @functools.lru_cache(maxsize=None)
 def per_effect_symbolic(element: str, effect: str, gauss: int):
-    from ..codegen import definitions
+    from ancf_sym.codegen import definitions
     return definitions.kernel(element, effect, gauss)
 
 
@@ -187,7 +187,7 @@ def compile_at_run_time(element: str, gauss: int, cflags: tuple[str, ...] = ("-O
 def build_form(element: str, form: str, split: str, gauss: int) -> dict:
     """The kernels of one setting: {'fns': [(Function, param names)], 'source': ..., 'ops': ..., 'build_s': ...}."""
     import casadi as ca
-    from .. import kernels
+    from ancf_sym import kernels
 
     t0 = time.perf_counter()
     if split == "per_effect":
@@ -291,7 +291,7 @@ def time_per_element(groups: list[list[Buffered]], n: int, min_time: float, repe
 
 
 def kernels_run(setting: dict, variant: str) -> dict:
-    from .. import kernels
+    from ancf_sym import kernels
     cfg = _VARIANT[variant]
     el, gauss, n = setting["element"], int(setting["gauss"]), cfg["n"]
     q = element_states(el, n)
@@ -326,7 +326,7 @@ def kernels_reference(variant: str) -> dict:
     """What the errors compare against, and the baseline time of the compiled per-effect kernels of every element
     and Gauss order (min over the variant's batches)."""
     import casadi as ca
-    from .. import kernels, registry
+    from ancf_sym import kernels, registry
     cfg = _VARIANT[variant]
     n = cfg["n"]
     baseline = {}

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .base import Study
+from ancf_sym.study.base import Study
 
 
 def _ok(r: dict) -> bool:

@@ -17,8 +17,8 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
-from .base import Study, StudyError
-from .sweep import finished_records as _finished, run_sweep, write_json_atomic
+from ancf_sym.study.base import Study, StudyError
+from ancf_sym.study.sweep import finished_records as _finished, run_sweep, write_json_atomic
 
 
 def finished_records(out: Path) -> dict[str, dict]:
@@ -157,7 +157,7 @@ _WARM: set = set()  # studies that already ran once in this process
 def _work(name: str, variant: str, setting: dict) -> dict:
     """One setting in a worker process. A process's first setting of a study runs twice, the first run untimed:
     it pays the one-time costs (loading kernel libraries and solver plugins) no later setting pays."""
-    from . import get_study
+    from ancf_sym.study.catalog import get_study
     study = get_study(name)
     try:
         if name not in _WARM:

@@ -20,15 +20,15 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
 from typing import Any, Callable
 
-from ..output_json import _clean
-from .base import StudyError, setting_key
+from ancf_sym.io.json_out import json_ready
+from ancf_sym.study.base import StudyError, setting_key
 
 
 def write_json_atomic(path: Path, data) -> None:
     """Write to a temporary sibling, then rename: a file is either the old one or the complete new one."""
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     with os.fdopen(fd, "w") as f:
-        json.dump(_clean(data), f, indent=1, allow_nan=False)  # NaN -> null: never a silent NaN
+        json.dump(json_ready(data), f, indent=1, allow_nan=False)  # NaN -> null: never a silent NaN
     os.replace(tmp, path)
 
 
@@ -52,7 +52,7 @@ def _safe(func: Callable[[dict], dict], setting: dict) -> dict:
     return {**setting, **rec}
 
 
-def _client(scheduler: Any):
+def dask_client(scheduler: Any):
     """(client, close it afterwards) from an address or a distributed.Client."""
     try:
         import distributed
@@ -130,7 +130,7 @@ def _run_dask(func, pending: list[dict], scheduler, store) -> None:
     """Submit every pending setting to the cluster and store each result once, as it arrives. A worker that dies
     mid-setting makes the scheduler run that setting again elsewhere (distributed's allowed-failures)."""
     from distributed import as_completed
-    client, close = _client(scheduler)
+    client, close = dask_client(scheduler)
     try:
         futures = {client.submit(_safe, func, s, pure=False, key=f"ancf-sym-{setting_key(s)}-{os.urandom(4).hex()}"):
                    s for s in pending}

@@ -1,0 +1,292 @@
+"""Damping of the equations of motion, in one place: what the scene asks for (Rayleigh, strain-rate damping of
+cables, dissipative contact) and the forces and exact tangents the step graphs and the time loop use.
+
+- Rayleigh C = alpha M + beta K_el(q_n): mass-proportional, and stiffness-proportional on the elastic tangent at
+  the start of each step (ancf_sym.dynamics.stiffness_damping keeps it), with per-member weights (`rayleigh_data`);
+- Kelvin-Voigt strain-rate damping of cables, the dissipation D = 1/2 sum_points w L (c_axial eps_dot^2 +
+  c_bending |kappa_dot|^2) at 5 Gauss points per element (`strain_rate_data`), force and tangents by AD of one
+  vectorized graph;
+- contact damping and friction: the compiled dissipation kernels the scene's contacts declare
+  (`contact.dissipation_calls`), force and tangents from their gradient and Hessian blocks.
+
+`dissipation_functions(S)` gives the step system's velocity-dependent force f_d(x, v) with df_d/dx, df_d/dv (the
+last two terms); `rayleigh_mx` the Rayleigh part inside a graph; `damping_force` the whole damping force at a state.
+S in the signatures is the ancf_sym.system.step_system.StepSystem the graphs are built for.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+import scipy.sparse as sp
+
+from ancf_sym.contact import laws as contact
+from ancf_sym import kernels
+from ancf_sym.model.assembly import Assembly
+from ancf_sym.elements.quadrature import gauss01
+from ancf_sym.elements.hermite import weights
+from ancf_sym.scene.member_effects import AXIAL_STRAINS
+from ancf_sym.scene.builder import SceneError
+from ancf_sym.util.sparsity import dm, gather_sum, scatter
+
+
+@dataclass
+class StrainRateData:
+    """Kelvin-Voigt damping of cables at Gauss points of the damped members: r_x = Bx x, r_xx = Bxx x (rows
+    component-major: d * P + point), weights w L, coefficients, and which points use the Green strain rate."""
+    dim: int
+    Bx: sp.csr_matrix
+    Bxx: sp.csr_matrix
+    wL: np.ndarray
+    c_axial: np.ndarray
+    c_bending: np.ndarray
+    green: np.ndarray
+
+
+@dataclass
+class RayleighData:
+    alpha: float  # mass-proportional [1/s]
+    beta: float  # stiffness-proportional [s], on the current elastic tangent
+    element_weight: dict  # term index -> per-element factor (members the damping applies to)
+
+
+def rayleigh_data(asm: Assembly, terms: list) -> RayleighData | None:
+    """Rayleigh damping requested by the scene (scene.dampings) with per-element weights of each term."""
+    scene = asm.scene
+    ds = [d for d in getattr(scene, "dampings", []) if d.kind == "rayleigh"]
+    if not ds:
+        return None
+    alphas = {d.alpha for d in ds if d.alpha}
+    if len(alphas) > 1 or any(d.members is not None for d in ds if d.alpha):
+        raise SceneError("mass-proportional Rayleigh damping (alpha) must be one value for the whole scene, got "
+                         f"{sorted(alphas)}")
+    alpha = alphas.pop() if alphas else 0.0
+    betas = {}
+    for d in ds:
+        if d.beta:
+            for name in (d.members or list(scene.members)):
+                betas[name] = d.beta
+    beta_ref = max(betas.values()) if betas else 0.0
+    weights = {}
+    if beta_ref:
+        starts = np.array([mm.offset for mm in asm.mesh.members.values()])
+        factor = np.array([betas.get(name, 0.0) / beta_ref for name in asm.mesh.members])
+        for ti, mk in enumerate(terms):
+            member = np.searchsorted(starts, mk.term.idx[:, 0], side="right") - 1
+            weights[ti] = factor[member]
+    return RayleighData(float(alpha), float(beta_ref), weights)
+
+
+def strain_rate_data(asm: Assembly) -> StrainRateData | None:
+    """Gauss points (5 per element) of the members with strain-rate damping: r_x and r_xx as sparse maps."""
+    ds = [d for d in getattr(asm.scene, "dampings", []) if d.kind == "strain_rate"]
+    if not ds:
+        return None
+    coef: dict[str, list] = {}
+    for d in ds:
+        for name in (d.members or list(asm.scene.members)):
+            c = coef.setdefault(name, [0.0, 0.0])
+            c[0], c[1] = c[0] + d.axial, c[1] + d.bending
+    dim = asm.scene.dim
+    xi, wq = gauss01(5)
+    rows_x, rows_xx, wl, ca_, cb_, green = [], [], [], [], [], []
+    for name, (c_ax, c_be) in coef.items():
+        mm = asm.mesh.members[name]
+        if mm.member.element == "beam3d":
+            raise SceneError(f"strain_rate_damping: member {name!r} is a beam3d (cables only)")
+        for e, (na, nb) in enumerate(mm.elem_nodes):
+            L = mm.elem_length[e]
+            da, db = mm.node_dofs(na), mm.node_dofs(nb)
+            _, wx, wxx = weights(xi, L)  # (4, 5)
+            for k in range(5):
+                rows_x.append((da, db, list(wx[:, k])))
+                rows_xx.append((da, db, list(wxx[:, k])))
+                wl.append(wq[k] * L)
+                ca_.append(c_ax)
+                cb_.append(c_be)
+                green.append(mm.member.axial is not None and AXIAL_STRAINS[mm.member.axial].rate == "green")
+    P = len(wl)
+
+    def matrix(rows):
+        r, c, v = [], [], []
+        for p, (da, db, w) in enumerate(rows):
+            for comp in range(dim):
+                for dofs, w_r, w_t in ((da, w[0], w[1]), (db, w[2], w[3])):
+                    r += [comp * P + p, comp * P + p]
+                    c += [dofs[comp], dofs[dim + comp]]
+                    v += [w_r, w_t]
+        return sp.csr_matrix((v, (r, c)), shape=(dim * P, asm.n))
+
+    return StrainRateData(dim, matrix(rows_x), matrix(rows_xx), np.array(wl), np.array(ca_), np.array(cb_),
+                          np.array(green))
+
+
+def rayleigh_mx(S: "StepSystem", v: ca.MX, kel: ca.MX | None) -> tuple[ca.MX, ca.MX]:
+    """(C v, C) as MX for C = alpha M + beta K_el (kel: its values, or None) on the unknowns of S."""
+    nf = S.nf
+    Cv, C = ca.MX.zeros(nf), ca.MX(nf, nf)
+    if S.rayleigh is None:
+        return Cv, C
+    Mdm = S.mass_dm()
+    if S.rayleigh.alpha:
+        Cv += S.rayleigh.alpha * S.mass_mx(v)
+        C = C + S.rayleigh.alpha * Mdm
+    if kel is not None:
+        Kel = ca.MX(S.kel_sparsity, kel)
+        Cv += S.rayleigh.beta * ca.mtimes(Kel, v)
+        C = C + S.rayleigh.beta * Kel
+    return Cv, C
+
+
+def rayleigh_matrix(S: "StepSystem", kel: np.ndarray | None) -> sp.csc_matrix | None:
+    """C = alpha M + beta K_el on the unknowns of S (kel: the values of K_el, or None), None without Rayleigh."""
+    if S.rayleigh is None:
+        return None
+    C = S.rayleigh.alpha * S.M
+    if kel is not None and S.kel_sparsity is not None:
+        spk = S.kel_sparsity
+        C = C + S.rayleigh.beta * sp.csc_matrix((kel, np.array(spk.row()), np.array(spk.colind())),
+                                                shape=(S.nf, S.nf))
+    return sp.csc_matrix(C)
+
+
+def strain_rate_mx(sr: StrainRateData, xf: ca.MX, X: ca.MX, V: ca.MX, vf: ca.MX) -> list[ca.MX]:
+    """(f_d, df_d/dx, df_d/dv) of the strain-rate dissipation for full coordinates X and velocities V (MX in the
+    unknowns xf, vf): exact derivatives by AD of one vectorized graph."""
+    d = sr.dim
+    P = len(sr.wL)
+    R, Rd, RR = ca.mtimes(dm(sr.Bx), X), ca.mtimes(dm(sr.Bx), V), ca.mtimes(dm(sr.Bxx), X)
+    rx = [R[k * P:(k + 1) * P] for k in range(d)]
+    rd = [Rd[k * P:(k + 1) * P] for k in range(d)]
+    rxx = [RR[k * P:(k + 1) * P] for k in range(d)]
+    n2 = sum(c * c for c in rx)
+    dot = sum(a * b for a, b in zip(rx, rd))
+    g = ca.DM(sr.green.astype(float))
+    eps_dot = g * dot + (1 - g) * dot / ca.sqrt(n2)
+    if d == 2:
+        kap = [(rx[0] * rxx[1] - rx[1] * rxx[0]) / n2 ** 1.5]
+    else:
+        kap = [(rx[1] * rxx[2] - rx[2] * rxx[1]) / n2 ** 1.5, (rx[2] * rxx[0] - rx[0] * rxx[2]) / n2 ** 1.5,
+               (rx[0] * rxx[1] - rx[1] * rxx[0]) / n2 ** 1.5]
+    wl = ca.DM(sr.wL)
+    D = 0.5 * ca.dot(ca.DM(sr.c_axial) * wl, eps_dot * eps_dot)
+    if np.any(sr.c_bending):
+        kdot = ca.jtimes(ca.vertcat(*kap), xf, vf)
+        cb = ca.repmat(ca.DM(sr.c_bending) * wl, d if d == 3 else 1, 1)
+        D += 0.5 * ca.dot(cb, kdot * kdot)
+    fd = ca.gradient(D, vf)
+    return [fd, ca.jacobian(fd, xf), ca.jacobian(fd, vf)]
+
+
+def contact_dissipation_mx(S: "StepSystem", X: ca.MX, V: ca.MX):
+    """(f, df/dx, df/dv) on the unknowns of step system S, for full coordinates X and velocities V (MX in S's
+    unknowns x, v), or None without dissipative contact. Assembled from the kernels' gradient (v-part) and Hessian
+    blocks: exact tangents, no differentiation through the compiled calls."""
+    calls = contact.dissipation_calls(S.asm.mesh)
+    if not calls:
+        return None
+    nf, pos = S.nf, S.pos
+    fv, ft, hv, rx, cx, sx, rv, cv, sv = [], [], [], [], [], [], [], [], []
+    n_h = 0
+    for element, effect, gauss, idx, P in calls:
+        N, nd = idx.shape
+        k = kernels.load(element, effect, None if gauss == 5 else gauss)
+        Z = ca.vertcat(ca.reshape(X[idx.ravel().tolist()], nd, N), ca.reshape(V[idx.ravel().tolist()], nd, N))
+        _, G, H = k.map(N)(Z, ca.DM(P.T))
+        fv.append(ca.vec(G[nd:, :]))
+        ft.append(pos[idx.ravel()])  # vec of G[nd:, :]: element e, row a -> coordinate idx[e, a]
+        hv.append(ca.vec(H))
+        # vec(H) entry e (2nd)^2 + b 2nd + a is d2D / dz_a dz_b; rows a >= nd (forces), columns b < nd (x), >= nd (v)
+        e, b, a = np.meshgrid(np.arange(N), np.arange(2 * nd), np.arange(2 * nd), indexing="ij")
+        src = n_h + (e * (2 * nd) ** 2 + b * 2 * nd + a).ravel()
+        e, b, a = e.ravel(), b.ravel(), a.ravel()
+        row = np.where(a >= nd, pos[idx[e, a % nd]], -1)
+        col = pos[idx[e, b % nd]]
+        ok = (row >= 0) & (col >= 0)
+        for sel, R, C, S_ in ((ok & (b < nd), rx, cx, sx), (ok & (b >= nd), rv, cv, sv)):
+            R.append(row[sel])
+            C.append(col[sel])
+            S_.append(src[sel])
+        n_h += N * (2 * nd) ** 2
+    f = gather_sum(fv, np.concatenate(ft), nf)
+    dfx = scatter(hv, np.concatenate(rx), np.concatenate(cx), nf, np.concatenate(sx), n_h)
+    dfv = scatter(hv, np.concatenate(rv), np.concatenate(cv), nf, np.concatenate(sv), n_h)
+    return f, dfx, dfv
+
+
+def _reach_switch(S: "StepSystem", xf: ca.MX, vf: ca.MX, X: ca.MX, dc: tuple) -> tuple:
+    """The contact dissipation dc = (f, df/dx, df/dv) evaluated only where some element is in reach of a dissipative
+    contact's surface at the iterate x itself: elsewhere every kernel returns exact zeros (the law is 0 at a positive
+    gap, contact_gap's hull bound is below every gap the kernels sample), so a switch that skips them gives the same
+    values bit for bit, and no margin is needed (the test is made at each point the step evaluates). A drum carried
+    by a body (no fixed centre for the bound) keeps the kernels always on."""
+    from ancf_sym.contact import gap as contact_gap
+
+    bounds = []
+    for c in getattr(S.asm.scene, "contacts", ()):
+        if not c.dissipative:
+            continue
+        b = contact_gap.gap_lower_bound_mx(S.asm, c, X)
+        if b is None:
+            return dc
+        # out of reach only by more than round-off of the positions: the kernels' own gaps then stay positive
+        floor = contact_gap.FLOOR * float(np.max(S.asm.mesh.members[c.member].elem_length))
+        bounds.append(ca.mmin(b) - floor)
+    reach = ca.Function("contact_dissipation_all", [xf, vf], list(dc))
+    none = ca.Function("contact_out_of_reach", [xf, vf], [ca.MX.zeros(o.sparsity()) for o in dc])
+    switch = ca.Function.conditional("contact_dissipation_in_reach", [none], reach)  # 0: none in reach
+    in_reach = ca.mmin(ca.vertcat(*bounds)) <= 0
+    return tuple(switch(in_reach, xf, vf))
+
+
+def dissipation_functions(S: "StepSystem") -> tuple[ca.Function | None, ca.Function | None]:
+    """(damp_f, damp_force_f) of the step system: damp_f(x, v) -> (f_d, df_d/dx, df_d/dv) of the strain-rate
+    damping and dissipative contact together, damp_force_f(x, v) -> f_d alone; (None, None) without either."""
+    sr = S.strain_rate
+    if sr is None and not contact.dissipation_calls(S.asm.mesh):  # (no graph to build: ~0.3 ms of set-up)
+        return None, None
+    nf = S.nf
+    xf, vf = ca.MX.sym("x", nf), ca.MX.sym("v", nf)
+    X, V = S.x_full_mx(xf), ca.mtimes(dm(S.E), vf)
+    dc = contact_dissipation_mx(S, X, V)
+    if dc is not None:
+        dc = _reach_switch(S, xf, vf, X, dc)
+    if sr is None:
+        if dc is None:
+            return None, None
+        return (ca.Function("contact_dissipation", [xf, vf], list(dc), ["x", "v"], ["f", "df_dx", "df_dv"]),
+                ca.Function("contact_force", [xf, vf], [dc[0]], ["x", "v"], ["f"]))
+    outs = strain_rate_mx(sr, xf, X, V, vf)
+    if dc is not None:
+        outs = [a + b for a, b in zip(outs, dc)]
+    return (ca.Function("strain_rate_damping", [xf, vf], outs, ["x", "v"], ["f", "df_dx", "df_dv"]),
+            ca.Function("strain_rate_force", [xf, vf], [outs[0]], ["x", "v"], ["f"]))
+
+
+def damping_force(S: "StepSystem", xf: np.ndarray, vf: np.ndarray) -> np.ndarray | None:
+    """Damping force on the unknowns at (x, v): Rayleigh C v (with the current K_el values) + strain rate and
+    contact dissipation; None for an undamped system."""
+    f = None
+    C = rayleigh_matrix(S, S.kel)
+    if C is not None:
+        f = C @ vf
+    if S.damp_force_f is not None:  # the force alone: damp_f's tangents cost 2x more and are not needed here
+        fd = np.asarray(S.damp_force_f(xf, vf)).ravel()
+        f = fd if f is None else f + fd
+    return f
+
+
+def damping_force_rows(S: "StepSystem", Q: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """(n, nf) damping_force at the states Q, V (n, nf) of a chunk's accepted steps: without Rayleigh damping one
+    mapped call of the dissipation force over the states (per-call overhead paid once per chunk, not per step: the
+    same values), else row by row."""
+    if len(Q) == 0:
+        return np.zeros((0, S.nf))
+    if S.rayleigh is not None or S.damp_force_f is None:
+        return np.array([damping_force(S, q, v) for q, v in zip(Q, V)])
+    mapped = S.__dict__.setdefault("_damp_force_maps", {})
+    f = mapped.get(len(Q))
+    if f is None:
+        f = mapped[len(Q)] = S.damp_force_f.map(len(Q))
+    return np.asarray(f(Q.T, V.T)).T
