@@ -51,7 +51,7 @@ extensions = [
               extra_compile_args=k["cflags"], libraries=["m"])
     for lib, k in sorted(LIBRARIES.items(), key=lambda lk: -(GENERATED / lk[1]["c_file"]).stat().st_size)
 ]
-# hand-written C (csrc/): the statics Newton loop, calling the kernels and LAPACK by pointer (ancf_sym.newton_loop);
+# hand-written C (csrc/): the statics Newton loop, calling the kernels and LAPACK by pointer (ancf_sym.statics.newton_loop);
 # no floating-point contraction, so that it rounds as the numpy loop it mirrors
 extensions.append(Extension("ancf_sym._kernels.newton_loop", sources=["csrc/newton_loop.c"],
                             extra_compile_args=["-O2", "-g0", "-ffp-contract=off"], libraries=["m"]))
