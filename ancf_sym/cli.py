@@ -42,6 +42,7 @@ if _HANDLER is signal.default_int_handler:  # (an ignored SIGINT, e.g. a backgro
         pass
 
 import argparse  # noqa: E402 - after the handler above
+import copy  # noqa: E402
 import shutil  # noqa: E402
 import time  # noqa: E402
 import traceback  # noqa: E402
@@ -94,7 +95,7 @@ def run_statics(scene: Scene, analysis: dict, scene_file: Path, out: Path, progr
     """Solve and write the outputs into `out`; (success, one-line summary)."""
     from ancf_sym.model.assembly import Assembly
     from ancf_sym.io.json_out import static_result_dict, write_json
-    from ancf_sym.statics.problem import StaticOptions, StaticProblem
+    from ancf_sym.statics.problem import StaticProblem
 
     progress.stage("assemble")
     asm = Assembly(scene)
@@ -102,8 +103,7 @@ def run_statics(scene: Scene, analysis: dict, scene_file: Path, out: Path, progr
     progress.stage("build solver")
     problem = StaticProblem(asm, progress=progress.note)  # shows each IPOPT attempt as it runs
     progress.stage("solve")
-    opts = StaticOptions(**{k: v for k, v in analysis.items() if k != "type"})
-    r = problem.solve(opts)
+    r = problem.solve(analysis.options)  # (decoded once, by the TOML reader)
     wall_total = time.perf_counter() - t_start
     progress.stage("write result.json")
     write_json(out / RESULT_FILE, static_result_dict(r, scene_file, analysis, wall_total), clean=False)
@@ -132,13 +132,12 @@ def run_dynamics_cli(scene: Scene, analysis: dict, scene_file: Path, out: Path, 
     """Integrate the scene (progress: simulated time) and write result.json, history.png, series.pvd + frames,
     motion.gif (animation)."""
     from ancf_sym.model.assembly import Assembly
-    from ancf_sym.dynamics import options_from_dict, simulate
-    from ancf_sym.io.dynamics_output import frame_sensors, write_outputs
+    from ancf_sym.dynamics import simulate
+    from ancf_sym.io.dynamics_output import write_outputs
 
     progress.stage("assemble")
-    table = dict(analysis)
-    table["sensors"] = list(table.get("sensors", [])) + frame_sensors(scene)
-    opts = options_from_dict(table)  # bad input refused here, before any step
+    opts = copy.copy(analysis.options)  # (decoded once, by the TOML reader)
+    opts.record_states = True  # every coordinate at the output times: the VTK series and the animation
     asm = Assembly(scene)
     progress.stage("integrate")
 
@@ -166,12 +165,11 @@ def run_modal(scene: Scene, analysis: dict, scene_file: Path, out: Path, progres
     from ancf_sym.modal import modal_analysis
     from ancf_sym.modal.output import animate_modes, modal_result_dict, plot_modes, write_modes_vtu
     from ancf_sym.io.json_out import write_json
-    from ancf_sym.statics.problem import StaticOptions
     from ancf_sym.io.vtk import DEFAULT_SAMPLES, samples_per_element
 
     progress.stage("solve statics, modes")
-    opts = StaticOptions(**{k: v for k, v in analysis.items() if k not in ("type", "modes", "damped")})
-    r = modal_analysis(scene, modes=analysis.get("modes", 10), options=opts, damped=analysis.get("damped", False))
+    r = modal_analysis(scene, modes=analysis.get("modes", 10), options=analysis.options,
+                       damped=analysis.get("damped", False))
     wall_total = time.perf_counter() - t_start
     progress.stage("write result.json, modes.png, modes.vtu")
     write_json(out / RESULT_FILE, modal_result_dict(r, scene_file, analysis, wall_total))

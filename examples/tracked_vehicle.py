@@ -72,7 +72,7 @@ from ancf_sym.bodies import drives  # noqa: E402
 from ancf_sym.model.assembly import Assembly  # noqa: E402
 from ancf_sym.dynamics import DynamicOptions, Sensor, simulate  # noqa: E402
 from ancf_sym.dynamics.newton import NewtonOptions  # noqa: E402
-from ancf_sym.io.dynamics_output import frame_sensors, write_series  # noqa: E402
+from ancf_sym.io.dynamics_output import write_series  # noqa: E402
 from ancf_sym.statics import solve_static  # noqa: E402
 
 # -- paper 001's chain ------------------------------------------------------------------------------------------
@@ -417,6 +417,11 @@ def chassis_angles(ch: np.ndarray) -> dict[str, np.ndarray]:
             "yaw_deg": np.degrees(np.arctan2(-e1[:, 2], e1[:, 0]))}
 
 
+def member_states(res, mm) -> np.ndarray:
+    """(n_outputs, n_nodes, node_size) coordinates of one member at the output times (the run's recorded states)."""
+    return res.states[:, mm.offset:mm.offset + mm.x0.size].reshape(len(res.t), mm.n_nodes, -1)
+
+
 def run_vehicle(method: str, t_end: float, dt: float, drive_start: float = DRIVE_START, rho_inf: float = 0.5,
                 output_dt: float = 0.05, ground_mu: float | None = None,
                 full: bool = False) -> tuple[list[dict], dict]:
@@ -424,14 +429,13 @@ def run_vehicle(method: str, t_end: float, dt: float, drive_start: float = DRIVE
     estimate, the drives' torque and work, the energies and contacts at every output time."""
     asm, q0, st = vehicle_start(method, ground_mu, drive_start, full)
     sc = asm.scene
-    sensors = [Sensor(**s) for s in frame_sensors(sc)] + [Sensor(b, "body", b) for b in sc.bodies]
+    sensors = [Sensor(b, "body", b) for b in sc.bodies]
     opts = DynamicOptions(dt=dt, t_end=t_end, rho_inf=rho_inf, output_dt=output_dt, sensors=sensors, q0=q0,
-                          newton=NEWTON)
+                          newton=NEWTON, record_states=True)
     t0 = time.perf_counter()
     res = simulate(asm, opts)
     wall = time.perf_counter() - t0
-    chains = {c: np.stack([np.asarray(res.sensors[f"__node:{c}:{j}"]) for j in range(mm.n_nodes)], axis=1)
-              for c, mm in asm.mesh.members.items()}
+    chains = {c: member_states(res, mm) for c, mm in asm.mesh.members.items()}
     states = np.concatenate(list(chains.values()), axis=1)
     t = np.asarray(res.t)
     ch = np.asarray(res.sensors["chassis"])  # centre (3), omega (3), axes (9)
@@ -497,14 +501,13 @@ def run(method: str, t_end: float, dt: float, integrator: str = "generalized_alp
     asm = Assembly(sc)
     q0, st = static_start(method)
     v0 = circulating(asm, speed) if speed else None
-    sensors = [Sensor(**s) for s in frame_sensors(sc)]
     opts = DynamicOptions(dt=dt, t_end=t_end, integrator=integrator, rho_inf=rho_inf, output_dt=output_dt,
-                          sensors=sensors, q0=q0, v0=v0, newton=NEWTON)
+                          q0=q0, v0=v0, newton=NEWTON, record_states=True)
     t0 = time.perf_counter()
     res = simulate(asm, opts)
     wall = time.perf_counter() - t0
     mm = asm.mesh.members["chain"]
-    states = np.stack([np.asarray(res.sensors[f"__node:chain:{j}"]) for j in range(mm.n_nodes)], axis=1)
+    states = member_states(res, mm)
     com = chain_com(asm, states)
     t = np.asarray(res.t)
     vel = np.gradient(com, t, axis=0) if len(t) > 1 else np.zeros_like(com)

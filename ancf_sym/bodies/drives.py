@@ -32,7 +32,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ancf_sym.util.checks import SceneError, table_type
+from ancf_sym.util.checks import SceneError
 
 # -- motions of time -----------------------------------------------------------------------------------------------
 
@@ -245,23 +245,6 @@ def torque(scene, body: str, torque: Any, name: str | None = None) -> Torque:
     else:
         m = motion(f, torque)
     return Torque(_name(scene, name, f"torque {body}"), body, m)
-
-
-TOML_KEYS = {"angle": ("type", "name", "body", "relative_to", "angle", "omega", "angle0"),
-             "position": ("type", "name", "member", "at", "body", "position"),
-             "torque": ("type", "name", "body", "torque")}
-
-
-def from_toml(scene, d: dict):
-    """A [[drives]] table: type = "angle" (Scene.drive), "position" (Scene.drive_position) or "torque"
-    (Scene.torque), with that method's keyword arguments; motions as numbers or [[t, [a0, a1, ...]], ...]."""
-    kind = table_type(d, TOML_KEYS, "angle")
-    kw = {k: v for k, v in d.items() if k != "type"}
-    if kind == "position":
-        return scene.drive_position(**kw)
-    if "body" not in kw:
-        raise SceneError("body: missing (the body the drive acts on)")
-    return scene.torque(**kw) if kind == "torque" else scene.drive(**kw)
 
 
 # -- rows and inputs of the step graphs ------------------------------------------------------------------------------

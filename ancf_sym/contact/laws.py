@@ -16,7 +16,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ancf_sym.elements.hermite import weights
-from ancf_sym.util.checks import SceneError, table_type
+from ancf_sym.util.checks import SceneError
 
 LABEL = "contact"
 
@@ -167,34 +167,6 @@ def drum(scene, member: str, centre: Sequence[float] | None, radius: float, axis
     else:
         a = _vector(f, "axis", (0.0, 0.0, 1.0) if axis is None else axis, 3, True)
     return DrumContact(centre=c, radius=R, axis=a, body=body, **law)
-
-
-_SHARED_KEYS = ("type", "member", "stiffness", "hertz", "thickness", "damping", "mu", "eps", "gauss", "method")
-TOML_KEYS = {"ground": _SHARED_KEYS + ("normal", "level"),
-             "circle": _SHARED_KEYS + ("centre", "radius", "axis", "body")}
-_NOT_NUMBERS = ("type", "member", "normal", "method", "centre", "axis", "body")
-
-
-def from_toml(scene, d: dict) -> GroundContact | DrumContact:
-    """A [[contacts]] table: type = "ground" (Scene.contact_ground) or "circle" (a fixed drum, Scene.contact_drum)
-    and the keyword arguments of that method."""
-    kind = table_type(d, TOML_KEYS, "ground")
-    if "member" not in d:
-        raise SceneError("member: missing (the member whose centre line touches the obstacle)")
-    for k, v in d.items():
-        if k not in _NOT_NUMBERS and (isinstance(v, bool) or not isinstance(v, (int, float))):
-            raise SceneError(f"{k} must be a number, got {v!r}")
-    kw = {k: v for k, v in d.items() if k != "type"}
-    if "gauss" in kw and isinstance(kw["gauss"], float) and kw["gauss"].is_integer():
-        kw["gauss"] = int(kw["gauss"])
-    if kind == "circle":
-        for key in ("centre", "radius"):
-            if key not in kw and not (key == "centre" and "body" in kw):
-                raise SceneError(f"{key}: missing (a circle contact needs the drum's centre, or the body carrying "
-                                 "it, and radius)")
-        kw.setdefault("centre", None)
-        return scene.contact_drum(**kw)
-    return scene.contact_ground(**kw)
 
 
 def _effect(c) -> str:

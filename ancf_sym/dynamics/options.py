@@ -46,6 +46,7 @@ class DynamicOptions:
     sensors: list = field(default_factory=list)
     loads: list = field(default_factory=list)  # TimeLoad (time-dependent point forces)
     energies: bool = True  # record the energy balance at output times (one energy evaluation per output)
+    record_states: bool = False  # keep every coordinate at the output times (DynamicResult.states)
     q0: np.ndarray | None = None  # initial coordinates (full, default the reference state)
     v0: np.ndarray | None = None  # initial velocities (full, default zero)
     initial: list | None = None  # initial velocities per member/body ([[initial]] tables, ancf_sym.dynamics.initial)

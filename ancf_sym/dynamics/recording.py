@@ -50,8 +50,9 @@ class Recorder:
     energy balance can end the run) and leave the rest (sensors, constraint violation) to be evaluated for all of
     them together when the outputs are read (`t`, `data`, `viol`)."""
 
-    def __init__(self, system: StepSystem, sensors: list[SensorEval], energies: bool = True):
+    def __init__(self, system: StepSystem, sensors: list[SensorEval], energies: bool = True, states: bool = False):
         self.S = system
+        self._states: list | None = [] if states else None  # full coordinates per record (record_states)
         self.sensors = sensors
         self.with_energies = energies
         self._t: list[float] = []
@@ -113,6 +114,12 @@ class Recorder:
         return self._data
 
     @property
+    def states(self) -> np.ndarray | None:
+        """(n_outputs, n) full coordinates at the output times, or None (not asked for)."""
+        self._flush()
+        return None if self._states is None else np.array(self._states).reshape(len(self._t), -1)
+
+    @property
     def viol(self) -> list[float]:
         """The constraint violation at the output times."""
         self._flush()
@@ -127,6 +134,8 @@ class Recorder:
                 self.reactions.setdefault(name, []).append(val)
         for s in self.sensors:
             self._data[s.sensor.name].append(s(x, v))
+        if self._states is not None:
+            self._states.append(x.copy())
         if self.with_energies:
             self._book(t, *S.energies_by_label(qf, vf), damping_work, external_work)
         self._viol.append(self._violation(x, t))
@@ -156,6 +165,8 @@ class Recorder:
         X, VX = S.full_rows(Q), S.full_v_rows(V)
         for s in self.sensors:
             self._data[s.sensor.name].extend([s(x, v) for x, v in zip(X, VX)])
+        if self._states is not None:
+            self._states.extend(np.array(X, float))
         self._viol.extend(self._violations(X))
         for ts, _, _ in blocks:
             self._t.extend(float(t) for t in ts)

@@ -39,6 +39,8 @@ class DynamicResult:
     # per penalty contact (ancf_sym.contact.gap.Watch.record): the smallest true gap of the centre line over every
     # accepted step [m] (None: never below 0), its time [s] and the law's sampled penetration then [m]
     contact_gaps: list = field(default_factory=list)
+    # (len(t), n) every coordinate at the output times where options.record_states asked for them, else None
+    states: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         # a wrong sensor or energy name is refused listing the names there are

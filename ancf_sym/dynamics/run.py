@@ -162,7 +162,7 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
                  float(np.max(np.abs(Q0)))) if S.nf else 0.0
     integ.tol_q = opts.newton.tol * max(fscale, 1e-300)
 
-    rec = Recorder(S, sensors, opts.energies)
+    rec = Recorder(S, sensors, opts.energies, opts.record_states)
     rec.E0 = rec.energy(integ.q, integ.v)[2] if opts.energies else None
     run = TimeLoop(S, integ, opts, loads, rec, outputs, every, progress, dt_min, dt_max, err_tol)
     run.go()
@@ -177,6 +177,7 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
                         S.full(integ.q), S.full_v(integ.v), opts, asm,
                         float(min(h_used)) if h_used else float("nan"), float(max(h_used)) if h_used else float("nan"),
                         setup, cpu, {k: np.array(v) for k, v in rec.reactions.items()})
+    res.states = rec.states
     if run.gaps is not None:  # penalty contact: the smallest true gaps over every accepted step
         res.contact_gaps = run.gaps.record()
     return res

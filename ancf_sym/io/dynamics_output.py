@@ -1,9 +1,8 @@
 """Outputs of a dynamic run for the CLI: result.json, PNG time histories, a VTK time series (.pvd + one .vtu per
 output time) for ParaView, and an animation (motion.gif) of the members' motion.
 
-The frames need every node's coordinates at the output times: the CLI adds one "coordinates" sensor per public
-node (named with a leading "__", left out of result.json and the plots). A polyline vertex's hidden duplicate
-node takes its public twin's coordinates (same position; the slope of the segment before the vertex).
+The frames need every coordinate at the output times: the run records them as states (DynamicOptions.record_states,
+which the command line sets; DynamicResult.states).
 """
 from __future__ import annotations
 
@@ -21,45 +20,19 @@ from ancf_sym.model import fields
 from ancf_sym.io.json_out import json_ready, write_json
 from ancf_sym.io.vtk import samples_per_element, section_point_data, write_mesh
 
-FRAME_PREFIX = "__node"
-
-
-def frame_sensors(scene) -> list[dict]:
-    """One coordinates sensor per public node of every member."""
-    from ancf_sym.model.mesh import build_mesh
-
-    out = []
-    for name, mm in build_mesh(scene).members.items():
-        out += [{"name": f"{FRAME_PREFIX}:{name}:{j}", "kind": "coordinates", "member": name, "at": j}
-                for j in range(len(mm.public_nodes))]
-    return out
-
-
-def _member_states(result, name: str) -> np.ndarray:
-    """(n_times, n_internal_nodes, node_size) coordinates of a member at the output times."""
-    mm = result.assembly.mesh.members[name]
-    public = {int(i): j for j, i in enumerate(mm.public_nodes)}
-    rows = []
-    for i in range(mm.n_nodes):
-        j = public.get(i, public.get(i - 1))
-        rows.append(np.asarray(result.sensors[f"{FRAME_PREFIX}:{name}:{j}"]))
-    return np.stack(rows, axis=1)
-
-
 def _full_states(result) -> list[np.ndarray]:
-    """Full coordinate vectors at the output times, from the frame sensors (final state only without them)."""
-    mesh = result.assembly.mesh
-    if not len(result.t) or not any(k.startswith(FRAME_PREFIX) for k in result.sensors):
+    """Full coordinate vectors at the output times (DynamicResult.states; the final state only without them)."""
+    if not len(result.t) or result.states is None:
         return [np.asarray(result.x)]
-    states = {name: _member_states(result, name) for name in mesh.members}
-    out = []
-    for k in range(len(result.t)):
-        x = np.array(result.x, float)
-        for name, X in states.items():
-            mm = mesh.members[name]
-            x[mm.offset:mm.offset + mm.x0.size] = X[k].ravel()
-        out.append(x)
-    return out
+    return list(result.states)
+
+
+def _states(result) -> np.ndarray:
+    """(n_outputs, n) coordinates at the output times; refused before any file is written without them."""
+    if result.states is None:
+        raise ValueError("the VTK series and the animation need every coordinate at the output times: run the "
+                         "dynamics with DynamicOptions(record_states=True) (the command line does)")
+    return result.states
 
 
 def _deepest(t, recs: list[dict]) -> dict:
@@ -75,7 +48,6 @@ def _deepest(t, recs: list[dict]) -> dict:
 
 def result_dict(result, scene_file, analysis: dict, wall_total: float) -> dict:
     d = result.to_dict()
-    d["sensors"] = {k: v for k, v in d["sensors"].items() if not k.startswith(FRAME_PREFIX)}
     scene = result.assembly.scene
     if scene.contacts:  # per penalty contact, at the output times: min_gap, smallest_gap [m], normal_force [N]
         reps = [contact.report(result.assembly, x) for x in _full_states(result)]
@@ -152,8 +124,6 @@ def history_figure(result) -> Figure:
     sensors = {s.name: s for s in (result.options.sensors if result.options else [])}
     panels = []
     for name, v in result.sensors.items():
-        if name.startswith(FRAME_PREFIX):
-            continue
         v = np.asarray(v).reshape(len(result.t), -1)
         s = sensors.get(name)
         if s is None:  # (a result without its options: columns as they are)
@@ -200,7 +170,7 @@ def write_animation(result, path: Path, per_element: int = 8) -> Path:
     asm = result.assembly
     t = np.asarray(result.t, float)
     pick = np.unique(np.r_[np.linspace(0, len(t) - 1, min(len(t), MAX_FRAMES)).round().astype(int), len(t) - 1])
-    states = _full_states(result)
+    states = _states(result)
     frames = [member_shapes(asm, states[k], per_element) for k in pick]
     span = float(t[pick[-1]] - t[pick[0]])
     fps = float(np.clip(len(pick) / span, 4, 25)) if span > 0 else 10.0
@@ -221,12 +191,15 @@ def write_animation(result, path: Path, per_element: int = 8) -> Path:
 
 def write_series(result, directory: Path, per_element: int = 8) -> Path:
     """frames/frame_XXXX.vtu per output time and series.pvd listing them with their times."""
+    all_states = _states(result)
     frames = directory / "frames"
     frames.mkdir()
-    states = {name: _member_states(result, name) for name in result.assembly.mesh.members}
+    members = result.assembly.mesh.members
+    states = {name: all_states[:, mm.offset:mm.offset + mm.x0.size].reshape(len(all_states), mm.n_nodes, -1)
+              for name, mm in members.items()}
     entries = []
     section_data = section_point_data(result.assembly.mesh, per_element)
-    full = _full_states(result) if result.assembly.scene.contacts else None
+    full = all_states if result.assembly.scene.contacts else None
     for k, t in enumerate(result.t):
         pts, cells, s_all, strain, axial, curv, member = [], [], [], [], [], [], []
         n0 = 0
@@ -245,7 +218,7 @@ def write_series(result, directory: Path, per_element: int = 8) -> Path:
             "s": np.concatenate(s_all), "strain": np.concatenate(strain), "axial_strain": np.concatenate(axial),
             "curvature": np.concatenate(curv),
             "member": np.concatenate(member), **section_data,
-            **(contact.point_data(result.assembly, full[k], per_element) if full else {})})
+            **(contact.point_data(result.assembly, full[k], per_element) if full is not None else {})})
         fn = frames / f"frame_{k:05d}.vtu"
         write_mesh(fn, mesh)
         entries.append(f'    <DataSet timestep={quoteattr(repr(float(t)))} part="0" file="frames/{fn.name}"/>')

@@ -21,7 +21,7 @@ The file mirrors the Python API (docs/scenes.md has the full schema and an annot
     [[drives]]           type = "angle" (body, angle | omega, relative_to, angle0) | "position" (member, at | body,
                          position) | "torque" (body, torque); motions: numbers or [[t, [a0, a1, ...]], ...]
     [[contacts]]         type = "ground" (normal, level) | "circle" (centre, radius, axis), member, stiffness, hertz,
-                         thickness, damping, mu, eps, gauss, method (ancf_sym.contact.from_toml)
+                         thickness, damping, mu, eps, gauss, method (read here, by _contact)
     [analysis]           type = "statics" (tol, max_iter, load_steps, escape_saddle, load_stepping) | "dynamics"
                          (passed through; start = "static", release, from_result, [[analysis.initial]] member,
                          velocity | omega, centre; [[analysis.sensors]], [[analysis.loads]]) | "modal" (modes,
@@ -37,9 +37,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from ancf_sym.contact import laws as contact
-from ancf_sym.bodies import drives
-from ancf_sym.util.checks import check_keys, fail, number, vector
+from ancf_sym.util.checks import check_keys, fail, number, table_type, vector
 from ancf_sym.model.mesh import build_mesh
 from ancf_sym.scene.builder import Material, Scene, SceneError, Section
 from ancf_sym.scene.schema import ARC, BODY, BODY_JOINT, LOOP, MATERIAL, MODAL_OPTIONS, POINT_MASS, SECTION, STATIC_OPTIONS
@@ -364,22 +362,78 @@ def _damping(scene: Scene, path: str, d: dict) -> None:
     _api(path, getattr(scene, method), root=method, **{k: v for k, v in d.items() if k != "type"})
 
 
-def _analysis(d: Any) -> dict:
+# -- [[contacts]] and [[drives]]: a table type and the keyword arguments of the scene's method -----------------
+
+_CONTACT_SHARED = ("type", "member", "stiffness", "hertz", "thickness", "damping", "mu", "eps", "gauss", "method")
+CONTACT_KEYS = {"ground": _CONTACT_SHARED + ("normal", "level"),
+             "circle": _CONTACT_SHARED + ("centre", "radius", "axis", "body")}
+_CONTACT_NOT_NUMBERS = ("type", "member", "normal", "method", "centre", "axis", "body")
+
+
+def _contact(scene: Scene, d: dict) -> Any:
+    """A [[contacts]] table: type = "ground" (Scene.contact_ground) or "circle" (a fixed drum, Scene.contact_drum)
+    and the keyword arguments of that method."""
+    kind = table_type(d, CONTACT_KEYS, "ground")
+    if "member" not in d:
+        raise SceneError("member: missing (the member whose centre line touches the obstacle)")
+    for k, v in d.items():
+        if k not in _CONTACT_NOT_NUMBERS and (isinstance(v, bool) or not isinstance(v, (int, float))):
+            raise SceneError(f"{k} must be a number, got {v!r}")
+    kw = {k: v for k, v in d.items() if k != "type"}
+    if "gauss" in kw and isinstance(kw["gauss"], float) and kw["gauss"].is_integer():
+        kw["gauss"] = int(kw["gauss"])
+    if kind == "circle":
+        for key in ("centre", "radius"):
+            if key not in kw and not (key == "centre" and "body" in kw):
+                raise SceneError(f"{key}: missing (a circle contact needs the drum's centre, or the body carrying "
+                                 "it, and radius)")
+        kw.setdefault("centre", None)
+        return scene.contact_drum(**kw)
+    return scene.contact_ground(**kw)
+
+
+DRIVE_KEYS = {"angle": ("type", "name", "body", "relative_to", "angle", "omega", "angle0"),
+             "position": ("type", "name", "member", "at", "body", "position"),
+             "torque": ("type", "name", "body", "torque")}
+
+
+def _drive(scene: Scene, d: dict) -> Any:
+    """A [[drives]] table: type = "angle" (Scene.drive), "position" (Scene.drive_position) or "torque"
+    (Scene.torque), with that method's keyword arguments; motions as numbers or [[t, [a0, a1, ...]], ...]."""
+    kind = table_type(d, DRIVE_KEYS, "angle")
+    kw = {k: v for k, v in d.items() if k != "type"}
+    if kind == "position":
+        return scene.drive_position(**kw)
+    if "body" not in kw:
+        raise SceneError("body: missing (the body the drive acts on)")
+    return scene.torque(**kw) if kind == "torque" else scene.drive(**kw)
+
+
+class Analysis(dict):
+    """The [analysis] table as written (a dict: result.json echoes it) and `options`, the option object it decodes to,
+    decoded once here: StaticOptions (statics, and a modal analysis's equilibrium) or DynamicOptions."""
+
+    def __init__(self, table: dict, options: Any):
+        super().__init__(table)
+        self.options = options
+
+
+def _analysis(d: Any) -> Analysis:
     d = _table("analysis", d)
     kind = _str("analysis.type", d.get("type", "statics"), ANALYSIS_TYPES)
     if kind == "dynamics":  # checked now by the dynamics options (sensors and loads against the scene later)
         from ancf_sym.dynamics import options_from_dict
-        _api("analysis", options_from_dict, d, root="analysis")
-        return {**d, "type": "dynamics"}
+        opts = _api("analysis", options_from_dict, d, root="analysis")
+        return Analysis({**d, "type": "dynamics"}, opts)
     modal = tuple(MODAL_OPTIONS) if kind == "modal" else ()  # (modal: the statics options for its equilibrium too)
     _keys("analysis", d, ("type",) + STATICS_OPTIONS + modal)
-    opts = {k: v for k, v in d.items() if k not in ("type",) + modal}
-    _api("analysis", StaticOptions, root="analysis", **opts)  # checks the values (ancf_sym.scene.schema)
+    kw = {k: v for k, v in d.items() if k not in ("type",) + modal}
+    opts = _api("analysis", StaticOptions, root="analysis", **kw)  # checks the values (ancf_sym.scene.schema)
     extra = {k: MODAL_OPTIONS[k].check(f"analysis.{k}", d[k]) for k in modal if k in d}
-    return {"type": kind, **opts, **extra}
+    return Analysis({"type": kind, **kw, **extra}, opts)
 
 
-def scene_from_dict(doc: dict, default_name: str = "scene", base: str | Path | None = None) -> tuple[Scene, dict]:
+def scene_from_dict(doc: dict, default_name: str = "scene", base: str | Path | None = None) -> tuple[Scene, Analysis]:
     """The scene and the analysis table of a parsed TOML document (see the module docstring); relative paths in it
     (analysis.from_result) are taken from the folder `base` (the scene file's; default the working folder)."""
     _check_finite("", doc)
@@ -415,9 +469,9 @@ def scene_from_dict(doc: dict, default_name: str = "scene", base: str | Path | N
     for i, d in enumerate(bodies):  # joints may name any body, earlier or later
         _body_joints(scene, f"bodies[{i}]", d)
     for i, d in enumerate(_array_of_tables("contacts", doc.get("contacts", []))):  # (after the bodies: a circle
-        _api(f"contacts[{i}]", contact.from_toml, scene, d)                         # may be carried by one)
+        _api(f"contacts[{i}]", _contact, scene, d)                         # may be carried by one)
     for i, d in enumerate(_array_of_tables("drives", doc.get("drives", []))):
-        _api(f"drives[{i}]", drives.from_toml, scene, d)
+        _api(f"drives[{i}]", _drive, scene, d)
 
     # dry run of the mesh and the energy terms (numpy only, no kernels): what they refuse, refuse now
     _api("members", lambda: scene_terms(build_mesh(scene)))
@@ -452,15 +506,16 @@ def scene_from_dict(doc: dict, default_name: str = "scene", base: str | Path | N
         src = Path(analysis["from_result"])
         src = src if src.is_absolute() or base is None else Path(base) / src
         read_result(src, build_mesh(scene).n)
-        analysis["from_result"] = str(src)
+        analysis["from_result"] = analysis.options.from_result = str(src)
     return scene, analysis
 
 
-def load_scene(path: str | Path) -> tuple[Scene, dict]:
-    """(Scene, analysis dict) from a TOML file; SceneError (naming the TOML path of the field) on bad input.
+def load_scene(path: str | Path) -> tuple[Scene, Analysis]:
+    """(Scene, Analysis) from a TOML file; SceneError (naming the TOML path of the field) on bad input.
 
-    The scene name defaults to the file's stem. analysis: {"type": "statics", tol?, max_iter?, load_steps?,
-    escape_saddle?, load_stepping?} (StaticOptions fields) or the [analysis] table as written for "dynamics"."""
+    The scene name defaults to the file's stem. The Analysis is the [analysis] table as a dict ({"type": "statics",
+    tol?, max_iter?, load_steps?, escape_saddle?, load_stepping?}, the table as written for "dynamics", "modal" with
+    modes?, damped?) and its decoded `options` (StaticOptions or DynamicOptions)."""
     p = Path(path)
     try:
         text = p.read_bytes().decode("utf-8")

@@ -65,6 +65,8 @@ DYNAMIC_OPTIONS = {
     "sensors": Field("any", doc="what to record: [[analysis.sensors]] tables (SENSOR)"),
     "loads": Field("any", doc="time-dependent point forces: [[analysis.loads]] tables (TIME_LOAD)"),
     "energies": Field("bool", doc="record the energy balance"),
+    "record_states": Field("bool", doc="keep every coordinate at the output times (result.states; the command "
+                           "line asks for them for its VTK series and animation)"),
     "q0": Field("any", optional=True, doc="initial coordinates (Python API)"),
     "v0": Field("any", optional=True, doc="initial velocities (Python API)"),
     "initial": Field("any", optional=True, doc="initial velocities per member or body: a list of [[initial]] tables"),

@@ -10,7 +10,7 @@ import meshio
 import numpy as np
 
 from ancf_sym import Material, Scene, Section, run_dynamics, solve_static
-from ancf_sym.io.dynamics_output import frame_sensors, write_series
+from ancf_sym.io.dynamics_output import write_series
 from ancf_sym.io.vtk import write_vtu
 
 STEEL = Material(E=200e9, density=7800.0)
@@ -51,7 +51,7 @@ def test_static_vtu_carries_the_section_size(tmp_path):
 def test_dynamic_series_frames_carry_the_section_size(tmp_path):
     scene = frame()
     r = run_dynamics(scene, {"integrator": "newmark", "dt": 1e-3, "t_end": 3e-3, "output_dt": 1e-3,
-                             "sensors": frame_sensors(scene)})
+                             "record_states": True})
     assert r.success
     write_series(r, tmp_path, per_element=3)
     frames = sorted((tmp_path / "frames").glob("*.vtu"))
