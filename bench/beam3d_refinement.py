@@ -1,12 +1,12 @@
 """beam3d under mesh refinement: angled frames (rigid joint, bent member), the frame normal to its plane of
-tests/elements/test_beam_locking.py and the end-moment case, both methods.
+tests/statics/test_beam_locking.py and the end-moment case, both methods.
 
 Prints the relative tip error of the angled frames of tests/statics/test_frames_refinement.py (two members joined by `rigid`
 or one bent member; load in the frame's plane or normal to it) against linear frame theory (the continuum's with its
 transverse shear), the same for the frame normal to its plane and, for the end moment, the tip distance
 (in L) from the quarter circle and from each form's own limit (extensible elastica; continuum uniform bending),
 plus the elastic line's end-section turn past the tangent. The cases and references are those of
-tests/elements/test_beam_locking.py. Usage: python bench/beam3d_refinement.py [--max-n 64]
+tests/statics/test_beam_locking.py. Usage: python bench/beam3d_refinement.py [--max-n 64]
 """
 from __future__ import annotations
 

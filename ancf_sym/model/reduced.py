@@ -3,7 +3,8 @@ coordinates are eliminated, x_full = E y + c.
 
 Exact rows 'x_i = d' (pins, clamps of axis-aligned members) fix coordinates; rows 'x_i - x_j = d' (hinges,
 coincident joints) identify coordinates (one unknown for the group); the remaining exact rows (rigid joints, skew
-clamps) keep Lagrange multipliers. Dynamics (StepSystem), the statics Newton solver and the control model share it.
+clamps) keep Lagrange multipliers. ReducedModel is the one set-up of them that the statics Newton and the step system of every dynamics scheme build
+on (the control model and the modal linearisation read the same cached partition).
 """
 from __future__ import annotations
 
@@ -187,3 +188,58 @@ def _partition(ex, n: int) -> Partition:
         keep = keep[np.array(touch, bool)]
     return Partition(E, c, free_roots, pos, keep, np.flatnonzero(is_fixed), int(np.sum(~is_fixed) - len(free_roots)))
 
+
+class ReducedModel:
+    """The reduced coordinates an analysis works on, set up once from an assembly: the partition (supports that fix
+    coordinates eliminated, hinges identified), the number of kept constraint rows, the constant generalized force
+    of the linear terms (gravity, dead loads), the scales, and the maps between the unknowns and the scene's
+    coordinates. The statics Newton works on one; the step system (ancf_sym.system.step_system) is one, with its
+    graphs."""
+
+    def __init__(self, asm: Assembly):
+        self.asm = asm
+        self.coordinates(partition(asm), asm)
+        self.f_lin_full = f_lin = asm.constant_force()
+        self.f_lin = self.part.reduce_vector(f_lin)
+
+    def coordinates(self, part: Partition, asm: Assembly) -> None:
+        """The partition's unknowns and the assembly's scales."""
+        self.part = part
+        self.E = part.E
+        self.nf = part.ny
+        self.pos = part.pos
+        self.mc = len(part.rows)
+        self._gather = np.where(part.pos >= 0, part.pos, self.nf)  # full coordinate k = ext[_gather[k]], ext[nf] = 0
+        self.length_scale = asm.mesh.length_scale
+        self.span = float(np.max(np.abs(asm.x0))) + 1.0
+
+    def full(self, xf: np.ndarray) -> np.ndarray:
+        """Coordinates of the scene from the unknowns."""
+        return self.full_v(xf) + self.part.c
+
+    def full_v(self, vf: np.ndarray) -> np.ndarray:
+        """E vf: every coordinate is one unknown or fixed (a gather, cheaper than the sparse product)."""
+        vf = np.asarray(vf, dtype=float)
+        if vf.ndim != 1:
+            return self.E @ vf
+        ext = np.empty(self.nf + 1)
+        ext[:-1], ext[-1] = vf, 0.0
+        return ext[self._gather]
+
+    def full_rows(self, Q: np.ndarray) -> np.ndarray:
+        """`full` of each row of Q (k x nf): the scene coordinates as rows (k x n)."""
+        return self.full_v_rows(Q) + self.part.c
+
+    def full_v_rows(self, V: np.ndarray) -> np.ndarray:
+        """`full_v` of each row of V (k x nf), as rows (k x n)."""
+        ext = np.zeros((len(V), self.nf + 1))
+        ext[:, :-1] = V
+        return ext.take(self._gather, axis=1)
+
+    def reduce(self, x_full: np.ndarray) -> np.ndarray:
+        """Unknowns from scene coordinates (that satisfy the eliminated constraints)."""
+        return np.asarray(x_full)[self.part.roots].copy()
+
+    def reduce_force(self, f_full: np.ndarray) -> np.ndarray:
+        """Generalized force on the unknowns (E^T f)."""
+        return self.part.reduce_vector(f_full) if np.ndim(f_full) == 1 else self.E.T @ f_full

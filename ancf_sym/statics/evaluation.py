@@ -2,7 +2,7 @@
 
 One mapped kernel call per (fused) term, never a Python loop over elements: a cable's axial and bending terms fused
 into one elastic kernel where it exists (assembly.force_terms), the linear terms (gravity) left out (their force is
-constant: Reduction.f_lin). The element gradients and Hessians are scattered straight onto the free coordinates by
+constant: ReducedModel.f_lin). The element gradients and Hessians are scattered straight onto the free coordinates by
 precomputed index maps (one bincount each): the residual, and the tangent in LAPACK's banded upper storage (a mesh
 numbered node by node is a band of width 2 x node size). Penalty springs are added from the Assembly's constraint
 rows. Measured (bench/STATICS_RESULTS.md): ~55 us per evaluation at 60 elements (the Assembly's general evaluation
@@ -85,7 +85,7 @@ def fused_terms(terms: list) -> list[ForceTerm]:
 
 
 class ReducedEvaluation:
-    """Potential, residual and tangent of the nonlinear terms on the free coordinates of a Reduction.
+    """Potential, residual and tangent of the nonlinear terms on the free coordinates of a ReducedModel.
 
     After `evaluate(x_full)`: `energy` (nonlinear terms and penalties [J]), `g` (their gradient on the free
     coordinates), `band()` (upper banded tangent, None if the band is wider than BAND_LIMIT) and `matrix()` (the

@@ -32,7 +32,6 @@ eps x its force swamps the loads) and the run says so.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
@@ -48,30 +47,10 @@ from ancf_sym.statics.inertia import banded_cholesky, banded_solve
 from ancf_sym.statics.newton_loop import CompiledLoop, compiled_loop
 from ancf_sym.statics.evaluation import ReducedEvaluation
 from ancf_sym.system.step_system import StepSystem
-from ancf_sym.model.reduced import partition
+from ancf_sym.model.reduced import ReducedModel
 
 from ancf_sym.statics.criteria import (EPS, NO_PROGRESS, PYTHON_LOOP, ROUND_OFF, SHIFT, SHIFT_BELOW, SHIFT_MAX, STALL,
                                       STALL_COUNT, WILD, NewtonRun, coordinate_scales)
-
-
-class Reduction:
-    """The StepSystem's free coordinates without its CasADi graph: supports that fix coordinates eliminated, hinges
-    identified (ancf_sym.model.reduced.partition), and the constant generalized force of the linear terms (gravity, loads)."""
-
-    def __init__(self, asm: Assembly):
-        self.part = part = partition(asm)
-        self.E = part.E
-        self.nf = part.E.shape[1]
-        self.mc = len(part.rows)
-        self._gather = np.where(part.pos >= 0, part.pos, self.nf)
-        self.f_lin_full = f_lin = asm.constant_force()
-        self.f_lin = part.E.T @ f_lin
-        self.span = float(np.max(np.abs(asm.x0))) + 1.0
-
-    full = StepSystem.full
-    full_v = StepSystem.full_v
-    reduce = StepSystem.reduce
-    reduce_force = StepSystem.reduce_force
 
 
 class NewtonStatics:
@@ -208,12 +187,12 @@ def _dot(a: np.ndarray, b: np.ndarray) -> float:
 class KernelNewton(NewtonStatics):
     """The same Newton loop with each iteration evaluated from the compiled kernels (statics_eval: no graph to
     build) and solved by a banded Cholesky (LAPACK dpbtrf; banded LU where the tangent is not positive definite,
-    sparse factorisations where the band is wide). Scenes without multiplier rows only (Reduction.mc == 0). evaluation: another strain measure's
+    sparse factorisations where the band is wide). Scenes without multiplier rows only (ReducedModel.mc == 0). evaluation: another strain measure's
     (ReducedEvaluation.variant) for a start. `solve` runs the loop in C (newton_loop) where the evaluation allows it
     (decided at the first solve; a solve the C loop hands back, a singular band, runs here again from its start);
     afterwards the evaluation holds the kernels' values at the point they were evaluated last, as after this loop."""
 
-    def __init__(self, asm: Assembly, reduction: Reduction, evaluation: ReducedEvaluation | None = None):
+    def __init__(self, asm: Assembly, reduction: ReducedModel, evaluation: ReducedEvaluation | None = None):
         assert reduction.mc == 0, "multiplier rows need the graph (NewtonStatics)"
         self.asm, self.S = asm, reduction
         self.ev = evaluation or ReducedEvaluation(asm, reduction)

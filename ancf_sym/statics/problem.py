@@ -33,7 +33,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ancf_sym.bodies import planar as bodies, spatial as spatial_bodies
-from ancf_sym.contact import laws as contact, exact as contact_exact, gap as contact_gap
+from ancf_sym.contact import laws as contact, gap as contact_gap
 from ancf_sym.model import fields
 from ancf_sym.statics import coarse as statics_coarse, contact as statics_contact
 from ancf_sym.model.assembly import LOAD_LABELS, Assembly, Evaluation
@@ -49,7 +49,8 @@ from ancf_sym.statics.inertia import STABILITY_EPS, reduced_inertia
 from ancf_sym.scene.member_effects import START_STRAIN
 from ancf_sym.statics.evaluation import BIOT, ResultEnergies
 from ancf_sym.util.html import html_table
-from ancf_sym.statics.newton import KernelNewton, NewtonRun, NewtonStatics, Reduction
+from ancf_sym.model.reduced import ReducedModel
+from ancf_sym.statics.newton import KernelNewton, NewtonRun, NewtonStatics
 
 SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 INTERRUPTED = ("User_Requested_Stop", "User_Interrupt")
@@ -248,7 +249,7 @@ class StaticProblem:
         """progress: called with a line of text before and after each IPOPT attempt (the command line's bar)."""
         self.asm = scene_or_assembly if isinstance(scene_or_assembly, Assembly) else Assembly(scene_or_assembly)
         self.progress = progress
-        self.S = Reduction(self.asm)  # free coordinates (the graph's StepSystem has the same)
+        self.S = ReducedModel(self.asm)  # free coordinates (the graph's StepSystem has the same)
         self.light = KernelNewton(self.asm, self.S) if self.S.mc == 0 else None
         self._graph: NewtonStatics | None = None
         self.newton = self.light or self.graph

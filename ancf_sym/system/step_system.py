@@ -27,7 +27,7 @@ from ancf_sym.bodies import drives
 from ancf_sym.util import setup_cache
 from ancf_sym.model.assembly import Assembly, force_term_calls, force_terms_of
 from ancf_sym.util.casadi_buffers import bind
-from ancf_sym.model.reduced import full_mx, partition, reduce_shared
+from ancf_sym.model.reduced import ReducedModel, full_mx, partition, reduce_shared
 from ancf_sym.util.sparsity import dm, hessian_entries, kron_factor_dm, kron_product_mx, mx_nonzeros
 from ancf_sym.system import band, damping
 from ancf_sym.system.band import BandLayout, band_layout_csc
@@ -38,7 +38,7 @@ from ancf_sym.system.ldl import LDLFactor, build_ldl
 from ancf_sym.util.mx_ops import add, fabs, mul, neg
 
 
-class StepSystem:
+class StepSystem(ReducedModel):
     """A scene's equations of motion on its free coordinates, as compiled CasADi Functions.
 
     forces(x) -> (g, K[, kel]): gradient and Hessian of the potential (nonlinear terms and penalty joints; the
@@ -98,13 +98,9 @@ class StepSystem:
     def _structure(self, asm: Assembly, linsol: str) -> None:
         """The reduced coordinates, kept constraint rows, drives, linear solver, mass matrix, scales and kernel calls:
         what the scene's element stiffnesses and gravity do not change."""
-        self.part = part = partition(asm)
-        nf = part.ny
-        self.nf = nf
-        self.pos = part.pos
-        self._gather = np.where(part.pos >= 0, part.pos, nf)  # full coordinate k = ext[_gather[k]], ext[nf] = 0
+        self.coordinates(partition(asm), asm)  # (ReducedModel: part, E, nf, pos, the gather, scales)
         self._gather.flags.writeable = False  # (shared with the systems of the same structure)
-        self.E = part.E
+        part = self.part
         self.cons = asm.exact.subset(part.rows) if len(part.rows) else None
         self.mc = self.cons.m if self.cons is not None else 0
         # drives and torques: rows and forces whose time functions w(t) are per-step inputs, appended to the step's
@@ -124,8 +120,6 @@ class StepSystem:
         M = asm.mass_matrix().tocsc()
         self.M_full = M
         self.M = reduce_shared(part, M)
-        self.length_scale = asm.mesh.length_scale
-        self.span = float(np.max(np.abs(asm.x0))) + 1.0
         # the kernel calls: a cable's axial and bending terms fused into one elastic_<strain> kernel where both
         # are on (same elements, Gauss order and Rayleigh weight): one B^T f_uu B per point instead of two
         weights = self.rayleigh.element_weight if (self.rayleigh is not None and self.rayleigh.beta) else {}
@@ -511,37 +505,6 @@ class StepSystem:
         self.norms[4] = self._jac_norms[2]
         self.floor = float(np.finfo(float).eps * self._jac_norms[2] * self.span)
         return self._kkt
-
-    def full(self, xf: np.ndarray) -> np.ndarray:
-        """Coordinates of the scene from the unknowns."""
-        return self.full_v(xf) + self.part.c
-
-    def full_v(self, vf: np.ndarray) -> np.ndarray:
-        """E vf: every coordinate is one unknown or fixed (a gather, cheaper than the sparse product)."""
-        vf = np.asarray(vf, dtype=float)
-        if vf.ndim != 1:
-            return self.E @ vf
-        ext = np.empty(self.nf + 1)
-        ext[:-1], ext[-1] = vf, 0.0
-        return ext[self._gather]
-
-    def full_rows(self, Q: np.ndarray) -> np.ndarray:
-        """`full` of each row of Q (k x nf): the scene coordinates as rows (k x n)."""
-        return self.full_v_rows(Q) + self.part.c
-
-    def full_v_rows(self, V: np.ndarray) -> np.ndarray:
-        """`full_v` of each row of V (k x nf), as rows (k x n)."""
-        ext = np.zeros((len(V), self.nf + 1))
-        ext[:, :-1] = V
-        return ext.take(self._gather, axis=1)
-
-    def reduce(self, x_full: np.ndarray) -> np.ndarray:
-        """Unknowns from scene coordinates (that satisfy the eliminated constraints)."""
-        return np.asarray(x_full)[self.part.roots].copy()
-
-    def reduce_force(self, f_full: np.ndarray) -> np.ndarray:
-        """Generalized force on the unknowns (E^T f)."""
-        return self.part.reduce_vector(f_full) if np.ndim(f_full) == 1 else self.E.T @ f_full
 
     def forces(self, xf: np.ndarray) -> tuple[np.ndarray, sp.csc_matrix, np.ndarray | None]:
         """(gradient of the nonlinear potential, its Hessian, K_el values or None) at free coordinates xf."""

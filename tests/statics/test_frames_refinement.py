@@ -8,11 +8,11 @@ member: y_axis normal to the plane (b normal to it), so the two cases bend about
   normal;
 - normal to the plane (P along z): P a^3 / (3 E I') + P c^2 a / (G J) + P c^3 / (3 E I'), I' about the in-plane
   axis, J = Section.rectangle's torsion constant, which both forms use (elastic line: line_torsion's G J;
-  continuum: its torsion factor makes a uniform twist cost exactly G J, tests/elements/test_beam_locking.py).
+  continuum: its torsion factor makes a uniform twist cost exactly G J, tests/statics/test_beam_locking.py).
 The elastic line bends through the centre line's curvature: its limit is Euler-Bernoulli (the formulas above). The
 continuum bends through its section field and resists transverse shear with G A (no correction factor): its limit
 adds the shear of each leg that carries a transverse force, P c / (G A) in plane, P (a + c) / (G A) normal to it
-(relative 1e-4 to 1e-3 here). Both limits are checked by a single cantilever in tests/elements/test_beam_locking.py.
+(relative 1e-4 to 1e-3 here). Both limits are checked by a single cantilever in tests/statics/test_beam_locking.py.
 
 Tolerances: the load is small (P = 0.01 N, tip deflection <= 1e-6 m) so geometric nonlinearity, of relative size
 w / L <= 1e-6, stays below the discretisation error; the elements' error falls about as 1 / n^2 (measured 2e-4 to
