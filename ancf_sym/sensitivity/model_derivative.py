@@ -1,0 +1,311 @@
+"""The exact derivative of the assembled model with respect to one scene parameter (a TOML path), at a state x.
+
+The residual of the statics is R(x, p) = grad Pi(x, p) = sum_terms grad U_t(x; P_t(p)) - Q(p). Each kernel's energy
+is linear in a group of its parameters (its coefficients: EA of an axial kernel, EI of bending, (EIy, EIz) of the
+elastic line's bending, E of the line strain, the force or moment of a load, rhoA or the gravity vector g of the
+gravity kernel, (k, kh) of a contact law), so that dU/dp = U(x; P with that group replaced by d(group)/dp): the
+kernel evaluated with its coefficients' derivatives gives the exact derivative of its energy, gradient and Hessian
+(no difference quotient). The scene's numbers enter those coefficients as monomials (EA = E area, EI = E I with
+I = pi d^4 / 64 of a diameter d, rhoA = density area, G J = E J / (2 (1 + nu))): a coefficient c of degree k in p
+has dc/dp = k c / p. Parameters that enter anywhere else (element lengths through a prestrain, a beam's b x h,
+Poisson's ratio, an arc's reference moment) are refused by name: their kernels have no derivative with respect to
+those inputs yet.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+import scipy.sparse as sp
+
+from .. import kernels
+from ..assembly import Assembly
+from ..loads import point_force, point_mass_triplets
+from ..terms import distributed_term, moment_term
+from .paths import ParameterPath, get_parameter, parse_path
+
+STIFFNESS_COLUMNS = {  # effect -> its coefficient columns (the energy is linear in them jointly)
+    "axial_green": ("EA",), "axial_biot": ("EA",), "axial_decoupled": ("EA",), "axial_decoupled_biot": ("EA",),
+    "bending": ("EI",), "line_bending": ("EIy", "EIz"), "line_torsion": ("GIp",), "line_strain": ("E",),
+}
+NOT_STIFFNESS = ("gravity", "loads", "contact", "penalty")  # energy labels that hold no member stiffness
+
+
+class ParameterError(ValueError):
+    """A parameter path this model cannot differentiate; the message names the path and why."""
+
+
+@dataclass
+class Piece:
+    """Kernel calls whose outputs are the derivative: the kernel (element, effect, gauss) on elements idx with
+    parameter rows P (the coefficient group replaced by its derivative)."""
+    element: str
+    effect: str
+    gauss: int | None
+    idx: np.ndarray  # (N, nd)
+    P: np.ndarray  # (N, np)
+
+
+@dataclass
+class ModelDerivative:
+    """d/dp of the model: kernel pieces (energy, gradient, Hessian), the dead load dQ (potential -Q.x) and the mass
+    matrix dM (None: the mass does not depend on p)."""
+    path: str
+    value: float
+    pieces: list = field(default_factory=list)
+    dQ: np.ndarray | None = None
+    dM: sp.csc_matrix | None = None
+
+    def residual(self, x: np.ndarray) -> tuple[float, np.ndarray]:
+        """(d Pi/dp, d grad Pi/dp) at fixed x (full coordinates)."""
+        n = len(x)
+        dPi, dR = 0.0, np.zeros(n)
+        for pc in self.pieces:
+            f = _mapped_grad(pc.element, pc.effect, pc.gauss, len(pc.idx))
+            e, g = (o.full() for o in f(x[pc.idx].T, pc.P.T))
+            dPi += float(e.sum())
+            dR += np.bincount(pc.idx.ravel(), g.T.ravel(), minlength=n)
+        if self.dQ is not None:
+            dPi -= float(self.dQ @ x)
+            dR -= self.dQ
+        return dPi, dR
+
+    def hessian_form(self, x: np.ndarray, u: np.ndarray, v: np.ndarray) -> float:
+        """u' (d K / dp at fixed x) v: the kernels' Hessians of the pieces (dQ adds none)."""
+        out = 0.0
+        for pc in self.pieces:
+            if pc.effect == "gravity":  # linear in q: no Hessian
+                continue
+            f = _mapped(pc.element, pc.effect, pc.gauss, len(pc.idx))
+            H = f(x[pc.idx].T, pc.P.T)[2].full()  # (nd, nd N): blocks side by side
+            nd = pc.idx.shape[1]
+            Hb = H.reshape(nd, len(pc.idx), nd).transpose(1, 0, 2)
+            out += float(np.einsum("ei,eij,ej->", u[pc.idx], Hb, v[pc.idx]))
+        return out
+
+
+_MAPS: dict = {}
+
+
+def _mapped_grad(element, effect, gauss, N) -> ca.Function:
+    key = ("grad", element, effect, gauss, N)
+    if key not in _MAPS:
+        _MAPS[key] = kernels.load_grad(element, effect, gauss).map(N)
+    return _MAPS[key]
+
+
+def _mapped(element, effect, gauss, N) -> ca.Function:
+    key = ("full", element, effect, gauss, N)
+    if key not in _MAPS:
+        _MAPS[key] = kernels.load(element, effect, gauss).map(N)
+    return _MAPS[key]
+
+
+# -- which members a material or section reaches ----------------------------------------------------------------------
+def _members_with(doc: dict, key: str, name: str) -> list[str]:
+    out = []
+    for kind in ("members", "loops"):
+        for d in doc.get(kind, []):
+            if d.get(key) == name:
+                out.append(d["name"])
+    return out
+
+
+def _member_rows(asm: Assembly, term, members: list[str]) -> np.ndarray:
+    """Rows (elements) of a term that belong to the named members (by their first coordinate's owner)."""
+    first = term.idx[:, 0]
+    mask = np.zeros(len(first), bool)
+    for name in members:
+        mm = asm.mesh.members[name]
+        mask |= (first >= mm.offset) & (first < mm.offset + mm.x0.size)
+    return mask
+
+
+def _scaled_pieces(asm: Assembly, members: list[str], degrees: dict, value: float, path: str,
+                   labels: tuple) -> list[Piece]:
+    """Pieces of the terms with label in `labels` (None: the stiffness labels) on `members`: each coefficient
+    column c named in `degrees` (column -> degree of p in it) replaced by degree c / p, the effect's other
+    coefficient columns set to zero (their share of the derivative is nil)."""
+    pieces = []
+    for t in asm.terms:
+        stiff = t.label not in NOT_STIFFNESS and not t.label.startswith("contact")
+        if (labels is None and not stiff) or (labels is not None and t.label not in labels):
+            continue
+        rows = _member_rows(asm, t, members)
+        if not rows.any():
+            continue
+        names = kernels.parameters(t.element, t.effect)
+        group = STIFFNESS_COLUMNS.get(t.effect, ("rhoA",) if t.effect == "gravity" else None)
+        if group is None:
+            raise ParameterError(f"parameter path {path!r}: enters the {t.effect!r} energy of {t.element} members "
+                                 f"{members}, whose kernel has no derivative with respect to it")
+        P = np.array(t.P[rows], float)
+        hit = False
+        for c in group:
+            j = names.index(c)
+            k = degrees.get(c, 0)
+            P[:, j] = k * P[:, j] / value if k else 0.0
+            hit |= bool(k)
+        if hit:
+            pieces.append(Piece(t.element, t.effect, t.gauss, t.idx[rows], P))
+    return pieces
+
+
+def _mass_derivative(asm: Assembly, members: list[str], degree: int) -> sp.csc_matrix:
+    """d M / dp where every listed member's rhoA has degree `degree` in p (the mass kernel is linear in rhoA)."""
+    rows, cols, vals = [], [], []
+    for name in members:
+        mm = asm.mesh.members[name]
+        if mm.member.element == "beam3d":
+            raise ParameterError("the mass of beam3d members (b, h, rho) has no derivative here")
+        idx = mm.elem_dofs()
+        rhoA = mm.member.material.density * mm.member.section.area
+        for e, L in enumerate(np.asarray(mm.elem_length, float)):
+            Me = kernels.mass_matrix(mm.member.element, [float(L), rhoA])
+            nd = idx.shape[1]
+            rows.append(np.repeat(idx[e], nd))
+            cols.append(np.tile(idx[e], nd))
+            vals.append(Me.ravel())
+    n = asm.n
+    if not vals:
+        return sp.csc_matrix((n, n))
+    return sp.csc_matrix((degree * np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
+
+
+def _refuse_arcs(asm: Assembly, members: list[str], path: str) -> None:
+    for name in members:
+        if asm.mesh.members[name].member.arc_curvature is not None:
+            raise ParameterError(f"parameter path {path!r}: reaches the arc {name!r}, whose prestrain and reference "
+                                 "moment depend on it nonlinearly (not differentiable here)")
+
+
+def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> ModelDerivative:
+    """d(model)/dp for p the number at `path` of the scene document `doc` that `asm` was built from."""
+    p = path if isinstance(path, ParameterPath) else parse_path(path)
+    value = get_parameter(doc, p)
+    keys, text = p.keys, p.text
+    out = ModelDerivative(text, value)
+    scene = asm.scene
+
+    def refuse(why: str):
+        raise ParameterError(f"parameter path {text!r} = {value!r}: {why}")
+
+    if keys[0] == "materials" and len(keys) == 3:
+        members = _members_with(doc, "material", keys[1])
+        _refuse_arcs(asm, members, text)
+        if keys[2] == "E":
+            degrees = {c: 1 for cols in STIFFNESS_COLUMNS.values() for c in cols}
+            if any(asm.mesh.members[m].member.element == "beam3d" and "continuum" in
+                   [t.effect for t in asm.terms] for m in members):
+                refuse("the continuum beam's kernel is not differentiated with respect to E here")
+            out.pieces = _scaled_pieces(asm, members, degrees, value, text, None)
+        elif keys[2] == "density":
+            grav = [m for m in members if scene.members[m].gravity]
+            out.pieces = _scaled_pieces(asm, grav, {"rhoA": 1}, value, text, ("gravity",))
+            out.dM = _mass_derivative(asm, members, 1) / value if members else None
+        else:
+            refuse("enters the model nonlinearly or not at all (differentiable material keys: E, density)")
+        return out
+    if keys[0] == "sections" and len(keys) == 3:
+        sec = doc["sections"][keys[1]]
+        members = _members_with(doc, "section", keys[1])
+        _refuse_arcs(asm, members, text)
+        if any(scene.members[m].element == "beam3d" for m in members):
+            refuse("a beam3d section's b x h enter its kernels nonlinearly (not differentiable here)")
+        shape = sec.get("shape")
+        if shape is None and keys[2] == "area":
+            deg = {"EA": 1, "rhoA": 1, "mass": 1}
+        elif shape is None and keys[2] == "I" and not ({"Iy", "Iz"} & set(sec)):
+            deg = {"EI": 1}
+        elif shape == "circle" and keys[2] == "diameter":
+            deg = {"EA": 2, "EI": 4, "rhoA": 2, "mass": 2}
+        else:
+            refuse("differentiable section keys: area, I (cables, without Iy/Iz), diameter (circle)")
+        out.pieces = _scaled_pieces(asm, members, deg, value, text, None)
+        grav = [m for m in members if scene.members[m].gravity]
+        out.pieces += _scaled_pieces(asm, grav, deg, value, text, ("gravity",))
+        if deg.get("mass"):
+            out.dM = _mass_derivative(asm, members, deg["mass"]) / value
+        return out
+    if keys[:2] == ("scene", "gravity") and len(keys) == 3:
+        j = keys[2]
+        if asm.mesh.bodies:
+            refuse("the weight of rigid bodies is not differentiated here")
+        for t in asm.terms:
+            if t.label != "gravity":
+                continue
+            names = kernels.parameters(t.element, t.effect)
+            P = np.array(t.P, float)
+            gcols = [names.index(c) for c in names if c in ("gx", "gy", "gz")]
+            P[:, gcols] = 0.0
+            P[:, gcols[j]] = 1.0
+            out.pieces.append(Piece(t.element, t.effect, t.gauss, t.idx, P))
+        dQ = np.zeros(asm.n)
+        e = np.zeros(scene.dim)
+        e[j] = 1.0
+        for pm in getattr(scene, "point_masses", ()):
+            mm = asm.mesh.members[pm.member]
+            idx, val = point_force(mm, mm.coordinate(pm.at), pm.mass * e)
+            np.add.at(dQ, idx, val)
+        out.dQ = dQ
+        return out
+    if keys[0] == "loads" and len(keys) in (3, 4) and keys[2] == "value":
+        load = scene.loads[keys[1]]
+        mm = asm.mesh.members[load.member]
+        dQ = np.zeros(asm.n)
+        if load.kind == "tension" and len(keys) == 3:
+            node = mm.node(load.at)
+            t = mm.x0[node][mm.node_size // (4 if mm.member.element == "beam3d" else 2):][:scene.dim]
+            t = t / np.linalg.norm(t)
+            idx, val = point_force(mm, float(mm.s_node[node]), t if node == mm.n_nodes - 1 else -t)
+            np.add.at(dQ, idx, val)
+            out.dQ = dQ
+            return out
+        if len(keys) == 3:
+            if load.kind == "moment" and scene.dim == 2:
+                tmp: dict = {}
+                moment_term(tmp, mm, mm.node(load.at), 1.0)
+                out.pieces = [Piece(t.element, t.effect, t.gauss, np.concatenate(t.idx), np.concatenate(t.P))
+                              for t in tmp.values()]
+                return out
+            refuse("name one component: loads[i].value[j]")
+        e = np.zeros(scene.dim if load.kind != "moment" else 3)
+        e[keys[3]] = 1.0
+        if load.kind == "force":
+            idx, val = point_force(mm, mm.coordinate(load.at), e)
+            np.add.at(dQ, idx, val)
+            out.dQ = dQ
+        elif load.kind == "distributed":
+            tmp = {}
+            distributed_term(tmp, mm, e)
+            out.pieces = [Piece(t.element, t.effect, t.gauss, np.concatenate(t.idx), np.concatenate(t.P))
+                          for t in tmp.values()]
+        elif load.kind == "moment" and mm.member.element == "beam3d":
+            tmp = {}
+            moment_term(tmp, mm, mm.node(load.at), e)
+            out.pieces = [Piece(t.element, t.effect, t.gauss, np.concatenate(t.idx), np.concatenate(t.P))
+                          for t in tmp.values()]
+        else:
+            refuse("a cable3d moment's potential is not linear in its components (not differentiable here)")
+        return out
+    if keys[0] == "masses" and len(keys) == 3 and keys[2] == "mass":
+        pm = scene.point_masses[keys[1]]
+        mm = asm.mesh.members[pm.member]
+        dQ = np.zeros(asm.n)
+        idx, val = point_force(mm, mm.coordinate(pm.at), np.asarray(scene.gravity, float))
+        np.add.at(dQ, idx, val)
+        out.dQ = dQ
+        r, c, v = point_mass_triplets(_Only(asm.mesh, pm))
+        out.dM = sp.csc_matrix((v / pm.mass, (r, c)), shape=(asm.n, asm.n))
+        return out
+    refuse("not a differentiable parameter here (materials.M.E | density, sections.S.area | I | diameter, "
+           "scene.gravity[j], loads[i].value[j], masses[i].mass)")
+
+
+class _Only:
+    """A mesh view with one point mass (point_mass_triplets reads mesh.scene.point_masses and mesh.members)."""
+
+    def __init__(self, mesh, pm):
+        self.members = mesh.members
+        self.scene = type("S", (), {"point_masses": [pm], "dim": mesh.scene.dim})()
