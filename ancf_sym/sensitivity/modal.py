@@ -1,0 +1,102 @@
+"""Exact derivatives of natural frequencies with respect to scene parameters, the prestress change included.
+
+For a simple eigenvalue w^2 with M-normalised mode phi (phi' M phi = 1, G phi = 0):
+
+    d w^2 / dp = phi' (dK_L/dp - w^2 dM/dp) phi,    dK_L/dp = dK/dp|_x + D K[dx*/dp]
+
+dK/dp|_x: the kernels' Hessians with their coefficients' derivatives (ancf_sym.sensitivity.model_derivative);
+D K[dx]: the third derivatives of the elastic energies along the static sensitivity dx*/dp (the kernels'
+compiled Hessian-vector companions: phi' (d(H phi)/dq) dx), plus the multipliers' change times the constraint
+curvature of bilinear rows. Frequencies f = w / 2 pi: df/dp = (d w^2/dp) / (8 pi^2 f). Repeated frequencies have
+no derivative (their modes mix): such a pair is reported as NaN with the reason in `notes`.
+"""
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from .. import contact, kernels, registry
+from ..modal.result import ModalResult
+from .model_derivative import ParameterError
+from .static import StaticSensitivity
+
+REPEATED_REL = 1e-6  # relative gap below which two frequencies count as one repeated eigenvalue
+
+_HVP: dict = {}
+
+
+def _hvp(element: str, effect: str, N: int) -> ca.Function:
+    key = (element, effect, N)
+    if key not in _HVP:
+        _HVP[key] = kernels.load_hvp(element, effect).map(N)
+    return _HVP[key]
+
+
+class ModalSensitivity:
+    """Frequency derivatives of a modal result (its static equilibrium's sensitivity inside)."""
+
+    def __init__(self, modal: ModalResult, scene, doc: dict):
+        if not modal.success:
+            raise ValueError(f"frequency sensitivities need a successful modal result (status {modal.status!r})")
+        self.modal = modal
+        self.static = StaticSensitivity(scene, modal.static, doc, modal.linearization)
+        asm = self.static.asm
+        if contact.exact_contacts(asm):
+            raise ParameterError("frequency sensitivities with exact contact are not available (the contact rows' "
+                                 "curvature changes with the contact forces)")
+        if asm.penalty is not None and len(asm.penalty.qrow):
+            raise ParameterError("frequency sensitivities with penalty rigid joints are not available")
+        for mk in asm.curved:
+            t = mk.term
+            if not registry.has_third_derivatives(t.element, t.effect, t.gauss):
+                raise ParameterError(f"frequency sensitivities need the third derivatives of every curved energy; "
+                                     f"{t.element}/{t.effect} (gauss {t.gauss}) has none compiled")
+
+    def _third(self, dx: np.ndarray, phi: np.ndarray) -> float:
+        """phi' (D K[dx]) phi over the curved kernels."""
+        x, out = self.modal.static.x, 0.0
+        for mk in self.static.asm.curved:
+            t = mk.term
+            N = len(t.idx)
+            dhv = _hvp(t.element, t.effect, N)(x[t.idx].T, t.P.T, phi[t.idx].T)[1].full()
+            nd = t.idx.shape[1]
+            D = dhv.reshape(nd, N, nd).transpose(1, 0, 2)  # per element d(H phi)/dq
+            out += float(np.einsum("ei,eij,ej->", phi[t.idx], D, dx[t.idx]))
+        return out
+
+    def derivative(self, path: str) -> tuple[np.ndarray, list[str]]:
+        """(d frequencies / dp [Hz per unit], notes)."""
+        m, s = self.modal, self.static
+        x = m.static.x
+        md = s.model(path)
+        dPi, dR = md.residual(x)
+        dx, dmu = s.solve(dR)
+        asm = s.asm
+        dlam = None
+        if len(asm.exact.qrow):  # bilinear rows: their curvature weighted by the multipliers' change
+            forces = s._force_derivatives(dx, dR, dmu)
+            taken: dict = {}
+            dlam = []
+            for lbl in asm.exact.labels:
+                k = taken.get(lbl, 0)
+                dlam.append(float(forces[lbl][k]))
+                taken[lbl] = k + 1
+            Hq = asm.exact.hessian(np.asarray(dlam))
+        out, notes = np.zeros(m.modes), []
+        f = m.frequencies
+        for k in range(m.modes):
+            if m.zero[k]:
+                continue
+            others = np.delete(f, k)
+            if np.any(np.abs(others - f[k]) <= REPEATED_REL * abs(f[k])):
+                out[k] = np.nan
+                notes.append(f"mode {k}: repeated frequency {f[k]:.6g} Hz has no derivative")
+                continue
+            phi = m.shapes[:, k]
+            dK = md.hessian_form(x, phi, phi) + self._third(dx, phi)
+            if dlam is not None:
+                dK += float(phi @ (Hq @ phi))
+            dM = float(phi @ (md.dM @ phi)) if md.dM is not None else 0.0
+            dw2 = dK - m.omega2[k] * dM
+            out[k] = dw2 / (8 * np.pi ** 2 * f[k])
+        return out, notes
