@@ -223,6 +223,14 @@ def _cmd_run(args) -> int:
         if args.samples is not None and args.samples < 1:
             raise SceneError(f"--samples must be a positive integer, got {args.samples}")
         scene, analysis = load_scene(scene_file)
+        if args.sensitivity:  # every path checked before any solving
+            from .sensitivity.api import check_paths, read_document
+            if analysis["type"] not in ("statics", "modal"):
+                raise SceneError(f"--sensitivity: analysis.type = {analysis['type']!r}: statics and modal only")
+            try:
+                check_paths(scene, read_document(scene_file), args.sensitivity)
+            except (KeyError, ValueError) as exc:  # (a path naming nothing, or no differentiable number)
+                raise SceneError(str(exc).strip('"')) from None
     except SceneError as exc:
         _fail(str(exc))
         return 2
@@ -255,6 +263,9 @@ def _run_in(rd: ResultDir, scene, analysis, scene_file, runner, progress, t_star
         shutil.copyfile(scene_file, tmp / "scene.toml")
         ok, summary = runner(scene, analysis, scene_file, tmp, progress, t_start, args.samples,
                              not args.no_animation)
+        if ok and args.sensitivity:  # exact derivatives of the results by parameter path (ancf_sym.sensitivity)
+            from .sensitivity.api import add_to_result
+            add_to_result(tmp / RESULT_FILE, scene, scene_file, analysis, args.sensitivity)
     except SceneError:  # a value only the assembly or solver could refuse
         raise
     except Exception as exc:  # noqa: BLE001 - one line to the user, the traceback into DIR.failed
@@ -365,6 +376,9 @@ def _main(argv: list[str] | None = None) -> int:
     p.add_argument("--samples", type=int, default=None,
                    help="samples per element in plots and VTK (default 8; fewer on meshes of over 25 000 elements)")
     p.add_argument("--no-animation", action="store_true", help="dynamics: do not write motion.gif")
+    p.add_argument("--sensitivity", action="append", default=[], metavar="PATH",
+                   help="statics/modal: add the exact derivative of the results with respect to the scene number at "
+                        "this TOML path (e.g. materials.steel.E) to result.json's sensitivities (repeatable)")
     p.set_defaults(func=cmd_run)
     k = sub.add_parser("kernels", help="list the compiled kernels")
     k.add_argument("--json", action="store_true", help="the full catalogue as JSON")

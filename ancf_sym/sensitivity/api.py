@@ -1,0 +1,99 @@
+"""Sensitivities of a scene's results by parameter path: the Python entry point and result.json's section.
+
+`sensitivities(doc, paths)` solves the scene of a document (a TOML file or its parsed dict) and returns
+{path: {"potential", "members": {NAME: {"nodes", "tip"}}, "constraint_forces": {LABEL: ...}}} with the keys and
+shapes of the quantities differentiated (modal: also "frequencies"). Every path is checked before any solving.
+"""
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from ..scene import Scene
+from ..scene_toml import scene_from_dict
+from ..statics import StaticResult, problem_for
+from .model_derivative import model_derivative
+from .paths import get_parameter
+
+
+def read_document(doc: dict | str | Path) -> dict:
+    """A scene document: a dict as given, or a TOML file parsed."""
+    if isinstance(doc, dict):
+        return doc
+    return tomllib.loads(Path(doc).read_text())
+
+
+def check_paths(scene: Scene, doc: dict, paths: list[str]) -> None:
+    """Refuse, before any solving, a path that names no differentiable number of this scene (KeyError /
+    ValueError naming it)."""
+    for p in paths:
+        get_parameter(doc, p)
+    asm = problem_for(scene).asm
+    for p in paths:
+        model_derivative(asm, doc, p)
+
+
+def sensitivities(doc: dict | str | Path, paths: list[str], result: StaticResult | None = None,
+                  modes: int | None = None) -> dict:
+    """{path: derivative dict} of the scene's static equilibrium (`result`, else solved here) and, with modes, of
+    its lowest `modes` frequencies (key "frequencies", [Hz per unit of the parameter])."""
+    from .modal import ModalSensitivity
+    from .static import StaticSensitivity
+
+    d = read_document(doc)
+    scene, _ = scene_from_dict(d)
+    check_paths(scene, d, list(paths))
+    if result is None:
+        result = problem_for(scene).solve()
+    if not result.success:
+        raise ValueError(f"sensitivities: the static solve failed ({result.status})")
+    if modes:
+        from ..modal import modal_analysis
+        m = modal_analysis(scene, modes=modes, static=result)
+        ms = ModalSensitivity(m, scene, d)
+        out = {}
+        for p in paths:
+            out[p] = ms.static.derivative(p)
+            out[p]["frequencies"], notes = ms.derivative(p)
+            if notes:
+                out[p]["notes"] = notes
+        return out
+    s = StaticSensitivity(scene, result, d)
+    return {p: s.derivative(p) for p in paths}
+
+
+def to_json(sens: dict) -> dict:
+    """The derivative dicts with arrays as lists (NaN as None), for result.json."""
+    def conv(v):
+        if isinstance(v, dict):
+            return {k: conv(w) for k, w in v.items()}
+        if isinstance(v, (np.ndarray, list, tuple)):
+            a = np.asarray(v, float)
+            return [conv(w) for w in a] if a.ndim else conv(float(a))
+        if isinstance(v, (float, np.floating)):
+            v = float(v)
+            return v if np.isfinite(v) else None
+        return v
+    return {p: conv(d) for p, d in sens.items()}
+
+
+def add_to_result(result_file: Path, scene: Scene, scene_file: Path, analysis: dict, paths: list[str]) -> None:
+    """Add `sensitivities` to a written result.json of a statics or modal run (the command line's
+    --sensitivity): the equilibrium solved again with the run's options (the same deterministic answer)."""
+    import json
+
+    from ..statics import StaticOptions
+
+    d = read_document(scene_file)
+    kind = analysis["type"]
+    skip = ("type", "modes", "damped")
+    opts = StaticOptions(**{k: v for k, v in analysis.items() if k not in skip})
+    res = problem_for(scene).solve(opts)
+    sens = sensitivities(d, paths, res, modes=analysis.get("modes", 10) if kind == "modal" else None)
+    from ..output_json import write_json
+
+    data = json.loads(result_file.read_text())
+    data["sensitivities"] = to_json(sens)
+    write_json(result_file, data, clean=False)
