@@ -353,6 +353,15 @@ def cmd_study(args) -> int:
     return 0
 
 
+def cmd_calibrate(args) -> int:
+    from .sensitivity.calibrate import run_cli
+    try:
+        return run_cli(args.scene, args.data, args.parameter, Path(args.out), args.max_iter, args.quiet)
+    except (SceneError, KeyError, ValueError) as exc:  # (a bad path, column or value: named in the message)
+        _fail(str(exc).strip('"'))
+        return 2
+
+
 def main(argv: list[str] | None = None) -> int:
     """The command line; Ctrl-C or SIGTERM at any moment (also while argparse or a command's imports load) exits
     with one line and the shell's code, never a traceback."""
@@ -380,6 +389,15 @@ def _main(argv: list[str] | None = None) -> int:
                    help="statics/modal: add the exact derivative of the results with respect to the scene number at "
                         "this TOML path (e.g. materials.steel.E) to result.json's sensitivities (repeatable)")
     p.set_defaults(func=cmd_run)
+    c = sub.add_parser("calibrate", help="fit scene numbers (TOML paths) to measured node positions (CSV: member, "
+                       "node, x, y[, z]) by Levenberg-Marquardt with the exact Jacobian")
+    c.add_argument("scene", help="scene file (TOML; its values at the paths are the start)")
+    c.add_argument("data", help="CSV of measured positions: member, node, x, y[, z]")
+    c.add_argument("--parameter", action="append", required=True, metavar="PATH", help="a TOML path to fit (repeatable)")
+    c.add_argument("--out", required=True, help="output directory: calibration.json, calibration.png")
+    c.add_argument("--max-iter", type=int, default=30, help="Levenberg-Marquardt iterations at most (default 30)")
+    c.add_argument("--quiet", action="store_true", help="no summary line")
+    c.set_defaults(func=cmd_calibrate)
     k = sub.add_parser("kernels", help="list the compiled kernels")
     k.add_argument("--json", action="store_true", help="the full catalogue as JSON")
     k.set_defaults(func=cmd_kernels)
