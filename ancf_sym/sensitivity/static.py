@@ -23,6 +23,7 @@ import scipy.sparse.linalg as spla
 
 from .. import contact, contact_exact
 from ..modal.linearize import Linearization, linearize
+from ..reduced import partition
 from ..scene import Scene
 from ..statics import StaticResult
 from .model_derivative import ModelDerivative, model_derivative
@@ -38,10 +39,10 @@ class StaticSensitivity:
             raise ValueError("sensitivities need a successful static result (its status: "
                              f"{getattr(result, 'status', result)!r})")
         self.scene, self.result, self.doc = scene, result, doc
-        self.lin = linearization if linearization is not None else linearize(scene, result, damping_matrix=False)
+        self.lin = linearization if linearization is not None else _stiffness(scene, result)
         self.asm = self.lin.assembly
         lin = self.lin
-        self.m = lin.G.shape[0]
+        self.m, self.ny = lin.G.shape[0], lin.K.shape[0]
         A = sp.bmat([[lin.K, lin.G.T], [lin.G, None]]).tocsc() if self.m else lin.K.tocsc()
         self._lu = spla.splu(A)
         self._derivs: dict = {}
@@ -56,7 +57,7 @@ class StaticSensitivity:
         """(dx, dmu) for a residual derivative dR (full coordinates)."""
         rhs = np.r_[-(self.lin.E.T @ dR), np.zeros(self.m)]
         sol = self._lu.solve(rhs)
-        return self.lin.E @ sol[:self.lin.size], sol[self.lin.size:]
+        return self.lin.E @ sol[:self.ny], sol[self.ny:]
 
     def dx(self, path: str) -> np.ndarray:
         """d x*/dp: full coordinates of the equilibrium per unit parameter."""
@@ -117,13 +118,33 @@ class StaticSensitivity:
         """dJ/dp for a scalar output J(x) (its gradient dJdx on the full coordinates; `partial(path)` its explicit
         derivative, if any) and many parameters: one adjoint solve, then dJ/dp_k = partial_k - w'dR_k."""
         w = self._lu.solve(np.r_[self.lin.E.T @ dJdx, np.zeros(self.m)])  # (the KKT matrix is symmetric)
-        wx = self.lin.E @ w[:self.lin.size]
+        wx = self.lin.E @ w[:self.ny]
         x = self.result.x
         out = np.empty(len(paths))
         for k, path in enumerate(paths):
             dR = self.model(path).residual(x)[1]
             out[k] = -(wx @ dR) + (partial(path) if partial is not None else 0.0)
         return out
+
+
+def _stiffness(scene: Scene, result: StaticResult) -> Linearization:
+    """K_L, G and E of the equilibrium: the modal linearisation without its mass, damping and input matrices, built
+    here directly where no row needs multipliers for its curvature (no exact contact, no bilinear rows): the usual
+    scene, where the linearisation's other matrices would cost more than the sensitivity itself."""
+    asm = result.assembly
+    if contact.exact_contacts(asm) or len(asm.exact.qrow):
+        return linearize(scene, result, damping_matrix=False)
+    part = partition(asm)
+    x = result.x
+    H = asm.evaluate(x, hessian=True).hessian
+    K = part.reduce_matrix(H)
+    K = (0.5 * (K + K.T)).tocsc()
+    if len(part.rows):
+        Gf = asm.exact.subset(part.rows).jacobian(x).tocsr()
+    else:
+        Gf = sp.csr_matrix((0, asm.n))
+    G = (Gf @ part.E).tocsr()
+    return Linearization(None, K, None, G, None, part.E, x, np.zeros(G.shape[0]), [], asm, H.tocsc(), Gf)
 
 
 def static_sensitivities(scene: Scene, result: StaticResult, doc: dict, paths: list[str]) -> dict:
