@@ -56,12 +56,14 @@ def static_outputs(doc) -> np.ndarray:
     r = solve_static(scene)
     assert r.success
     cf = r.constraint_forces
-    return np.r_[r.x, r.potential, np.concatenate([np.asarray(cf[k]) for k in sorted(cf)])]
+    return np.r_[r.x, r.potential, np.concatenate([np.asarray(cf[k]) for k in sorted(cf)]),
+                 [r.energies[k] for k in sorted(r.energies)]]
 
 
 def flat(d: dict) -> np.ndarray:
     return np.r_[d["potential"], np.concatenate([np.asarray(d["constraint_forces"][k]) for k in
-                                                 sorted(d["constraint_forces"])])]
+                                                 sorted(d["constraint_forces"])]),
+                 [d["energies"][k] for k in sorted(d["energies"])]]
 
 
 @pytest.fixture(scope="module")
@@ -78,8 +80,10 @@ def test_static_sensitivity_matches_central_differences(solved, path, h):
     d = S.derivative(path)
     exact = np.r_[S.dx(path), flat(d)]
     fd = richardson(static_outputs, DOC, path, h)
-    n = len(res.x)
-    for part in (slice(0, n), slice(n, n + 1), slice(n + 1, None)):  # coordinates, potential, reactions
+    n, nf, ne = len(res.x), sum(len(v) for v in res.constraint_forces.values()), len(res.energies)
+    assert set(d["energies"]) == set(res.energies)
+    # coordinates, potential, reactions, energies by label
+    for part in (slice(0, n), slice(n, n + 1), slice(n + 1, n + 1 + nf), slice(n + 1 + nf, n + 1 + nf + ne)):
         assert np.linalg.norm(exact[part] - fd[part]) <= 1e-6 * np.linalg.norm(fd[part]), path
     # the reported shapes: nodes (public nodes x dim), tip (dim)
     assert d["members"]["a"]["nodes"].shape == res.nodes("a").shape

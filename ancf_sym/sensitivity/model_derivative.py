@@ -45,6 +45,7 @@ class Piece:
     gauss: int | None
     idx: np.ndarray  # (N, nd)
     P: np.ndarray  # (N, np)
+    label: str = ""  # the energy bucket it belongs to (axial, bending, gravity, loads, contact, ...)
 
 
 @dataclass
@@ -70,6 +71,16 @@ class ModelDerivative:
             dPi -= float(self.dQ @ x)
             dR -= self.dQ
         return dPi, dR
+
+    def energies(self, x: np.ndarray) -> dict:
+        """label -> d(energy of that label)/dp at fixed x (the dead loads' -dQ.x under "loads")."""
+        out: dict = {}
+        for pc in self.pieces:
+            f = _mapped_grad(pc.element, pc.effect, pc.gauss, len(pc.idx))
+            out[pc.label] = out.get(pc.label, 0.0) + float(f(x[pc.idx].T, pc.P.T)[0].full().sum())
+        if self.dQ is not None and np.any(self.dQ):
+            out["loads"] = out.get("loads", 0.0) - float(self.dQ @ x)
+        return out
 
     def hessian_form(self, x: np.ndarray, u: np.ndarray, v: np.ndarray) -> float:
         """u' (d K / dp at fixed x) v: the kernels' Hessians of the pieces (dQ adds none)."""
@@ -148,7 +159,7 @@ def _scaled_pieces(asm: Assembly, members: list[str], degrees: dict, value: floa
             P[:, j] = k * P[:, j] / value if k else 0.0
             hit |= bool(k)
         if hit:
-            pieces.append(Piece(t.element, t.effect, t.gauss, t.idx[rows], P))
+            pieces.append(Piece(t.element, t.effect, t.gauss, t.idx[rows], P, t.label))
     return pieces
 
 
@@ -213,6 +224,10 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         _refuse_arcs(asm, members, text)
         if any(scene.members[m].element == "beam3d" for m in members):
             refuse("a beam3d section's b x h enter its kernels nonlinearly (not differentiable here)")
+        for i, c in enumerate(getattr(scene, "contacts", ())):
+            if c.member in members and "thickness" not in doc["contacts"][i]:
+                refuse(f"the contact on member {c.member!r} takes its thickness from the section (give the "
+                       "contact a thickness to differentiate the section)")
         shape = sec.get("shape")
         if shape is None and keys[2] == "area":
             deg = {"EA": 1, "rhoA": 1, "mass": 1}
@@ -230,8 +245,8 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         return out
     if keys[:2] == ("scene", "gravity") and len(keys) == 3:
         j = keys[2]
-        if asm.mesh.bodies:
-            refuse("the weight of rigid bodies is not differentiated here")
+        if asm.mesh.bodies and scene.dim == 3:
+            refuse("the weight of spatial rigid bodies is not differentiated here")
         for t in asm.terms:
             if t.label != "gravity":
                 continue
@@ -240,7 +255,7 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
             gcols = [names.index(c) for c in names if c in ("gx", "gy", "gz")]
             P[:, gcols] = 0.0
             P[:, gcols[j]] = 1.0
-            out.pieces.append(Piece(t.element, t.effect, t.gauss, t.idx, P))
+            out.pieces.append(Piece(t.element, t.effect, t.gauss, t.idx, P, t.label))
         dQ = np.zeros(asm.n)
         e = np.zeros(scene.dim)
         e[j] = 1.0
@@ -248,6 +263,8 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
             mm = asm.mesh.members[pm.member]
             idx, val = point_force(mm, mm.coordinate(pm.at), pm.mass * e)
             np.add.at(dQ, idx, val)
+        for name, o in asm.mesh.bodies.items():  # planar bodies: m g at the centre of mass (x, y first)
+            dQ[o + j] += scene.bodies[name].mass
         out.dQ = dQ
         return out
     if keys[0] == "loads" and len(keys) in (3, 4) and keys[2] == "value":
@@ -266,7 +283,7 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
             if load.kind == "moment" and scene.dim == 2:
                 tmp: dict = {}
                 moment_term(tmp, mm, mm.node(load.at), 1.0)
-                out.pieces = [Piece(t.element, t.effect, t.gauss, np.concatenate(t.idx), np.concatenate(t.P))
+                out.pieces = [Piece(t.element, t.effect, t.gauss, np.concatenate(t.idx), np.concatenate(t.P), t.label)
                               for t in tmp.values()]
                 return out
             refuse("name one component: loads[i].value[j]")
@@ -279,12 +296,12 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         elif load.kind == "distributed":
             tmp = {}
             distributed_term(tmp, mm, e)
-            out.pieces = [Piece(t.element, t.effect, t.gauss, np.concatenate(t.idx), np.concatenate(t.P))
+            out.pieces = [Piece(t.element, t.effect, t.gauss, np.concatenate(t.idx), np.concatenate(t.P), t.label)
                           for t in tmp.values()]
         elif load.kind == "moment" and mm.member.element == "beam3d":
             tmp = {}
             moment_term(tmp, mm, mm.node(load.at), e)
-            out.pieces = [Piece(t.element, t.effect, t.gauss, np.concatenate(t.idx), np.concatenate(t.P))
+            out.pieces = [Piece(t.element, t.effect, t.gauss, np.concatenate(t.idx), np.concatenate(t.P), t.label)
                           for t in tmp.values()]
         else:
             refuse("a cable3d moment's potential is not linear in its components (not differentiable here)")
@@ -299,8 +316,30 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         r, c, v = point_mass_triplets(_Only(asm.mesh, pm))
         out.dM = sp.csc_matrix((v / pm.mass, (r, c)), shape=(asm.n, asm.n))
         return out
+    if keys[0] == "bodies" and len(keys) == 3 and keys[2] == "mass":
+        if scene.dim == 3:
+            refuse("spatial bodies' masses are not differentiated here")
+        name = doc["bodies"][keys[1]]["name"]
+        o = asm.mesh.bodies[name]
+        out.dQ = np.zeros(asm.n)
+        out.dQ[o:o + 2] = np.asarray(scene.gravity, float)
+        out.dM = sp.csc_matrix((np.ones(2), (np.arange(o, o + 2), np.arange(o, o + 2))), shape=(asm.n, asm.n))
+        return out
+    if keys[0] == "contacts" and len(keys) == 3 and keys[2] in ("stiffness", "hertz"):
+        from .. import contact as contact_mod
+        c = scene.contacts[keys[1]]
+        if c.method != "penalty":
+            refuse("an exact contact has no stiffness")
+        effect, idx, P = contact_mod._call(c, asm.mesh, False)
+        element = asm.mesh.members[c.member].member.element
+        names = kernels.parameters(element, effect)
+        P = np.array(P, float)
+        P[:, names.index("k")] = 1.0 if keys[2] == "stiffness" else 0.0  # (the law is linear in k and kh jointly)
+        P[:, names.index("kh")] = 1.0 if keys[2] == "hertz" else 0.0
+        out.pieces = [Piece(element, effect, c.gauss, idx, P, "contact")]
+        return out
     refuse("not a differentiable parameter here (materials.M.E | density, sections.S.area | I | diameter, "
-           "scene.gravity[j], loads[i].value[j], masses[i].mass)")
+           "scene.gravity[j], loads[i].value[j], masses[i].mass, bodies[i].mass (2D), contacts[i].stiffness | hertz)")
 
 
 class _Only:

@@ -64,17 +64,37 @@ class StaticSensitivity:
         return self.solve(self.model(path).residual(self.result.x)[1])[0]
 
     def derivative(self, path: str) -> dict:
-        """d/dp of the reported quantities, with their keys and shapes: potential, members.NAME.nodes / tip,
-        constraint_forces.LABEL."""
+        """d/dp of the reported quantities, with their keys and shapes: potential, energies.LABEL,
+        members.NAME.nodes / tip, constraint_forces.LABEL."""
         x = self.result.x
         dPi, dR = self.model(path).residual(x)
         dx, dmu = self.solve(dR)
-        out = {"potential": dPi, "members": {}}
+        md = self.model(path)
+        de = md.energies(x)
+        out = {"potential": dPi, "energies": {lbl: de.get(lbl, 0.0) + float(g @ dx)
+                                              for lbl, g in self._label_gradients().items()}, "members": {}}
         for name, mm in self.asm.mesh.members.items():
             nodes = self.asm.member_coordinates(dx, name)[mm.public_nodes, :self.scene.dim]
             out["members"][name] = {"nodes": nodes, "tip": nodes[-1]}
         out["constraint_forces"] = self._force_derivatives(dx, dR, dmu)
         return out
+
+    def _label_gradients(self) -> dict:
+        """label -> gradient of that energy at the equilibrium (full coordinates), as result.energies labels them."""
+        if not hasattr(self, "_grads"):
+            asm, x = self.asm, self.result.x
+            grads: dict = {}
+            for mk in asm.mapped:
+                mk(x)
+                g = grads.setdefault(mk.term.label, np.zeros(asm.n))
+                g += np.bincount(mk.term.idx.ravel(), mk.G.ravel(), minlength=asm.n)
+            if np.any(asm.Q):
+                grads["loads"] = grads.get("loads", np.zeros(asm.n)) - asm.Q
+            if asm.penalty is not None:
+                pc = asm.penalty
+                grads["penalty"] = pc.jacobian(x).T @ (pc.k * pc.value(x))
+            self._grads = grads
+        return self._grads
 
     def _force_derivatives(self, dx: np.ndarray, dR: np.ndarray, dmu: np.ndarray) -> dict:
         asm, lin = self.asm, self.lin
