@@ -161,3 +161,16 @@ def test_cli_writes_sensitivities(tmp_path):
     bad = subprocess.run(cmd[:-4] + ["--sensitivity", "members[0].elements"], cwd=tmp_path, capture_output=True,
                          text=True)
     assert bad.returncode == 2 and "a count" in bad.stderr
+
+
+def test_cli_modal_sensitivities(tmp_path):
+    """A modal run's sensitivities carry `frequencies` (one per mode), equal to the Python function's."""
+    scene_file = Path(__file__).resolve().parents[1] / "examples" / "scenes" / "sagging_cable_modes.toml"
+    out = tmp_path / "m"
+    subprocess.run([sys.executable, "-m", "ancf_sym.cli", "run", str(scene_file), "--out", str(out), "--quiet",
+                    "--no-animation", "--sensitivity", "materials.cable.density"], check=True, cwd=tmp_path)
+    data = json.loads((out / "result.json").read_text())
+    got = np.asarray(data["sensitivities"]["materials.cable.density"]["frequencies"])
+    assert got.shape == (len(data["frequencies"]),)
+    py = sensitivities(scene_file, ["materials.cable.density"], modes=len(got))["materials.cable.density"]
+    assert np.allclose(got, py["frequencies"], rtol=1e-8)

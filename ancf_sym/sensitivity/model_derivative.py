@@ -14,6 +14,7 @@ those inputs yet.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Callable
 
 import casadi as ca
 import numpy as np
@@ -56,7 +57,14 @@ class ModelDerivative:
     value: float
     pieces: list = field(default_factory=list)
     dQ: np.ndarray | None = None
-    dM: sp.csc_matrix | None = None
+    mass: Callable[[], sp.csc_matrix] | None = field(default=None, repr=False)  # builds dM where the mass depends on p
+
+    @property
+    def dM(self) -> sp.csc_matrix | None:
+        """d M / dp (None: the mass does not depend on p), built on first use (statics never needs it)."""
+        if self.mass is not None and not hasattr(self, "_dM"):
+            self._dM = self.mass()
+        return getattr(self, "_dM", None)
 
     def residual(self, x: np.ndarray) -> tuple[float, np.ndarray]:
         """(d Pi/dp, d grad Pi/dp) at fixed x (full coordinates)."""
@@ -168,12 +176,13 @@ def _mass_derivative(asm: Assembly, members: list[str], degree: int) -> sp.csc_m
     rows, cols, vals = [], [], []
     for name in members:
         mm = asm.mesh.members[name]
-        if mm.member.element == "beam3d":
-            raise ParameterError("the mass of beam3d members (b, h, rho) has no derivative here")
         idx = mm.elem_dofs()
-        rhoA = mm.member.material.density * mm.member.section.area
+        m = mm.member
+        # (the mass kernels are linear in rho A (cables) and in rho (beam3d: L, b, h, rho))
+        mp = [m.section.b, m.section.h, m.material.density] if m.element == "beam3d" else \
+            [m.material.density * m.section.area]
         for e, L in enumerate(np.asarray(mm.elem_length, float)):
-            Me = kernels.mass_matrix(mm.member.element, [float(L), rhoA])
+            Me = kernels.mass_matrix(m.element, [float(L), *mp])
             nd = idx.shape[1]
             rows.append(np.repeat(idx[e], nd))
             cols.append(np.tile(idx[e], nd))
@@ -214,7 +223,7 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         elif keys[2] == "density":
             grav = [m for m in members if scene.members[m].gravity]
             out.pieces = _scaled_pieces(asm, grav, {"rhoA": 1}, value, text, ("gravity",))
-            out.dM = _mass_derivative(asm, members, 1) / value if members else None
+            out.mass = (lambda: _mass_derivative(asm, members, 1) / value) if members else None
         else:
             refuse("enters the model nonlinearly or not at all (differentiable material keys: E, density)")
         return out
@@ -241,7 +250,7 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         grav = [m for m in members if scene.members[m].gravity]
         out.pieces += _scaled_pieces(asm, grav, deg, value, text, ("gravity",))
         if deg.get("mass"):
-            out.dM = _mass_derivative(asm, members, deg["mass"]) / value
+            out.mass = lambda: _mass_derivative(asm, members, deg["mass"]) / value
         return out
     if keys[:2] == ("scene", "gravity") and len(keys) == 3:
         j = keys[2]
@@ -314,7 +323,7 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         np.add.at(dQ, idx, val)
         out.dQ = dQ
         r, c, v = point_mass_triplets(_Only(asm.mesh, pm))
-        out.dM = sp.csc_matrix((v / pm.mass, (r, c)), shape=(asm.n, asm.n))
+        out.mass = lambda: sp.csc_matrix((v / pm.mass, (r, c)), shape=(asm.n, asm.n))
         return out
     if keys[0] == "bodies" and len(keys) == 3 and keys[2] == "mass":
         if scene.dim == 3:
@@ -323,7 +332,7 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         o = asm.mesh.bodies[name]
         out.dQ = np.zeros(asm.n)
         out.dQ[o:o + 2] = np.asarray(scene.gravity, float)
-        out.dM = sp.csc_matrix((np.ones(2), (np.arange(o, o + 2), np.arange(o, o + 2))), shape=(asm.n, asm.n))
+        out.mass = lambda: sp.csc_matrix((np.ones(2), (np.arange(o, o + 2), np.arange(o, o + 2))), shape=(asm.n, asm.n))
         return out
     if keys[0] == "contacts" and len(keys) == 3 and keys[2] in ("stiffness", "hertz"):
         from .. import contact as contact_mod
