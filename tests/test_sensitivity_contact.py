@@ -97,3 +97,18 @@ def test_penalty_ground(path):
 @pytest.mark.parametrize("path", ["bodies[0].mass", "scene.gravity[1]", "sections.s.area"])
 def test_planar_body(path):
     check(BODY, path)
+
+
+TENSION = {"scene": {"name": "t", "dim": 2, "gravity": [0.0, -9.81]},
+           "materials": {"m": {"E": 5e8, "density": 3000.0}}, "sections": {"s": {"area": 1e-4, "I": 2e-9}},
+           "members": [{"name": "rod", "points": [[0, 0], [1.5, 0]], "elements": 8, "material": "m", "section": "s",
+                        "bending": True}],
+           "supports": [{"type": "clamp", "member": "rod", "at": "start"}],
+           "loads": [{"type": "tension", "member": "rod", "at": "end", "value": 40.0},
+                     {"type": "distributed", "member": "rod", "value": [1.0, -2.0]}]}
+
+
+@pytest.mark.parametrize("path", ["loads[0].value", "loads[1].value[0]", "sections.s.I"])
+def test_tension_and_distributed_loads(path):
+    """A prescribed end tension (a dead force along the reference tangent) and a distributed load."""
+    check(TENSION, path)
