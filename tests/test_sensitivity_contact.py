@@ -112,3 +112,14 @@ TENSION = {"scene": {"name": "t", "dim": 2, "gravity": [0.0, -9.81]},
 def test_tension_and_distributed_loads(path):
     """A prescribed end tension (a dead force along the reference tangent) and a distributed load."""
     check(TENSION, path)
+
+
+def test_penalty_support():
+    """A penalty pin: its spring force k c differentiates through dx (k fixed); a stiffness parameter, which scales
+    k (EA / 1 m), is refused by name."""
+    pen = copy.deepcopy(TENSION)
+    pen["supports"] = [{"type": "clamp", "member": "rod", "at": "start", "method": "penalty"}]
+    check(pen, "materials.m.density")
+    res, _ = outputs(pen)
+    with pytest.raises(ParameterError, match="penalty supports and joints take their stiffness"):
+        StaticSensitivity(scene_from_dict(pen)[0], res, pen).derivative("materials.m.E")

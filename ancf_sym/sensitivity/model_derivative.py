@@ -211,11 +211,19 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
     def refuse(why: str):
         raise ParameterError(f"parameter path {text!r} = {value!r}: {why}")
 
+    if keys[0] in ("materials", "sections") and asm.penalty is not None and keys[-1] != "density":
+        refuse("the scene's penalty supports and joints take their stiffness from EA and EI (k = EA / 1 m, "
+               "EI / 1 m): give them method = \"exact\" to differentiate a stiffness")
     if keys[0] == "materials" and len(keys) == 3:
         members = _members_with(doc, "material", keys[1])
         _refuse_arcs(asm, members, text)
         if keys[2] == "E":
             degrees = {c: 1 for cols in STIFFNESS_COLUMNS.values() for c in cols}
+            if "G" in doc["materials"][keys[1]]:  # a given shear modulus: GJ does not scale with E, but nu = E/2G - 1
+                degrees["GIp"] = 0
+                if any(scene.members[m].element == "beam3d" for m in members):
+                    refuse("with G given, Poisson's ratio E/2G - 1 of the beam3d kernels depends on E "
+                           "(give poisson instead to differentiate E)")
             if any(asm.mesh.members[m].member.element == "beam3d" and "continuum" in
                    [t.effect for t in asm.terms] for m in members):
                 refuse("the continuum beam's kernel is not differentiated with respect to E here")
