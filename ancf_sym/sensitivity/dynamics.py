@@ -1,0 +1,152 @@
+"""Forward sensitivities of a dynamic run of the alpha schemes (Newmark / HHT / generalized-alpha), exact for the
+discrete scheme.
+
+The run is the package's own integrator (ancf_sym.dynamics.alpha, one step at a time through its protocol); after
+each accepted step the sensitivity of its state follows from the step's equations in the Arnold-Bruels form
+(ancf_sym.dynamics.schemes), differentiated with respect to p on the reduced coordinates:
+
+    abar_{n+1} = (q_{n+1} - q_n - h v_n - h^2 (1/2 - beta) abar_n) / (h^2 beta)
+    a_{n+1}    = ((1 - alpha_m) abar_{n+1} + alpha_m abar_n - alpha_f a_n) / (1 - alpha_f)
+    v_{n+1}    = v_n + h (1 - gamma) abar_n + h gamma abar_{n+1}
+    M a_{n+1} + R(q_{n+1}, p) = 0          (R: the potential's gradient less the dead loads)
+
+so (cm M + K(q_{n+1})) S_{n+1} = -(M B_n + dM/dp a_{n+1} + dR/dp(q_{n+1})), cm = Scheme.cm(h), B_n the part of
+d a_{n+1}/dp from the previous state: one sparse factorisation of the step's exact tangent per step serves every
+parameter. The start: q_0 fixed (the reference) or the static equilibrium (its sensitivity), v_0 fixed, and the
+consistent initial acceleration M a_0 = -R(q_0, p) differentiated. The derivative is that of the discrete
+solution; the integrator's states differ from it by its Newton tolerance (newton.xtol, lte_fraction).
+
+Scope: fixed steps; no damping, time-dependent loads, drives or multiplier rows (rigid joints, bodies' joints):
+refused by name before any step.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from ..dynamics import DynamicOptions
+from ..dynamics.run import make_integrator
+from ..dynamics.step_system import StepSystem
+from ..scene import SceneError
+from ..scene_toml import scene_from_dict
+from .api import check_paths, read_document
+from .model_derivative import model_derivative
+
+
+@dataclass
+class DynamicSensitivity:
+    """t (steps + 1,) [s]; x (steps + 1, n): the full coordinates; dx[path] (steps + 1, n): their derivatives."""
+    t: np.ndarray
+    x: np.ndarray
+    dx: dict
+    assembly: object
+
+    def nodes(self, path: str, member: str) -> np.ndarray:
+        """d(node positions)/dp of a member over time: (steps + 1, nodes, dim)."""
+        asm = self.assembly
+        mm = asm.mesh.members[member]
+        d = self.dx[path][:, mm.offset:mm.offset + mm.x0.size].reshape(len(self.t), mm.n_nodes, mm.node_size)
+        return d[:, mm.public_nodes, :asm.scene.dim]
+
+
+def _check(S: StepSystem, opts: DynamicOptions, integ) -> None:
+    why = []
+    if opts.integrator not in ("newmark", "hht", "generalized_alpha"):
+        why.append(f"integrator {opts.integrator!r} (alpha schemes only)")
+    if opts.adaptive:
+        why.append("adaptive steps")
+    if S.mc:
+        why.append("constraint rows with multipliers (rigid joints, bodies' joints)")
+    if S.damped or S.damp_f is not None or integ.kdamp.active:
+        why.append("damping")
+    if opts.loads or S.drives is not None:
+        why.append("time-dependent loads or drives")
+    if opts.release or opts.from_result or opts.initial or opts.q0 is not None or opts.v0 is not None:
+        why.append("a start other than the reference or the static equilibrium at rest")
+    if why:
+        raise SceneError("dynamic sensitivities: not available with " + ", ".join(why))
+
+
+def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptions) -> DynamicSensitivity:
+    """Run the scene of `doc` with `options` (fixed steps of an alpha scheme) and propagate d(state)/dp for every
+    path alongside (see the module docstring)."""
+    from ..dynamics.newton import Counters
+    from ..statics import problem_for
+
+    d = read_document(doc)
+    scene, _ = scene_from_dict(d)
+    paths = list(paths)
+    check_paths(scene, d, paths)
+    asm = problem_for(scene).asm
+    S = StepSystem.for_scene(asm)
+    L = S.length_scale
+    integ = make_integrator(S, options, Counters(), 0.0, options.newton.xtol * L)
+    _check(S, options, integ)
+    E = S.E.tocsc()
+    EtE = (E.T @ E).tocsc()
+    P = len(paths)
+    derivs = [model_derivative(asm, d, p) for p in paths]
+    # start: the reference, or the equilibrium with its sensitivity
+    if options.start == "static":
+        res = problem_for(scene).solve()
+        if not res.success:
+            raise SceneError(f"dynamic sensitivities: the static start failed ({res.status})")
+        q0 = res.x
+        from .static import StaticSensitivity
+        st = StaticSensitivity(scene, res, d)
+        dq0 = np.column_stack([st.dx(p) for p in paths]) if P else np.zeros((asm.n, 0))
+    else:
+        q0, dq0 = asm.x0.copy(), np.zeros((asm.n, P))
+    Sq = spla.spsolve(EtE, E.T @ dq0).reshape(-1, P) if P else np.zeros((S.nf, 0))
+    integ.initialize(S.reduce(q0), np.zeros(S.nf), np.zeros(S.nf), options.t_start)
+    integ.tol_q = options.newton.tol * max(float(np.max(np.abs(S.f_lin))), float(np.max(np.abs(S.M @ integ.a))),
+                                           1e-300)
+    M = S.M.tocsc()
+    sch = options.scheme()
+    am, af, beta, gamma = sch.alpha_m, sch.alpha_f, sch.beta, sch.gamma
+    dM = [E.T @ md.dM @ E if md.dM is not None else None for md in derivs]
+
+    def forcing(x_full: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, sp.csc_matrix]:
+        """(dR/dp + dM/dp a per parameter (nf, P), the reduced tangent K at x)."""
+        K = (E.T @ asm.evaluate(x_full, hessian=True).hessian @ E).tocsc()
+        F = np.zeros((S.nf, P))
+        for k, md in enumerate(derivs):
+            F[:, k] = E.T @ md.residual(x_full)[1]
+            if dM[k] is not None:
+                F[:, k] += dM[k] @ a
+        return F, K
+
+    x = S.full(integ.q)
+    F, K = forcing(x, integ.a)
+    lu_M = spla.splu(M)
+    Sa = -lu_M.solve(K @ Sq + F) if P else np.zeros((S.nf, 0))
+    Sab, Sv = Sa.copy(), np.zeros_like(Sq)
+    h = options.dt
+    n_steps = int(round((options.t_end - options.t_start) / h))
+    ts, xs, dxs = [options.t_start], [x], [E @ Sq]
+    cm = sch.cm(h)
+    t = options.t_start
+    for _ in range(n_steps):
+        out = integ.attempt(t, h)
+        if not out.converged:
+            raise SceneError(f"dynamic sensitivities: the step at t = {t:.6g} s did not converge ({out.reason})")
+        integ.accept()
+        t += h
+        x = S.full(integ.q)
+        F, K = forcing(x, integ.a)
+        # d a_{n+1} = cm dq_{n+1} + B (B from the previous state)
+        B = (1 - am) / (1 - af) * (-(Sq + h * Sv + h * h * (0.5 - beta) * Sab) / (h * h * beta)) + \
+            (am * Sab - af * Sa) / (1 - af)
+        Sq_new = spla.splu((cm * M + K).tocsc()).solve(-(M @ B + F)) if P else Sq
+        Sab_new = (Sq_new - Sq - h * Sv - h * h * (0.5 - beta) * Sab) / (h * h * beta)
+        Sa_new = ((1 - am) * Sab_new + am * Sab - af * Sa) / (1 - af)
+        Sv = Sv + h * (1 - gamma) * Sab + h * gamma * Sab_new
+        Sq, Sab, Sa = Sq_new, Sab_new, Sa_new
+        ts.append(t)
+        xs.append(x)
+        dxs.append(E @ Sq)
+    dx = np.stack(dxs)  # (steps + 1, n, P)
+    return DynamicSensitivity(np.array(ts), np.stack(xs), {p: dx[:, :, k] for k, p in enumerate(paths)}, asm)
