@@ -80,7 +80,35 @@ def main(repeats: int) -> None:
               f"largest relative difference {rel:.1e}")
 
 
+def dynamics_cost(repeats: int, elements: int = 24) -> None:
+    """Forward sensitivities of a run (rope pendulum, 500 generalized-alpha steps of 1 ms) against the run alone
+    (simulate: compiled chunks of steps) and against central differences of runs for the same parameters."""
+    from ancf_sym.dynamics import DynamicOptions, simulate
+    from ancf_sym.sensitivity.dynamics import dynamic_sensitivity
+
+    doc = {"scene": {"name": "p", "dim": 2, "gravity": [0.0, -9.81]},
+           "materials": {"m": {"E": 5e6, "density": 1200.0}}, "sections": {"s": {"area": 1e-4, "I": 1e-9}},
+           "members": [{"name": "rope", "points": [[0, 0], [1.0, 0]], "elements": elements, "material": "m",
+                        "section": "s", "bending": True}],
+           "supports": [{"type": "pin", "member": "rope", "at": "start"}],
+           "masses": [{"member": "rope", "at": "end", "mass": 0.05}]}
+    opts = DynamicOptions(dt=1e-3, t_end=0.5, energies=False)
+    scene, _ = scene_from_dict(doc)
+    simulate(scene, opts)  # warm: step graphs built
+    r_min, r_med, _ = timed(lambda: simulate(scene, opts), repeats)
+    for paths in (["materials.m.E"], ["materials.m.E", "materials.m.density", "sections.s.I", "scene.gravity[1]",
+                                      "masses[0].mass"]):
+        dynamic_sensitivity(doc, paths, opts)
+        d_min, d_med, _ = timed(lambda: dynamic_sensitivity(doc, paths, opts), max(1, repeats // 3))
+        print(f"dynamics, {elements} elements, {len(paths)} parameter(s): run {r_min:.3f} / {r_med:.3f} s; run with forward "
+              f"sensitivities {d_min:.3f} / {d_med:.3f} s = {d_min / r_min:.1f}x / {d_med / r_med:.1f}x; central "
+              f"differences would be {2 * len(paths)} runs = {2 * len(paths)}x")
+
+
 if __name__ == "__main__":
     ap = argparse.ArgumentParser()
     ap.add_argument("--repeats", type=int, default=10)
-    main(ap.parse_args().repeats)
+    repeats = ap.parse_args().repeats
+    main(repeats)
+    for n in (24, 200):
+        dynamics_cost(max(1, repeats // 3), n)

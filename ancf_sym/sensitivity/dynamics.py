@@ -109,18 +109,25 @@ def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
     am, af, beta, gamma = sch.alpha_m, sch.alpha_f, sch.beta, sch.gamma
     dM = [E.T @ md.dM @ E if md.dM is not None else None for md in derivs]
 
-    def forcing(x_full: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, sp.csc_matrix]:
-        """(dR/dp + dM/dp a per parameter (nf, P), the reduced tangent K at x)."""
-        K = (E.T @ asm.evaluate(x_full, hessian=True).hessian @ E).tocsc()
+    def step_matrix(q: np.ndarray, cm: float) -> sp.csc_matrix:
+        """cm M + K(q) on the reduced coordinates: the step system's own compiled tangent (a copy: the system
+        writes it in place)."""
+        S.x[:] = q
+        S.p[:] = -S.f_lin
+        S.cm[:], S.cc[:], S.kc[:] = cm, 0.0, 1.0
+        return S.jacobian().copy()
+
+    def forcing(x_full: np.ndarray, a: np.ndarray) -> np.ndarray:
+        """dR/dp + dM/dp a per parameter (nf, P)."""
         F = np.zeros((S.nf, P))
         for k, md in enumerate(derivs):
             F[:, k] = E.T @ md.residual(x_full)[1]
             if dM[k] is not None:
                 F[:, k] += dM[k] @ a
-        return F, K
+        return F
 
     x = S.full(integ.q)
-    F, K = forcing(x, integ.a)
+    F, K = forcing(x, integ.a), step_matrix(integ.q, 0.0)
     lu_M = spla.splu(M)
     Sa = -lu_M.solve(K @ Sq + F) if P else np.zeros((S.nf, 0))
     Sab, Sv = Sa.copy(), np.zeros_like(Sq)
@@ -136,11 +143,11 @@ def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
         integ.accept()
         t += h
         x = S.full(integ.q)
-        F, K = forcing(x, integ.a)
+        F = forcing(x, integ.a)
         # d a_{n+1} = cm dq_{n+1} + B (B from the previous state)
         B = (1 - am) / (1 - af) * (-(Sq + h * Sv + h * h * (0.5 - beta) * Sab) / (h * h * beta)) + \
             (am * Sab - af * Sa) / (1 - af)
-        Sq_new = spla.splu((cm * M + K).tocsc()).solve(-(M @ B + F)) if P else Sq
+        Sq_new = spla.splu(step_matrix(integ.q, cm)).solve(-(M @ B + F)) if P else Sq
         Sab_new = (Sq_new - Sq - h * Sv - h * h * (0.5 - beta) * Sab) / (h * h * beta)
         Sa_new = ((1 - am) * Sab_new + am * Sab - af * Sa) / (1 - af)
         Sv = Sv + h * (1 - gamma) * Sab + h * gamma * Sab_new
