@@ -13,7 +13,7 @@ those inputs yet.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import casadi as ca
@@ -22,7 +22,7 @@ import scipy.sparse as sp
 
 from .. import kernels
 from ..assembly import Assembly
-from ..loads import point_force, point_mass_triplets
+from ..loads import load_vector, point_mass_triplets
 from ..terms import distributed_term, moment_term
 from .paths import ParameterPath, get_parameter, parse_path
 
@@ -193,6 +193,14 @@ def _mass_derivative(asm: Assembly, members: list[str], degree: int) -> sp.csc_m
     return sp.csc_matrix((degree * np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
 
 
+def _term_pieces(add: Callable, *args) -> list[Piece]:
+    """Pieces of the terms a terms.py builder (distributed_term, moment_term) makes with unit values."""
+    tmp: dict = {}
+    add(tmp, *args)
+    return [Piece(t.element, t.effect, t.gauss, np.concatenate(t.idx), np.concatenate(t.P), t.label)
+            for t in tmp.values()]
+
+
 def _refuse_arcs(asm: Assembly, members: list[str], path: str) -> None:
     for name in members:
         if asm.mesh.members[name].member.arc_curvature is not None:
@@ -273,13 +281,9 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
             P[:, gcols] = 0.0
             P[:, gcols[j]] = 1.0
             out.pieces.append(Piece(t.element, t.effect, t.gauss, t.idx, P, t.label))
-        dQ = np.zeros(asm.n)
         e = np.zeros(scene.dim)
         e[j] = 1.0
-        for pm in getattr(scene, "point_masses", ()):
-            mm = asm.mesh.members[pm.member]
-            idx, val = point_force(mm, mm.coordinate(pm.at), pm.mass * e)
-            np.add.at(dQ, idx, val)
+        dQ = load_vector(_MeshView(asm.mesh, gravity=e, point_masses=getattr(scene, "point_masses", ())))
         for name, o in asm.mesh.bodies.items():  # planar bodies: m g at the centre of mass (x, y first)
             dQ[o + j] += scene.bodies[name].mass
         out.dQ = dQ
@@ -287,51 +291,31 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
     if keys[0] == "loads" and len(keys) in (3, 4) and keys[2] == "value":
         load = scene.loads[keys[1]]
         mm = asm.mesh.members[load.member]
-        dQ = np.zeros(asm.n)
-        if load.kind == "tension" and len(keys) == 3:
-            node = mm.node(load.at)
-            t = mm.x0[node][mm.node_size // (4 if mm.member.element == "beam3d" else 2):][:scene.dim]
-            t = t / np.linalg.norm(t)
-            idx, val = point_force(mm, float(mm.s_node[node]), t if node == mm.n_nodes - 1 else -t)
-            np.add.at(dQ, idx, val)
-            out.dQ = dQ
+        if load.kind == "tension" and len(keys) == 3:  # (the dead force is linear in the tension)
+            out.dQ = load_vector(_MeshView(asm.mesh, [replace(load, value=1.0)]))
             return out
         if len(keys) == 3:
             if load.kind == "moment" and scene.dim == 2:
-                tmp: dict = {}
-                moment_term(tmp, mm, mm.node(load.at), 1.0)
-                out.pieces = [Piece(t.element, t.effect, t.gauss, np.concatenate(t.idx), np.concatenate(t.P), t.label)
-                              for t in tmp.values()]
+                out.pieces = _term_pieces(moment_term, mm, mm.node(load.at), 1.0)
                 return out
             refuse("name one component: loads[i].value[j]")
         e = np.zeros(scene.dim if load.kind != "moment" else 3)
         e[keys[3]] = 1.0
         if load.kind == "force":
-            idx, val = point_force(mm, mm.coordinate(load.at), e)
-            np.add.at(dQ, idx, val)
-            out.dQ = dQ
+            out.dQ = load_vector(_MeshView(asm.mesh, [replace(load, value=e)]))
         elif load.kind == "distributed":
-            tmp = {}
-            distributed_term(tmp, mm, e)
-            out.pieces = [Piece(t.element, t.effect, t.gauss, np.concatenate(t.idx), np.concatenate(t.P), t.label)
-                          for t in tmp.values()]
+            out.pieces = _term_pieces(distributed_term, mm, e)
         elif load.kind == "moment" and mm.member.element == "beam3d":
-            tmp = {}
-            moment_term(tmp, mm, mm.node(load.at), e)
-            out.pieces = [Piece(t.element, t.effect, t.gauss, np.concatenate(t.idx), np.concatenate(t.P), t.label)
-                          for t in tmp.values()]
+            out.pieces = _term_pieces(moment_term, mm, mm.node(load.at), e)
         else:
             refuse("a cable3d moment's potential is not linear in its components (not differentiable here)")
         return out
     if keys[0] == "masses" and len(keys) == 3 and keys[2] == "mass":
-        pm = scene.point_masses[keys[1]]
-        mm = asm.mesh.members[pm.member]
-        dQ = np.zeros(asm.n)
-        idx, val = point_force(mm, mm.coordinate(pm.at), np.asarray(scene.gravity, float))
-        np.add.at(dQ, idx, val)
-        out.dQ = dQ
-        r, c, v = point_mass_triplets(_Only(asm.mesh, pm))
-        out.mass = lambda: sp.csc_matrix((v / pm.mass, (r, c)), shape=(asm.n, asm.n))
+        unit = replace(scene.point_masses[keys[1]], mass=1.0)  # (weight and mass matrix linear in the mass)
+        view = _MeshView(asm.mesh, gravity=np.asarray(scene.gravity, float), point_masses=[unit])
+        out.dQ = load_vector(view)
+        r, c, v = point_mass_triplets(view)
+        out.mass = lambda: sp.csc_matrix((v, (r, c)), shape=(asm.n, asm.n))
         return out
     if keys[0] == "bodies" and len(keys) == 3 and keys[2] == "mass":
         if scene.dim == 3:
@@ -359,9 +343,12 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
            "scene.gravity[j], loads[i].value[j], masses[i].mass, bodies[i].mass (2D), contacts[i].stiffness | hertz)")
 
 
-class _Only:
-    """A mesh view with one point mass (point_mass_triplets reads mesh.scene.point_masses and mesh.members)."""
+class _MeshView:
+    """The mesh with other loads, gravity and point masses in its scene: loads.load_vector and point_mass_triplets
+    (the one home of dead point forces and point masses) evaluated on the derivative's unit values."""
 
-    def __init__(self, mesh, pm):
-        self.members = mesh.members
-        self.scene = type("S", (), {"point_masses": [pm], "dim": mesh.scene.dim})()
+    def __init__(self, mesh, loads=(), gravity=None, point_masses=()):
+        self.members, self.n = mesh.members, mesh.n
+        dim = mesh.scene.dim
+        self.scene = type("SceneView", (), {"loads": list(loads), "point_masses": list(point_masses), "dim": dim,
+                                            "gravity": np.zeros(dim) if gravity is None else gravity})()
