@@ -7,16 +7,19 @@ For a simple eigenvalue w^2 with M-normalised mode phi (phi' M phi = 1, G phi = 
 dK/dp|_x: the kernels' Hessians with their coefficients' derivatives (ancf_sym.sensitivity.model_derivative);
 D K[dx]: the third derivatives of the elastic energies along the static sensitivity dx*/dp (the kernels'
 compiled Hessian-vector companions: phi' (d(H phi)/dq) dx), plus the multipliers' change times the constraint
-curvature of bilinear rows. Frequencies f = w / 2 pi: df/dp = (d w^2/dp) / (8 pi^2 f). Repeated frequencies have
+curvature of bilinear rows, and 2 mu'(dG phi) of those rows turning with dx (mu: the mode's multipliers).
+Frequencies f = w / 2 pi: df/dp = (d w^2/dp) / (8 pi^2 f). Repeated frequencies have
 no derivative (their modes mix): such a pair is reported as NaN with the reason in `notes`.
 """
 from __future__ import annotations
 
 import casadi as ca
 import numpy as np
+import scipy.sparse.linalg as spla
 
 from .. import contact, kernels, registry
 from ..modal.result import ModalResult
+from ..reduced import partition
 from .model_derivative import ParameterError
 from .static import StaticSensitivity
 
@@ -41,6 +44,7 @@ class ModalSensitivity:
         self.modal = modal
         self.static = StaticSensitivity(scene, modal.static, doc, modal.linearization)
         asm = self.static.asm
+        self._rows = partition(asm).rows  # the exact rows kept with multipliers (rows of G)
         if contact.exact_contacts(asm):
             raise ParameterError("frequency sensitivities with exact contact are not available (the contact rows' "
                                  "curvature changes with the contact forces)")
@@ -63,6 +67,21 @@ class ModalSensitivity:
             D = dhv.reshape(nd, N, nd).transpose(1, 0, 2)  # per element d(H phi)/dq
             out += float(np.einsum("ei,eij,ej->", phi[t.idx], D, dx[t.idx]))
         return out
+
+    def _row_turn(self, k: int, dx: np.ndarray) -> float:
+        """2 mu'(dG phi): the kept bilinear rows turn with dx (G phi = 0 must hold for the perturbed mode too), mu
+        the mode's multipliers (K_L y + G'mu = w^2 M y, least squares)."""
+        lin, asm = self.static.lin, self.static.asm
+        if not lin.G.shape[0]:
+            return 0.0
+        phi = self.modal.shapes[:, k]
+        E = lin.E
+        y = spla.spsolve((E.T @ E).tocsc(), E.T @ phi)
+        r = self.modal.omega2[k] * (lin.M @ y) - lin.K @ y
+        mu = np.linalg.lstsq(lin.G.T.toarray(), r, rcond=None)[0]
+        mu_all = np.zeros(asm.exact.m)
+        mu_all[self._rows] = mu
+        return 2.0 * float(dx @ (asm.exact.hessian(mu_all) @ phi))
 
     def derivative(self, path: str) -> tuple[np.ndarray, list[str]]:
         """(d frequencies / dp [Hz per unit], notes)."""
@@ -95,7 +114,7 @@ class ModalSensitivity:
             phi = m.shapes[:, k]
             dK = md.hessian_form(x, phi, phi) + self._third(dx, phi)
             if dlam is not None:
-                dK += float(phi @ (Hq @ phi))
+                dK += float(phi @ (Hq @ phi)) + self._row_turn(k, dx)
             dM = float(phi @ (md.dM @ phi)) if md.dM is not None else 0.0
             dw2 = dK - m.omega2[k] * dM
             out[k] = dw2 / (8 * np.pi ** 2 * f[k])
