@@ -1,7 +1,9 @@
 """Command line.
 
-    ancf-sym run SCENE.toml --out DIR [--quiet] [--samples N] [--no-animation]
+    ancf-sym run SCENE.toml --out DIR [--quiet] [--samples N] [--no-animation] [--sensitivity PATH ...]
                                                                 solve the scene's [analysis], write DIR/
+    ancf-sym calibrate SCENE.toml DATA.csv --parameter PATH [...] --out DIR
+                                                                fit scene numbers to measured node positions
     ancf-sym kernels [--json]                                   the compiled kernel catalogue
     ancf-sym study NAME --out DIR [--quick] [--jobs N | --scheduler ADDRESS] [--sweep AXIS=V1,V2 ...] [--target E]
                                                                 what accuracy costs in time (ancf_sym.study)
