@@ -227,10 +227,8 @@ def _cmd_run(args) -> int:
         scene, analysis = load_scene(scene_file)
         if args.sensitivity:  # every path checked before any solving
             from .sensitivity.api import check_paths, read_document
-            if analysis["type"] not in ("statics", "modal"):
-                raise SceneError(f"--sensitivity: analysis.type = {analysis['type']!r}: statics and modal only")
             try:
-                check_paths(scene, read_document(scene_file), args.sensitivity)
+                check_paths(scene, read_document(scene_file), args.sensitivity, analysis)
             except (KeyError, ValueError) as exc:  # (a path naming nothing, or no differentiable number)
                 raise SceneError(str(exc).strip('"')) from None
     except SceneError as exc:
@@ -388,8 +386,9 @@ def _main(argv: list[str] | None = None) -> int:
                    help="samples per element in plots and VTK (default 8; fewer on meshes of over 25 000 elements)")
     p.add_argument("--no-animation", action="store_true", help="dynamics: do not write motion.gif")
     p.add_argument("--sensitivity", action="append", default=[], metavar="PATH",
-                   help="statics/modal: add the exact derivative of the results with respect to the scene number at "
-                        "this TOML path (e.g. materials.steel.E) to result.json's sensitivities (repeatable)")
+                   help="add the exact derivative of the results (statics, modal; dynamics: the sensors) with respect "
+                        "to the scene number at this TOML path (e.g. materials.steel.E) to result.json's "
+                        "sensitivities (repeatable)")
     p.set_defaults(func=cmd_run)
     c = sub.add_parser("calibrate", help="fit scene numbers (TOML paths) to measured node positions (CSV: member, "
                        "node, x, y[, z]) by Levenberg-Marquardt with the exact Jacobian")

@@ -25,9 +25,13 @@ def read_document(doc: dict | str | Path) -> dict:
     return tomllib.loads(Path(doc).read_text())
 
 
-def check_paths(scene: Scene, doc: dict, paths: list[str]) -> None:
+def check_paths(scene: Scene, doc: dict, paths: list[str], analysis: dict | None = None) -> None:
     """Refuse, before any solving, a path that names no differentiable number of this scene (KeyError /
-    ValueError naming it)."""
+    ValueError naming it), and a dynamics analysis whose sensitivities are not available."""
+    if analysis is not None and analysis.get("type") == "dynamics":
+        from ..dynamics.options import options_from_dict
+        from .dynamics import check_dynamic
+        check_dynamic(scene, options_from_dict(analysis))
     for p in paths:
         get_parameter(doc, p)
     asm = problem_for(scene).asm
@@ -88,6 +92,9 @@ def add_to_result(result_file: Path, scene: Scene, scene_file: Path, analysis: d
 
     d = read_document(scene_file)
     kind = analysis["type"]
+    if kind == "dynamics":
+        _add_dynamic(result_file, d, analysis, paths)
+        return
     skip = ("type", "modes", "damped")
     opts = StaticOptions(**{k: v for k, v in analysis.items() if k not in skip})
     res = problem_for(scene).solve(opts)
@@ -96,4 +103,35 @@ def add_to_result(result_file: Path, scene: Scene, scene_file: Path, analysis: d
 
     data = json.loads(result_file.read_text())
     data["sensitivities"] = to_json(sens)
+    write_json(result_file, data, clean=False)
+
+
+def _add_dynamic(result_file: Path, doc: dict, analysis: dict, paths: list[str]) -> None:
+    """sensitivities[PATH] = {"t": the output times, "sensors": {NAME: d(record)/dp}} of a dynamics run, from its
+    forward sensitivities (ancf_sym.sensitivity.dynamics) at the output times that are step times."""
+    from ..dynamics.options import options_from_dict
+    from ..output_json import write_json
+    from .dynamics import dynamic_sensitivity
+
+    import json
+
+    opts = options_from_dict(analysis)
+    ds = dynamic_sensitivity(doc, paths, opts)
+    data = json.loads(result_file.read_text())
+    k = np.rint((np.asarray(data["t"], float) - ds.t[0]) / opts.dt).astype(int)
+    on_grid = (k >= 0) & (k < len(ds.t)) & np.isclose(ds.t[np.clip(k, 0, len(ds.t) - 1)], data["t"],
+                                                      rtol=0, atol=1e-9 * opts.dt)
+    k = k[on_grid]
+    out = {}
+    for p in paths:
+        entry: dict = {"t": np.asarray(data["t"], float)[on_grid], "sensors": {}}
+        for ev in ds.sensors:
+            try:
+                entry["sensors"][ev.sensor.name] = ds.sensor(p, ev.sensor.name)[k]
+            except ValueError as exc:  # (curvature, body: named, not a silent gap)
+                entry.setdefault("notes", []).append(str(exc))
+        if not on_grid.all():
+            entry.setdefault("notes", []).append("derivatives at the output times that are step times only")
+        out[p] = entry
+    data["sensitivities"] = to_json(out)
     write_json(result_file, data, clean=False)

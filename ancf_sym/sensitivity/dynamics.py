@@ -21,7 +21,7 @@ refused by name before any step.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
@@ -29,6 +29,7 @@ import scipy.sparse.linalg as spla
 
 from ..dynamics import DynamicOptions
 from ..dynamics.run import make_integrator
+from ..dynamics.sensors import Sensor, SensorEval
 from ..dynamics.step_system import StepSystem
 from ..scene import SceneError
 from ..scene_toml import scene_from_dict
@@ -36,13 +37,43 @@ from .api import check_paths, read_document
 from .model_derivative import model_derivative
 
 
+LINEAR_SENSORS = ("position", "displacement", "velocity", "coordinates", "strain")  # (strain: by the chain rule)
+
+
 @dataclass
 class DynamicSensitivity:
-    """t (steps + 1,) [s]; x (steps + 1, n): the full coordinates; dx[path] (steps + 1, n): their derivatives."""
+    """t (steps + 1,) [s]; x, v (steps + 1, n): the full coordinates and velocities; dx[path], dv[path]: their
+    derivatives per step."""
     t: np.ndarray
     x: np.ndarray
+    v: np.ndarray
     dx: dict
+    dv: dict
     assembly: object
+    sensors: list = field(default_factory=list)  # SensorEval of the options' sensors
+
+    def sensor(self, path: str, name: str) -> np.ndarray:
+        """d(sensor record)/dp per step, (steps + 1, k): the sensor's kinds that are linear in the state
+        (position, displacement, velocity, coordinates) map dx, dv as they map x, v; strain |r_x| - 1 by the
+        chain rule (r_x . dr_x / |r_x|). Curvature and body sensors: not differentiated here."""
+        ev = next((e for e in self.sensors if e.sensor.name == name), None)
+        if ev is None:
+            raise KeyError(f"sensor {name!r}: no such sensor; sensors: {[e.sensor.name for e in self.sensors]}")
+        kind = ev.sensor.kind
+        dx, dv = self.dx[path], self.dv[path]
+        if kind in ("position", "displacement"):
+            return np.array([ev.probe.r(d) for d in dx])
+        if kind == "velocity":
+            return np.array([ev.probe.r(d) for d in dv])
+        if kind == "coordinates":
+            return dx[:, ev.dofs]
+        if kind == "strain":
+            out = []
+            for x, d in zip(self.x, dx):
+                rx = ev.probe.rx(x)
+                out.append([float(rx @ ev.probe.rx(d)) / float(np.linalg.norm(rx))])
+            return np.array(out)
+        raise ValueError(f"sensor {name!r}: a {kind} sensor is not differentiated here (kinds: {LINEAR_SENSORS})")
 
     def nodes(self, path: str, member: str) -> np.ndarray:
         """d(node positions)/dp of a member over time: (steps + 1, nodes, dim)."""
@@ -68,6 +99,15 @@ def _check(S: StepSystem, opts: DynamicOptions, integ) -> None:
         why.append("a start other than the reference or the static equilibrium at rest")
     if why:
         raise SceneError("dynamic sensitivities: not available with " + ", ".join(why))
+
+
+def check_dynamic(scene, options: DynamicOptions) -> None:
+    """Refuse, before any step, a run whose sensitivities this module cannot propagate (SceneError naming why)."""
+    from ..dynamics.newton import Counters
+    from ..statics import problem_for
+
+    S = StepSystem.for_scene(problem_for(scene).asm)
+    _check(S, options, make_integrator(S, options, Counters(), 0.0, options.newton.xtol * S.length_scale))
 
 
 def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptions) -> DynamicSensitivity:
@@ -133,7 +173,7 @@ def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
     Sab, Sv = Sa.copy(), np.zeros_like(Sq)
     h = options.dt
     n_steps = int(round((options.t_end - options.t_start) / h))
-    ts, xs, dxs = [options.t_start], [x], [E @ Sq]
+    ts, xs, vs, dxs, dvs = [options.t_start], [x], [S.full_v(integ.v)], [E @ Sq], [E @ Sv]
     cm = sch.cm(h)
     t = options.t_start
     for _ in range(n_steps):
@@ -154,6 +194,10 @@ def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
         Sq, Sab, Sa = Sq_new, Sab_new, Sa_new
         ts.append(t)
         xs.append(x)
+        vs.append(S.full_v(integ.v))
         dxs.append(E @ Sq)
-    dx = np.stack(dxs)  # (steps + 1, n, P)
-    return DynamicSensitivity(np.array(ts), np.stack(xs), {p: dx[:, :, k] for k, p in enumerate(paths)}, asm)
+        dvs.append(E @ Sv)
+    dx, dv = np.stack(dxs), np.stack(dvs)  # (steps + 1, n, P)
+    sensors = [SensorEval(Sensor.from_dict(sn, i), asm, i) for i, sn in enumerate(options.sensors)]
+    return DynamicSensitivity(np.array(ts), np.stack(xs), np.stack(vs), {p: dx[:, :, k] for k, p in enumerate(paths)},
+                              {p: dv[:, :, k] for k, p in enumerate(paths)}, asm, sensors)
