@@ -44,7 +44,12 @@ class StaticSensitivity:
         lin = self.lin
         self.m, self.ny = lin.G.shape[0], lin.K.shape[0]
         A = sp.bmat([[lin.K, lin.G.T], [lin.G, None]]).tocsc() if self.m else lin.K.tocsc()
-        self._lu = spla.splu(A)
+        try:
+            self._lu = spla.splu(A)
+        except RuntimeError as exc:  # (SuperLU: "Factor is exactly singular")
+            raise ValueError("sensitivities: the equilibrium's tangent [K_L G'; G 0] is singular (a mechanism, or a "
+                             "cable without bending stiffness in a straight state): the equilibrium does not depend "
+                             f"smoothly on the parameters there ({exc})") from None
         self._derivs: dict = {}
 
     # -- the model's derivative and the equilibrium's ------------------------------------------------------------
