@@ -205,3 +205,24 @@ def test_rigid_joint_statics_and_frequencies():
         n, nf = len(res.x), sum(len(v) for v in res.constraint_forces.values())
         for part in (slice(0, n), slice(n + 1, n + 1 + nf)):  # coordinates, reactions (the joint's included)
             assert np.linalg.norm(exact[part] - fd[part]) <= 1e-6 * np.linalg.norm(fd[part]), path
+
+
+def test_mode_shape_derivatives():
+    """d(M-normalised mode shapes)/dp by Nelson's bordered system against differences of modal analyses (each
+    perturbed mode signed like the base one), for a mass, a stiffness and a prestress-only parameter."""
+    from ancf_sym.sensitivity.modal import ModalSensitivity
+    doc = copy.deepcopy(DOC)
+    doc["loads"] = doc["loads"][:2]
+    doc["members"][0]["elements"] = 6
+    base = modal_analysis(scene_from_dict(doc)[0], modes=3)
+    M = base.linearization.assembly.mass_matrix()
+    ms = ModalSensitivity(base, scene_from_dict(doc)[0], doc)
+
+    def shapes(d):
+        s = modal_analysis(scene_from_dict(d)[0], modes=3).shapes
+        return s * np.sign(np.sum(s * (M @ base.shapes), axis=0))
+    for path, h in (("materials.steel.density", None), ("sections.rod.I", None), ("loads[0].value[0]", 1.0)):
+        fd = richardson(shapes, doc, path, h)
+        got = ms.shape_derivative(path)
+        for k in range(3):
+            assert np.linalg.norm(got[:, k] - fd[:, k]) <= 1e-6 * np.linalg.norm(fd[:, k]), (path, k)

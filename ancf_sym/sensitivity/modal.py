@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import casadi as ca
 import numpy as np
+import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .. import contact, kernels, registry
@@ -66,6 +67,50 @@ class ModalSensitivity:
             nd = t.idx.shape[1]
             D = dhv.reshape(nd, N, nd).transpose(1, 0, 2)  # per element d(H phi)/dq
             out += float(np.einsum("ei,eij,ej->", phi[t.idx], D, dx[t.idx]))
+        return out
+
+    def _third_vector(self, dx: np.ndarray, phi: np.ndarray) -> np.ndarray:
+        """(D K[dx]) phi on the full coordinates over the curved kernels (d(H phi)/dq dx per element)."""
+        x, n = self.modal.static.x, len(dx)
+        out = np.zeros(n)
+        for mk in self.static.asm.curved:
+            t = mk.term
+            N, nd = t.idx.shape
+            dhv = _hvp(t.element, t.effect, N)(x[t.idx].T, t.P.T, phi[t.idx].T)[1].full()
+            D = dhv.reshape(nd, N, nd).transpose(1, 0, 2)
+            out += np.bincount(t.idx.ravel(), np.einsum("eij,ej->ei", D, dx[t.idx]).ravel(), minlength=n)
+        return out
+
+    def shape_derivative(self, path: str) -> np.ndarray:
+        """d(mode shapes)/dp, full coordinates (n, modes), of the M-normalised shapes (phi' M phi = 1 kept): per
+        mode the bordered system [[K - w^2 M, M phi], [phi' M, 0]] [dphi; c] = [-(dK - dw^2 M - w^2 dM) phi;
+        -phi' dM phi / 2] (Nelson's normalisation). Scenes whose modes keep constraint rows (rigid joints): not
+        available. Repeated frequencies: NaN columns."""
+        m, s = self.modal, self.static
+        lin = s.lin
+        if lin.G.shape[0]:
+            raise ParameterError("mode-shape derivatives with constraint rows kept in the modes (rigid joints) are "
+                                 "not available")
+        x = m.static.x
+        md = s.model(path)
+        dx = s.solve(md.residual(x)[1])[0]
+        df, _ = self.derivative(path)
+        E = lin.E
+        EtE = (E.T @ E).tocsc()
+        out = np.full((len(x), m.modes), np.nan)
+        for k in range(m.modes):
+            if not np.isfinite(df[k]) or m.zero[k]:
+                continue
+            w2, phi = m.omega2[k], m.shapes[:, k]
+            y = spla.spsolve(EtE, E.T @ phi)
+            dw2 = df[k] * 8 * np.pi ** 2 * m.frequencies[k]
+            dKphi = E.T @ (md.hessian_vector(x, phi) + self._third_vector(dx, phi))
+            dMphi = E.T @ (md.dM @ phi) if md.dM is not None else np.zeros(len(y))
+            My = lin.M @ y
+            A = sp.bmat([[lin.K - w2 * lin.M, sp.csc_matrix(My[:, None])], [sp.csr_matrix(My[None, :]), None]],
+                        format="csc")
+            rhs = np.r_[-(dKphi - dw2 * My - w2 * dMphi), -0.5 * float(y @ dMphi)]
+            out[:, k] = E @ spla.spsolve(A, rhs)[:-1]
         return out
 
     def _row_turn(self, k: int, dx: np.ndarray) -> float:

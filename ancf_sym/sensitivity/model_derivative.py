@@ -90,6 +90,18 @@ class ModelDerivative:
             out["loads"] = out.get("loads", 0.0) - float(self.dQ @ x)
         return out
 
+    def hessian_vector(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """(d K / dp at fixed x) u on the full coordinates: the pieces' Hessians times u, scattered."""
+        out = np.zeros(len(x))
+        for pc in self.pieces:
+            if pc.effect == "gravity":
+                continue
+            f = _mapped(pc.element, pc.effect, pc.gauss, len(pc.idx))
+            nd = pc.idx.shape[1]
+            Hb = f(x[pc.idx].T, pc.P.T)[2].full().reshape(nd, len(pc.idx), nd).transpose(1, 0, 2)
+            out += np.bincount(pc.idx.ravel(), np.einsum("eij,ej->ei", Hb, u[pc.idx]).ravel(), minlength=len(x))
+        return out
+
     def hessian_form(self, x: np.ndarray, u: np.ndarray, v: np.ndarray) -> float:
         """u' (d K / dp at fixed x) v: the kernels' Hessians of the pieces (dQ adds none)."""
         out = 0.0
