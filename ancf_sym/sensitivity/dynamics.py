@@ -31,7 +31,7 @@ from ..dynamics import DynamicOptions
 from ..dynamics.run import make_integrator
 from ..dynamics.sensors import Sensor, SensorEval
 from ..dynamics.step_system import StepSystem
-from ..scene import SceneError
+from ..scene import Scene, SceneError
 from ..scene_toml import scene_from_dict
 from .api import check_paths, read_document
 from .model_derivative import model_derivative
@@ -101,7 +101,7 @@ def _check(S: StepSystem, opts: DynamicOptions, integ) -> None:
         raise SceneError("dynamic sensitivities: not available with " + ", ".join(why))
 
 
-def check_dynamic(scene, options: DynamicOptions) -> None:
+def check_dynamic(scene: Scene, options: DynamicOptions) -> None:
     """Refuse, before any step, a run whose sensitivities this module cannot propagate (SceneError naming why)."""
     from ..dynamics.newton import Counters
     from ..statics import problem_for

@@ -20,6 +20,7 @@ import scipy.sparse.linalg as spla
 
 from .. import contact, kernels, registry
 from ..modal.result import ModalResult
+from ..scene import Scene
 from ..reduced import partition
 from .model_derivative import ParameterError
 from .static import StaticSensitivity
@@ -39,7 +40,7 @@ def _hvp(element: str, effect: str, N: int) -> ca.Function:
 class ModalSensitivity:
     """Frequency derivatives of a modal result (its static equilibrium's sensitivity inside)."""
 
-    def __init__(self, modal: ModalResult, scene, doc: dict):
+    def __init__(self, modal: ModalResult, scene: Scene, doc: dict):
         if not modal.success:
             raise ValueError(f"frequency sensitivities need a successful modal result (status {modal.status!r})")
         self.modal = modal
