@@ -339,17 +339,19 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         out.mass = lambda: sp.csc_matrix((np.ones(2), (np.arange(o, o + 2), np.arange(o, o + 2))), shape=(asm.n, asm.n))
         return out
     if keys[0] == "contacts" and len(keys) == 3 and keys[2] in ("stiffness", "hertz"):
-        from .. import contact as contact_mod
+        from .. import contact
         c = scene.contacts[keys[1]]
         if c.method != "penalty":
             refuse("an exact contact has no stiffness")
-        effect, idx, P = contact_mod._call(c, asm.mesh, False)
-        element = asm.mesh.members[c.member].member.element
+        calls: list = []  # (the penalty contacts' normal-law kernel calls, in declaration order)
+        contact.energy_terms({}, asm.mesh, lambda _t, _label, *call: calls.append(call))
+        penalty = [k for k in scene.contacts if k.method == "penalty"]
+        element, effect, gauss, idx, P = calls[next(i for i, k in enumerate(penalty) if k is c)]
         names = kernels.parameters(element, effect)
         P = np.array(P, float)
         P[:, names.index("k")] = 1.0 if keys[2] == "stiffness" else 0.0  # (the law is linear in k and kh jointly)
         P[:, names.index("kh")] = 1.0 if keys[2] == "hertz" else 0.0
-        out.pieces = [Piece(element, effect, c.gauss, idx, P, "contact")]
+        out.pieces = [Piece(element, effect, gauss, np.asarray(idx), P, "contact")]
         return out
     refuse("not a differentiable parameter here (materials.M.E | density, sections.S.area | I | diameter, "
            "scene.gravity[j], loads[i].value[j], masses[i].mass, bodies[i].mass (2D), contacts[i].stiffness | hertz)")
