@@ -100,9 +100,9 @@ def dynamics_cost(repeats: int, elements: int = 24) -> None:
                                       "masses[0].mass"]):
         dynamic_sensitivity(doc, paths, opts)
         d_min, d_med, _ = timed(lambda: dynamic_sensitivity(doc, paths, opts), max(1, repeats // 3))
-        print(f"dynamics, {elements} elements, {len(paths)} parameter(s): run {r_min:.3f} / {r_med:.3f} s; run with forward "
-              f"sensitivities {d_min:.3f} / {d_med:.3f} s = {d_min / r_min:.1f}x / {d_med / r_med:.1f}x; central "
-              f"differences would be {2 * len(paths)} runs = {2 * len(paths)}x")
+        print(f"dynamics, {elements} elements, {len(paths)} parameter(s): run {r_min:.3f} / {r_med:.3f} s; "
+              f"run with forward sensitivities {d_min:.3f} / {d_med:.3f} s = {d_min / r_min:.1f}x / "
+              f"{d_med / r_med:.1f}x; central differences would be {2 * len(paths)} runs = {2 * len(paths)}x")
 
 
 if __name__ == "__main__":

@@ -1,4 +1,5 @@
-"""Exact sensitivities of results to scene parameters named by their TOML path, and calibration (docs/sensitivity.md)."""
+"""Exact sensitivities of results to scene parameters named by their TOML path, and calibration
+(docs/sensitivity.md)."""
 from .api import sensitivities
 from .calibrate import Calibration, calibrate
 from .paths import ParameterPath, get_parameter, parse_path, with_parameter

@@ -157,11 +157,18 @@ def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
         S.cm[:], S.cc[:], S.kc[:] = cm, 0.0, 1.0
         return S.jacobian().copy()
 
+    fixed: dict = {}
+
     def forcing(x_full: np.ndarray, a: np.ndarray) -> np.ndarray:
         """dR/dp + dM/dp a per parameter (nf, P)."""
         F = np.zeros((S.nf, P))
         for k, md in enumerate(derivs):
-            F[:, k] = E.T @ md.residual(x_full)[1]
+            if md.constant_residual:  # (loads, gravity: evaluated once)
+                if k not in fixed:
+                    fixed[k] = E.T @ md.residual(x_full)[1]
+                F[:, k] = fixed[k]
+            else:
+                F[:, k] = E.T @ md.residual(x_full)[1]
             if dM[k] is not None:
                 F[:, k] += dM[k] @ a
         return F

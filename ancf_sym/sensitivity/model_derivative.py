@@ -66,6 +66,11 @@ class ModelDerivative:
             self._dM = self.mass()
         return getattr(self, "_dM", None)
 
+    @property
+    def constant_residual(self) -> bool:
+        """d grad Pi/dp does not depend on x: dead loads and the gravity kernel (linear in q) only."""
+        return all(pc.effect == "gravity" for pc in self.pieces)
+
     def residual(self, x: np.ndarray) -> tuple[float, np.ndarray]:
         """(d Pi/dp, d grad Pi/dp) at fixed x (full coordinates)."""
         n = len(x)
