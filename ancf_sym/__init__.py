@@ -21,7 +21,8 @@ __version__ = "0.1.0"
 _PUBLIC = {"Material": "scene", "Scene": "scene", "SceneError": "scene", "Section": "scene",
            "StaticOptions": "statics", "StaticResult": "statics", "solve_static": "statics",
            "DynamicOptions": "dynamics", "DynamicResult": "dynamics", "run_dynamics": "dynamics",
-           "simulate": "dynamics", "modal_analysis": "modal", "linearize": "modal", "ModalResult": "modal"}
+           "simulate": "dynamics", "modal_analysis": "modal", "linearize": "modal", "ModalResult": "modal",
+           "calibrate": "sensitivity", "sensitivities": "sensitivity"}
 __all__ = list(_PUBLIC)
 
 

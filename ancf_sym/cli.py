@@ -1,7 +1,9 @@
 """Command line.
 
-    ancf-sym run SCENE.toml --out DIR [--quiet] [--samples N] [--no-animation]
+    ancf-sym run SCENE.toml --out DIR [--quiet] [--samples N] [--no-animation] [--sensitivity PATH ...]
                                                                 solve the scene's [analysis], write DIR/
+    ancf-sym calibrate SCENE.toml DATA.csv --parameter PATH [...] --out DIR
+                                                                fit scene numbers to measured node positions
     ancf-sym kernels [--json]                                   the compiled kernel catalogue
     ancf-sym study NAME --out DIR [--quick] [--jobs N | --scheduler ADDRESS] [--sweep AXIS=V1,V2 ...] [--target E]
                                                                 what accuracy costs in time (ancf_sym.study)
@@ -211,6 +213,12 @@ def _cmd_run(args) -> int:
         if args.samples is not None and args.samples < 1:
             raise SceneError(f"--samples must be a positive integer, got {args.samples}")
         scene, analysis = load_scene(scene_file)
+        if args.sensitivity:  # every path checked before any solving
+            from ancf_sym.sensitivity.api import check_paths, read_document
+            try:
+                check_paths(scene, read_document(scene_file), args.sensitivity, analysis)
+            except (KeyError, ValueError) as exc:  # (a path naming nothing, or no differentiable number)
+                raise SceneError(str(exc).strip('"')) from None
     except SceneError as exc:
         _fail(str(exc))
         return 2
@@ -243,6 +251,9 @@ def _run_in(rd: ResultDir, scene, analysis, scene_file, runner, progress, t_star
         shutil.copyfile(scene_file, tmp / "scene.toml")
         ok, summary = runner(scene, analysis, scene_file, tmp, progress, t_start, args.samples,
                              not args.no_animation)
+        if ok and args.sensitivity:  # exact derivatives of the results by parameter path (ancf_sym.sensitivity)
+            from ancf_sym.sensitivity.api import add_to_result
+            add_to_result(tmp / RESULT_FILE, scene, scene_file, analysis, args.sensitivity)
     except SceneError:  # a value only the assembly or solver could refuse
         raise
     except Exception as exc:  # noqa: BLE001 - one line to the user, the traceback into DIR.failed
@@ -330,6 +341,15 @@ def cmd_study(args) -> int:
     return 0
 
 
+def cmd_calibrate(args) -> int:
+    from ancf_sym.sensitivity.calibrate import run_cli
+    try:
+        return run_cli(args.scene, args.data, args.parameter, Path(args.out), args.max_iter, args.quiet)
+    except (SceneError, KeyError, ValueError) as exc:  # (a bad path, column or value: named in the message)
+        _fail(str(exc).strip('"'))
+        return 2
+
+
 def main(argv: list[str] | None = None) -> int:
     """The command line; Ctrl-C or SIGTERM at any moment (also while argparse or a command's imports load) exits
     with one line and the shell's code, never a traceback."""
@@ -354,7 +374,20 @@ def _main(argv: list[str] | None = None) -> int:
     p.add_argument("--samples", type=int, default=None,
                    help="samples per element in plots and VTK (default 8; fewer on meshes of over 25 000 elements)")
     p.add_argument("--no-animation", action="store_true", help="dynamics: do not write motion.gif")
+    p.add_argument("--sensitivity", action="append", default=[], metavar="PATH",
+                   help="add the exact derivative of the results (statics, modal; dynamics: the sensors) with respect "
+                        "to the scene number at this TOML path (e.g. materials.steel.E) to result.json's "
+                        "sensitivities (repeatable)")
     p.set_defaults(func=cmd_run)
+    c = sub.add_parser("calibrate", help="fit scene numbers (TOML paths) to measured node positions (CSV: member, "
+                       "node, x, y[, z]) by Levenberg-Marquardt with the exact Jacobian")
+    c.add_argument("scene", help="scene file (TOML; its values at the paths are the start)")
+    c.add_argument("data", help="CSV of measured positions: member, node, x, y[, z]")
+    c.add_argument("--parameter", action="append", required=True, metavar="PATH", help="a TOML path to fit (repeatable)")
+    c.add_argument("--out", required=True, help="output directory: calibration.json, calibration.png")
+    c.add_argument("--max-iter", type=int, default=30, help="Levenberg-Marquardt iterations at most (default 30)")
+    c.add_argument("--quiet", action="store_true", help="no summary line")
+    c.set_defaults(func=cmd_calibrate)
     k = sub.add_parser("kernels", help="list the compiled kernels")
     k.add_argument("--json", action="store_true", help="the full catalogue as JSON")
     k.set_defaults(func=cmd_kernels)

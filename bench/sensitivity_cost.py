@@ -1,22 +1,114 @@
-"""Cost of one exact load sensitivity (linearize + one bordered solve) against the statics solve it differentiates:
-the catenary example with a 20 N point force at its middle node. Run: python bench/sensitivity_cost.py"""
+"""Cost of exact static sensitivities against the statics solve they differentiate, and against the
+finite-difference sweep a user would run instead (same gradient, time ratio).
+
+Scene: the catenary example (rubber rope, 10 m, pinned ends) at n elements with 48 point forces along it. Timed:
+- statics: solve_static of the scene (its problem cached: what a repeated solve costs);
+- one parameter: StaticSensitivity (the linearisation: K_L, one sparse factorisation) + the derivative of every
+  reported quantity (potential, nodes, tips, reactions) for materials.rubber.E;
+- 100 parameters, adjoint: the gradient of one output (the middle node's height) with respect to E, density,
+  diameter, both gravity components and the 96 force components (one adjoint solve, 100 dR/dp);
+- finite differences: central differences of the same output over the same 100 parameters (200 solves, each a
+  scene rebuilt with one value changed, warm-started from the equilibrium: from the straight start some perturbed
+  scenes find another equilibrium of this slack rope), and the largest relative difference from the exact gradient.
+min / median over repeats. Run: python bench/sensitivity_cost.py [--repeats N]
+"""
+import argparse
+import copy
 import time
 import tomllib
 from pathlib import Path
 
-from ancf_sym.modal.linearize import linearize
+import numpy as np
+
 from ancf_sym.io.scene_toml import scene_from_dict
-from ancf_sym.sensitivity.loads import node_force_sensitivity
+from ancf_sym.sensitivity import get_parameter, with_parameter
+from ancf_sym.sensitivity.static import StaticSensitivity
 from ancf_sym.statics import solve_static
 
-doc = tomllib.loads((Path(__file__).resolve().parents[1] / "examples" / "scenes" / "catenary.toml").read_text())
-for n in (40, 160):
-    d = dict(doc, members=[dict(doc["members"][0], elements=n)],
-             loads=[{"type": "force", "member": "rope", "at": n // 2, "value": [0.0, -20.0]}])
-    scene, _ = scene_from_dict(d)
-    solve_static(scene)  # warm: kernels loaded, problem cached
-    t0 = time.perf_counter(); res = solve_static(scene); t1 = time.perf_counter()
-    lin = linearize(scene, res, damping_matrix=False); t2 = time.perf_counter()
-    node_force_sensitivity(lin, "rope", n // 2, 0); t3 = time.perf_counter()
-    print(f"n={n}: statics {t1 - t0:.4f} s, linearize {t2 - t1:.4f} s, one solve {t3 - t2:.5f} s, "
-          f"ratio {(t3 - t1) / (t1 - t0):.2f}")
+DOC = tomllib.loads((Path(__file__).resolve().parents[1] / "examples" / "scenes" / "catenary.toml").read_text())
+
+
+def scene_doc(n: int) -> dict:
+    d = copy.deepcopy(DOC)
+    d["members"][0]["elements"] = n
+    nodes = np.linspace(1, n - 1, 48).round().astype(int)
+    d["loads"] = [{"type": "force", "member": "rope", "at": int(k), "value": [0.5, -2.0]} for k in nodes]
+    return d
+
+
+def timed(f, repeats):
+    ts, out = [], None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        out = f()
+        ts.append(time.perf_counter() - t0)
+    return np.min(ts), np.median(ts), out
+
+
+def main(repeats: int) -> None:
+    for n in (40, 160):
+        doc = scene_doc(n)
+        scene, _ = scene_from_dict(doc)
+        res = solve_static(scene)  # warm: kernels loaded, problem cached
+        assert res.success
+        s_min, s_med, res = timed(lambda: solve_static(scene), repeats)
+        o_min, o_med, _ = timed(lambda: StaticSensitivity(scene, res, doc).derivative("materials.rubber.E"), repeats)
+        paths = ["materials.rubber.E", "materials.rubber.density", "sections.rope.diameter", "scene.gravity[0]"] + \
+            [f"loads[{i}].value[{j}]" for i in range(48) for j in range(2)]
+        paths = paths[:100]
+        mm = res.assembly.mesh.members["rope"]
+        k = mm.offset + mm.public_nodes[n // 2] * mm.node_size + 1  # y of the middle node
+        c = np.zeros(len(res.x))
+        c[k] = 1.0
+        a_min, a_med, grad = timed(lambda: StaticSensitivity(scene, res, doc).gradient(c, paths), repeats)
+
+        def fd():
+            g = np.empty(len(paths))
+            for i, p in enumerate(paths):
+                v = get_parameter(doc, p)
+                h = 1e-4 * abs(v) if v else 1e-3
+                ys = [solve_static(scene_from_dict(with_parameter(doc, p, v + s))[0], warm_start=res).x[k]
+                      for s in (h, -h)]
+                g[i] = (ys[0] - ys[1]) / (2 * h)
+            return g
+        f_min, f_med, g_fd = timed(fd, max(1, repeats // 5))
+        rel = np.max(np.abs(grad - g_fd) / np.maximum(np.abs(g_fd), 1e-12 * np.abs(g_fd).max()))
+        print(f"n={n}: statics {s_min * 1e3:.2f} / {s_med * 1e3:.2f} ms (min/median); one parameter "
+              f"{o_min * 1e3:.2f} / {o_med * 1e3:.2f} ms = {o_min / s_min:.2f}x / {o_med / s_med:.2f}x; 100 parameters "
+              f"(adjoint) {a_min * 1e3:.2f} / {a_med * 1e3:.2f} ms = {a_min / s_min:.2f}x / {a_med / s_med:.2f}x; "
+              f"finite differences (200 solves) {f_min:.3f} / {f_med:.3f} s = {f_med / a_med:.0f}x the adjoint, "
+              f"largest relative difference {rel:.1e}")
+
+
+def dynamics_cost(repeats: int, elements: int = 24) -> None:
+    """Forward sensitivities of a run (rope pendulum, 500 generalized-alpha steps of 1 ms) against the run alone
+    (simulate: compiled chunks of steps) and against central differences of runs for the same parameters."""
+    from ancf_sym.dynamics import DynamicOptions, simulate
+    from ancf_sym.sensitivity.dynamics import dynamic_sensitivity
+
+    doc = {"scene": {"name": "p", "dim": 2, "gravity": [0.0, -9.81]},
+           "materials": {"m": {"E": 5e6, "density": 1200.0}}, "sections": {"s": {"area": 1e-4, "I": 1e-9}},
+           "members": [{"name": "rope", "points": [[0, 0], [1.0, 0]], "elements": elements, "material": "m",
+                        "section": "s", "bending": True}],
+           "supports": [{"type": "pin", "member": "rope", "at": "start"}],
+           "masses": [{"member": "rope", "at": "end", "mass": 0.05}]}
+    opts = DynamicOptions(dt=1e-3, t_end=0.5, energies=False)
+    scene, _ = scene_from_dict(doc)
+    simulate(scene, opts)  # warm: step graphs built
+    r_min, r_med, _ = timed(lambda: simulate(scene, opts), repeats)
+    for paths in (["materials.m.E"], ["materials.m.E", "materials.m.density", "sections.s.I", "scene.gravity[1]",
+                                      "masses[0].mass"]):
+        dynamic_sensitivity(doc, paths, opts)
+        d_min, d_med, _ = timed(lambda: dynamic_sensitivity(doc, paths, opts), max(1, repeats // 3))
+        print(f"dynamics, {elements} elements, {len(paths)} parameter(s): run {r_min:.3f} / {r_med:.3f} s; "
+              f"run with forward sensitivities {d_min:.3f} / {d_med:.3f} s = {d_min / r_min:.1f}x / "
+              f"{d_med / r_med:.1f}x; central differences would be {2 * len(paths)} runs = {2 * len(paths)}x")
+
+
+if __name__ == "__main__":
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--repeats", type=int, default=10)
+    repeats = ap.parse_args().repeats
+    main(repeats)
+    for n in (24, 200):
+        dynamics_cost(max(1, repeats // 3), n)

@@ -1,0 +1,168 @@
+"""Exact derivatives of natural frequencies with respect to scene parameters, the prestress change included.
+
+For a simple eigenvalue w^2 with M-normalised mode phi (phi' M phi = 1, G phi = 0):
+
+    d w^2 / dp = phi' (dK_L/dp - w^2 dM/dp) phi,    dK_L/dp = dK/dp|_x + D K[dx*/dp]
+
+dK/dp|_x: the kernels' Hessians with their coefficients' derivatives (ancf_sym.sensitivity.model_derivative);
+D K[dx]: the third derivatives of the elastic energies along the static sensitivity dx*/dp (the kernels'
+compiled Hessian-vector companions: phi' (d(H phi)/dq) dx), plus the multipliers' change times the constraint
+curvature of bilinear rows, and 2 mu'(dG phi) of those rows turning with dx (mu: the mode's multipliers).
+Frequencies f = w / 2 pi: df/dp = (d w^2/dp) / (8 pi^2 f). Repeated frequencies have
+no derivative (their modes mix): such a pair is reported as NaN with the reason in `notes`.
+"""
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from ancf_sym.contact import laws as contact
+from ancf_sym import kernels, registry
+from ancf_sym.modal.result import ModalResult
+from ancf_sym.scene.builder import Scene
+from ancf_sym.model.reduced import partition
+from ancf_sym.sensitivity.model_derivative import ParameterError
+from ancf_sym.sensitivity.static import StaticSensitivity
+
+REPEATED_REL = 1e-6  # relative gap below which two frequencies count as one repeated eigenvalue
+
+_HVP: dict = {}
+
+
+def _hvp(element: str, effect: str, N: int) -> ca.Function:
+    key = (element, effect, N)
+    if key not in _HVP:
+        _HVP[key] = kernels.load_hvp(element, effect).map(N)
+    return _HVP[key]
+
+
+class ModalSensitivity:
+    """Frequency derivatives of a modal result (its static equilibrium's sensitivity inside)."""
+
+    def __init__(self, modal: ModalResult, scene: Scene, doc: dict):
+        if not modal.success:
+            raise ValueError(f"frequency sensitivities need a successful modal result (status {modal.status!r})")
+        self.modal = modal
+        self.static = StaticSensitivity(scene, modal.static, doc, modal.linearization)
+        asm = self.static.asm
+        self._rows = partition(asm).rows  # the exact rows kept with multipliers (rows of G)
+        if contact.exact_contacts(asm):
+            raise ParameterError("frequency sensitivities with exact contact are not available (the contact rows' "
+                                 "curvature changes with the contact forces)")
+        if asm.penalty is not None and len(asm.penalty.qrow):
+            raise ParameterError("frequency sensitivities with penalty rigid joints are not available")
+        for mk in asm.curved:
+            t = mk.term
+            if not registry.has_third_derivatives(t.element, t.effect, t.gauss):
+                raise ParameterError(f"frequency sensitivities need the third derivatives of every curved energy; "
+                                     f"{t.element}/{t.effect} (gauss {t.gauss}) has none compiled")
+
+    def _third(self, dx: np.ndarray, phi: np.ndarray) -> float:
+        """phi' (D K[dx]) phi over the curved kernels."""
+        x, out = self.modal.static.x, 0.0
+        for mk in self.static.asm.curved:
+            t = mk.term
+            N = len(t.idx)
+            dhv = _hvp(t.element, t.effect, N)(x[t.idx].T, t.P.T, phi[t.idx].T)[1].full()
+            nd = t.idx.shape[1]
+            D = dhv.reshape(nd, N, nd).transpose(1, 0, 2)  # per element d(H phi)/dq
+            out += float(np.einsum("ei,eij,ej->", phi[t.idx], D, dx[t.idx]))
+        return out
+
+    def _third_vector(self, dx: np.ndarray, phi: np.ndarray) -> np.ndarray:
+        """(D K[dx]) phi on the full coordinates over the curved kernels (d(H phi)/dq dx per element)."""
+        x, n = self.modal.static.x, len(dx)
+        out = np.zeros(n)
+        for mk in self.static.asm.curved:
+            t = mk.term
+            N, nd = t.idx.shape
+            dhv = _hvp(t.element, t.effect, N)(x[t.idx].T, t.P.T, phi[t.idx].T)[1].full()
+            D = dhv.reshape(nd, N, nd).transpose(1, 0, 2)
+            out += np.bincount(t.idx.ravel(), np.einsum("eij,ej->ei", D, dx[t.idx]).ravel(), minlength=n)
+        return out
+
+    def shape_derivative(self, path: str) -> np.ndarray:
+        """d(mode shapes)/dp, full coordinates (n, modes), of the M-normalised shapes (phi' M phi = 1 kept): per
+        mode the bordered system [[K - w^2 M, M phi], [phi' M, 0]] [dphi; c] = [-(dK - dw^2 M - w^2 dM) phi;
+        -phi' dM phi / 2] (Nelson's normalisation). Scenes whose modes keep constraint rows (rigid joints): not
+        available. Repeated frequencies: NaN columns."""
+        m, s = self.modal, self.static
+        lin = s.lin
+        if lin.G.shape[0]:
+            raise ParameterError("mode-shape derivatives with constraint rows kept in the modes (rigid joints) are "
+                                 "not available")
+        x = m.static.x
+        md = s.model(path)
+        dx = s.solve(md.residual(x)[1])[0]
+        df, _ = self.derivative(path)
+        E = lin.E
+        EtE = (E.T @ E).tocsc()
+        out = np.full((len(x), m.modes), np.nan)
+        for k in range(m.modes):
+            if not np.isfinite(df[k]) or m.zero[k]:
+                continue
+            w2, phi = m.omega2[k], m.shapes[:, k]
+            y = spla.spsolve(EtE, E.T @ phi)
+            dw2 = df[k] * 8 * np.pi ** 2 * m.frequencies[k]
+            dKphi = E.T @ (md.hessian_vector(x, phi) + self._third_vector(dx, phi))
+            dMphi = E.T @ (md.dM @ phi) if md.dM is not None else np.zeros(len(y))
+            My = lin.M @ y
+            A = sp.bmat([[lin.K - w2 * lin.M, sp.csc_matrix(My[:, None])], [sp.csr_matrix(My[None, :]), None]],
+                        format="csc")
+            rhs = np.r_[-(dKphi - dw2 * My - w2 * dMphi), -0.5 * float(y @ dMphi)]
+            out[:, k] = E @ spla.spsolve(A, rhs)[:-1]
+        return out
+
+    def _row_turn(self, k: int, dx: np.ndarray) -> float:
+        """2 mu'(dG phi): the kept bilinear rows turn with dx (G phi = 0 must hold for the perturbed mode too), mu
+        the mode's multipliers (K_L y + G'mu = w^2 M y, least squares)."""
+        lin, asm = self.static.lin, self.static.asm
+        if not lin.G.shape[0]:
+            return 0.0
+        phi = self.modal.shapes[:, k]
+        E = lin.E
+        y = spla.spsolve((E.T @ E).tocsc(), E.T @ phi)
+        r = self.modal.omega2[k] * (lin.M @ y) - lin.K @ y
+        mu = np.linalg.lstsq(lin.G.T.toarray(), r, rcond=None)[0]
+        mu_all = np.zeros(asm.exact.m)
+        mu_all[self._rows] = mu
+        return 2.0 * float(dx @ (asm.exact.hessian(mu_all) @ phi))
+
+    def derivative(self, path: str) -> tuple[np.ndarray, list[str]]:
+        """(d frequencies / dp [Hz per unit], notes)."""
+        m, s = self.modal, self.static
+        x = m.static.x
+        md = s.model(path)
+        dPi, dR = md.residual(x)
+        dx, dmu = s.solve(dR)
+        asm = s.asm
+        dlam = None
+        if len(asm.exact.qrow):  # bilinear rows: their curvature weighted by the multipliers' change
+            forces = s._force_derivatives(dx, dR, dmu)
+            taken: dict = {}
+            dlam = []
+            for lbl in asm.exact.labels:
+                k = taken.get(lbl, 0)
+                dlam.append(float(forces[lbl][k]))
+                taken[lbl] = k + 1
+            Hq = asm.exact.hessian(np.asarray(dlam))
+        out, notes = np.zeros(m.modes), []
+        f = m.frequencies
+        for k in range(m.modes):
+            if m.zero[k]:
+                continue
+            others = np.delete(f, k)
+            if np.any(np.abs(others - f[k]) <= REPEATED_REL * abs(f[k])):
+                out[k] = np.nan
+                notes.append(f"mode {k}: repeated frequency {f[k]:.6g} Hz has no derivative")
+                continue
+            phi = m.shapes[:, k]
+            dK = md.hessian_form(x, phi, phi) + self._third(dx, phi)
+            if dlam is not None:
+                dK += float(phi @ (Hq @ phi)) + self._row_turn(k, dx)
+            dM = float(phi @ (md.dM @ phi)) if md.dM is not None else 0.0
+            dw2 = dK - m.omega2[k] * dM
+            out[k] = dw2 / (8 * np.pi ** 2 * f[k])
+        return out, notes

@@ -1,0 +1,394 @@
+"""The exact derivative of the assembled model with respect to one scene parameter (a TOML path), at a state x.
+
+The residual of the statics is R(x, p) = grad Pi(x, p) = sum_terms grad U_t(x; P_t(p)) - Q(p). Each kernel's energy
+is linear in a group of its parameters (its coefficients: EA of an axial kernel, EI of bending, (EIy, EIz) of the
+elastic line's bending, E of the line strain, the force or moment of a load, rhoA or the gravity vector g of the
+gravity kernel, (k, kh) of a contact law), so that dU/dp = U(x; P with that group replaced by d(group)/dp): the
+kernel evaluated with its coefficients' derivatives gives the exact derivative of its energy, gradient and Hessian
+(no difference quotient). The scene's numbers enter those coefficients as monomials (EA = E area, EI = E I with
+I = pi d^4 / 64 of a diameter d, rhoA = density area, G J = E J / (2 (1 + nu))): a coefficient c of degree k in p
+has dc/dp = k c / p. Parameters that enter anywhere else (element lengths through a prestrain, a beam's b x h,
+Poisson's ratio, an arc's reference moment) are refused by name: their kernels have no derivative with respect to
+those inputs yet.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+import tomllib
+from pathlib import Path
+from typing import Callable
+
+import casadi as ca
+import numpy as np
+import scipy.sparse as sp
+
+from ancf_sym import kernels
+from ancf_sym.model.assembly import Assembly
+from ancf_sym.model.loads import load_vector, point_mass_triplets
+from ancf_sym.model.terms import distributed_term, moment_term
+from ancf_sym.scene.builder import Scene
+from ancf_sym.sensitivity.paths import ParameterPath, get_parameter, parse_path
+
+STIFFNESS_COLUMNS = {  # effect -> its coefficient columns (the energy is linear in them jointly)
+    "axial_green": ("EA",), "axial_biot": ("EA",), "axial_decoupled": ("EA",), "axial_decoupled_biot": ("EA",),
+    "bending": ("EI",), "line_bending": ("EIy", "EIz"), "line_torsion": ("GIp",), "line_strain": ("E",),
+}
+NOT_STIFFNESS = ("gravity", "loads", "contact", "penalty")  # energy labels that hold no member stiffness
+
+
+class ParameterError(ValueError):
+    """A parameter path this model cannot differentiate; the message names the path and why."""
+
+
+@dataclass
+class Piece:
+    """Kernel calls whose outputs are the derivative: the kernel (element, effect, gauss) on elements idx with
+    parameter rows P (the coefficient group replaced by its derivative)."""
+    element: str
+    effect: str
+    gauss: int | None
+    idx: np.ndarray  # (N, nd)
+    P: np.ndarray  # (N, np)
+    label: str = ""  # the energy bucket it belongs to (axial, bending, gravity, loads, contact, ...)
+
+
+@dataclass
+class ModelDerivative:
+    """d/dp of the model: kernel pieces (energy, gradient, Hessian), the dead load dQ (potential -Q.x) and the mass
+    matrix dM (None: the mass does not depend on p)."""
+    path: str
+    value: float
+    pieces: list = field(default_factory=list)
+    dQ: np.ndarray | None = None
+    mass: Callable[[], sp.csc_matrix] | None = field(default=None, repr=False)  # builds dM where the mass depends on p
+
+    @property
+    def dM(self) -> sp.csc_matrix | None:
+        """d M / dp (None: the mass does not depend on p), built on first use (statics never needs it)."""
+        if self.mass is not None and not hasattr(self, "_dM"):
+            self._dM = self.mass()
+        return getattr(self, "_dM", None)
+
+    @property
+    def constant_residual(self) -> bool:
+        """d grad Pi/dp does not depend on x: dead loads and the gravity kernel (linear in q) only."""
+        return all(pc.effect == "gravity" for pc in self.pieces)
+
+    def residual(self, x: np.ndarray) -> tuple[float, np.ndarray]:
+        """(d Pi/dp, d grad Pi/dp) at fixed x (full coordinates)."""
+        n = len(x)
+        dPi, dR = 0.0, np.zeros(n)
+        for pc in self.pieces:
+            f = _mapped_grad(pc.element, pc.effect, pc.gauss, len(pc.idx))
+            e, g = (o.full() for o in f(x[pc.idx].T, pc.P.T))
+            dPi += float(e.sum())
+            dR += np.bincount(pc.idx.ravel(), g.T.ravel(), minlength=n)
+        if self.dQ is not None:
+            dPi -= float(self.dQ @ x)
+            dR -= self.dQ
+        return dPi, dR
+
+    def energies(self, x: np.ndarray) -> dict:
+        """label -> d(energy of that label)/dp at fixed x (the dead loads' -dQ.x under "loads")."""
+        out: dict = {}
+        for pc in self.pieces:
+            f = _mapped_grad(pc.element, pc.effect, pc.gauss, len(pc.idx))
+            out[pc.label] = out.get(pc.label, 0.0) + float(f(x[pc.idx].T, pc.P.T)[0].full().sum())
+        if self.dQ is not None and np.any(self.dQ):
+            out["loads"] = out.get("loads", 0.0) - float(self.dQ @ x)
+        return out
+
+    def hessian_vector(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """(d K / dp at fixed x) u on the full coordinates: the pieces' Hessians times u, scattered."""
+        out = np.zeros(len(x))
+        for pc in self.pieces:
+            if pc.effect == "gravity":
+                continue
+            f = _mapped(pc.element, pc.effect, pc.gauss, len(pc.idx))
+            nd = pc.idx.shape[1]
+            Hb = f(x[pc.idx].T, pc.P.T)[2].full().reshape(nd, len(pc.idx), nd).transpose(1, 0, 2)
+            out += np.bincount(pc.idx.ravel(), np.einsum("eij,ej->ei", Hb, u[pc.idx]).ravel(), minlength=len(x))
+        return out
+
+    def hessian_form(self, x: np.ndarray, u: np.ndarray, v: np.ndarray) -> float:
+        """u' (d K / dp at fixed x) v: the kernels' Hessians of the pieces (dQ adds none)."""
+        out = 0.0
+        for pc in self.pieces:
+            if pc.effect == "gravity":  # linear in q: no Hessian
+                continue
+            f = _mapped(pc.element, pc.effect, pc.gauss, len(pc.idx))
+            H = f(x[pc.idx].T, pc.P.T)[2].full()  # (nd, nd N): blocks side by side
+            nd = pc.idx.shape[1]
+            Hb = H.reshape(nd, len(pc.idx), nd).transpose(1, 0, 2)
+            out += float(np.einsum("ei,eij,ej->", u[pc.idx], Hb, v[pc.idx]))
+        return out
+
+
+_MAPS: dict = {}
+
+
+def _mapped_grad(element, effect, gauss, N) -> ca.Function:
+    key = ("grad", element, effect, gauss, N)
+    if key not in _MAPS:
+        _MAPS[key] = kernels.load_grad(element, effect, gauss).map(N)
+    return _MAPS[key]
+
+
+def _mapped(element, effect, gauss, N) -> ca.Function:
+    key = ("full", element, effect, gauss, N)
+    if key not in _MAPS:
+        _MAPS[key] = kernels.load(element, effect, gauss).map(N)
+    return _MAPS[key]
+
+
+# -- which members a material or section reaches ----------------------------------------------------------------------
+def _members_with(doc: dict, key: str, name: str) -> list[str]:
+    out = []
+    for kind in ("members", "loops"):
+        for d in doc.get(kind, []):
+            if d.get(key) == name:
+                out.append(d["name"])
+    return out
+
+
+def _member_rows(asm: Assembly, term, members: list[str]) -> np.ndarray:
+    """Rows (elements) of a term that belong to the named members (by their first coordinate's owner)."""
+    first = term.idx[:, 0]
+    mask = np.zeros(len(first), bool)
+    for name in members:
+        mm = asm.mesh.members[name]
+        mask |= (first >= mm.offset) & (first < mm.offset + mm.x0.size)
+    return mask
+
+
+def _scaled_pieces(asm: Assembly, members: list[str], degrees: dict, value: float, path: str,
+                   labels: tuple) -> list[Piece]:
+    """Pieces of the terms with label in `labels` (None: the stiffness labels) on `members`: each coefficient
+    column c named in `degrees` (column -> degree of p in it) replaced by degree c / p, the effect's other
+    coefficient columns set to zero (their share of the derivative is nil)."""
+    pieces = []
+    for t in asm.terms:
+        stiff = t.label not in NOT_STIFFNESS and not t.label.startswith("contact")
+        if (labels is None and not stiff) or (labels is not None and t.label not in labels):
+            continue
+        rows = _member_rows(asm, t, members)
+        if not rows.any():
+            continue
+        names = kernels.parameters(t.element, t.effect)
+        group = STIFFNESS_COLUMNS.get(t.effect, ("rhoA",) if t.effect == "gravity" else None)
+        if group is None:
+            raise ParameterError(f"parameter path {path!r}: enters the {t.effect!r} energy of {t.element} members "
+                                 f"{members}, whose kernel has no derivative with respect to it")
+        P = np.array(t.P[rows], float)
+        hit = False
+        for c in group:
+            j = names.index(c)
+            k = degrees.get(c, 0)
+            P[:, j] = k * P[:, j] / value if k else 0.0
+            hit |= bool(k)
+        if hit:
+            pieces.append(Piece(t.element, t.effect, t.gauss, t.idx[rows], P, t.label))
+    return pieces
+
+
+def _mass_derivative(asm: Assembly, members: list[str], degree: int) -> sp.csc_matrix:
+    """d M / dp where every listed member's rhoA has degree `degree` in p (the mass kernel is linear in rhoA)."""
+    rows, cols, vals = [], [], []
+    for name in members:
+        mm = asm.mesh.members[name]
+        idx = mm.elem_dofs()
+        m = mm.member
+        # (the mass kernels are linear in rho A (cables) and in rho (beam3d: L, b, h, rho))
+        mp = [m.section.b, m.section.h, m.material.density] if m.element == "beam3d" else \
+            [m.material.density * m.section.area]
+        for e, L in enumerate(np.asarray(mm.elem_length, float)):
+            Me = kernels.mass_matrix(m.element, [float(L), *mp])
+            nd = idx.shape[1]
+            rows.append(np.repeat(idx[e], nd))
+            cols.append(np.tile(idx[e], nd))
+            vals.append(Me.ravel())
+    n = asm.n
+    if not vals:
+        return sp.csc_matrix((n, n))
+    return sp.csc_matrix((degree * np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
+
+
+def _term_pieces(add: Callable, *args) -> list[Piece]:
+    """Pieces of the terms a terms.py builder (distributed_term, moment_term) makes with unit values."""
+    tmp: dict = {}
+    add(tmp, *args)
+    return [Piece(t.element, t.effect, t.gauss, np.concatenate(t.idx), np.concatenate(t.P), t.label)
+            for t in tmp.values()]
+
+
+def _refuse_arcs(asm: Assembly, members: list[str], path: str) -> None:
+    for name in members:
+        if asm.mesh.members[name].member.arc_curvature is not None:
+            raise ParameterError(f"parameter path {path!r}: reaches the arc {name!r}, whose prestrain and reference "
+                                 "moment depend on it nonlinearly (not differentiable here)")
+
+
+def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> ModelDerivative:
+    """d(model)/dp for p the number at `path` of the scene document `doc` that `asm` was built from."""
+    p = path if isinstance(path, ParameterPath) else parse_path(path)
+    value = get_parameter(doc, p)
+    keys, text = p.keys, p.text
+    out = ModelDerivative(text, value)
+    scene = asm.scene
+
+    def refuse(why: str):
+        raise ParameterError(f"parameter path {text!r} = {value!r}: {why}")
+
+    if keys[0] in ("materials", "sections") and asm.penalty is not None and keys[-1] != "density":
+        refuse("the scene's penalty supports and joints take their stiffness from EA and EI (k = EA / 1 m, "
+               "EI / 1 m): give them method = \"exact\" to differentiate a stiffness")
+    if keys[0] == "materials" and len(keys) == 3:
+        members = _members_with(doc, "material", keys[1])
+        _refuse_arcs(asm, members, text)
+        if keys[2] == "E":
+            degrees = {c: 1 for cols in STIFFNESS_COLUMNS.values() for c in cols}
+            if "G" in doc["materials"][keys[1]]:  # a given shear modulus: GJ does not scale with E, but nu = E/2G - 1
+                degrees["GIp"] = 0
+                if any(scene.members[m].element == "beam3d" for m in members):
+                    refuse("with G given, Poisson's ratio E/2G - 1 of the beam3d kernels depends on E "
+                           "(give poisson instead to differentiate E)")
+            if any(asm.mesh.members[m].member.element == "beam3d" and "continuum" in
+                   [t.effect for t in asm.terms] for m in members):
+                refuse("the continuum beam's kernel is not differentiated with respect to E here")
+            out.pieces = _scaled_pieces(asm, members, degrees, value, text, None)
+        elif keys[2] == "density":
+            grav = [m for m in members if scene.members[m].gravity]
+            out.pieces = _scaled_pieces(asm, grav, {"rhoA": 1}, value, text, ("gravity",))
+            out.mass = (lambda: _mass_derivative(asm, members, 1) / value) if members else None
+        else:
+            refuse("enters the model nonlinearly or not at all (differentiable material keys: E, density)")
+        return out
+    if keys[0] == "sections" and len(keys) == 3:
+        sec = doc["sections"][keys[1]]
+        members = _members_with(doc, "section", keys[1])
+        _refuse_arcs(asm, members, text)
+        if any(scene.members[m].element == "beam3d" for m in members):
+            refuse("a beam3d section's b x h enter its kernels nonlinearly (not differentiable here)")
+        for i, c in enumerate(getattr(scene, "contacts", ())):
+            if c.member in members and "thickness" not in doc["contacts"][i]:
+                refuse(f"the contact on member {c.member!r} takes its thickness from the section (give the "
+                       "contact a thickness to differentiate the section)")
+        shape = sec.get("shape")
+        if shape is None and keys[2] == "area":
+            deg = {"EA": 1, "rhoA": 1, "mass": 1}
+        elif shape is None and keys[2] == "I" and not ({"Iy", "Iz"} & set(sec)):
+            deg = {"EI": 1}
+        elif shape == "circle" and keys[2] == "diameter":
+            deg = {"EA": 2, "EI": 4, "rhoA": 2, "mass": 2}
+        else:
+            refuse("differentiable section keys: area, I (cables, without Iy/Iz), diameter (circle)")
+        out.pieces = _scaled_pieces(asm, members, deg, value, text, None)
+        grav = [m for m in members if scene.members[m].gravity]
+        out.pieces += _scaled_pieces(asm, grav, deg, value, text, ("gravity",))
+        if deg.get("mass"):
+            out.mass = lambda: _mass_derivative(asm, members, deg["mass"]) / value
+        return out
+    if keys[:2] == ("scene", "gravity") and len(keys) == 3:
+        j = keys[2]
+        if asm.mesh.bodies and scene.dim == 3:
+            refuse("the weight of spatial rigid bodies is not differentiated here")
+        for t in asm.terms:
+            if t.label != "gravity":
+                continue
+            names = kernels.parameters(t.element, t.effect)
+            P = np.array(t.P, float)
+            gcols = [names.index(c) for c in names if c in ("gx", "gy", "gz")]
+            P[:, gcols] = 0.0
+            P[:, gcols[j]] = 1.0
+            out.pieces.append(Piece(t.element, t.effect, t.gauss, t.idx, P, t.label))
+        e = np.zeros(scene.dim)
+        e[j] = 1.0
+        dQ = load_vector(_MeshView(asm.mesh, gravity=e, point_masses=getattr(scene, "point_masses", ())))
+        for name, o in asm.mesh.bodies.items():  # planar bodies: m g at the centre of mass (x, y first)
+            dQ[o + j] += scene.bodies[name].mass
+        out.dQ = dQ
+        return out
+    if keys[0] == "loads" and len(keys) in (3, 4) and keys[2] == "value":
+        load = scene.loads[keys[1]]
+        mm = asm.mesh.members[load.member]
+        if load.kind == "tension" and len(keys) == 3:  # (the dead force is linear in the tension)
+            out.dQ = load_vector(_MeshView(asm.mesh, [replace(load, value=1.0)]))
+            return out
+        if len(keys) == 3:
+            if load.kind == "moment" and scene.dim == 2:
+                out.pieces = _term_pieces(moment_term, mm, mm.node(load.at), 1.0)
+                return out
+            refuse("name one component: loads[i].value[j]")
+        e = np.zeros(scene.dim if load.kind != "moment" else 3)
+        e[keys[3]] = 1.0
+        if load.kind == "force":
+            out.dQ = load_vector(_MeshView(asm.mesh, [replace(load, value=e)]))
+        elif load.kind == "distributed":
+            out.pieces = _term_pieces(distributed_term, mm, e)
+        elif load.kind == "moment" and mm.member.element == "beam3d":
+            out.pieces = _term_pieces(moment_term, mm, mm.node(load.at), e)
+        else:
+            refuse("a cable3d moment's potential is not linear in its components (not differentiable here)")
+        return out
+    if keys[0] == "masses" and len(keys) == 3 and keys[2] == "mass":
+        unit = replace(scene.point_masses[keys[1]], mass=1.0)  # (weight and mass matrix linear in the mass)
+        view = _MeshView(asm.mesh, gravity=np.asarray(scene.gravity, float), point_masses=[unit])
+        out.dQ = load_vector(view)
+        r, c, v = point_mass_triplets(view)
+        out.mass = lambda: sp.csc_matrix((v, (r, c)), shape=(asm.n, asm.n))
+        return out
+    if keys[0] == "bodies" and len(keys) == 3 and keys[2] == "mass":
+        if scene.dim == 3:
+            refuse("spatial bodies' masses are not differentiated here")
+        name = doc["bodies"][keys[1]]["name"]
+        o = asm.mesh.bodies[name]
+        out.dQ = np.zeros(asm.n)
+        out.dQ[o:o + 2] = np.asarray(scene.gravity, float)
+        out.mass = lambda: sp.csc_matrix((np.ones(2), (np.arange(o, o + 2), np.arange(o, o + 2))), shape=(asm.n, asm.n))
+        return out
+    if keys[0] == "contacts" and len(keys) == 3 and keys[2] in ("stiffness", "hertz"):
+        from ancf_sym.contact import laws as contact
+        c = scene.contacts[keys[1]]
+        if c.method != "penalty":
+            refuse("an exact contact has no stiffness")
+        calls: list = []  # (the penalty contacts' normal-law kernel calls, in declaration order)
+        contact.energy_terms({}, asm.mesh, lambda _t, _label, *call: calls.append(call))
+        penalty = [k for k in scene.contacts if k.method == "penalty"]
+        element, effect, gauss, idx, P = calls[next(i for i, k in enumerate(penalty) if k is c)]
+        names = kernels.parameters(element, effect)
+        P = np.array(P, float)
+        P[:, names.index("k")] = 1.0 if keys[2] == "stiffness" else 0.0  # (the law is linear in k and kh jointly)
+        P[:, names.index("kh")] = 1.0 if keys[2] == "hertz" else 0.0
+        out.pieces = [Piece(element, effect, gauss, np.asarray(idx), P, "contact")]
+        return out
+    refuse("not a differentiable parameter here (materials.M.E | density, sections.S.area | I | diameter, "
+           "scene.gravity[j], loads[i].value[j], masses[i].mass, bodies[i].mass (2D), contacts[i].stiffness | hertz)")
+
+
+class _MeshView:
+    """The mesh with other loads, gravity and point masses in its scene: loads.load_vector and point_mass_triplets
+    (the one home of dead point forces and point masses) evaluated on the derivative's unit values."""
+
+    def __init__(self, mesh, loads=(), gravity=None, point_masses=()):
+        self.members, self.n = mesh.members, mesh.n
+        dim = mesh.scene.dim
+        self.scene = type("SceneView", (), {"loads": list(loads), "point_masses": list(point_masses), "dim": dim,
+                                            "gravity": np.zeros(dim) if gravity is None else gravity})()
+
+
+def read_document(doc: dict | str | Path) -> dict:
+    """A scene document: a dict as given, or a TOML file parsed."""
+    if isinstance(doc, dict):
+        return doc
+    return tomllib.loads(Path(doc).read_text())
+
+
+def check_model_paths(scene: Scene, doc: dict, paths: list[str]) -> None:
+    """Refuse, before any solving, a path that names no differentiable number of this scene (KeyError / ValueError
+    naming it)."""
+    from ancf_sym.statics.problem import problem_for
+    for p in paths:
+        get_parameter(doc, p)
+    asm = problem_for(scene).asm
+    for p in paths:
+        model_derivative(asm, doc, p)

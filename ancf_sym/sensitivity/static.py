@@ -1,0 +1,178 @@
+"""Exact sensitivities of a static equilibrium to scene parameters named by their TOML path.
+
+At the equilibrium the reduced residual E'(grad Pi(x, p) + G'mu) = 0 with the kept constraint rows G x = 0 (rigid
+joints, points in exact contact) holds for every p, so (implicit function theorem, K_L the exact Hessian of the
+Lagrangian on the reduced coordinates, ancf_sym.modal.linearize):
+
+    [K_L  G'] [dy ]     [-E' dR/dp]
+    [G    0 ] [dmu]  =  [    0    ],     dx/dp = E dy
+
+with dR/dp exact (ancf_sym.sensitivity.model_derivative). One factorisation serves every parameter (direct: one
+back-substitution each); for one scalar output and many parameters the adjoint solves once with the output's
+gradient and takes a dot product per parameter. Supports' and joints' reactions follow from the differentiated
+stationarity J'dlambda = -(K_L dx + dR/dp + J_c' dmu_c); the potential's total derivative is its partial one (the
+gradient is balanced by the constraint forces, which do no work on admissible dx).
+"""
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from ancf_sym.contact import laws as contact, exact as contact_exact
+from ancf_sym.modal.linearize import Linearization, linearize
+from ancf_sym.model.reduced import partition
+from ancf_sym.scene.builder import Scene
+from ancf_sym.statics.problem import StaticResult
+from ancf_sym.sensitivity.model_derivative import ModelDerivative, model_derivative
+
+
+class StaticSensitivity:
+    """The linearisation of one equilibrium, factorised once; derivatives of its reported quantities per parameter.
+
+    doc: the scene document (a parsed TOML file) the scene was built from; paths address its numbers."""
+
+    def __init__(self, scene: Scene, result: StaticResult, doc: dict, linearization: Linearization | None = None):
+        if not isinstance(result, StaticResult) or not result.success:
+            raise ValueError("sensitivities need a successful static result (its status: "
+                             f"{getattr(result, 'status', result)!r})")
+        self.scene, self.result, self.doc = scene, result, doc
+        self.lin = linearization if linearization is not None else _stiffness(scene, result)
+        self.asm = self.lin.assembly
+        lin = self.lin
+        self.m, self.ny = lin.G.shape[0], lin.K.shape[0]
+        A = sp.bmat([[lin.K, lin.G.T], [lin.G, None]]).tocsc() if self.m else lin.K.tocsc()
+        try:
+            self._lu = spla.splu(A)
+        except RuntimeError as exc:  # (SuperLU: "Factor is exactly singular")
+            raise ValueError("sensitivities: the equilibrium's tangent [K_L G'; G 0] is singular (a mechanism, or a "
+                             "cable without bending stiffness in a straight state): the equilibrium does not depend "
+                             f"smoothly on the parameters there ({exc})") from None
+        self._derivs: dict = {}
+
+    # -- the model's derivative and the equilibrium's ------------------------------------------------------------
+    def model(self, path: str) -> ModelDerivative:
+        if path not in self._derivs:
+            self._derivs[path] = model_derivative(self.asm, self.doc, path)
+        return self._derivs[path]
+
+    def solve(self, dR: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(dx, dmu) for a residual derivative dR (full coordinates)."""
+        rhs = np.r_[-(self.lin.E.T @ dR), np.zeros(self.m)]
+        sol = self._lu.solve(rhs)
+        return self.lin.E @ sol[:self.ny], sol[self.ny:]
+
+    def dx(self, path: str) -> np.ndarray:
+        """d x*/dp: full coordinates of the equilibrium per unit parameter."""
+        return self.solve(self.model(path).residual(self.result.x)[1])[0]
+
+    def derivative(self, path: str) -> dict:
+        """d/dp of the reported quantities, with their keys and shapes: potential, energies.LABEL,
+        members.NAME.nodes / tip, constraint_forces.LABEL."""
+        x = self.result.x
+        dPi, dR = self.model(path).residual(x)
+        dx, dmu = self.solve(dR)
+        md = self.model(path)
+        de = md.energies(x)
+        out = {"potential": dPi, "energies": {lbl: de.get(lbl, 0.0) + float(g @ dx)
+                                              for lbl, g in self._label_gradients().items()}, "members": {}}
+        for name, mm in self.asm.mesh.members.items():
+            nodes = self.asm.member_coordinates(dx, name)[mm.public_nodes, :self.scene.dim]
+            out["members"][name] = {"nodes": nodes, "tip": nodes[-1]}
+        out["constraint_forces"] = self._force_derivatives(dx, dR, dmu)
+        return out
+
+    def _label_gradients(self) -> dict:
+        """label -> gradient of that energy at the equilibrium (full coordinates), as result.energies labels them."""
+        if not hasattr(self, "_grads"):
+            asm, x = self.asm, self.result.x
+            grads: dict = {}
+            for mk in asm.mapped:
+                mk(x)
+                g = grads.setdefault(mk.term.label, np.zeros(asm.n))
+                g += np.bincount(mk.term.idx.ravel(), mk.G.ravel(), minlength=asm.n)
+            if np.any(asm.Q):
+                grads["loads"] = grads.get("loads", np.zeros(asm.n)) - asm.Q
+            if asm.penalty is not None:
+                pc = asm.penalty
+                grads["penalty"] = pc.jacobian(x).T @ (pc.k * pc.value(x))
+            self._grads = grads
+        return self._grads
+
+    def _force_derivatives(self, dx: np.ndarray, dR: np.ndarray, dmu: np.ndarray) -> dict:
+        asm, lin = self.asm, self.lin
+        forces: dict[str, list] = {}
+        n_joint = len(lin.multipliers) - len(self._contact_active())
+        r = lin._H_full @ dx + dR
+        active = self._contact_active()
+        if len(active):  # the contact rows' share: their multipliers are minus the contact forces
+            r = r + lin._G_full[n_joint:].T @ dmu[n_joint:]
+        if asm.exact.m:
+            J = asm.exact.jacobian(self.result.x).tocsc()
+            cols = np.unique(J.tocsr().indices)
+            Jd = J[:, cols].toarray()
+            dlam = np.linalg.lstsq(Jd.T, -r[cols], rcond=None)[0]
+            for lbl, v in zip(asm.exact.labels, dlam):
+                forces.setdefault(lbl, []).append(float(v))
+        if asm.penalty is not None:
+            dc = asm.penalty.jacobian(self.result.x) @ dx
+            for lbl, k, v in zip(asm.penalty.labels, asm.penalty.k, dc):
+                forces.setdefault(lbl, []).append(float(k * v))
+        if "contact" in self.result.constraint_forces and contact.exact_contacts(asm):
+            df = np.zeros(len(self.result.constraint_forces["contact"]))
+            df[active] = -dmu[n_joint:]
+            forces["contact"] = df.tolist()
+        return {k: np.asarray(v) for k, v in forces.items()}
+
+    def _contact_active(self) -> np.ndarray:
+        """Indices of the exact-contact points held at the equilibrium (as ancf_sym.modal.contact_rows decides)."""
+        if not hasattr(self, "_active"):
+            self._active = np.zeros(0, int)
+            if contact.exact_contacts(self.asm):
+                f = np.asarray(self.result.constraint_forces["contact"], float)
+                g = contact_exact.gaps(self.asm, self.result.x, contact_exact.rows(self.asm))
+                act = g / self.asm.mesh.length_scale < f / max(float(f.max(initial=0.0)), 1e-300)
+                self._active = np.flatnonzero(act)
+        return self._active
+
+    # -- one scalar output, many parameters: the adjoint -----------------------------------------------------
+    def gradient(self, dJdx: np.ndarray, paths: list[str], partial: Callable[[str], float] | None = None
+                 ) -> np.ndarray:
+        """dJ/dp for a scalar output J(x) (its gradient dJdx on the full coordinates; `partial(path)` its explicit
+        derivative, if any) and many parameters: one adjoint solve, then dJ/dp_k = partial_k - w'dR_k."""
+        w = self._lu.solve(np.r_[self.lin.E.T @ dJdx, np.zeros(self.m)])  # (the KKT matrix is symmetric)
+        wx = self.lin.E @ w[:self.ny]
+        x = self.result.x
+        out = np.empty(len(paths))
+        for k, path in enumerate(paths):
+            dR = self.model(path).residual(x)[1]
+            out[k] = -(wx @ dR) + (partial(path) if partial is not None else 0.0)
+        return out
+
+
+def _stiffness(scene: Scene, result: StaticResult) -> Linearization:
+    """K_L, G and E of the equilibrium: the modal linearisation without its mass, damping and input matrices, built
+    here directly where no row needs multipliers for its curvature (no exact contact, no bilinear rows): the usual
+    scene, where the linearisation's other matrices would cost more than the sensitivity itself."""
+    asm = result.assembly
+    if contact.exact_contacts(asm) or len(asm.exact.qrow):
+        return linearize(scene, result, damping_matrix=False)
+    part = partition(asm)
+    x = result.x
+    H = asm.evaluate(x, hessian=True).hessian
+    K = part.reduce_matrix(H)
+    K = (0.5 * (K + K.T)).tocsc()
+    if len(part.rows):
+        Gf = asm.exact.subset(part.rows).jacobian(x).tocsr()
+    else:
+        Gf = sp.csr_matrix((0, asm.n))
+    G = (Gf @ part.E).tocsr()
+    return Linearization(None, K, None, G, None, part.E, x, np.zeros(G.shape[0]), [], asm, H.tocsc(), Gf)
+
+
+def static_sensitivities(scene: Scene, result: StaticResult, doc: dict, paths: list[str]) -> dict:
+    """{path: derivative dict} (StaticSensitivity.derivative) for each path."""
+    s = StaticSensitivity(scene, result, doc)
+    return {p: s.derivative(p) for p in paths}
