@@ -227,6 +227,7 @@ class Scene:
     body_joints: list = field(default_factory=list)  # ancf_sym.bodies.BodyJoint
     drives: list = field(default_factory=list)  # ancf_sym.drives: prescribed angles/positions, applied torques
     point_masses: list = field(default_factory=list)  # PointMass
+    water: Any = None  # ancf_sym.water.Water: the members are in water (Scene.set_water)
 
     def __post_init__(self):
         if isinstance(self.dim, bool) or self.dim not in (2, 3):
@@ -388,6 +389,15 @@ class Scene:
             lam = (1 + math.sqrt(1 + 4 * a)) / 2 if m.axial == "biot" else math.sqrt((1 + math.sqrt(1 + 8 * a)) / 2)
             m.prestrain = lam - 1.0
         return m
+
+    def set_water(self, **options: Any):
+        """Put the members in water (ancf_sym.water.set_water, docs/water.md): density [kg/m^3], depth [m], surface
+        (the still water line's height), current (a velocity or [[z, velocity], ...]), waves = {height, period,
+        direction, phase}, seabed = {stiffness, damping, mu, eps, thickness} (ground contacts at the depth),
+        lines = {member: {cd, cd_axial, ca, ca_axial, diameter, buoyancy}}, gauss."""
+        from .water import set_water
+
+        return set_water(self, **options)
 
     def contact_ground(self, member: str, **options: Any):
         """Contact of `member`'s centre line with the ground half-space {normal . r >= level} (default: y >= 0 in

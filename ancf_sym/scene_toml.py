@@ -51,7 +51,7 @@ except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
 TOP_KEYS = ("scene", "materials", "sections", "members", "loops", "supports", "joints", "loads", "masses",
-            "dampings", "contacts", "bodies", "drives", "analysis")
+            "dampings", "contacts", "bodies", "drives", "water", "analysis")
 SCENE_KEYS = ("name", "dim", "gravity")
 SECTION_KEYS = {None: tuple(SECTION), "circle": ("diameter",), "rectangle": ("b", "h")}
 MEMBER_KEYS = tuple(inspect.signature(Scene.member).parameters)[1:]  # the keywords of Scene.member
@@ -415,6 +415,10 @@ def scene_from_dict(doc: dict, default_name: str = "scene", base: str | Path | N
         _body_joints(scene, f"bodies[{i}]", d)
     for i, d in enumerate(_array_of_tables("contacts", doc.get("contacts", []))):  # (after the bodies: a circle
         _api(f"contacts[{i}]", contact.from_toml, scene, d)                         # may be carried by one)
+    if "water" in doc:  # (after the members: it names them, and adds the seabed's ground contacts)
+        from .water.model import from_toml as water_from_toml
+
+        _api("water", water_from_toml, scene, doc["water"], root="water")
     for i, d in enumerate(_array_of_tables("drives", doc.get("drives", []))):
         _api(f"drives[{i}]", drives.from_toml, scene, d)
 

@@ -767,5 +767,9 @@ def solve_static(scene: Scene | Assembly, options: StaticOptions | None = None,
     escape_saddle, print_level). warm_start: a previous result (same scene) or a coordinate vector."""
     opts = options or (StaticOptions(**kw) if kw else _DEFAULT_OPTIONS)
     x0 = warm_start.x if isinstance(warm_start, StaticResult) else warm_start
+    if getattr(scene, "water", None) is not None and not getattr(scene, "water_start", False):
+        from .water.statics import solve_in_water  # (Newton on the residual: drag and the water line)
+
+        return solve_in_water(scene, opts, x0)
     prob = problem_for(scene) if isinstance(scene, Scene) else StaticProblem(scene)
     return prob.solve(opts, x0)

@@ -1,0 +1,243 @@
+"""Statics of a scene in water: Newton on the residual R(y) = E^T (grad Pi(x) - Q_water(x)) with its exact
+(unsymmetric where the current drags) Jacobian, x = E y + c on the free coordinates.
+
+Q_water is the current's Morison drag on the line at rest (not conservative: no potential to minimise) and the
+water line's correction of the buoyancy (a potential). The start is the conservative equilibrium the scene's own
+statics finds (buoyancy as the net weight, the seabed contacts, with the fairleads' position drives held as pins
+at their reference positions); from there the current (scaled by lam) and the fairleads' positions (moved by lam
+from the reference to the drives' values at t = 0) reach lam = 1 in adaptive continuation steps, each solved by
+full Newton steps on a sparse LU. Convergence is judged as the scene's statics judges it (statics_newton): the
+last update in units of the structure's length and |r . dz| in units of the load work, both <= tol.
+Stability: the symmetric part of the Jacobian positive definite (inertia of its factorisation): for a conservative
+scene that is the Hessian's test; with drag a sufficient condition for a statically stable equilibrium.
+"""
+from __future__ import annotations
+
+import copy
+import functools
+import math
+import time
+
+import casadi as ca
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import splu
+
+from ..assembly import Assembly
+from ..inertia import reduced_inertia
+from ..reduced import partition
+from ..scene import SceneError
+from ..sparsity import dm
+from .forces import drag_force, gravity_magnitude, water_line_energy
+from .points import wet_points
+
+STEP_TOL = 1e-6  # relative tolerance at intermediate continuation steps (a start inside the next basin is enough)
+STEP_ITER = 25  # Newton iterations per continuation step
+MIN_STEP = 1.0 / 1024  # smaller continuation steps than this: the solve fails (status "continuation_failed")
+WILD = 1e3  # an update of a thousand structure lengths: diverged
+
+
+def needs_residual_statics(scene) -> bool:
+    """A scene in water goes through this solver (its water line and drag are not kernel terms)."""
+    return getattr(scene, "water", None) is not None
+
+
+def _drive_coordinates(asm, scene) -> tuple[list, np.ndarray, np.ndarray, list]:
+    """(fixed coordinate indices, their values at t = 0, at the reference, labels) of the member-node position
+    drives (the fairleads)."""
+    idx, val, labels = [], [], []
+    for d in scene.drives:
+        if type(d).__name__ != "PositionDrive" or d.member is None:
+            raise SceneError(f"drives: {d.name!r}: the statics in water hold member-node position drives (fairleads) "
+                             "at their t = 0 values; other drives belong to the dynamics")
+        mm = asm.mesh.members[d.member]
+        dofs = mm.node_dofs(mm.node(d.at))[:scene.dim]
+        for k, mo in enumerate(d.position):
+            idx.append(int(dofs[k]))
+            val.append(float(mo(0.0)[0]))
+        labels.append((d.name, dofs))
+    idx = np.array(idx, dtype=np.int64)
+    return idx, np.array(val), asm.x0[idx] if len(idx) else np.zeros(0), labels
+
+
+class WaterStatics:
+    def __init__(self, scene):
+        self.scene = scene
+        self.water = w = scene.water
+        self.asm = asm = Assembly(scene)
+        g = gravity_magnitude(scene)
+        part = partition(asm)
+        if len(part.rows):
+            raise SceneError("statics in water: rigid joints and skew clamps (multiplier rows) are not supported; "
+                             "use pins, clamps of axis-aligned members and hinges")
+        didx, self.dval, dref, self.drive_labels = _drive_coordinates(asm, scene)
+        if len(didx) and np.any(part.pos[didx] < 0):
+            raise SceneError("statics in water: a driven fairlead node is also pinned or identified by a joint")
+        self.didx = didx
+        keep = np.setdiff1d(np.arange(part.ny), part.pos[didx]) if len(didx) else np.arange(part.ny)
+        E = part.E.tocsc()[:, keep]
+        self.E, self.keep = E, keep
+        self.c0 = part.c.copy()
+        self.c0[didx] = dref
+        self.dc = np.zeros(asm.n)
+        self.dc[didx] = self.dval - dref
+        self.fixed = np.flatnonzero(np.asarray(abs(E).sum(axis=1)).ravel() == 0)  # coordinates held by supports/drives
+        n, ny = asm.n, E.shape[1]
+        wp = wet_points(asm, w)
+        y, c, lam = ca.MX.sym("y", ny), ca.MX.sym("c", n), ca.MX.sym("lam")
+        x = ca.mtimes(dm(E), y) + c
+        xs = ca.MX.sym("x", n)
+        _, grad, hup, _ = asm.casadi_parts(xs)
+        H = hup + hup.T - ca.diag(ca.diag(hup))
+        Qw = ca.MX.zeros(n)
+        Ub = water_line_energy(wp, w, g, xs)
+        if Ub is not None:
+            Qw -= ca.gradient(Ub, xs)
+        if w.current is not None and wp.drag:
+            Qw += drag_force(wp, w, xs, None, lam)
+        Rf = grad - Qw
+        Jf = H - ca.jacobian(Qw, xs)
+        full = ca.Function("water_residual_full", [xs, lam], [Rf, Jf])
+        Rx, Jx = full(x, lam)
+        Et = dm(E.T.tocsr())
+        R = ca.mtimes(Et, Rx)
+        J = ca.mtimes(Et, ca.mtimes(Jx, dm(E)))
+        self.f = ca.Function("water_statics", [y, c, lam], [R, J])
+        self.full = full
+        self.scale = self._scales()
+
+    def _scales(self) -> np.ndarray:
+        from ..statics_newton import coordinate_scales
+
+        return coordinate_scales(self.asm) @ abs(self.E) / np.maximum(np.asarray(abs(self.E).sum(axis=0)).ravel(), 1)
+
+    def x_of(self, y: np.ndarray, lam: float) -> np.ndarray:
+        return self.E @ y + self.c0 + lam * self.dc
+
+    def _eval(self, y, lam):
+        R, J = self.f(y, self.c0 + lam * self.dc, lam)
+        return np.asarray(R).ravel(), sp.csc_matrix(J.sparse() if hasattr(J, "sparse") else J)
+
+    def newton(self, y: np.ndarray, lam: float, tol: float, max_iter: int, work: float):
+        """Full Newton steps at continuation parameter lam: (y, converged, status, iterations, inc, dec, resid)."""
+        inc = dec = rmax = math.inf
+        for it in range(1, max_iter + 1):
+            R, J = self._eval(y, lam)
+            rmax = float(np.max(np.abs(R))) if len(R) else 0.0
+            if not np.all(np.isfinite(R)) or not np.all(np.isfinite(J.data)):
+                return y, False, "not_finite", it, inc, dec, rmax
+            try:
+                dz = -splu(J).solve(R)
+            except RuntimeError:
+                return y, False, "singular", it, inc, dec, rmax
+            if not np.all(np.isfinite(dz)):
+                return y, False, "not_finite", it, inc, dec, rmax
+            inc = float(np.max(np.abs(dz / self.scale))) if len(dz) else 0.0
+            dec = abs(float(R @ dz)) / work
+            if inc > WILD:
+                return y, False, "diverged", it, inc, dec, rmax
+            y = y + dz
+            if inc <= tol and dec <= tol:
+                return y, True, "converged", it, inc, dec, rmax
+        return y, False, "max_iter", max_iter, inc, dec, rmax
+
+    def solve(self, x_start: np.ndarray, tol: float, max_iter: int = 30):
+        """Continuation in lam from the conservative equilibrium x_start (fairleads at the reference)."""
+        y = self._y(x_start)
+        R1, _ = self._eval(y, 1.0)
+        R0, _ = self._eval(y, 0.0)
+        f_lin = self.E.T @ self.asm.constant_force()
+        work = float(np.sum((np.abs(f_lin) + np.abs(R1 - R0)) * self.scale)) or 1.0
+        lam, step, iters, hist = 0.0, 1.0, 0, []
+        while lam < 1.0:
+            target = min(1.0, lam + step)
+            last = target == 1.0
+            y_try, ok, status, it, inc, dec, rmax = self.newton(y, target, tol if last else STEP_TOL,
+                                                                max_iter if last else STEP_ITER, work)
+            iters += it
+            hist.append((target, status, it))
+            if ok:
+                y, lam = y_try, target
+                step = min(1.0, 2 * step) if it <= 6 else step
+            else:
+                step /= 2
+                if step < MIN_STEP:
+                    return self.x_of(y, lam), False, "continuation_failed", iters, hist, (inc, dec, rmax)
+        return self.x_of(y, 1.0), True, "converged", iters, hist, (inc, dec, rmax)
+
+    def _roots(self) -> np.ndarray:
+        E = self.E.tocsc()
+        return E.indices[E.indptr[:-1]]
+
+    def support_forces(self, x: np.ndarray) -> np.ndarray:
+        """Full vector: the supports' and drives' forces on the structure at x (R_full at the held coordinates)."""
+        R = np.asarray(self.full(x, 1.0)[0]).ravel()
+        out = np.zeros_like(R)
+        out[self.fixed] = R[self.fixed]
+        return out
+
+    def stability(self, x: np.ndarray) -> bool | None:
+        _, J = self._eval(self._y(x), 1.0)
+        return reduced_inertia(0.5 * (J + J.T)).stable
+
+    def _y(self, x):
+        return np.asarray(x)[self._roots()]
+
+
+def conservative_start_scene(scene):
+    """The scene without current and drives: the fairleads pinned at their reference positions."""
+    s = copy.copy(scene)
+    s.water = copy.copy(scene.water)
+    s.water.current = None
+    s.drives = []
+    s.supports = list(scene.supports)
+    s.contacts = list(scene.contacts)
+    for d in scene.drives:
+        if type(d).__name__ == "PositionDrive" and d.member is not None:
+            s.pin(d.member, at=d.at)
+    s.water_start = True  # (solve_static solves this one itself: no water line, no drag)
+    return s
+
+
+def solve_in_water(scene, opts, warm_start=None):
+    """StaticResult of a scene in water (see the module docstring)."""
+    from ..statics import StaticResult, solve_static
+
+    t0 = time.perf_counter()
+    ws = WaterStatics(scene)
+    attempts = []
+    if warm_start is None:
+        first = solve_static(conservative_start_scene(scene), opts)
+        attempts += [dict(a, method="start: " + a.get("method", "?")) for a in first.attempts]
+        if not first.success:
+            return StaticResult(first.status, False, first.iterations, time.perf_counter() - t0, first.x, None,
+                                attempts, ws.asm, "")
+        x_start, it0 = first.x, first.iterations
+    else:
+        x_start, it0 = np.asarray(warm_start, float), 0
+    x, ok, status, iters, hist, (inc, dec, rmax) = ws.solve(x_start, opts.tol)
+    attempts.append({"method": "water newton", "status": status, "iterations": iters,
+                     "detail": f"continuation steps (lam, status, iterations): {hist}"})
+    stable = ws.stability(x) if ok else None
+    res = StaticResult("Solve_Succeeded" if ok else status, ok, it0 + iters, time.perf_counter() - t0,
+                       x if np.all(np.isfinite(x)) else ws.asm.x0, stable, attempts, ws.asm,
+                       "water newton" if ok else "",
+                       _work_out=functools.partial(_details, ws, x))
+    res.increment, res.energy_decrement, res.residual = inc, dec, rmax
+    res.water = ws
+    return res
+
+
+def _details(ws: WaterStatics, x: np.ndarray) -> tuple[dict, dict, float]:
+    asm = ws.asm
+    ev = asm.evaluate(x, hessian=False)
+    F = ws.support_forces(x)
+    forces: dict = {}
+    for lbl, row in zip(asm.exact.labels, asm.exact.A.tocsr()):
+        cols = row.indices
+        if len(cols) == 1:
+            forces.setdefault(lbl, []).append(float(F[cols[0]]))
+    for name, dofs in ws.drive_labels:
+        forces[name] = [float(F[i]) for i in dofs]
+    viol = float(np.max(np.abs(asm.constraints.value(x)))) if asm.constraints.m else 0.0
+    return ev.energies, forces, viol
