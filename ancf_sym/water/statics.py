@@ -35,6 +35,8 @@ STEP_TOL = 1e-6  # relative tolerance at intermediate continuation steps (a star
 STEP_ITER = 25  # Newton iterations per continuation step
 MIN_STEP = 1.0 / 1024  # smaller continuation steps than this: the solve fails (status "continuation_failed")
 WILD = 1e3  # an update of a thousand structure lengths: diverged
+LINE_SEARCH = 0  # halvings of a step that raises |R| (measured: on |R| they slowed cable solves: full steps)
+SEARCH_ABOVE = 1e-3  # updates (relative to the structure's length) above which steps are searched
 
 
 def needs_residual_statics(scene) -> bool:
@@ -111,18 +113,25 @@ class WaterStatics:
 
         return coordinate_scales(self.asm) @ abs(self.E) / np.maximum(np.asarray(abs(self.E).sum(axis=0)).ravel(), 1)
 
-    def x_of(self, y: np.ndarray, lam: float) -> np.ndarray:
-        return self.E @ y + self.c0 + lam * self.dc
+    move_drives = False  # True: lam also moves the fairleads from the reference to the drives' values
+
+    def _c(self, lam: float) -> np.ndarray:
+        return self.c0 + (lam if self.move_drives else 1.0) * self.dc
+
+    def x_of(self, y: np.ndarray, lam: float = 1.0) -> np.ndarray:
+        return self.E @ y + self._c(lam)
 
     def _eval(self, y, lam):
-        R, J = self.f(y, self.c0 + lam * self.dc, lam)
+        R, J = self.f(y, self._c(lam), lam)
         return np.asarray(R).ravel(), sp.csc_matrix(J.sparse() if hasattr(J, "sparse") else J)
 
     def newton(self, y: np.ndarray, lam: float, tol: float, max_iter: int, work: float):
-        """Full Newton steps at continuation parameter lam: (y, converged, status, iterations, inc, dec, resid)."""
+        """Newton steps at continuation parameter lam: (y, converged, status, iterations, inc, dec, resid). A step
+        that raises |R| is halved (up to LINE_SEARCH times) while the updates are large (inc > SEARCH_ABOVE): far
+        from the answer a full step of a slack line flings it; near it the full steps converge quadratically."""
         inc = dec = rmax = math.inf
+        R, J = self._eval(y, lam)
         for it in range(1, max_iter + 1):
-            R, J = self._eval(y, lam)
             rmax = float(np.max(np.abs(R))) if len(R) else 0.0
             if not np.all(np.isfinite(R)) or not np.all(np.isfinite(J.data)):
                 return y, False, "not_finite", it, inc, dec, rmax
@@ -136,13 +145,22 @@ class WaterStatics:
             dec = abs(float(R @ dz)) / work
             if inc > WILD:
                 return y, False, "diverged", it, inc, dec, rmax
-            y = y + dz
             if inc <= tol and dec <= tol:
-                return y, True, "converged", it, inc, dec, rmax
+                return y + dz, True, "converged", it, inc, dec, rmax
+            a, r0 = 1.0, float(np.linalg.norm(R))
+            for _ in range(LINE_SEARCH if inc > SEARCH_ABOVE else 0):
+                Rt, Jt = self._eval(y + a * dz, lam)
+                if np.all(np.isfinite(Rt)) and np.linalg.norm(Rt) < (1 - 1e-4 * a) * r0:
+                    break
+                a *= 0.5
+            else:
+                Rt, Jt = self._eval(y + a * dz, lam)
+            y, R, J = y + a * dz, Rt, Jt
         return y, False, "max_iter", max_iter, inc, dec, rmax
 
     def solve(self, x_start: np.ndarray, tol: float, max_iter: int = 30):
-        """Continuation in lam from the conservative equilibrium x_start (fairleads at the reference)."""
+        """Continuation in lam (the current's scale, and the fairleads' way from the reference if move_drives) from
+        x_start."""
         y = self._y(x_start)
         R1, _ = self._eval(y, 1.0)
         R0, _ = self._eval(y, 0.0)
@@ -158,12 +176,12 @@ class WaterStatics:
             hist.append((target, status, it))
             if ok:
                 y, lam = y_try, target
-                step = min(1.0, 2 * step) if it <= 6 else step
+                step = min(1.0, 2 * step) if it <= 10 else step
             else:
                 step /= 2
                 if step < MIN_STEP:
                     return self.x_of(y, lam), False, "continuation_failed", iters, hist, (inc, dec, rmax)
-        return self.x_of(y, 1.0), True, "converged", iters, hist, (inc, dec, rmax)
+        return self.x_of(y), True, "converged", iters, hist, (inc, dec, rmax)
 
     def _roots(self) -> np.ndarray:
         E = self.E.tocsc()
@@ -207,6 +225,7 @@ def solve_in_water(scene, opts, warm_start=None):
     ws = WaterStatics(scene)
     attempts = []
     if warm_start is None:
+        ws.move_drives = True  # (the start has the fairleads at the reference)
         first = solve_static(conservative_start_scene(scene), opts)
         attempts += [dict(a, method="start: " + a.get("method", "?")) for a in first.attempts]
         if not first.success:
