@@ -2,7 +2,7 @@
 (unsymmetric where the current drags) Jacobian, x = E y + c on the free coordinates.
 
 Q_water is the current's Morison drag on the line at rest (not conservative: no potential to minimise) and the
-water line's correction of the buoyancy (a potential). The start is the conservative equilibrium the scene's own
+water line's correction of the buoyancy (a potential); lam scales both. The start is the conservative equilibrium the scene's own
 statics finds (buoyancy as the net weight, the seabed contacts, with the fairleads' position drives held as pins
 at their reference positions); from there the current (scaled by lam) and the fairleads' positions (moved by lam
 from the reference to the drives' values at t = 0) reach lam = 1 in adaptive continuation steps, each solved by
@@ -94,7 +94,7 @@ class WaterStatics:
         Qw = ca.MX.zeros(n)
         Ub = water_line_energy(wp, w, g, xs)
         if Ub is not None:
-            Qw -= ca.gradient(Ub, xs)
+            Qw -= lam * ca.gradient(Ub, xs)  # (scaled by lam too: lam = 0 is the start's own problem)
         if w.current is not None and wp.drag:
             Qw += drag_force(wp, w, xs, None, lam)
         Rf = grad - Qw
