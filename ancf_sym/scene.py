@@ -763,7 +763,7 @@ def structure_spec_key(scene: Scene) -> tuple | None:
     not read them (the reduced coordinates, mass matrix, kernel calls and compiled graphs of a dynamic run:
     ancf_sym.dynamics.step_system). None where another part of the set-up reads those values: penalty supports
     and joints (scaled by EA and EI), rigid bodies (their weight), contacts and drives (keyed by the full set-up)."""
-    if scene.contacts or scene.bodies or scene.body_joints or scene.drives or \
+    if scene.contacts or scene.bodies or scene.body_joints or scene.drives or scene.water is not None or \
             any(s.method != "exact" for s in scene.supports) or any(j.method != "exact" for j in scene.joints):
         return None
     parts: list = [type(scene)]

@@ -34,6 +34,7 @@ from .forces import band_force_graph, build_force_graphs, gradient_graph
 from .graph_cache import STEP_TEMPLATES, SYSTEM_GRAPHS, keep_template, pooled_buffer, structure_id
 from .ldl import LDLFactor, build_ldl
 from ..mx_ops import add, fabs, mul, neg
+from ..water import dynamics as water
 
 
 class StepSystem:
@@ -117,9 +118,13 @@ class StepSystem:
         # (d f_d / dq; LDL^T reads one triangle)
         # (contact friction likewise: d f / d q is unsymmetric)
         unsym = self.strain_rate is not None or bool(contact.dissipation_calls(asm.mesh)) or \
-            bool(self.drives is not None and self.drives.torques)  # (a torque's tangent is skew)
+            bool(self.drives is not None and self.drives.torques) or \
+            water.has_forces(asm)  # (a torque's tangent is skew; drag's d f / d q is unsymmetric)
         self.linsol = linsol if linsol != "auto" else ("qr" if (self.mc or unsym) else "ldl")
         M = asm.mass_matrix().tocsc()
+        Ma = water.added_mass(asm)  # (lines in water: the added mass, ancf_sym.water.dynamics)
+        if Ma is not None:
+            M = (M + Ma).tocsc()
         self.M_full = M
         self.M = reduce_shared(part, M)
         self.length_scale = asm.mesh.length_scale
