@@ -5,7 +5,7 @@ Both codes from their static state (this package: ancf_sym.water.statics from th
 examples/lowe_langley_jumper.py; MoorDyn: its stationary initial-condition solve), the same line data (MoorDyn's
 test input: D 0.396 m, 165 kg/m, EA 500e6 N, axial damping 0.5 of critical per segment, EI 120.8e3 N m^2,
 Cd = Ca = 1, CdAx = CaAx = 0, water 1000 kg/m^3, g 9.807, depth 100 m). This package: generalized-alpha at its own
-step (implicit: --dt, default 0.05 s), n elements (--n, default 34), the axial damping as strain-rate damping with
+step (implicit: --dt, default 0.25 s), n elements (--n, default 34), the axial damping as strain-rate damping with
 MoorDyn's coefficient BA = zeta l_seg sqrt(EA m) of its 68 segments. MoorDyn: its test's dtM = 1 ms (midpoint5),
 coupled every 5 ms.
 
@@ -139,7 +139,7 @@ def moordyn(times: np.ndarray) -> dict:
 def main(argv=None) -> dict:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--json", metavar="PATH")
-    p.add_argument("--dt", type=float, default=0.05)
+    p.add_argument("--dt", type=float, default=0.25)
     p.add_argument("--n", type=int, default=34)
     a = p.parse_args(argv)
     mine = ours(a.n, a.dt)

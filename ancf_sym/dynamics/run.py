@@ -79,6 +79,9 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
     if not scene.members and not scene.bodies:
         raise SceneError("scene has no members or bodies")
     contact.check_dynamics(asm)
+    from ..water.dynamics import check_integrator
+
+    check_integrator(scene, opts.integrator)  # (lines in water: the collocation schemes take a constant mass)
     if getattr(scene, "drives", None) and opts.integrator in ("radau", "gauss"):
         raise SceneError(f"integrator={opts.integrator!r}: drives and torques (time-dependent constraints and "
                          "forces) run with the alpha schemes (newmark, hht, generalized_alpha), not collocation")

@@ -5,8 +5,10 @@
   df_d/dv by AD of the one vectorized graph (ancf_sym.water.forces); the step graphs add them to the damping force
   (ancf_sym.dynamics.damping.dissipation_functions), so the damping work the run books includes the drag's work and
   the water line's (conservative) work;
-- added mass (`added_mass`): rho_w A (Ca (I - t t') + CaAx t t') per length with the tangents t frozen at the run's
-  start state (the step system's mass matrix is constant over a run); Ca = CaAx is exact at any state.
+- added mass: rho_w A (Ca (I - t t') + CaAx t t') per length, exact: the step system's constant mass matrix holds
+  it with the tangents t0 of the run's start state (`added_mass`), and the step residual adds the rest,
+  rho_w A (CaAx - Ca) (t t' - t0 t0') times the acceleration at the quadrature points (`inertia_mx`), with its
+  exact tangent (t depends on q). Ca = CaAx needs no such term (the added mass is isotropic).
 """
 from __future__ import annotations
 
@@ -20,6 +22,62 @@ from .points import wet_points
 
 def water_of(asm):
     return getattr(asm.scene, "water", None)
+
+
+def nonlinear_inertia(asm) -> bool:
+    """Does the added mass turn with the line (Ca != CaAx somewhere)?"""
+    if water_of(asm) is None:
+        return False
+    wp = _points(asm)
+    return bool(np.any((wp.ca != wp.ca_axial) & (wp.wL > 0)))
+
+
+def in_graph(asm) -> bool:
+    """Water terms in the step graph (forces or the turning added mass): an unsymmetric step matrix."""
+    return has_forces(asm) or nonlinear_inertia(asm)
+
+
+def check_integrator(scene, integrator: str) -> None:
+    """The collocation integrators take a constant mass matrix: refused where the added mass turns with the line."""
+    w = getattr(scene, "water", None)
+    if w is None or integrator not in ("radau", "gauss"):
+        return
+    for name, c in w.lines.items():
+        if c.ca != c.ca_axial:
+            from ..checks import fail
+
+            raise fail(f"water.lines.{name}.ca", f"differs from ca_axial: the added mass turns with the line, which "
+                       f"the alpha schemes (newmark, hht, generalized_alpha) take exactly and integrator="
+                       f"{integrator!r} does not", c.ca)
+
+
+def inertia_mx(S, xf: ca.MX, acc: ca.MX) -> ca.MX | None:
+    """The added mass's part that turns with the line, on the unknowns: E' B' (w L rho_w A (CaAx - Ca)
+    (t (t . alpha) - t0 (t0 . alpha))) with alpha = B E acc the accelerations at the points, t from xf, t0 from the
+    state the constant mass matrix froze (added_mass); None where Ca = CaAx everywhere."""
+    from ..sparsity import dm
+
+    asm = S.asm
+    if not nonlinear_inertia(asm):
+        return None
+    w, wp = water_of(asm), _points(asm)
+    dim, P = wp.dim, wp.P
+    X = S.x_full_mx(xf)
+    Acc = ca.mtimes(dm(S.E), acc)
+    rx = ca.mtimes(dm(wp.Bx), X)
+    rx = [rx[k * P:(k + 1) * P] for k in range(dim)]
+    al = ca.mtimes(dm(wp.B), Acc)
+    al = [al[k * P:(k + 1) * P] for k in range(dim)]
+    n = ca.sqrt(sum(c * c for c in rx))
+    t = [c / n for c in rx]
+    x0 = getattr(asm, "added_mass_state", None)
+    r0 = (wp.Bx @ (asm.x0 if x0 is None else np.asarray(x0, float))).reshape(dim, P)
+    t0 = r0 / np.linalg.norm(r0, axis=0)
+    a = w.density * np.where(wp.area > 0, wp.area, np.pi * wp.d ** 2 / 4) * wp.wL * (wp.ca_axial - wp.ca)
+    ta = sum(a_ * b for a_, b in zip(t, al))
+    t0a = sum(ca.DM(t0[k]) * al[k] for k in range(dim))
+    f = ca.vertcat(*[ca.DM(a) * (t[k] * ta - ca.DM(t0[k]) * t0a) for k in range(dim)])
+    return ca.mtimes(dm(S.E.T.tocsr()), ca.mtimes(dm(wp.B.T.tocsr()), f))
 
 
 def has_forces(asm) -> bool:
