@@ -714,7 +714,7 @@ class Scene:
         allow_free: only the other checks (a modal analysis of a free structure about its unloaded reference)."""
         if not self.members and not self.bodies:
             raise SceneError("scene has no members")
-        if self.drives:
+        if self.drives and self.water is None:  # (in water, position drives hold fairleads: ancf_sym.water.statics)
             raise SceneError(f"drives: {self.drives[0].name!r} prescribes motion in time (dynamics); solve the statics "
                              "without drives and torques and start the dynamic run from that result")
         groups = {name: {name} for name in self.members}

@@ -375,6 +375,10 @@ class StaticProblem:
     def solve(self, opts: StaticOptions | None = None, x0: np.ndarray | None = None) -> StaticResult:
         opts = opts or _DEFAULT_OPTIONS
         a = self.asm
+        if getattr(a.scene, "water", None) is not None and not getattr(a.scene, "water_start", False):
+            from .water.statics import solve_in_water  # (Newton on the residual: drag, water line, fairleads)
+
+            return solve_in_water(a.scene, opts, x0)
         t0 = time.perf_counter()
         self.solves += 1
         self.newton = self._engine()
@@ -767,9 +771,5 @@ def solve_static(scene: Scene | Assembly, options: StaticOptions | None = None,
     escape_saddle, print_level). warm_start: a previous result (same scene) or a coordinate vector."""
     opts = options or (StaticOptions(**kw) if kw else _DEFAULT_OPTIONS)
     x0 = warm_start.x if isinstance(warm_start, StaticResult) else warm_start
-    if getattr(scene, "water", None) is not None and not getattr(scene, "water_start", False):
-        from .water.statics import solve_in_water  # (Newton on the residual: drag and the water line)
-
-        return solve_in_water(scene, opts, x0)
     prob = problem_for(scene) if isinstance(scene, Scene) else StaticProblem(scene)
     return prob.solve(opts, x0)

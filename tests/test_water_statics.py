@@ -37,6 +37,34 @@ def test_towed_cable_angle(towed):
         assert abs(r["error_deg"]) < 1e-5  # (a wrong drag law, e.g. |u| u instead of |u_n| u_n, is degrees off)
 
 
+def test_every_statics_entry_takes_the_water(towed):
+    """The command line and the modal analysis build a StaticProblem themselves: it solves a scene in water by the
+    same Newton on the residual (the drag's angle), not by minimising a potential that has no drag."""
+    from ancf_sym.statics import StaticProblem
+
+    mod, _ = towed
+    r = StaticProblem(mod.scene(4)).solve()
+    nodes = r.nodes("cable")
+    d = nodes[-1] - nodes[0]
+    assert r.success and abs(math.degrees(math.atan2(-d[1], d[0])) - math.degrees(mod.reference_angle())) < 1e-5
+    assert r.strain_energy == pytest.approx(r.energies["axial"])
+
+
+def test_towed_cable_in_3d_trails_along_the_current():
+    """The same cable in 3D under an oblique current (0.6, 0.8) U: the same angle, in the current's vertical plane."""
+    sec = Section.circle(0.02)
+    s = Scene(dim=3, gravity=[0.0, 0.0, -9.81])
+    s.member("c", [(0.0, 0.0, 0.0), (0.0, 0.0, -50.0)], 8, Material(E=1e11, density=(10 / 9.81 + 1025 * sec.area)
+                                                                      / sec.area), sec, axial="biot", bending=False)
+    s.pin("c", "start")
+    s.set_water(density=1025.0, current=[1.2, 1.6, 0.0], lines={"c": {"cd": 1.2}})
+    r = solve_static(s)
+    d = r.nodes("c")[-1] - r.nodes("c")[4]
+    phi = math.atan2(-d[2], math.hypot(d[0], d[1]))
+    ref = 25.374695  # deg, w cos(phi) = 1/2 rho Cd d U^2 sin^2(phi) (examples/towed_cable.py)
+    assert r.success and abs(math.degrees(phi) - ref) < 1e-4 and d[1] / d[0] == pytest.approx(0.8 / 0.6, rel=1e-9)
+
+
 def test_chains_against_orcaflex_and_the_catenary(chain):
     """OrcaFlex's tensions within the issue's 1.2 % (the elastic catenary itself sits 1.1 % from OrcaFlex in the
     shallow case); the fine mesh within 3e-4 of the elastic catenary with touchdown (what is left: the penalty seabed's

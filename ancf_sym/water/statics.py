@@ -93,6 +93,7 @@ class WaterStatics:
         H = hup + hup.T - ca.diag(ca.diag(hup))
         Qw = ca.MX.zeros(n)
         Ub = water_line_energy(wp, w, g, xs)
+        self.water_line = ca.Function("water_line", [xs], [Ub]) if Ub is not None else None
         if Ub is not None:
             Qw -= lam * ca.gradient(Ub, xs)  # (scaled by lam too: lam = 0 is the start's own problem)
         if w.current is not None and wp.drag:
@@ -250,6 +251,9 @@ def solve_in_water(scene, opts, warm_start=None):
 def _details(ws: WaterStatics, x: np.ndarray) -> tuple[dict, dict, float]:
     asm = ws.asm
     ev = asm.evaluate(x, hessian=False)
+    energies = dict(ev.energies)
+    if ws.water_line is not None:  # (the buoyancy lost where a section leaves the water: a load potential, with
+        energies["gravity"] = energies.get("gravity", 0.0) + float(ws.water_line(x))  # the weight it corrects)
     F = ws.support_forces(x)
     forces: dict = {}
     for lbl, row in zip(asm.exact.labels, asm.exact.A.tocsr()):
@@ -259,4 +263,4 @@ def _details(ws: WaterStatics, x: np.ndarray) -> tuple[dict, dict, float]:
     for name, dofs in ws.drive_labels:
         forces[name] = [float(F[i]) for i in dofs]
     viol = float(np.max(np.abs(asm.constraints.value(x)))) if asm.constraints.m else 0.0
-    return ev.energies, forces, viol
+    return energies, forces, viol
