@@ -6,5 +6,6 @@ ground contact at the depth, and the velocity-dependent Morison forces enter the
 forces and the statics as a non-conservative load (Newton on the residual with its exact Jacobian).
 """
 from .model import Current, LineCoefficients, Seabed, Water, Waves, set_water
+from .stiffness import mooring_stiffness
 
-__all__ = ["Current", "LineCoefficients", "Seabed", "Water", "Waves", "set_water"]
+__all__ = ["Current", "LineCoefficients", "Seabed", "Water", "Waves", "mooring_stiffness", "set_water"]
