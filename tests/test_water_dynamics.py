@@ -15,7 +15,7 @@ import math
 import numpy as np
 import pytest
 
-from ancf_sym import Material, Scene, Section
+from ancf_sym import Material, Scene, SceneError, Section
 from ancf_sym.dynamics import DynamicOptions, simulate
 
 RHO_W, D, W, G = 1025.0, 0.02, 10.0, 9.81
@@ -65,3 +65,34 @@ def test_added_mass_turns_with_the_line():
     tip, v_tip = r.x[8 * 4:8 * 4 + 2], r.v[8 * 4:8 * 4 + 2]
     assert np.linalg.norm(tip - [0.0, L]) < 0.01
     assert abs(np.linalg.norm(v_tip) / (om * L) - 1) < 2e-3
+
+
+def test_airy_waves():
+    """The dispersion relation and the kinematics of linear waves: deep and shallow limits of k, the kinematic
+    surface condition w(z = 0) = d eta / dt, continuity du/dx + dw/dz = 0 (central differences of the closed form,
+    step 1e-4 m: truncation ~1e-9 of the terms), the acceleration as the velocity's time derivative."""
+    from ancf_sym.water import Waves, set_water
+    from ancf_sym.water.waves import kinematics, wave_number
+
+    g = 9.81
+    assert wave_number(2 * math.pi / 5, 1e4, g) == pytest.approx((2 * math.pi / 5) ** 2 / g, rel=1e-12)
+    assert wave_number(0.01, 10.0, g) == pytest.approx(0.01 / math.sqrt(g * 10.0), rel=1e-4)
+    om, h = 2 * math.pi / 10, 50.0
+    k = wave_number(om, h, g)
+    assert om ** 2 == pytest.approx(g * k * math.tanh(k * h), rel=1e-13)
+    s = Scene(dim=2, gravity=[0.0, -g])
+    s.member("c", [(0.0, -10.0), (10.0, -10.0)], 2, Material(E=1e9, density=2000.0), Section.circle(0.05))
+    w = set_water(s, depth=h, waves={"height": 2.0, "period": 10.0, "phase": 0.3})
+    assert isinstance(w.waves, Waves)
+    t, d = 1.7, 1e-4
+    eta0, u0, a0 = kinematics(w, g, [[3.0, 0.0]], t)
+    eta_t = (kinematics(w, g, [[3.0, 0.0]], t + d)[0] - kinematics(w, g, [[3.0, 0.0]], t - d)[0]) / (2 * d)
+    assert u0[0, 1] == pytest.approx(eta_t[0], rel=1e-6)
+    p = np.array([[3.0, -7.0]])
+    du_dx = (kinematics(w, g, p + [d, 0], t)[1][0, 0] - kinematics(w, g, p - [d, 0], t)[1][0, 0]) / (2 * d)
+    dw_dz = (kinematics(w, g, p + [0, d], t)[1][0, 1] - kinematics(w, g, p - [0, d], t)[1][0, 1]) / (2 * d)
+    assert abs(du_dx + dw_dz) < 1e-7 * abs(du_dx)
+    du_dt = (kinematics(w, g, p, t + d)[1] - kinematics(w, g, p, t - d)[1]) / (2 * d)
+    assert np.allclose(kinematics(w, g, p, t)[2], du_dt, rtol=1e-6, atol=1e-12)
+    with pytest.raises(SceneError, match=r"water\.waves"):  # not silently ignored by a dynamic run
+        simulate(s, DynamicOptions(dt=0.01, t_end=0.02))

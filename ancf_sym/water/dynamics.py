@@ -38,8 +38,14 @@ def in_graph(asm) -> bool:
 
 
 def check_integrator(scene, integrator: str) -> None:
-    """The collocation integrators take a constant mass matrix: refused where the added mass turns with the line."""
+    """Refused before any work: waves (their kinematics exist, ancf_sym.water.waves, but the step graph has no time
+    input for them yet), and the collocation integrators (a constant mass matrix) where the added mass turns."""
     w = getattr(scene, "water", None)
+    if w is not None and w.waves is not None:
+        from ..checks import fail
+
+        raise fail("water.waves", "are not applied in the dynamics yet (the statics take the current only); "
+                   "remove them for a run in still water or a current", vars(w.waves))
     if w is None or integrator not in ("radau", "gauss"):
         return
     for name, c in w.lines.items():
