@@ -83,7 +83,7 @@ def test_jumper_against_moordyn(jumper):
     """MoorDyn's static support forces within the issue's 0.2 kN (measured: 0.002-0.012 kN); the refined mesh closer to
     the fine one than the coarse (the shape converges)."""
     _, recs = jumper
-    for r in recs:
+    for r in [r for r in recs if r["kind"] == "statics"]:
         assert r["success"] and r["stable"], r
         for k in ("H_diff_kN", "V_top_diff_kN", "V_bottom_diff_kN"):
             assert abs(r[k]) < 0.2, (k, r)
@@ -228,3 +228,15 @@ def test_mooring_stiffness_of_a_chain(chain):
         assert abs(K[0, 1] - K[1, 0]) < 1e-6 * abs(K).max()
     with pytest.raises(SceneError, match="not held"):
         mooring_stiffness(r, "hang", "start")
+
+
+def test_jumper_dynamic_case_converged_in_time(jumper):
+    """Case 1 (top surge 10 m, 27 s) from the statics: the run completes at the implicit scheme's large step and its
+    top tension history agrees with the run at half the step within 0.5 % (measured 2e-4 at 20 elements; the
+    comparison with MoorDyn itself, 0.42 %, is bench/mooring_vs_moordyn.py). The tension swings about the static
+    47.1 kN: its extremes bracket it (a line that did not follow the fairlead would stay at the static value)."""
+    _, recs = jumper
+    r = pick(recs, kind="dynamic_case1")
+    assert r["success"], r
+    assert r["half_step_rel_diff"] < 5e-3
+    assert r["T_top_min_kN"] < 47.0 < 47.3 < r["T_top_max_kN"]
