@@ -240,3 +240,30 @@ def test_jumper_dynamic_case_converged_in_time(jumper):
     assert r["success"], r
     assert r["half_step_rel_diff"] < 5e-3
     assert r["T_top_min_kN"] < 47.0 < 47.3 < r["T_top_max_kN"]
+
+
+def test_chain_in_a_current_balances_its_drag(chain):
+    """A chain on a frictionless seabed in a 1.5 m/s current along x: converged, stable, and the supports' horizontal
+    forces balance the line's total drag exactly (the seabed carries no horizontal force); with the current the
+    horizontal tension falls (the stream pushes the line toward the fairlead)."""
+    import casadi as ca
+
+    from ancf_sym.water.forces import drag_force
+    from ancf_sym.water.model import LineCoefficients, _current
+    from ancf_sym.water.points import wet_points
+
+    mod, recs = chain
+    s = mod.scene("200m", 40)
+    s.water.current = _current("water.current", [1.5, 0.0], 2)
+    s.water.lines.update(bed=LineCoefficients(cd=2.4, cd_axial=1.15), hang=LineCoefficients(cd=2.4, cd_axial=1.15))
+    r = solve_static(s)
+    assert r.success and r.stable
+    asm = r.water.asm
+    X = ca.MX.sym("x", asm.n)
+    Q = np.asarray(ca.Function("q", [X], [drag_force(wet_points(asm, s.water), s.water, X, None)])(r.x)).ravel()
+    drag_x = sum(Q[mm.offset:mm.offset + mm.x0.size].reshape(mm.n_nodes, 4)[:, 0].sum()
+                 for mm in asm.mesh.members.values())
+    supports_x = r.constraint_forces["pin bed@start"][0] + r.constraint_forces["pin hang@end"][0]
+    assert drag_x > 0 and supports_x + drag_x == pytest.approx(0.0, abs=1e-6 * drag_x)
+    still = pick(recs, case="200m", n=40)
+    assert r.constraint_forces["pin hang@end"][0] / 1e3 < still["H_kN"]
