@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -48,15 +48,6 @@ class Current:
     constant beyond the first and last)."""
     z: np.ndarray  # (k,) heights [m], increasing (one entry: uniform)
     u: np.ndarray  # (k, dim) velocities [m/s]
-
-    def at(self, z: np.ndarray) -> np.ndarray:
-        """(len(z), dim) velocities at heights z (NumPy)."""
-        z = np.asarray(z, float)
-        return np.stack([np.interp(z, self.z, self.u[:, k]) for k in range(self.u.shape[1])], axis=-1)
-
-    @property
-    def uniform(self) -> bool:
-        return len(self.z) == 1
 
 
 @dataclass(frozen=True)
@@ -202,11 +193,6 @@ def from_toml(scene, d: Any) -> Water:
         raise fail("water", "must be a table", d)
     check_keys("water", d, WATER_KEYS)
     return set_water(scene, **d)
-
-
-def wet_members(scene) -> list[str]:
-    """Members the water acts on (all of them; a dry one is a member with buoyancy = false and no coefficients)."""
-    return list(scene.members)
 
 
 def displaced_area(member, coef: LineCoefficients) -> float:
