@@ -267,3 +267,42 @@ def test_chain_in_a_current_balances_its_drag(chain):
     assert drag_x > 0 and supports_x + drag_x == pytest.approx(0.0, abs=1e-6 * drag_x)
     still = pick(recs, case="200m", n=40)
     assert r.constraint_forces["pin hang@end"][0] / 1e3 < still["H_kN"]
+
+
+def _towed_material():
+    sec = Section.circle(0.02)
+    return Material(E=1e11, density=(10.0 / 9.81 + 1025.0 * sec.area) / sec.area), sec
+
+
+def test_rigid_joint_in_water():
+    """The towed cable as two members joined rigidly in line (a multiplier row): the same angle to the flow."""
+    mat, sec = _towed_material()
+    s = Scene(dim=2, gravity=[0.0, -9.81])
+    s.member("a", [(0.0, 0.0), (0.0, -25.0)], 4, mat, sec, axial="biot", bending=False)
+    s.member("b", [(0.0, -25.0), (0.0, -50.0)], 4, mat, sec, axial="biot", bending=False)
+    s.rigid(("a", "end"), ("b", "start"))
+    s.pin("a", "start")
+    s.set_water(density=1025.0, current=[2.0, 0.0], lines={"a": {"cd": 1.2}, "b": {"cd": 1.2}})
+    r = solve_static(s)
+    d = r.nodes("b")[-1] - r.nodes("b")[0]
+    assert r.success and r.stable and abs(math.degrees(math.atan2(-d[1], d[0])) - 25.374695) < 1e-4
+    assert "rigid a@end-b@start" in r.constraint_forces
+
+
+def test_fairlead_on_a_body():
+    """A towed cable pinned 1 m off the centre of a body that turns about its centre (a buoy on a swivel): the body
+    turns until its arm lies along the line (the line's force passes through the pivot: no moment), at the cable's
+    angle to the flow; the force on the body is along the arm."""
+    mat, sec = _towed_material()
+    s = Scene(dim=2, gravity=[0.0, -9.81])
+    s.body("buoy", 10.0, 1.0, [0.0, 0.0])
+    s.revolute("buoy")
+    s.member("c", [(1.0, 0.0), (1.0, -50.0)], 8, mat, sec, axial="biot", bending=False)
+    s.pin_body("buoy", "c", "start")
+    s.set_water(density=1025.0, surface=10.0, current=[2.0, 0.0], lines={"c": {"cd": 1.2}})
+    r = solve_static(s)
+    assert r.success and r.stable
+    _, _, angle = r.body("buoy")
+    assert abs(math.degrees(-angle) - 25.374695) < 1e-4
+    arm = r.nodes("c")[0] - np.array(r.body("buoy")[:2])
+    assert np.linalg.norm(arm) == pytest.approx(1.0, abs=1e-6)

@@ -62,9 +62,10 @@ class WaterStatics:
         self.asm = asm = Assembly(scene)
         g = gravity_magnitude(scene)
         part = partition(asm)
-        if len(part.rows):
-            raise SceneError("statics in water: rigid joints and skew clamps (multiplier rows) are not supported; "
-                             "use pins, clamps of axis-aligned members and hinges")
+        # exact rows the partition keeps (rigid joints, skew clamps, rigid bodies' joints): Lagrange multipliers mu
+        self.rows = part.rows
+        self.m = m = len(part.rows)
+        cons = asm.exact.subset(part.rows) if m else None
         didx, self.dval, dref, self.drive_labels = _drive_coordinates(asm, scene)
         if len(didx) and np.any(part.pos[didx] < 0):
             raise SceneError("statics in water: a driven fairlead node is also pinned or identified by a joint")
@@ -78,10 +79,12 @@ class WaterStatics:
         self.dc[didx] = self.dval - dref
         self.fixed = np.flatnonzero(np.asarray(abs(E).sum(axis=1)).ravel() == 0)  # coordinates held by supports/drives
         n, ny = asm.n, E.shape[1]
+        self.ny = ny
         wp = wet_points(asm, w)
-        y, c, lam = ca.MX.sym("y", ny), ca.MX.sym("c", n), ca.MX.sym("lam")
+        z, c, lam = ca.MX.sym("z", ny + m), ca.MX.sym("c", n), ca.MX.sym("lam")
+        y, mu = z[:ny], z[ny:]
         x = ca.mtimes(dm(E), y) + c
-        xs = ca.MX.sym("x", n)
+        xs, mus = ca.MX.sym("x", n), ca.MX.sym("mu", m)
         _, grad, hup, _ = asm.casadi_parts(xs)
         H = hup + hup.T - ca.diag(ca.diag(hup))
         Qw = ca.MX.zeros(n)
@@ -93,14 +96,24 @@ class WaterStatics:
             Qw += drag_force(wp, w, xs, None, lam)
         Rf = grad - Qw
         Jf = H - ca.jacobian(Qw, xs)
-        full = ca.Function("water_residual_full", [xs, lam], [Rf, Jf])
-        Rx, Jx = full(x, lam)
-        Et = dm(E.T.tocsr())
-        R = ca.mtimes(Et, Rx)
-        J = ca.mtimes(Et, ca.mtimes(Jx, dm(E)))
-        self.f = ca.Function("water_statics", [y, c, lam], [R, J])
+        if m:
+            phi = Assembly._casadi_constraint(cons, xs)
+            G = ca.jacobian(phi, xs)
+            Rf = Rf + ca.mtimes(G.T, mus)
+            if len(cons.qrow):  # (bilinear rows: the multipliers' curvature)
+                Jf = Jf + ca.hessian(ca.dot(mus, phi), xs)[0]
+        else:
+            phi, G = ca.MX(0, 1), ca.MX(0, n)
+        full = ca.Function("water_residual_full", [xs, lam, mus], [Rf, Jf, phi, G])
+        Rx, Jx, ph, Gx = full(x, lam, mu)
+        Et, Ed = dm(E.T.tocsr()), dm(E)
+        GE = ca.mtimes(Gx, Ed)
+        R = ca.vertcat(ca.mtimes(Et, Rx), ph)
+        J = ca.blockcat([[ca.mtimes(Et, ca.mtimes(Jx, Ed)), GE.T], [GE, ca.MX(m, m)]])
+        self.f = ca.Function("water_statics", [z, c, lam], [R, J])
         self.full = full
-        self.scale = self._scales()
+        self.mu = np.zeros(m)  # the multipliers at the last solution
+        self.scale = np.r_[self._scales(), np.full(m, np.inf)]  # (the multipliers are not judged by the increment)
 
     def _scales(self) -> np.ndarray:
         from ..statics_newton import coordinate_scales
@@ -112,8 +125,8 @@ class WaterStatics:
     def _c(self, lam: float) -> np.ndarray:
         return self.c0 + (lam if self.move_drives else 1.0) * self.dc
 
-    def x_of(self, y: np.ndarray, lam: float = 1.0) -> np.ndarray:
-        return self.E @ y + self._c(lam)
+    def x_of(self, z: np.ndarray, lam: float = 1.0) -> np.ndarray:
+        return self.E @ z[:self.ny] + self._c(lam)
 
     def _eval(self, y, lam):
         R, J = self.f(y, self._c(lam), lam)
@@ -149,10 +162,16 @@ class WaterStatics:
         """Continuation in lam (the current's scale, and the fairleads' way from the reference if move_drives) from
         x_start."""
         y = self._y(x_start)
+        if self.m:  # the start's multipliers by least squares, (G E)' mu = -E' R: a bilinear row's curvature mu
+            R0, J0 = self._eval(y, 0.0)  # Hess(phi) is the stiffness of what it constrains (a body's turn)
+            ny = self.ny
+            GEt = J0[:ny, ny:].toarray()
+            y[ny:] = np.linalg.lstsq(GEt, -R0[:ny], rcond=None)[0]
         R1, _ = self._eval(y, 1.0)
         R0, _ = self._eval(y, 0.0)
         f_lin = self.E.T @ self.asm.constant_force()
-        work = float(np.sum((np.abs(f_lin) + np.abs(R1 - R0)) * self.scale)) or 1.0
+        ny = self.ny  # (the load work on the coordinates' rows)
+        work = float(np.sum((np.abs(f_lin) + np.abs(R1[:ny] - R0[:ny])) * self.scale[:ny])) or 1.0
         lam, step, iters, hist = 0.0, 1.0, 0, []
         while lam < 1.0:
             target = min(1.0, lam + step)
@@ -168,6 +187,7 @@ class WaterStatics:
                 step /= 2
                 if step < MIN_STEP:
                     return self.x_of(y, lam), False, "continuation_failed", iters, hist, (inc, dec, rmax)
+        self.mu = y[self.ny:].copy()
         return self.x_of(y), True, "converged", iters, hist, (inc, dec, rmax)
 
     def _roots(self) -> np.ndarray:
@@ -176,17 +196,20 @@ class WaterStatics:
 
     def support_forces(self, x: np.ndarray) -> np.ndarray:
         """Full vector: the supports' and drives' forces on the structure at x (R_full at the held coordinates)."""
-        R = np.asarray(self.full(x, 1.0)[0]).ravel()
+        R = np.asarray(self.full(x, 1.0, self.mu)[0]).ravel()
         out = np.zeros_like(R)
         out[self.fixed] = R[self.fixed]
         return out
 
     def stability(self, x: np.ndarray) -> bool | None:
+        """The symmetric part of the Jacobian positive definite on the tangent space of the multiplier rows."""
         _, J = self._eval(self._y(x), 1.0)
-        return reduced_inertia(0.5 * (J + J.T)).stable
+        ny = self.ny
+        Jyy = J[:ny, :ny]
+        return reduced_inertia(0.5 * (Jyy + Jyy.T), J[ny:, :ny] if self.m else None).stable
 
     def _y(self, x):
-        return np.asarray(x)[self._roots()]
+        return np.r_[np.asarray(x)[self._roots()], self.mu]
 
 
 def conservative_start_scene(scene):
@@ -246,6 +269,8 @@ def _details(ws: WaterStatics, x: np.ndarray) -> tuple[dict, dict, float]:
         cols = row.indices
         if len(cols) == 1:
             forces.setdefault(lbl, []).append(float(F[cols[0]]))
+    for r, v in zip(ws.rows, ws.mu):  # (rows kept with multipliers: J^T mu = -grad Pi, as the statics report them)
+        forces.setdefault(asm.exact.labels[r], []).append(float(v))
     for name, dofs in ws.drive_labels:
         forces[name] = [float(F[i]) for i in dofs]
     viol = float(np.max(np.abs(asm.constraints.value(x)))) if asm.constraints.m else 0.0
