@@ -222,7 +222,11 @@ class AlphaIntegrator:
         vh = self.v + h * (1 - g) * self.ab
         cm, cc = sc.cm(h), sc.cc(h)
         p = pload.copy()
-        p[:S.nf] += S.M @ ((am * self.ab - af * self.a) / (1 - af) - cm * qh)
+        y = (am * self.ab - af * self.a) / (1 - af) - cm * qh
+        if S.inertia_input:  # (an inertia that is not M times the acceleration: the graph takes y itself)
+            S.y[:] = y
+        else:
+            p[:S.nf] += S.M @ y
         C = self.kdamp.matrix()
         if C is not None:
             p[:S.nf] += C @ (vh - cc * qh)

@@ -79,14 +79,13 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
     if not scene.members and not scene.bodies:
         raise SceneError("scene has no members or bodies")
     contact.check_dynamics(asm)
+    from ancf_sym.system.water import check_integrator
+
+    check_integrator(scene, opts.integrator)  # (lines in water: the collocation schemes take a constant mass)
     if getattr(scene, "drives", None) and opts.integrator in ("radau", "gauss"):
         raise SceneError(f"integrator={opts.integrator!r}: drives and torques (time-dependent constraints and "
                          "forces) run with the alpha schemes (newmark, hht, generalized_alpha), not collocation")
     sensors = [SensorEval(s, asm, i) for i, s in enumerate(opts.sensors)]
-    if system is None:
-        system = StepSystem.for_scene(asm)
-    S = system
-    loads = LoadSum(opts.loads, asm, S.E) if opts.loads else None
     # initial state
     q0 = asm.x0.copy() if opts.q0 is None else np.asarray(opts.q0, dtype=float).ravel()
     if opts.start == "static":
@@ -105,6 +104,12 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
             raise SceneError(f"{name} must be finite")
     if opts.q0 is not None or opts.from_result is not None:
         check_stretch(asm.mesh, q0, "q0" if opts.from_result is None else "analysis.from_result")
+    if system is None:
+        if getattr(scene, "water", None) is not None:
+            asm.added_mass_state = q0  # (lines in water: the added mass's tangents frozen at the start state)
+        system = StepSystem.for_scene(asm)
+    S = system
+    loads = LoadSum(opts.loads, asm, S.E) if opts.loads else None
     L = S.length_scale
     tol_x = opts.newton.xtol * L
     cons_tol = max(1e-8 * L, 10 * tol_x)

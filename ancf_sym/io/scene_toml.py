@@ -50,7 +50,7 @@ except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
 TOP_KEYS = ("scene", "materials", "sections", "members", "loops", "supports", "joints", "loads", "masses",
-            "dampings", "contacts", "bodies", "drives", "analysis")
+            "dampings", "contacts", "bodies", "drives", "water", "analysis")
 SCENE_KEYS = ("name", "dim", "gravity")
 SECTION_KEYS = {None: tuple(SECTION), "circle": ("diameter",), "rectangle": ("b", "h")}
 MEMBER_KEYS = tuple(inspect.signature(Scene.member).parameters)[1:]  # the keywords of Scene.member
@@ -409,6 +409,15 @@ def _drive(scene: Scene, d: dict) -> Any:
     return scene.torque(**kw) if kind == "torque" else scene.drive(**kw)
 
 
+def _water(scene: Scene, d: Any) -> Any:
+    """The [water] table: density, depth, surface, current, waves = {...}, seabed = {...}, lines.NAME = {...}."""
+    from ancf_sym.scene.water import WATER_KEYS, set_water
+    if not isinstance(d, dict):
+        raise fail("water", "must be a table", d)
+    check_keys("water", d, WATER_KEYS)
+    return set_water(scene, **d)
+
+
 class Analysis(dict):
     """The [analysis] table as written (a dict: result.json echoes it) and `options`, the option object it decodes to,
     decoded once here: StaticOptions (statics, and a modal analysis's equilibrium) or DynamicOptions."""
@@ -470,6 +479,8 @@ def scene_from_dict(doc: dict, default_name: str = "scene", base: str | Path | N
         _body_joints(scene, f"bodies[{i}]", d)
     for i, d in enumerate(_array_of_tables("contacts", doc.get("contacts", []))):  # (after the bodies: a circle
         _api(f"contacts[{i}]", _contact, scene, d)                         # may be carried by one)
+    if "water" in doc:  # (after the members: it names them, and adds the seabed's ground contacts)
+        _api("water", _water, scene, doc["water"], root="water")
     for i, d in enumerate(_array_of_tables("drives", doc.get("drives", []))):
         _api(f"drives[{i}]", _drive, scene, d)
 

@@ -28,6 +28,9 @@ def modal_analysis(scene: Scene, modes: int = 10, static: StaticResult | None = 
     fields). A failed static solve gives a result with success False, its status and no modes. damped: also the
     complex eigenvalues of the damped system (the scene's damping, linearize's D): result.damped."""
     modes = check_modes(modes)
+    if getattr(scene, "water", None) is not None:  # (its added mass and drag stiffness are not in the linear model)
+        raise SceneError("modal analysis in water is not supported yet: the linear model lacks the added mass and the "
+                         "drag's stiffness and damping")
     damped = bool(MODAL_OPTIONS["damped"].check("damped", damped))
     t0 = time.perf_counter()
     try:

@@ -13,6 +13,7 @@ from ancf_sym.contact import laws as contact
 from ancf_sym.model.mesh import Mesh, MemberMesh
 from ancf_sym.scene.member_effects import stiffness_effects
 from ancf_sym.scene.builder import SceneError, Section
+from ancf_sym.scene.water import net_weight_density
 
 
 @dataclass
@@ -35,7 +36,7 @@ def _add(terms: dict, label, element, effect, gauss, idx_rows, p_rows):
     t.P.append(np.asarray(p_rows, dtype=float))
 
 
-def member_terms(terms: dict, mm: MemberMesh, gravity: np.ndarray) -> None:
+def member_terms(terms: dict, mm: MemberMesh, gravity: np.ndarray, water=None) -> None:
     m = mm.member
     idx, L = mm.elem_dofs(), mm.elem_length
     idx.flags.writeable = False  # (shared by the member's terms)
@@ -69,7 +70,8 @@ def member_terms(terms: dict, mm: MemberMesh, gravity: np.ndarray) -> None:
         # (Scene.member checked the Gauss order against the effects; the continuum kernel has only its own)
         _add(terms, label, m.element, effect, None if effect == "continuum" else m.gauss, idx, p)
     if m.gravity and any(gravity):
-        _add(terms, "gravity", m.element, "gravity", None, idx, params(m.material.density * A, *gravity))
+        # (in water: the weight less the displaced water's, ancf_sym.scene.water)
+        _add(terms, "gravity", m.element, "gravity", None, idx, params(net_weight_density(water, m), *gravity))
     if m.arc_curvature is not None and m.bending:
         curved_reference_term(terms, mm)
 
@@ -134,7 +136,7 @@ def scene_terms(mesh: Mesh) -> list[Term]:
     scene = mesh.scene
     terms: dict = {}
     for mm in mesh.members.values():
-        member_terms(terms, mm, scene.gravity)
+        member_terms(terms, mm, scene.gravity, getattr(scene, "water", None))
     for load in scene.loads:
         mm = mesh.members[load.member]
         if load.kind == "distributed":

@@ -227,6 +227,7 @@ class Scene:
     body_joints: list = field(default_factory=list)  # ancf_sym.bodies.planar.BodyJoint
     drives: list = field(default_factory=list)  # ancf_sym.bodies.drives: prescribed angles/positions, applied torques
     point_masses: list = field(default_factory=list)  # PointMass
+    water: Any = None  # ancf_sym.water.Water: the members are in water (Scene.set_water)
 
     def __post_init__(self):
         if isinstance(self.dim, bool) or self.dim not in (2, 3):
@@ -388,6 +389,15 @@ class Scene:
             lam = (1 + math.sqrt(1 + 4 * a)) / 2 if m.axial == "biot" else math.sqrt((1 + math.sqrt(1 + 8 * a)) / 2)
             m.prestrain = lam - 1.0
         return m
+
+    def set_water(self, **options: Any):
+        """Put the members in water (ancf_sym.water.set_water, docs/water.md): density [kg/m^3], depth [m], surface
+        (the still water line's height), current (a velocity or [[z, velocity], ...]), waves = {height, period,
+        direction, phase}, seabed = {stiffness, damping, mu, eps, thickness} (ground contacts at the depth),
+        lines = {member: {cd, cd_axial, ca, ca_axial, diameter, buoyancy}}, gauss."""
+        from ancf_sym.scene.water import set_water
+
+        return set_water(self, **options)
 
     def contact_ground(self, member: str, **options: Any):
         """Contact of `member`'s centre line with the ground half-space {normal . r >= level} (default: y >= 0 in
@@ -704,7 +714,7 @@ class Scene:
         allow_free: only the other checks (a modal analysis of a free structure about its unloaded reference)."""
         if not self.members and not self.bodies:
             raise SceneError("scene has no members")
-        if self.drives:
+        if self.drives and self.water is None:  # (in water, position drives hold fairleads: ancf_sym.statics.water)
             raise SceneError(f"drives: {self.drives[0].name!r} prescribes motion in time (dynamics); solve the statics "
                              "without drives and torques and start the dynamic run from that result")
         groups = {name: {name} for name in self.members}
@@ -753,7 +763,7 @@ def structure_spec_key(scene: Scene) -> tuple | None:
     not read them (the reduced coordinates, mass matrix, kernel calls and compiled graphs of a dynamic run:
     ancf_sym.system.step_system). None where another part of the set-up reads those values: penalty supports
     and joints (scaled by EA and EI), rigid bodies (their weight), contacts and drives (keyed by the full set-up)."""
-    if scene.contacts or scene.bodies or scene.body_joints or scene.drives or \
+    if scene.contacts or scene.bodies or scene.body_joints or scene.drives or scene.water is not None or \
             any(s.method != "exact" for s in scene.supports) or any(j.method != "exact" for j in scene.joints):
         return None
     parts: list = [type(scene)]

@@ -383,6 +383,10 @@ class StaticProblem:
     def solve(self, opts: StaticOptions | None = None, x0: np.ndarray | None = None) -> StaticResult:
         opts = opts or _DEFAULT_OPTIONS
         a = self.asm
+        if getattr(a.scene, "water", None) is not None and not getattr(a.scene, "water_start", False):
+            from ancf_sym.statics.water import solve_in_water  # (Newton on the residual: drag, water line, fairleads)
+
+            return solve_in_water(a.scene, opts, x0, solve_static=solve_static, result_type=StaticResult)
         t0 = time.perf_counter()
         self.solves += 1
         self.newton = self._engine()

@@ -243,15 +243,20 @@ def _reach_switch(S: "StepSystem", xf: ca.MX, vf: ca.MX, X: ca.MX, dc: tuple) ->
 def dissipation_functions(S: "StepSystem") -> tuple[ca.Function | None, ca.Function | None]:
     """(damp_f, damp_force_f) of the step system: damp_f(x, v) -> (f_d, df_d/dx, df_d/dv) of the strain-rate
     damping and dissipative contact together, damp_force_f(x, v) -> f_d alone; (None, None) without either."""
+    from ancf_sym.system import water
+
     sr = S.strain_rate
-    if sr is None and not contact.dissipation_calls(S.asm.mesh):  # (no graph to build: ~0.3 ms of set-up)
-        return None, None
+    if sr is None and not contact.dissipation_calls(S.asm.mesh) and not water.has_forces(S.asm):
+        return None, None  # (no graph to build: ~0.3 ms of set-up)
     nf = S.nf
     xf, vf = ca.MX.sym("x", nf), ca.MX.sym("v", nf)
     X, V = S.x_full_mx(xf), ca.mtimes(dm(S.E), vf)
     dc = contact_dissipation_mx(S, X, V)
     if dc is not None:
         dc = _reach_switch(S, xf, vf, X, dc)
+    dw = water.force_mx(S, xf, vf, X, V)  # (lines in water: drag and the water line, ancf_sym.system.water)
+    if dw is not None:
+        dc = dw if dc is None else tuple(a + b for a, b in zip(dc, dw))
     if sr is None:
         if dc is None:
             return None, None

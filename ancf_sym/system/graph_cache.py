@@ -45,6 +45,12 @@ def clear_graph_cache() -> None:
     setup_cache.clear()
 
 
+def water_key(asm):
+    from ancf_sym.system.water import key
+
+    return key(asm)
+
+
 def structure_id(S: "StepSystem") -> int:
     """The number of the system's structure (structure_key) in this process: the key of SYSTEM_GRAPHS and
     ALPHA_GRAPHS (numbers are never reused, also after clear_graph_cache: a system kept from before refers to no
@@ -74,7 +80,8 @@ def structure_key(S: "StepSystem") -> tuple:
         None if r is None else (r.alpha, r.beta, {k: np.asarray(v, float) for k, v in r.element_weight.items()}),
         S.strain_rate, asm.penalty, S.cons,
         contact.dissipation_calls(asm.mesh),  # contact damping/friction: parameters baked into the graph
-        None if d is None else (d.nw, d.row, d.wk, d.i, d.j, d.coef, d.torques))  # drive rows' pattern (their
+        None if d is None else (d.nw, d.row, d.wk, d.i, d.j, d.coef, d.torques),  # drive rows' pattern (their
+        water_key(asm))  # (lines in water: coefficients and current baked into the graph)
     # time functions are inputs)
 
 

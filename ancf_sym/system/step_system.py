@@ -36,6 +36,7 @@ from ancf_sym.system.forces import band_force_graph, build_force_graphs, gradien
 from ancf_sym.system.graph_cache import STEP_TEMPLATES, SYSTEM_GRAPHS, keep_template, pooled_buffer, structure_id
 from ancf_sym.system.ldl import LDLFactor, build_ldl
 from ancf_sym.util.mx_ops import add, fabs, mul, neg
+from ancf_sym.system import water
 
 
 class StepSystem(ReducedModel):
@@ -115,9 +116,13 @@ class StepSystem(ReducedModel):
         # (d f_d / dq; LDL^T reads one triangle)
         # (contact friction likewise: d f / d q is unsymmetric)
         unsym = self.strain_rate is not None or bool(contact.dissipation_calls(asm.mesh)) or \
-            bool(self.drives is not None and self.drives.torques)  # (a torque's tangent is skew)
+            bool(self.drives is not None and self.drives.torques) or \
+            water.in_graph(asm)  # (a torque's tangent is skew; drag's d f / d q is unsymmetric)
         self.linsol = linsol if linsol != "auto" else ("qr" if (self.mc or unsym) else "ldl")
         M = asm.mass_matrix().tocsc()
+        Ma = water.added_mass(asm)  # (lines in water: the added mass, ancf_sym.system.water)
+        if Ma is not None:
+            M = (M + Ma).tocsc()
         self.M_full = M
         self.M = reduce_shared(part, M)
         # the kernel calls: a cable's axial and bending terms fused into one elastic_<strain> kernel where both
@@ -289,6 +294,12 @@ class StepSystem(ReducedModel):
         return damping.damping_force(self, xf, vf)
 
     @property
+    def inertia_input(self) -> bool:
+        """The step graph's inertia is not M (cm x + y) alone (lines in water: the added mass turns with the line):
+        the Python step passes y rather than M y in p."""
+        return water.nonlinear_inertia(self.asm)
+
+    @property
     def damped(self) -> bool:
         return self.rayleigh is not None or self.damp_f is not None
 
@@ -362,12 +373,17 @@ class StepSystem(ReducedModel):
         Mdm = self.mass_dm()
         Cx, C = damping.rayleigh_mx(self, xf, kel)
         Mu = self.mass_mx(add(mul(cm, xf), y))
+        turning = water.inertia_mx(self, xf, add(mul(cm, xf), y))  # (lines in water: the added mass that turns)
+        if turning is not None:
+            Mu = Mu + turning
         damped = self.rayleigh is not None  # (else Cx and C are zeros, the terms nothing: not built)
         r_q = add(add(add(Mu, mul(cc, Cx)), g), p) if damped else add(add(Mu, g), p)
         spS = K.sparsity().unite(Mdm.sparsity())
         # (M placed in K's pattern once where it fits: no projection of M at every evaluation)
         cmM = mul(cm, ca.MX(ca.project(Mdm, spS) if spS == K.sparsity() else Mdm))
         S = add(add(cmM, mul(cc, C)), K) if damped else add(cmM, K)
+        if turning is not None:
+            S = S + ca.jacobian(turning, xf)
         if self.damp_f is not None:
             fd, dfx, dfv = self.damp_f(xf, vc + cc * xf)
             r_q += fd

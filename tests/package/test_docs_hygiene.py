@@ -49,9 +49,9 @@ def tracked_text_files() -> tuple[Path, ...]:
 
 
 def test_readme_is_a_short_entry():
-    """<= 175 lines: what the package is, the two commands, a tour, the examples, links (logs live in bench/)."""
+    """<= 180 lines: what the package is, the two commands, a tour, the examples, links (logs live in bench/)."""
     n = len(README.splitlines())
-    assert n <= 175, f"README.md has {n} lines"
+    assert n <= 180, f"README.md has {n} lines"
     first_block = README.index("```")
     assert "ANCF" in README[:first_block], "the README says what the package is before its first command"
 

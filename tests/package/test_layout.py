@@ -12,7 +12,7 @@ import ancf_sym
 ROOT = Path(ancf_sym.__file__).parent
 
 # Layers, top down (docs/code_map.md): a module imports only from its own package or from layers below its own.
-LAYERS = [("cli",), ("study",), ("control", "modal", "sensitivity"), ("io",), ("dynamics",), ("statics",),
+LAYERS = [("cli",), ("study",), ("control", "modal", "sensitivity", "water"), ("io",), ("dynamics",), ("statics",),
           ("system",), ("model",), ("scene",), ("contact",), ("bodies",), ("kernels", "codegen"),
           ("registry", "elements", "util")]
 LEVEL = {name: k for k, names in enumerate(LAYERS) for name in names}
