@@ -328,7 +328,7 @@ def closest(asm, c, x: np.ndarray, index: int = 0, reach: float | None = None) -
 
 
 def report(asm, x: np.ndarray, method: str = "penalty") -> list[dict]:
-    """Per contact of that method (the order of ancf_sym.contact.report, resp. contact_exact.report): the true
+    """Per contact of that method (the order of ancf_sym.contact.report, resp. contact.exact.report): the true
     smallest gap and where it is; penalty contacts also what the law sees and whether it missed the surface."""
     out = [closest(asm, c, x, i).record() for i, c in enumerate(getattr(asm.scene, "contacts", ()))
            if c.method == method]

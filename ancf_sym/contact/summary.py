@@ -64,7 +64,7 @@ def point_data(asm, x: np.ndarray, per_element: int, exact_forces=None) -> dict[
     """VTK point data of a scene with contact, at the points fields.sample gives (per_element per element, members
     in mesh order): 'contact_gap' [m] (NaN on members without contact) and 'contact_force' [N per node, spread
     linearly between nodes], interpolated from the nodal values of node_fields (and, given exact_forces =
-    result.constraint_forces['contact'] of a statics with exact contact, contact_exact.node_fields); {} without
+    result.constraint_forces['contact'] of a statics with exact contact, contact.exact.node_fields); {} without
     contact."""
     nodal = node_fields(asm, x)
     if exact_forces is not None:

@@ -58,7 +58,7 @@ class TimeLoop:
         self.Qn = loads(opts.t_start) if loads else None
         self.fD_prev = S.drive_force(integ.q, integ.lam, self.t)  # drives' and torques' force (their work: external)
         self.lam_prev = integ.lam.copy()
-        # penalty contact: every accepted state checked for a surface the law's points missed (contact_gap)
+        # penalty contact: every accepted state checked for a surface the law's points missed (contact.gap)
         self.gaps = contact_gap.Watch(S) if contact_gap.checked_contacts(S.asm.scene) else None
         self.out_i = 0
         self._out = outputs.tolist() if outputs is not None else None  # (bisection in _accepted_many)

@@ -36,7 +36,7 @@ def _states(result) -> np.ndarray:
 
 
 def _deepest(t, recs: list[dict]) -> dict:
-    """The smallest true gap over the output times, when and where (contact_gap.Closest.record per time)."""
+    """The smallest true gap over the output times, when and where (contact.gap.Closest.record per time)."""
     gaps = [r["smallest_gap"] if r["smallest_gap"] is not None else math.inf for r in recs]
     k = int(np.argmin(gaps))
     r = recs[k]
@@ -231,7 +231,7 @@ def write_series(result, directory: Path, per_element: int = 8) -> Path:
 def write_outputs(result, scene_file, analysis: dict, out: Path, wall_total: float, per_element: int | None = 8,
                   animation: bool = True) -> None:
     """result.json, history.png, the VTK series and (animation) motion.gif; per_element None: as many samples per
-    element as vtk_out.samples_per_element gives the mesh."""
+    element as io.vtk.samples_per_element gives the mesh."""
     write_json(out / "result.json", result_dict(result, scene_file, analysis, wall_total), clean=False)
     per_element = samples_per_element(result.assembly.mesh, per_element)
     if len(result.t):

@@ -103,7 +103,7 @@ def static_result_dict(result: StaticResult, scene_file: str | Path | None = Non
         "constraint_violation": result.constraint_violation,
         "constraint_forces": {k: np.asarray(v) for k, v in result.constraint_forces.items()},
         "constraint_forces_sign": CONSTRAINT_FORCES_SIGN,
-        # per contact: min_gap [m], normal_force [N], the true smallest gap between the points (contact_gap); exact
+        # per contact: min_gap [m], normal_force [N], the true smallest gap between the points (contact.gap); exact
         # ones also per point gaps and forces (the multipliers)
         "contacts": contact.report(asm, result.x)
         + [{**r, **g} for r, g in zip(contact_exact.report(asm, result.x, result.constraint_forces.get("contact")),

@@ -257,7 +257,7 @@ class Assembly:
     _PATTERN = ("h_indptr", "h_indices", "_hpos", "_n_kernel_entries", "h_nnz", "h_key")
 
     def __getattr__(self, name: str):
-        """The global Hessian's pattern is built on first use (a Newton solve on the free coordinates, statics_eval,
+        """The global Hessian's pattern is built on first use (a Newton solve on the free coordinates, statics.evaluation,
         never needs it)."""
         if name in Assembly._PATTERN and "mapped" in self.__dict__:
             self._pattern()

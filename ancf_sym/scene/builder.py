@@ -223,7 +223,7 @@ class Scene:
     name: str = "scene"
     dampings: list[Damping] = field(default_factory=list)
     contacts: list = field(default_factory=list)  # ancf_sym.contact declarations
-    bodies: dict = field(default_factory=dict)  # rigid bodies by name (bodies.Body in 2D, spatial_bodies in 3D)
+    bodies: dict = field(default_factory=dict)  # rigid bodies by name (bodies.planar.Body in 2D, bodies.spatial in 3D)
     body_joints: list = field(default_factory=list)  # ancf_sym.bodies.planar.BodyJoint
     drives: list = field(default_factory=list)  # ancf_sym.bodies.drives: prescribed angles/positions, applied torques
     point_masses: list = field(default_factory=list)  # PointMass

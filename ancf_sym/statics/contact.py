@@ -5,7 +5,7 @@ The contact rows g(x) >= 0 (ancf_sym.contact.exact: ground rows n.r(xi_k) - leve
 |r(xi_k) - c|_perp - R - t from the compiled gap kernels, with their exact Jacobian and Hessians) join the equality
 rows of supports and joints. Newton's full steps know equalities only, so a scene with exact contact is solved by
 IPOPT; the contact forces are IPOPT's multipliers (result.constraint_forces["contact"], one per contact point in the
-order of contact_exact.rows, >= 0 [N]) and so are the supports' reactions.
+order of contact.exact.rows, >= 0 [N]) and so are the supports' reactions.
 
 1. Start. Members with exact contact of more than HALVE_ABOVE elements together: the scene with them meshed twice
    coarser is solved first (recursively, down to HALVE_ABOVE), and IPOPT starts from its solution interpolated onto this mesh, with

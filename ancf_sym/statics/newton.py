@@ -4,7 +4,7 @@ The iteration runs on the free coordinates (supports that fix coordinates elimin
 remaining exact rows with Lagrange multipliers). Two ways to evaluate one iteration (residual, tangent, update), one
 loop; which one depends on the scene, never on how often it is solved:
 - kernels (KernelNewton), every scene without multiplier rows: the compiled kernels called directly, their
-  gradients and Hessians scattered onto the free coordinates and LAPACK's band (statics_eval), a banded Cholesky
+  gradients and Hessians scattered onto the free coordinates and LAPACK's band (statics.evaluation), a banded Cholesky
   (dpbtrf): nothing to build. The whole loop below runs as one call into hand-written C (newton_loop,
   csrc/newton_loop.c: the same operations in the same order, so the same steps) where the evaluation is plain
   (no penalty springs, a band within BAND_LIMIT): measured ~11 - 16 us per iteration on 6 - 18 elements, ~47 us
@@ -185,7 +185,7 @@ def _dot(a: np.ndarray, b: np.ndarray) -> float:
 
 
 class KernelNewton(NewtonStatics):
-    """The same Newton loop with each iteration evaluated from the compiled kernels (statics_eval: no graph to
+    """The same Newton loop with each iteration evaluated from the compiled kernels (statics.evaluation: no graph to
     build) and solved by a banded Cholesky (LAPACK dpbtrf; banded LU where the tangent is not positive definite,
     sparse factorisations where the band is wide). Scenes without multiplier rows only (ReducedModel.mc == 0). evaluation: another strain measure's
     (ReducedEvaluation.variant) for a start. `solve` runs the loop in C (newton_loop) where the evaluation allows it

@@ -1,6 +1,6 @@
 """The kernel Newton loop of statics as one compiled call: the binding of csrc/newton_loop.c.
 
-KernelNewton's loop (statics_newton: full Newton steps by LAPACK's banded Cholesky, the banded LU and diagonal
+KernelNewton's loop (statics.newton: full Newton steps by LAPACK's banded Cholesky, the banded LU and diagonal
 shifts where the tangent is not positive definite, the convergence, stall, round-off and divergence tests) spends
 most of a small problem's iteration in Python and numpy: ~55-65 us per iteration against ~8-15 us of kernels and
 LAPACK on 6 - 18 elements. The C loop runs every iteration in one call. It links to nothing: the compiled kernels
@@ -175,7 +175,7 @@ class CompiledLoop:
         for t, (ft, N, idx, X, P, local), (f, _) in zip(range(len(calls)), calls, fns):
             T = terms[t]
             lanes = registry.BATCH_LANES if registry.has_batch(ft.element, ft.effect, ft.gauss) else 1
-            assert N % lanes == 0, "padded to whole batches (statics_eval._padded)"
+            assert N % lanes == 0, "padded to whole batches (statics.evaluation's padding)"
             T.f, T.lanes, T.N, T.nd, T.np = f, lanes, N, ft.nd, P.shape[1]
             T.idx, T.X, T.P = idx.ctypes.data, X.ctypes.data, P.ctypes.data
             T.E, T.G, T.H = E + 8 * e0, G + 8 * g0, H + 8 * h0

@@ -1,8 +1,8 @@
 """Static equilibrium: full-step Newton first, IPOPT where Newton alone is not enough. User guide: docs/statics.md.
 
-1. Newton (statics_newton.py): full steps on the exact tangent (shifted where it is indefinite far out), the
-   compiled kernels called directly (statics_eval), from the start point: the Biot-strain solution for Green and
-   decoupled cables, the solution on a 10x coarser mesh for fine ones (statics_coarse). Measured
+1. Newton (statics/newton.py): full steps on the exact tangent (shifted where it is indefinite far out), the
+   compiled kernels called directly (statics/evaluation.py), from the start point: the Biot-strain solution for Green and
+   decoupled cables, the solution on a 10x coarser mesh for fine ones (statics/coarse.py). Measured
    (bench/STATICS_RESULTS.md) it converges in 8 (Biot) to 10 (Green, decoupled: from the Biot solution) iterations
    on a cantilever at any mesh size up to 100 000 elements, where a line search creeps along the narrow valley that
    a large EA/EI makes.
@@ -10,14 +10,14 @@
    factor in adaptive steps; if that fails too (or a result lies above the start's potential), IPOPT minimises: first accepting every trial step, then with its line search, then stepping the loads up; Newton
    finishes from IPOPT's point, so every answer passes the same convergence test.
    With penalty drums every Newton step is cut back before a contact point reaches a drum's axis and an IPOPT run
-   with such a step is rejected (contact_steps); with penalty contact a converged full-load Newton is compared with
+   with such a step is rejected (contact/steps.py); with penalty contact a converged full-load Newton is compared with
    the load-step continuation, the lower potential kept. load_stepping: load steps from the start, as asked.
-3. The reduced Hessian's inertia (inertia.py, one sparse factorisation) says whether the point is stable (settled
+3. The reduced Hessian's inertia (statics/inertia.py, one sparse factorisation) says whether the point is stable (settled
    by the banded Cholesky of the shifted tangent at the answer, which the kernel Newton's last run does, where that
    succeeds); a saddle (a straight column past its Euler load) is left along its negative-curvature direction.
 
 Convergence is relative (tol): the Newton increment in units of the structure's length and the energy decrement in
-units of the load work (statics_newton.py), not an absolute residual, whose round-off floor grows with the
+units of the load work (statics/newton.py), not an absolute residual, whose round-off floor grows with the
 element count while the nodal loads shrink.
 """
 from __future__ import annotations
@@ -54,7 +54,7 @@ from ancf_sym.statics.newton import KernelNewton, NewtonRun, NewtonStatics
 
 SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 INTERRUPTED = ("User_Requested_Stop", "User_Interrupt")
-TUNNELLED = "Step_Through_Contact"  # an IPOPT step carried a contact point to a drum's axis (contact_steps)  # IPOPT swallows SIGINT and returns one of these
+TUNNELLED = "Step_Through_Contact"  # an IPOPT step carried a contact point to a drum's axis (contact.steps)  # IPOPT swallows SIGINT and returns one of these
 NEWTON_MAX_ITER = 30  # full steps before load steps take over (a cantilever needs 8-20 at any mesh size, 24 at E = 1 GPa Green)
 STEP_TOL = 1e-2  # relative tolerance at intermediate load factors (a start inside the next basin is enough)
 STEP_MAX_ITER = 15  # Newton iterations per load step (from a nearby converged load a few suffice)
@@ -376,7 +376,7 @@ class StaticProblem:
 
     # -- the solve ----------------------------------------------------------------------------------------------
     def coarser(self, scene: Scene) -> "StaticProblem":
-        """The problem of a coarser mesh of this scene, a start for this one (statics_contact builds it through
+        """The problem of a coarser mesh of this scene, a start for this one (statics.contact builds it through
         this, so that it needs no import of this module)."""
         return StaticProblem(scene)
 
@@ -481,7 +481,7 @@ class StaticProblem:
                             run if ok else None)
 
     def _coarse_start(self, opts: StaticOptions) -> tuple[StaticResult, np.ndarray] | None:
-        """The scene meshed coarser (statics_coarse), solved with the same options, and its solution interpolated
+        """The scene meshed coarser (statics.coarse), solved with the same options, and its solution interpolated
         onto this mesh: (coarse result, fine coordinates), None where there is no coarse start. The coarse problem
         is built once and kept (it may start from a coarser mesh itself)."""
         if self._coarse is None:
@@ -549,7 +549,7 @@ class StaticProblem:
 
     def _evaluation(self, x: np.ndarray) -> Evaluation:
         """Potential, energies by label and full gradient at x (no Hessian): a result's details. Kernel path: from
-        the energy-only kernels and the ReducedEvaluation (statics_eval.ResultEnergies); else the Assembly's
+        the energy-only kernels and the ReducedEvaluation (statics.evaluation.ResultEnergies); else the Assembly's
         evaluation."""
         if self.light is None:
             return self.asm.evaluate(x, hessian=False)
@@ -695,7 +695,7 @@ class StaticProblem:
 
     def stability(self, x: np.ndarray, lam_g: np.ndarray | None = None) -> tuple[bool | None, np.ndarray | None]:
         """Is the reduced Hessian of the Lagrangian (on the tangent space of the exact constraints) positive definite?
-        From the inertia of one sparse factorisation (inertia.py), at every size. lam_g: multipliers of every exact
+        From the inertia of one sparse factorisation (statics/inertia.py), at every size. lam_g: multipliers of every exact
         row (default: from the gradient), for the curvature of the bilinear (rigid-joint) constraints.
 
         Returns (stable, direction of most negative curvature in full coordinates, max-norm 1)."""

@@ -6,7 +6,7 @@ water line's correction of the buoyancy (a potential); lam scales both. The star
 statics finds (buoyancy as the net weight, the seabed contacts, with the fairleads' position drives held as pins
 at their reference positions); from there the current (scaled by lam) and the fairleads' positions (moved by lam
 from the reference to the drives' values at t = 0) reach lam = 1 in adaptive continuation steps, each solved by
-full Newton steps on a sparse LU. Convergence is judged as the scene's statics judges it (statics_newton): the
+full Newton steps on a sparse LU. Convergence is judged as the scene's statics judges it (statics.criteria): the
 last update in units of the structure's length and |r . dz| in units of the load work, both <= tol.
 Stability: the symmetric part of the Jacobian positive definite (inertia of its factorisation): for a conservative
 scene that is the Hessian's test; with drag a sufficient condition for a statically stable equilibrium.

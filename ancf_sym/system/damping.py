@@ -218,7 +218,7 @@ def contact_dissipation_mx(S: "StepSystem", X: ca.MX, V: ca.MX):
 def _reach_switch(S: "StepSystem", xf: ca.MX, vf: ca.MX, X: ca.MX, dc: tuple) -> tuple:
     """The contact dissipation dc = (f, df/dx, df/dv) evaluated only where some element is in reach of a dissipative
     contact's surface at the iterate x itself: elsewhere every kernel returns exact zeros (the law is 0 at a positive
-    gap, contact_gap's hull bound is below every gap the kernels sample), so a switch that skips them gives the same
+    gap, contact.gap's hull bound is below every gap the kernels sample), so a switch that skips them gives the same
     values bit for bit, and no margin is needed (the test is made at each point the step evaluates). A drum carried
     by a body (no fixed centre for the bound) keeps the kernels always on."""
     from ancf_sym.contact import gap as contact_gap
