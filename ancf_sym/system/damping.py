@@ -290,7 +290,7 @@ def damping_force_rows(S: "StepSystem", Q: np.ndarray, V: np.ndarray) -> np.ndar
         return np.zeros((0, S.nf))
     if S.rayleigh is not None or S.damp_force_f is None:
         return np.array([damping_force(S, q, v) for q, v in zip(Q, V)])
-    mapped = S.__dict__.setdefault("_damp_force_maps", {})
+    mapped = S.damp_force_maps
     f = mapped.get(len(Q))
     if f is None:
         f = mapped[len(Q)] = S.damp_force_f.map(len(Q))

@@ -9,6 +9,7 @@ graphs.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
@@ -99,29 +100,36 @@ def _penalty_energy(S: "StepSystem", x: ca.MX) -> ca.MX | None:
     return 0.5 * ca.sum1(ca.DM(pc.k) * c * c)
 
 
-def build_force_graphs(S: "StepSystem", forces: bool = True, energies: bool = True) -> tuple | None:
-    """Build from S's kernel calls the force graph S._graphs["forces_pf"] and S.kel_sparsity (None without Rayleigh
-    stiffness damping), and the energy graph S._energy_kin_f with its labels: the two read the same element
-    coordinates. forces False: the force graph is left to be built on first use (the band path's iteration has a
-    force graph of its own, and it runs without Rayleigh damping: kel_sparsity None). Returns the force graph's
-    (x, par, outputs) expressions (None if not built): the step graph built next uses them as they are, where
-    inlining a call of the force graph would copy the same nodes."""
-    asm, nf, pos = S.asm, S.nf, S.pos
+@dataclass
+class ForceGraphs:
+    """What build_force_graphs returns (the step system keeps them)."""
+    exprs: tuple | None  # the force graph's (x, par, outputs): the step graph built next uses them as they are
+    forces: ca.Function | None  # forces(x, par) -> (g, K[, kel])
+    kel_sparsity: ca.Sparsity | None  # the Rayleigh elastic tangent's pattern (None: no stiffness damping)
+    energies: ca.Function | None  # energies_kinetic(x, v, par, lin) -> [potentials by label; kinetic]
+    energy_labels: list | None
+
+
+def build_force_graphs(S: "StepSystem", forces: bool = True, energies: bool = True) -> ForceGraphs:
+    """From S's kernel calls the force graph and the Rayleigh elastic tangent's pattern (None without stiffness
+    damping), and the energy graph with its labels: the two read the same element coordinates. forces False: the
+    force graph is left to be built on first use (the band path's iteration has a force graph of its own, and it
+    runs without Rayleigh damping). The force graph's expressions come back too: the step graph built next uses them
+    as they are, where inlining a call of the force graph would copy the same nodes."""
+    nf = S.nf
     xf = ca.MX.sym("x", nf)
     par = ca.MX.sym("par", S.par.size)
     x = S.x_full_mx(xf)
     Pft, Pmk = _parameters(S, par)
     seen: dict = {}  # (the elements' coordinates, shared by the force and energy graphs' terms)
     pen = _penalty_energy(S, x)
-    S.kel_sparsity = None
-    outs = _force_graph(S, xf, par, x, Pft, seen, pen) if forces else None
-    if energies:
-        _energy_graph(S, xf, par, x, Pmk, seen, pen)
-    return None if outs is None else (xf, par, outs)
+    outs, f, kel = _force_graph(S, xf, par, x, Pft, seen, pen) if forces else (None, None, None)
+    ef, labels = _energy_graph(S, xf, par, x, Pmk, seen, pen) if energies else (None, None)
+    return ForceGraphs(None if outs is None else (xf, par, outs), f, kel, ef, labels)
 
 
 def _force_graph(S: "StepSystem", xf: ca.MX, par: ca.MX, x: ca.MX, Pft: list, seen: dict,
-                 pen: ca.MX | None) -> list:
+                 pen: ca.MX | None) -> tuple[list, ca.Function, ca.Sparsity | None]:
     nf, pos = S.nf, S.pos
     kel_vals, kel_rows, kel_cols = [], [], []
     weights = S.rayleigh.element_weight if (S.rayleigh is not None and S.rayleigh.beta) else {}
@@ -139,20 +147,20 @@ def _force_graph(S: "StepSystem", xf: ca.MX, par: ca.MX, x: ca.MX, Pft: list, se
                 kel_cols.append(ia[keep])
     g, K = assemble_mx(calls, pos, nf)
     outs = [g, K]
+    kel_sparsity = None
     if kel_vals:
         Kel = scatter(kel_vals, np.concatenate(kel_rows), np.concatenate(kel_cols), nf)
-        S.kel_sparsity = Kel.sparsity()
+        kel_sparsity = Kel.sparsity()
         outs.append(mx_nonzeros(Kel))
     if pen is not None:
         outs[0] = outs[0] + ca.gradient(pen, xf)
         outs[1] = outs[1] + ca.hessian(pen, xf)[0]
-    S._graphs["forces_pf"] = ca.Function("forces", [xf, par], outs, ["x", "par"],
-                                         ["g", "K"] + (["kel"] if kel_vals else []))
-    return outs
+    f = ca.Function("forces", [xf, par], outs, ["x", "par"], ["g", "K"] + (["kel"] if kel_vals else []))
+    return outs, f, kel_sparsity
 
 
 def _energy_graph(S: "StepSystem", xf: ca.MX, par: ca.MX, x: ca.MX, Pmk: list, seen: dict,
-                  pen: ca.MX | None) -> None:
+                  pen: ca.MX | None) -> tuple[ca.Function, list]:
     asm, nf = S.asm, S.nf
     # energies for the outputs from the energy-only compiled functions (no gradient, no Hessian)
     elist = []
@@ -167,12 +175,11 @@ def _energy_graph(S: "StepSystem", xf: ca.MX, par: ca.MX, x: ca.MX, Pmk: list, s
     # the outputs' energies in one call: the potentials (the linear ones, U = c + G.x, as dot products with the
     # input `lin` = [G_1 .. G_k, c_1 .. c_k, Q]) and the kinetic energy
     lin = ca.MX.sym("lin", S.lin.size)
-    n, k = asm.n, len(S._lin_energy)
-    for j, (_, _, _, label) in enumerate(S._lin_energy):
+    n, k = asm.n, len(S.lin_energy)
+    for j, (_, _, _, label) in enumerate(S.lin_energy):
         elist.append((label, add(lin[k * n + j], ca.dot(lin[j * n:(j + 1) * n], x))))
     if np.any(asm.Q):
         elist.append(("loads", neg(ca.dot(lin[k * n + k:], x))))
-    S._energy_kin_labels = [lbl for lbl, _ in elist]
     vf = ca.MX.sym("v", nf)
-    S._energy_kin_f = ca.Function("energies_kinetic", [xf, vf, par, lin], [
-        ca.vertcat(*[e for _, e in elist], mul(0.5, ca.dot(vf, S.mass_mx(vf))))])
+    return ca.Function("energies_kinetic", [xf, vf, par, lin], [
+        ca.vertcat(*[e for _, e in elist], mul(0.5, ca.dot(vf, S.mass_mx(vf))))]), [lbl for lbl, _ in elist]

@@ -75,7 +75,7 @@ def structure_key(S: "StepSystem") -> tuple:
     asm, r, d = S.asm, S.rayleigh, S.drives
     return setup_cache.array_key(
         asm.n, S.nf, S.mc, S.linsol, S.fuse, S.part, S.M, S.span, S.length_scale, bool(np.any(asm.Q)),
-        [lbl for *_, lbl in S._lin_energy], S.force_calls, [ft.P.shape for ft in S.force_terms],
+        [lbl for *_, lbl in S.lin_energy], S.force_calls, [ft.P.shape for ft in S.force_terms],
         [mk.P.shape for mk in S.nonlinear],
         None if r is None else (r.alpha, r.beta, {k: np.asarray(v, float) for k, v in r.element_weight.items()}),
         S.strain_rate, asm.penalty, S.cons,

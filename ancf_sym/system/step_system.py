@@ -32,7 +32,7 @@ from ancf_sym.util.sparsity import dm, hessian_entries, kron_factor_dm, kron_pro
 from ancf_sym.system import band, damping
 from ancf_sym.system.band import BandLayout, band_layout_csc
 from ancf_sym.system.damping import RayleighData, StrainRateData
-from ancf_sym.system.forces import band_force_graph, build_force_graphs, gradient_graph
+from ancf_sym.system.forces import ForceGraphs, band_force_graph, build_force_graphs, gradient_graph
 from ancf_sym.system.graph_cache import STEP_TEMPLATES, SYSTEM_GRAPHS, keep_template, pooled_buffer, structure_id
 from ancf_sym.system.ldl import LDLFactor, build_ldl
 from ancf_sym.util.mx_ops import add, fabs, mul, neg
@@ -81,15 +81,17 @@ class StepSystem(ReducedModel):
             self._graphs = graphs = {}
             # the band path (ancf_sym.system.band) has a force graph of its own: forces_pf only on first use
             layout = self._band_layout()
-            force_exprs = build_force_graphs(self, forces=layout is None)
+            fg = build_force_graphs(self, forces=layout is None)
+            self._keep_force_graphs(fg)
             self.damp_f, self.damp_force_f = damping.dissipation_functions(self)
-            self._build_step(layout=layout, force_exprs=force_exprs)
+            self._build_step(layout=layout, force_exprs=fg.exprs)
             graphs.update({k: getattr(self, k) for k in self._GRAPH_ATTRS})
             SYSTEM_GRAPHS[self.graph_key] = graphs
         else:
             for k in self._GRAPH_ATTRS:
                 setattr(self, k, graphs[k])
         self._graphs = graphs
+        self.damp_force_maps: dict = {}  # damping_force_rows' mapped calls by the number of states
         self._setup_buffers(self.kel_sparsity is not None)
 
     # what `_structure` sets (and structure_key from them): shared by the systems of one structure spec
@@ -139,7 +141,7 @@ class StepSystem(ReducedModel):
         grads: list = []
         f_lin = asm.constant_force(grads)  # (evaluates the linear terms at x0: their G and E below)
         # U_lin(x) = c + G.x (gradient constant), for the energy outputs
-        self._lin_energy = [(mk.term.idx.ravel().copy(), mk.G.ravel().copy(),
+        self.lin_energy = [(mk.term.idx.ravel().copy(), mk.G.ravel().copy(),
                              float(mk.E.sum()) - float(mk.G.ravel() @ asm.x0[mk.term.idx.ravel()]), mk.term.label)
                             for mk in asm.mapped if mk.linear]
         self.f_lin_full = f_lin
@@ -149,7 +151,7 @@ class StepSystem(ReducedModel):
         # section, lengths) and the linear potentials' coefficients (gravity, dead loads) of the energy outputs
         self.par = np.concatenate([ft.P.ravel() for ft in self.force_terms] +
                                   [mk.P.ravel() for mk in self.nonlinear] + [np.zeros(0)])
-        self.lin = np.concatenate(grads + [np.array([c for _, _, c, _ in self._lin_energy]), asm.Q])
+        self.lin = np.concatenate(grads + [np.array([c for _, _, c, _ in self.lin_energy]), asm.Q])
 
     @classmethod
     def for_scene(cls, asm: Assembly, **kw) -> "StepSystem":
@@ -166,8 +168,15 @@ class StepSystem(ReducedModel):
         """forces(x, par) -> (g, K[, kel]) (ancf_sym.system.forces): built with the system, or on first use where
         the band path's iteration has its own force graph; shared by the structure's systems."""
         if "forces_pf" not in self._graphs:
-            build_force_graphs(self, energies=False)
+            self._keep_force_graphs(build_force_graphs(self, energies=False))
         return self._graphs["forces_pf"]
+
+    def _keep_force_graphs(self, fg: ForceGraphs) -> None:
+        self.kel_sparsity = fg.kel_sparsity
+        if fg.forces is not None:
+            self._graphs["forces_pf"] = fg.forces
+        if fg.energies is not None:
+            self._energy_kin_f, self._energy_kin_labels = fg.energies, fg.energy_labels
 
     @property
     def kkt_sparsity(self) -> ca.Sparsity:
