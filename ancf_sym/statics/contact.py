@@ -89,11 +89,11 @@ def _build(asm) -> _Nlp:
 
 
 def _parts(problem) -> _Nlp:
-    if getattr(problem, "_contact_nlp", None) is None:
-        problem._contact_nlp = _build(problem.asm)
-        if problem._nlp is None:
-            problem._build_nlp()  # (the gradient's round-off floor)
-    return problem._contact_nlp
+    if problem.contact_nlp is None:
+        problem.contact_nlp = _build(problem.asm)
+        if problem.nlp is None:
+            problem.build_nlp()  # (the gradient's round-off floor)
+    return problem.contact_nlp
 
 
 def _ipopt(problem, P: _Nlp, x, lam_g, opts, line_search: bool, mu: float | None):
@@ -189,7 +189,7 @@ def _scipy(M) -> sp.csc_matrix:
 
 def _coarse_start(problem, opts):
     """(coarse result, x on this mesh, lam_g on this mesh) from the twice coarser mesh, or None."""
-    if getattr(problem, "_contact_coarse", None) is None:
+    if problem.contact_coarse is None:
         sc = problem.asm.scene
         members = {c.member for c in sc.contacts if c.method == "exact"}
         total = sum(sc.members[m].elements for m in members)
@@ -198,18 +198,18 @@ def _coarse_start(problem, opts):
         # solve from the reference)
         long = {m for m in members if sc.members[m].elements >= 2 * HALVE_MIN} if total > HALVE_ABOVE else set()
         coarse = statics_coarse.coarsened(sc, long, 2) if long else None
-        problem._contact_coarse = False
+        problem.contact_coarse = False
         if coarse is not None:
             from ancf_sym.scene.builder import SceneError
 
             try:  # a coarse mesh the scene's checks refuse (too coarse for a curve, say) is no start
                 coarse.validate_for_statics()
-                problem._contact_coarse = (problem.coarser(coarse), long)
+                problem.contact_coarse = (problem.coarser(coarse), long)
             except SceneError:
                 pass
-    if problem._contact_coarse is False:
+    if problem.contact_coarse is False:
         return None
-    cp, long = problem._contact_coarse
+    cp, long = problem.contact_coarse
     rc = cp.solve(opts)
     if not rc.success:
         return rc, None, None
@@ -217,7 +217,7 @@ def _coarse_start(problem, opts):
     xf = statics_coarse.interpolate(cp.asm, rc.x, a)
     xf = problem.S.full(problem.S.reduce(xf))
     Pc, P = _parts(cp), _parts(problem)
-    lam_c = rc._contact_lam_g
+    lam_c = rc.contact_multipliers
     out, i = [lam_c[:Pc.m]], Pc.m
     for rb in Pc.blocks:
         lb = lam_c[i:i + rb.m]
@@ -240,7 +240,7 @@ def solve(problem, x: np.ndarray, opts, t0: float, warm_given: bool = False):
     starts = []  # (label, x, lam_g, mu)
     if coarse is not None:
         rc = coarse[0]
-        info = {"elements": {k: m.elements for k, m in problem._contact_coarse[0].asm.scene.members.items()},
+        info = {"elements": {k: m.elements for k, m in problem.contact_coarse[0].asm.scene.members.items()},
                 "status": rc.status, "iterations": rc.iterations, "stable": rc.stable}
         iters += rc.iterations
         if coarse[1] is not None:
@@ -281,13 +281,13 @@ def solve(problem, x: np.ndarray, opts, t0: float, warm_given: bool = False):
         reasons = list(dict.fromkeys(reasons))
         if reasons:
             attempts.append({"method": "none", "status": status, "iterations": 0, "detail": "; ".join(reasons)})
-        res = problem._result(False, status, iters, wall, x, None, attempts, "", None)
+        res = problem.make_result(False, status, iters, wall, x, None, attempts, "", None)
         res.constraint_violation = max(res.constraint_violation,
                                        float(np.max(-contact_exact.gaps(a, res.x, P.blocks), initial=0.0)))
         return res
     xs, lg, _ = best
-    res = problem._result(True, "Solve_Succeeded", iters, wall, xs, True, attempts, "ipopt contact", None)
-    res._contact_lam_g = lg
+    res = problem.make_result(True, "Solve_Succeeded", iters, wall, xs, True, attempts, "ipopt contact", None)
+    res.contact_multipliers = lg
     forces = {k: v for k, v in res.constraint_forces.items() if k not in set(a.exact.labels)}
     for lbl, v in zip(a.exact.labels, lg[:P.m]):  # reactions from IPOPT's multipliers
         forces.setdefault(lbl, []).append(float(v))

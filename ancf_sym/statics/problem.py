@@ -105,6 +105,8 @@ class StaticResult:
     energy_decrement: float = float("nan")  # last -r.dz, relative to the load work
     residual: float = float("nan")  # max |residual| at the last evaluated point [N]
     residual_floor: float = float("nan")  # its round-off level, eps x max |K| x span [N]
+    # IPOPT's multipliers of every row of a statics with exact contact (statics.contact: a finer mesh's warm start)
+    contact_multipliers: np.ndarray | None = field(default=None, repr=False, compare=False)
     _work_out: Callable[[], tuple] | None = field(default=None, repr=False, compare=False)  # () -> the three below
 
     @functools.cached_property
@@ -254,7 +256,9 @@ class StaticProblem:
         self._graph: NewtonStatics | None = None
         self.newton = self.light or self.graph
         self.solves = 0
-        self._nlp = None
+        self.nlp = None  # IPOPT's problem, built on first use (build_nlp)
+        self.contact_nlp = None  # exact contact's IPOPT problem (statics.contact, on first use)
+        self.contact_coarse = None  # exact contact's coarser problem: None not yet asked, False none
         self._solvers: dict = {}
         self._watch: IterateWatch | None = None  # IPOPT's steps checked against the contact step limit
         self._biot: KernelNewton | bool | None = None  # Newton on the same scene with Biot strain (a start)
@@ -283,7 +287,7 @@ class StaticProblem:
         return self.light if self.light is not None else self.graph
 
     # -- IPOPT --------------------------------------------------------------------------------------------------
-    def _build_nlp(self) -> None:
+    def build_nlp(self) -> None:
         a = self.asm
         x, lam = ca.MX.sym("x", a.n), ca.MX.sym("load_factor")
         f, grad, hess, g = a.casadi_parts(x, lam)
@@ -291,7 +295,7 @@ class StaticProblem:
         hl = lam_f * hess
         if g.shape[0] and len(a.exact.qrow):
             hl += ca.triu(ca.hessian(ca.dot(lam_g, g), x)[0])
-        self._nlp = {"x": x, "p": lam, "f": f, "g": g}
+        self.nlp = {"x": x, "p": lam, "f": f, "g": g}
         self.grad_f = ca.Function("nlp_grad_f", [x, lam], [f, grad], ["x", "p"], ["f", "grad_f_x"])
         self.hess_lag = ca.Function("nlp_hess_l", [x, lam, lam_f, lam_g], [hl],
                                     ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
@@ -302,8 +306,8 @@ class StaticProblem:
     def solver(self, line_search: bool, opts: StaticOptions):
         """IPOPT, tolerance at twice the gradient's round-off floor (absolute): it only has to bring the point into
         Newton's reach; the Newton finish then applies the relative test."""
-        if self._nlp is None:
-            self._build_nlp()
+        if self.nlp is None:
+            self.build_nlp()
         key = (line_search, opts.max_iter, opts.print_level)
         if key not in self._solvers:
             tol = max(2.0 * self.floor, 1e-14)
@@ -315,9 +319,9 @@ class StaticProblem:
             watch = {}
             if self.newton.step_limit is not None:  # penalty drums: every IPOPT step checked for a crossing
                 if self._watch is None:
-                    self._watch = IterateWatch(self.newton.step_limit, self.asm.n, self._nlp["g"].shape[0], 1)
+                    self._watch = IterateWatch(self.newton.step_limit, self.asm.n, self.nlp["g"].shape[0], 1)
                 watch = {"iteration_callback": self._watch}
-            self._solvers[key] = ca.nlpsol("statics", "ipopt", self._nlp, {
+            self._solvers[key] = ca.nlpsol("statics", "ipopt", self.nlp, {
                 "ipopt": ipopt, "print_time": False, "grad_f": self.grad_f, "hess_lag": self.hess_lag,
                 "error_on_fail": False, **watch})
         return self._solvers[key]
@@ -406,7 +410,7 @@ class StaticProblem:
             attempts.append({"method": "none", "status": "Solve_Succeeded", "iterations": 0,
                              "detail": "no load and no residual force at the start: solved at the start shape"})
             stable, _ = self.stability(x)
-            return self._result(True, "Solve_Succeeded", 0, time.perf_counter() - t0, x, stable, attempts, "start",
+            return self.make_result(True, "Solve_Succeeded", 0, time.perf_counter() - t0, x, stable, attempts, "start",
                                 None)
         ceiling = self._start_ceiling(x, work, opts.tol, x0 is None)
         n_iter = min(NEWTON_MAX_ITER, int(opts.max_iter))
@@ -460,7 +464,7 @@ class StaticProblem:
         """IPOPT where Newton did not converge, then the stability of the answer (escape_saddle)."""
         if not ok and run.status != "round_off":
             if self._unresolvable(attempts):
-                return self._result(False, "Round_Off_Floor_Above_Loads", iters, time.perf_counter() - t0, x, None,
+                return self.make_result(False, "Round_Off_Floor_Above_Loads", iters, time.perf_counter() - t0, x, None,
                                     attempts, "", None)
             n_before = len(attempts)
             ok, xs, lg, path = self._ipopt(x, opts, attempts, ceiling)
@@ -477,7 +481,7 @@ class StaticProblem:
             if stable is False and opts.escape_saddle:
                 x_out, status, stable, it = self._leave_saddle(x_out, direction, status, opts, work, attempts)
                 iters += it
-        return self._result(ok, status, iters, time.perf_counter() - t0, x_out, stable, attempts, path,
+        return self.make_result(ok, status, iters, time.perf_counter() - t0, x_out, stable, attempts, path,
                             run if ok else None)
 
     def _coarse_start(self, opts: StaticOptions) -> tuple[StaticResult, np.ndarray] | None:
@@ -579,8 +583,8 @@ class StaticProblem:
         """Newton failed and IPOPT's absolute tolerance (twice the gradient's round-off floor, which it cannot go
         below) lies above a tenth of the largest start residual: IPOPT would stop at once (or wander) and call the
         start an equilibrium. Refuse, with the reason."""
-        if self._nlp is None:
-            self._build_nlp()
+        if self.nlp is None:
+            self.build_nlp()
         start = self.S.reduce_force(self.asm.evaluate(self.asm.x0, hessian=False).gradient)
         load = float(np.max(np.abs(start))) if start.size else 0.0
         if not self.floor > 0.1 * load:
@@ -719,7 +723,7 @@ class StaticProblem:
         d = None if inertia.direction is None else S.full_v(inertia.direction)
         return inertia.stable, (d / np.max(np.abs(d)) if d is not None and np.any(d) else None)
 
-    def _result(self, ok, status, iters, wall, x, stable, attempts, path, run) -> StaticResult:
+    def make_result(self, ok, status, iters, wall, x, stable, attempts, path, run) -> StaticResult:
         if ok and self._gaps:  # a penalty law that missed a surface between its points: no success
             _, found = contact_gap.hidden(self.asm, x)
             if found:
