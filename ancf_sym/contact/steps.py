@@ -49,7 +49,7 @@ class StepLimit:
             P = sp.csr_matrix((vals, (rows, cols)), shape=(m, asm.n))
             self.blocks.append((c, P, c.radius + c.thickness))
 
-    def _relative(self, c, P, x: np.ndarray) -> np.ndarray:
+    def relative(self, c, P, x: np.ndarray) -> np.ndarray:
         """(points, dim) positions relative to the drum's axis, the axial part removed."""
         r = (P @ x).reshape(-1, self.dim)
         centre, axis = (c.centre, c.axis) if c.body is None else contact_body.pose(c, self.asm, x)
@@ -63,8 +63,8 @@ class StepLimit:
         than DEPTH x rho (or DEPTH x its distance at x where it is deeper already)."""
         t = 1.0
         for c, P, rho in self.blocks:
-            p0 = self._relative(c, P, x)
-            d = self._relative(c, P, x + dz) - p0
+            p0 = self.relative(c, P, x)
+            d = self.relative(c, P, x + dz) - p0
             a = np.einsum("ij,ij->i", d, d)
             b = np.einsum("ij,ij->i", p0, d)
             c0 = np.einsum("ij,ij->i", p0, p0)
@@ -83,7 +83,7 @@ def deep_starts(limit: StepLimit, x: np.ndarray) -> list[str]:
     law's normal is arbitrary): 'member (k points) in the drum at centre c, radius R'."""
     out = []
     for c, P, rho in limit.blocks:
-        d = np.linalg.norm(limit._relative(c, P, x), axis=1)
+        d = np.linalg.norm(limit.relative(c, P, x), axis=1)
         k = int(np.sum(d < DEPTH * rho))
         if k:
             out.append(f"member {c.member!r} ({k} points) in the drum at centre {np.round(c.centre, 6).tolist()}, "

@@ -43,8 +43,8 @@ class Linearization:
     multipliers: np.ndarray  # lambda of the rows of G (the exact rows kept with multipliers)
     inputs: list = field(default_factory=list)  # (member, node, component) of each column of B
     assembly: Assembly | None = field(default=None, repr=False)
-    _H_full: sp.csc_matrix | None = field(default=None, repr=False)  # K_L on the full coordinates
-    _G_full: sp.csr_matrix | None = field(default=None, repr=False)  # G on the full coordinates
+    H_full: sp.csc_matrix | None = field(default=None, repr=False)  # K_L on the full coordinates
+    G_full: sp.csr_matrix | None = field(default=None, repr=False)  # G on the full coordinates
 
     @property
     def size(self) -> int:
@@ -87,7 +87,7 @@ class Linearization:
         keep = np.setdiff1d(np.arange(self.size), chosen)
         Er = self.E[:, keep].tocsc()
         S = sp.csc_matrix((np.ones(len(cols)), (cols, np.arange(len(cols)))), shape=(self.E.shape[0], len(cols)))
-        H, Gf = self._H_full, self._G_full
+        H, Gf = self.H_full, self.G_full
         A, B = (Er.T @ H @ Er).tocsc(), (Gf @ Er).tocsc()
         kkt = sp.bmat([[A, B.T], [B, None]], format="csc") if B.shape[0] else A
         rhs = -np.vstack([(Er.T @ H @ S).toarray(), (Gf @ S).toarray()])

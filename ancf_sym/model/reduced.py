@@ -209,7 +209,7 @@ class ReducedModel:
         self.nf = part.ny
         self.pos = part.pos
         self.mc = len(part.rows)
-        self._gather = np.where(part.pos >= 0, part.pos, self.nf)  # full coordinate k = ext[_gather[k]], ext[nf] = 0
+        self.gather = np.where(part.pos >= 0, part.pos, self.nf)  # full coordinate k = ext[gather[k]], ext[nf] = 0
         self.length_scale = asm.mesh.length_scale
         self.span = float(np.max(np.abs(asm.x0))) + 1.0
 
@@ -224,7 +224,7 @@ class ReducedModel:
             return self.E @ vf
         ext = np.empty(self.nf + 1)
         ext[:-1], ext[-1] = vf, 0.0
-        return ext[self._gather]
+        return ext[self.gather]
 
     def full_rows(self, Q: np.ndarray) -> np.ndarray:
         """`full` of each row of Q (k x nf): the scene coordinates as rows (k x n)."""
@@ -234,7 +234,7 @@ class ReducedModel:
         """`full_v` of each row of V (k x nf), as rows (k x n)."""
         ext = np.zeros((len(V), self.nf + 1))
         ext[:, :-1] = V
-        return ext.take(self._gather, axis=1)
+        return ext.take(self.gather, axis=1)
 
     def reduce(self, x_full: np.ndarray) -> np.ndarray:
         """Unknowns from scene coordinates (that satisfy the eliminated constraints)."""

@@ -140,7 +140,7 @@ class ModalSensitivity:
         asm = s.asm
         dlam = None
         if len(asm.exact.qrow):  # bilinear rows: their curvature weighted by the multipliers' change
-            forces = s._force_derivatives(dx, dR, dmu)
+            forces = s.force_derivatives(dx, dR, dmu)
             taken: dict = {}
             dlam = []
             for lbl in asm.exact.labels:

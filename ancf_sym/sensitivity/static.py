@@ -81,7 +81,7 @@ class StaticSensitivity:
         for name, mm in self.asm.mesh.members.items():
             nodes = self.asm.member_coordinates(dx, name)[mm.public_nodes, :self.scene.dim]
             out["members"][name] = {"nodes": nodes, "tip": nodes[-1]}
-        out["constraint_forces"] = self._force_derivatives(dx, dR, dmu)
+        out["constraint_forces"] = self.force_derivatives(dx, dR, dmu)
         return out
 
     def _label_gradients(self) -> dict:
@@ -101,14 +101,14 @@ class StaticSensitivity:
             self._grads = grads
         return self._grads
 
-    def _force_derivatives(self, dx: np.ndarray, dR: np.ndarray, dmu: np.ndarray) -> dict:
+    def force_derivatives(self, dx: np.ndarray, dR: np.ndarray, dmu: np.ndarray) -> dict:
         asm, lin = self.asm, self.lin
         forces: dict[str, list] = {}
         n_joint = len(lin.multipliers) - len(self._contact_active())
-        r = lin._H_full @ dx + dR
+        r = lin.H_full @ dx + dR
         active = self._contact_active()
         if len(active):  # the contact rows' share: their multipliers are minus the contact forces
-            r = r + lin._G_full[n_joint:].T @ dmu[n_joint:]
+            r = r + lin.G_full[n_joint:].T @ dmu[n_joint:]
         if asm.exact.m:
             J = asm.exact.jacobian(self.result.x).tocsc()
             cols = np.unique(J.tocsr().indices)

@@ -104,7 +104,7 @@ class ReducedEvaluation:
         lengths = [mm.elem_length.min() for mm in asm.mesh.members.values()]
         self.local = bool(lengths) and reduction.span > LOCAL_ABOVE * min(lengths)
         self.padded = [_padded(ft) for ft in fts]  # kept by variants: the index maps below are laid out for it
-        self._bind()
+        self.bind_buffers()
         gp, rows, cols = [], [], []
         for ft, N in zip(fts, self.padded):
             nd = ft.nd
@@ -134,10 +134,10 @@ class ReducedEvaluation:
             flat[self._free[up]] = (self.bw + self._hr[up] - self._hc[up]) * nf + self._hc[up]
             self.hband = flat
         self.energy, self.g = 0.0, np.zeros(nf)
-        self._pen = None  # penalty Hessian entries at the last evaluation: (rows, cols, values) on free coordinates
+        self.pen_hessian = None  # penalty Hessian entries at the last evaluation: (rows, cols, values) on free coordinates
         self.at = None  # the array of the last evaluation (the object, not a copy: identity says none came since)
 
-    def _bind(self) -> None:
+    def bind_buffers(self) -> None:
         """Output buffers (every call's gradients and Hessians side by side) and the mapped kernel calls."""
         fts = self.fts
         self.E = np.zeros(sum(self.padded))
@@ -175,7 +175,7 @@ class ReducedEvaluation:
         out = copy.copy(self)
         out.fts = fts
         out.at = None
-        out._bind()
+        out.bind_buffers()
         return out
 
     def evaluate(self, x_full: np.ndarray) -> None:
@@ -188,7 +188,7 @@ class ReducedEvaluation:
             ev()
         self.energy = float(self.E.sum() if self.real is None else self.E[self.real].sum())
         self.g = np.bincount(self.gpos, self.G, minlength=self.nf + 1)[:self.nf]
-        self._pen = None
+        self.pen_hessian = None
         if self.pen is not None:
             pc = self.pen
             c = pc.value(x_full)
@@ -199,7 +199,7 @@ class ReducedEvaluation:
             pos = self.R.part.pos
             r, col = pos[Hp.row], pos[Hp.col]
             keep = (r >= 0) & (col >= 0)
-            self._pen = (r[keep], col[keep], Hp.data[keep])
+            self.pen_hessian = (r[keep], col[keep], Hp.data[keep])
 
     def band(self) -> np.ndarray | None:
         """The reduced tangent in LAPACK's upper banded storage ((bw + 1) x nf), None for a wide band."""
@@ -207,8 +207,8 @@ class ReducedEvaluation:
             return None
         size = self._dump
         ab = np.bincount(self.hband, self.H, minlength=size + 1)[:size]
-        if self._pen is not None:
-            r, c, v = self._pen
+        if self.pen_hessian is not None:
+            r, c, v = self.pen_hessian
             up = r <= c
             ab += np.bincount((self.bw + r[up] - c[up]) * self.nf + c[up], v[up], minlength=size)
         return ab.reshape(self.bw + 1, self.nf)
@@ -216,8 +216,8 @@ class ReducedEvaluation:
     def matrix(self) -> sp.csc_matrix:
         """The reduced tangent as a sparse matrix (duplicates summed)."""
         r, c, v = self._hr, self._hc, self.H[self._free]
-        if self._pen is not None:
-            r, c, v = np.r_[r, self._pen[0]], np.r_[c, self._pen[1]], np.r_[v, self._pen[2]]
+        if self.pen_hessian is not None:
+            r, c, v = np.r_[r, self.pen_hessian[0]], np.r_[c, self.pen_hessian[1]], np.r_[v, self.pen_hessian[2]]
         K = sp.csc_matrix((v, (r, c)), shape=(self.nf, self.nf))
         K.sum_duplicates()
         return K

@@ -204,8 +204,8 @@ class KernelNewton(NewtonStatics):
         self.step_limit = limiter(asm)
         self.energy = None
         self.load = 1.0
-        self._mu, self._prev_inc = 0.0, math.inf  # the last shift that made a step go downhill (the next try starts a tenth of it)
-        self._trial = None  # the point x + dz of an accepted step whose potential was evaluated (reused by the next _eval)
+        self.mu, self.prev_inc = 0.0, math.inf  # the last shift that made a step go downhill (the next try starts a tenth of it)
+        self.trial = None  # the point x + dz of an accepted step whose potential was evaluated (reused by the next _eval)
         self._loop: CompiledLoop | bool | None = None  # the loop in C (newton_loop), False: the Python loop; bound on first solve
 
     def potential(self, x_full: np.ndarray, load: float = 1.0) -> float:
@@ -241,7 +241,7 @@ class KernelNewton(NewtonStatics):
     def _eval(self) -> None:
         R, ev = self.S, self.ev
         x_full = R.full(self.x)
-        trial, self._trial = self._trial, None
+        trial, self.trial = self.trial, None
         if trial is not None and ev.at is trial and np.array_equal(x_full, trial):
             x_full = trial  # the last step was accepted on its potential: the kernels were evaluated there already
         else:
@@ -258,11 +258,11 @@ class KernelNewton(NewtonStatics):
             else:  # not positive definite (or round-off made it look so): the plain step by a banded LU first
                 self.dz[:] = -_banded_lu_solve(ab, r)
                 done = bool(np.all(np.isfinite(self.dz)))
-                if self._prev_inc > SHIFT_BELOW and not abs(self.dz / self.scale).max() <= SHIFT_BELOW:
+                if self.prev_inc > SHIFT_BELOW and not abs(self.dz / self.scale).max() <= SHIFT_BELOW:
                     self.energy = ev.energy - self.load * _dot(R.f_lin_full, x_full)
                     x_try = R.full(self.x + self.dz)
                     if done and self.potential(x_try, self.load) < self.energy:
-                        self._trial = x_try
+                        self.trial = x_try
                     else:
                         done = self._shifted_step(ab, r) or done
         if not done:  # a wide band (or a singular one): banded Cholesky in another order, else sparse LU
@@ -274,13 +274,13 @@ class KernelNewton(NewtonStatics):
             except RuntimeError:  # singular: the loop reads the NaN as not_finite
                 self.dz[:] = np.nan
         self.norms[:] = (abs(r).max(), 0.0, abs(self.dz / self.scale).max(), -_dot(r, self.dz), kmax)
-        self._prev_inc = self.norms[2]
+        self.prev_inc = self.norms[2]
 
     def solve(self, x_full: np.ndarray, tol: float, max_iter: int, work: float, load: float = 1.0,
               lam: np.ndarray | None = None, max_step: float = np.inf, finish: float = 0.0) -> NewtonRun:
         """finish > 0: a converged run also evaluates its answer, the potential and positive_definite(x, finish)
         (in the same C call where the loop runs in C: the result needs both, and a second pass costs more)."""
-        self._mu, self._prev_inc, self._trial = 0.0, math.inf, None
+        self.mu, self.prev_inc, self.trial = 0.0, math.inf, None
         if self._loop is None:
             self._loop = compiled_loop(self) or False
         if self._loop and PYTHON_LOOP is False:
@@ -289,7 +289,7 @@ class KernelNewton(NewtonStatics):
                 status, it, x, inc, dec, floor, hist, pot, stable = out
                 return NewtonRun(status == "converged", status, it, x, self.lam.copy(), float(inc), float(dec),
                                  float(self.norms[0]), floor, hist, pot, stable)
-            self._mu, self._prev_inc, self._trial = 0.0, math.inf, None  # (singular band: this solve in Python)
+            self.mu, self.prev_inc, self.trial = 0.0, math.inf, None  # (singular band: this solve in Python)
         run = super().solve(x_full, tol, max_iter, work, load, lam, max_step)
         if run.converged and finish > 0:
             run.potential = self.potential(run.x, load)
@@ -305,7 +305,7 @@ class KernelNewton(NewtonStatics):
         step converges to whatever equilibrium is there (a saddle too: the stability check reports it, and leaving
         it is escape_saddle's decision). False if no shift up to SHIFT_MAX lowers the potential."""
         d = np.abs(ab[-1]) + np.finfo(float).eps * float(np.max(np.abs(ab[-1]), initial=0.0))
-        mu = max(self._mu * 0.1, SHIFT)
+        mu = max(self.mu * 0.1, SHIFT)
         while mu <= SHIFT_MAX:
             shifted = ab.copy()
             shifted[-1] += mu * d
@@ -315,8 +315,8 @@ class KernelNewton(NewtonStatics):
                 x_try = self.S.full(self.x + dz)
                 if self.potential(x_try, self.load) < self.energy:
                     self.dz[:] = dz
-                    self._mu = mu
-                    self._trial = x_try
+                    self.mu = mu
+                    self.trial = x_try
                     return True
             mu *= 10.0
         return False

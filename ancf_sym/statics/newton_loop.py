@@ -162,7 +162,7 @@ class CompiledLoop:
         locals_ = {f"{k}{t}": len(c[5][0]) for t, c in enumerate(calls) if c[5] is not None for k in ("dst", "src")}
         I = self._i = _Block(np.int64, {"gather": n, "roots": nf, "ipiv": nf // 2 + 1, "iw": sz_iw, **locals_})
         for B, name, a in ((F, "c", R.part.c), (F, "f_lin", R.f_lin), (F, "f_lin_full", R.f_lin_full),
-                           (F, "scale", newton.scale), (I, "gather", R._gather), (I, "roots", R.part.roots)):
+                           (F, "scale", newton.scale), (I, "gather", R.gather), (I, "roots", R.part.roots)):
             B[name][:] = a
         for name in ("x", "dz", "p", "norms"):  # KernelNewton's arrays move into the buffer
             F[name][:] = getattr(newton, name)
@@ -227,8 +227,8 @@ class CompiledLoop:
         finally:  # (also after Ctrl-C): the evaluation and KernelNewton hold the loop's last values
             if run.status >= 0:
                 nw, ev = self.newton, self.newton.ev
-                ev.at, ev.energy, ev.g, ev._pen = self.x_eval.copy(), run.ev_energy, self.g[:self.nf].copy(), None
-                nw.energy, nw._mu, nw._prev_inc, nw._trial, nw.load = run.energy, run.mu, run.prev_inc, None, load
+                ev.at, ev.energy, ev.g, ev.pen_hessian = self.x_eval.copy(), run.ev_energy, self.g[:self.nf].copy(), None
+                nw.energy, nw.mu, nw.prev_inc, nw.trial, nw.load = run.energy, run.mu, run.prev_inc, None, load
         if status == SINGULAR:
             return None
         h = self._hist[:2 * run.nhist].tolist()

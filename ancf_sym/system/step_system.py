@@ -95,14 +95,14 @@ class StepSystem(ReducedModel):
         self._setup_buffers(self.kel_sparsity is not None)
 
     # what `_structure` sets (and structure_key from them): shared by the systems of one structure spec
-    _STRUCTURE_ATTRS = ("part", "nf", "pos", "_gather", "E", "cons", "mc", "drives", "nw", "linsol", "M_full", "M",
+    _STRUCTURE_ATTRS = ("part", "nf", "pos", "gather", "E", "cons", "mc", "drives", "nw", "linsol", "M_full", "M",
                         "length_scale", "span", "force_calls", "graph_key")
 
     def _structure(self, asm: Assembly, linsol: str) -> None:
         """The reduced coordinates, kept constraint rows, drives, linear solver, mass matrix, scales and kernel calls:
         what the scene's element stiffnesses and gravity do not change."""
         self.coordinates(partition(asm), asm)  # (ReducedModel: part, E, nf, pos, the gather, scales)
-        self._gather.flags.writeable = False  # (shared with the systems of the same structure)
+        self.gather.flags.writeable = False  # (shared with the systems of the same structure)
         part = self.part
         self.cons = asm.exact.subset(part.rows) if len(part.rows) else None
         self.mc = self.cons.m if self.cons is not None else 0

@@ -24,9 +24,9 @@ def _sizes(f: ca.Function) -> tuple[int, int, int, int]:
     """(n_in, n_out, nnz_in, nnz_out) of f, asked of CasADi once per Function object (~1 us each call) and kept on
     it: a run binds the same cached functions again."""
     try:
-        return f._ancf_sizes
+        return f.ancf_sym_sizes
     except AttributeError:
-        f._ancf_sizes = sizes = (f.n_in(), f.n_out(), f.nnz_in(), f.nnz_out())
+        f.ancf_sym_sizes = sizes = (f.n_in(), f.n_out(), f.nnz_in(), f.nnz_out())
         return sizes
 
 

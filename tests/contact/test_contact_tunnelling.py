@@ -87,10 +87,10 @@ def _closest(limit: StepLimit, x: np.ndarray, dz: np.ndarray, t: float) -> float
     the drum's contact radius, among points that start outside DEPTH rho (independent of the limit's algebra)."""
     worst = np.inf
     for c, P, rho in limit.blocks:
-        d0 = np.linalg.norm(limit._relative(c, P, x), axis=1)
+        d0 = np.linalg.norm(limit.relative(c, P, x), axis=1)
         out = d0 > DEPTH * rho
         for s in np.linspace(0.0, t, 401):
-            d = np.linalg.norm(limit._relative(c, P, x + s * dz), axis=1)
+            d = np.linalg.norm(limit.relative(c, P, x + s * dz), axis=1)
             worst = min(worst, float(np.min(d[out] / rho, initial=np.inf)))
     return worst
 

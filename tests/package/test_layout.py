@@ -121,6 +121,19 @@ def test_every_package_has_a_layer():
     assert packages - {"__init__"} <= set(LEVEL), sorted(packages - {"__init__"} - set(LEVEL))
 
 
+def test_no_module_writes_another_objects_private_fields():
+    """Helpers take what they need and return what they build: an assignment to `obj._name` is only for obj = self
+    (or cls)."""
+    writes = []
+    for path in ROOT.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if (isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Store) and node.attr.startswith("_")
+                    and not node.attr.startswith("__")
+                    and not (isinstance(node.value, ast.Name) and node.value.id in ("self", "cls"))):
+                writes.append(f"{path.relative_to(ROOT)}:{node.lineno}: {ast.unparse(node)}")
+    assert writes == []
+
+
 def test_no_module_imports_another_modules_private_names():
     _, private = _imports()
     assert private == []
