@@ -80,32 +80,47 @@ def newton(residual: Callable, x: np.ndarray, tol: float, max_iter: int, halving
     return x, rn, rn <= tol
 
 
-class ModelMixin:
-    """ControlProblem's reduced model (see the module docstring)."""
+def check_scene(sc: Scene) -> None:
+    """Refuse scenes the control transcription cannot move exactly (its Hessian needs third-derivative kernels and
+    every support eliminated)."""
+    for m in sc.members.values():
+        if not m.element.startswith("cable"):
+            raise SceneError(f"member {m.name!r}: optimal control is available for cable elements (cable2d, "
+                             f"cable3d), got {m.element!r}")
+        if m.arc_curvature is not None and m.bending:
+            raise SceneError(f"member {m.name!r}: curved members (arcs) are not supported by the control module "
+                             "(their reference curvature acts through moment kernels, which have no "
+                             "third-derivative companion)")
+        if len(m.points) > 2:
+            raise SceneError(f"member {m.name!r}: polyline members (internal rigid joints) are not supported by "
+                             "the control module; use straight members")
+    for ld in sc.loads:
+        if ld.kind == "moment":
+            raise SceneError("moment loads are not supported by the control module (their kernels have no "
+                             "third-derivative companion)")
+    if getattr(sc, "dampings", None):
+        kinds = sorted({d.kind for d in sc.dampings})
+        raise SceneError(f"damping ({', '.join(kinds)}) is not supported by the control module yet")
+    for j in sc.joints:
+        if j.kind == "rigid":
+            raise SceneError(f"rigid joints are not supported by the control module (multipliers), got {j}")
 
-    def _check_scene(self) -> None:
-        sc = self.scene
-        for m in sc.members.values():
-            if not m.element.startswith("cable"):
-                raise SceneError(f"member {m.name!r}: optimal control is available for cable elements (cable2d, "
-                                 f"cable3d), got {m.element!r}")
-            if m.arc_curvature is not None and m.bending:
-                raise SceneError(f"member {m.name!r}: curved members (arcs) are not supported by the control module "
-                                 "(their reference curvature acts through moment kernels, which have no "
-                                 "third-derivative companion)")
-            if len(m.points) > 2:
-                raise SceneError(f"member {m.name!r}: polyline members (internal rigid joints) are not supported by "
-                                 "the control module; use straight members")
-        for ld in sc.loads:
-            if ld.kind == "moment":
-                raise SceneError("moment loads are not supported by the control module (their kernels have no "
-                                 "third-derivative companion)")
-        if getattr(sc, "dampings", None):
-            kinds = sorted({d.kind for d in sc.dampings})
-            raise SceneError(f"damping ({', '.join(kinds)}) is not supported by the control module yet")
-        for j in sc.joints:
-            if j.kind == "rigid":
-                raise SceneError(f"rigid joints are not supported by the control module (multipliers), got {j}")
+
+class ControlModel:
+    """The reduced model a control problem moves (see the module docstring): built from the scene, the controls and
+    the payloads alone, so that the bounds, the transcription, the warm start and the re-simulation share one
+    description of the coordinates and channels.
+
+    n, nf: full and free coordinate counts; part: the partition (x = E q + c + B s); channels (support axes, nc of
+    them) and force_names (nF), nu = nc + nF controls; Mff, Mfc: mass matrix blocks; f_lin: constant forces;
+    Bf: the controlled forces' columns; nonlinear: the mapped kernels of the nonlinear energy terms."""
+
+    def __init__(self, scene: Scene, controls: Sequence, point_masses: Sequence[PointMass] = ()):
+        self.scene = scene
+        check_scene(scene)
+        self.asm = ControlAssembly(scene, point_masses)
+        self._setup_coordinates(controls)
+        self._build_point_functions()
 
     def _setup_coordinates(self, controls) -> None:
         a, sc = self.asm, self.scene
@@ -122,8 +137,8 @@ class ModelMixin:
         self.E = part.E
         if not isinstance(controls, (list, tuple)) or not controls:
             raise SceneError("controls must be a non-empty list of SupportMotion / PointForce")
-        self.channels, self._chan_coord, self._chan_axis, self._chan_support = [], [], [], []
-        self.force_names, self._force_vecs = [], []
+        self.channels, self.chan_coord, self.chan_axis, self.chan_support = [], [], [], []
+        self.force_names, self.force_vecs = [], []
         names = set()
         for i, c in enumerate(controls):
             if isinstance(c, SupportMotion):
@@ -158,9 +173,9 @@ class ModelMixin:
                     if self.pos[dofs[ax]] >= 0:
                         raise SceneError(f"controls[{i}]: coordinate {ax} of {c.member}@{c.at!r} is not fixed")
                     self.channels.append(ch)
-                    self._chan_coord.append(int(dofs[ax]))
-                    self._chan_axis.append(ax)
-                    self._chan_support.append((c.member, node))
+                    self.chan_coord.append(int(dofs[ax]))
+                    self.chan_axis.append(ax)
+                    self.chan_support.append((c.member, node))
             elif isinstance(c, PointForce):
                 if c.member not in sc.members:
                     raise SceneError(f"controls[{i}]: member {c.member!r} does not exist; members: "
@@ -178,16 +193,16 @@ class ModelMixin:
                 vec = np.zeros(self.n)
                 np.add.at(vec, idx, val)
                 self.force_names.append(c.name)
-                self._force_vecs.append(vec)
+                self.force_vecs.append(vec)
             else:
                 raise SceneError(f"controls[{i}] must be SupportMotion or PointForce, got {c!r}")
         self.controls = list(controls)
         self.nc, self.nF = len(self.channels), len(self.force_names)
         self.nu = self.nc + self.nF
-        self._acc_index = list(range(self.nc))
-        self._force_index = list(range(self.nc, self.nu))
+        self.acc_index = list(range(self.nc))
+        self.force_index = list(range(self.nc, self.nu))
         B = np.zeros((self.n, self.nc))
-        for k, cd in enumerate(self._chan_coord):
+        for k, cd in enumerate(self.chan_coord):
             B[cd, k] = 1.0
         self.B = B
         # rigid translation fields of each channel's axis (position coordinates of every node)
@@ -195,7 +210,7 @@ class ModelMixin:
         for mm in a.mesh.members.values():
             for node in range(mm.n_nodes):
                 d = mm.node_dofs(node)
-                for k, ax in enumerate(self._chan_axis):
+                for k, ax in enumerate(self.chan_axis):
                     Tr[d[ax], k] = 1.0
         self.Tr = Tr
         M = a.mass_matrix().tocsc()
@@ -205,7 +220,7 @@ class ModelMixin:
         # constant forces: linear energy terms (gravity, distributed dead loads) and dead point loads incl. weights
         self.f_lin_full = f_lin = a.constant_force()
         self.f_lin = part.E.T @ f_lin
-        self.Bf = part.E.T @ np.column_stack(self._force_vecs) if self.nF else np.zeros((self.nf, 0))
+        self.Bf = part.E.T @ np.column_stack(self.force_vecs) if self.nF else np.zeros((self.nf, 0))
         self.nonlinear = [mk for mk in a.mapped if mk.term.effect not in LINEAR_EFFECTS]
         for mk in self.nonlinear:
             t = mk.term
@@ -216,20 +231,23 @@ class ModelMixin:
         self.length_scale = max(float(mm.member.length) for mm in a.mesh.members.values())
 
     def variable_names(self) -> list[str]:
+        """The names bounds and path constraints use: <channel>.position/.velocity/.acceleration, <force>.force."""
         out = []
         for ch in self.channels:
             out += [f"{ch}.position", f"{ch}.velocity", f"{ch}.acceleration"]
         return out + [f"{f}.force" for f in self.force_names]
 
-    def _chan_vector(self, values: dict) -> np.ndarray:
+    def chan_vector(self, values: dict) -> np.ndarray:
+        """The channels' values (dict by channel name) as a vector in channel order."""
         return np.array([values[ch] for ch in self.channels], float)
 
-    def _translated(self, q: np.ndarray, ds: np.ndarray) -> np.ndarray:
+    def translated(self, q: np.ndarray, ds: np.ndarray) -> np.ndarray:
         """Free coordinates of the scene translated with the supports by ds (exact for single-support scenes)."""
         return q + self.part.E.T @ (self.Tr @ ds) if self.nc else q.copy()
 
     # -- point functions (one instant) -----------------------------------------------------------------------
     def full(self, q: np.ndarray, s: np.ndarray) -> np.ndarray:
+        """All coordinates from the free ones q and the channel displacements s."""
         return self.part.E @ q + self.part.c + self.B @ s
 
     def _build_point_functions(self) -> None:
@@ -238,7 +256,7 @@ class ModelMixin:
         nf, nc = self.nf, self.nc
         q, s = ca.MX.sym("q", nf), ca.MX.sym("s", nc)
         pos = self.pos.copy()  # the controlled support coordinates become unknowns nf + channel
-        pos[self._chan_coord] = nf + np.arange(nc)
+        pos[self.chan_coord] = nf + np.arange(nc)
         x = full_mx(ca.vertcat(q, s), pos, self.part.c)
         calls = []
         for mk in self.nonlinear:
@@ -249,7 +267,8 @@ class ModelMixin:
         self.forces_f = ca.Function("control_forces", [q, s], [g[:nf], K[:nf, :nf], K[:nf, nf:]], ["q", "s"],
                                     ["g", "Kff", "Kfc"])
 
-    def forces(self, q: np.ndarray, s: np.ndarray):
+    def forces(self, q: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, sp.csc_matrix, np.ndarray]:
+        """(grad_f U, K_ff sparse, K_fc) at one instant, for Newton on equilibria and interval equations."""
         g, Kff, Kfc = self.forces_f(q, s)
         return np.asarray(g).ravel(), sp.csc_matrix(Kff.sparse()), np.asarray(Kfc)
 
@@ -257,7 +276,7 @@ class ModelMixin:
         """Static equilibrium of the free coordinates with the controlled supports displaced by s (Newton with
         a backtracking line search on the residual; from the reference state unless a guess is given)."""
         if guess is None:
-            q = self._translated(self.asm.x0[self.part.roots].copy(), s)
+            q = self.translated(self.asm.x0[self.part.roots].copy(), s)
         else:
             q = np.asarray(guess, float).copy()
         fscale = max(float(np.max(np.abs(self.f_lin))), 1e-300)
@@ -271,7 +290,7 @@ class ModelMixin:
         raise SceneError(f"no static equilibrium found for support displacements {s.tolist()} (residual {rn:.3g} N "
                          f"after {max_iter} Newton iterations): the start/end state cannot be at rest")
 
-    def _modes(self, q: np.ndarray, s: np.ndarray):
+    def vibration_modes(self, q: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Natural frequencies [rad/s] and M-orthonormal modes of the free coordinates about (q, s)."""
         _, K, _ = self.forces(q, s)
         Kd = K.toarray()
@@ -279,18 +298,21 @@ class ModelMixin:
         w2, Phi = sla.eigh(Kd, self.Mff.toarray())
         return np.sqrt(np.maximum(w2, 0.0)), Phi
 
-    def end_mode_count(self) -> int:
-        omega = self.modes[0]
-        if self.end_modes is not None:
-            return min(int(self.end_modes), self.nf)
-        f_cut = self.end_frequency if self.end_frequency is not None else self.K / (4.0 * self.T_bounds[1])
-        return max(1, int(np.sum(omega < 2 * np.pi * f_cut)))
-
     # -- probes -----------------------------------------------------------------------------------------------
-    def _probe(self, member: str, at: Any):
+    def probe(self, member: str, at: Any) -> tuple[np.ndarray, np.ndarray]:
         """(idx (dim, 4) global coordinates, weights (4,)) with r(s) = x[idx] @ w."""
         sc = self.scene
         sc.check_at(member, at, node_only=False, field_name="point.at")
         mm = self.asm.mesh.members[member]
         p = Probe(mm, mm.coordinate(at), sc.dim)
         return p.idx, p.w
+
+
+def end_mode_count(omega: np.ndarray, nf: int, end_modes: int | None, end_frequency: float | None, K: int,
+                   T: float) -> int:
+    """How many of the lowest modes (frequencies omega [rad/s]) the end-at-rest rows hold: end_modes if given,
+    else those below end_frequency [Hz], default K / (4 T): the modes a grid of K intervals over T resolves."""
+    if end_modes is not None:
+        return min(int(end_modes), nf)
+    f_cut = end_frequency if end_frequency is not None else K / (4.0 * T)
+    return max(1, int(np.sum(omega < 2 * np.pi * f_cut)))
