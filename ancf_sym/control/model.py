@@ -119,12 +119,14 @@ class ControlModel:
         self.scene = scene
         check_scene(scene)
         self.asm = ControlAssembly(scene, point_masses)
-        self._setup_coordinates(controls)
+        self._partition()
+        self._channels(controls)
+        self._matrices()
         self._build_point_functions()
 
-    def _setup_coordinates(self, controls) -> None:
-        a, sc = self.asm, self.scene
-        dim = sc.dim
+    def _partition(self) -> None:
+        """The free coordinates: every support and joint eliminated (the transcription has no multiplier rows)."""
+        a = self.asm
         if a.penalty is not None:
             raise SceneError("penalty supports/joints are not supported by the control module; use method='exact'")
         self.part = part = partition(a)
@@ -135,65 +137,19 @@ class ControlModel:
         self.n, self.nf = a.n, part.ny
         self.pos = part.pos
         self.E = part.E
+
+    def _channels(self, controls: Sequence) -> None:
+        """The control channels (one per moved support axis) and the controlled forces, checked and named."""
         if not isinstance(controls, (list, tuple)) or not controls:
             raise SceneError("controls must be a non-empty list of SupportMotion / PointForce")
         self.channels, self.chan_coord, self.chan_axis, self.chan_support = [], [], [], []
         self.force_names, self.force_vecs = [], []
-        names = set()
+        names: set = set()
         for i, c in enumerate(controls):
             if isinstance(c, SupportMotion):
-                if c.member not in sc.members:
-                    raise SceneError(f"controls[{i}]: member {c.member!r} does not exist; members: "
-                                     f"{sorted(sc.members)}")
-                sc.check_at(c.member, c.at, node_only=True, field_name=f"controls[{i}].at")
-                mm = a.mesh.members[c.member]
-                node = mm.node(c.at)
-                sup = [s for s in sc.supports if s.member == c.member and s.kind in ("pin", "clamp")
-                       and mm.node(s.at) == node]
-                if not sup:
-                    raise SceneError(f"controls[{i}] ({c.name!r}) moves a support at {c.member}@{c.at!r}, but there "
-                                     f"is no pin or clamp there; supports: "
-                                     f"{[(s.kind, s.member, s.at) for s in sc.supports] or 'none'}")
-                if any(s.method != "exact" for s in sup):
-                    raise SceneError(f"controls[{i}]: the support at {c.member}@{c.at!r} must be exact, not penalty")
-                for j in sc.joints:
-                    for end in (j.a, j.b):
-                        if end[0] == c.member and mm.node(end[1]) == node:
-                            raise SceneError(f"controls[{i}]: the moved node {c.member}@{c.at!r} is also a joint")
-                axes = tuple(c.axes) if isinstance(c.axes, (tuple, list)) else (c.axes,)
-                if not axes or any(isinstance(ax, bool) or ax not in range(dim) for ax in axes) or \
-                        len(set(axes)) != len(axes):
-                    raise SceneError(f"controls[{i}].axes must be distinct axes in 0..{dim - 1}, got {c.axes!r}")
-                dofs = mm.node_dofs(node)
-                for ax in axes:
-                    ch = c.name if len(axes) == 1 else f"{c.name}_{'xyz'[ax]}"
-                    if ch in names:
-                        raise SceneError(f"controls[{i}]: name {ch!r} used twice")
-                    names.add(ch)
-                    if self.pos[dofs[ax]] >= 0:
-                        raise SceneError(f"controls[{i}]: coordinate {ax} of {c.member}@{c.at!r} is not fixed")
-                    self.channels.append(ch)
-                    self.chan_coord.append(int(dofs[ax]))
-                    self.chan_axis.append(ax)
-                    self.chan_support.append((c.member, node))
+                self._support_motion(i, c, names)
             elif isinstance(c, PointForce):
-                if c.member not in sc.members:
-                    raise SceneError(f"controls[{i}]: member {c.member!r} does not exist; members: "
-                                     f"{sorted(sc.members)}")
-                sc.check_at(c.member, c.at, node_only=False, field_name=f"controls[{i}].at")
-                d = vector(f"controls[{i}].direction", c.direction, dim)
-                if np.linalg.norm(d) == 0:
-                    raise SceneError(f"controls[{i}].direction must not be zero")
-                if c.name in names:
-                    raise SceneError(f"controls[{i}]: name {c.name!r} used twice")
-                names.add(c.name)
-                mm = a.mesh.members[c.member]
-                s = mm.coordinate(c.at)
-                idx, val = point_force(mm, s, d / np.linalg.norm(d))
-                vec = np.zeros(self.n)
-                np.add.at(vec, idx, val)
-                self.force_names.append(c.name)
-                self.force_vecs.append(vec)
+                self._point_force(i, c, names)
             else:
                 raise SceneError(f"controls[{i}] must be SupportMotion or PointForce, got {c!r}")
         self.controls = list(controls)
@@ -201,6 +157,71 @@ class ControlModel:
         self.nu = self.nc + self.nF
         self.acc_index = list(range(self.nc))
         self.force_index = list(range(self.nc, self.nu))
+
+    def _support_motion(self, i: int, c: SupportMotion, names: set) -> None:
+        """Channels of a moved support: it must be an exact pin or clamp, not a joint, on fixed coordinates."""
+        a, sc = self.asm, self.scene
+        dim = sc.dim
+        if c.member not in sc.members:
+            raise SceneError(f"controls[{i}]: member {c.member!r} does not exist; members: "
+                             f"{sorted(sc.members)}")
+        sc.check_at(c.member, c.at, node_only=True, field_name=f"controls[{i}].at")
+        mm = a.mesh.members[c.member]
+        node = mm.node(c.at)
+        sup = [s for s in sc.supports if s.member == c.member and s.kind in ("pin", "clamp")
+               and mm.node(s.at) == node]
+        if not sup:
+            raise SceneError(f"controls[{i}] ({c.name!r}) moves a support at {c.member}@{c.at!r}, but there "
+                             f"is no pin or clamp there; supports: "
+                             f"{[(s.kind, s.member, s.at) for s in sc.supports] or 'none'}")
+        if any(s.method != "exact" for s in sup):
+            raise SceneError(f"controls[{i}]: the support at {c.member}@{c.at!r} must be exact, not penalty")
+        for j in sc.joints:
+            for end in (j.a, j.b):
+                if end[0] == c.member and mm.node(end[1]) == node:
+                    raise SceneError(f"controls[{i}]: the moved node {c.member}@{c.at!r} is also a joint")
+        axes = tuple(c.axes) if isinstance(c.axes, (tuple, list)) else (c.axes,)
+        if not axes or any(isinstance(ax, bool) or ax not in range(dim) for ax in axes) or \
+                len(set(axes)) != len(axes):
+            raise SceneError(f"controls[{i}].axes must be distinct axes in 0..{dim - 1}, got {c.axes!r}")
+        dofs = mm.node_dofs(node)
+        for ax in axes:
+            ch = c.name if len(axes) == 1 else f"{c.name}_{'xyz'[ax]}"
+            if ch in names:
+                raise SceneError(f"controls[{i}]: name {ch!r} used twice")
+            names.add(ch)
+            if self.pos[dofs[ax]] >= 0:
+                raise SceneError(f"controls[{i}]: coordinate {ax} of {c.member}@{c.at!r} is not fixed")
+            self.channels.append(ch)
+            self.chan_coord.append(int(dofs[ax]))
+            self.chan_axis.append(ax)
+            self.chan_support.append((c.member, node))
+
+    def _point_force(self, i: int, c: PointForce, names: set) -> None:
+        """A controlled dead force: its generalized force per newton along the unit direction."""
+        a, sc = self.asm, self.scene
+        if c.member not in sc.members:
+            raise SceneError(f"controls[{i}]: member {c.member!r} does not exist; members: "
+                             f"{sorted(sc.members)}")
+        sc.check_at(c.member, c.at, node_only=False, field_name=f"controls[{i}].at")
+        d = vector(f"controls[{i}].direction", c.direction, sc.dim)
+        if np.linalg.norm(d) == 0:
+            raise SceneError(f"controls[{i}].direction must not be zero")
+        if c.name in names:
+            raise SceneError(f"controls[{i}]: name {c.name!r} used twice")
+        names.add(c.name)
+        mm = a.mesh.members[c.member]
+        s = mm.coordinate(c.at)
+        idx, val = point_force(mm, s, d / np.linalg.norm(d))
+        vec = np.zeros(self.n)
+        np.add.at(vec, idx, val)
+        self.force_names.append(c.name)
+        self.force_vecs.append(vec)
+
+    def _matrices(self) -> None:
+        """The constant matrices of the reduced dynamics and the nonlinear terms (each needs a third-derivative
+        kernel for the exact Hessian)."""
+        a, part = self.asm, self.part
         B = np.zeros((self.n, self.nc))
         for k, cd in enumerate(self.chan_coord):
             B[cd, k] = 1.0

@@ -92,8 +92,9 @@ class ControlProblem:
                 ip["max_iter"] = min(o.max_iter, FULL_STEP_ITERATIONS)
             ip.update(o.ipopt_extra)
             t0 = time.perf_counter()
-            self._solvers[key] = ca.nlpsol("ocp", "ipopt", self.transcription.nlp, {
-                "ipopt": ip, "print_time": False, "jac_g": self.transcription.jac_g, "hess_lag": self.transcription.hess_lag,
+            tr = self.transcription
+            self._solvers[key] = ca.nlpsol("ocp", "ipopt", tr.nlp, {
+                "ipopt": ip, "print_time": False, "jac_g": tr.jac_g, "hess_lag": tr.hess_lag,
                 "no_nlp_grad": True, "calc_lam_p": False, "calc_lam_x": False, "calc_f": False, "calc_g": False,
                 "error_on_fail": False})
             self.solver_build_s += time.perf_counter() - t0

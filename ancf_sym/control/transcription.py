@@ -15,6 +15,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ancf_sym import kernels
+from ancf_sym.model.assembly import MappedKernel
 from ancf_sym.util.casadi_buffers import bind
 from ancf_sym.dynamics.collocation import Tableau, interval_end, stage_residual
 from ancf_sym.util.sparsity import dm as _dm, gather_sum, scatter
@@ -175,7 +176,7 @@ class KernelTerm:
     hess: tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
-def kernel_term(mk, model: ControlModel, layout: Layout, Xv: ca.MX, Pp: int) -> KernelTerm:
+def kernel_term(mk: MappedKernel, model: ControlModel, layout: Layout, Xv: ca.MX, Pp: int) -> KernelTerm:
     """The mapped kernels of one energy term at the Pp collocation points, and the maps of their entries onto
     the dynamics rows (free coordinates) and the decision variables (stage positions, controlled channels)."""
     t, N, nd, n, nf, nc = mk.term, mk.N, mk.nd, model.n, model.nf, model.nc
