@@ -192,11 +192,11 @@ FORWARDED = {
     "model": ("scene", "asm", "part", "n", "nf", "nc", "nF", "nu", "pos", "E", "B", "Tr", "controls", "channels",
               "force_names", "chan_coord", "chan_axis", "chan_support", "M_full", "Mff", "Mfc", "f_lin",
               "f_lin_full", "Bf", "nonlinear", "length_scale", "variable_names", "chan_vector", "full", "forces",
-              "equilibrium", "vibration_modes", "probe"),
+              "equilibrium", "vibration_modes", "probe", "forces_f", "force_vecs"),
     "limits": ("bounds", "start_values", "end_values"),
-    "transcription": ("tau", "Pp", "nz", "Nn", "idx", "iT", "nw", "ng", "lbg", "ubg", "nlp", "jac_g", "hess_lag",
-                      "g_function", "f_function", "n_end_modes", "pack", "unpack", "node_times", "point_times",
-                      "kernel_times"),
+    "transcription": ("layout", "tau", "Pp", "nz", "Nn", "idx", "iT", "nw", "ng", "lbx", "ubx", "lbg", "ubg",
+                      "g_rows", "nlp", "jac_g", "hess_lag", "g_function", "f_function", "n_end_modes", "pack",
+                      "unpack", "node_times", "point_times", "stage_nodes", "kernel_times"),
     "warm": ("naive_motion", "guess_from_trajectory", "collocation_simulation", "warm_start"),
 }
 
