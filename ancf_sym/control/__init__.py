@@ -39,20 +39,23 @@ v = the multipliers of the dynamics rows mapped to element coordinates), both as
 matrices; everything else (collocation, continuity, costs, path constraints: linear or polynomial) is
 differentiated by CasADi. No finite differences.
 
-Package layout (one stage per module): ingredients (controls, payloads, costs, path constraints), model (the
-reduced coordinates, equilibria and modes), bounds (bounds, boundary values, costs and path constraints as NLP
-pieces), transcription (the collocation NLP and its exact derivatives), warm_start (the collocation simulation),
-problem (ControlProblem: checks and IPOPT), result (ControlResult), resimulation (the dynamics integrator on the
-optimal controls).
+Package layout (one part per module, composed rather than inherited): ingredients (controls, payloads, costs, path
+constraints), options (ControlOptions: grid, scheme, horizon, costs, IPOPT settings, checked once), model
+(ControlModel: the reduced coordinates, channels, forces, equilibria and modes), bounds (Bounds: bounds and boundary
+values; the path rows and the cost as NLP pieces), transcription (Transcription: the layout of the decision vector,
+the collocation NLP part by part and its exact derivatives, pack/unpack), warm_start (WarmStart: the collocation
+simulation), problem (ControlProblem: composes the parts, forwards their public names, runs IPOPT), result
+(ControlResult), resimulation (the dynamics integrator on the optimal controls).
 """
 from __future__ import annotations
 
 from ancf_sym.control.ingredients import Effort, MinimumTime, PathConstraint, PointForce, PointMass, StateView, SupportMotion, Swing
-from ancf_sym.control.model import ControlAssembly
+from ancf_sym.control.model import ControlAssembly, ControlModel
+from ancf_sym.control.options import ControlOptions
 from ancf_sym.control.problem import ControlProblem
 from ancf_sym.control.resimulation import ResimulationReport, moving_frame_ok, resimulate_motion, tracked_point
 from ancf_sym.control.result import ControlResult
 
-__all__ = ["ControlProblem", "ControlResult", "ControlAssembly", "PointMass", "SupportMotion", "PointForce", "Effort",
-           "MinimumTime", "Swing", "PathConstraint", "StateView", "ResimulationReport", "resimulate_motion",
-           "moving_frame_ok", "tracked_point"]
+__all__ = ["ControlProblem", "ControlResult", "ControlAssembly", "ControlModel", "ControlOptions", "PointMass",
+           "SupportMotion", "PointForce", "Effort", "MinimumTime", "Swing", "PathConstraint", "StateView",
+           "ResimulationReport", "resimulate_motion", "moving_frame_ok", "tracked_point"]

@@ -77,16 +77,16 @@ class StateView:
     """The state at one instant as CasADi expressions, for path constraints: x, v (full coordinates and velocities),
     point(member, at) / velocity(member, at) of a centreline point, and the support channels and controls by name."""
 
-    def __init__(self, prob: ControlProblem, x, v, chan_pos, chan_vel, u):
-        self._p, self.x, self.v = prob, x, v
+    def __init__(self, model: ControlModel, x: ca.MX, v: ca.MX, chan_pos: ca.MX, chan_vel: ca.MX, u: ca.MX):
+        self._p, self.x, self.v = model, x, v
         self._cp, self._cv, self._u = chan_pos, chan_vel, u
 
     def point(self, member: str, at: Any = "end"):
-        idx, w = self._p._probe(member, at)
+        idx, w = self._p.probe(member, at)
         return ca.vertcat(*[ca.dot(ca.DM(w), self.x[row.tolist()]) for row in idx])
 
     def velocity(self, member: str, at: Any = "end"):
-        idx, w = self._p._probe(member, at)
+        idx, w = self._p.probe(member, at)
         return ca.vertcat(*[ca.dot(ca.DM(w), self.v[row.tolist()]) for row in idx])
 
     def __getitem__(self, key: str):
@@ -95,7 +95,7 @@ class StateView:
         if name in p.channels and what in ("position", "velocity", "acceleration"):
             k = p.channels.index(name)
             return {"position": self._cp, "velocity": self._cv, "acceleration": self._u}[what][
-                k if what != "acceleration" else p._acc_index[k]]
+                k if what != "acceleration" else p.acc_index[k]]
         if name in p.force_names and what == "force":
-            return self._u[p._force_index[p.force_names.index(name)]]
+            return self._u[p.force_index[p.force_names.index(name)]]
         raise SceneError(f"unknown state or control {key!r}; known: {p.variable_names()}")

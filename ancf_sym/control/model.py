@@ -80,36 +80,53 @@ def newton(residual: Callable, x: np.ndarray, tol: float, max_iter: int, halving
     return x, rn, rn <= tol
 
 
-class ModelMixin:
-    """ControlProblem's reduced model (see the module docstring)."""
+def check_scene(sc: Scene) -> None:
+    """Refuse scenes the control transcription cannot move exactly (its Hessian needs third-derivative kernels and
+    every support eliminated)."""
+    for m in sc.members.values():
+        if not m.element.startswith("cable"):
+            raise SceneError(f"member {m.name!r}: optimal control is available for cable elements (cable2d, "
+                             f"cable3d), got {m.element!r}")
+        if m.arc_curvature is not None and m.bending:
+            raise SceneError(f"member {m.name!r}: curved members (arcs) are not supported by the control module "
+                             "(their reference curvature acts through moment kernels, which have no "
+                             "third-derivative companion)")
+        if len(m.points) > 2:
+            raise SceneError(f"member {m.name!r}: polyline members (internal rigid joints) are not supported by "
+                             "the control module; use straight members")
+    for ld in sc.loads:
+        if ld.kind == "moment":
+            raise SceneError("moment loads are not supported by the control module (their kernels have no "
+                             "third-derivative companion)")
+    if getattr(sc, "dampings", None):
+        kinds = sorted({d.kind for d in sc.dampings})
+        raise SceneError(f"damping ({', '.join(kinds)}) is not supported by the control module yet")
+    for j in sc.joints:
+        if j.kind == "rigid":
+            raise SceneError(f"rigid joints are not supported by the control module (multipliers), got {j}")
 
-    def _check_scene(self) -> None:
-        sc = self.scene
-        for m in sc.members.values():
-            if not m.element.startswith("cable"):
-                raise SceneError(f"member {m.name!r}: optimal control is available for cable elements (cable2d, "
-                                 f"cable3d), got {m.element!r}")
-            if m.arc_curvature is not None and m.bending:
-                raise SceneError(f"member {m.name!r}: curved members (arcs) are not supported by the control module "
-                                 "(their reference curvature acts through moment kernels, which have no "
-                                 "third-derivative companion)")
-            if len(m.points) > 2:
-                raise SceneError(f"member {m.name!r}: polyline members (internal rigid joints) are not supported by "
-                                 "the control module; use straight members")
-        for ld in sc.loads:
-            if ld.kind == "moment":
-                raise SceneError("moment loads are not supported by the control module (their kernels have no "
-                                 "third-derivative companion)")
-        if getattr(sc, "dampings", None):
-            kinds = sorted({d.kind for d in sc.dampings})
-            raise SceneError(f"damping ({', '.join(kinds)}) is not supported by the control module yet")
-        for j in sc.joints:
-            if j.kind == "rigid":
-                raise SceneError(f"rigid joints are not supported by the control module (multipliers), got {j}")
 
-    def _setup_coordinates(self, controls) -> None:
-        a, sc = self.asm, self.scene
-        dim = sc.dim
+class ControlModel:
+    """The reduced model a control problem moves (see the module docstring): built from the scene, the controls and
+    the payloads alone, so that the bounds, the transcription, the warm start and the re-simulation share one
+    description of the coordinates and channels.
+
+    n, nf: full and free coordinate counts; part: the partition (x = E q + c + B s); channels (support axes, nc of
+    them) and force_names (nF), nu = nc + nF controls; Mff, Mfc: mass matrix blocks; f_lin: constant forces;
+    Bf: the controlled forces' columns; nonlinear: the mapped kernels of the nonlinear energy terms."""
+
+    def __init__(self, scene: Scene, controls: Sequence, point_masses: Sequence[PointMass] = ()):
+        self.scene = scene
+        check_scene(scene)
+        self.asm = ControlAssembly(scene, point_masses)
+        self._partition()
+        self._channels(controls)
+        self._matrices()
+        self._build_point_functions()
+
+    def _partition(self) -> None:
+        """The free coordinates: every support and joint eliminated (the transcription has no multiplier rows)."""
+        a = self.asm
         if a.penalty is not None:
             raise SceneError("penalty supports/joints are not supported by the control module; use method='exact'")
         self.part = part = partition(a)
@@ -120,74 +137,93 @@ class ModelMixin:
         self.n, self.nf = a.n, part.ny
         self.pos = part.pos
         self.E = part.E
+
+    def _channels(self, controls: Sequence) -> None:
+        """The control channels (one per moved support axis) and the controlled forces, checked and named."""
         if not isinstance(controls, (list, tuple)) or not controls:
             raise SceneError("controls must be a non-empty list of SupportMotion / PointForce")
-        self.channels, self._chan_coord, self._chan_axis, self._chan_support = [], [], [], []
-        self.force_names, self._force_vecs = [], []
-        names = set()
+        self.channels, self.chan_coord, self.chan_axis, self.chan_support = [], [], [], []
+        self.force_names, self.force_vecs = [], []
+        names: set = set()
         for i, c in enumerate(controls):
             if isinstance(c, SupportMotion):
-                if c.member not in sc.members:
-                    raise SceneError(f"controls[{i}]: member {c.member!r} does not exist; members: "
-                                     f"{sorted(sc.members)}")
-                sc.check_at(c.member, c.at, node_only=True, field_name=f"controls[{i}].at")
-                mm = a.mesh.members[c.member]
-                node = mm.node(c.at)
-                sup = [s for s in sc.supports if s.member == c.member and s.kind in ("pin", "clamp")
-                       and mm.node(s.at) == node]
-                if not sup:
-                    raise SceneError(f"controls[{i}] ({c.name!r}) moves a support at {c.member}@{c.at!r}, but there "
-                                     f"is no pin or clamp there; supports: "
-                                     f"{[(s.kind, s.member, s.at) for s in sc.supports] or 'none'}")
-                if any(s.method != "exact" for s in sup):
-                    raise SceneError(f"controls[{i}]: the support at {c.member}@{c.at!r} must be exact, not penalty")
-                for j in sc.joints:
-                    for end in (j.a, j.b):
-                        if end[0] == c.member and mm.node(end[1]) == node:
-                            raise SceneError(f"controls[{i}]: the moved node {c.member}@{c.at!r} is also a joint")
-                axes = tuple(c.axes) if isinstance(c.axes, (tuple, list)) else (c.axes,)
-                if not axes or any(isinstance(ax, bool) or ax not in range(dim) for ax in axes) or \
-                        len(set(axes)) != len(axes):
-                    raise SceneError(f"controls[{i}].axes must be distinct axes in 0..{dim - 1}, got {c.axes!r}")
-                dofs = mm.node_dofs(node)
-                for ax in axes:
-                    ch = c.name if len(axes) == 1 else f"{c.name}_{'xyz'[ax]}"
-                    if ch in names:
-                        raise SceneError(f"controls[{i}]: name {ch!r} used twice")
-                    names.add(ch)
-                    if self.pos[dofs[ax]] >= 0:
-                        raise SceneError(f"controls[{i}]: coordinate {ax} of {c.member}@{c.at!r} is not fixed")
-                    self.channels.append(ch)
-                    self._chan_coord.append(int(dofs[ax]))
-                    self._chan_axis.append(ax)
-                    self._chan_support.append((c.member, node))
+                self._support_motion(i, c, names)
             elif isinstance(c, PointForce):
-                if c.member not in sc.members:
-                    raise SceneError(f"controls[{i}]: member {c.member!r} does not exist; members: "
-                                     f"{sorted(sc.members)}")
-                sc.check_at(c.member, c.at, node_only=False, field_name=f"controls[{i}].at")
-                d = vector(f"controls[{i}].direction", c.direction, dim)
-                if np.linalg.norm(d) == 0:
-                    raise SceneError(f"controls[{i}].direction must not be zero")
-                if c.name in names:
-                    raise SceneError(f"controls[{i}]: name {c.name!r} used twice")
-                names.add(c.name)
-                mm = a.mesh.members[c.member]
-                s = mm.coordinate(c.at)
-                idx, val = point_force(mm, s, d / np.linalg.norm(d))
-                vec = np.zeros(self.n)
-                np.add.at(vec, idx, val)
-                self.force_names.append(c.name)
-                self._force_vecs.append(vec)
+                self._point_force(i, c, names)
             else:
                 raise SceneError(f"controls[{i}] must be SupportMotion or PointForce, got {c!r}")
         self.controls = list(controls)
         self.nc, self.nF = len(self.channels), len(self.force_names)
         self.nu = self.nc + self.nF
-        self._acc_index = list(range(self.nc))
-        self._force_index = list(range(self.nc, self.nu))
+        self.acc_index = list(range(self.nc))
+        self.force_index = list(range(self.nc, self.nu))
+
+    def _support_motion(self, i: int, c: SupportMotion, names: set) -> None:
+        """Channels of a moved support: it must be an exact pin or clamp, not a joint, on fixed coordinates."""
+        a, sc = self.asm, self.scene
+        dim = sc.dim
+        if c.member not in sc.members:
+            raise SceneError(f"controls[{i}]: member {c.member!r} does not exist; members: "
+                             f"{sorted(sc.members)}")
+        sc.check_at(c.member, c.at, node_only=True, field_name=f"controls[{i}].at")
+        mm = a.mesh.members[c.member]
+        node = mm.node(c.at)
+        sup = [s for s in sc.supports if s.member == c.member and s.kind in ("pin", "clamp")
+               and mm.node(s.at) == node]
+        if not sup:
+            raise SceneError(f"controls[{i}] ({c.name!r}) moves a support at {c.member}@{c.at!r}, but there "
+                             f"is no pin or clamp there; supports: "
+                             f"{[(s.kind, s.member, s.at) for s in sc.supports] or 'none'}")
+        if any(s.method != "exact" for s in sup):
+            raise SceneError(f"controls[{i}]: the support at {c.member}@{c.at!r} must be exact, not penalty")
+        for j in sc.joints:
+            for end in (j.a, j.b):
+                if end[0] == c.member and mm.node(end[1]) == node:
+                    raise SceneError(f"controls[{i}]: the moved node {c.member}@{c.at!r} is also a joint")
+        axes = tuple(c.axes) if isinstance(c.axes, (tuple, list)) else (c.axes,)
+        if not axes or any(isinstance(ax, bool) or ax not in range(dim) for ax in axes) or \
+                len(set(axes)) != len(axes):
+            raise SceneError(f"controls[{i}].axes must be distinct axes in 0..{dim - 1}, got {c.axes!r}")
+        dofs = mm.node_dofs(node)
+        for ax in axes:
+            ch = c.name if len(axes) == 1 else f"{c.name}_{'xyz'[ax]}"
+            if ch in names:
+                raise SceneError(f"controls[{i}]: name {ch!r} used twice")
+            names.add(ch)
+            if self.pos[dofs[ax]] >= 0:
+                raise SceneError(f"controls[{i}]: coordinate {ax} of {c.member}@{c.at!r} is not fixed")
+            self.channels.append(ch)
+            self.chan_coord.append(int(dofs[ax]))
+            self.chan_axis.append(ax)
+            self.chan_support.append((c.member, node))
+
+    def _point_force(self, i: int, c: PointForce, names: set) -> None:
+        """A controlled dead force: its generalized force per newton along the unit direction."""
+        a, sc = self.asm, self.scene
+        if c.member not in sc.members:
+            raise SceneError(f"controls[{i}]: member {c.member!r} does not exist; members: "
+                             f"{sorted(sc.members)}")
+        sc.check_at(c.member, c.at, node_only=False, field_name=f"controls[{i}].at")
+        d = vector(f"controls[{i}].direction", c.direction, sc.dim)
+        if np.linalg.norm(d) == 0:
+            raise SceneError(f"controls[{i}].direction must not be zero")
+        if c.name in names:
+            raise SceneError(f"controls[{i}]: name {c.name!r} used twice")
+        names.add(c.name)
+        mm = a.mesh.members[c.member]
+        s = mm.coordinate(c.at)
+        idx, val = point_force(mm, s, d / np.linalg.norm(d))
+        vec = np.zeros(self.n)
+        np.add.at(vec, idx, val)
+        self.force_names.append(c.name)
+        self.force_vecs.append(vec)
+
+    def _matrices(self) -> None:
+        """The constant matrices of the reduced dynamics and the nonlinear terms (each needs a third-derivative
+        kernel for the exact Hessian)."""
+        a, part = self.asm, self.part
         B = np.zeros((self.n, self.nc))
-        for k, cd in enumerate(self._chan_coord):
+        for k, cd in enumerate(self.chan_coord):
             B[cd, k] = 1.0
         self.B = B
         # rigid translation fields of each channel's axis (position coordinates of every node)
@@ -195,7 +231,7 @@ class ModelMixin:
         for mm in a.mesh.members.values():
             for node in range(mm.n_nodes):
                 d = mm.node_dofs(node)
-                for k, ax in enumerate(self._chan_axis):
+                for k, ax in enumerate(self.chan_axis):
                     Tr[d[ax], k] = 1.0
         self.Tr = Tr
         M = a.mass_matrix().tocsc()
@@ -205,7 +241,7 @@ class ModelMixin:
         # constant forces: linear energy terms (gravity, distributed dead loads) and dead point loads incl. weights
         self.f_lin_full = f_lin = a.constant_force()
         self.f_lin = part.E.T @ f_lin
-        self.Bf = part.E.T @ np.column_stack(self._force_vecs) if self.nF else np.zeros((self.nf, 0))
+        self.Bf = part.E.T @ np.column_stack(self.force_vecs) if self.nF else np.zeros((self.nf, 0))
         self.nonlinear = [mk for mk in a.mapped if mk.term.effect not in LINEAR_EFFECTS]
         for mk in self.nonlinear:
             t = mk.term
@@ -216,20 +252,23 @@ class ModelMixin:
         self.length_scale = max(float(mm.member.length) for mm in a.mesh.members.values())
 
     def variable_names(self) -> list[str]:
+        """The names bounds and path constraints use: <channel>.position/.velocity/.acceleration, <force>.force."""
         out = []
         for ch in self.channels:
             out += [f"{ch}.position", f"{ch}.velocity", f"{ch}.acceleration"]
         return out + [f"{f}.force" for f in self.force_names]
 
-    def _chan_vector(self, values: dict) -> np.ndarray:
+    def chan_vector(self, values: dict) -> np.ndarray:
+        """The channels' values (dict by channel name) as a vector in channel order."""
         return np.array([values[ch] for ch in self.channels], float)
 
-    def _translated(self, q: np.ndarray, ds: np.ndarray) -> np.ndarray:
+    def translated(self, q: np.ndarray, ds: np.ndarray) -> np.ndarray:
         """Free coordinates of the scene translated with the supports by ds (exact for single-support scenes)."""
         return q + self.part.E.T @ (self.Tr @ ds) if self.nc else q.copy()
 
     # -- point functions (one instant) -----------------------------------------------------------------------
     def full(self, q: np.ndarray, s: np.ndarray) -> np.ndarray:
+        """All coordinates from the free ones q and the channel displacements s."""
         return self.part.E @ q + self.part.c + self.B @ s
 
     def _build_point_functions(self) -> None:
@@ -238,7 +277,7 @@ class ModelMixin:
         nf, nc = self.nf, self.nc
         q, s = ca.MX.sym("q", nf), ca.MX.sym("s", nc)
         pos = self.pos.copy()  # the controlled support coordinates become unknowns nf + channel
-        pos[self._chan_coord] = nf + np.arange(nc)
+        pos[self.chan_coord] = nf + np.arange(nc)
         x = full_mx(ca.vertcat(q, s), pos, self.part.c)
         calls = []
         for mk in self.nonlinear:
@@ -249,7 +288,8 @@ class ModelMixin:
         self.forces_f = ca.Function("control_forces", [q, s], [g[:nf], K[:nf, :nf], K[:nf, nf:]], ["q", "s"],
                                     ["g", "Kff", "Kfc"])
 
-    def forces(self, q: np.ndarray, s: np.ndarray):
+    def forces(self, q: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, sp.csc_matrix, np.ndarray]:
+        """(grad_f U, K_ff sparse, K_fc) at one instant, for Newton on equilibria and interval equations."""
         g, Kff, Kfc = self.forces_f(q, s)
         return np.asarray(g).ravel(), sp.csc_matrix(Kff.sparse()), np.asarray(Kfc)
 
@@ -257,7 +297,7 @@ class ModelMixin:
         """Static equilibrium of the free coordinates with the controlled supports displaced by s (Newton with
         a backtracking line search on the residual; from the reference state unless a guess is given)."""
         if guess is None:
-            q = self._translated(self.asm.x0[self.part.roots].copy(), s)
+            q = self.translated(self.asm.x0[self.part.roots].copy(), s)
         else:
             q = np.asarray(guess, float).copy()
         fscale = max(float(np.max(np.abs(self.f_lin))), 1e-300)
@@ -271,7 +311,7 @@ class ModelMixin:
         raise SceneError(f"no static equilibrium found for support displacements {s.tolist()} (residual {rn:.3g} N "
                          f"after {max_iter} Newton iterations): the start/end state cannot be at rest")
 
-    def _modes(self, q: np.ndarray, s: np.ndarray):
+    def vibration_modes(self, q: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Natural frequencies [rad/s] and M-orthonormal modes of the free coordinates about (q, s)."""
         _, K, _ = self.forces(q, s)
         Kd = K.toarray()
@@ -279,18 +319,21 @@ class ModelMixin:
         w2, Phi = sla.eigh(Kd, self.Mff.toarray())
         return np.sqrt(np.maximum(w2, 0.0)), Phi
 
-    def end_mode_count(self) -> int:
-        omega = self.modes[0]
-        if self.end_modes is not None:
-            return min(int(self.end_modes), self.nf)
-        f_cut = self.end_frequency if self.end_frequency is not None else self.K / (4.0 * self.T_bounds[1])
-        return max(1, int(np.sum(omega < 2 * np.pi * f_cut)))
-
     # -- probes -----------------------------------------------------------------------------------------------
-    def _probe(self, member: str, at: Any):
+    def probe(self, member: str, at: Any) -> tuple[np.ndarray, np.ndarray]:
         """(idx (dim, 4) global coordinates, weights (4,)) with r(s) = x[idx] @ w."""
         sc = self.scene
         sc.check_at(member, at, node_only=False, field_name="point.at")
         mm = self.asm.mesh.members[member]
         p = Probe(mm, mm.coordinate(at), sc.dim)
         return p.idx, p.w
+
+
+def end_mode_count(omega: np.ndarray, nf: int, end_modes: int | None, end_frequency: float | None, K: int,
+                   T: float) -> int:
+    """How many of the lowest modes (frequencies omega [rad/s]) the end-at-rest rows hold: end_modes if given,
+    else those below end_frequency [Hz], default K / (4 T): the modes a grid of K intervals over T resolves."""
+    if end_modes is not None:
+        return min(int(end_modes), nf)
+    f_cut = end_frequency if end_frequency is not None else K / (4.0 * T)
+    return max(1, int(np.sum(omega < 2 * np.pi * f_cut)))

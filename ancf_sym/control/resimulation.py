@@ -49,7 +49,7 @@ def moving_frame_ok(p: ControlProblem) -> bool:
         return True
     supports = {(s.member, p.asm.mesh.members[s.member].node(s.at)) for s in p.scene.supports
                 if s.kind in ("pin", "clamp")}
-    moved = set(p._chan_support)
+    moved = set(p.chan_support)
     return supports == moved and len(moved) == 1
 
 
@@ -114,12 +114,12 @@ def resimulate_motion(p: ControlProblem, T: float, motion: Callable, res: Contro
             for e, L in enumerate(mm.elem_length):
                 for gp in (0.5 - 0.5 / math.sqrt(3), 0.5 + 0.5 / math.sqrt(3)):
                     at = float(min(starts[e] + gp * L, m.length))
-                    for k, ax in enumerate(p._chan_axis):
+                    for k, ax in enumerate(p.chan_axis):
                         F = np.zeros(dim)
                         F[ax] = -rhoA * L / 2
                         loads.append(TimeLoad(m.name, at, F, np.c_[th, acc[:, k]]))
         for pm in p.asm.point_masses:
-            for k, ax in enumerate(p._chan_axis):
+            for k, ax in enumerate(p.chan_axis):
                 F = np.zeros(dim)
                 F[ax] = -pm.mass
                 loads.append(TimeLoad(pm.member, pm.at, F, np.c_[th, acc[:, k]]))
@@ -129,7 +129,7 @@ def resimulate_motion(p: ControlProblem, T: float, motion: Callable, res: Contro
             d = np.asarray(c.direction, float)
             loads.append(TimeLoad(c.member, c.at, d / np.linalg.norm(d), np.c_[th, uf[:, k]]))
     # initial state in the moving frame
-    s0 = p._chan_vector(p.start_values)
+    s0 = p.chan_vector(p.start_values)
     if res is not None:
         q0f, v0f = res.q_free[0], res.v_free[0]
     else:
@@ -165,7 +165,7 @@ def resimulate_motion(p: ControlProblem, T: float, motion: Callable, res: Contro
         for node in range(len(mm.public_nodes)):
             X[:, mm.node_dofs(mm.node(node))] = dyn.sensors[f"{name}#{node}"]
     X += shift
-    track = dyn.sensors["tracked"] + S @ np.array([np.eye(dim)[ax] for ax in p._chan_axis]).reshape(p.nc, dim) \
+    track = dyn.sensors["tracked"] + S @ np.array([np.eye(dim)[ax] for ax in p.chan_axis]).reshape(p.nc, dim) \
         if p.nc else dyn.sensors["tracked"]
     qf = X[:, p.part.roots]
 
@@ -180,7 +180,7 @@ def resimulate_motion(p: ControlProblem, T: float, motion: Callable, res: Contro
         return np.column_stack([np.interp(tt, t, vf[:, i]) for i in range(p.nf)])
 
     mismatch = mismatch_q = None
-    idx, wts = p._probe(mem, at)
+    idx, wts = p.probe(mem, at)
     if res is not None:
         during = t <= T + 1e-12
         ref = res.point(mem, at, t[during])
@@ -188,13 +188,13 @@ def resimulate_motion(p: ControlProblem, T: float, motion: Callable, res: Contro
         tn = p.node_times(T)
         qn = q_free_at(tn)
         mismatch_q = float(np.max(np.abs(qn - res.q_free)))
-    x_end = p.full(p.q_end, p._chan_vector(p.end_values))
+    x_end = p.full(p.q_end, p.chan_vector(p.end_values))
     r_end = np.array([x_end[row] @ wts for row in idx])
     post = t >= T - 1e-12
     swing = motion_ = None
     if np.any(post):
         dev = track[post] - r_end
-        axes = sorted(set(p._chan_axis)) or [0]
+        axes = sorted(set(p.chan_axis)) or [0]
         swing = float(np.max(np.abs(dev[:, axes])))
         motion_ = float(np.max(np.linalg.norm(dev, axis=1)))
     return ResimulationReport(dyn.success, dyn.status, t, track, S, mismatch, mismatch_q, swing, motion_, after, dt,

@@ -70,7 +70,7 @@ class ControlResult:
 
     def point(self, member: str, at: Any = "end", t: np.ndarray | None = None) -> np.ndarray:
         """Position of a centreline point at the state nodes (t=None) or at times t (collocation polynomials)."""
-        idx, wts = self.prob._probe(member, at)
+        idx, wts = self.prob.probe(member, at)
         if t is None:
             return np.stack([self.q[:, row] @ wts for row in idx], axis=1)
         q = self.state_at(t)[0]

@@ -8,16 +8,26 @@ import numpy as np
 import scipy.sparse as sp
 
 from ancf_sym.dynamics.collocation import interval_end, stage_rates, stage_residual, stage_tangent
-from ancf_sym.control.model import newton
+from ancf_sym.control.bounds import Bounds
+from ancf_sym.control.model import ControlModel, newton
+from ancf_sym.control.options import ControlOptions
+from ancf_sym.control.transcription import Transcription
 
 
-class WarmStartMixin:
-    """ControlProblem's initial guesses."""
+class WarmStart:
+    """Initial guesses of a control problem's decision vector, from the model's own collocation equations (so
+    that IPOPT starts with every dynamics row satisfied) or from a given trajectory."""
 
-    def naive_motion(self, T: float):
+    def __init__(self, model: ControlModel, options: ControlOptions, bounds: Bounds, transcription: Transcription,
+                 q_start: np.ndarray):
+        self.model, self.options, self.bounds, self.tr = model, options, bounds, transcription
+        self.q_start = q_start
+
+    def naive_motion(self, T: float) -> Callable:
         """Smooth rest-to-rest support motion (quintic, zero velocity and acceleration at both ends): a function
         of t giving (s, s', s'') arrays (len(t) x channels)."""
-        s0, sT = self._chan_vector(self.start_values), self._chan_vector(self.end_values)
+        m, b = self.model, self.bounds
+        s0, sT = m.chan_vector(b.start_values), m.chan_vector(b.end_values)
         d = sT - s0
 
         def motion(t):
@@ -32,33 +42,36 @@ class WarmStartMixin:
                               forces: Callable | None = None) -> np.ndarray:
         """Decision vector from free coordinates q_of_t(t) and velocities v_of_t(t) ((len(t), nf) arrays), the
         support motion motion(t) -> (s, s', s'') and the controlled forces forces(t) -> (len(t), nF)."""
-        nf, nc = self.nf, self.nc
-        tn = self.node_times(T)
-        Z = np.zeros((self.Nn, self.nz))
+        m, tr = self.model, self.tr
+        nf, nc = m.nf, m.nc
+        tn = tr.node_times(T)
+        Z = np.zeros((tr.Nn, tr.nz))
         Z[:, :nf], Z[:, nf:2 * nf] = q_of_t(tn), v_of_t(tn)
         sp_, sv_, _ = motion(tn)
         Z[:, 2 * nf:2 * nf + nc], Z[:, 2 * nf + nc:] = sp_, sv_
-        tp = self.point_times(T)
-        U = np.zeros((self.Pp, self.nu))
+        tp = tr.point_times(T)
+        U = np.zeros((tr.Pp, m.nu))
         if nc:
             U[:, :nc] = motion(tp)[2]
-        if self.nF and forces is not None:
+        if m.nF and forces is not None:
             U[:, nc:] = forces(tp)
-        return self.pack(Z, U, T)
+        return tr.pack(Z, U, T)
 
-    def collocation_simulation(self, T: float, controls: np.ndarray, max_iter: int = 20):
+    def collocation_simulation(self, T: float, controls: np.ndarray,
+                               max_iter: int = 20) -> tuple[np.ndarray, bool, str]:
         """Integrate the scene with the OCP's own collocation equations for given point controls (Pp x nu), from
         the start state: each interval's stage equations solved by Newton on their exact sparse Jacobian.
         Returns (decision vector, converged?, message); the vector satisfies every dynamics row the NLP has."""
-        K, s, nf, nc = self.K, self.s, self.nf, self.nc
-        tab = self.tab
+        m, tr = self.model, self.tr
+        K, s, nf, nc = self.options.K, self.options.s, m.nf, m.nc
+        tab = self.options.tab
         h = T / K
-        U = np.asarray(controls, float).reshape(self.Pp, self.nu)
-        Mff, Mfc = self.Mff, self.Mfc
-        Z = np.zeros((self.Nn, self.nz))
+        U = np.asarray(controls, float).reshape(tr.Pp, m.nu)
+        Mff, Mfc = m.Mff, m.Mfc
+        Z = np.zeros((tr.Nn, tr.nz))
         q, v = self.q_start.copy(), np.zeros(nf)
-        sc, svc = self._chan_vector(self.start_values), np.zeros(nc)
-        fscale = max(float(np.max(np.abs(self.f_lin))), 1e-300)
+        sc, svc = m.chan_vector(self.bounds.start_values), np.zeros(nc)
+        fscale = max(float(np.max(np.abs(m.f_lin))), 1e-300)
         message = ""
         ok_all = True
         Qs = np.array([q + tab.c[j] * h * v for j in range(s)])  # stage positions, a row per stage
@@ -67,22 +80,22 @@ class WarmStartMixin:
             Ua, Uf = Uk[:, :nc], Uk[:, nc:]
             SV = svc[None, :] + h * tab.A @ Ua
             SP = sc[None, :] + h * tab.A @ SV
-            rest = np.tile(-self.f_lin[:, None], (1, s))  # the support and control forces at the stages
+            rest = np.tile(-m.f_lin[:, None], (1, s))  # the support and control forces at the stages
             if nc:
                 rest += Mfc @ Ua.T
-            if self.nF:
-                rest -= self.Bf @ Uf.T
+            if m.nF:
+                rest -= m.Bf @ Uf.T
 
             def residual(Qs, q=q, v=v, rest=rest, SP=SP):
                 """The interval's stage equations (rows: stages) and their exact Jacobian."""
                 g, Ks = np.zeros((nf, s)), []
                 for j in range(s):
-                    g[:, j], Kj, _ = self.forces(Qs[j], SP[j])
+                    g[:, j], Kj, _ = m.forces(Qs[j], SP[j])
                     Ks.append(Kj)
                 R = stage_residual(tab, h, Mff, Qs.T, q, v, rest + g)[0]
                 return R.T, lambda: sp.bmat(stage_tangent(tab, h, Mff, Ks), format="csc")
             Qs, rn, ok = newton(residual, Qs, 1e-9 * fscale, max_iter, halvings=20,
-                                tol_step=1e-12 * self.length_scale)
+                                tol_step=1e-12 * m.length_scale)
             if not ok:
                 ok_all = False
                 message = f"interval {k}: Newton did not converge (residual {rn:.3g} N)"
@@ -101,16 +114,16 @@ class WarmStartMixin:
         else:  # hold the last good state
             last = k * (s + 1)
             Z[last:] = np.r_[q, v, sc, svc]
-        return self.pack(Z, U, T), ok_all, message
+        return tr.pack(Z, U, T), ok_all, message
 
-    def warm_start(self):
+    def warm_start(self) -> tuple[np.ndarray, dict]:
         """A simulation of the naive (quintic rest-to-rest) support motion with the OCP's own collocation
         equations: every dynamics row holds at the start, only the end conditions are off."""
-        T = self.T_guess
+        T = self.options.T_guess
         motion = self.naive_motion(T)
-        U = np.zeros((self.Pp, self.nu))
-        if self.nc:
-            U[:, :self.nc] = motion(self.point_times(T))[2]
+        U = np.zeros((self.tr.Pp, self.model.nu))
+        if self.model.nc:
+            U[:, :self.model.nc] = motion(self.tr.point_times(T))[2]
         w, ok, msg = self.collocation_simulation(T, U)
         return w, {"method": "collocation simulation of a quintic rest-to-rest motion", "converged": ok,
                    "message": msg}
