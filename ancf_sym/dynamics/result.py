@@ -39,6 +39,9 @@ class DynamicResult:
     # per penalty contact (ancf_sym.contact_gap.Watch.record): the smallest true gap of the centre line over every
     # accepted step [m] (None: never below 0), its time [s] and the law's sampled penetration then [m]
     contact_gaps: list = field(default_factory=list)
+    # contact scenes: accepted steps taken on the contact-free step graph while no element was in reach of a surface
+    # (ancf_sym.dynamics.reach)
+    steps_out_of_reach: int = 0
 
     def __post_init__(self) -> None:
         # a wrong sensor or energy name is refused listing the names there are

@@ -60,6 +60,7 @@ class TimeLoop:
         self.lam_prev = integ.lam.copy()
         # penalty contact: every accepted state checked for a surface the law's points missed (contact_gap)
         self.gaps = contact_gap.Watch(S) if contact_gap.checked_contacts(S.asm.scene) else None
+        self.free = None  # contact scenes: chunks on the contact-free graph while out of reach (dynamics.reach)
         self.out_i = 0
         self._out = outputs.tolist() if outputs is not None else None  # (bisection in _accepted_many)
         if outputs is None or outputs[0] <= self.t + self.eps_t:
@@ -173,8 +174,11 @@ class TimeLoop:
         if S.nw:  # the drives' time inputs below the loads
             pl = np.vstack([pl, np.column_stack([S.w(self.grid(k + j + 1)) for j in range(n)])])
         q_old, v_old = integ.q.copy(), integ.v.copy()
-        states, n_ok = integ.run_chunk(o.dt, pl)
-        if self.gaps is not None and n_ok:
+        if self.free is not None:
+            states, n_ok, free = self.free.run_chunk(o.dt, pl)
+        else:
+            (states, n_ok), free = integ.run_chunk(o.dt, pl), False
+        if self.gaps is not None and n_ok and not free:  # (free: every state out of reach, no gap below 0)
             self.gaps.check([self.grid(k + j + 1) for j in range(n_ok)], states[:n_ok, :nf])
             self._check_gaps()
         t_old = self.t
@@ -182,7 +186,18 @@ class TimeLoop:
             self._accepted_many(k, n_ok, states, q_old, v_old)
             self._check_energy()
             return n_ok
-        FD = damping_force_rows(S, states[:n_ok, :nf], states[:n_ok, nf:2 * nf]) if S.damped else None
+        if free:  # every kept state out of reach: the contacts' damping and friction forces are exactly 0
+            FS = self.free.free_S
+            FD = damping_force_rows(FS, states[:n_ok, :nf], states[:n_ok, nf:2 * nf]) if FS.damped else None
+            if FD is None:
+                self.fd_prev = np.zeros(nf)
+                if self.loads is None and S.drives is None:
+                    self._accepted_many(k, n_ok, states, q_old, v_old)
+                    self._check_energy()
+                    return n_ok
+                FD = np.zeros((n_ok, nf))
+        else:
+            FD = damping_force_rows(S, states[:n_ok, :nf], states[:n_ok, nf:2 * nf]) if S.damped else None
         for j in range(n_ok):
             t_new = self.grid(k + j + 1)
             q_new, v_new = states[j, :nf], states[j, nf:2 * nf]
