@@ -182,21 +182,25 @@ def strain_rate_mx(sr: StrainRateData, xf: ca.MX, X: ca.MX, V: ca.MX, vf: ca.MX)
     return [fd, ca.jacobian(fd, xf), ca.jacobian(fd, vf)]
 
 
+def _contact_inputs(S: "StepSystem", X: ca.MX, V: ca.MX):
+    """Per dissipation call (kernel, element inputs Z = [x; v] (2 nd x N), parameters, idx, nd, N)."""
+    for element, effect, gauss, idx, P in contact.dissipation_calls(S.asm.mesh):
+        N, nd = idx.shape
+        Z = ca.vertcat(ca.reshape(X[idx.ravel().tolist()], nd, N), ca.reshape(V[idx.ravel().tolist()], nd, N))
+        yield element, effect, None if gauss == 5 else gauss, Z, ca.DM(P.T), idx, nd, N
+
+
 def contact_dissipation_mx(S: "StepSystem", X: ca.MX, V: ca.MX):
     """(f, df/dx, df/dv) on the unknowns of step system S, for full coordinates X and velocities V (MX in S's
     unknowns x, v), or None without dissipative contact. Assembled from the kernels' gradient (v-part) and Hessian
     blocks: exact tangents, no differentiation through the compiled calls."""
-    calls = contact.dissipation_calls(S.asm.mesh)
-    if not calls:
+    if not contact.dissipation_calls(S.asm.mesh):
         return None
     nf, pos = S.nf, S.pos
     fv, ft, hv, rx, cx, sx, rv, cv, sv = [], [], [], [], [], [], [], [], []
     n_h = 0
-    for element, effect, gauss, idx, P in calls:
-        N, nd = idx.shape
-        k = kernels.load(element, effect, None if gauss == 5 else gauss)
-        Z = ca.vertcat(ca.reshape(X[idx.ravel().tolist()], nd, N), ca.reshape(V[idx.ravel().tolist()], nd, N))
-        _, G, H = k.map(N)(Z, ca.DM(P.T))
+    for element, effect, gauss, Z, Pd, idx, nd, N in _contact_inputs(S, X, V):
+        _, G, H = kernels.load(element, effect, gauss).map(N)(Z, Pd)
         fv.append(ca.vec(G[nd:, :]))
         ft.append(pos[idx.ravel()])  # vec of G[nd:, :]: element e, row a -> coordinate idx[e, a]
         hv.append(ca.vec(H))
@@ -216,6 +220,19 @@ def contact_dissipation_mx(S: "StepSystem", X: ca.MX, V: ca.MX):
     dfx = scatter(hv, np.concatenate(rx), np.concatenate(cx), nf, np.concatenate(sx), n_h)
     dfv = scatter(hv, np.concatenate(rv), np.concatenate(cv), nf, np.concatenate(sv), n_h)
     return f, dfx, dfv
+
+
+def contact_dissipation_force_mx(S: "StepSystem", X: ca.MX, V: ca.MX):
+    """The force f of contact_dissipation_mx alone, from the kernels' (energy, gradient) companions: no Hessian
+    work (the same gradient, summed in the same order), or None without dissipative contact."""
+    if not contact.dissipation_calls(S.asm.mesh):
+        return None
+    fv, ft = [], []
+    for element, effect, gauss, Z, Pd, idx, nd, N in _contact_inputs(S, X, V):
+        _, G = kernels.load_grad(element, effect, gauss).map(N)(Z, Pd)
+        fv.append(ca.vec(G[nd:, :]))
+        ft.append(S.pos[idx.ravel()])
+    return gather_sum(fv, np.concatenate(ft), S.nf)
 
 
 def _reach_switch(S: "StepSystem", xf: ca.MX, vf: ca.MX, X: ca.MX, dc: tuple) -> tuple:
@@ -240,7 +257,8 @@ def _reach_switch(S: "StepSystem", xf: ca.MX, vf: ca.MX, X: ca.MX, dc: tuple) ->
     none = ca.Function("contact_out_of_reach", [xf, vf], [ca.MX.zeros(o.sparsity()) for o in dc])
     switch = ca.Function.conditional("contact_dissipation_in_reach", [none], reach)  # 0: none in reach
     in_reach = ca.mmin(ca.vertcat(*bounds)) <= 0
-    return tuple(switch(in_reach, xf, vf))
+    out = switch(in_reach, xf, vf)
+    return (out,) if len(dc) == 1 else tuple(out)
 
 
 def dissipation_functions(S: "StepSystem") -> tuple[ca.Function | None, ca.Function | None]:
@@ -253,18 +271,22 @@ def dissipation_functions(S: "StepSystem") -> tuple[ca.Function | None, ca.Funct
     xf, vf = ca.MX.sym("x", nf), ca.MX.sym("v", nf)
     X, V = S.x_full_mx(xf), ca.mtimes(dm(S.E), vf)
     dc = contact_dissipation_mx(S, X, V)
+    fc = None
     if dc is not None:
+        fc = _reach_switch(S, xf, vf, X, (contact_dissipation_force_mx(S, X, V),))[0]
         dc = _reach_switch(S, xf, vf, X, dc)
     if sr is None:
         if dc is None:
             return None, None
         return (ca.Function("contact_dissipation", [xf, vf], list(dc), ["x", "v"], ["f", "df_dx", "df_dv"]),
-                ca.Function("contact_force", [xf, vf], [dc[0]], ["x", "v"], ["f"]))
+                ca.Function("contact_force", [xf, vf], [fc], ["x", "v"], ["f"]))
     outs = strain_rate_mx(sr, xf, X, V, vf)
+    force = outs[0]
     if dc is not None:
         outs = [a + b for a, b in zip(outs, dc)]
+        force = force + fc
     return (ca.Function("strain_rate_damping", [xf, vf], outs, ["x", "v"], ["f", "df_dx", "df_dv"]),
-            ca.Function("strain_rate_force", [xf, vf], [outs[0]], ["x", "v"], ["f"]))
+            ca.Function("strain_rate_force", [xf, vf], [force], ["x", "v"], ["f"]))
 
 
 def damping_force(S: "StepSystem", xf: np.ndarray, vf: np.ndarray) -> np.ndarray | None:
