@@ -67,3 +67,47 @@ def test_touchdown_is_never_missed(kind, y, t_end, monkeypatch):
     assert 0.5 * touchdown <= on.steps_out_of_reach * 1e-3 <= touchdown
     assert float(np.abs(off.energies["damping_work"]).max()) > 0  # the contact's friction and damping did work
     _same(on, off)
+
+
+@pytest.mark.parametrize("element, effect", [("cable2d", "contact_ground_friction"), ("cable2d", "contact_drum_friction"),
+                                             ("cable2d", "contact_body_friction"), ("cable3d", "contact_ground_friction")])
+def test_rows_kernel_is_the_hessians_force_rows(element, effect):
+    """The step's friction kernel (<name>_rows: force and [df/dq, df/dv]) gives the v-part of the full kernel's
+    gradient and the v-rows of its Hessian: the same SX graph restricted to those outputs, so the same numbers
+    entry for entry (compared to 1e-14 relative: the two are compiled as separate C functions)."""
+    import casadi as ca
+
+    from ancf_sym import kernels, registry
+
+    n = registry.input_size(element, effect) // 2
+    params = registry.EFFECTS[(element, effect)].params
+    rng = np.random.default_rng(3)
+    p = {"L": 0.1, "k": 1e4, "kh": 1e5, "t": 0.005, "c": 30.0, "mu": 0.3, "eps": 1e-3, "R": 0.3, "d": 0.0,
+         "nx": 0.0, "ny": 1.0, "nz": 0.0, "ax": 0.0, "ay": 0.0, "az": 1.0}
+    P = np.array([p.get(k, 0.0) for k in params])
+    full, rows = kernels.load(element, effect), kernels.load_rows(element, effect)
+    checked = 0
+    for _ in range(5):
+        z = rng.normal(scale=0.3, size=2 * n)
+        _, g, H = (np.asarray(o) for o in full(z, P))
+        f, J = (np.asarray(o) for o in rows(z, P))
+        scale = max(1.0, np.abs(H).max())
+        assert np.allclose(f.ravel(), g.ravel()[n:], rtol=0, atol=1e-14 * max(1.0, np.abs(g).max()))
+        assert np.allclose(J, H[n:, :], rtol=0, atol=1e-14 * scale)
+        checked += np.abs(J).max() > 0
+    assert checked  # some states penetrate (nonzero force and tangents), not only zeros
+
+
+def test_run_without_energies_skips_work_booking_only():
+    """energies=False skips the damping and load work (the energy balance is all that reads it): the motion of a
+    rope sliding on the ground with friction is the same, bit for bit."""
+    sc = _scene("ground", 0.005 - 1000 * np.pi * 0.005 ** 2 * 9.81 / 1e4)  # at its static penetration
+    from ancf_sym.assembly import Assembly
+
+    v = np.zeros(Assembly(sc).n)
+    v[0::4] = 1.0
+    a = simulate(sc, DynamicOptions(dt=1e-3, t_end=0.1, v0=v))
+    b = simulate(sc, DynamicOptions(dt=1e-3, t_end=0.1, v0=v, energies=False))
+    assert a.success and b.success
+    assert float(np.abs(a.energies["damping_work"]).max()) > 0 and not b.energies
+    assert np.array_equal(a.x, b.x) and np.array_equal(a.v, b.v)

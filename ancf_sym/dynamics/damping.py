@@ -192,30 +192,31 @@ def _contact_inputs(S: "StepSystem", X: ca.MX, V: ca.MX):
 
 def contact_dissipation_mx(S: "StepSystem", X: ca.MX, V: ca.MX):
     """(f, df/dx, df/dv) on the unknowns of step system S, for full coordinates X and velocities V (MX in S's
-    unknowns x, v), or None without dissipative contact. Assembled from the kernels' gradient (v-part) and Hessian
-    blocks: exact tangents, no differentiation through the compiled calls."""
+    unknowns x, v), or None without dissipative contact. From the kernels' _rows companions (the force dD/dv and
+    its Jacobian blocks [df/dq, df/dv], the v-rows of D's Hessian): exact tangents, no differentiation through
+    the compiled calls, no work on the Hessian's q-q block."""
     if not contact.dissipation_calls(S.asm.mesh):
         return None
     nf, pos = S.nf, S.pos
     fv, ft, hv, rx, cx, sx, rv, cv, sv = [], [], [], [], [], [], [], [], []
     n_h = 0
     for element, effect, gauss, Z, Pd, idx, nd, N in _contact_inputs(S, X, V):
-        _, G, H = kernels.load(element, effect, gauss).map(N)(Z, Pd)
-        fv.append(ca.vec(G[nd:, :]))
-        ft.append(pos[idx.ravel()])  # vec of G[nd:, :]: element e, row a -> coordinate idx[e, a]
-        hv.append(ca.vec(H))
-        # vec(H) entry e (2nd)^2 + b 2nd + a is d2D / dz_a dz_b; rows a >= nd (forces), columns b < nd (x), >= nd (v)
-        e, b, a = np.meshgrid(np.arange(N), np.arange(2 * nd), np.arange(2 * nd), indexing="ij")
-        src = n_h + (e * (2 * nd) ** 2 + b * 2 * nd + a).ravel()
+        F, J = kernels.load_rows(element, effect, gauss).map(N)(Z, Pd)  # F (nd x N), J (nd x 2nd N)
+        fv.append(ca.vec(F))
+        ft.append(pos[idx.ravel()])  # vec of F: element e, row a -> coordinate idx[e, a]
+        hv.append(ca.vec(J))
+        # vec(J) entry e nd 2nd + b nd + a is df_a / dz_b; columns b < nd (x), >= nd (v)
+        e, b, a = np.meshgrid(np.arange(N), np.arange(2 * nd), np.arange(nd), indexing="ij")
+        src = n_h + (e * (2 * nd * nd) + b * nd + a).ravel()
         e, b, a = e.ravel(), b.ravel(), a.ravel()
-        row = np.where(a >= nd, pos[idx[e, a % nd]], -1)
+        row = pos[idx[e, a]]
         col = pos[idx[e, b % nd]]
         ok = (row >= 0) & (col >= 0)
         for sel, R, C, S_ in ((ok & (b < nd), rx, cx, sx), (ok & (b >= nd), rv, cv, sv)):
             R.append(row[sel])
             C.append(col[sel])
             S_.append(src[sel])
-        n_h += N * (2 * nd) ** 2
+        n_h += N * 2 * nd * nd
     f = gather_sum(fv, np.concatenate(ft), nf)
     dfx = scatter(hv, np.concatenate(rx), np.concatenate(cx), nf, np.concatenate(sx), n_h)
     dfv = scatter(hv, np.concatenate(rv), np.concatenate(cv), nf, np.concatenate(sv), n_h)
