@@ -111,3 +111,39 @@ def test_run_without_energies_skips_work_booking_only():
     assert a.success and b.success
     assert float(np.abs(a.energies["damping_work"]).max()) > 0 and not b.energies
     assert np.array_equal(a.x, b.x) and np.array_equal(a.v, b.v)
+
+
+@pytest.mark.parametrize("kind", ["ground", "drum"])
+def test_reach_bound_is_contact_gaps_hull_bound_3d(kind):
+    """The free chunks' reach test (control points as one sparse product per contact) is contact_gap's Bezier hull
+    bound, element by element (3D cable, a tilted ground, a drum of skew axis; random states): the same formula,
+    so equal to round-off."""
+    from ancf_sym import contact_gap
+    from ancf_sym.assembly import Assembly
+    from ancf_sym.integrators import StepSystem
+
+    sc = Scene(dim=3, gravity=(0.0, 0.0, -9.81))
+    sc.member("rope", [(0.0, 0.0, 0.05), (1.0, 0.2, 0.05)], 6, Material(E=2e9, density=1000.0), Section.circle(0.01))
+    if kind == "ground":
+        sc.contact_ground("rope", normal=(0.1, 0.0, 1.0), level=-0.1, **LAW)
+    else:
+        sc.contact_drum("rope", centre=(0.5, 0.0, -0.3), radius=0.3, axis=(0.0, 1.0, 0.2), **LAW)
+    asm = Assembly(sc)
+    S = StepSystem(asm)
+    fc = reach.FreeChunks(S, None, None, None)
+    rng = np.random.default_rng(4)
+    Q = np.array([S.reduce(asm.x0) + 0.05 * rng.normal(size=S.nf) for _ in range(4)])
+    got = fc._clearance(Q, np.zeros_like(Q))
+    c = sc.contacts[0]
+    X = S.full_rows(Q)
+    A = contact_gap.cubic(asm, c, X)
+    ref = []
+    for i in range(len(Q)):
+        Ai = A[i]
+        if contact_gap.is_drum(c):
+            centre, P = contact_gap.surfaces(asm, c, X[i:i + 1])
+            Ai = contact_gap._relative(c, Ai, np.broadcast_to(centre[0], (len(Ai), 3)),
+                                       np.broadcast_to(P[0], (len(Ai), 3, 3)))
+        ref.append(contact_gap.gap_lower_bound(c, Ai).min() - fc.floor[0])
+    assert np.allclose(got, ref, rtol=0, atol=1e-12)
+    assert np.any(np.array(ref) < 0) or kind == "ground"  # (the drum states reach in and out)
