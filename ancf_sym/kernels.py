@@ -139,6 +139,17 @@ def load_grad(element: str, effect: str, gauss: int | None = None) -> ca.Functio
 
 
 @functools.lru_cache(maxsize=None)
+def load_rows(element: str, effect: str, gauss: int | None = None) -> ca.Function:
+    """A dissipation kernel's (z, p) -> (force, [df/dq, df/dv]) (z = [q; v]): the force dD/dv and the rows of its
+    Hessian the dynamics' step uses, without the q-q block's work."""
+    eff = _check_names(element, effect)
+    if not eff.rates:
+        raise KernelError(f"{element}/{effect} is not a dissipation kernel (no {registry.ROWS_SUFFIX} companion)")
+    name = registry.kernel_name(element, effect, gauss) + registry.ROWS_SUFFIX
+    return ca.external(name, str(library_path(registry.library_name(element, effect))))
+
+
+@functools.lru_cache(maxsize=None)
 def load_batch(element: str, effect: str, gauss: int | None = None, companion: str = "") -> ca.Function | None:
     """The batched kernel (companion "") or its "_grad" / "_energy" companion evaluating registry.BATCH_LANES
     elements per call in SIMD lanes: (q[nd x lanes], p[np x lanes]) -> the outputs of the one-element function

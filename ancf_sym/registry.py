@@ -230,6 +230,9 @@ def fused_effect(element: str, effects: tuple[str, ...]) -> str | None:
 # energies per effect at the output times); and the kernel itself of bending (cables without axial stiffness) and
 # of axial_decoupled[_biot] (the unfused calls, StepSystem(fuse=False), the fused kernel's reference in
 # bench/decoupled_fused.py). Elsewhere the graphs map the one-element function.
+# A dissipation kernel's (Effect.rates) companion <name>_rows: (z, p) -> (force dD/dv, [df/dq, df/dv]), the rows of
+# its Hessian the dynamics' step uses (codegen.forms.rates_rows)
+ROWS_SUFFIX = "_rows"
 BATCH_LANES = 4
 BATCH_SUFFIX = f"_x{BATCH_LANES}"
 

@@ -89,6 +89,24 @@ int cable2d_contact_ground_friction_grad_work_bytes(casadi_int *sz_arg, casadi_i
 #define cable2d_contact_ground_friction_grad_SZ_RES 2
 #define cable2d_contact_ground_friction_grad_SZ_IW 0
 #define cable2d_contact_ground_friction_grad_SZ_W 0
+int cable2d_contact_ground_friction_rows(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int cable2d_contact_ground_friction_rows_checkout(void);
+void cable2d_contact_ground_friction_rows_release(int mem);
+void cable2d_contact_ground_friction_rows_incref(void);
+void cable2d_contact_ground_friction_rows_decref(void);
+casadi_int cable2d_contact_ground_friction_rows_n_in(void);
+casadi_int cable2d_contact_ground_friction_rows_n_out(void);
+casadi_real cable2d_contact_ground_friction_rows_default_in(casadi_int i);
+const char* cable2d_contact_ground_friction_rows_name_in(casadi_int i);
+const char* cable2d_contact_ground_friction_rows_name_out(casadi_int i);
+const casadi_int* cable2d_contact_ground_friction_rows_sparsity_in(casadi_int i);
+const casadi_int* cable2d_contact_ground_friction_rows_sparsity_out(casadi_int i);
+int cable2d_contact_ground_friction_rows_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int cable2d_contact_ground_friction_rows_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define cable2d_contact_ground_friction_rows_SZ_ARG 2
+#define cable2d_contact_ground_friction_rows_SZ_RES 2
+#define cable2d_contact_ground_friction_rows_SZ_IW 0
+#define cable2d_contact_ground_friction_rows_SZ_W 0
 int cable2d_contact_ground_friction_g3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int cable2d_contact_ground_friction_g3_checkout(void);
 void cable2d_contact_ground_friction_g3_release(int mem);
@@ -161,6 +179,24 @@ int cable2d_contact_ground_friction_g3_grad_work_bytes(casadi_int *sz_arg, casad
 #define cable2d_contact_ground_friction_g3_grad_SZ_RES 2
 #define cable2d_contact_ground_friction_g3_grad_SZ_IW 0
 #define cable2d_contact_ground_friction_g3_grad_SZ_W 0
+int cable2d_contact_ground_friction_g3_rows(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int cable2d_contact_ground_friction_g3_rows_checkout(void);
+void cable2d_contact_ground_friction_g3_rows_release(int mem);
+void cable2d_contact_ground_friction_g3_rows_incref(void);
+void cable2d_contact_ground_friction_g3_rows_decref(void);
+casadi_int cable2d_contact_ground_friction_g3_rows_n_in(void);
+casadi_int cable2d_contact_ground_friction_g3_rows_n_out(void);
+casadi_real cable2d_contact_ground_friction_g3_rows_default_in(casadi_int i);
+const char* cable2d_contact_ground_friction_g3_rows_name_in(casadi_int i);
+const char* cable2d_contact_ground_friction_g3_rows_name_out(casadi_int i);
+const casadi_int* cable2d_contact_ground_friction_g3_rows_sparsity_in(casadi_int i);
+const casadi_int* cable2d_contact_ground_friction_g3_rows_sparsity_out(casadi_int i);
+int cable2d_contact_ground_friction_g3_rows_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int cable2d_contact_ground_friction_g3_rows_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define cable2d_contact_ground_friction_g3_rows_SZ_ARG 2
+#define cable2d_contact_ground_friction_g3_rows_SZ_RES 2
+#define cable2d_contact_ground_friction_g3_rows_SZ_IW 0
+#define cable2d_contact_ground_friction_g3_rows_SZ_W 0
 int cable2d_contact_ground_friction_g7(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int cable2d_contact_ground_friction_g7_checkout(void);
 void cable2d_contact_ground_friction_g7_release(int mem);
@@ -233,6 +269,24 @@ int cable2d_contact_ground_friction_g7_grad_work_bytes(casadi_int *sz_arg, casad
 #define cable2d_contact_ground_friction_g7_grad_SZ_RES 2
 #define cable2d_contact_ground_friction_g7_grad_SZ_IW 0
 #define cable2d_contact_ground_friction_g7_grad_SZ_W 0
+int cable2d_contact_ground_friction_g7_rows(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int cable2d_contact_ground_friction_g7_rows_checkout(void);
+void cable2d_contact_ground_friction_g7_rows_release(int mem);
+void cable2d_contact_ground_friction_g7_rows_incref(void);
+void cable2d_contact_ground_friction_g7_rows_decref(void);
+casadi_int cable2d_contact_ground_friction_g7_rows_n_in(void);
+casadi_int cable2d_contact_ground_friction_g7_rows_n_out(void);
+casadi_real cable2d_contact_ground_friction_g7_rows_default_in(casadi_int i);
+const char* cable2d_contact_ground_friction_g7_rows_name_in(casadi_int i);
+const char* cable2d_contact_ground_friction_g7_rows_name_out(casadi_int i);
+const casadi_int* cable2d_contact_ground_friction_g7_rows_sparsity_in(casadi_int i);
+const casadi_int* cable2d_contact_ground_friction_g7_rows_sparsity_out(casadi_int i);
+int cable2d_contact_ground_friction_g7_rows_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int cable2d_contact_ground_friction_g7_rows_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define cable2d_contact_ground_friction_g7_rows_SZ_ARG 2
+#define cable2d_contact_ground_friction_g7_rows_SZ_RES 2
+#define cable2d_contact_ground_friction_g7_rows_SZ_IW 0
+#define cable2d_contact_ground_friction_g7_rows_SZ_W 0
 void cable2d_contact_ground_friction_casadi_version(int* major, int* minor, int* patch);
 int cable2d_contact_ground_friction_casadi_int_size(void);
 int cable2d_contact_ground_friction_casadi_real_size(void);

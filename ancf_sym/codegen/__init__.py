@@ -49,7 +49,8 @@ def generate(out_dir: Path = GENERATED, verbose: bool = False) -> dict:
         third = registry.has_third_derivatives(element, effect, gauss)
         energy, grad = definitions.lower_orders(element, effect, gauss, k)
         lib = registry.library_name(element, effect)
-        groups.setdefault(lib, []).extend(writer.companions(k, energy, grad, third))
+        rows = definitions.rates_rows(element, effect, gauss, k)
+        groups.setdefault(lib, []).extend(writer.companions(k, energy, grad, third) + ([rows] if rows else []))
         batch = registry.batched(element, effect, gauss)
         if batch:
             by_suffix = {"": k, "_grad": grad, "_energy": energy}
@@ -59,7 +60,7 @@ def generate(out_dir: Path = GENERATED, verbose: bool = False) -> dict:
             "params": list(registry.EFFECTS[(element, effect)].params),
             "library": lib, "c_file": lib + ".c", "cflags": CFLAGS.get(lib, DEFAULT_CFLAGS),
             "functions": [name, name + "_energy", "adj1_" + name + "_energy", name + "_grad"]
-            + ([name + "_hvp"] if third else [])
+            + ([name + "_hvp"] if third else []) + ([rows.name()] if rows else [])
             + [name + s + registry.BATCH_SUFFIX for s in batch],
         })
     digests = {}

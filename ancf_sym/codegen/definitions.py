@@ -240,3 +240,11 @@ def lower_orders(element: str, effect: str, gauss: int | None, k: ca.Function) -
             _POINT_CACHE[key] = (forms.pruned(pt, 1, pt.name() + "_e"), forms.pruned(pt, 2, pt.name() + "_eg"))
         points = _POINT_CACHE[key]
     return forms.lower_orders(k, points, gauss or eff.default_gauss)
+
+
+def rates_rows(element: str, effect: str, gauss: int | None, k: ca.Function) -> ca.Function | None:
+    """A dissipation kernel's <name>_rows companion (forms.rates_rows: the force and its q- and v-Jacobian blocks),
+    None for other effects."""
+    if not registry.EFFECTS[(element, effect)].rates:
+        return None
+    return forms.rates_rows(k if k.is_a("SXFunction") else k.expand(), k.name() + registry.ROWS_SUFFIX)

@@ -79,6 +79,16 @@ def pruned(f: ca.Function, n_out: int, name: str) -> ca.Function:
     return ca.Function(name, args, outs, f.name_in(), f.name_out()[:n_out])
 
 
+def rates_rows(kernel: ca.Function, name: str) -> ca.Function:
+    """(z, p) -> (f, J) of a dissipation kernel D(z), z = [q; v] (n each): the force f = dD/dv and its Jacobian
+    J = [df/dq, df/dv] (n x 2n), the rows of the Hessian the step uses; the q-q block's operations are dropped
+    (the kernel's own SX graph restricted to these outputs: the same arithmetic, entry for entry)."""
+    args = [ca.SX.sym(kernel.name_in(i), kernel.sparsity_in(i)) for i in range(kernel.n_in())]
+    _, g, H = kernel.call(args)
+    n = g.shape[0] // 2
+    return ca.Function(name, args, [g[n:], ca.densify(H[n:, :])], kernel.name_in(), ["force", "jacobian"])
+
+
 def direct_kernel(name: str, nq: int, n_p: int, energy: Callable[[ca.SX, ca.SX], ca.SX]) -> ca.Function:
     q, p = ca.SX.sym("q", nq), ca.SX.sym("p", n_p)
     U = energy(q, p)

@@ -74,7 +74,7 @@ class AlphaIntegrator:
         self.step_f = self._graphs["step"]
         self._setup_step_buffers()
         self._chunks: dict = {}  # this integrator's buffers of the chunk functions
-        self._guard_on = False
+        self.guard_on = False
 
     # -- the state ---------------------------------------------------------------------------------------------
     @property
@@ -278,7 +278,7 @@ class AlphaIntegrator:
         """Chunks with the no-op guard after a failed step: on large states (the guard's switch costs nothing
         against a step there), and on any state after a chunk has failed early (a hard transient: the steps after
         a failure would be thrown away). Small states start without: the switch costs ~5 % of a 130-unknown step."""
-        return self._guard_on or self.state_size >= chunks.LARGE_STATE
+        return self.guard_on or self.state_size >= chunks.LARGE_STATE
 
     def chunk_function(self, n: int, guard: bool | None = None):
         guard = self.guard if guard is None else guard
@@ -361,7 +361,7 @@ class AlphaIntegrator:
         m = min(n_ok + 1, n) if b["guard"] else n
         self._count(sum(info[1:m * isz:isz]), sum(info[2:m * isz:isz]))
         if n_ok < n - 1:
-            self._guard_on = True  # a hard transient: the next chunks stop at their failing step
+            self.guard_on = True  # a hard transient: the next chunks stop at their failing step
         if n_ok:
             self.state[:] = states[n_ok - 1]  # (its a_prev: the acceleration of the step before)
             for dst, src, k in zip(self.fac, b["fac_out"], self.fac_sizes):

@@ -41,6 +41,9 @@ class DynamicResult:
     contact_gaps: list = field(default_factory=list)
     # (len(t), n) every coordinate at the output times where options.record_states asked for them, else None
     states: np.ndarray | None = None
+    # contact scenes: accepted steps taken on the contact-free step graph while no element was in reach of a surface
+    # (ancf_sym.dynamics.reach)
+    steps_out_of_reach: int = 0
 
     def __post_init__(self) -> None:
         # a wrong sensor or energy name is refused listing the names there are

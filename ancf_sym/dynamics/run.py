@@ -23,6 +23,7 @@ from ancf_sym.dynamics.sensors import SensorEval
 from ancf_sym.system.step_system import StepSystem
 from ancf_sym.dynamics.time_loads import LoadSum
 from ancf_sym.dynamics.time_loop import TimeLoop, chunk_size
+from ancf_sym.dynamics.reach import FreeChunks
 
 
 def _velocity_form(cons, q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -157,6 +158,10 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
     integ = make_integrator(S, opts, counters, 0.0, tol_x)
     if integ.chunkable and not opts.adaptive and chunk_size(opts.n_grid):
         integ.prepare_chunks(chunk_size(opts.n_grid))  # compiled-call set-up, like the step graph itself
+    # contact scenes: chunks on the contact-free graph while no element is in reach (ancf_sym.dynamics.reach)
+    free = FreeChunks.build(S, integ, opts) if integ.chunkable and chunk_size(opts.n_grid) else None
+    if free is not None:
+        free.prepare(chunk_size(opts.n_grid))
     setup = time.perf_counter() - t_setup
     t_wall, t_cpu = time.perf_counter(), time.process_time()
     qf, vf = S.reduce(q0), S.reduce(v0)
@@ -170,6 +175,7 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
     rec = Recorder(S, sensors, opts.energies, opts.record_states)
     rec.E0 = rec.energy(integ.q, integ.v)[2] if opts.energies else None
     run = TimeLoop(S, integ, opts, loads, rec, outputs, every, progress, dt_min, dt_max, err_tol)
+    run.free = free
     run.go()
     # (the loop's time includes its outputs: the sensors and violations of chunked records are made here)
     sens = {name: np.array(vals) for name, vals in rec.data.items()}
@@ -185,6 +191,8 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
     res.states = rec.states
     if run.gaps is not None:  # penalty contact: the smallest true gaps over every accepted step
         res.contact_gaps = run.gaps.record()
+    if free is not None:
+        res.steps_out_of_reach = free.steps
     return res
 
 

@@ -54,12 +54,15 @@ class TimeLoop:
         self.steps, self.rejected = 0, []
         self.status, self.message = "completed", ""
         self.h_min, self.h_max = math.inf, 0.0
-        self.fd_prev = S.damping_force(integ.q, integ.v) if S.damped else None
+        # the works of damping and loads feed the energy balance only: not booked in a run without energies
+        self.book = rec.with_energies
+        self.fd_prev = S.damping_force(integ.q, integ.v) if S.damped and self.book else None
         self.Qn = loads(opts.t_start) if loads else None
         self.fD_prev = S.drive_force(integ.q, integ.lam, self.t)  # drives' and torques' force (their work: external)
         self.lam_prev = integ.lam.copy()
         # penalty contact: every accepted state checked for a surface the law's points missed (contact.gap)
         self.gaps = contact_gap.Watch(S) if contact_gap.checked_contacts(S.asm.scene) else None
+        self.free = None  # contact scenes: chunks on the contact-free graph while out of reach (dynamics.reach)
         self.out_i = 0
         self._out = outputs.tolist() if outputs is not None else None  # (bisection in _accepted_many)
         if outputs is None or outputs[0] <= self.t + self.eps_t:
@@ -77,7 +80,7 @@ class TimeLoop:
             self.W_ext += 0.5 * float((q_new - q_old) @ (self.fD_prev + fD))
             self.fD_prev = fD
             self.lam_prev = np.array(lam_new, float)
-        if fd is not None or self.loads is not None:
+        if self.book and (fd is not None or self.loads is not None):
             dq = q_new - q_old
             if fd is not None:
                 self.W_d += 0.5 * float(dq @ (self.fd_prev + fd))
@@ -173,16 +176,32 @@ class TimeLoop:
         if S.nw:  # the drives' time inputs below the loads
             pl = np.vstack([pl, np.column_stack([S.w(self.grid(k + j + 1)) for j in range(n)])])
         q_old, v_old = integ.q.copy(), integ.v.copy()
-        states, n_ok = integ.run_chunk(o.dt, pl)
-        if self.gaps is not None and n_ok:
+        if self.free is not None:
+            states, n_ok, free = self.free.run_chunk(o.dt, pl)
+        else:
+            (states, n_ok), free = integ.run_chunk(o.dt, pl), False
+        if self.gaps is not None and n_ok and not free:  # (free: every state out of reach, no gap below 0)
             self.gaps.check([self.grid(k + j + 1) for j in range(n_ok)], states[:n_ok, :nf])
             self._check_gaps()
         t_old = self.t
-        if not S.damped and self.loads is None and S.drives is None:  # no work to book per step: only the outputs
+        if (not self.book or (not S.damped and self.loads is None)) and S.drives is None:  # only the outputs
             self._accepted_many(k, n_ok, states, q_old, v_old)
             self._check_energy()
             return n_ok
-        FD = damping_force_rows(S, states[:n_ok, :nf], states[:n_ok, nf:2 * nf]) if S.damped else None
+        if free:  # every kept state out of reach: the contacts' damping and friction forces are exactly 0
+            FS = self.free.free_S
+            FD = damping_force_rows(FS, states[:n_ok, :nf], states[:n_ok, nf:2 * nf]) if FS.damped and self.book \
+                else None
+            if FD is None:
+                self.fd_prev = np.zeros(nf)
+                if self.loads is None and S.drives is None:
+                    self._accepted_many(k, n_ok, states, q_old, v_old)
+                    self._check_energy()
+                    return n_ok
+                FD = np.zeros((n_ok, nf))
+        else:
+            FD = damping_force_rows(S, states[:n_ok, :nf], states[:n_ok, nf:2 * nf]) if S.damped and self.book \
+                else None
         for j in range(n_ok):
             t_new = self.grid(k + j + 1)
             q_new, v_new = states[j, :nf], states[j, nf:2 * nf]
@@ -287,7 +306,7 @@ class TimeLoop:
                 continue
             q_old, v_old = integ.q.copy(), integ.v.copy()
             q_new, v_new = integ.new["q"].copy(), integ.new["v"].copy()
-            fd = self.S.damping_force(q_new, v_new) if self.S.damped else None  # (K_el of this step)
+            fd = self.S.damping_force(q_new, v_new) if self.S.damped and self.book else None  # (K_el of this step)
             integ.accept()
             self._accepted(t, t_new, q_old, v_old, q_new, v_new, fd, integ.lam)
             self._check_energy()

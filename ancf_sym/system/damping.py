@@ -179,40 +179,58 @@ def strain_rate_mx(sr: StrainRateData, xf: ca.MX, X: ca.MX, V: ca.MX, vf: ca.MX)
     return [fd, ca.jacobian(fd, xf), ca.jacobian(fd, vf)]
 
 
+def _contact_inputs(S: "StepSystem", X: ca.MX, V: ca.MX):
+    """Per dissipation call (kernel, element inputs Z = [x; v] (2 nd x N), parameters, idx, nd, N)."""
+    for element, effect, gauss, idx, P in contact.dissipation_calls(S.asm.mesh):
+        N, nd = idx.shape
+        Z = ca.vertcat(ca.reshape(X[idx.ravel().tolist()], nd, N), ca.reshape(V[idx.ravel().tolist()], nd, N))
+        yield element, effect, None if gauss == 5 else gauss, Z, ca.DM(P.T), idx, nd, N
+
+
 def contact_dissipation_mx(S: "StepSystem", X: ca.MX, V: ca.MX):
     """(f, df/dx, df/dv) on the unknowns of step system S, for full coordinates X and velocities V (MX in S's
-    unknowns x, v), or None without dissipative contact. Assembled from the kernels' gradient (v-part) and Hessian
-    blocks: exact tangents, no differentiation through the compiled calls."""
-    calls = contact.dissipation_calls(S.asm.mesh)
-    if not calls:
+    unknowns x, v), or None without dissipative contact. From the kernels' _rows companions (the force dD/dv and
+    its Jacobian blocks [df/dq, df/dv], the v-rows of D's Hessian): exact tangents, no differentiation through
+    the compiled calls, no work on the Hessian's q-q block."""
+    if not contact.dissipation_calls(S.asm.mesh):
         return None
     nf, pos = S.nf, S.pos
     fv, ft, hv, rx, cx, sx, rv, cv, sv = [], [], [], [], [], [], [], [], []
     n_h = 0
-    for element, effect, gauss, idx, P in calls:
-        N, nd = idx.shape
-        k = kernels.load(element, effect, None if gauss == 5 else gauss)
-        Z = ca.vertcat(ca.reshape(X[idx.ravel().tolist()], nd, N), ca.reshape(V[idx.ravel().tolist()], nd, N))
-        _, G, H = k.map(N)(Z, ca.DM(P.T))
-        fv.append(ca.vec(G[nd:, :]))
-        ft.append(pos[idx.ravel()])  # vec of G[nd:, :]: element e, row a -> coordinate idx[e, a]
-        hv.append(ca.vec(H))
-        # vec(H) entry e (2nd)^2 + b 2nd + a is d2D / dz_a dz_b; rows a >= nd (forces), columns b < nd (x), >= nd (v)
-        e, b, a = np.meshgrid(np.arange(N), np.arange(2 * nd), np.arange(2 * nd), indexing="ij")
-        src = n_h + (e * (2 * nd) ** 2 + b * 2 * nd + a).ravel()
+    for element, effect, gauss, Z, Pd, idx, nd, N in _contact_inputs(S, X, V):
+        F, J = kernels.load_rows(element, effect, gauss).map(N)(Z, Pd)  # F (nd x N), J (nd x 2nd N)
+        fv.append(ca.vec(F))
+        ft.append(pos[idx.ravel()])  # vec of F: element e, row a -> coordinate idx[e, a]
+        hv.append(ca.vec(J))
+        # vec(J) entry e nd 2nd + b nd + a is df_a / dz_b; columns b < nd (x), >= nd (v)
+        e, b, a = np.meshgrid(np.arange(N), np.arange(2 * nd), np.arange(nd), indexing="ij")
+        src = n_h + (e * (2 * nd * nd) + b * nd + a).ravel()
         e, b, a = e.ravel(), b.ravel(), a.ravel()
-        row = np.where(a >= nd, pos[idx[e, a % nd]], -1)
+        row = pos[idx[e, a]]
         col = pos[idx[e, b % nd]]
         ok = (row >= 0) & (col >= 0)
         for sel, R, C, S_ in ((ok & (b < nd), rx, cx, sx), (ok & (b >= nd), rv, cv, sv)):
             R.append(row[sel])
             C.append(col[sel])
             S_.append(src[sel])
-        n_h += N * (2 * nd) ** 2
+        n_h += N * 2 * nd * nd
     f = gather_sum(fv, np.concatenate(ft), nf)
     dfx = scatter(hv, np.concatenate(rx), np.concatenate(cx), nf, np.concatenate(sx), n_h)
     dfv = scatter(hv, np.concatenate(rv), np.concatenate(cv), nf, np.concatenate(sv), n_h)
     return f, dfx, dfv
+
+
+def contact_dissipation_force_mx(S: "StepSystem", X: ca.MX, V: ca.MX):
+    """The force f of contact_dissipation_mx alone, from the kernels' (energy, gradient) companions: no Hessian
+    work (the same gradient, summed in the same order), or None without dissipative contact."""
+    if not contact.dissipation_calls(S.asm.mesh):
+        return None
+    fv, ft = [], []
+    for element, effect, gauss, Z, Pd, idx, nd, N in _contact_inputs(S, X, V):
+        _, G = kernels.load_grad(element, effect, gauss).map(N)(Z, Pd)
+        fv.append(ca.vec(G[nd:, :]))
+        ft.append(S.pos[idx.ravel()])
+    return gather_sum(fv, np.concatenate(ft), S.nf)
 
 
 def _reach_switch(S: "StepSystem", xf: ca.MX, vf: ca.MX, X: ca.MX, dc: tuple) -> tuple:
@@ -237,7 +255,8 @@ def _reach_switch(S: "StepSystem", xf: ca.MX, vf: ca.MX, X: ca.MX, dc: tuple) ->
     none = ca.Function("contact_out_of_reach", [xf, vf], [ca.MX.zeros(o.sparsity()) for o in dc])
     switch = ca.Function.conditional("contact_dissipation_in_reach", [none], reach)  # 0: none in reach
     in_reach = ca.mmin(ca.vertcat(*bounds)) <= 0
-    return tuple(switch(in_reach, xf, vf))
+    out = switch(in_reach, xf, vf)
+    return (out,) if len(dc) == 1 else tuple(out)
 
 
 def dissipation_functions(S: "StepSystem") -> tuple[ca.Function | None, ca.Function | None]:
@@ -252,21 +271,26 @@ def dissipation_functions(S: "StepSystem") -> tuple[ca.Function | None, ca.Funct
     xf, vf = ca.MX.sym("x", nf), ca.MX.sym("v", nf)
     X, V = S.x_full_mx(xf), ca.mtimes(dm(S.E), vf)
     dc = contact_dissipation_mx(S, X, V)
+    fc = None
     if dc is not None:
+        fc = _reach_switch(S, xf, vf, X, (contact_dissipation_force_mx(S, X, V),))[0]
         dc = _reach_switch(S, xf, vf, X, dc)
     dw = water.force_mx(S, xf, vf, X, V)  # (lines in water: drag and the water line, ancf_sym.system.water)
     if dw is not None:
         dc = dw if dc is None else tuple(a + b for a, b in zip(dc, dw))
+        fc = dw[0] if fc is None else fc + dw[0]
     if sr is None:
         if dc is None:
             return None, None
         return (ca.Function("contact_dissipation", [xf, vf], list(dc), ["x", "v"], ["f", "df_dx", "df_dv"]),
-                ca.Function("contact_force", [xf, vf], [dc[0]], ["x", "v"], ["f"]))
+                ca.Function("contact_force", [xf, vf], [fc], ["x", "v"], ["f"]))
     outs = strain_rate_mx(sr, xf, X, V, vf)
+    force = outs[0]
     if dc is not None:
         outs = [a + b for a, b in zip(outs, dc)]
+        force = force + fc
     return (ca.Function("strain_rate_damping", [xf, vf], outs, ["x", "v"], ["f", "df_dx", "df_dv"]),
-            ca.Function("strain_rate_force", [xf, vf], [outs[0]], ["x", "v"], ["f"]))
+            ca.Function("strain_rate_force", [xf, vf], [force], ["x", "v"], ["f"]))
 
 
 def damping_force(S: "StepSystem", xf: np.ndarray, vf: np.ndarray) -> np.ndarray | None:
