@@ -178,6 +178,11 @@ def calibrate(doc: dict | str | Path, data: list[Measurement] | str | Path, para
         history.append((it - 1, cost, p.copy()))
         sigma2 = cost / (m - n)
         std_theta = np.sqrt(np.maximum(np.diag(np.linalg.inv(JtJ)) * sigma2, 0.0))
+        # the Gauss-Newton correction still to come already below the data's resolution: converged here (where no
+        # trial lowers the sum of squares any more, which round-off decides at the minimum)
+        if np.all(np.abs(np.linalg.solve(JtJ, -g)) <= STEP_TOL * np.maximum(std_theta, 1e-15)):
+            converged, status = True, "converged"
+            break
         while True:
             step = np.linalg.solve(JtJ + mu * np.diag(np.diag(JtJ)), -g)
             trial = evaluate(p + step * p0, res.x)
