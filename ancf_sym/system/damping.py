@@ -11,7 +11,7 @@ cables, dissipative contact) and the forces and exact tangents the step graphs a
 
 `dissipation_functions(S)` gives the step system's velocity-dependent force f_d(x, v) with df_d/dx, df_d/dv (the
 last two terms); `rayleigh_mx` the Rayleigh part inside a graph; `damping_force` the whole damping force at a state.
-S in the signatures is the ancf_sym.system.step_system.StepSystem the graphs are built for.
+S in the signatures: the step system the graphs are built for (ancf_sym.system.interface.StepSystemView).
 """
 from __future__ import annotations
 
@@ -29,6 +29,7 @@ from ancf_sym.elements.hermite import weights
 from ancf_sym.scene.member_effects import AXIAL_STRAINS
 from ancf_sym.scene.builder import SceneError
 from ancf_sym.util.sparsity import dm, gather_sum, scatter
+from ancf_sym.system.interface import StepSystemView
 
 
 @dataclass
@@ -122,7 +123,7 @@ def strain_rate_data(asm: Assembly) -> StrainRateData | None:
                           np.array(green))
 
 
-def rayleigh_mx(S: "StepSystem", v: ca.MX, kel: ca.MX | None) -> tuple[ca.MX, ca.MX]:
+def rayleigh_mx(S: StepSystemView, v: ca.MX, kel: ca.MX | None) -> tuple[ca.MX, ca.MX]:
     """(C v, C) as MX for C = alpha M + beta K_el (kel: its values, or None) on the unknowns of S."""
     nf = S.nf
     Cv, C = ca.MX.zeros(nf), ca.MX(nf, nf)
@@ -139,7 +140,7 @@ def rayleigh_mx(S: "StepSystem", v: ca.MX, kel: ca.MX | None) -> tuple[ca.MX, ca
     return Cv, C
 
 
-def rayleigh_matrix(S: "StepSystem", kel: np.ndarray | None) -> sp.csc_matrix | None:
+def rayleigh_matrix(S: StepSystemView, kel: np.ndarray | None) -> sp.csc_matrix | None:
     """C = alpha M + beta K_el on the unknowns of S (kel: the values of K_el, or None), None without Rayleigh."""
     if S.rayleigh is None:
         return None
@@ -179,7 +180,7 @@ def strain_rate_mx(sr: StrainRateData, xf: ca.MX, X: ca.MX, V: ca.MX, vf: ca.MX)
     return [fd, ca.jacobian(fd, xf), ca.jacobian(fd, vf)]
 
 
-def _contact_inputs(S: "StepSystem", X: ca.MX, V: ca.MX):
+def _contact_inputs(S: StepSystemView, X: ca.MX, V: ca.MX):
     """Per dissipation call (kernel, element inputs Z = [x; v] (2 nd x N), parameters, idx, nd, N)."""
     for element, effect, gauss, idx, P in contact.dissipation_calls(S.asm.mesh):
         N, nd = idx.shape
@@ -187,7 +188,7 @@ def _contact_inputs(S: "StepSystem", X: ca.MX, V: ca.MX):
         yield element, effect, None if gauss == 5 else gauss, Z, ca.DM(P.T), idx, nd, N
 
 
-def contact_dissipation_mx(S: "StepSystem", X: ca.MX, V: ca.MX):
+def contact_dissipation_mx(S: StepSystemView, X: ca.MX, V: ca.MX):
     """(f, df/dx, df/dv) on the unknowns of step system S, for full coordinates X and velocities V (MX in S's
     unknowns x, v), or None without dissipative contact. From the kernels' _rows companions (the force dD/dv and
     its Jacobian blocks [df/dq, df/dv], the v-rows of D's Hessian): exact tangents, no differentiation through
@@ -220,7 +221,7 @@ def contact_dissipation_mx(S: "StepSystem", X: ca.MX, V: ca.MX):
     return f, dfx, dfv
 
 
-def contact_dissipation_force_mx(S: "StepSystem", X: ca.MX, V: ca.MX):
+def contact_dissipation_force_mx(S: StepSystemView, X: ca.MX, V: ca.MX):
     """The force f of contact_dissipation_mx alone, from the kernels' (energy, gradient) companions: no Hessian
     work (the same gradient, summed in the same order), or None without dissipative contact."""
     if not contact.dissipation_calls(S.asm.mesh):
@@ -233,7 +234,7 @@ def contact_dissipation_force_mx(S: "StepSystem", X: ca.MX, V: ca.MX):
     return gather_sum(fv, np.concatenate(ft), S.nf)
 
 
-def _reach_switch(S: "StepSystem", xf: ca.MX, vf: ca.MX, X: ca.MX, dc: tuple) -> tuple:
+def _reach_switch(S: StepSystemView, xf: ca.MX, vf: ca.MX, X: ca.MX, dc: tuple) -> tuple:
     """The contact dissipation dc = (f, df/dx, df/dv) evaluated only where some element is in reach of a dissipative
     contact's surface at the iterate x itself: elsewhere every kernel returns exact zeros (the law is 0 at a positive
     gap, contact.gap's hull bound is below every gap the kernels sample), so a switch that skips them gives the same
@@ -259,7 +260,7 @@ def _reach_switch(S: "StepSystem", xf: ca.MX, vf: ca.MX, X: ca.MX, dc: tuple) ->
     return (out,) if len(dc) == 1 else tuple(out)
 
 
-def dissipation_functions(S: "StepSystem") -> tuple[ca.Function | None, ca.Function | None]:
+def dissipation_functions(S: StepSystemView) -> tuple[ca.Function | None, ca.Function | None]:
     """(damp_f, damp_force_f) of the step system: damp_f(x, v) -> (f_d, df_d/dx, df_d/dv) of the strain-rate
     damping and dissipative contact together, damp_force_f(x, v) -> f_d alone; (None, None) without either."""
     from ancf_sym.system import water
@@ -293,7 +294,7 @@ def dissipation_functions(S: "StepSystem") -> tuple[ca.Function | None, ca.Funct
             ca.Function("strain_rate_force", [xf, vf], [force], ["x", "v"], ["f"]))
 
 
-def damping_force(S: "StepSystem", xf: np.ndarray, vf: np.ndarray) -> np.ndarray | None:
+def damping_force(S: StepSystemView, xf: np.ndarray, vf: np.ndarray) -> np.ndarray | None:
     """Damping force on the unknowns at (x, v): Rayleigh C v (with the current K_el values) + strain rate and
     contact dissipation; None for an undamped system."""
     f = None
@@ -306,7 +307,7 @@ def damping_force(S: "StepSystem", xf: np.ndarray, vf: np.ndarray) -> np.ndarray
     return f
 
 
-def damping_force_rows(S: "StepSystem", Q: np.ndarray, V: np.ndarray) -> np.ndarray:
+def damping_force_rows(S: StepSystemView, Q: np.ndarray, V: np.ndarray) -> np.ndarray:
     """(n, nf) damping_force at the states Q, V (n, nf) of a chunk's accepted steps: without Rayleigh damping one
     mapped call of the dissipation force over the states (per-call overhead paid once per chunk, not per step: the
     same values), else row by row."""

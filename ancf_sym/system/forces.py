@@ -19,12 +19,13 @@ from ancf_sym.model.assembly import map_elements
 from ancf_sym.util.mx_ops import add, mul, neg, reshape, vec
 from ancf_sym.util.sparsity import assemble_mx, elements_key, gather_sum, group_calls, hessian_entries, mx_nonzeros, scatter
 from ancf_sym.system.band import PAD_PIVOT, BandLayout
+from ancf_sym.system.interface import StepSystemView
 
 
 ELASTIC_LABELS = ("axial", "bending", "torsion", "continuum")
 
 
-def _parameters(S: "StepSystem", par: ca.MX) -> tuple[list, list]:
+def _parameters(S: StepSystemView, par: ca.MX) -> tuple[list, list]:
     """Each kernel call's parameters (n_p x N) from the input vector: (force terms', nonlinear terms')."""
     Ps, o = [], 0
     for P in [ft.P for ft in S.force_terms] + [mk.P for mk in S.nonlinear]:
@@ -45,7 +46,7 @@ def _element_coordinates(x: ca.MX, idx: np.ndarray, nd: int, N: int, seen: dict 
     return Xe
 
 
-def _kernel_calls(S: "StepSystem", x: ca.MX, Pft: list, seen: dict | None = None) -> list:
+def _kernel_calls(S: StepSystemView, x: ca.MX, Pft: list, seen: dict | None = None) -> list:
     """(elements, G, H) of every force term's mapped kernel call at the scene coordinates x."""
     calls = []
     for ft, Pk in zip(S.force_terms, Pft):
@@ -54,7 +55,7 @@ def _kernel_calls(S: "StepSystem", x: ca.MX, Pft: list, seen: dict | None = None
     return calls
 
 
-def band_force_graph(S: "StepSystem", layout: "BandLayout") -> ca.Function:
+def band_force_graph(S: StepSystemView, layout: "BandLayout") -> ca.Function:
     """forces_band(x, par) -> (g, K band): the gradient as forces_pf's and the Hessian gathered straight into the
     lower band storage of `layout` (ancf_sym.system.band; its padding pivots included), for S without penalty
     joints (their Hessian is not a kernel call)."""
@@ -75,7 +76,7 @@ def band_force_graph(S: "StepSystem", layout: "BandLayout") -> ca.Function:
     return ca.Function("forces_band", [xf, par], [g, Kb], ["x", "par"], ["g", "K_band"])
 
 
-def gradient_graph(S: "StepSystem") -> ca.Function:
+def gradient_graph(S: StepSystemView) -> ca.Function:
     """gradient(x, par) -> g from the kernels' (energy, gradient) companions: no Hessian work (the residuals of
     modified Newton). Built on first use (StepSystem.grad_pf): a full-Newton run never needs it."""
     xf, par = ca.MX.sym("x", S.nf), ca.MX.sym("par", S.par.size)
@@ -91,7 +92,7 @@ def gradient_graph(S: "StepSystem") -> ca.Function:
     return ca.Function("gradient", [xf, par], [gg], ["x", "par"], ["g"])
 
 
-def _penalty_energy(S: "StepSystem", x: ca.MX) -> ca.MX | None:
+def _penalty_energy(S: StepSystemView, x: ca.MX) -> ca.MX | None:
     """The penalty joints' energy 1/2 sum k c(x)^2 at the scene coordinates x, or None without penalty joints."""
     pc = S.asm.penalty
     if pc is None:
@@ -110,7 +111,7 @@ class ForceGraphs:
     energy_labels: list | None
 
 
-def build_force_graphs(S: "StepSystem", forces: bool = True, energies: bool = True) -> ForceGraphs:
+def build_force_graphs(S: StepSystemView, forces: bool = True, energies: bool = True) -> ForceGraphs:
     """From S's kernel calls the force graph and the Rayleigh elastic tangent's pattern (None without stiffness
     damping), and the energy graph with its labels: the two read the same element coordinates. forces False: the
     force graph is left to be built on first use (the band path's iteration has a force graph of its own, and it
@@ -128,7 +129,7 @@ def build_force_graphs(S: "StepSystem", forces: bool = True, energies: bool = Tr
     return ForceGraphs(None if outs is None else (xf, par, outs), f, kel, ef, labels)
 
 
-def _force_graph(S: "StepSystem", xf: ca.MX, par: ca.MX, x: ca.MX, Pft: list, seen: dict,
+def _force_graph(S: StepSystemView, xf: ca.MX, par: ca.MX, x: ca.MX, Pft: list, seen: dict,
                  pen: ca.MX | None) -> tuple[list, ca.Function, ca.Sparsity | None]:
     nf, pos = S.nf, S.pos
     kel_vals, kel_rows, kel_cols = [], [], []
@@ -159,7 +160,7 @@ def _force_graph(S: "StepSystem", xf: ca.MX, par: ca.MX, x: ca.MX, Pft: list, se
     return outs, f, kel_sparsity
 
 
-def _energy_graph(S: "StepSystem", xf: ca.MX, par: ca.MX, x: ca.MX, Pmk: list, seen: dict,
+def _energy_graph(S: StepSystemView, xf: ca.MX, par: ca.MX, x: ca.MX, Pmk: list, seen: dict,
                   pen: ca.MX | None) -> tuple[ca.Function, list]:
     asm, nf = S.asm, S.nf
     # energies for the outputs from the energy-only compiled functions (no gradient, no Hessian)

@@ -17,6 +17,7 @@ from ancf_sym.contact import laws as contact
 from ancf_sym.util import setup_cache
 from ancf_sym.util.casadi_buffers import pooled
 from ancf_sym.model.assembly import MAPPED_CALLS, clear_kernel_buffers
+from ancf_sym.system.interface import StepSystemView
 
 
 # structure id (structure_id: a number per exact structure key) -> the StepSystem's compiled functions (and the
@@ -51,7 +52,7 @@ def water_key(asm):
     return key(asm)
 
 
-def structure_id(S: "StepSystem") -> int:
+def structure_id(S: StepSystemView) -> int:
     """The number of the system's structure (structure_key) in this process: the key of SYSTEM_GRAPHS and
     ALPHA_GRAPHS (numbers are never reused, also after clear_graph_cache: a system kept from before refers to no
     later structure's graphs)."""
@@ -62,7 +63,7 @@ def structure_id(S: "StepSystem") -> int:
     return sid
 
 
-def structure_key(S: "StepSystem") -> tuple:
+def structure_key(S: StepSystemView) -> tuple:
     """What the compiled graphs bake in: the pattern of the equations (elements, kernels, gathers, sparsity),
     and the values that are constants of the graphs (mass matrix, fixed coordinates, Rayleigh and strain-rate
     damping, penalties, constraints, scales). Element parameters (E, section, lengths), constant and time

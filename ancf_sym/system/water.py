@@ -18,6 +18,7 @@ import scipy.sparse as sp
 
 from ancf_sym.model.water_forces import added_mass_matrix, drag_force, gravity_magnitude, water_line_energy
 from ancf_sym.model.water_points import wet_points
+from ancf_sym.system.interface import StepSystemView
 
 
 def water_of(asm):
@@ -57,7 +58,7 @@ def check_integrator(scene, integrator: str) -> None:
                        f"{integrator!r} does not", c.ca)
 
 
-def inertia_mx(S, xf: ca.MX, acc: ca.MX) -> ca.MX | None:
+def inertia_mx(S: StepSystemView, xf: ca.MX, acc: ca.MX) -> ca.MX | None:
     """The added mass's part that turns with the line, on the unknowns: E' B' (w L rho_w A (CaAx - Ca)
     (t (t . alpha) - t0 (t0 . alpha))) with alpha = B E acc the accelerations at the points, t from xf, t0 from the
     state the constant mass matrix froze (added_mass); None where Ca = CaAx everywhere."""
@@ -102,7 +103,7 @@ def _points(asm):
     return wp
 
 
-def force_mx(S, xf: ca.MX, vf: ca.MX, X: ca.MX, V: ca.MX) -> tuple | None:
+def force_mx(S: StepSystemView, xf: ca.MX, vf: ca.MX, X: ca.MX, V: ca.MX) -> tuple | None:
     """(f_d, df_d/dx, df_d/dv) on the unknowns of step system S (X, V: the full coordinates and velocities as MX of
     the unknowns xf, vf), or None without water forces. The water line's gradient is taken with respect to xf (X
     is E xf + c: the chain rule gives E' grad_X U)."""
