@@ -49,7 +49,8 @@ simulation), problem (ControlProblem: composes the parts, forwards their public 
 """
 from __future__ import annotations
 
-from ancf_sym.control.ingredients import Effort, MinimumTime, PathConstraint, PointForce, PointMass, StateView, SupportMotion, Swing
+from ancf_sym.control.model import StateView
+from ancf_sym.control.ingredients import Effort, MinimumTime, PathConstraint, PointForce, PointMass, SupportMotion, Swing
 from ancf_sym.control.model import ControlAssembly, ControlModel
 from ancf_sym.control.options import ControlOptions
 from ancf_sym.control.problem import ControlProblem

@@ -11,7 +11,8 @@ import numpy as np
 from ancf_sym.util.checks import number as _num
 from ancf_sym.scene.builder import SceneError
 from ancf_sym.util.sparsity import dm as _dm
-from ancf_sym.control.ingredients import Effort, MinimumTime, StateView, Swing
+from ancf_sym.control.ingredients import Effort, MinimumTime, Swing
+from ancf_sym.control.model import StateView
 from ancf_sym.control.model import ControlModel
 from ancf_sym.control.options import ControlOptions
 

@@ -5,10 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
-import casadi as ca
 import numpy as np
 
-from ancf_sym.scene.builder import SceneError
 
 
 
@@ -71,31 +69,3 @@ class PathConstraint:
     lower: Any = -np.inf
     upper: Any = np.inf
     name: str = "path"
-
-
-class StateView:
-    """The state at one instant as CasADi expressions, for path constraints: x, v (full coordinates and velocities),
-    point(member, at) / velocity(member, at) of a centreline point, and the support channels and controls by name."""
-
-    def __init__(self, model: ControlModel, x: ca.MX, v: ca.MX, chan_pos: ca.MX, chan_vel: ca.MX, u: ca.MX):
-        self._p, self.x, self.v = model, x, v
-        self._cp, self._cv, self._u = chan_pos, chan_vel, u
-
-    def point(self, member: str, at: Any = "end"):
-        idx, w = self._p.probe(member, at)
-        return ca.vertcat(*[ca.dot(ca.DM(w), self.x[row.tolist()]) for row in idx])
-
-    def velocity(self, member: str, at: Any = "end"):
-        idx, w = self._p.probe(member, at)
-        return ca.vertcat(*[ca.dot(ca.DM(w), self.v[row.tolist()]) for row in idx])
-
-    def __getitem__(self, key: str):
-        name, _, what = key.rpartition(".")
-        p = self._p
-        if name in p.channels and what in ("position", "velocity", "acceleration"):
-            k = p.channels.index(name)
-            return {"position": self._cp, "velocity": self._cv, "acceleration": self._u}[what][
-                k if what != "acceleration" else p.acc_index[k]]
-        if name in p.force_names and what == "force":
-            return self._u[p.force_index[p.force_names.index(name)]]
-        raise SceneError(f"unknown state or control {key!r}; known: {p.variable_names()}")

@@ -12,6 +12,7 @@ import numpy as np
 from ancf_sym.util.checks import number as _num
 from ancf_sym.scene.builder import SceneError
 from ancf_sym.control.ingredients import PointForce
+from ancf_sym.control.view import ControlProblemView, ControlResultView
 
 
 
@@ -42,7 +43,7 @@ class ResimulationReport:
                 "dt": self.dt, "integrator": self.integrator, "wall_s": self.wall_s}
 
 
-def moving_frame_ok(p: ControlProblem) -> bool:
+def moving_frame_ok(p: ControlProblemView) -> bool:
     """The re-simulation runs the scene in the frame of the moved support: valid when it is the scene's only
     support that fixes positions (elastic energies are translation invariant, the constant loads unchanged)."""
     if not p.nc:
@@ -53,14 +54,14 @@ def moving_frame_ok(p: ControlProblem) -> bool:
     return supports == moved and len(moved) == 1
 
 
-def tracked_point(p: ControlProblem):
+def tracked_point(p: ControlProblemView):
     if p.asm.point_masses:
         pm = p.asm.point_masses[0]
         return pm.member, pm.at
     return next(iter(p.scene.members)), "end"
 
 
-def resimulate_motion(p: ControlProblem, T: float, motion: Callable, res: ControlResult | None,
+def resimulate_motion(p: ControlProblemView, T: float, motion: Callable, res: ControlResultView | None,
                       dt: float | None = None, after: float | None = None, integrator: str = "radau", **dyn_kw) -> ResimulationReport | None:
     """Run ancf_sym.dynamics.simulate on the ControlAssembly in the frame of the moved support: the support's
     translation s(t) enters as the d'Alembert force -M_full Tr s''(t) (the cables' mass as 2-point Gauss point

@@ -9,6 +9,7 @@ from ancf_sym.util.names import lookup
 from ancf_sym.scene.builder import SceneError
 from ancf_sym.control.resimulation import ResimulationReport, resimulate_motion
 from ancf_sym.dynamics.collocation import lagrange_basis as _basis
+from ancf_sym.control.view import ControlProblemView
 
 
 
@@ -19,7 +20,7 @@ class ControlResult:
     (len, n)), support channels `channel(name)` -> (position, velocity) at the nodes, controls at t_points;
     stats (IPOPT's), kernel_time_s (estimated time in the kernels) and resimulate()."""
 
-    def __init__(self, prob: ControlProblem, w, lam_g, status, success, stats, solve_s, warm_s, warm, attempts=()):
+    def __init__(self, prob: ControlProblemView, w, lam_g, status, success, stats, solve_s, warm_s, warm, attempts=()):
         self.prob, self.w, self.lam_g = prob, w, lam_g
         self.attempts = list(attempts)
         self.status, self.success, self.stats = status, bool(success), stats
@@ -158,7 +159,7 @@ class ControlResult:
                 "constraint_violation": self.constraint_violation}
 
 
-def _integrated_motion(res: ControlResult, p: ControlProblem):
+def _integrated_motion(res: ControlResult, p: ControlProblemView):
     """Exact integration of the piecewise polynomial accelerations (per interval) from s(0), s'(0)."""
     K, h, s = p.K, res.T / p.K, p.s
     nc = p.nc
