@@ -16,7 +16,7 @@ from ancf_sym.model.assembly import Assembly
 from ancf_sym.util.checks import number as _num
 from ancf_sym.model.mesh import Probe
 from ancf_sym.model.assembly import LINEAR_EFFECTS
-from ancf_sym.model.reduced import full_mx, partition
+from ancf_sym.model.reduced import ReducedModel, full_mx
 from ancf_sym.model.loads import point_force
 from ancf_sym.scene.builder import PointMass as ScenePointMass
 from ancf_sym.scene.builder import Scene, SceneError
@@ -129,7 +129,8 @@ class ControlModel:
         a = self.asm
         if a.penalty is not None:
             raise SceneError("penalty supports/joints are not supported by the control module; use method='exact'")
-        self.part = part = partition(a)
+        self.reduced = ReducedModel(a)  # (the reduced coordinates statics and dynamics build on too)
+        self.part = part = self.reduced.part
         if len(part.rows):
             raise SceneError("the control module needs every support and joint eliminated (pins, clamps of "
                              "axis-aligned members, hinges); constraints with multipliers remain: "

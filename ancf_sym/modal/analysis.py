@@ -7,7 +7,6 @@ import time
 
 import numpy as np
 
-from ancf_sym.model.reduced import partition
 from ancf_sym.scene.builder import Scene, SceneError
 from ancf_sym.scene.schema import MODAL_OPTIONS
 from ancf_sym.statics.problem import StaticOptions, StaticProblem, StaticResult, problem_for
@@ -41,7 +40,7 @@ def modal_analysis(scene: Scene, modes: int = 10, static: StaticResult | None = 
         if not prob.unloaded_at_rest(prob.asm.x0):
             raise SceneError(f"{err}; a free structure has modes about its unloaded reference only (no gravity, "
                              "loads or prestrain): support it, or remove them") from None
-    part = partition(prob.asm)
+    part = prob.S.part  # (the statics' ReducedModel)
     free = part.ny - len(part.rows)
     if modes > free:
         raise SceneError(f"modes = {modes} exceeds the {free} degrees of freedom the supports and joints leave")

@@ -21,7 +21,7 @@ import scipy.sparse as sp
 from ancf_sym.contact import laws as contact
 from ancf_sym.model.assembly import Assembly
 from ancf_sym.system import damping
-from ancf_sym.model.reduced import Partition, partition
+from ancf_sym.model.reduced import Partition
 from ancf_sym.scene.builder import Scene, SceneError
 from ancf_sym.statics.problem import StaticProblem, StaticResult, problem_for
 from ancf_sym.modal.contact_rows import active_rows, exact_multipliers
@@ -120,7 +120,7 @@ def linearize(scene: Scene, state: StaticResult | np.ndarray | None = None, damp
     prob = problem if problem is not None else problem_for(scene)
     asm = prob.asm
     x, result = _state(prob, state)
-    part: Partition = partition(asm)
+    part: Partition = prob.S.part  # (the statics' ReducedModel)
     ev = asm.evaluate(x, hessian=True)
     H = ev.hessian
     exact_contact = bool(contact.exact_contacts(asm))
