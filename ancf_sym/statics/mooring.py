@@ -32,3 +32,45 @@ def mooring_stiffness(result, member: str, at="end") -> np.ndarray:
     Jzf = sp.vstack([E.T @ J[:, f], G[:, f]]).toarray() if ws.m else (E.T @ J[:, f]).toarray()
     Jfz = sp.hstack([J[f, :] @ E, G[:, f].T]).toarray() if ws.m else (J[f, :] @ E).toarray()
     return J[f, :][:, f].toarray() - Jfz @ splu(kkt).solve(Jzf)
+
+
+def body_mooring_stiffness(result, body: str) -> np.ndarray:
+    """(3, 3) K = d(-F, -M) / d(u_x, u_y, theta) [N/m, N/rad, N m/rad] of a free planar body held by its lines: the
+    force and moment the lines put on it as it moves rigidly (u about its centre, turned by theta), the lines in
+    equilibrium (current and water line included), about a statics result in water. The condensation of the
+    residual's exact Jacobian on the body's coordinates (x, y, c, s), with every kept row but the body's own
+    (c^2 + s^2 = 1, whose curvature at its multiplier stays in), mapped to the rigid motion by T: (x, y) += u,
+    (c, s) += (-s, c) theta. Exact at an equilibrium of the body (no net force or moment on it)."""
+    ws = getattr(result, "water", None)
+    if ws is None or not result.success:
+        raise SceneError("body_mooring_stiffness: give a successful statics result of a scene in water")
+    asm = ws.asm
+    if ws.scene.dim != 2:
+        raise SceneError("body_mooring_stiffness: planar bodies (2D scenes) only in this version")
+    if body not in asm.mesh.bodies:
+        raise SceneError(f"body_mooring_stiffness: body {body!r} does not exist; bodies: {sorted(asm.mesh.bodies)}")
+    bc = np.arange(asm.mesh.bodies[body], asm.mesh.bodies[body] + 4)
+    E = ws.E.tocsr()
+    b = []
+    for k in bc:  # each body coordinate an unknown of its own: a body held by a joint or a drive is refused
+        row = E[k]
+        if row.nnz != 1 or row.data[0] != 1.0 or np.asarray(abs(E[:, row.indices[0]]).sum()).item() != 1.0:
+            raise SceneError(f"body_mooring_stiffness: body {body!r} is held (a revolute joint, a drive or a "
+                             "support fixes or shares its coordinates): its lines alone must hold it")
+        b.append(int(row.indices[0]))
+    b = np.array(b)
+    _, Jd, _, Gd = ws.full(result.x, 1.0, ws.mu)
+    J, G = sp.csc_matrix(Jd.sparse()), sp.csr_matrix(Gd.sparse())
+    Ec = E.tocsc()
+    Jr = (Ec.T @ J @ Ec).tocsc()
+    own = np.array([set(G[r].indices) <= set(bc) for r in range(G.shape[0])], bool)
+    Gr = (G[np.flatnonzero(~own)] @ Ec).tocsc()
+    other = np.setdiff1d(np.arange(Jr.shape[0]), b)
+    A = sp.bmat([[Jr[other][:, other], Gr[:, other].T], [Gr[:, other], None]], format="csc") if Gr.shape[0] \
+        else Jr[other][:, other].tocsc()
+    B = sp.vstack([Jr[other][:, b], Gr[:, b]]).toarray() if Gr.shape[0] else Jr[other][:, b].toarray()
+    C = sp.hstack([Jr[b][:, other], Gr[:, b].T]).toarray() if Gr.shape[0] else Jr[b][:, other].toarray()
+    Kb = Jr[b][:, b].toarray() - C @ splu(A).solve(B)
+    c, s = result.x[bc[2]], result.x[bc[3]]
+    T = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -s], [0.0, 0.0, c]])
+    return T.T @ Kb @ T

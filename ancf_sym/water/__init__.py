@@ -11,6 +11,7 @@ the statics in ancf_sym.statics.water and the fairlead stiffness in ancf_sym.sta
 the names a user imports.
 """
 from ancf_sym.scene.water import Current, LineCoefficients, Seabed, Water, Waves, set_water
-from ancf_sym.statics.mooring import mooring_stiffness
+from ancf_sym.statics.mooring import body_mooring_stiffness, mooring_stiffness
 
-__all__ = ["Current", "LineCoefficients", "Seabed", "Water", "Waves", "mooring_stiffness", "set_water"]
+__all__ = ["Current", "LineCoefficients", "Seabed", "Water", "Waves", "body_mooring_stiffness", "mooring_stiffness",
+           "set_water"]

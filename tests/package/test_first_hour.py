@@ -91,9 +91,12 @@ def test_ctrl_c_during_start_up_exits_cleanly(tmp_path, delay):
     """SIGINT at several moments of the start (loading NumPy, CasADi, the study registry, the reference's first
     run): exit 130, one line, no traceback, whenever it lands. (The first delay leaves the interpreter its own
     start-up, tens of ms, before the package's code runs: a signal there is Python's, not the package's.)"""
-    proc = subprocess.Popen([sys.executable, "-m", "ancf_sym.cli", "study", "rope", "--out", str(tmp_path / "r"),
-                             "--quick"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
+    # (the full study, not --quick: its reference alone runs for tens of seconds, so that every delay lands inside the
+    # run; the quick study can finish within 1.5 s on a warm machine)
+    proc = subprocess.Popen([sys.executable, "-m", "ancf_sym.cli", "study", "rope", "--out", str(tmp_path / "r")],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
     time.sleep(delay)
+    assert proc.poll() is None, "the study ended before the signal: the test needs a longer run"
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=120)
     # 130, or killed by SIGINT (-2; a shell shows 130 as well): CPython ends that way when a KeyboardInterrupt went
