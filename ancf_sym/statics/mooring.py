@@ -27,11 +27,18 @@ def mooring_stiffness(result, member: str, at="end") -> np.ndarray:
     _, Jd, _, Gd = ws.full(result.x, 1.0, ws.mu)
     J, G = sp.csc_matrix(Jd.sparse()), sp.csc_matrix(Gd.sparse())
     E = ws.E.tocsc()
-    GE = (G @ E).tocsc()
-    kkt = sp.bmat([[E.T @ J @ E, GE.T], [GE, None]], format="csc") if ws.m else (E.T @ J @ E).tocsc()
-    Jzf = sp.vstack([E.T @ J[:, f], G[:, f]]).toarray() if ws.m else (E.T @ J[:, f]).toarray()
-    Jfz = sp.hstack([J[f, :] @ E, G[:, f].T]).toarray() if ws.m else (J[f, :] @ E).toarray()
-    return J[f, :][:, f].toarray() - Jfz @ splu(kkt).solve(Jzf)
+    return _condensed(J[f, :][:, f], J[f, :] @ E, E.T @ J[:, f], E.T @ J @ E, G[:, f], G @ E)
+
+
+def _condensed(Jff, Jfz, Jzf, Jzz, Gf, Gz) -> np.ndarray:
+    """J_ff - [J_fz G_f^T] KKT^-1 [J_zf; G_f], KKT = [[J_zz, G_z^T], [G_z, 0]]: the residual's Jacobian condensed on
+    the coordinates f, the coordinates z and the multipliers of the rows G in equilibrium (no rows: J_zz alone)."""
+    if Gz.shape[0]:
+        kkt = sp.bmat([[Jzz, Gz.T], [Gz, None]], format="csc")
+        Jzf, Jfz = sp.vstack([Jzf, Gf]), sp.hstack([Jfz, Gf.T])
+    else:
+        kkt = sp.csc_matrix(Jzz)
+    return sp.csr_matrix(Jff).toarray() - sp.csr_matrix(Jfz).toarray() @ splu(kkt).solve(sp.csr_matrix(Jzf).toarray())
 
 
 def body_mooring_stiffness(result, body: str) -> np.ndarray:
@@ -66,11 +73,7 @@ def body_mooring_stiffness(result, body: str) -> np.ndarray:
     own = np.array([set(G[r].indices) <= set(bc) for r in range(G.shape[0])], bool)
     Gr = (G[np.flatnonzero(~own)] @ Ec).tocsc()
     other = np.setdiff1d(np.arange(Jr.shape[0]), b)
-    A = sp.bmat([[Jr[other][:, other], Gr[:, other].T], [Gr[:, other], None]], format="csc") if Gr.shape[0] \
-        else Jr[other][:, other].tocsc()
-    B = sp.vstack([Jr[other][:, b], Gr[:, b]]).toarray() if Gr.shape[0] else Jr[other][:, b].toarray()
-    C = sp.hstack([Jr[b][:, other], Gr[:, b].T]).toarray() if Gr.shape[0] else Jr[b][:, other].toarray()
-    Kb = Jr[b][:, b].toarray() - C @ splu(A).solve(B)
+    Kb = _condensed(Jr[b][:, b], Jr[b][:, other], Jr[other][:, b], Jr[other][:, other], Gr[:, b], Gr[:, other])
     c, s = result.x[bc[2]], result.x[bc[3]]
     T = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -s], [0.0, 0.0, c]])
     return T.T @ Kb @ T
