@@ -35,7 +35,8 @@ def _imports() -> tuple[dict[str, set[str]], list[str]]:
     graph, private = collections.defaultdict(set), []
     for name, (path, is_pkg) in mods.items():
         package = name if is_pkg else name.rsplit(".", 1)[0]
-        for node in ast.walk(ast.parse(path.read_text())):
+        nodes = list(ast.walk(ast.parse(path.read_text())))
+        for node in nodes:
             if isinstance(node, ast.ImportFrom):
                 target = node.module or ""
                 if node.level:
@@ -51,10 +52,10 @@ def _imports() -> tuple[dict[str, set[str]], list[str]]:
                             private.append(f"{name}: from {target} import {a.name}")
             elif isinstance(node, ast.Import):
                 graph[name].update(a.name for a in node.names if a.name in mods)
-        imported = {a.asname or a.name: f"{n.module}.{a.name}" for n in ast.walk(ast.parse(path.read_text()))
+        imported = {a.asname or a.name: f"{n.module}.{a.name}" for n in nodes
                     if isinstance(n, ast.ImportFrom) and (n.module or "").startswith("ancf_sym") for a in n.names
                     if f"{n.module}.{a.name}" in mods}
-        for node in ast.walk(ast.parse(path.read_text())):  # module._private
+        for node in nodes:  # module._private
             if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id in imported
                     and node.attr.startswith("_") and not node.attr.startswith("__")):
                 private.append(f"{name}: {imported[node.value.id]}.{node.attr}")
