@@ -11,6 +11,7 @@ import scipy.sparse.linalg as spla
 
 from ancf_sym.util import setup_cache
 from ancf_sym.util.casadi_buffers import bind
+from ancf_sym.system.damping import timed
 from ancf_sym.system.step_system import StepSystem
 
 
@@ -78,8 +79,8 @@ def initial_acceleration(S: StepSystem, q0: np.ndarray, v0: np.ndarray, Q0: np.n
         f = f + S.reduce_force(S.drives.torque_force(S.full(q0), S.w(t0)))
     if C is not None:
         f = f - C @ v0
-    if S.damp_f is not None:
-        f = f - np.asarray(S.damp_f(q0, v0)[0]).ravel()
+    if S.damp_f is not None:  # (lines in water under waves: the water's forces at t0)
+        f = f - np.asarray(S.damp_f(*((q0, v0, t0) if timed(S) else (q0, v0)))[0]).ravel()
     if not S.nf:
         return np.zeros(0), np.zeros(S.mc)
     if S.mc:

@@ -56,7 +56,7 @@ class TimeLoop:
         self.h_min, self.h_max = math.inf, 0.0
         # the works of damping and loads feed the energy balance only: not booked in a run without energies
         self.book = rec.with_energies
-        self.fd_prev = S.damping_force(integ.q, integ.v) if S.damped and self.book else None
+        self.fd_prev = S.damping_force(integ.q, integ.v, self.t) if S.damped and self.book else None
         self.Qn = loads(opts.t_start) if loads else None
         self.fD_prev = S.drive_force(integ.q, integ.lam, self.t)  # drives' and torques' force (their work: external)
         self.lam_prev = integ.lam.copy()
@@ -188,10 +188,11 @@ class TimeLoop:
             self._accepted_many(k, n_ok, states, q_old, v_old)
             self._check_energy()
             return n_ok
+        times = [self.grid(k + j + 1) for j in range(n_ok)]  # (the water's forces under waves read the time)
         if free:  # every kept state out of reach: the contacts' damping and friction forces are exactly 0
             FS = self.free.free_S
-            FD = damping_force_rows(FS, states[:n_ok, :nf], states[:n_ok, nf:2 * nf]) if FS.damped and self.book \
-                else None
+            FD = damping_force_rows(FS, states[:n_ok, :nf], states[:n_ok, nf:2 * nf], times) if FS.damped and \
+                self.book else None
             if FD is None:
                 self.fd_prev = np.zeros(nf)
                 if self.loads is None and S.drives is None:
@@ -200,8 +201,8 @@ class TimeLoop:
                     return n_ok
                 FD = np.zeros((n_ok, nf))
         else:
-            FD = damping_force_rows(S, states[:n_ok, :nf], states[:n_ok, nf:2 * nf]) if S.damped and self.book \
-                else None
+            FD = damping_force_rows(S, states[:n_ok, :nf], states[:n_ok, nf:2 * nf], times) if S.damped and \
+                self.book else None
         for j in range(n_ok):
             t_new = self.grid(k + j + 1)
             q_new, v_new = states[j, :nf], states[j, nf:2 * nf]
@@ -306,7 +307,7 @@ class TimeLoop:
                 continue
             q_old, v_old = integ.q.copy(), integ.v.copy()
             q_new, v_new = integ.new["q"].copy(), integ.new["v"].copy()
-            fd = self.S.damping_force(q_new, v_new) if self.S.damped and self.book else None  # (K_el of this step)
+            fd = self.S.damping_force(q_new, v_new, t_new) if self.S.damped and self.book else None  # (K_el: this step)
             integ.accept()
             self._accepted(t, t_new, q_old, v_old, q_new, v_new, fd, integ.lam)
             self._check_energy()

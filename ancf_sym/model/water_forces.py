@@ -3,7 +3,10 @@ derivatives by AD of one vectorized graph, as the strain-rate damping):
 - the water line: the weight of the displaced water that a member above the still water line does not displace
   (the gravity term already carries the buoyancy of a fully submerged member), a potential;
 - Morison drag on the relative velocity, normal and tangential (MoorDyn's convention), not conservative;
-- the added mass's matrix, normal and tangential to the line."""
+- the added mass's matrix, normal and tangential to the line;
+- under waves (ancf_sym.model.waves), the drag on the velocity relative to current and waves together, and the fluid
+  inertia force of the waves' acceleration (Froude-Krylov and added mass, normal and tangential, MoorDyn's
+  convention)."""
 from __future__ import annotations
 
 import casadi as ca
@@ -70,15 +73,22 @@ def current_mx(water: Water, z: ca.MX, dim: int, scale) -> list:
     return out
 
 
-def drag_force(wp: WetPoints, water: Water, X: ca.MX, V: ca.MX | None, scale=1.0) -> ca.MX:
-    """Generalized Morison drag force [N] (full coordinates) on the relative velocity u_r = u_current - r_t:
+def point_positions(wp: WetPoints, X: ca.MX) -> list:
+    """r at the wet points: dim columns of P."""
+    return _split(ca.mtimes(dm(wp.B), X), wp.dim, wp.P)
+
+
+def drag_force(wp: WetPoints, water: Water, X: ca.MX, V: ca.MX | None, scale=1.0, flow: list | None = None) -> ca.MX:
+    """Generalized Morison drag force [N] (full coordinates) on the relative velocity u_r = u_current (+ flow) - r_t:
     f = 1/2 rho_w (cd d |u_n| u_n + cd_axial pi d |u_t| u_t) per unit length, u_t = (u_r . t) t, u_n = u_r - u_t,
     t = r_x / |r_x|; integrated at the wet points (Q = B^T (w L f)). scale multiplies the current (statics'
-    continuation)."""
+    continuation); flow: the waves' velocity at the points (dim columns), or None."""
     dim, P = wp.dim, wp.P
-    r = _split(ca.mtimes(dm(wp.B), X), dim, P)
+    r = point_positions(wp, X)
     rx = _split(ca.mtimes(dm(wp.Bx), X), dim, P)
     u = current_mx(water, r[-1], dim, scale)
+    if flow is not None:
+        u = [a + b for a, b in zip(u, flow)]
     if V is not None:
         v = _split(ca.mtimes(dm(wp.B), V), dim, P)
         u = [a - b for a, b in zip(u, v)]
@@ -95,6 +105,29 @@ def drag_force(wp: WetPoints, water: Water, X: ca.MX, V: ca.MX | None, scale=1.0
     return ca.mtimes(dm(wp.B.T.tocsr()), f)
 
 
+def inertia_areas(wp: WetPoints) -> tuple[np.ndarray, np.ndarray]:
+    """(A_b, A_m) per point [m^2]: the displaced area (0 where the member has no buoyancy) and the area the added
+    mass is taken on (the displaced area, or pi d^2 / 4 of a member without buoyancy)."""
+    return wp.area, np.where(wp.area > 0, wp.area, np.pi * wp.d ** 2 / 4)
+
+
+def fluid_inertia_force(wp: WetPoints, water: Water, X: ca.MX, acc: list) -> ca.MX:
+    """Generalized force [N] (full coordinates) of the water's acceleration acc (dim columns at the wet points) on
+    the line: Froude-Krylov (the undisturbed pressure gradient, rho_w A_b acc) and the added mass of the water
+    accelerating past the line (rho_w A_m Ca on the normal part, CaAx on the tangential one), per unit length
+    f = rho_w ((A_b + Ca A_m) a_n + (A_b + CaAx A_m) a_t), a_t = (acc . t) t, a_n = acc - a_t (MoorDyn's
+    (1 + Can) and (1 + Cat) on the submerged volume); Q = B^T (w L f)."""
+    dim, P = wp.dim, wp.P
+    rx = _split(ca.mtimes(dm(wp.Bx), X), dim, P)
+    n2 = sum(c * c for c in rx)
+    at_len = sum(a * b for a, b in zip(acc, rx)) / n2  # (acc . r_x) / |r_x|^2: a_t = at_len r_x
+    ab, am = inertia_areas(wp)
+    kn = ca.DM(water.density * (ab + wp.ca * am) * wp.wL)
+    kt = ca.DM(water.density * (ab + wp.ca_axial * am) * wp.wL)
+    f = ca.vertcat(*[kn * (a - at_len * c) + kt * at_len * c for a, c in zip(acc, rx)])
+    return ca.mtimes(dm(wp.B.T.tocsr()), f)
+
+
 def added_mass_matrix(wp: WetPoints, water: Water, x: np.ndarray):
     """The added mass [kg] on the full coordinates, B^T diag(rho_w A (ca (I - t t') + ca_axial t t') w L) B with
     the tangents t of state x (frozen there: the dynamics' mass matrix stays constant over a run)."""
@@ -103,7 +136,7 @@ def added_mass_matrix(wp: WetPoints, water: Water, x: np.ndarray):
     dim, P = wp.dim, wp.P
     rx = (wp.Bx @ x).reshape(dim, P)
     t = rx / np.linalg.norm(rx, axis=0)
-    a = water.density * np.where(wp.area > 0, wp.area, np.pi * wp.d ** 2 / 4) * wp.wL
+    a = water.density * inertia_areas(wp)[1] * wp.wL
     rows, cols, vals = [], [], []
     for i in range(dim):
         for j in range(dim):

@@ -1,15 +1,28 @@
 """Regular Airy (linear) waves in water of finite depth h: the dispersion relation and the water's velocity and
-acceleration under them (NumPy). With amplitude a = H/2, omega = 2 pi / T, k from omega^2 = g k tanh(k h), the
-phase theta = k x_d - omega t + phase (x_d the horizontal coordinate along the direction of travel) and z measured
-up from the still water line:
+acceleration under them. With amplitude a = H/2, omega = 2 pi / T, k from omega^2 = g k tanh(k h), the phase
+theta = k x_d - omega t + phase (x_d the horizontal coordinate along the direction of travel) and z measured up from
+the still water line:
     eta = a cos(theta),
-    u_d = a omega cosh(k (z + h)) / sinh(k h) cos(theta),   w = a omega sinh(k (z + h)) / sinh(k h) sin(theta),
-and the accelerations their time derivatives at a fixed point. Above the still water line the kinematics of z = 0
-hold (constant stretching)."""
+    u_d = a omega C(z) cos(theta),   w = a omega S(z) sin(theta),
+    a_d = a omega^2 C(z) sin(theta), a_w = -a omega^2 S(z) cos(theta),
+C(z) = cosh(k (z + h)) / sinh(k h), S(z) = sinh(k (z + h)) / sinh(k h) (written with exponentials of k z <= 0 and
+-k (z + 2 h) < 0: no overflow in deep water).
+
+Stretching (Waves.stretching), how the kinematics reach the moving surface:
+- "wheeler" (MoorDyn's convention, its wave grids and spectra): the water column [-h, eta] is mapped onto
+  [-h, 0], z_s = h (z + h) / (h + eta) - h, and the formulas above are evaluated at z_s (the acceleration too: the
+  local acceleration of the stretched field, as MoorDyn does); at the seabed nothing changes, at the crest the
+  still-water surface's kinematics;
+- "none": the formulas at the point's own z.
+Either way a point above the surface (z_s > 0) takes the surface's kinematics (z_s = 0), as MoorDyn does.
+
+One formula (`kinematics_mx`, any CasADi type): the step graph's water forces take it with exact derivatives with
+respect to the position and time, and `kinematics` evaluates it on NumPy arrays."""
 from __future__ import annotations
 
 import math
 
+import casadi as ca
 import numpy as np
 
 from ancf_sym.scene.water import Water
@@ -30,25 +43,39 @@ def wave_number(omega: float, depth: float, g: float) -> float:
     return k
 
 
-def kinematics(water: Water, g: float, r: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(eta (P,), u (P, dim), a (P, dim)) at points r (P, dim) and time t: the surface elevation above each point,
-    the water's velocity and acceleration."""
+def kinematics_mx(water: Water, g: float, r: list, t) -> tuple:
+    """(eta, u, a) at points r (a list of dim coordinate columns, CasADi SX or MX) and time t (a scalar of the same
+    type): the surface elevation above each point, the water's velocity and acceleration (lists of dim columns)."""
     wv = water.waves
-    r = np.atleast_2d(np.asarray(r, float))
-    dim = r.shape[1]
-    h, a = water.depth, wv.height / 2
+    dim = len(r)
+    h, amp = water.depth, wv.height / 2
     om = 2 * math.pi / wv.period
     k = wave_number(om, h, g)
     beta = math.radians(wv.direction)
-    e = np.array([math.cos(beta), math.sin(beta)]) if dim == 3 else np.array([math.cos(beta)])
-    xd = r[:, :dim - 1] @ e
-    z = np.minimum(r[:, -1] - water.surface, 0.0)
+    e = (math.cos(beta), math.sin(beta)) if dim == 3 else (math.cos(beta),)
+    xd = sum(ei * ri for ei, ri in zip(e, r[:dim - 1]))
     th = k * xd - om * t + wv.phase
-    ch, sh = np.cosh(k * (z + h)) / math.sinh(k * h), np.sinh(k * (z + h)) / math.sinh(k * h)
-    ud, w = a * om * ch * np.cos(th), a * om * sh * np.sin(th)
-    ad, aw = a * om * om * ch * np.sin(th), -a * om * om * sh * np.cos(th)
-    u = np.zeros_like(r)
-    acc = np.zeros_like(r)
-    u[:, :dim - 1], acc[:, :dim - 1] = np.outer(ud, e), np.outer(ad, e)
-    u[:, -1], acc[:, -1] = w, aw
-    return a * np.cos(th), u, acc
+    c, s = ca.cos(th), ca.sin(th)
+    eta = amp * c
+    z = r[-1] - water.surface
+    if wv.stretching == "wheeler":
+        z = h * (z + h) / (h + eta) - h
+    z = ca.fmin(z, 0.0)
+    e1, e2, den = ca.exp(k * z), ca.exp(-k * (z + 2 * h)), 1.0 - math.exp(-2 * k * h)
+    C, S = (e1 + e2) / den, (e1 - e2) / den  # cosh(k (z + h)) / sinh(k h), sinh(k (z + h)) / sinh(k h)
+    ud, w = amp * om * C * c, amp * om * S * s
+    ad, aw = amp * om * om * C * s, -amp * om * om * S * c
+    u = [ei * ud for ei in e] + [w]
+    a = [ei * ad for ei in e] + [aw]
+    return eta, u, a
+
+
+def kinematics(water: Water, g: float, r: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(eta (P,), u (P, dim), a (P, dim)) at points r (P, dim) and time t: `kinematics_mx` evaluated on arrays."""
+    r = np.atleast_2d(np.asarray(r, float))
+    P, dim = r.shape
+    R, T = ca.SX.sym("r", dim), ca.SX.sym("t")
+    eta, u, a = kinematics_mx(water, g, [R[i] for i in range(dim)], T)
+    f = ca.Function("airy", [R, T], [ca.vertcat(eta, *u, *a)]).map(P)
+    out = np.asarray(f(r.T, float(t))).T  # (P, 1 + 2 dim)
+    return out[:, 0], out[:, 1:1 + dim], out[:, 1 + dim:]

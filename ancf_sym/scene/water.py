@@ -13,7 +13,8 @@ from ancf_sym.util.checks import check_keys, fail, number, vector
 WATER_KEYS = ("density", "depth", "surface", "current", "waves", "seabed", "lines", "gauss")
 LINE_KEYS = ("cd", "cd_axial", "ca", "ca_axial", "diameter", "buoyancy")
 SEABED_KEYS = ("stiffness", "damping", "mu", "eps", "thickness")
-WAVE_KEYS = ("height", "period", "direction", "phase")
+WAVE_KEYS = ("height", "period", "direction", "phase", "stretching")
+STRETCHING = ("wheeler", "none")
 GAUSS = (3, 5, 7)
 
 
@@ -53,11 +54,14 @@ class Current:
 @dataclass(frozen=True)
 class Waves:
     """Regular Airy waves of finite depth: height H = 2 a [m], period T [s], direction [deg] of travel in the
-    horizontal plane (from x toward y; 2D: 0 or 180), phase [rad]."""
+    horizontal plane (from x toward y; 2D: 0 or 180), phase [rad], and how the kinematics reach the moving surface
+    (stretching: "wheeler", MoorDyn's convention, or "none": linear theory at the point's own depth; either way a
+    point above the surface takes the surface's kinematics, ancf_sym.model.waves)."""
     height: float
     period: float
     direction: float = 0.0
     phase: float = 0.0
+    stretching: str = "wheeler"
 
 
 @dataclass
@@ -123,11 +127,15 @@ def _waves(path: str, w: Any, dim: int) -> Waves | None:
     if w is None or isinstance(w, Waves):
         return w
     if not isinstance(w, dict):
-        raise fail(path, "must be a table of height, period, direction, phase", w)
+        raise fail(path, "must be a table of height, period, direction, phase, stretching", w)
     check_keys(path, w, WAVE_KEYS, required=("height", "period"))
+    st = w.get("stretching", "wheeler")
+    if st not in STRETCHING:
+        raise fail(f"{path}.stretching", f"must be one of {STRETCHING}", st)
     out = Waves(number(f"{path}.height", w["height"], positive=True),
                 number(f"{path}.period", w["period"], positive=True),
-                number(f"{path}.direction", w.get("direction", 0.0)), number(f"{path}.phase", w.get("phase", 0.0)))
+                number(f"{path}.direction", w.get("direction", 0.0)), number(f"{path}.phase", w.get("phase", 0.0)),
+                st)
     if dim == 2 and out.direction % 180.0 != 0.0:
         raise fail(f"{path}.direction", "in a planar scene waves travel along x: 0 or 180", out.direction)
     return out

@@ -261,8 +261,9 @@ def _reach_switch(S: StepSystemView, xf: ca.MX, vf: ca.MX, X: ca.MX, dc: tuple) 
 
 
 def dissipation_functions(S: StepSystemView) -> tuple[ca.Function | None, ca.Function | None]:
-    """(damp_f, damp_force_f) of the step system: damp_f(x, v) -> (f_d, df_d/dx, df_d/dv) of the strain-rate
-    damping and dissipative contact together, damp_force_f(x, v) -> f_d alone; (None, None) without either."""
+    """(damp_f, damp_force_f) of the step system: damp_f(x, v[, t]) -> (f_d, df_d/dx, df_d/dv) of the strain-rate
+    damping, dissipative contact and the water's forces together, damp_force_f(x, v[, t]) -> f_d alone; (None,
+    None) without any. The time input t only where the water has waves (ancf_sym.system.water.timed)."""
     from ancf_sym.system import water
 
     sr = S.strain_rate
@@ -270,53 +271,67 @@ def dissipation_functions(S: StepSystemView) -> tuple[ca.Function | None, ca.Fun
         return None, None  # (no graph to build: ~0.3 ms of set-up)
     nf = S.nf
     xf, vf = ca.MX.sym("x", nf), ca.MX.sym("v", nf)
+    t = ca.MX.sym("t") if water.timed(S.asm) else None
+    ins, names = ([xf, vf], ["x", "v"]) if t is None else ([xf, vf, t], ["x", "v", "t"])
     X, V = S.x_full_mx(xf), ca.mtimes(dm(S.E), vf)
     dc = contact_dissipation_mx(S, X, V)
     fc = None
     if dc is not None:
         fc = _reach_switch(S, xf, vf, X, (contact_dissipation_force_mx(S, X, V),))[0]
         dc = _reach_switch(S, xf, vf, X, dc)
-    dw = water.force_mx(S, xf, vf, X, V)  # (lines in water: drag and the water line, ancf_sym.system.water)
+    dw = water.force_mx(S, xf, vf, X, V, t)  # (lines in water: drag, the water line, waves; ancf_sym.system.water)
     if dw is not None:
         dc = dw if dc is None else tuple(a + b for a, b in zip(dc, dw))
         fc = dw[0] if fc is None else fc + dw[0]
     if sr is None:
         if dc is None:
             return None, None
-        return (ca.Function("contact_dissipation", [xf, vf], list(dc), ["x", "v"], ["f", "df_dx", "df_dv"]),
-                ca.Function("contact_force", [xf, vf], [fc], ["x", "v"], ["f"]))
+        return (ca.Function("contact_dissipation", ins, list(dc), names, ["f", "df_dx", "df_dv"]),
+                ca.Function("contact_force", ins, [fc], names, ["f"]))
     outs = strain_rate_mx(sr, xf, X, V, vf)
     force = outs[0]
     if dc is not None:
         outs = [a + b for a, b in zip(outs, dc)]
         force = force + fc
-    return (ca.Function("strain_rate_damping", [xf, vf], outs, ["x", "v"], ["f", "df_dx", "df_dv"]),
-            ca.Function("strain_rate_force", [xf, vf], [force], ["x", "v"], ["f"]))
+    return (ca.Function("strain_rate_damping", ins, outs, names, ["f", "df_dx", "df_dv"]),
+            ca.Function("strain_rate_force", ins, [force], names, ["f"]))
 
 
-def damping_force(S: StepSystemView, xf: np.ndarray, vf: np.ndarray) -> np.ndarray | None:
-    """Damping force on the unknowns at (x, v): Rayleigh C v (with the current K_el values) + strain rate and
-    contact dissipation; None for an undamped system."""
+def timed(S: StepSystemView) -> bool:
+    """Does the dissipation force take the time as a third input (lines in water under waves)?"""
+    return S.damp_f is not None and S.damp_f.n_in() == 3
+
+
+def damping_force(S: StepSystemView, xf: np.ndarray, vf: np.ndarray, t: float | None = None) -> np.ndarray | None:
+    """Damping force on the unknowns at (x, v) and time t (read by the water's forces under waves only): Rayleigh
+    C v (with the current K_el values) + strain rate, contact dissipation and the water's forces; None for an
+    undamped system."""
     f = None
     C = rayleigh_matrix(S, S.kel)
     if C is not None:
         f = C @ vf
     if S.damp_force_f is not None:  # the force alone: damp_f's tangents cost 2x more and are not needed here
-        fd = np.asarray(S.damp_force_f(xf, vf)).ravel()
+        if timed(S) and t is None:
+            raise ValueError("damping_force: the water's forces under waves need the time t")
+        args = (xf, vf, t) if timed(S) else (xf, vf)
+        fd = np.asarray(S.damp_force_f(*args)).ravel()
         f = fd if f is None else f + fd
     return f
 
 
-def damping_force_rows(S: StepSystemView, Q: np.ndarray, V: np.ndarray) -> np.ndarray:
-    """(n, nf) damping_force at the states Q, V (n, nf) of a chunk's accepted steps: without Rayleigh damping one
-    mapped call of the dissipation force over the states (per-call overhead paid once per chunk, not per step: the
-    same values), else row by row."""
+def damping_force_rows(S: StepSystemView, Q: np.ndarray, V: np.ndarray, T: np.ndarray | None = None) -> np.ndarray:
+    """(n, nf) damping_force at the states Q, V (n, nf) and times T (n,) of a chunk's accepted steps: without
+    Rayleigh damping one mapped call of the dissipation force over the states (per-call overhead paid once per
+    chunk, not per step: the same values), else row by row."""
     if len(Q) == 0:
         return np.zeros((0, S.nf))
+    if timed(S) and T is None:
+        raise ValueError("damping_force_rows: the water's forces under waves need the times T")
+    T = [None] * len(Q) if T is None else np.asarray(T, float)
     if S.rayleigh is not None or S.damp_force_f is None:
-        return np.array([damping_force(S, q, v) for q, v in zip(Q, V)])
+        return np.array([damping_force(S, q, v, t) for q, v, t in zip(Q, V, T)])
     mapped = S.damp_force_maps
     f = mapped.get(len(Q))
     if f is None:
         f = mapped[len(Q)] = S.damp_force_f.map(len(Q))
-    return np.asarray(f(Q.T, V.T)).T
+    return np.asarray(f(Q.T, V.T, T[None, :]) if timed(S) else f(Q.T, V.T)).T

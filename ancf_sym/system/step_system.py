@@ -110,6 +110,7 @@ class StepSystem(ReducedModel):
         # constant vector p (and to the integrators' pload): p = [p (nf); w (nw)]
         self.drives = drives.build(asm)
         self.nw = self.drives.nw if self.drives is not None else 0
+        self.nw += 1 if water.timed(asm) else 0  # (lines in water under waves: the time, the last time input)
         if self.drives is not None:
             drives.check_free(self.drives, part.pos)
             self.mc += self.drives.m
@@ -298,9 +299,9 @@ class StepSystem(ReducedModel):
         d, _, B = self._mass_factor()
         return ca.kron(B, ca.DM.eye(d)) if d else B
 
-    def damping_force(self, xf: np.ndarray, vf: np.ndarray) -> np.ndarray | None:
-        """Damping force on the unknowns at (x, v) (ancf_sym.system.damping.damping_force)."""
-        return damping.damping_force(self, xf, vf)
+    def damping_force(self, xf: np.ndarray, vf: np.ndarray, t: float | None = None) -> np.ndarray | None:
+        """Damping force on the unknowns at (x, v) and time t (ancf_sym.system.damping.damping_force)."""
+        return damping.damping_force(self, xf, vf, t)
 
     @property
     def inertia_input(self) -> bool:
@@ -355,7 +356,9 @@ class StepSystem(ReducedModel):
             force_exprs = None
         xf = force_exprs[0] if force_exprs is not None else ca.MX.sym("x", nf)
         lam, p_in = ca.MX.sym("lam", mc), ca.MX.sym("p", nf + self.nw)
-        p, w = (p_in[:nf], p_in[nf:]) if self.nw else (p_in, None)  # w: the drives' time inputs
+        p, w = (p_in[:nf], p_in[nf:]) if self.nw else (p_in, None)  # w: the drives' time inputs (then the time)
+        wd = w[:self.drives.nw] if (self.drives is not None and w is not None) else w  # (the drives' own: their
+        # rows index the entry past them as a constant 1)
         cm, cc, kc = ca.MX.sym("cm"), ca.MX.sym("cc"), ca.MX.sym("kc")
         kel = ca.MX.sym("kel", self.kel_sparsity.nnz()) if self.kel_sparsity is not None else None
         vc = ca.MX.sym("vc", nf)  # v_n+1 = vc + cc x (used by the strain-rate damping)
@@ -393,22 +396,24 @@ class StepSystem(ReducedModel):
         S = add(add(cmM, mul(cc, C)), K) if damped else add(cmM, K)
         if turning is not None:
             S = S + ca.jacobian(turning, xf)
+        # (lines in water under waves: the water's forces read the time, the last of the time inputs w)
+        dargs = [xf, vc + cc * xf] + ([w[-1]] if damping.timed(self) else [])
         if self.damp_f is not None:
-            fd, dfx, dfv = self.damp_f(xf, vc + cc * xf)
+            fd, dfx, dfv = self.damp_f(*dargs)
             r_q += fd
             S = S + dfx + cc * dfv
         # the same residual from the gradient-only kernels (modified Newton: no Hessian work)
         r_g = None if full_only else Mu + cc * Cx + self.grad_pf(xf, par) + p
         if self.damp_f is not None and not full_only:
-            r_g += self.damp_force_f(xf, vc + cc * xf)
-        tq = self.torque_mx(xf, w)
+            r_g += self.damp_force_f(*dargs)
+        tq = self.torque_mx(xf, wd)
         if tq is not None:  # applied torques: force tau (-s, c), tangent -d/dx of it
             r_q -= tq
             if r_g is not None:
                 r_g -= tq
             S = S - ca.jacobian(tq, xf)
         if mc:
-            phi = self.constraint_mx(xf, w)
+            phi = self.constraint_mx(xf, wd)
             Jx = ca.jacobian(phi, xf)
             r_q += kc * ca.mtimes(Jx.T, lam)
             if r_g is not None:
@@ -640,8 +645,10 @@ class StepSystem(ReducedModel):
         return np.concatenate(parts) if parts else np.zeros(0)
 
     def w(self, t: float) -> np.ndarray:
-        """The drives' time inputs at t (empty without drives)."""
-        return self.drives.w(t) if self.drives is not None else np.zeros(0)
+        """The step graph's time inputs at t: the drives' (empty without drives), then t itself where the water's
+        forces read the time (waves)."""
+        w = self.drives.w(t) if self.drives is not None else np.zeros(0)
+        return np.r_[w, t] if water.timed(self.asm) else w
 
     def drive_force(self, xf: np.ndarray, lam: np.ndarray, t: float) -> np.ndarray | None:
         """Generalized force of the drives (their rows' reactions -J_D^T lam_D) and the torques on the unknowns at

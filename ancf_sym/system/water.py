@@ -5,6 +5,9 @@
   df_d/dv by AD of the one vectorized graph (ancf_sym.model.water_forces); the step graphs add them to the damping force
   (ancf_sym.dynamics.damping.dissipation_functions), so the damping work the run books includes the drag's work and
   the water line's (conservative) work;
+- waves (ancf_sym.model.waves): the drag on the velocity relative to current and waves, and the fluid inertia force
+  of the waves' acceleration (Froude-Krylov and added mass) join f_d, which then takes the time t as a third input
+  (`timed`; the step graph reads it from the last of its time inputs w, ancf_sym.system.step_system);
 - added mass: rho_w A (Ca (I - t t') + CaAx t t') per length, exact: the step system's constant mass matrix holds
   it with the tangents t0 of the run's start state (`added_mass`), and the step residual adds the rest,
   rho_w A (CaAx - Ca) (t t' - t0 t0') times the acceleration at the quadrature points (`inertia_mx`), with its
@@ -16,8 +19,10 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from ancf_sym.model.water_forces import added_mass_matrix, drag_force, gravity_magnitude, water_line_energy
+from ancf_sym.model.water_forces import (added_mass_matrix, drag_force, fluid_inertia_force, gravity_magnitude,
+                                         point_positions, water_line_energy)
 from ancf_sym.model.water_points import wet_points
+from ancf_sym.model.waves import kinematics_mx
 from ancf_sym.system.interface import StepSystemView
 
 
@@ -38,17 +43,24 @@ def in_graph(asm) -> bool:
     return has_forces(asm) or nonlinear_inertia(asm)
 
 
-def check_integrator(scene, integrator: str) -> None:
-    """Refused before any work: waves (their kinematics exist, ancf_sym.model.waves, but the step graph has no time
-    input for them yet), and the collocation integrators (a constant mass matrix) where the added mass turns."""
-    w = getattr(scene, "water", None)
-    if w is not None and w.waves is not None:
-        from ancf_sym.util.checks import fail
+def timed(asm) -> bool:
+    """Do the water forces depend on time (waves)? Then f_d takes t as a third input and the step graph a time
+    input (the last entry of its time inputs w)."""
+    w = water_of(asm)
+    return w is not None and w.waves is not None
 
-        raise fail("water.waves", "are not applied in the dynamics yet (the statics take the current only); "
-                   "remove them for a run in still water or a current", vars(w.waves))
+
+def check_integrator(scene, integrator: str) -> None:
+    """Refused before any work: waves and the collocation integrators (their stages have no time input), and the
+    collocation integrators (a constant mass matrix) where the added mass turns."""
+    w = getattr(scene, "water", None)
     if w is None or integrator not in ("radau", "gauss"):
         return
+    if w.waves is not None:
+        from ancf_sym.util.checks import fail
+
+        raise fail("water.waves", f"run with the alpha schemes (newmark, hht, generalized_alpha), not "
+                   f"integrator={integrator!r} (its stages have no time input for the waves)", vars(w.waves))
     for name, c in w.lines.items():
         if c.ca != c.ca_axial:
             from ancf_sym.util.checks import fail
@@ -88,12 +100,12 @@ def inertia_mx(S: StepSystemView, xf: ca.MX, acc: ca.MX) -> ca.MX | None:
 
 
 def has_forces(asm) -> bool:
-    """Does the step graph carry water forces (a buoyant member's water line, or drag)?"""
+    """Does the step graph carry water forces (a buoyant member's water line, drag, or waves)?"""
     w = water_of(asm)
     if w is None:
         return False
     wp = _points(asm)
-    return bool(np.any(wp.area)) or wp.drag
+    return bool(np.any(wp.area)) or wp.drag or w.waves is not None
 
 
 def _points(asm):
@@ -103,20 +115,32 @@ def _points(asm):
     return wp
 
 
-def force_mx(S: StepSystemView, xf: ca.MX, vf: ca.MX, X: ca.MX, V: ca.MX) -> tuple | None:
+def force_mx(S: StepSystemView, xf: ca.MX, vf: ca.MX, X: ca.MX, V: ca.MX, t: ca.MX | None = None) -> tuple | None:
     """(f_d, df_d/dx, df_d/dv) on the unknowns of step system S (X, V: the full coordinates and velocities as MX of
-    the unknowns xf, vf), or None without water forces. The water line's gradient is taken with respect to xf (X
-    is E xf + c: the chain rule gives E' grad_X U)."""
+    the unknowns xf, vf; t: the time, where the water has waves), or None without water forces. The water line's
+    gradient is taken with respect to xf (X is E xf + c: the chain rule gives E' grad_X U). Under waves the water's
+    velocity and acceleration at the points (Airy, ancf_sym.model.waves) are expressions of X and t: their
+    dependence on the position enters the tangents exactly."""
     from ancf_sym.util.sparsity import dm
 
     asm = S.asm
     if not has_forces(asm):
         return None
     w, wp = water_of(asm), _points(asm)
-    Ub = water_line_energy(wp, w, gravity_magnitude(asm.scene), X)
+    g = gravity_magnitude(asm.scene)
+    Ub = water_line_energy(wp, w, g, X)
     f = ca.gradient(Ub, xf) if Ub is not None else ca.MX.zeros(S.nf)
+    flow = acc = None
+    if w.waves is not None:
+        _, flow, acc = kinematics_mx(w, g, point_positions(wp, X), t)
+    Q = None
     if wp.drag:
-        f = f - ca.mtimes(dm(S.E.T.tocsr()), drag_force(wp, w, X, V))
+        Q = drag_force(wp, w, X, V, flow=flow)
+    if acc is not None and (np.any(wp.area) or wp.added_mass):
+        Fi = fluid_inertia_force(wp, w, X, acc)
+        Q = Fi if Q is None else Q + Fi
+    if Q is not None:
+        f = f - ca.mtimes(dm(S.E.T.tocsr()), Q)
     return f, ca.jacobian(f, xf), ca.jacobian(f, vf)
 
 
@@ -133,12 +157,14 @@ def added_mass(asm) -> sp.csc_matrix | None:
 
 
 def key(asm) -> tuple | None:
-    """What the step graphs bake in of the water (coefficients, current, the added mass's state)."""
+    """What the step graphs bake in of the water (coefficients, current, waves and gravity, the added mass's
+    state)."""
     w = water_of(asm)
     if w is None:
         return None
     c = w.current
     x = getattr(asm, "added_mass_state", None)
     return (w.density, w.depth, w.surface, w.gauss, None if c is None else (c.z.tobytes(), c.u.tobytes()),
+            None if w.waves is None else tuple(vars(w.waves).values()), tuple(np.asarray(asm.scene.gravity, float)),
             tuple(sorted((k, tuple(vars(v).values())) for k, v in w.lines.items())),
             None if x is None else np.asarray(x, float).tobytes())
