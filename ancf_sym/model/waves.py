@@ -70,12 +70,21 @@ def kinematics_mx(water: Water, g: float, r: list, t) -> tuple:
     return eta, u, a
 
 
+_EVALUATORS: dict = {}  # the mapped CasADi functions of `kinematics` by (waves, depth, surface, g, dim, points)
+
+
 def kinematics(water: Water, g: float, r: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(eta (P,), u (P, dim), a (P, dim)) at points r (P, dim) and time t: `kinematics_mx` evaluated on arrays."""
+    """(eta (P,), u (P, dim), a (P, dim)) at points r (P, dim) and time t: `kinematics_mx` evaluated on arrays (its
+    function built once per wave, water and number of points)."""
     r = np.atleast_2d(np.asarray(r, float))
     P, dim = r.shape
-    R, T = ca.SX.sym("r", dim), ca.SX.sym("t")
-    eta, u, a = kinematics_mx(water, g, [R[i] for i in range(dim)], T)
-    f = ca.Function("airy", [R, T], [ca.vertcat(eta, *u, *a)]).map(P)
+    key = (tuple(vars(water.waves).values()), water.depth, water.surface, g, dim, P)
+    f = _EVALUATORS.get(key)
+    if f is None:
+        if len(_EVALUATORS) > 64:
+            _EVALUATORS.clear()
+        R, T = ca.SX.sym("r", dim), ca.SX.sym("t")
+        eta, u, a = kinematics_mx(water, g, [R[i] for i in range(dim)], T)
+        f = _EVALUATORS[key] = ca.Function("airy", [R, T], [ca.vertcat(eta, *u, *a)]).map(P)
     out = np.asarray(f(r.T, float(t))).T  # (P, 1 + 2 dim)
     return out[:, 0], out[:, 1:1 + dim], out[:, 1 + dim:]
