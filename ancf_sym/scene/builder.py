@@ -393,7 +393,7 @@ class Scene:
     def set_water(self, **options: Any):
         """Put the members in water (ancf_sym.water.set_water, docs/water.md): density [kg/m^3], depth [m], surface
         (the still water line's height), current (a velocity or [[z, velocity], ...]), waves = {height, period,
-        direction, phase}, seabed = {stiffness, damping, mu, eps, thickness} (ground contacts at the depth),
+        direction, phase, stretching}, seabed = {stiffness, damping, mu, eps, thickness} (ground contacts at the depth),
         lines = {member: {cd, cd_axial, ca, ca_axial, diameter, buoyancy}}, gauss."""
         from ancf_sym.scene.water import set_water
 
