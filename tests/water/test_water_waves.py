@@ -41,8 +41,9 @@ def _airy(p: np.ndarray, t: float, stretching: str) -> tuple[np.ndarray, np.ndar
     return u, a
 
 
-def _morison(p, tang, v, t, current, stretching) -> np.ndarray:
-    """Force per unit length [N/m] at points p with unit tangents tang, the line moving at v (rigidly)."""
+def _morison(p, tang, v, t, current, stretching, buoyancy=True) -> np.ndarray:
+    """Force per unit length [N/m] at points p with unit tangents tang, the line moving at v (rigidly); a member
+    without buoyancy displaces no water: no Froude-Krylov part, the added mass alone."""
     u, acc = _airy(p, t, stretching)
     ur = u + current - v
     area = math.pi * D * D / 4
@@ -56,21 +57,21 @@ def _morison(p, tang, v, t, current, stretching) -> np.ndarray:
         sn = math.sqrt(un @ un + 1e-8)  # the package's |u| = sqrt(u.u + eps^2), eps = 1e-4 m/s (docs/water.md)
         st = math.sqrt((ur[i] @ tt) ** 2 + 1e-8)
         out.append(0.5 * RHO_W * COEF["cd"] * D * sn * un + 0.5 * RHO_W * COEF["cd_axial"] * math.pi * D * st * ut
-                   + RHO_W * area * ((1 + COEF["ca"]) * an + (1 + COEF["ca_axial"]) * at))
+                   + RHO_W * area * ((buoyancy + COEF["ca"]) * an + (buoyancy + COEF["ca_axial"]) * at))
     return np.array(out)
 
 
-def _system(a, b, n: int, stretching: str, current=None):
+def _system(a, b, n: int, stretching: str, current=None, buoyancy=True):
     s = Scene(dim=3, gravity=[0.0, 0.0, -G])
     s.member("c", [a, b], n, Material(E=2e11, density=7800.0), Section.circle(D), axial="biot", bending=False)
     s.set_water(density=RHO_W, depth=DEPTH, current=current, waves=dict(WAVES, stretching=stretching),
-                lines={"c": COEF})
+                lines={"c": dict(COEF, buoyancy=buoyancy)})
     asm = Assembly(s)
     asm.added_mass_state = asm.x0
     return StepSystem.for_scene(asm), asm
 
 
-@pytest.mark.parametrize("case", ["vertical", "inclined"])
+@pytest.mark.parametrize("case", ["vertical", "inclined", "no_buoyancy"])
 @pytest.mark.parametrize("stretching", ["wheeler", "none"])
 def test_force_matches_morison_by_hand(case, stretching):
     """A straight cylinder line in waves (and a current), moving rigidly at v: the step system's water force on
@@ -86,8 +87,8 @@ def test_force_matches_morison_by_hand(case, stretching):
         a, b, current = np.array([3.0, -2.0, -12.0]), np.array([3.0, -2.0, -0.5]), None
     else:
         a, b, current = np.array([-4.0, 1.0, -20.0]), np.array([6.0, 5.0, -2.0]), [0.6, -0.3, 0.0]
-    n = 8
-    S, asm = _system(a, b, n, stretching, current)
+    n, buoyancy = 8, case != "no_buoyancy"
+    S, asm = _system(a, b, n, stretching, current, buoyancy)
     v = np.array([0.3, -0.5, 0.2])
     V = np.zeros(asm.n)
     for k in range(n + 1):  # a rigid translation: every node's r moves at v, the slopes stay
@@ -104,7 +105,7 @@ def test_force_matches_morison_by_hand(case, stretching):
     for e in range(n):
         s_ = (e + xi) * Le
         p = a[None, :] + np.outer(s_, tang)
-        fl = _morison(p, np.repeat(tang[None, :], len(xi), 0), v, t, cur, stretching)
+        fl = _morison(p, np.repeat(tang[None, :], len(xi), 0), v, t, cur, stretching, buoyancy)
         w, _, _ = weights(xi, Le)  # (4, G): r = w0 r_a + w1 r_a' + w2 r_b + w3 r_b'
         for j, off in enumerate((0, 3, 6, 9)):
             Q[6 * e + off:6 * e + off + 3] += (w[j] * wq * Le) @ fl
