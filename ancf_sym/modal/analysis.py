@@ -25,11 +25,10 @@ def modal_analysis(scene: Scene, modes: int = 10, static: StaticResult | None = 
 
     static: an equilibrium already solved for this scene (else solved here with `options` or keyword StaticOptions
     fields). A failed static solve gives a result with success False, its status and no modes. damped: also the
-    complex eigenvalues of the damped system (the scene's damping, linearize's D): result.damped."""
+    complex eigenvalues of the damped system (the scene's damping, linearize's D): result.damped. A scene in water:
+    about its statics in water, with the added mass, the buoyancy and the current's drag (its load stiffness makes
+    K unsymmetric: see result.omega2_imag; damped=True adds the drag's damping), ancf_sym.modal.water."""
     modes = check_modes(modes)
-    if getattr(scene, "water", None) is not None:  # (its added mass and drag stiffness are not in the linear model)
-        raise SceneError("modal analysis in water is not supported yet: the linear model lacks the added mass and the "
-                         "drag's stiffness and damping")
     damped = bool(MODAL_OPTIONS["damped"].check("damped", damped))
     t0 = time.perf_counter()
     try:
@@ -55,7 +54,15 @@ def modal_analysis(scene: Scene, modes: int = 10, static: StaticResult | None = 
     lin = linearize(scene, static, damping_matrix=damped, problem=prob)
     w2, Y, method = lowest_modes(lin.K, lin.M, lin.G, modes)
     zero = np.abs(w2) <= ZERO_REL * stiffness_scale(lin.K, lin.M)
-    freq = np.where(zero, 0.0, np.sign(w2) * np.sqrt(np.abs(w2)) / (2 * np.pi))
+    w2_imag = None
+    if np.iscomplexobj(w2):  # (an unsymmetric K, e.g. a current's drag: some w^2 complex) the frequency of a
+        # complex w^2 is Re sqrt(w^2) (its mode grows or decays at |Im sqrt(w^2)|), the shapes the real parts
+        w2_imag = w2.imag
+        root = np.sqrt(w2)
+        w2, Y = w2.real, Y.real
+        freq = np.where(zero, 0.0, np.where(w2_imag != 0, root.real, np.sign(w2) * np.sqrt(np.abs(w2))) / (2 * np.pi))
+    else:
+        freq = np.where(zero, 0.0, np.sign(w2) * np.sqrt(np.abs(w2)) / (2 * np.pi))
     shapes = lin.full(Y)
     dim = prob.asm.scene.dim
     # the position coordinates: member nodes and body centres (bodies: the centre first in their coordinates)
@@ -78,4 +85,4 @@ def modal_analysis(scene: Scene, modes: int = 10, static: StaticResult | None = 
         lam = np.r_[np.zeros(nz, complex), lam[~tiny]][:modes]
         complex_modes = DampedModes(lam)
     return ModalResult(status, status == "Solve_Succeeded", w2, freq, zero, shapes, masses, static, method,
-                       time.perf_counter() - t0, lin, complex_modes)
+                       time.perf_counter() - t0, lin, complex_modes, w2_imag)
