@@ -26,6 +26,7 @@ from ancf_sym.model.reduced import Partition
 from ancf_sym.scene.builder import Scene, SceneError
 from ancf_sym.statics.problem import StaticProblem, StaticResult, problem_for
 from ancf_sym.modal.contact_rows import active_rows, exact_multipliers
+from ancf_sym.modal.eigen import symmetric
 from ancf_sym.modal.water import water_matrices
 from ancf_sym.system import water as system_water
 
@@ -97,7 +98,9 @@ class Linearization:
         sol = sp.linalg.splu(kkt).solve(rhs)
         Y, Mu = sol[:len(keep)], sol[len(keep):]
         Kc = (S.T @ H @ S).toarray() + (S.T @ H @ Er) @ Y + (S.T @ Gf.T) @ Mu
-        return 0.5 * (Kc + Kc.T)
+        # (symmetric to round-off for a conservative scene; a current's drag makes it unsymmetric: kept so, it is
+        # then the fairlead's stiffness of ancf_sym.water.mooring_stiffness)
+        return 0.5 * (Kc + Kc.T) if symmetric(H) else Kc
 
 
 def _state(prob: StaticProblem, state) -> tuple[np.ndarray, StaticResult | None]:

@@ -159,3 +159,30 @@ def test_frequency_sensitivities_in_water_are_refused():
     s = taut(2)
     with pytest.raises(ParameterError, match="in water"):
         ModalSensitivity(modal_analysis(s, modes=1), s, {})
+
+
+def test_condensed_stiffness_in_a_current_is_the_fairleads():
+    # the linearisation's condensation at a pinned end (unsymmetric in a current: not symmetrised) and the water
+    # statics' mooring_stiffness are the same exact Schur complement: equal to round-off (1e-12)
+    from ancf_sym import solve_static
+    from ancf_sym.water import mooring_stiffness
+
+    s = taut(8, dim=3, eps=1e4 / (1e9 * A), current=[0.2, 0.5, 0.0], lines={"cd": 1.2, "cd_axial": 0.4})
+    r = solve_static(s)
+    assert r.success
+    Kc = linearize(s, r).condensed_stiffness([("c", "end")])
+    Km = mooring_stiffness(r, "c", "end")
+    assert abs(Km[0, 1] - Km[1, 0]) > 1e-7 * abs(Km).max()  # (unsymmetric: 3e-6 of the axial stiffness)
+    assert np.abs(Kc - Km).max() <= 1e-12 * np.abs(Km).max()
+
+
+def test_result_document_in_water(tmp_path):
+    import json
+
+    from ancf_sym.io.json_out import json_ready
+    from ancf_sym.modal.output import modal_result_dict, write_modes_vtu
+
+    r = modal_analysis(taut(4, current=[0.5, 0.0], lines={"cd": 1.2}), modes=2, damped=True)
+    doc = json.loads(json.dumps(json_ready(modal_result_dict(r))))
+    assert doc["success"] and doc["omega2_imag"] is None and len(doc["damped"]["damping_ratios"]) == 2
+    assert write_modes_vtu(r, tmp_path / "m.vtu").stat().st_size > 0
