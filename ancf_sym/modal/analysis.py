@@ -10,13 +10,25 @@ import numpy as np
 from ancf_sym.scene.builder import Scene, SceneError
 from ancf_sym.scene.schema import MODAL_OPTIONS
 from ancf_sym.statics.problem import StaticOptions, StaticProblem, StaticResult, problem_for
-from ancf_sym.modal.eigen import ZERO_REL, damped_modes, lowest_modes, stiffness_scale
+from ancf_sym.modal.eigen import REAL_REL, ZERO_REL, damped_modes, lowest_modes, stiffness_scale
 from ancf_sym.modal.linearize import linearize
 from ancf_sym.modal.result import DampedModes, ModalResult
 
 
 def check_modes(modes) -> int:
     return int(MODAL_OPTIONS["modes"].check("modes", modes))
+
+
+def frequencies_of(w2: np.ndarray, zero: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+    """(Re w^2, Im w^2 or None where all are real, frequencies [Hz]): sqrt(w^2) / 2 pi, -sqrt(-w^2) / 2 pi for an
+    unstable mode, 0 for a zero one; a complex w^2 (an unsymmetric K: a current's drag) Re sqrt(w^2) / 2 pi (its
+    pair grows and decays at |Im sqrt(w^2)|)."""
+    w2 = np.asarray(w2)
+    if not np.iscomplexobj(w2):
+        return w2, None, np.where(zero, 0.0, np.sign(w2) * np.sqrt(np.abs(w2)) / (2 * np.pi))
+    cplx = np.abs(w2.imag) > REAL_REL * np.abs(w2)  # (the rest: real to Arnoldi's round-off)
+    real = np.sign(w2.real) * np.sqrt(np.abs(w2.real))
+    return w2.real, w2.imag, np.where(zero, 0.0, np.where(cplx, np.sqrt(w2).real, real) / (2 * np.pi))
 
 
 def modal_analysis(scene: Scene, modes: int = 10, static: StaticResult | None = None,
@@ -54,16 +66,8 @@ def modal_analysis(scene: Scene, modes: int = 10, static: StaticResult | None = 
     lin = linearize(scene, static, damping_matrix=damped, problem=prob)
     w2, Y, method = lowest_modes(lin.K, lin.M, lin.G, modes)
     zero = np.abs(w2) <= ZERO_REL * stiffness_scale(lin.K, lin.M)
-    w2_imag = None
-    if np.iscomplexobj(w2):  # (an unsymmetric K, e.g. a current's drag: some w^2 complex) the frequency of a
-        # complex w^2 is Re sqrt(w^2) (its mode grows or decays at |Im sqrt(w^2)|), the shapes the real parts
-        w2_imag = w2.imag
-        root = np.sqrt(w2)
-        w2, Y = w2.real, Y.real
-        freq = np.where(zero, 0.0, np.where(w2_imag != 0, root.real, np.sign(w2) * np.sqrt(np.abs(w2))) / (2 * np.pi))
-    else:
-        freq = np.where(zero, 0.0, np.sign(w2) * np.sqrt(np.abs(w2)) / (2 * np.pi))
-    shapes = lin.full(Y)
+    w2, w2_imag, freq = frequencies_of(w2, zero)
+    shapes = lin.full(Y.real)  # (an unsymmetric K's complex modes: their real parts)
     dim = prob.asm.scene.dim
     # the position coordinates: member nodes and body centres (bodies: the centre first in their coordinates)
     pos = np.concatenate([mm.offset + (np.arange(mm.n_nodes)[:, None] * mm.node_size + np.arange(dim)).ravel()

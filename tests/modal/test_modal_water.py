@@ -186,3 +186,13 @@ def test_result_document_in_water(tmp_path):
     doc = json.loads(json.dumps(json_ready(modal_result_dict(r))))
     assert doc["success"] and doc["omega2_imag"] is None and len(doc["damped"]["damping_ratios"]) == 2
     assert write_modes_vtu(r, tmp_path / "m.vtu").stat().st_size > 0
+
+
+def test_frequencies_of_complex_w2():
+    # a complex w^2 = (a + i b)^2: frequency a / 2 pi; a real negative one (to round-off) stays an unstable mode
+    from ancf_sym.modal.analysis import frequencies_of
+
+    w2 = np.array([(3.0 + 0.5j) ** 2, -4.0 + 1e-14j, 9.0 + 0j, 1e-20 + 0j])
+    re, im, f = frequencies_of(w2, np.array([False, False, False, True]))
+    assert np.allclose(f * 2 * np.pi, [3.0, -2.0, 3.0, 0.0]) and np.allclose(im, w2.imag) and np.allclose(re, w2.real)
+    assert frequencies_of(np.array([4.0]), np.array([False]))[1] is None
