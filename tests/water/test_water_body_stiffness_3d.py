@@ -181,3 +181,32 @@ def test_moored_body_modes_are_those_of_its_stiffness():
     K = body_mooring_stiffness(r.static, "p")
     f = np.sqrt(la.eigh(K, np.diag(np.r_[mb, mb, mb, ib]), eigvals_only=True)) / (2 * np.pi)
     assert np.all(np.abs(r.frequencies / f - 1) < 1e-4)
+
+
+def test_planar_body_about_a_point_is_the_spatial_formula_in_the_plane():
+    # the planar 3 x 3 about an off-centre point: the (u_x, u_y, theta_z) block of the spatial closed form of the
+    # same lines (in the plane z = 0), to round-off (1e-9)
+    s = Scene(dim=2, gravity=[0.0, 0.0])
+    s.body("p", 10.0, 1.0, [0.0, 0.0])
+    lines = [(np.array([1.0, 0.0]), np.array([0.0, 0.3]), 0.01), (np.array([-1.0, 0.0]), np.array([0.0, 0.3]), 0.01),
+             (np.array([0.0, 1.0]), np.array([0.2, 0.0]), 0.02), (np.array([0.0, -1.0]), np.array([0.2, 0.0]), 0.02)]
+    for k, (n, o, pre) in enumerate(lines):
+        a = n + o
+        s.member(f"l{k}", [tuple(a), tuple(a + SPAN * n)], 2, MAT, SEC, axial="biot", bending=False, prestrain=pre)
+        s.pin_body("p", f"l{k}", "start")
+        s.pin(f"l{k}", at="end")
+    s.set_water(density=1000.0, surface=10.0)
+    r = solve_static(s)
+    assert r.success
+    p = np.array([0.4, -0.7])
+    ref = np.zeros((6, 6))
+    for n, o, pre in lines:
+        n3, a3 = np.r_[n, 0.0], np.r_[n + o, 0.0]
+        T, L0 = EA * pre, SPAN / (1.0 + pre)
+        Ki = EA / L0 * np.outer(n3, n3) + T / SPAN * (np.eye(3) - np.outer(n3, n3))
+        S = skew(a3 - np.r_[p, 0.0])
+        ref += np.block([[Ki, -Ki @ S], [S @ Ki, -S @ Ki @ S - skew(T * n3) @ S]])
+    ref = ref[np.ix_([0, 1, 5], [0, 1, 5])]
+    K = body_mooring_stiffness(r, "p", point=p)
+    assert abs(ref[0, 2]) > 1e2 and abs(ref[1, 2]) > 1e2
+    assert np.abs(K - ref).max() <= 1e-9 * np.abs(ref).max()
