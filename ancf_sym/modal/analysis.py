@@ -10,7 +10,7 @@ import numpy as np
 from ancf_sym.scene.builder import Scene, SceneError
 from ancf_sym.scene.schema import MODAL_OPTIONS
 from ancf_sym.statics.problem import StaticOptions, StaticProblem, StaticResult, problem_for
-from ancf_sym.modal.eigen import ZERO_REL, damped_modes, lowest_modes, stiffness_scale
+from ancf_sym.modal.eigen import REAL_REL, ZERO_REL, damped_modes, lowest_modes, stiffness_scale
 from ancf_sym.modal.linearize import linearize
 from ancf_sym.modal.result import DampedModes, ModalResult
 
@@ -19,18 +19,33 @@ def check_modes(modes) -> int:
     return int(MODAL_OPTIONS["modes"].check("modes", modes))
 
 
+def frequencies_of(w2: np.ndarray, zero: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+    """(Re w^2, Im w^2 or None where all are real, frequencies [Hz]): sqrt(w^2) / 2 pi, -sqrt(-w^2) / 2 pi for an
+    unstable mode, 0 for a zero one; a complex w^2 (an unsymmetric K: a current's drag) Re sqrt(w^2) / 2 pi (its
+    pair grows and decays at |Im sqrt(w^2)|)."""
+    w2 = np.asarray(w2)
+    if not np.iscomplexobj(w2):
+        return w2, None, np.where(zero, 0.0, np.sign(w2) * np.sqrt(np.abs(w2)) / (2 * np.pi))
+    cplx = np.abs(w2.imag) > REAL_REL * np.abs(w2)  # (the rest: real to Arnoldi's round-off)
+    real = np.sign(w2.real) * np.sqrt(np.abs(w2.real))
+    return w2.real, w2.imag, np.where(zero, 0.0, np.where(cplx, np.sqrt(w2).real, real) / (2 * np.pi))
+
+
 def modal_analysis(scene: Scene, modes: int = 10, static: StaticResult | None = None,
                    options: StaticOptions | None = None, damped: bool = False, **static_options) -> ModalResult:
     """The `modes` lowest natural modes of a scene about its static equilibrium.
 
     static: an equilibrium already solved for this scene (else solved here with `options` or keyword StaticOptions
     fields). A failed static solve gives a result with success False, its status and no modes. damped: also the
-    complex eigenvalues of the damped system (the scene's damping, linearize's D): result.damped."""
+    complex eigenvalues of the damped system (the scene's damping, linearize's D): result.damped. A scene in water:
+    about its statics in water, with the added mass, the buoyancy and the current's drag (its load stiffness makes
+    K unsymmetric: see result.omega2_imag; damped=True adds the drag's damping), ancf_sym.modal.water."""
     modes = check_modes(modes)
-    if getattr(scene, "water", None) is not None:  # (its added mass and drag stiffness are not in the linear model)
-        raise SceneError("modal analysis in water is not supported yet: the linear model lacks the added mass and the "
-                         "drag's stiffness and damping")
     damped = bool(MODAL_OPTIONS["damped"].check("damped", damped))
+    water = getattr(scene, "water", None)
+    if water is not None and water.waves is not None:  # a time-dependent load has no place in a linearisation
+        raise SceneError("water.waves: modal analysis linearises about the statics' equilibrium (current only); "
+                         "remove the waves for a modal analysis, run the dynamics for the response to them")
     t0 = time.perf_counter()
     try:
         prob = problem_for(scene)
@@ -55,8 +70,8 @@ def modal_analysis(scene: Scene, modes: int = 10, static: StaticResult | None = 
     lin = linearize(scene, static, damping_matrix=damped, problem=prob)
     w2, Y, method = lowest_modes(lin.K, lin.M, lin.G, modes)
     zero = np.abs(w2) <= ZERO_REL * stiffness_scale(lin.K, lin.M)
-    freq = np.where(zero, 0.0, np.sign(w2) * np.sqrt(np.abs(w2)) / (2 * np.pi))
-    shapes = lin.full(Y)
+    w2, w2_imag, freq = frequencies_of(w2, zero)
+    shapes = lin.full(Y.real)  # (an unsymmetric K's complex modes: their real parts)
     dim = prob.asm.scene.dim
     # the position coordinates: member nodes and body centres (bodies: the centre first in their coordinates)
     pos = np.concatenate([mm.offset + (np.arange(mm.n_nodes)[:, None] * mm.node_size + np.arange(dim)).ravel()
@@ -78,4 +93,4 @@ def modal_analysis(scene: Scene, modes: int = 10, static: StaticResult | None = 
         lam = np.r_[np.zeros(nz, complex), lam[~tiny]][:modes]
         complex_modes = DampedModes(lam)
     return ModalResult(status, status == "Solve_Succeeded", w2, freq, zero, shapes, masses, static, method,
-                       time.perf_counter() - t0, lin, complex_modes)
+                       time.perf_counter() - t0, lin, complex_modes, w2_imag)

@@ -6,7 +6,8 @@ KKT matrix [[K - sigma M, G'], [G, 0]]^-1: it maps M y to the constrained soluti
 product, and its largest eigenvalues 1/(w^2 - sigma) are the modes nearest the shift (the m directions it annihilates
 give 0, the far end of its spectrum). The shift is 0 first; where that factorisation is singular or the answer has
 zero modes (rigid motions of free structures), again with a negative shift below the lowest elastic mode: K - sigma
-M is then regular and the rigid modes come out as w^2 = 0 to round-off.
+M is then regular and the rigid modes come out as w^2 = 0 to round-off. An unsymmetric K (a current's drag in
+water: a load that follows the line) takes the same operator with Arnoldi (eigs) or the dense unsymmetric pencil.
 """
 from __future__ import annotations
 
@@ -25,6 +26,8 @@ DENSE_MAX = 40  # unknowns (or modes + this) up to which the dense pencil is use
 ZERO_REL = 1e-12  # |w^2| below this times the model's largest diag(K)/diag(M): a zero (rigid) mode. The computed
 # w^2 of a rigid motion is round-off of the tangent's largest entries (eps * max K / M times a growth factor, measured
 # ~1e-15 of it on free beams); an elastic mode that low is not resolvable from a rigid one in double precision.
+UNSYMMETRIC_REL = 1e-10  # |K - K'| above this times |K|: the unsymmetric pencil (complex w^2 where a mode flutters)
+REAL_REL = 1e-9  # |Im w^2| below this times |w^2|: a real eigenvalue of the unsymmetric pencil (Arnoldi's round-off)
 
 
 def stiffness_scale(K: sp.spmatrix, M: sp.spmatrix) -> float:
@@ -34,12 +37,24 @@ def stiffness_scale(K: sp.spmatrix, M: sp.spmatrix) -> float:
     return float(np.max(dk[ok] / dm[ok])) if np.any(ok) and np.any(dk[ok] > 0) else 1.0
 
 
+def symmetric(K: sp.spmatrix) -> bool:
+    """K equal to K' (to round-off: symmetrised Hessians are exact; an unsymmetric K is a non-conservative load's
+    stiffness, e.g. a current's drag)."""
+    D = abs(K - K.T)
+    return D.nnz == 0 or D.max() <= UNSYMMETRIC_REL * abs(K).max()
+
+
 def dense_modes(K, M, G, k: int) -> tuple[np.ndarray, np.ndarray]:
     Kd, Md = K.toarray(), M.toarray()
     if G.shape[0]:
         T = la.null_space(G.toarray())
         Kd, Md = T.T @ Kd @ T, T.T @ Md @ T
-    w2, Z = la.eigh(0.5 * (Kd + Kd.T), 0.5 * (Md + Md.T), subset_by_index=[0, min(k, Kd.shape[0]) - 1])
+    if symmetric(K):
+        w2, Z = la.eigh(0.5 * (Kd + Kd.T), 0.5 * (Md + Md.T), subset_by_index=[0, min(k, Kd.shape[0]) - 1])
+    else:  # the unsymmetric pencil: every eigenvalue, the k of lowest real part
+        w2, Z = la.eig(Kd, 0.5 * (Md + Md.T))
+        o = np.argsort(w2.real)[:k]
+        w2, Z = w2[o], Z[:, o]
     Y = T @ Z if G.shape[0] else Z
     return w2, Y
 
@@ -58,8 +73,11 @@ def _shift_invert(K, M, G, k: int, sigma: float):
     # a fixed start vector (ARPACK's own is random): the same scene gives the same modes to the last bit; a seeded
     # random one, not ones, which a symmetric structure's antisymmetric modes are orthogonal to
     v0 = np.random.default_rng(0).standard_normal(n)
-    w2, Y = sla.eigsh(K, k=k, M=M, sigma=sigma, which="LM", OPinv=op, ncv=ncv, v0=v0)
-    o = np.argsort(w2)
+    if symmetric(K):
+        w2, Y = sla.eigsh(K, k=k, M=M, sigma=sigma, which="LM", OPinv=op, ncv=ncv, v0=v0)
+    else:  # (Arnoldi on the same operator: its eigenvalues 1/(w^2 - sigma), complex where a mode flutters)
+        w2, Y = sla.eigs(K, k=k, M=M, sigma=sigma, which="LM", OPinv=op, ncv=ncv, v0=v0)
+    o = np.argsort(w2.real)
     return w2[o], Y[:, o]
 
 
@@ -80,7 +98,9 @@ def sparse_modes(K, M, G, k: int) -> tuple[np.ndarray, np.ndarray, float]:
 
 
 def lowest_modes(K, M, G, k: int) -> tuple[np.ndarray, np.ndarray, str]:
-    """(w^2 ascending, M-normalised mode vectors as columns, method)."""
+    """(w^2 ascending, M-normalised mode vectors as columns, method). An unsymmetric K (a non-conservative load's
+    stiffness): the k eigenvalues of lowest real part of the unsymmetric pencil, real (with real vectors) where
+    every one is real to round-off, else complex w^2 and vectors (a mode the load feeds or damps)."""
     n = K.shape[0]
     if k > n - G.shape[0]:
         raise SceneError(f"modes = {k} exceeds the {n - G.shape[0]} degrees of freedom the supports, joints and "
@@ -91,10 +111,17 @@ def lowest_modes(K, M, G, k: int) -> tuple[np.ndarray, np.ndarray, str]:
     else:
         w2, Y, sigma = sparse_modes(K, M, G, k)
         method = f"shift-invert Lanczos (sigma = {sigma:.6g})"
+    if np.iscomplexobj(w2) or np.iscomplexobj(Y):  # (the unsymmetric pencil) the largest entry real and positive;
+        big = np.argmax(np.abs(Y), axis=0)  # a real eigenvalue's vector is then real to round-off: its real part
+        ph = Y[big, np.arange(Y.shape[1])]
+        Y = Y * (np.conj(ph) / np.abs(ph))
+        w2 = np.asarray(w2, complex)
+        if np.all(np.abs(w2.imag) <= REAL_REL * np.abs(w2)):
+            w2, Y = w2.real, Y.real
     # M-normalised (eigh and ARPACK give it to round-off; made exact), the largest entry positive (a fixed sign)
-    Y = Y / np.sqrt(np.einsum("ij,ij->j", Y, M @ Y))
+    Y = Y / np.sqrt(np.einsum("ij,ij->j", Y.conj(), M @ Y).real)
     big = np.argmax(np.abs(Y), axis=0)
-    Y = Y * np.sign(Y[big, np.arange(Y.shape[1])])
+    Y = Y * np.sign(Y[big, np.arange(Y.shape[1])].real)
     return w2, Y, method
 
 

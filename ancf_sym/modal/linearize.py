@@ -8,8 +8,9 @@ potential's Hessian from the kernels (geometric stiffness of the prestress and p
 included) plus sum_i lambda_i Hess(Phi_i) of the multiplier rows (bilinear: a constant curvature). D is the
 damping: Rayleigh alpha M + beta K_el (K_el: the elastic terms' Hessian at the state, per member as the scene
 declares it) plus d f_d / d v at v = 0 of strain-rate damping and dissipative contact (exact, by the dynamics' AD
-graph; friction makes it unsymmetric). B maps point forces at the members' nodes (world components) to generalized
-forces.
+graph; friction makes it unsymmetric). In water (ancf_sym.modal.water) M holds the added mass, K the exact
+Jacobian of the water statics' residual (unsymmetric where a current drags) and D the drag's damping. B maps
+point forces at the members' nodes (world components) to generalized forces.
 """
 from __future__ import annotations
 
@@ -25,6 +26,9 @@ from ancf_sym.model.reduced import Partition
 from ancf_sym.scene.builder import Scene, SceneError
 from ancf_sym.statics.problem import StaticProblem, StaticResult, problem_for
 from ancf_sym.modal.contact_rows import active_rows, exact_multipliers
+from ancf_sym.modal.eigen import symmetric
+from ancf_sym.modal.water import water_matrices
+from ancf_sym.system import water as system_water
 
 
 @dataclass
@@ -94,7 +98,9 @@ class Linearization:
         sol = sp.linalg.splu(kkt).solve(rhs)
         Y, Mu = sol[:len(keep)], sol[len(keep):]
         Kc = (S.T @ H @ S).toarray() + (S.T @ H @ Er) @ Y + (S.T @ Gf.T) @ Mu
-        return 0.5 * (Kc + Kc.T)
+        # (symmetric to round-off for a conservative scene; a current's drag makes it unsymmetric: kept so, it is
+        # then the fairlead's stiffness of ancf_sym.water.mooring_stiffness)
+        return 0.5 * (Kc + Kc.T) if symmetric(H) else Kc
 
 
 def _state(prob: StaticProblem, state) -> tuple[np.ndarray, StaticResult | None]:
@@ -121,6 +127,10 @@ def linearize(scene: Scene, state: StaticResult | np.ndarray | None = None, damp
     asm = prob.asm
     x, result = _state(prob, state)
     part: Partition = prob.S.part  # (the statics' ReducedModel)
+    if getattr(asm.scene, "water", None) is not None:  # (added mass, the drag's stiffness and damping)
+        M, K, D, G, E, lam, J, Gf, wasm = water_matrices(result, part, _damping, damping_matrix)
+        B, inputs = _inputs(wasm, E)
+        return Linearization(M, K, D, G, B, E, result.x, lam, inputs, wasm, J, Gf)
     ev = asm.evaluate(x, hessian=True)
     H = ev.hessian
     exact_contact = bool(contact.exact_contacts(asm))
@@ -146,6 +156,12 @@ def linearize(scene: Scene, state: StaticResult | np.ndarray | None = None, damp
         Gf, lam = sp.vstack([Gf, Jc]).tocsr(), np.r_[lam, -fc]
     G = (Gf @ part.E).tocsr()
     D = _damping(asm, x, part, M) if damping_matrix else None
+    B, inputs = _inputs(asm, part.E)
+    return Linearization(M, K, D, G, B, part.E, x, lam, inputs, asm, H.tocsc(), Gf)
+
+
+def _inputs(asm: Assembly, E: sp.spmatrix) -> tuple[sp.csc_matrix, list]:
+    """(B, labels): the generalized forces on the unknowns (x = E y + c) of point forces at every member node."""
     cols, inputs = [], []
     for name, mm in asm.mesh.members.items():
         for k, node in enumerate(mm.public_nodes):
@@ -153,15 +169,15 @@ def linearize(scene: Scene, state: StaticResult | np.ndarray | None = None, damp
                 cols.append(dof)
                 inputs.append((name, k, "xyz"[d]))
     P = sp.csc_matrix((np.ones(len(cols)), (np.asarray(cols), np.arange(len(cols)))), shape=(asm.n, len(cols)))
-    B = (part.E.T @ P).tocsc()
-    return Linearization(M, K, D, G, B, part.E, x, lam, inputs, asm, H.tocsc(), Gf)
+    return (E.T @ P).tocsc(), inputs
 
 
 def _damping(asm: Assembly, x: np.ndarray, part: Partition, M: sp.csc_matrix) -> sp.csc_matrix | None:
     """Rayleigh damping plus d f_d / d v at (x, v = 0) of strain-rate damping and dissipative contact (the dynamics'
     own exact dissipation graph, ancf_sym.system.damping, built only where the scene has either)."""
     D = _rayleigh(asm, x, M, part)
-    if damping.strain_rate_data(asm) is not None or contact.dissipation_calls(asm.mesh):
+    if damping.strain_rate_data(asm) is not None or contact.dissipation_calls(asm.mesh) or \
+            system_water.has_forces(asm):  # (lines in water: the drag's d f / d v, in the same graph)
         from ancf_sym.system.step_system import StepSystem
         S = StepSystem.for_scene(asm)
         Dv = S.damp_f(S.reduce(x), np.zeros(S.nf))[2]

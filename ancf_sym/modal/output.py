@@ -26,7 +26,7 @@ def modal_result_dict(result: ModalResult, scene_file: str | Path | None = None,
     doc["static_status"], doc["static_success"] = doc["status"], doc["success"]
     doc["status"], doc["success"] = result.status, result.success
     doc["wall_s"]["modal"] = result.wall_s
-    for key in ("method", "frequencies", "omega2", "zero", "modal_masses", "modes", "damped"):
+    for key in ("method", "frequencies", "omega2", "omega2_imag", "zero", "modal_masses", "modes", "damped"):
         doc[key] = modal[key]
     doc["mode_normalisation"] = "mass: phi' M phi = 1 (displacements in m per sqrt(kg))"
     return doc

@@ -52,6 +52,10 @@ class ModalResult:
     wall_s: float = 0.0
     linearization: Linearization | None = field(default=None, repr=False)
     damped: DampedModes | None = None  # with modal_analysis(..., damped=True): the damped system's eigenvalues
+    omega2_imag: np.ndarray | None = None  # Im w^2 [1/s^2] where K is unsymmetric (a current's drag) and some w^2
+    # complex; None otherwise. A complex w^2 (a conjugate pair) is a flutter of the undamped linear model: its
+    # frequency Re sqrt(w^2) / 2 pi, one of the pair growing at |Im sqrt(w^2)| [1/s] (damped=True says whether the
+    # drag's damping holds it); its shape the real part
 
     @property
     def modes(self) -> int:
@@ -87,5 +91,6 @@ class ModalResult:
                                           "slopes": self.slopes(k, name).tolist()} for name in members}}
                       for k in range(self.modes)],
             "damped": self.damped.to_dict() if self.damped is not None else None,
+            "omega2_imag": self.omega2_imag.tolist() if self.omega2_imag is not None else None,
             "static": self.static.to_dict(),
         }

@@ -48,6 +48,9 @@ class ModalSensitivity:
         self.static = StaticSensitivity(scene, modal.static, doc, modal.linearization)
         asm = self.static.asm
         self._rows = partition(asm).rows  # the exact rows kept with multipliers (rows of G)
+        if getattr(asm.scene, "water", None) is not None:
+            raise ParameterError("frequency sensitivities in water are not available (the added mass's and the drag's "
+                                 "derivatives are not in the model derivative)")
         if contact.exact_contacts(asm):
             raise ParameterError("frequency sensitivities with exact contact are not available (the contact rows' "
                                  "curvature changes with the contact forces)")

@@ -7,7 +7,8 @@ forces and the statics as a non-conservative load (Newton on the residual with i
 
 Each part lives with its stage of the data flow: the declaration in ancf_sym.scene.water, the wet points, forces
 and waves in ancf_sym.model (water_points, water_forces, waves), the step system's terms in ancf_sym.system.water,
-the statics in ancf_sym.statics.water and the fairlead stiffness in ancf_sym.statics.mooring; this package gathers
+the statics in ancf_sym.statics.water, the fairlead's and a moored body's stiffness in ancf_sym.statics.mooring, the
+modal analysis's linear model in ancf_sym.modal.water (modal_analysis takes a scene in water); this package gathers
 the names a user imports.
 """
 from ancf_sym.scene.water import Current, LineCoefficients, Seabed, Water, Waves, set_water
