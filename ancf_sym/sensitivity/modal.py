@@ -8,6 +8,9 @@ dK/dp|_x: the kernels' Hessians with their coefficients' derivatives (ancf_sym.s
 D K[dx]: the third derivatives of the elastic energies along the static sensitivity dx*/dp (the kernels'
 compiled Hessian-vector companions: phi' (d(H phi)/dq) dx), plus the multipliers' change times the constraint
 curvature of bilinear rows, and 2 mu'(dG phi) of those rows turning with dx (mu: the mode's multipliers).
+Exact ground contact: the points held at the equilibrium are rows of G as in the statics' sensitivity, linear
+(their curvature and turn are nil); an equilibrium with a point at zero gap and zero force is refused
+(ancf_sym.sensitivity.contact_state: the active set, and with it the frequencies, change one-sidedly there).
 Frequencies f = w / 2 pi: df/dp = (d w^2/dp) / (8 pi^2 f). Repeated frequencies have
 no derivative (their modes mix): such a pair is reported as NaN with the reason in `notes`.
 """
@@ -23,6 +26,7 @@ from ancf_sym import kernels, registry
 from ancf_sym.modal.result import ModalResult
 from ancf_sym.scene.builder import Scene
 from ancf_sym.model.reduced import partition
+from ancf_sym.sensitivity.contact_state import check_differentiable, curved_contact_rows
 from ancf_sym.sensitivity.model_derivative import ParameterError
 from ancf_sym.sensitivity.static import StaticSensitivity
 
@@ -48,9 +52,13 @@ class ModalSensitivity:
         self.static = StaticSensitivity(scene, modal.static, doc, modal.linearization)
         asm = self.static.asm
         self._rows = partition(asm).rows  # the exact rows kept with multipliers (rows of G)
-        if contact.exact_contacts(asm):
-            raise ParameterError("frequency sensitivities with exact contact are not available (the contact rows' "
-                                 "curvature changes with the contact forces)")
+        if contact.exact_contacts(asm):  # the held points are rows (as in the statics' sensitivity)
+            check_differentiable(asm, modal.static, "frequency sensitivities")
+            drums = curved_contact_rows(asm)
+            if drums:
+                raise ParameterError(f"frequency sensitivities with exact drum contact (members {drums}) are not "
+                                     "available: the drum rows' curvature changes with the state, which needs the "
+                                     "gap kernels' third derivatives (exact ground contact is differentiated)")
         if asm.penalty is not None and len(asm.penalty.qrow):
             raise ParameterError("frequency sensitivities with penalty rigid joints are not available")
         for mk in asm.curved:
@@ -91,8 +99,8 @@ class ModalSensitivity:
         m, s = self.modal, self.static
         lin = s.lin
         if lin.G.shape[0]:
-            raise ParameterError("mode-shape derivatives with constraint rows kept in the modes (rigid joints) are "
-                                 "not available")
+            raise ParameterError("mode-shape derivatives with constraint rows kept in the modes (rigid joints, "
+                                 "exact contact) are not available")
         x = m.static.x
         md = s.model(path)
         dx = s.solve(md.residual(x)[1])[0]
@@ -127,7 +135,7 @@ class ModalSensitivity:
         r = self.modal.omega2[k] * (lin.M @ y) - lin.K @ y
         mu = np.linalg.lstsq(lin.G.T.toarray(), r, rcond=None)[0]
         mu_all = np.zeros(asm.exact.m)
-        mu_all[self._rows] = mu
+        mu_all[self._rows] = mu[:len(self._rows)]  # (exact ground contact rows after them: linear, they do not turn)
         return 2.0 * float(dx @ (asm.exact.hessian(mu_all) @ phi))
 
     def derivative(self, path: str) -> tuple[np.ndarray, list[str]]:
