@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ancf_sym import kernels, registry
 from ancf_sym.contact import exact as contact_exact, laws as contact
 from ancf_sym.modal.contact_rows import contact_points, force_scale
 from ancf_sym.statics.problem import StaticResult
@@ -56,7 +57,43 @@ def check_differentiable(asm, result: StaticResult, what: str) -> None:
 
 
 def curved_contact_rows(asm) -> list[str]:
-    """The members of the exact contacts whose gap rows are curved (drums): their rows turn with the state and
-    their curvature changes with it, which the frequencies' derivative needs the gap kernels' third derivatives
-    for."""
-    return [str(getattr(r.contact, "member", "?")) for r in contact_exact.rows(asm) if r.A is None]
+    """The members of the exact contacts whose gap rows are curved (drums) and whose gap kernel has no compiled third
+    derivatives (beam3d, spatial bodies' drums): their rows' curvature changes with the state."""
+    return [str(getattr(r.contact, "member", "?")) for r in contact_exact.rows(asm)
+            if r.A is None and not registry.has_third_derivatives(r.element, r.effect, None)]
+
+
+def drum_form(asm, x: np.ndarray, f: np.ndarray, active: np.ndarray, df: np.ndarray, nu: np.ndarray,
+              phi: np.ndarray, dx: np.ndarray) -> float:
+    """The drum rows' share of d(w^2)/dp for a mode phi (full coordinates), with f the contact forces (all points,
+    row order), active their mask, df the held points' force derivatives and nu the mode's multipliers of the held
+    points' rows (in the order of the active points):
+
+        sum_i (-df_i phi'Hess g_i phi - f_i phi'(D Hess g_i [dx]) phi) + 2 sum_held nu_i dx'Hess g_i phi
+
+    (K_L holds -sum f_i Hess g_i; a held row's Jacobian turns by Hess g_i dx). The gap kernels' Hessians and their
+    compiled Hessian-vector companion (third derivatives); ground rows are linear and add nothing."""
+    act = np.flatnonzero(active)
+    dfa, nua = np.zeros(len(f)), np.zeros(len(f))
+    dfa[act], nua[act] = df, nu
+    out, o = 0.0, 0
+    for r in contact_exact.rows(asm):
+        N = r.m
+        if r.A is not None:
+            o += N
+            continue
+        const = np.asarray(r.const, float) if r.const is not None else np.zeros(0)
+        pad = np.zeros(len(const))
+        Z, Fz, Dz = np.r_[x, const][r.idx], np.r_[phi, pad][r.idx], np.r_[dx, pad][r.idx]
+        nin = r.idx.shape[1]
+        H = kernels.load(r.element, r.effect).map(N)(Z.T, r.P.T)[2]
+        H = H.full().reshape(nin, N, nin).transpose(1, 0, 2)
+        T = kernels.load_hvp(r.element, r.effect).map(N)(Z.T, r.P.T, Fz.T)[1].full()
+        T = T.reshape(nin, N, nin).transpose(1, 0, 2)  # per point d(Hess g phi)/dz
+        a = np.einsum("ei,eij,ej->e", Fz, H, Fz)
+        b = np.einsum("ei,eij,ej->e", Fz, T, Dz)
+        c = np.einsum("ei,eij,ej->e", Dz, H, Fz)
+        sl = slice(o, o + N)
+        out += float(np.sum(-dfa[sl] * a - f[sl] * b + 2.0 * nua[sl] * c))
+        o += N
+    return out
