@@ -115,6 +115,32 @@ def test_static_prestrain_sensitivity(axial):
     assert np.linalg.norm(d["constraint_forces"]["pin c@end"]) > 0
 
 
+def test_loop_prestrain_sensitivity():
+    """loops[i].prestrain: a closed ring (its last element ends on node 0) pinned at two opposite nodes, shrinking
+    against them under its prestrain, and sagging: coordinates, reactions, energies and frequencies."""
+    import math
+    doc = {"scene": {"name": "ring", "dim": 2, "gravity": [0.0, -9.81]},
+           "materials": {"m": {"E": 1e8, "density": 1200.0}}, "sections": {"s": {"area": 1e-4, "I": 1e-9}},
+           "loops": [{"name": "ring", "path": [["arc", [0.0, 0.0], 0.5, 0.0, 2 * math.pi]], "elements": 16,
+                      "material": "m", "section": "s", "bending": True, "prestrain": 2e-3}],
+           "supports": [{"type": "pin", "member": "ring", "at": 0}, {"type": "pin", "member": "ring", "at": 8}]}
+    path = "loops[0].prestrain"
+    scene, _ = scene_from_dict(doc)
+    res = solve_static(scene)
+    S = StaticSensitivity(scene, res, doc)
+    d = S.derivative(path)
+    exact = np.r_[S.dx(path), d["potential"],
+                  np.concatenate([np.asarray(d["constraint_forces"][k]) for k in sorted(d["constraint_forces"])]),
+                  [d["energies"][k] for k in sorted(d["energies"])]]
+    fd = richardson(static_outputs, doc, path)
+    n, nf = len(res.x), sum(len(v) for v in res.constraint_forces.values())
+    for part in (slice(0, n), slice(n, n + 1), slice(n + 1, n + 1 + nf), slice(n + 1 + nf, None)):
+        assert np.linalg.norm(exact[part] - fd[part]) <= 1e-6 * np.linalg.norm(fd[part]), part
+    got = np.asarray(sensitivities(doc, [path], modes=3)[path]["frequencies"])
+    fdf = richardson(lambda dd: modal_analysis(scene_from_dict(dd)[0], modes=3).frequencies, doc, path)
+    assert np.linalg.norm(got - fdf) <= 1e-6 * np.linalg.norm(fdf)
+
+
 def test_modal_prestrain_sensitivity_frequencies_and_shapes():
     """Frequencies (the tension's change through the prestress and the mass's through the reference length) and the
     M-normalised mode shapes (Nelson), against differences of modal analyses."""
