@@ -49,20 +49,37 @@ class FrequencyCalibration(Calibration):
                 f"{self.iterations} iterations: {est}; residual noise {self.noise:.3g} Hz")
 
     def plot(self, path: str | Path) -> Path:
-        """PNG: measured frequencies against the fitted model's (and the start's), per mode."""
+        """PNG: the fitted equilibrium with the measured modes' shapes (left), measured against fitted frequencies
+        per mode with the residuals (right)."""
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
         modes = np.array([d.mode for d in self.data])
         meas = np.array([d.frequency for d in self.data])
-        f = self.result.frequencies
-        fig, ax = plt.subplots(figsize=(6.5, 4.2))
-        k = np.arange(len(f))
-        ax.plot(k, f, "s", mfc="none", ms=9, label="fitted model")
+        mr = self.result
+        st = mr.static
+        fig, (ax0, ax) = plt.subplots(1, 2, figsize=(11, 4.2), gridspec_kw={"width_ratios": [1.4, 1]})
+        span = st.assembly.mesh.length_scale
+        for name in st.assembly.mesh.members:
+            r = st.nodes(name)
+            ax0.plot(r[:, 0], r[:, 1], "k-", lw=1.5, label="equilibrium" if name == next(iter(
+                st.assembly.mesh.members)) else None)
+            for k in modes:
+                u = mr.displacements(int(k), name)
+                scale = 0.04 * span / max(float(np.abs(u).max()), 1e-300)
+                ax0.plot(r[:, 0] + scale * u[:, 0], r[:, 1] + scale * u[:, 1], "-", lw=1,
+                         label=f"mode {k}: {mr.frequencies[k]:.4g} Hz")
+        ax0.set_aspect("equal", adjustable="datalim")
+        ax0.set_xlabel("x [m]")
+        ax0.set_ylabel("y [m]")
+        ax0.set_title("fitted model: equilibrium and measured modes (scaled)", fontsize=9)
+        ax0.legend(fontsize=8)
+        k = np.arange(mr.modes)
+        ax.plot(k, mr.frequencies, "s", mfc="none", ms=9, label="fitted model")
         ax.plot(modes, meas, "o", label="measured")
-        for m_, y, r in zip(modes, meas, self.residuals):
-            ax.annotate(f"{r:+.2g} Hz", (m_, y), textcoords="offset points", xytext=(8, -4), fontsize=8)
+        for m_, y, r_ in zip(modes, meas, self.residuals):
+            ax.annotate(f"{r_ * 1e3:+.2g} mHz", (m_, y), textcoords="offset points", xytext=(8, -4), fontsize=8)
         ax.set_xlabel("mode (rank from 0)")
         ax.set_ylabel("frequency [Hz]")
         ax.set_xticks(k)
