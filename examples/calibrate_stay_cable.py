@@ -20,7 +20,7 @@ import numpy as np
 
 from ancf_sym.io.scene_toml import scene_from_dict
 from ancf_sym.modal import modal_analysis
-from ancf_sym.sensitivity.frequency_fit import calibrate_frequencies
+from ancf_sym import calibrate_frequencies
 
 HERE = Path(__file__).resolve().parent
 SCENE = HERE / "scenes" / "stay_cable.toml"
