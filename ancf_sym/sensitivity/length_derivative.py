@@ -102,7 +102,15 @@ class LengthPiece:
 
     def hessian(self, x: np.ndarray) -> np.ndarray:
         """d Hessian/deps per element (N, nd, nd): the identity differentiated twice; its third-derivative part
-        from the compiled Hessian-vector companion."""
+        from the compiled Hessian-vector companion (kept for the last x: every mode's derivative reads it)."""
+        last = getattr(self, "_last", None)
+        if last is not None and np.array_equal(last[0], x):
+            return last[1]
+        dH = self._hessian(x)
+        self._last = (np.array(x, copy=True), dH)
+        return dH
+
+    def _hessian(self, x: np.ndarray) -> np.ndarray:
         if self.effect == "gravity":  # linear in q
             return np.zeros((*self.idx.shape, self.idx.shape[1]))
         if not registry.has_third_derivatives(self.element, self.effect, self.gauss):
@@ -128,12 +136,13 @@ def mass_derivative(asm, members: list[str], factor: float) -> sp.csc_matrix:
         idx = mm.elem_dofs()
         s = 1.0 - position_mask(m.element)
         scale = 1.0 + s[:, None] + s[None, :]
-        for e, L in enumerate(np.asarray(mm.elem_length, float)):
-            Me = kernels.mass_matrix(m.element, [float(L), m.material.density * m.section.area])
-            nd = idx.shape[1]
-            rows.append(np.repeat(idx[e], nd))
-            cols.append(np.tile(idx[e], nd))
-            vals.append((factor * scale * Me).ravel())
+        lengths, which = np.unique(np.asarray(mm.elem_length, float), return_inverse=True)
+        blocks = [(factor * scale * kernels.mass_matrix(m.element, [float(L), m.material.density * m.section.area]))
+                  .ravel() for L in lengths]  # (one kernel call per distinct length: equal elements share it)
+        nd = idx.shape[1]
+        rows.append(np.repeat(idx, nd, axis=1).ravel())
+        cols.append(np.tile(idx, (1, nd)).ravel())
+        vals.append(np.concatenate([blocks[w] for w in which]))
     return sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(asm.n, asm.n))
 
 
