@@ -22,7 +22,7 @@ _PUBLIC = {"Material": "scene", "Scene": "scene", "SceneError": "scene", "Sectio
            "StaticOptions": "statics", "StaticResult": "statics", "solve_static": "statics",
            "DynamicOptions": "dynamics", "DynamicResult": "dynamics", "run_dynamics": "dynamics",
            "simulate": "dynamics", "modal_analysis": "modal", "linearize": "modal", "ModalResult": "modal",
-           "calibrate": "sensitivity", "sensitivities": "sensitivity"}
+           "calibrate": "sensitivity", "calibrate_frequencies": "sensitivity", "sensitivities": "sensitivity"}
 __all__ = list(_PUBLIC)
 
 

@@ -4,6 +4,7 @@
                                                                 solve the scene's [analysis], write DIR/
     ancf-sym calibrate SCENE.toml DATA.csv --parameter PATH [...] --out DIR
                                                                 fit scene numbers to measured node positions
+                                                                or natural frequencies
     ancf-sym kernels [--json]                                   the compiled kernel catalogue
     ancf-sym study NAME --out DIR [--quick] [--jobs N | --scheduler ADDRESS] [--sweep AXIS=V1,V2 ...] [--target E]
                                                                 what accuracy costs in time (ancf_sym.study)
@@ -343,7 +344,10 @@ def cmd_study(args) -> int:
 
 def cmd_calibrate(args) -> int:
     from ancf_sym.sensitivity.calibrate import run_cli
+    from ancf_sym.sensitivity.frequency_fit import is_frequency_data, run_cli as run_frequencies
     try:
+        if Path(args.data).is_file() and is_frequency_data(args.data):  # (header mode,frequency)
+            run_cli = run_frequencies
         return run_cli(args.scene, args.data, args.parameter, Path(args.out), args.max_iter, args.quiet)
     except (SceneError, KeyError, ValueError) as exc:  # (a bad path, column or value: named in the message)
         _fail(str(exc).strip('"'))
@@ -380,9 +384,11 @@ def _main(argv: list[str] | None = None) -> int:
                         "sensitivities (repeatable)")
     p.set_defaults(func=cmd_run)
     c = sub.add_parser("calibrate", help="fit scene numbers (TOML paths) to measured node positions (CSV: member, "
-                       "node, x, y[, z]) by Levenberg-Marquardt with the exact Jacobian")
+                       "node, x, y[, z]) or natural frequencies (CSV: mode, frequency) by Levenberg-Marquardt with the "
+                       "exact Jacobian")
     c.add_argument("scene", help="scene file (TOML; its values at the paths are the start)")
-    c.add_argument("data", help="CSV of measured positions: member, node, x, y[, z]")
+    c.add_argument("data", help="CSV of measured positions (member, node, x, y[, z]) or frequencies (mode, frequency "
+                   "[Hz], mode counted from 0)")
     c.add_argument("--parameter", action="append", required=True, metavar="PATH", help="a TOML path to fit (repeatable)")
     c.add_argument("--out", required=True, help="output directory: calibration.json, calibration.png")
     c.add_argument("--max-iter", type=int, default=30, help="Levenberg-Marquardt iterations at most (default 30)")

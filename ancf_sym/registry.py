@@ -209,11 +209,15 @@ MASS_PARAMS: dict[str, tuple[str, ...]] = {
 # Effects whose libraries also carry <name>_hvp (third derivatives, for the dynamics constraints of optimal
 # control): the cables' elastic effects at the default quadrature order.
 THIRD_DERIVATIVE_EFFECTS = ("axial_green", "axial_biot", "axial_decoupled", "bending")
+# Constraint kernels with the same companion: the cables' drum gap (the change of the exact contact rows' curvature
+# along the static sensitivity, in the frequencies' derivative with exact drum contact).
+THIRD_DERIVATIVE_GAPS = ("contact_circle_gap",)
 
 
 def has_third_derivatives(element: str, effect: str, gauss: int | None) -> bool:
     eff = EFFECTS[(element, effect)]
-    return element.startswith("cable") and effect in THIRD_DERIVATIVE_EFFECTS and gauss in (None, eff.default_gauss)
+    return element.startswith("cable") and effect in THIRD_DERIVATIVE_EFFECTS + THIRD_DERIVATIVE_GAPS and \
+        gauss in (None, eff.default_gauss)
 
 
 def fused_effect(element: str, effects: tuple[str, ...]) -> str | None:

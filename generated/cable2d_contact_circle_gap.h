@@ -89,6 +89,24 @@ int cable2d_contact_circle_gap_grad_work_bytes(casadi_int *sz_arg, casadi_int* s
 #define cable2d_contact_circle_gap_grad_SZ_RES 2
 #define cable2d_contact_circle_gap_grad_SZ_IW 0
 #define cable2d_contact_circle_gap_grad_SZ_W 0
+int cable2d_contact_circle_gap_hvp(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int cable2d_contact_circle_gap_hvp_checkout(void);
+void cable2d_contact_circle_gap_hvp_release(int mem);
+void cable2d_contact_circle_gap_hvp_incref(void);
+void cable2d_contact_circle_gap_hvp_decref(void);
+casadi_int cable2d_contact_circle_gap_hvp_n_in(void);
+casadi_int cable2d_contact_circle_gap_hvp_n_out(void);
+casadi_real cable2d_contact_circle_gap_hvp_default_in(casadi_int i);
+const char* cable2d_contact_circle_gap_hvp_name_in(casadi_int i);
+const char* cable2d_contact_circle_gap_hvp_name_out(casadi_int i);
+const casadi_int* cable2d_contact_circle_gap_hvp_sparsity_in(casadi_int i);
+const casadi_int* cable2d_contact_circle_gap_hvp_sparsity_out(casadi_int i);
+int cable2d_contact_circle_gap_hvp_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int cable2d_contact_circle_gap_hvp_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define cable2d_contact_circle_gap_hvp_SZ_ARG 3
+#define cable2d_contact_circle_gap_hvp_SZ_RES 2
+#define cable2d_contact_circle_gap_hvp_SZ_IW 0
+#define cable2d_contact_circle_gap_hvp_SZ_W 0
 void cable2d_contact_circle_gap_casadi_version(int* major, int* minor, int* patch);
 int cable2d_contact_circle_gap_casadi_int_size(void);
 int cable2d_contact_circle_gap_casadi_real_size(void);

@@ -8,6 +8,10 @@ dK/dp|_x: the kernels' Hessians with their coefficients' derivatives (ancf_sym.s
 D K[dx]: the third derivatives of the elastic energies along the static sensitivity dx*/dp (the kernels'
 compiled Hessian-vector companions: phi' (d(H phi)/dq) dx), plus the multipliers' change times the constraint
 curvature of bilinear rows, and 2 mu'(dG phi) of those rows turning with dx (mu: the mode's multipliers).
+Exact contact: the points held at the equilibrium are rows of G as in the statics' sensitivity; a drum's rows add
+their curvature's change -sum (df_i Hess g_i + f_i D Hess g_i [dx]) and their turn 2 mu'(Hess g dx phi)
+(ancf_sym.sensitivity.contact_state.drum_form; ground rows are linear); an equilibrium with a point at zero gap and
+zero force is refused (the active set, and with it the frequencies, change one-sidedly there).
 Frequencies f = w / 2 pi: df/dp = (d w^2/dp) / (8 pi^2 f). Repeated frequencies have
 no derivative (their modes mix): such a pair is reported as NaN with the reason in `notes`.
 """
@@ -23,6 +27,9 @@ from ancf_sym import kernels, registry
 from ancf_sym.modal.result import ModalResult
 from ancf_sym.scene.builder import Scene
 from ancf_sym.model.reduced import partition
+from ancf_sym.contact import exact as contact_exact
+from ancf_sym.modal.contact_rows import contact_points
+from ancf_sym.sensitivity.contact_state import check_differentiable, curved_contact_rows, drum_form
 from ancf_sym.sensitivity.model_derivative import ParameterError
 from ancf_sym.sensitivity.static import StaticSensitivity
 
@@ -51,9 +58,13 @@ class ModalSensitivity:
         if getattr(asm.scene, "water", None) is not None:
             raise ParameterError("frequency sensitivities in water are not available (the added mass's and the drag's "
                                  "derivatives are not in the model derivative)")
-        if contact.exact_contacts(asm):
-            raise ParameterError("frequency sensitivities with exact contact are not available (the contact rows' "
-                                 "curvature changes with the contact forces)")
+        if contact.exact_contacts(asm):  # the held points are rows (as in the statics' sensitivity)
+            check_differentiable(asm, modal.static, "frequency sensitivities")
+            drums = curved_contact_rows(asm)
+            if drums:
+                raise ParameterError(f"frequency sensitivities with exact drum contact on beam3d members or spatial "
+                                     f"bodies (members {drums}) are not available: the drum rows' curvature changes "
+                                     "with the state, which needs their gap kernels' third derivatives (not compiled)")
         if asm.penalty is not None and len(asm.penalty.qrow):
             raise ParameterError("frequency sensitivities with penalty rigid joints are not available")
         for mk in asm.curved:
@@ -94,8 +105,8 @@ class ModalSensitivity:
         m, s = self.modal, self.static
         lin = s.lin
         if lin.G.shape[0]:
-            raise ParameterError("mode-shape derivatives with constraint rows kept in the modes (rigid joints) are "
-                                 "not available")
+            raise ParameterError("mode-shape derivatives with constraint rows kept in the modes (rigid joints, "
+                                 "exact contact) are not available")
         x = m.static.x
         md = s.model(path)
         dx = s.solve(md.residual(x)[1])[0]
@@ -118,19 +129,24 @@ class ModalSensitivity:
             out[:, k] = E @ spla.spsolve(A, rhs)[:-1]
         return out
 
+    def _mode_multipliers(self, k: int) -> np.ndarray:
+        """The mode's multipliers mu of the rows of G (K_L y + G'mu = w^2 M y, least squares)."""
+        lin = self.static.lin
+        E = lin.E
+        y = spla.spsolve((E.T @ E).tocsc(), E.T @ self.modal.shapes[:, k])
+        r = self.modal.omega2[k] * (lin.M @ y) - lin.K @ y
+        return np.linalg.lstsq(lin.G.T.toarray(), r, rcond=None)[0]
+
     def _row_turn(self, k: int, dx: np.ndarray) -> float:
         """2 mu'(dG phi): the kept bilinear rows turn with dx (G phi = 0 must hold for the perturbed mode too), mu
-        the mode's multipliers (K_L y + G'mu = w^2 M y, least squares)."""
+        the mode's multipliers."""
         lin, asm = self.static.lin, self.static.asm
         if not lin.G.shape[0]:
             return 0.0
         phi = self.modal.shapes[:, k]
-        E = lin.E
-        y = spla.spsolve((E.T @ E).tocsc(), E.T @ phi)
-        r = self.modal.omega2[k] * (lin.M @ y) - lin.K @ y
-        mu = np.linalg.lstsq(lin.G.T.toarray(), r, rcond=None)[0]
+        mu = self._mode_multipliers(k)
         mu_all = np.zeros(asm.exact.m)
-        mu_all[self._rows] = mu
+        mu_all[self._rows] = mu[:len(self._rows)]  # (contact rows after them: drum_form)
         return 2.0 * float(dx @ (asm.exact.hessian(mu_all) @ phi))
 
     def derivative(self, path: str) -> tuple[np.ndarray, list[str]]:
@@ -151,6 +167,10 @@ class ModalSensitivity:
                 dlam.append(float(forces[lbl][k]))
                 taken[lbl] = k + 1
             Hq = asm.exact.hessian(np.asarray(dlam))
+        drums = None
+        if contact.exact_contacts(asm) and any(r.A is None for r in contact_exact.rows(asm)):
+            fc, _, active = contact_points(asm, m.static)  # (the held points' forces change: -dmu of their rows)
+            drums = (fc, active, -dmu[len(self._rows):])
         out, notes = np.zeros(m.modes), []
         f = m.frequencies
         for k in range(m.modes):
@@ -165,6 +185,9 @@ class ModalSensitivity:
             dK = md.hessian_form(x, phi, phi) + self._third(dx, phi)
             if dlam is not None:
                 dK += float(phi @ (Hq @ phi)) + self._row_turn(k, dx)
+            if drums is not None:
+                fc, active, dfc = drums
+                dK += drum_form(asm, x, fc, active, dfc, self._mode_multipliers(k)[len(self._rows):], phi, dx)
             dM = float(phi @ (md.dM @ phi)) if md.dM is not None else 0.0
             dw2 = dK - m.omega2[k] * dM
             out[k] = dw2 / (8 * np.pi ** 2 * f[k])

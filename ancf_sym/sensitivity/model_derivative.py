@@ -7,9 +7,10 @@ gravity kernel, (k, kh) of a contact law), so that dU/dp = U(x; P with that grou
 kernel evaluated with its coefficients' derivatives gives the exact derivative of its energy, gradient and Hessian
 (no difference quotient). The scene's numbers enter those coefficients as monomials (EA = E area, EI = E I with
 I = pi d^4 / 64 of a diameter d, rhoA = density area, G J = E J / (2 (1 + nu))): a coefficient c of degree k in p
-has dc/dp = k c / p. Parameters that enter anywhere else (element lengths through a prestrain, a beam's b x h,
-Poisson's ratio, an arc's reference moment) are refused by name: their kernels have no derivative with respect to
-those inputs yet.
+has dc/dp = k c / p. A cable member's prestrain enters through its elements' reference length L, whose derivative
+follows exactly from the kernels' outputs by a change of the unit of length (ancf_sym.sensitivity.length_derivative).
+Parameters that enter anywhere else (a beam's b x h, Poisson's ratio, an arc's reference moment) are refused by
+name: their kernels have no derivative with respect to those inputs yet.
 """
 from __future__ import annotations
 
@@ -27,6 +28,7 @@ from ancf_sym.model.assembly import Assembly
 from ancf_sym.model.loads import load_vector, point_mass_triplets
 from ancf_sym.model.terms import distributed_term, moment_term
 from ancf_sym.scene.builder import Scene
+from ancf_sym.sensitivity.length_derivative import mass_derivative, prestrain_pieces, prestrain_refusal
 from ancf_sym.sensitivity.paths import ParameterPath, get_parameter, parse_path
 
 STIFFNESS_COLUMNS = {  # effect -> its coefficient columns (the energy is linear in them jointly)
@@ -50,6 +52,20 @@ class Piece:
     idx: np.ndarray  # (N, nd)
     P: np.ndarray  # (N, np)
     label: str = ""  # the energy bucket it belongs to (axial, bending, gravity, loads, contact, ...)
+
+    def grad(self, x: np.ndarray) -> tuple[float, np.ndarray]:
+        """(d energy/dp summed over the elements, d gradient/dp per element (N, nd))."""
+        e, g = (o.full() for o in _mapped_grad(self.element, self.effect, self.gauss, len(self.idx))(
+            x[self.idx].T, self.P.T))
+        return float(e.sum()), g.T
+
+    def hessian(self, x: np.ndarray) -> np.ndarray:
+        """d Hessian/dp per element (N, nd, nd)."""
+        N, nd = self.idx.shape
+        if self.effect == "gravity":  # linear in q: no Hessian
+            return np.zeros((N, nd, nd))
+        H = _mapped(self.element, self.effect, self.gauss, N)(x[self.idx].T, self.P.T)[2].full()
+        return H.reshape(nd, N, nd).transpose(1, 0, 2)  # (blocks side by side)
 
 
 @dataclass
@@ -79,10 +95,9 @@ class ModelDerivative:
         n = len(x)
         dPi, dR = 0.0, np.zeros(n)
         for pc in self.pieces:
-            f = _mapped_grad(pc.element, pc.effect, pc.gauss, len(pc.idx))
-            e, g = (o.full() for o in f(x[pc.idx].T, pc.P.T))
-            dPi += float(e.sum())
-            dR += np.bincount(pc.idx.ravel(), g.T.ravel(), minlength=n)
+            e, g = pc.grad(x)
+            dPi += e
+            dR += np.bincount(pc.idx.ravel(), g.ravel(), minlength=n)
         if self.dQ is not None:
             dPi -= float(self.dQ @ x)
             dR -= self.dQ
@@ -92,8 +107,7 @@ class ModelDerivative:
         """label -> d(energy of that label)/dp at fixed x (the dead loads' -dQ.x under "loads")."""
         out: dict = {}
         for pc in self.pieces:
-            f = _mapped_grad(pc.element, pc.effect, pc.gauss, len(pc.idx))
-            out[pc.label] = out.get(pc.label, 0.0) + float(f(x[pc.idx].T, pc.P.T)[0].full().sum())
+            out[pc.label] = out.get(pc.label, 0.0) + pc.grad(x)[0]
         if self.dQ is not None and np.any(self.dQ):
             out["loads"] = out.get("loads", 0.0) - float(self.dQ @ x)
         return out
@@ -104,9 +118,7 @@ class ModelDerivative:
         for pc in self.pieces:
             if pc.effect == "gravity":
                 continue
-            f = _mapped(pc.element, pc.effect, pc.gauss, len(pc.idx))
-            nd = pc.idx.shape[1]
-            Hb = f(x[pc.idx].T, pc.P.T)[2].full().reshape(nd, len(pc.idx), nd).transpose(1, 0, 2)
+            Hb = pc.hessian(x)
             out += np.bincount(pc.idx.ravel(), np.einsum("eij,ej->ei", Hb, u[pc.idx]).ravel(), minlength=len(x))
         return out
 
@@ -116,11 +128,7 @@ class ModelDerivative:
         for pc in self.pieces:
             if pc.effect == "gravity":  # linear in q: no Hessian
                 continue
-            f = _mapped(pc.element, pc.effect, pc.gauss, len(pc.idx))
-            H = f(x[pc.idx].T, pc.P.T)[2].full()  # (nd, nd N): blocks side by side
-            nd = pc.idx.shape[1]
-            Hb = H.reshape(nd, len(pc.idx), nd).transpose(1, 0, 2)
-            out += float(np.einsum("ei,eij,ej->", u[pc.idx], Hb, v[pc.idx]))
+            out += float(np.einsum("ei,eij,ej->", u[pc.idx], pc.hessian(x), v[pc.idx]))
         return out
 
 
@@ -361,8 +369,17 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         P[:, names.index("kh")] = 1.0 if keys[2] == "hertz" else 0.0
         out.pieces = [Piece(element, effect, gauss, np.asarray(idx), P, "contact")]
         return out
+    if keys[0] in ("members", "loops") and len(keys) == 3 and keys[2] == "prestrain":
+        name = doc[keys[0]][keys[1]]["name"]
+        why = prestrain_refusal(asm, name)
+        if why is not None:
+            refuse(why)
+        out.pieces = prestrain_pieces(asm, name, value)
+        out.mass = lambda: mass_derivative(asm, [name], -1.0 / (1.0 + value))
+        return out
     refuse("not a differentiable parameter here (materials.M.E | density, sections.S.area | I | diameter, "
-           "scene.gravity[j], loads[i].value[j], masses[i].mass, bodies[i].mass (2D), contacts[i].stiffness | hertz)")
+           "scene.gravity[j], loads[i].value[j], masses[i].mass, bodies[i].mass (2D), contacts[i].stiffness | hertz, "
+           "members[i].prestrain, loops[i].prestrain)")
 
 
 class _MeshView:

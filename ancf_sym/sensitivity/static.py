@@ -21,7 +21,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ancf_sym.contact import laws as contact, exact as contact_exact
+from ancf_sym.contact import laws as contact
+from ancf_sym.modal.contact_rows import contact_points
 from ancf_sym.modal.linearize import Linearization, linearize
 from ancf_sym.model.reduced import partition
 from ancf_sym.scene.builder import Scene
@@ -131,10 +132,7 @@ class StaticSensitivity:
         if not hasattr(self, "_active"):
             self._active = np.zeros(0, int)
             if contact.exact_contacts(self.asm):
-                f = np.asarray(self.result.constraint_forces["contact"], float)
-                g = contact_exact.gaps(self.asm, self.result.x, contact_exact.rows(self.asm))
-                act = g / self.asm.mesh.length_scale < f / max(float(f.max(initial=0.0)), 1e-300)
-                self._active = np.flatnonzero(act)
+                self._active = np.flatnonzero(contact_points(self.asm, self.result)[2])
         return self._active
 
     # -- one scalar output, many parameters: the adjoint -----------------------------------------------------
