@@ -1,0 +1,381 @@
+"""Discrete adjoint of a dynamic run of the alpha schemes (Newmark / HHT / generalized-alpha, fixed steps): the
+gradient of one output with respect to many parameters, exact to the integrator's own arithmetic (the derivative
+of the discrete solution, as ancf_sym.sensitivity.dynamics's forward sensitivities, whose recursion it transposes).
+
+The step n -> n+1 (Arnold-Bruels form, ancf_sym.dynamics.schemes) on the reduced coordinates, with Rayleigh mass
+damping C = alpha_R M:
+
+    D     = -(q_n + h v_n + h^2 (1/2 - beta) abar_n) / (h^2 beta)
+    abar' = q' / (h^2 beta) + D,   a' = cm q' + c1 D + (alpha_m abar_n - alpha_f a_n) / (1 - alpha_f),
+    v'    = cc q' + v_n + h (1 - gamma) abar_n + h gamma D,
+    M a' + C v' + R(q', p) = 0        (R: the potential's gradient less the dead loads)
+
+Differentiated, J' dq' = -(M B + C Bv + F'), J' = cm M + cc C + K(q'): the converged Newton tangent, and
+F' = dR/dp(q') + dM/dp a' + dC/dp v'. The adjoint runs backward over the stored states: per step one solve with
+J'^T (= J', symmetric), mu' = J'^-1 s', and the gradient is -sum_n mu_n . F_n (plus the static start's term by
+the statics' adjoint, the initial acceleration's M a_0 = -R(q_0) by one solve with M). The backward sweep is one
+CasADi mapaccum over the steps (the step's tangent from the system's compiled force graph, a sparse LDL^T solve
+in the graph); the parameter terms sum_n mu_n . dR/dp(q_n) are one mapped kernel call over all steps' elements
+per distinct derivative piece (ancf_sym.sensitivity.model_derivative), the dead loads' and the mass's sums one
+product each: 100 parameters cost a few mapped calls, not 100 runs.
+
+Outputs: functions of the sensor records (their sum, time integral, end value, or the least-squares misfit to a
+data record) and the kinetic energy at the end. Parameters: the TOML paths of model_derivative, and the scene's
+Rayleigh coefficient dampings[i].alpha. Scope as the forward sensitivities (refused by name before any step):
+no stiffness-proportional Rayleigh (beta: its tangent's derivative needs third derivatives of the energies), no
+strain-rate damping, no multiplier rows, drives or time loads.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from ancf_sym.dynamics import DynamicOptions
+from ancf_sym.dynamics.newton import Counters
+from ancf_sym.dynamics.run import make_integrator
+from ancf_sym.dynamics.sensors import Sensor, SensorEval
+from ancf_sym.dynamics.time_loop import chunk_size
+from ancf_sym.io.scene_toml import scene_from_dict
+from ancf_sym.scene.builder import SceneError
+from ancf_sym.sensitivity.model_derivative import ModelDerivative, check_model_paths, model_derivative, \
+    read_document
+from ancf_sym.sensitivity.paths import get_parameter, parse_path
+from ancf_sym.system.step_system import StepSystem
+from ancf_sym.util.sparsity import dm
+
+REDUCTIONS = ("integral", "sum", "end", "least_squares")
+
+
+@dataclass
+class SensorOutput:
+    """One number from a sensor's record y_n (component `component`) over the steps n = 0..N: "integral" (the
+    trapezoid rule in time), "sum", "end" (y_N), or "least_squares" 1/2 sum_n (y_n - data_n)^2 (data: N + 1
+    values at the step times)."""
+    sensor: str
+    component: int = 0
+    reduce: str = "integral"
+    data: np.ndarray | None = None
+
+
+@dataclass
+class KineticEnergyOutput:
+    """The kinetic energy 1/2 v' M v at the end of the run."""
+
+
+@dataclass
+class DynamicGradient:
+    """value: the output; gradient[path]: d(output)/dp; t, x, v: the step times and full states of the run it
+    differentiates (steps + 1 rows); notes: what the derivative does not cover."""
+    value: float
+    gradient: dict
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    notes: list = field(default_factory=list)
+
+
+# -- parameters that the dynamics adds to the model's ---------------------------------------------------------------
+def _damping_index(doc: dict, path: str) -> int | None:
+    """i of a path dampings[i].alpha (a Rayleigh mass coefficient), else None; other damping keys refused."""
+    p = parse_path(path)
+    if p.keys[0] != "dampings":
+        return None
+    get_parameter(doc, path)
+    d = doc["dampings"][p.keys[1]] if len(p.keys) == 3 else None
+    if d is None or d.get("type") != "rayleigh" or p.keys[2] != "alpha":
+        raise SceneError(f"parameter path {path!r}: differentiable damping coefficients: dampings[i].alpha of a "
+                         "rayleigh damping (mass-proportional)")
+    return p.keys[1]
+
+
+def check_dynamic_paths(scene, doc: dict, paths: list[str]) -> None:
+    """Refuse, before any step, a path that names no differentiable number of a dynamic run."""
+    check_model_paths(scene, doc, [p for p in paths if _damping_index(doc, p) is None])
+
+
+def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
+    """SceneError naming every feature of the run whose derivative is not propagated."""
+    why = []
+    if opts.integrator not in ("newmark", "hht", "generalized_alpha"):
+        why.append(f"integrator {opts.integrator!r} (alpha schemes only)")
+    if opts.adaptive:
+        why.append("adaptive steps")
+    if S.mc:
+        why.append("constraint rows with multipliers (rigid joints, bodies' joints)")
+    if integ.kdamp.active:
+        why.append("stiffness-proportional Rayleigh damping (beta: its tangent's derivative needs third "
+                   "derivatives of the energies)")
+    if S.damp_f is not None:
+        why.append("strain-rate or contact damping (velocity-dependent forces)")
+    if opts.loads or S.drives is not None:
+        why.append("time-dependent loads or drives")
+    if opts.release or opts.from_result or opts.initial or opts.q0 is not None or opts.v0 is not None:
+        why.append("a start other than the reference or the static equilibrium at rest")
+    if why:
+        raise SceneError("dynamic sensitivities: not available with " + ", ".join(why))
+
+
+# -- the forward run: the package's compiled steps, every state kept -----------------------------------------------
+def forward_states(S: StepSystem, integ, opts: DynamicOptions) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(Q, V, A): reduced q, v, a after each step (row 0: the start), from the integrator's compiled chunks (the
+    run's own steps) and its per-step Newton where a chunk stops."""
+    h = opts.dt
+    n = opts.n_grid
+    rows = [integ.state[:3 * S.nf].copy()]
+    size = chunk_size(n) if integ.chunkable else 0
+    t, k = opts.t_start, 0
+    pl = np.repeat(-S.f_lin[:, None], size, axis=1) if size else None
+    if pl is not None:
+        pl.flags.writeable = False  # (copied into the chunk's buffer once)
+    while k < n:
+        if size and n - k >= size:
+            states, n_ok = integ.run_chunk(h, pl)
+            rows.extend(states[:, :3 * S.nf].copy())  # (the chunk buffer is reused by the next chunk)
+            k += n_ok
+            t = opts.t_start + k * h
+            if n_ok == size:
+                continue
+        out = integ.attempt(t, h)
+        if not out.converged:
+            raise SceneError(f"dynamic sensitivities: the step at t = {t:.6g} s did not converge ({out.reason})")
+        integ.accept()
+        rows.append(integ.state[:3 * S.nf].copy())
+        k += 1
+        t = opts.t_start + k * h
+    R = np.array(rows)
+    nf = S.nf
+    return R[:, :nf], R[:, nf:2 * nf], R[:, 2 * nf:3 * nf]
+
+
+# -- the backward sweep as one CasADi graph ------------------------------------------------------------------------
+_SWEEPS: dict = {}
+
+
+def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int) -> ca.Function:
+    """sweep(acc0, X, WQ, WV) -> (ACC, MU): n backward steps (columns: steps N, N-1, .., 1) of the adjoint
+    recursion (see the module docstring); acc = the adjoints flowing into (q, v, a, abar) of the earlier state."""
+    sch = opts.scheme()
+    h = opts.dt
+    key = (S.graph_key, sch, h, alpha_r, n, S.par.tobytes())
+    if key in _SWEEPS:
+        return _SWEEPS[key]
+    nf = S.nf
+    am, af, beta, gamma = sch.alpha_m, sch.alpha_f, sch.beta, sch.gamma
+    cm, cc = sch.cm(h), sch.cc(h)
+    c1 = (1 - am) / (1 - af)
+    M = dm(S.M)
+    acc = ca.MX.sym("acc", 4 * nf)
+    x, wq, wv = ca.MX.sym("x", nf), ca.MX.sym("wq", nf), ca.MX.sym("wv", nf)
+    K = S.forces_pf(x, ca.DM(S.par))[1]
+    J = (cm + cc * alpha_r) * M + K
+    qb, vb, abar, abb = (acc[i * nf:(i + 1) * nf] for i in range(4))
+    qb, vb = qb + wq, vb + wv
+    s = qb + abb / (h * h * beta) + cm * abar + cc * vb
+    mu = ca.solve(J, s, "ldl")
+    Mmu = ca.mtimes(M, mu)
+    Bb = abar - Mmu
+    Bvb = vb - alpha_r * Mmu
+    Db = abb + h * gamma * Bvb + c1 * Bb
+    Sq = -Db / (h * h * beta)
+    Sv = Bvb - Db / (h * beta)
+    Sa = -af / (1 - af) * Bb
+    Sab = h * (1 - gamma) * Bvb + am / (1 - af) * Bb - (0.5 - beta) / beta * Db
+    step = ca.Function("adjoint_step", [acc, ca.vertcat(x, wq, wv)], [ca.vertcat(Sq, Sv, Sa, Sab), mu])
+    f = step.mapaccum("adjoint_sweep", n)
+    _SWEEPS[key] = f
+    return f
+
+
+# -- outputs -------------------------------------------------------------------------------------------------------
+def _linear_map(ev: SensorEval, which: str, n: int) -> np.ndarray:
+    """The matrix of a sensor's linear map of the full coordinates (probe.r or probe.rx), (k, n)."""
+    mm = ev.mm
+    cols = np.arange(mm.offset, mm.offset + mm.x0.size)
+    f = ev.probe.r if which == "r" else ev.probe.rx
+    out = np.zeros((ev.dim, n))
+    e = np.zeros(n)
+    for c in cols:
+        e[c] = 1.0
+        out[:, c] = f(e)
+        e[c] = 0.0
+    return out
+
+
+def output_weights(out, sensors: list[SensorEval], S: StepSystem, t: np.ndarray, X: np.ndarray,
+                   V: np.ndarray, Vr: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """(value, d value / dq_n, d value / dv_n) on the reduced coordinates, rows n = 0..N (X, V: full states,
+    Vr: reduced velocities)."""
+    N1 = len(t)
+    E = S.E
+    if isinstance(out, KineticEnergyOutput):
+        vr = Vr[-1]
+        Mv = S.M @ vr
+        WQ, WV = np.zeros((N1, S.nf)), np.zeros((N1, S.nf))
+        WV[-1] = Mv
+        return 0.5 * float(vr @ Mv), WQ, WV
+    ev = next((e for e in sensors if e.sensor.name == out.sensor), None)
+    if ev is None:
+        raise KeyError(f"output sensor {out.sensor!r}: no such sensor; sensors: {[e.sensor.name for e in sensors]}")
+    if out.reduce not in REDUCTIONS:
+        raise ValueError(f"output reduce {out.reduce!r}: one of {REDUCTIONS}")
+    kind, n = ev.sensor.kind, X.shape[1]
+    if kind in ("position", "displacement", "velocity"):
+        R = _linear_map(ev, "r", n)
+    elif kind == "coordinates":
+        R = np.zeros((len(ev.dofs), n))
+        R[np.arange(len(ev.dofs)), ev.dofs] = 1.0
+    elif kind == "strain":
+        R = _linear_map(ev, "rx", n)
+    else:
+        raise ValueError(f"output sensor {out.sensor!r}: a {kind} sensor is not differentiated here")
+    y = np.array([ev(x, v) for x, v in zip(X, V)])[:, out.component]
+    if kind == "strain":  # |r_x| - 1: d/dx = r_x' R_x / |r_x|
+        rx = X @ R.T
+        G = (rx / np.linalg.norm(rx, axis=1, keepdims=True)) @ R
+    else:
+        G = np.repeat(R[out.component][None, :], N1, axis=0)
+    if out.reduce == "sum":
+        w, val = np.ones(N1), float(y.sum())
+    elif out.reduce == "end":
+        w = np.zeros(N1)
+        w[-1] = 1.0
+        val = float(y[-1])
+    elif out.reduce == "integral":
+        dt = np.diff(t)
+        w = np.zeros(N1)
+        w[:-1] += dt / 2
+        w[1:] += dt / 2
+        val = float(w @ y)
+    else:
+        d = np.asarray(out.data, float).ravel()
+        if d.shape != y.shape:
+            raise ValueError(f"output data: {d.size} values for {y.size} step times")
+        w, val = y - d, 0.5 * float((y - d) @ (y - d))
+    Wr = np.asarray((E.T @ (w[:, None] * G).T).T)  # (E' maps a force on the full coordinates to the unknowns)
+    Z = np.zeros_like(Wr)
+    return (val, Z, Wr) if kind == "velocity" else (val, Wr, Z)
+
+
+# -- the parameter terms: sum over steps of mu_n . dR/dp(x_n) -----------------------------------------------------
+_MAPPED: dict = {}
+BLOCK = 200_000  # element states per mapped kernel call (bounds the memory of one call)
+
+
+def _grad_kernel(element: str, effect: str, gauss, n: int) -> ca.Function:
+    from ancf_sym import kernels
+    key = (element, effect, gauss, n)
+    if key not in _MAPPED:
+        _MAPPED[key] = kernels.load_grad(element, effect, gauss).map(n)
+    return _MAPPED[key]
+
+
+def _piece_sum(pc, Lam: np.ndarray, X: np.ndarray) -> float:
+    """sum_n Lam_n . (the piece's gradient at x_n): one mapped kernel call over every step's elements (the gravity
+    kernel's gradient is constant in x: once)."""
+    nd = pc.idx.shape[1]
+    if pc.effect == "gravity":
+        f = _grad_kernel(pc.element, pc.effect, pc.gauss, len(pc.idx))
+        g = f(X[0][pc.idx].T, pc.P.T)[1].full()
+        return float(np.sum(Lam.sum(axis=0)[pc.idx] * g.T))
+    ne = len(pc.idx)
+    steps = max(1, BLOCK // ne)
+    total = 0.0
+    for s0 in range(0, len(X), steps):
+        Xb, Lb = X[s0:s0 + steps], Lam[s0:s0 + steps]
+        k = len(Xb)
+        f = _grad_kernel(pc.element, pc.effect, pc.gauss, k * ne)
+        xs = Xb[:, pc.idx].reshape(k * ne, nd)
+        g = f(xs.T, np.tile(pc.P, (k, 1)).T)[1].full()
+        total += float(np.sum(Lb[:, pc.idx].reshape(k * ne, nd) * g.T))
+    return total
+
+
+def residual_sum(md: ModelDerivative, Lam: np.ndarray, X: np.ndarray, cache: dict) -> float:
+    """sum_n Lam_n . dR/dp(x_n) (full coordinates; R = grad Pi: the pieces' gradients less the dead loads dQ).
+    Pieces shared by several parameters (the same kernel rows and coefficients) are evaluated once (cache)."""
+    total = 0.0
+    for pc in md.pieces:
+        key = (pc.element, pc.effect, pc.gauss, pc.idx.tobytes(), np.asarray(pc.P, float).tobytes())
+        if key not in cache:
+            cache[key] = _piece_sum(pc, Lam, X)
+        total += cache[key]
+    if md.dQ is not None:
+        total -= float(Lam.sum(axis=0) @ md.dQ)
+    return total
+
+
+def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
+                     output: SensorOutput | KineticEnergyOutput) -> DynamicGradient:
+    """Run the scene of `doc` with `options` (fixed steps of an alpha scheme) and return the output's value and
+    its gradient with respect to every path by the discrete adjoint (see the module docstring)."""
+    from ancf_sym.statics.problem import problem_for
+
+    d = read_document(doc)
+    scene, _ = scene_from_dict(d)
+    paths = list(paths)
+    check_dynamic_paths(scene, d, paths)
+    asm = problem_for(scene).asm
+    S = StepSystem.for_scene(asm)
+    integ = make_integrator(S, options, Counters(), 0.0, options.newton.xtol * S.length_scale)
+    refuse_unsupported(S, options, integ)
+    sensors = [SensorEval(Sensor.from_dict(sn, i), asm, i) for i, sn in enumerate(options.sensors)]
+    if isinstance(output, SensorOutput) and not any(e.sensor.name == output.sensor for e in sensors):
+        raise KeyError(f"output sensor {output.sensor!r}: no such sensor in analysis.sensors; sensors: "
+                       f"{[e.sensor.name for e in sensors]}")
+    nf = S.nf
+    if options.start == "static":
+        res = problem_for(scene).solve()
+        if not res.success:
+            raise SceneError(f"dynamic sensitivities: the static start failed ({res.status})")
+        q0 = res.x
+    else:
+        q0 = asm.x0.copy()
+    integ.initialize(S.reduce(q0), np.zeros(nf), np.zeros(nf), options.t_start)
+    integ.tol_q = options.newton.tol * max(float(np.max(np.abs(S.f_lin))), float(np.max(np.abs(S.M @ integ.a))),
+                                           1e-300)
+    Q, Vr, Ar = forward_states(S, integ, options)
+    N = len(Q) - 1
+    t = options.t_start + options.dt * np.arange(N + 1)
+    X, V, A = S.full_rows(Q), S.full_v_rows(Vr), S.full_v_rows(Ar)
+    value, WQ, WV = output_weights(output, sensors, S, t, X, V, Vr)
+    alpha_r = S.rayleigh.alpha if S.rayleigh is not None else 0.0
+    # backward: steps N .. 1 in one compiled sweep, then the start (M a_0 = -R(q_0); the static start's adjoint)
+    MU = np.zeros((N + 1, nf))
+    acc = np.zeros(4 * nf)
+    if N:
+        f = backward_sweep(S, options, alpha_r, N)
+        ACC, MUb = f(acc, np.vstack([Q[:0:-1].T, WQ[:0:-1].T, WV[:0:-1].T]))
+        acc = np.asarray(ACC)[:, -1]
+        MU[1:] = np.asarray(MUb)[:, ::-1].T
+    M = S.M.tocsc()
+    MU[0] = spla.splu(M).solve(acc[2 * nf:3 * nf] + acc[3 * nf:])  # (a_0 = abar_0)
+    K0 = S.forces(Q[0])[1]
+    Lam = S.full_v_rows(MU)
+    LamR = Lam
+    if options.start == "static":  # dq_0/dp = -K_0^-1 E' dR/dp(x_0): its adjoint xi = K_0^-1 qbar_0
+        qb0 = acc[:nf] + WQ[0] - K0 @ MU[0]
+        LamR = Lam.copy()
+        LamR[0] += S.full_v(spla.splu(sp.csc_matrix(K0)).solve(qb0))
+    grad, cache = {}, {}
+    for p in paths:
+        i = _damping_index(d, p)
+        if i is not None:  # dC/dalpha_R = M: F_n = M v_n
+            grad[p] = -float(np.sum(MU * (Vr @ M)))
+            continue
+        md = model_derivative(asm, d, p)
+        g = -residual_sum(md, LamR, X, cache)
+        dM = md.dM
+        if dM is not None:
+            g -= float(np.sum(Lam * (dM @ (A + alpha_r * V).T).T))
+            if isinstance(output, KineticEnergyOutput):  # the output's own dM/dp: 1/2 v' dM v
+                g += 0.5 * float(V[-1] @ (dM @ V[-1]))
+        grad[p] = g
+    notes = []
+    if getattr(scene, "contacts", None):
+        notes.append("the scene has contacts: the derivative is that of the penalty law along the run; where a "
+                     "contact opens or closes inside a step it is not differentiable there")
+    return DynamicGradient(value, grad, t, X, V, notes)
