@@ -41,10 +41,12 @@ from ancf_sym.dynamics.sensors import Sensor, SensorEval
 from ancf_sym.dynamics.time_loop import chunk_size
 from ancf_sym.io.scene_toml import scene_from_dict
 from ancf_sym.scene.builder import SceneError
-from ancf_sym.sensitivity.model_derivative import ModelDerivative, check_model_paths, model_derivative, \
-    read_document
+from ancf_sym import kernels
+from ancf_sym.sensitivity.model_derivative import STIFFNESS_COLUMNS, ModelDerivative, check_model_paths, \
+    model_derivative, read_document
 from ancf_sym.sensitivity.paths import get_parameter, parse_path
 from ancf_sym.system.step_system import StepSystem
+from ancf_sym.util.casadi_buffers import bind
 from ancf_sym.util.sparsity import dm
 
 REDUCTIONS = ("integral", "sum", "end", "least_squares")
@@ -185,7 +187,11 @@ def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int) 
     Sa = -af / (1 - af) * Bb
     Sab = h * (1 - gamma) * Bvb + am / (1 - af) * Bb - (0.5 - beta) / beta * Db
     step = ca.Function("adjoint_step", [acc, ca.vertcat(x, wq, wv)], [ca.vertcat(Sq, Sv, Sa, Sab), mu])
-    f = step.mapaccum("adjoint_sweep", n)
+    sweep = step.mapaccum("adjoint_steps", n)
+    a0, U = ca.MX.sym("acc0", 4 * nf), ca.MX.sym("U", 3 * nf, n)
+    ACC, MU = sweep(a0, U)
+    # (only the last accumulated adjoint leaves the graph: no 4 nf x n output to copy)
+    f = ca.Function("adjoint_sweep", [a0, U], [ACC[:, n - 1], MU])
     _SWEEPS[key] = f
     return f
 
@@ -265,44 +271,67 @@ _MAPPED: dict = {}
 BLOCK = 200_000  # element states per mapped kernel call (bounds the memory of one call)
 
 
-def _grad_kernel(element: str, effect: str, gauss, n: int) -> ca.Function:
-    from ancf_sym import kernels
-    key = (element, effect, gauss, n)
+def _step_sum_function(element: str, effect: str, gauss, ne: int, k: int) -> ca.Function:
+    """(x (nd, k ne), P (np, ne), lam (nd, k ne)) -> w (1, ne): w_e = sum over the k steps of lam_e . grad_e(x_e, P_e),
+    the kernel's gradient mapped over the elements and summed over the steps inside one call."""
+    key = (element, effect, gauss, ne, k)
     if key not in _MAPPED:
-        _MAPPED[key] = kernels.load_grad(element, effect, gauss).map(n)
+        g = kernels.load_grad(element, effect, gauss)
+        x, P, lam = ca.MX.sym("x", g.size1_in(0)), ca.MX.sym("P", g.size1_in(1)), ca.MX.sym("lam", g.size1_in(0))
+        dot = ca.Function("lam_grad", [x, P, lam], [ca.dot(lam, g(x, P)[1])])
+        _MAPPED[key] = dot.map(ne).map(k, [False, True, False], [True])
     return _MAPPED[key]
 
 
-def _piece_sum(pc, Lam: np.ndarray, X: np.ndarray) -> float:
-    """sum_n Lam_n . (the piece's gradient at x_n): one mapped kernel call over every step's elements (the gravity
-    kernel's gradient is constant in x: once)."""
-    nd = pc.idx.shape[1]
-    if pc.effect == "gravity":
-        f = _grad_kernel(pc.element, pc.effect, pc.gauss, len(pc.idx))
-        g = f(X[0][pc.idx].T, pc.P.T)[1].full()
-        return float(np.sum(Lam.sum(axis=0)[pc.idx] * g.T))
-    ne = len(pc.idx)
+def _step_sum(element: str, effect: str, gauss, idx: np.ndarray, P: np.ndarray, Lam: np.ndarray,
+              X: np.ndarray) -> np.ndarray:
+    """w_e = sum_n Lam_n[idx_e] . grad_e(x_n[idx_e]; P_e) per element e (the gravity kernel's gradient is constant
+    in x: evaluated once, at x_0, with the sum of the Lam_n)."""
+    ne, nd = idx.shape
+    Pc = np.ascontiguousarray(P, dtype=float)
+    if effect == "gravity":
+        X, Lam = X[:1], Lam.sum(axis=0)[None, :]
+    w = np.zeros(ne)
     steps = max(1, BLOCK // ne)
-    total = 0.0
     for s0 in range(0, len(X), steps):
         Xb, Lb = X[s0:s0 + steps], Lam[s0:s0 + steps]
-        k = len(Xb)
-        f = _grad_kernel(pc.element, pc.effect, pc.gauss, k * ne)
-        xs = Xb[:, pc.idx].reshape(k * ne, nd)
-        g = f(xs.T, np.tile(pc.P, (k, 1)).T)[1].full()
-        total += float(np.sum(Lb[:, pc.idx].reshape(k * ne, nd) * g.T))
-    return total
+        out = np.zeros(ne)
+        f = _step_sum_function(element, effect, gauss, ne, len(Xb))
+        _, evaluate = bind(f, [np.ascontiguousarray(Xb[:, idx]).ravel(), Pc.ravel(),
+                              np.ascontiguousarray(Lb[:, idx]).ravel()], [out])
+        evaluate()
+        w += out
+    return w
 
 
 def residual_sum(md: ModelDerivative, Lam: np.ndarray, X: np.ndarray, cache: dict) -> float:
     """sum_n Lam_n . dR/dp(x_n) (full coordinates; R = grad Pi: the pieces' gradients less the dead loads dQ).
-    Pieces shared by several parameters (the same kernel rows and coefficients) are evaluated once (cache)."""
+    A kernel is linear in its coefficient group (model_derivative): per element and group column the sum is
+    computed once with a unit coefficient (cache) and serves every parameter that scales that column (E and I
+    share the bending term's)."""
     total = 0.0
     for pc in md.pieces:
-        key = (pc.element, pc.effect, pc.gauss, pc.idx.tobytes(), np.asarray(pc.P, float).tobytes())
+        names = kernels.parameters(pc.element, pc.effect)
+        group = STIFFNESS_COLUMNS.get(pc.effect, ("rhoA",) if pc.effect == "gravity" else ())
+        cols = [names.index(c) for c in group if c in names]
+        P = np.asarray(pc.P, float)
+        if not cols:  # (load kernels: the piece itself)
+            key = (pc.element, pc.effect, pc.gauss, pc.idx.tobytes(), P.tobytes())
+            if key not in cache:
+                cache[key] = _step_sum(pc.element, pc.effect, pc.gauss, pc.idx, P, Lam, X).sum()
+            total += cache[key]
+            continue
+        base = P.copy()
+        base[:, cols] = 0.0
+        key = (pc.element, pc.effect, pc.gauss, pc.idx.tobytes(), base.tobytes())
         if key not in cache:
-            cache[key] = _piece_sum(pc, Lam, X)
-        total += cache[key]
+            W = []
+            for c in cols:
+                Pu = base.copy()
+                Pu[:, c] = 1.0
+                W.append(_step_sum(pc.element, pc.effect, pc.gauss, pc.idx, Pu, Lam, X))
+            cache[key] = np.column_stack(W)
+        total += float(np.sum(cache[key] * P[:, cols]))
     if md.dQ is not None:
         total -= float(Lam.sum(axis=0) @ md.dQ)
     return total
@@ -348,9 +377,11 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
     acc = np.zeros(4 * nf)
     if N:
         f = backward_sweep(S, options, alpha_r, N)
-        ACC, MUb = f(acc, np.vstack([Q[:0:-1].T, WQ[:0:-1].T, WV[:0:-1].T]))
-        acc = np.asarray(ACC)[:, -1]
-        MU[1:] = np.asarray(MUb)[:, ::-1].T
+        U = np.ascontiguousarray(np.hstack([Q[:0:-1], WQ[:0:-1], WV[:0:-1]]))  # (column j: step N - j)
+        MUb = np.zeros((N, nf))
+        _, evaluate = bind(f, [np.zeros(4 * nf), U], [acc, MUb])
+        evaluate()
+        MU[1:] = MUb[::-1]
     M = S.M.tocsc()
     MU[0] = spla.splu(M).solve(acc[2 * nf:3 * nf] + acc[3 * nf:])  # (a_0 = abar_0)
     K0 = S.forces(Q[0])[1]
