@@ -34,17 +34,12 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ancf_sym.dynamics import DynamicOptions
-from ancf_sym.dynamics.newton import Counters
-from ancf_sym.dynamics.run import make_integrator
-from ancf_sym.dynamics.sensors import Sensor, SensorEval
-from ancf_sym.dynamics.time_loop import chunk_size
-from ancf_sym.io.scene_toml import scene_from_dict
-from ancf_sym.scene.builder import SceneError
 from ancf_sym import kernels
-from ancf_sym.sensitivity.model_derivative import STIFFNESS_COLUMNS, ModelDerivative, check_model_paths, \
-    model_derivative, read_document
-from ancf_sym.sensitivity.paths import get_parameter, parse_path
+from ancf_sym.dynamics import DynamicOptions
+from ancf_sym.dynamics.sensors import Sensor, SensorEval
+from ancf_sym.sensitivity.alpha_run import damping_index, mass_solve, run_for_sensitivity, start_tangent
+from ancf_sym.sensitivity.model_derivative import STIFFNESS_COLUMNS, ModelDerivative, model_derivative, \
+    read_document
 from ancf_sym.system.step_system import StepSystem
 from ancf_sym.util.casadi_buffers import bind
 from ancf_sym.util.sparsity import dm
@@ -78,79 +73,6 @@ class DynamicGradient:
     x: np.ndarray
     v: np.ndarray
     notes: list = field(default_factory=list)
-
-
-# -- parameters that the dynamics adds to the model's ---------------------------------------------------------------
-def _damping_index(doc: dict, path: str) -> int | None:
-    """i of a path dampings[i].alpha (a Rayleigh mass coefficient), else None; other damping keys refused."""
-    p = parse_path(path)
-    if p.keys[0] != "dampings":
-        return None
-    get_parameter(doc, path)
-    d = doc["dampings"][p.keys[1]] if len(p.keys) == 3 else None
-    if d is None or d.get("type") != "rayleigh" or p.keys[2] != "alpha":
-        raise SceneError(f"parameter path {path!r}: differentiable damping coefficients: dampings[i].alpha of a "
-                         "rayleigh damping (mass-proportional)")
-    return p.keys[1]
-
-
-def check_dynamic_paths(scene, doc: dict, paths: list[str]) -> None:
-    """Refuse, before any step, a path that names no differentiable number of a dynamic run."""
-    check_model_paths(scene, doc, [p for p in paths if _damping_index(doc, p) is None])
-
-
-def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
-    """SceneError naming every feature of the run whose derivative is not propagated."""
-    why = []
-    if opts.integrator not in ("newmark", "hht", "generalized_alpha"):
-        why.append(f"integrator {opts.integrator!r} (alpha schemes only)")
-    if opts.adaptive:
-        why.append("adaptive steps")
-    if S.mc:
-        why.append("constraint rows with multipliers (rigid joints, bodies' joints)")
-    if integ.kdamp.active:
-        why.append("stiffness-proportional Rayleigh damping (beta: its tangent's derivative needs third "
-                   "derivatives of the energies)")
-    if S.damp_f is not None:
-        why.append("strain-rate or contact damping (velocity-dependent forces)")
-    if opts.loads or S.drives is not None:
-        why.append("time-dependent loads or drives")
-    if opts.release or opts.from_result or opts.initial or opts.q0 is not None or opts.v0 is not None:
-        why.append("a start other than the reference or the static equilibrium at rest")
-    if why:
-        raise SceneError("dynamic sensitivities: not available with " + ", ".join(why))
-
-
-# -- the forward run: the package's compiled steps, every state kept -----------------------------------------------
-def forward_states(S: StepSystem, integ, opts: DynamicOptions) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(Q, V, A): reduced q, v, a after each step (row 0: the start), from the integrator's compiled chunks (the
-    run's own steps) and its per-step Newton where a chunk stops."""
-    h = opts.dt
-    n = opts.n_grid
-    rows = [integ.state[:3 * S.nf].copy()]
-    size = chunk_size(n) if integ.chunkable else 0
-    t, k = opts.t_start, 0
-    pl = np.repeat(-S.f_lin[:, None], size, axis=1) if size else None
-    if pl is not None:
-        pl.flags.writeable = False  # (copied into the chunk's buffer once)
-    while k < n:
-        if size and n - k >= size:
-            states, n_ok = integ.run_chunk(h, pl)
-            rows.extend(states[:, :3 * S.nf].copy())  # (the chunk buffer is reused by the next chunk)
-            k += n_ok
-            t = opts.t_start + k * h
-            if n_ok == size:
-                continue
-        out = integ.attempt(t, h)
-        if not out.converged:
-            raise SceneError(f"dynamic sensitivities: the step at t = {t:.6g} s did not converge ({out.reason})")
-        integ.accept()
-        rows.append(integ.state[:3 * S.nf].copy())
-        k += 1
-        t = opts.t_start + k * h
-    R = np.array(rows)
-    nf = S.nf
-    return R[:, :nf], R[:, nf:2 * nf], R[:, 2 * nf:3 * nf]
 
 
 # -- the backward sweep as one CasADi graph ------------------------------------------------------------------------
@@ -341,37 +263,19 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
                      output: SensorOutput | KineticEnergyOutput) -> DynamicGradient:
     """Run the scene of `doc` with `options` (fixed steps of an alpha scheme) and return the output's value and
     its gradient with respect to every path by the discrete adjoint (see the module docstring)."""
-    from ancf_sym.statics.problem import problem_for
-
     d = read_document(doc)
-    scene, _ = scene_from_dict(d)
-    paths = list(paths)
-    check_dynamic_paths(scene, d, paths)
-    asm = problem_for(scene).asm
-    S = StepSystem.for_scene(asm)
-    integ = make_integrator(S, options, Counters(), 0.0, options.newton.xtol * S.length_scale)
-    refuse_unsupported(S, options, integ)
+    if isinstance(output, SensorOutput):
+        names = [s.get("name") if isinstance(s, dict) else s.name for s in options.sensors]
+        if output.sensor not in names:
+            raise KeyError(f"output sensor {output.sensor!r}: no such sensor in analysis.sensors (named: {names})")
+    run = run_for_sensitivity(d, paths, options)
+    S, asm, nf = run.S, run.asm, run.S.nf
     sensors = [SensorEval(Sensor.from_dict(sn, i), asm, i) for i, sn in enumerate(options.sensors)]
-    if isinstance(output, SensorOutput) and not any(e.sensor.name == output.sensor for e in sensors):
-        raise KeyError(f"output sensor {output.sensor!r}: no such sensor in analysis.sensors; sensors: "
-                       f"{[e.sensor.name for e in sensors]}")
-    nf = S.nf
-    if options.start == "static":
-        res = problem_for(scene).solve()
-        if not res.success:
-            raise SceneError(f"dynamic sensitivities: the static start failed ({res.status})")
-        q0 = res.x
-    else:
-        q0 = asm.x0.copy()
-    integ.initialize(S.reduce(q0), np.zeros(nf), np.zeros(nf), options.t_start)
-    integ.tol_q = options.newton.tol * max(float(np.max(np.abs(S.f_lin))), float(np.max(np.abs(S.M @ integ.a))),
-                                           1e-300)
-    Q, Vr, Ar = forward_states(S, integ, options)
+    Q, Vr, t = run.Q, run.V, run.t
     N = len(Q) - 1
-    t = options.t_start + options.dt * np.arange(N + 1)
-    X, V, A = S.full_rows(Q), S.full_v_rows(Vr), S.full_v_rows(Ar)
+    X, V, A = run.X, run.V_full, run.A_full
     value, WQ, WV = output_weights(output, sensors, S, t, X, V, Vr)
-    alpha_r = S.rayleigh.alpha if S.rayleigh is not None else 0.0
+    alpha_r = run.alpha_r
     # backward: steps N .. 1 in one compiled sweep, then the start (M a_0 = -R(q_0); the static start's adjoint)
     MU = np.zeros((N + 1, nf))
     acc = np.zeros(4 * nf)
@@ -382,19 +286,20 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
         _, evaluate = bind(f, [np.zeros(4 * nf), U], [acc, MUb])
         evaluate()
         MU[1:] = MUb[::-1]
-    M = S.M.tocsc()
-    MU[0] = spla.splu(M).solve(acc[2 * nf:3 * nf] + acc[3 * nf:])  # (a_0 = abar_0)
-    K0 = S.forces(Q[0])[1]
+    MU[0] = mass_solve(run)(acc[2 * nf:3 * nf] + acc[3 * nf:])  # (a_0 = abar_0)
     Lam = S.full_v_rows(MU)
     LamR = Lam
     if options.start == "static":  # dq_0/dp = -K_0^-1 E' dR/dp(x_0): its adjoint xi = K_0^-1 qbar_0
+        K0 = start_tangent(run)
         qb0 = acc[:nf] + WQ[0] - K0 @ MU[0]
         LamR = Lam.copy()
-        LamR[0] += S.full_v(spla.splu(sp.csc_matrix(K0)).solve(qb0))
+        LamR[0] += S.full_v(spla.splu(K0).solve(qb0))
+    else:
+        K0 = None
     grad, cache = {}, {}
+    M = S.M
     for p in paths:
-        i = _damping_index(d, p)
-        if i is not None:  # dC/dalpha_R = M: F_n = M v_n
+        if damping_index(d, p) is not None:  # dC/dalpha_R = M: F_n = M v_n
             grad[p] = -float(np.sum(MU * (Vr @ M)))
             continue
         md = model_derivative(asm, d, p)
@@ -406,7 +311,7 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
                 g += 0.5 * float(V[-1] @ (dM @ V[-1]))
         grad[p] = g
     notes = []
-    if getattr(scene, "contacts", None):
+    if getattr(run.scene, "contacts", None):
         notes.append("the scene has contacts: the derivative is that of the penalty law along the run; where a "
                      "contact opens or closes inside a step it is not differentiable there")
     return DynamicGradient(value, grad, t, X, V, notes)

@@ -1,0 +1,206 @@
+"""What the forward and adjoint sensitivities of a dynamic run share: the checks (refused features and parameter
+paths, before any step), the run itself (the package's compiled alpha steps, every state kept) and the parameter
+forcing F_n = dR/dp(q_n) + dM/dp a_n + dC/dp v_n of the differentiated step equations at every step.
+
+Parameters: the model's TOML paths (ancf_sym.sensitivity.model_derivative) and the Rayleigh mass coefficient
+dampings[i].alpha (C = alpha_R M). Damping the derivative does not follow is refused by name: stiffness-
+proportional Rayleigh (beta: the derivative of its tangent K_el(q_n) needs third derivatives of the energies),
+strain-rate and contact damping, as are time loads, drives and multiplier rows.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from ancf_sym import kernels
+from ancf_sym.dynamics import DynamicOptions
+from ancf_sym.dynamics.newton import Counters
+from ancf_sym.dynamics.run import make_integrator
+from ancf_sym.dynamics.time_loop import chunk_size
+from ancf_sym.io.scene_toml import scene_from_dict
+from ancf_sym.scene.builder import SceneError
+from ancf_sym.sensitivity.model_derivative import check_model_paths, model_derivative, read_document
+from ancf_sym.sensitivity.paths import get_parameter, parse_path
+from ancf_sym.system.step_system import StepSystem
+from ancf_sym.util.casadi_buffers import bind
+
+# -- parameters that the dynamics adds to the model's ---------------------------------------------------------------
+def damping_index(doc: dict, path: str) -> int | None:
+    """i of a path dampings[i].alpha (a Rayleigh mass coefficient), else None; other damping keys refused."""
+    p = parse_path(path)
+    if p.keys[0] != "dampings":
+        return None
+    get_parameter(doc, path)
+    d = doc["dampings"][p.keys[1]] if len(p.keys) == 3 else None
+    if d is None or d.get("type") != "rayleigh" or p.keys[2] != "alpha":
+        raise SceneError(f"parameter path {path!r}: differentiable damping coefficients: dampings[i].alpha of a "
+                         "rayleigh damping (mass-proportional)")
+    return p.keys[1]
+
+
+def check_dynamic_paths(scene, doc: dict, paths: list[str]) -> None:
+    """Refuse, before any step, a path that names no differentiable number of a dynamic run."""
+    check_model_paths(scene, doc, [p for p in paths if damping_index(doc, p) is None])
+
+
+def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
+    """SceneError naming every feature of the run whose derivative is not propagated."""
+    why = []
+    if opts.integrator not in ("newmark", "hht", "generalized_alpha"):
+        why.append(f"integrator {opts.integrator!r} (alpha schemes only)")
+    if opts.adaptive:
+        why.append("adaptive steps")
+    if S.mc:
+        why.append("constraint rows with multipliers (rigid joints, bodies' joints)")
+    if integ.kdamp.active:
+        why.append("stiffness-proportional Rayleigh damping (beta: its tangent's derivative needs third "
+                   "derivatives of the energies)")
+    if S.damp_f is not None:
+        why.append("strain-rate or contact damping (velocity-dependent forces)")
+    if opts.loads or S.drives is not None:
+        why.append("time-dependent loads or drives")
+    if opts.release or opts.from_result or opts.initial or opts.q0 is not None or opts.v0 is not None:
+        why.append("a start other than the reference or the static equilibrium at rest")
+    if why:
+        raise SceneError("dynamic sensitivities: not available with " + ", ".join(why))
+
+
+# -- the forward run: the package's compiled steps, every state kept -----------------------------------------------
+def forward_states(S: StepSystem, integ, opts: DynamicOptions) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(Q, V, A): reduced q, v, a after each step (row 0: the start), from the integrator's compiled chunks (the
+    run's own steps) and its per-step Newton where a chunk stops."""
+    h = opts.dt
+    n = opts.n_grid
+    rows = [integ.state[:3 * S.nf].copy()]
+    size = chunk_size(n) if integ.chunkable else 0
+    t, k = opts.t_start, 0
+    pl = np.repeat(-S.f_lin[:, None], size, axis=1) if size else None
+    if pl is not None:
+        pl.flags.writeable = False  # (copied into the chunk's buffer once)
+    while k < n:
+        if size and n - k >= size:
+            states, n_ok = integ.run_chunk(h, pl)
+            rows.extend(states[:, :3 * S.nf].copy())  # (the chunk buffer is reused by the next chunk)
+            k += n_ok
+            t = opts.t_start + k * h
+            if n_ok == size:
+                continue
+        out = integ.attempt(t, h)
+        if not out.converged:
+            raise SceneError(f"dynamic sensitivities: the step at t = {t:.6g} s did not converge ({out.reason})")
+        integ.accept()
+        rows.append(integ.state[:3 * S.nf].copy())
+        k += 1
+        t = opts.t_start + k * h
+    R = np.array(rows)
+    nf = S.nf
+    return R[:, :nf], R[:, nf:2 * nf], R[:, 2 * nf:3 * nf]
+
+
+@dataclass
+class AlphaRun:
+    """A run of the scene of `doc` kept for differentiation: the model (asm, S), the reduced states Q, V, A after
+    each step (row 0: the start), the full X, V_full, A_full, the step times t, the Rayleigh mass coefficient, the
+    static start's tangent K0 (None: the reference start)."""
+    doc: dict
+    scene: object
+    asm: object
+    S: StepSystem
+    options: DynamicOptions
+    Q: np.ndarray
+    V: np.ndarray
+    A: np.ndarray
+    t: np.ndarray
+    alpha_r: float
+
+    @property
+    def X(self) -> np.ndarray:
+        return self.S.full_rows(self.Q)
+
+    @property
+    def V_full(self) -> np.ndarray:
+        return self.S.full_v_rows(self.V)
+
+    @property
+    def A_full(self) -> np.ndarray:
+        return self.S.full_v_rows(self.A)
+
+
+def run_for_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptions) -> AlphaRun:
+    """Check the run and the paths (refused before any step), then run the scene with the package's own alpha
+    steps, from the reference or the static equilibrium at rest."""
+    from ancf_sym.statics.problem import problem_for
+
+    d = read_document(doc)
+    scene, _ = scene_from_dict(d)
+    check_dynamic_paths(scene, d, list(paths))
+    asm = problem_for(scene).asm
+    S = StepSystem.for_scene(asm)
+    integ = make_integrator(S, options, Counters(), 0.0, options.newton.xtol * S.length_scale)
+    refuse_unsupported(S, options, integ)
+    nf = S.nf
+    if options.start == "static":
+        res = problem_for(scene).solve()
+        if not res.success:
+            raise SceneError(f"dynamic sensitivities: the static start failed ({res.status})")
+        q0 = res.x
+    else:
+        q0 = asm.x0.copy()
+    integ.initialize(S.reduce(q0), np.zeros(nf), np.zeros(nf), options.t_start)
+    integ.tol_q = options.newton.tol * max(float(np.max(np.abs(S.f_lin))), float(np.max(np.abs(S.M @ integ.a))),
+                                           1e-300)
+    Q, V, A = forward_states(S, integ, options)
+    t = options.t_start + options.dt * np.arange(len(Q))
+    return AlphaRun(d, scene, asm, S, options, Q, V, A, t, S.rayleigh.alpha if S.rayleigh is not None else 0.0)
+
+
+def _scatter(idx: np.ndarray, n: int) -> sp.csr_matrix:
+    """(ne nd) -> n: the sum of element vectors into the full coordinates."""
+    k = idx.size
+    return sp.csr_matrix((np.ones(k), (np.arange(k), idx.ravel())), shape=(k, n))
+
+
+def _gradients(pc, X: np.ndarray) -> np.ndarray:
+    """The piece's assembled gradient at every state (rows of X), (len(X), n): one mapped kernel call."""
+    ne, nd = pc.idx.shape
+    k = len(X)
+    f = kernels.load_grad(pc.element, pc.effect, pc.gauss).map(k * ne)
+    e, g = np.zeros(k * ne), np.zeros(k * ne * nd)
+    _, evaluate = bind(f, [np.ascontiguousarray(X[:, pc.idx]).ravel(),
+                           np.ascontiguousarray(np.tile(np.asarray(pc.P, float), (k, 1))).ravel()], [e, g])
+    evaluate()
+    return (_scatter(pc.idx, X.shape[1]).T @ g.reshape(k, ne * nd).T).T
+
+
+def forcing(run: AlphaRun, path: str, statics: bool = False) -> np.ndarray:
+    """F_n on the reduced coordinates for every step, (steps + 1, nf): E' (dR/dp(x_n) + dM/dp (a_n + alpha_R v_n))
+    and, for dampings[i].alpha, M v_n. statics: E' dR/dp(x_0) alone (the static start's right-hand side)."""
+    S = run.S
+    if damping_index(run.doc, path) is not None:
+        return np.zeros((1, S.nf)) if statics else run.V @ S.M
+    md = model_derivative(run.asm, run.doc, path)
+    X = run.X[:1] if statics else run.X
+    R = np.zeros(X.shape)
+    for pc in md.pieces:
+        if pc.effect == "gravity":  # (linear in q: a constant gradient)
+            R += _gradients(pc, X[:1])
+        else:
+            R += _gradients(pc, X)
+    if md.dQ is not None:
+        R -= md.dQ
+    if not statics and md.dM is not None:
+        R += (md.dM @ (run.A_full + run.alpha_r * run.V_full).T).T
+    return np.asarray((S.E.T @ R.T).T)
+
+
+def start_tangent(run: AlphaRun) -> sp.csc_matrix:
+    """K(q_0) on the reduced coordinates: the static start's tangent and the initial acceleration's."""
+    return sp.csc_matrix(run.S.forces(run.Q[0])[1])
+
+
+def mass_solve(run: AlphaRun):
+    """A solver of M x = b (the initial acceleration's matrix)."""
+    return spla.splu(run.S.M.tocsc()).solve
