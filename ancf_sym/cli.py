@@ -382,7 +382,8 @@ def _main(argv: list[str] | None = None) -> int:
     c = sub.add_parser("calibrate", help="fit scene numbers (TOML paths) to measured node positions (CSV: member, "
                        "node, x, y[, z]) by Levenberg-Marquardt with the exact Jacobian")
     c.add_argument("scene", help="scene file (TOML; its values at the paths are the start)")
-    c.add_argument("data", help="CSV of measured positions: member, node, x, y[, z]")
+    c.add_argument("data", help="CSV of measured positions: member, node, x, y[, z]; or a sensor history of the "
+                   "scene's dynamics analysis: t, NAME[j], ... (times on the step grid)")
     c.add_argument("--parameter", action="append", required=True, metavar="PATH", help="a TOML path to fit (repeatable)")
     c.add_argument("--out", required=True, help="output directory: calibration.json, calibration.png")
     c.add_argument("--max-iter", type=int, default=30, help="Levenberg-Marquardt iterations at most (default 30)")

@@ -26,6 +26,9 @@ def check_paths(scene: Scene, doc: dict, paths: list[str], analysis: dict | None
             from ancf_sym.dynamics.options import options_from_dict
             options = options_from_dict(analysis)
         check_dynamic(scene, options)
+        from ancf_sym.sensitivity.alpha_run import check_dynamic_paths  # (also dampings[i].alpha)
+        check_dynamic_paths(scene, doc, paths)
+        return
     check_model_paths(scene, doc, paths)
 
 

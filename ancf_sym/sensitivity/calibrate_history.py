@@ -242,3 +242,23 @@ def write_history(path: str | Path, history: SensorHistory) -> Path:
         for i, t in enumerate(history.t):
             w.writerow([repr(float(t))] + [repr(float(history.columns[key][i])) for key in keys])
     return path
+
+
+def run_history_cli(scene_file: str | Path, data_file: str | Path, parameters: list[str], out: Path,
+                    max_iter: int = 30, quiet: bool = False) -> int:
+    """`ancf-sym calibrate SCENE.toml HISTORY.csv`: the fit of the scene's dynamic run, out/calibration.json and
+    out/calibration.png; exit code 0 when converged. Every path is checked before any run."""
+    from ancf_sym.io.json_out import write_json
+    from ancf_sym.io.scene_toml import scene_from_dict
+    from ancf_sym.sensitivity.alpha_run import check_dynamic_paths
+
+    doc = read_document(scene_file)
+    scene, _ = scene_from_dict(doc)
+    check_dynamic_paths(scene, doc, list(parameters))
+    cal = calibrate_history(doc, data_file, parameters, max_iter=max_iter)
+    out.mkdir(parents=True, exist_ok=True)
+    write_json(out / "calibration.json", cal.to_dict())
+    cal.plot(out / "calibration.png")
+    if not quiet:
+        print(f"{cal.summary()} -> {out}")
+    return 0 if cal.converged else 1
