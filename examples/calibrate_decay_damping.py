@@ -62,7 +62,7 @@ def measure(elements: int, dt: float, t_end: float, seed: int = 1) -> tuple[Sens
 
 
 def main(out: Path | None, quick: bool = False) -> dict:
-    elements, dt, t_end = (4, 2e-3, 0.6) if quick else (8, 1e-3, 2.0)
+    elements, dt, t_end = (4, 2e-3, 1.2) if quick else (8, 1e-3, 2.0)
     data, alpha_true = measure(elements, dt, t_end)
     doc = scene_doc(elements, dt, t_end, 1.5 * alpha_true, E=0.9 * 2.1e11)
     folder = out or Path.cwd()
