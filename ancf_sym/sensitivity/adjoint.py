@@ -23,7 +23,7 @@ Outputs: functions of the sensor records (their sum, time integral, end value, o
 data record) and the kinetic energy at the end. Parameters: the TOML paths of model_derivative, and the scene's
 Rayleigh coefficient dampings[i].alpha. Scope as the forward sensitivities (refused by name before any step):
 no stiffness-proportional Rayleigh (beta: its tangent's derivative needs third derivatives of the energies), no
-strain-rate damping, no multiplier rows, drives or time loads.
+strain-rate damping, no multiplier rows or drives; time loads are applied as the run applies them.
 """
 from __future__ import annotations
 

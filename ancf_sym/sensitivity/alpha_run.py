@@ -5,7 +5,8 @@ forcing F_n = dR/dp(q_n) + dM/dp a_n + dC/dp v_n of the differentiated step equa
 Parameters: the model's TOML paths (ancf_sym.sensitivity.model_derivative) and the Rayleigh mass coefficient
 dampings[i].alpha (C = alpha_R M). Damping the derivative does not follow is refused by name: stiffness-
 proportional Rayleigh (beta: the derivative of its tangent K_el(q_n) needs third derivatives of the energies),
-strain-rate and contact damping, as are time loads, drives and multiplier rows.
+strain-rate and contact damping, as are drives and multiplier rows. Time loads (analysis.loads) are applied as
+the run applies them; they depend on no scene parameter.
 """
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ from ancf_sym import kernels
 from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.newton import Counters
 from ancf_sym.dynamics.run import make_integrator
+from ancf_sym.dynamics.time_loads import LoadSum
 from ancf_sym.dynamics.time_loop import chunk_size
 from ancf_sym.io.scene_toml import scene_from_dict
 from ancf_sym.scene.builder import SceneError
@@ -60,8 +62,8 @@ def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
                    "derivatives of the energies)")
     if S.damp_f is not None:
         why.append("strain-rate or contact damping (velocity-dependent forces)")
-    if opts.loads or S.drives is not None:
-        why.append("time-dependent loads or drives")
+    if S.drives is not None:
+        why.append("drives or torques (time-dependent constraints and forces)")
     if opts.release or opts.from_result or opts.initial or opts.q0 is not None or opts.v0 is not None:
         why.append("a start other than the reference or the static equilibrium at rest")
     if why:
@@ -69,9 +71,10 @@ def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
 
 
 # -- the forward run: the package's compiled steps, every state kept -----------------------------------------------
-def forward_states(S: StepSystem, integ, opts: DynamicOptions) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def forward_states(S: StepSystem, integ, opts: DynamicOptions, loads: LoadSum | None = None
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(Q, V, A): reduced q, v, a after each step (row 0: the start), from the integrator's compiled chunks (the
-    run's own steps) and its per-step Newton where a chunk stops."""
+    run's own steps) and its per-step Newton where a chunk stops; loads: the time loads (LoadSum) or None."""
     h = opts.dt
     n = opts.n_grid
     rows = [integ.state[:3 * S.nf].copy()]
@@ -82,15 +85,18 @@ def forward_states(S: StepSystem, integ, opts: DynamicOptions) -> tuple[np.ndarr
         pl.flags.writeable = False  # (copied into the chunk's buffer once)
     while k < n:
         if size and n - k >= size:
+            if loads is not None:  # (the loads at the chunk's step ends, as the time loop gives them)
+                pl = -np.column_stack([S.f_lin + loads(opts.t_start + (k + j + 1) * h) for j in range(size)])
             states, n_ok = integ.run_chunk(h, pl)
             rows.extend(states[:, :3 * S.nf].copy())  # (the chunk buffer is reused by the next chunk)
             k += n_ok
             t = opts.t_start + k * h
             if n_ok == size:
                 continue
-        out = integ.attempt(t, h)
+        out = integ.attempt(t, h, loads)
         if not out.converged:
-            raise SceneError(f"dynamic sensitivities: the step at t = {t:.6g} s did not converge ({out.reason})")
+            raise SceneError(f"dynamic sensitivities: the step at t = {t:.6g} s did not converge ({out.reason}); "
+                             "a fixed-step derivative cannot take a smaller step there (try a smaller dt)")
         integ.accept()
         rows.append(integ.state[:3 * S.nf].copy())
         k += 1
@@ -149,10 +155,13 @@ def run_for_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
         q0 = res.x
     else:
         q0 = asm.x0.copy()
-    integ.initialize(S.reduce(q0), np.zeros(nf), np.zeros(nf), options.t_start)
+    # time loads (analysis.loads): a forcing that no scene parameter changes, applied as the run applies it
+    loads = LoadSum(options.loads, asm, S.E) if options.loads else None
+    Q0 = loads(options.t_start) if loads else np.zeros(nf)
+    integ.initialize(S.reduce(q0), np.zeros(nf), Q0, options.t_start)
     integ.tol_q = options.newton.tol * max(float(np.max(np.abs(S.f_lin))), float(np.max(np.abs(S.M @ integ.a))),
-                                           1e-300)
-    Q, V, A = forward_states(S, integ, options)
+                                           float(np.max(np.abs(Q0))), 1e-300)
+    Q, V, A = forward_states(S, integ, options, loads)
     t = options.t_start + options.dt * np.arange(len(Q))
     return AlphaRun(d, scene, asm, S, options, Q, V, A, t, S.rayleigh.alpha if S.rayleigh is not None else 0.0)
 

@@ -24,7 +24,8 @@ parameter's column as right-hand sides), the forcing dR/dp at every step one map
 piece.
 
 Scope (refused by name before any step, ancf_sym.sensitivity.alpha_run): fixed steps; no stiffness-proportional
-or strain-rate damping, time-dependent loads, drives or multiplier rows (rigid joints, bodies' joints).
+or strain-rate damping, drives or multiplier rows (rigid joints, bodies' joints); time loads (analysis.loads) are
+applied as the run applies them.
 """
 from __future__ import annotations
 

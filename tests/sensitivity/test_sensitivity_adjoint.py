@@ -119,3 +119,23 @@ def test_bad_paths_and_outputs_refused_before_any_step():
         dynamic_gradient(doc, ["dampings[0].beta"], opts(), OUTPUTS[0])
     with pytest.raises(KeyError, match="nope"):
         dynamic_gradient(DOC, ["materials.m.E"], opts(), SensorOutput("nope"))
+
+
+def test_time_loads_applied_as_the_run_applies_them():
+    """A sideways force pulse (analysis.loads): the states are the package run's, the derivative its."""
+    from ancf_sym.dynamics import simulate
+    from ancf_sym.io.scene_toml import scene_from_dict
+
+    pulse = [{"member": "rope", "at": "end", "force": [0.4, 0.0], "history": [[0.0, 0.0], [0.05, 1.0], [0.1, 0.0]]}]
+    o = opts(loads=pulse)
+    out = SensorOutput("tip", 0, "integral")
+    paths = ["materials.m.E", "dampings[0].alpha"]
+    g = dynamic_gradient(DOC, paths, o, out)
+    run = simulate(scene_from_dict(DOC)[0], o)
+    assert np.allclose(run.x, g.x[-1], rtol=0, atol=1e-10)
+    fw = dynamic_sensitivity(DOC, paths, o)
+    for p in paths:
+        fd = richardson(lambda d: dynamic_gradient(d, [], o, out).value, DOC, p)
+        assert abs(g.gradient[p] - fd) <= 1e-5 * abs(fd), p
+        ref = weights(out, fw.t) @ fw.sensor(p, "tip")[:, 0]
+        assert abs(g.gradient[p] - ref) <= 1e-8 * abs(ref), p
