@@ -172,11 +172,17 @@ def _scatter(idx: np.ndarray, n: int) -> sp.csr_matrix:
     return sp.csr_matrix((np.ones(k), (np.arange(k), idx.ravel())), shape=(k, n))
 
 
+_MAPPED: dict = {}
+
+
 def _gradients(pc, X: np.ndarray) -> np.ndarray:
     """The piece's assembled gradient at every state (rows of X), (len(X), n): one mapped kernel call."""
     ne, nd = pc.idx.shape
     k = len(X)
-    f = kernels.load_grad(pc.element, pc.effect, pc.gauss).map(k * ne)
+    key = (pc.element, pc.effect, pc.gauss, k * ne)
+    if key not in _MAPPED:
+        _MAPPED[key] = kernels.load_grad(pc.element, pc.effect, pc.gauss).map(k * ne)
+    f = _MAPPED[key]
     e, g = np.zeros(k * ne), np.zeros(k * ne * nd)
     _, evaluate = bind(f, [np.ascontiguousarray(X[:, pc.idx]).ravel(),
                            np.ascontiguousarray(np.tile(np.asarray(pc.P, float), (k, 1))).ravel()], [e, g])

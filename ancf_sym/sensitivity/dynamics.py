@@ -160,9 +160,11 @@ def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
         Zs = Z.reshape(N, P, 4 * nf)
         dq[1:] = Zs[:, :, :nf].transpose(0, 2, 1)
         dv[1:] = Zs[:, :, nf:2 * nf].transpose(0, 2, 1)
-    E = S.E
-    dx = np.stack([E @ dq[k] for k in range(N + 1)]) if P else np.zeros((N + 1, asm.n, 0))
-    dvf = np.stack([E @ dv[k] for k in range(N + 1)]) if P else np.zeros((N + 1, asm.n, 0))
+
+    def full(d: np.ndarray) -> np.ndarray:  # (E d per step and parameter, as one gather)
+        rows = S.full_v_rows(d.transpose(0, 2, 1).reshape(-1, nf))
+        return rows.reshape(N + 1, P, -1).transpose(0, 2, 1)
+    dx, dvf = (full(dq), full(dv)) if P else (np.zeros((N + 1, asm.n, 0)), np.zeros((N + 1, asm.n, 0)))
     sensors = [SensorEval(Sensor.from_dict(sn, i), asm, i) for i, sn in enumerate(options.sensors)]
     return DynamicSensitivity(run.t, run.X, run.V_full, {p: dx[:, :, k] for k, p in enumerate(paths)},
                               {p: dvf[:, :, k] for k, p in enumerate(paths)}, asm, sensors)
