@@ -20,7 +20,7 @@ per distinct derivative piece (ancf_sym.sensitivity.model_derivative), the dead 
 product each: 100 parameters cost a few mapped calls, not 100 runs.
 
 Outputs: functions of the sensor records (their sum, time integral, end value, or the least-squares misfit to a
-data record) and the kinetic energy at the end. Parameters: the TOML paths of model_derivative, and the scene's
+data record) and the kinetic, potential or total energy at the end. Parameters: the TOML paths of model_derivative, and the scene's
 Rayleigh coefficient dampings[i].alpha. Scope as the forward sensitivities (refused by name before any step):
 no stiffness-proportional Rayleigh (beta: its tangent's derivative needs third derivatives of the energies), no
 strain-rate damping, no multiplier rows or drives; time loads are applied as the run applies them.
@@ -58,9 +58,20 @@ class SensorOutput:
     data: np.ndarray | None = None
 
 
+ENERGIES = ("kinetic", "potential", "total")
+
+
 @dataclass
-class KineticEnergyOutput:
+class EnergyOutput:
+    """An energy at the end of the run: "kinetic" 1/2 v' M v, "potential" (strain energies, gravity, dead loads:
+    the run's potential), or "total" (their sum)."""
+    which: str = "total"
+
+
+@dataclass
+class KineticEnergyOutput(EnergyOutput):
     """The kinetic energy 1/2 v' M v at the end of the run."""
+    which: str = "kinetic"
 
 
 @dataclass
@@ -139,12 +150,19 @@ def output_weights(out, sensors: list[SensorEval], S: StepSystem, t: np.ndarray,
     Vr: reduced velocities)."""
     N1 = len(t)
     E = S.E
-    if isinstance(out, KineticEnergyOutput):
-        vr = Vr[-1]
-        Mv = S.M @ vr
+    if isinstance(out, EnergyOutput):
+        if out.which not in ENERGIES:
+            raise ValueError(f"output energy {out.which!r}: one of {ENERGIES}")
         WQ, WV = np.zeros((N1, S.nf)), np.zeros((N1, S.nf))
-        WV[-1] = Mv
-        return 0.5 * float(vr @ Mv), WQ, WV
+        T, pots = S.energies_by_label(S.reduce(X[-1]), Vr[-1])
+        val = 0.0
+        if out.which in ("kinetic", "total"):
+            WV[-1] = S.M @ Vr[-1]
+            val += T
+        if out.which in ("potential", "total"):  # d Pi / dq = g(q) - f_lin on the unknowns
+            WQ[-1] = S.forces(S.reduce(X[-1]))[0] - S.f_lin
+            val += float(sum(pots))
+        return val, WQ, WV
     ev = next((e for e in sensors if e.sensor.name == out.sensor), None)
     if ev is None:
         raise KeyError(f"output sensor {out.sensor!r}: no such sensor; sensors: {[e.sensor.name for e in sensors]}")
@@ -260,7 +278,7 @@ def residual_sum(md: ModelDerivative, Lam: np.ndarray, X: np.ndarray, cache: dic
 
 
 def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
-                     output: SensorOutput | KineticEnergyOutput) -> DynamicGradient:
+                     output: SensorOutput | EnergyOutput) -> DynamicGradient:
     """Run the scene of `doc` with `options` (fixed steps of an alpha scheme) and return the output's value and
     its gradient with respect to every path by the discrete adjoint (see the module docstring)."""
     d = read_document(doc)
@@ -307,8 +325,11 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
         dM = md.dM
         if dM is not None:
             g -= float(np.sum(Lam * (dM @ (A + alpha_r * V).T).T))
-            if isinstance(output, KineticEnergyOutput):  # the output's own dM/dp: 1/2 v' dM v
+        if isinstance(output, EnergyOutput):  # the output's own explicit dependence on p
+            if dM is not None and output.which in ("kinetic", "total"):
                 g += 0.5 * float(V[-1] @ (dM @ V[-1]))
+            if output.which in ("potential", "total"):
+                g += md.residual(X[-1])[0]
         grad[p] = g
     notes = []
     if getattr(run.scene, "contacts", None):

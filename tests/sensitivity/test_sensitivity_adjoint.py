@@ -17,7 +17,7 @@ from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.newton import NewtonOptions
 from ancf_sym.scene import SceneError
 from ancf_sym.sensitivity import get_parameter, with_parameter
-from ancf_sym.sensitivity.adjoint import KineticEnergyOutput, SensorOutput, dynamic_gradient
+from ancf_sym.sensitivity.adjoint import EnergyOutput, SensorOutput, dynamic_gradient
 from ancf_sym.sensitivity.dynamics import dynamic_sensitivity
 
 DOC = {"scene": {"name": "p", "dim": 2, "gravity": [0.0, -9.81]},
@@ -73,7 +73,8 @@ def richardson(f, doc, path):
     return (4 * D(s / 2) - D(s)) / 3
 
 
-@pytest.mark.parametrize("out", [OUTPUTS[0], KineticEnergyOutput()], ids=["tip_integral", "kinetic_end"])
+@pytest.mark.parametrize("out", [OUTPUTS[0], EnergyOutput("kinetic"), EnergyOutput("potential"), EnergyOutput("total")],
+                         ids=["tip_integral", "kinetic_end", "potential_end", "total_end"])
 def test_adjoint_matches_central_differences(out):
     o = opts()
     paths = ["materials.m.E", "materials.m.density", "dampings[0].alpha", "loads[0].value[1]"]
