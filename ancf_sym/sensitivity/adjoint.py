@@ -37,7 +37,8 @@ import scipy.sparse.linalg as spla
 from ancf_sym import kernels
 from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.sensors import Sensor, SensorEval
-from ancf_sym.sensitivity.alpha_run import damping_index, mass_solve, run_for_sensitivity, start_tangent
+from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, mass_solve, run_for_sensitivity, \
+    start_tangent
 from ancf_sym.sensitivity.model_derivative import STIFFNESS_COLUMNS, ModelDerivative, model_derivative, \
     read_document
 from ancf_sym.system.step_system import StepSystem
@@ -331,8 +332,4 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
             if output.which in ("potential", "total"):
                 g += md.residual(X[-1])[0]
         grad[p] = g
-    notes = []
-    if getattr(run.scene, "contacts", None):
-        notes.append("the scene has contacts: the derivative is that of the penalty law along the run; where a "
-                     "contact opens or closes inside a step it is not differentiable there")
-    return DynamicGradient(value, grad, t, X, V, notes)
+    return DynamicGradient(value, grad, t, X, V, contact_notes(run))

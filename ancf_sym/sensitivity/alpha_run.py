@@ -17,6 +17,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ancf_sym import kernels
+from ancf_sym.contact import laws as contact
 from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.newton import Counters
 from ancf_sym.dynamics.run import make_integrator
@@ -144,6 +145,7 @@ def run_for_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
     scene, _ = scene_from_dict(d)
     check_dynamic_paths(scene, d, list(paths))
     asm = problem_for(scene).asm
+    contact.check_dynamics(asm)  # (exact contact is a statics method: refused as the run refuses it)
     S = StepSystem.for_scene(asm)
     integ = make_integrator(S, options, Counters(), 0.0, options.newton.xtol * S.length_scale)
     refuse_unsupported(S, options, integ)
@@ -188,6 +190,42 @@ def _gradients(pc, X: np.ndarray) -> np.ndarray:
                            np.ascontiguousarray(np.tile(np.asarray(pc.P, float), (k, 1))).ravel()], [e, g])
     evaluate()
     return (_scatter(pc.idx, X.shape[1]).T @ g.reshape(k, ne * nd).T).T
+
+
+def _energies(term, X: np.ndarray) -> np.ndarray:
+    """A term's element energies at every state (rows of X), (len(X), elements): one mapped kernel call."""
+    ne, nd = term.idx.shape
+    k = len(X)
+    key = (term.element, term.effect, term.gauss, k * ne)
+    if key not in _MAPPED:
+        _MAPPED[key] = kernels.load_grad(term.element, term.effect, term.gauss).map(k * ne)
+    e, g = np.zeros(k * ne), np.zeros(k * ne * nd)
+    _, evaluate = bind(_MAPPED[key], [np.ascontiguousarray(X[:, term.idx]).ravel(),
+                                      np.ascontiguousarray(np.tile(np.asarray(term.P, float), (k, 1))).ravel()], [e, g])
+    evaluate()
+    return e.reshape(k, ne)
+
+
+def contact_notes(run: AlphaRun) -> list[str]:
+    """Where the run's penalty contacts open or close: the steps after which the set of elements with contact
+    energy differs from the step before. The law's force has a kink at zero gap, so the step map is not
+    differentiable where a contact point sits exactly there, and the derivative jumps as a parameter moves a
+    contact event across a step: the notes name those steps."""
+    X = run.X
+    change = np.zeros(len(X) - 1, bool)
+    terms = [t for t in run.asm.terms if t.label.startswith("contact")]
+    for t in terms:
+        on = _energies(t, X) > 0.0
+        change |= np.any(on[1:] != on[:-1], axis=1)
+    if not terms:
+        return []
+    times = run.t[1:][change]
+    if not len(times):
+        return ["contacts: no contact opens or closes along the run (the derivative is that of the penalty law)"]
+    return [f"contacts open or close in {len(times)} step(s) (first at t = {times[0]:.6g} s, last at "
+            f"{times[-1]:.6g} s): the penalty force has a kink at zero gap, so the derivative there is one-sided "
+            "and jumps where a parameter moves a contact event across a step; differences of runs across those "
+            "steps are not smooth"]
 
 
 def forcing(run: AlphaRun, path: str, statics: bool = False) -> np.ndarray:

@@ -125,6 +125,8 @@ def _add_dynamic(result_file: Path, doc: dict, analysis: dict, paths: list[str])
                 entry.setdefault("notes", []).append(str(exc))
         if not on_grid.all():
             entry.setdefault("notes", []).append("derivatives at the output times that are step times only")
+        for note in ds.notes:  # (contact events: where the derivative is one-sided)
+            entry.setdefault("notes", []).append(note)
         out[p] = entry
     data["sensitivities"] = to_json(out)
     write_json(result_file, data, clean=False)

@@ -40,8 +40,8 @@ from ancf_sym.dynamics.run import make_integrator
 from ancf_sym.dynamics.sensors import Sensor, SensorEval
 from ancf_sym.system.step_system import StepSystem
 from ancf_sym.scene.builder import Scene
-from ancf_sym.sensitivity.alpha_run import forcing, mass_solve, refuse_unsupported, run_for_sensitivity, \
-    start_tangent
+from ancf_sym.sensitivity.alpha_run import contact_notes, forcing, mass_solve, refuse_unsupported, \
+    run_for_sensitivity, start_tangent
 from ancf_sym.util.casadi_buffers import bind
 from ancf_sym.util.sparsity import dm
 
@@ -60,6 +60,7 @@ class DynamicSensitivity:
     dv: dict
     assembly: object
     sensors: list = field(default_factory=list)  # SensorEval of the options' sensors
+    notes: list = field(default_factory=list)  # what the derivative does not cover (contact events)
 
     def sensor(self, path: str, name: str) -> np.ndarray:
         """d(sensor record)/dp per step, (steps + 1, k): the sensor's kinds that are linear in the state
@@ -167,4 +168,4 @@ def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
     dx, dvf = (full(dq), full(dv)) if P else (np.zeros((N + 1, asm.n, 0)), np.zeros((N + 1, asm.n, 0)))
     sensors = [SensorEval(Sensor.from_dict(sn, i), asm, i) for i, sn in enumerate(options.sensors)]
     return DynamicSensitivity(run.t, run.X, run.V_full, {p: dx[:, :, k] for k, p in enumerate(paths)},
-                              {p: dvf[:, :, k] for k, p in enumerate(paths)}, asm, sensors)
+                              {p: dvf[:, :, k] for k, p in enumerate(paths)}, asm, sensors, contact_notes(run))

@@ -140,3 +140,22 @@ def test_time_loads_applied_as_the_run_applies_them():
         assert abs(g.gradient[p] - fd) <= 1e-5 * abs(fd), p
         ref = weights(out, fw.t) @ fw.sensor(p, "tip")[:, 0]
         assert abs(g.gradient[p] - ref) <= 1e-8 * abs(ref), p
+
+
+def test_contact_events_are_named():
+    """The rope swings onto a penalty ground: the steps where contacts open or close are named in the notes (the
+    force's kink at zero gap: one-sided derivatives there); forward and adjoint still agree (the same linear
+    equations), and before the first touch there is no event to name."""
+    doc = copy.deepcopy(DOC)
+    doc["contacts"] = [{"type": "ground", "member": "rope", "level": -0.5, "stiffness": 1e4, "thickness": 0.0}]
+    o = DynamicOptions(dt=2e-3, t_end=0.4, newton=TIGHT, sensors=SENSORS)
+    paths = ["materials.m.E", "contacts[0].stiffness"]
+    g = dynamic_gradient(doc, paths, o, OUTPUTS[0])
+    assert len(g.notes) == 1 and "open or close" in g.notes[0]
+    fw = dynamic_sensitivity(doc, paths, o)
+    assert fw.notes == g.notes
+    for p in paths:
+        ref = weights(OUTPUTS[0], fw.t) @ fw.sensor(p, "tip")[:, 1]
+        assert abs(g.gradient[p] - ref) <= 1e-8 * abs(ref), p
+    early = dynamic_gradient(doc, paths, opts(), OUTPUTS[0])  # (0.2 s: the rope has not reached the ground)
+    assert "no contact opens or closes" in early.notes[0]
