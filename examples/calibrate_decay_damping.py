@@ -12,7 +12,6 @@ decay_calibration.png and the data CSV.
 
 Run: python examples/calibrate_decay_damping.py [OUT_DIR] [--quick]   (quick: a shorter record on coarser meshes)
 """
-import copy
 import sys
 from pathlib import Path
 

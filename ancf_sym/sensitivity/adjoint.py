@@ -20,10 +20,12 @@ per distinct derivative piece (ancf_sym.sensitivity.model_derivative), the dead 
 product each: 100 parameters cost a few mapped calls, not 100 runs.
 
 Outputs: functions of the sensor records (their sum, time integral, end value, or the least-squares misfit to a
-data record) and the kinetic, potential or total energy at the end. Parameters: the TOML paths of model_derivative, and the scene's
-Rayleigh coefficient dampings[i].alpha. Scope as the forward sensitivities (refused by name before any step):
-no stiffness-proportional Rayleigh (beta: its tangent's derivative needs third derivatives of the energies), no
-strain-rate damping, no multiplier rows or drives; time loads are applied as the run applies them.
+data record) and the kinetic, potential or total energy at the end. Parameters: the TOML paths of
+model_derivative, and the scene's Rayleigh coefficient dampings[i].alpha. Scope as the forward sensitivities
+(refused by name before any step, ancf_sym.sensitivity.alpha_run): no stiffness-proportional Rayleigh (beta: its
+tangent's derivative needs third derivatives of the energies), no strain-rate damping, no multiplier rows or
+drives; time loads are applied as the run applies them. Penalty contacts: the steps where one opens or closes are
+named in the notes (the law's kink: one-sided derivatives there).
 """
 from __future__ import annotations
 
@@ -31,7 +33,6 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
-import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ancf_sym import kernels

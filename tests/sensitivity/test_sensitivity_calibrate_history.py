@@ -19,7 +19,8 @@ from ancf_sym.sensitivity import calibrate
 from ancf_sym.sensitivity.calibrate_history import SensorHistory, read_history
 
 ROOT = Path(__file__).resolve().parents[2]
-spec = importlib.util.spec_from_file_location("calibrate_decay_damping", ROOT / "examples" / "calibrate_decay_damping.py")
+spec = importlib.util.spec_from_file_location("calibrate_decay_damping",
+                                              ROOT / "examples" / "calibrate_decay_damping.py")
 example = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(example)
 
