@@ -38,8 +38,8 @@ import scipy.sparse.linalg as spla
 from ancf_sym import kernels
 from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.sensors import Sensor, SensorEval
-from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, mass_solve, run_for_sensitivity, \
-    start_tangent
+from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, damping_tangents, forcing, mass_solve, \
+    run_for_sensitivity, start_tangent
 from ancf_sym.sensitivity.model_derivative import STIFFNESS_COLUMNS, ModelDerivative, model_derivative, \
     read_document
 from ancf_sym.system.step_system import StepSystem
@@ -93,7 +93,7 @@ _SWEEPS: dict = {}
 
 
 def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int) -> ca.Function:
-    """sweep(acc0, X, WQ, WV) -> (ACC, MU): n backward steps (columns: steps N, N-1, .., 1) of the adjoint
+    """sweep(acc0, U) -> (acc, MU), U = [X; V; WQ; WV]: n backward steps (columns: steps N, N-1, .., 1) of the adjoint
     recursion (see the module docstring); acc = the adjoints flowing into (q, v, a, abar) of the earlier state."""
     sch = opts.scheme()
     h = opts.dt
@@ -106,24 +106,29 @@ def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int) 
     c1 = (1 - am) / (1 - af)
     M = dm(S.M)
     acc = ca.MX.sym("acc", 4 * nf)
-    x, wq, wv = ca.MX.sym("x", nf), ca.MX.sym("wq", nf), ca.MX.sym("wv", nf)
+    x, v, wq, wv = ca.MX.sym("x", nf), ca.MX.sym("v", nf), ca.MX.sym("wq", nf), ca.MX.sym("wv", nf)
     K = S.forces_pf(x, ca.DM(S.par))[1]
     J = (cm + cc * alpha_r) * M + K
+    dfx, dfv = damping_tangents(S, x, v)  # (strain-rate damping: its exact tangents at the step's end)
+    if dfx is not None:
+        J = J + dfx + cc * dfv
     qb, vb, abar, abb = (acc[i * nf:(i + 1) * nf] for i in range(4))
     qb, vb = qb + wq, vb + wv
     s = qb + abb / (h * h * beta) + cm * abar + cc * vb
-    mu = ca.solve(J, s, "ldl")
+    mu = ca.solve(J, s, "ldl") if dfx is None else ca.solve(J.T, s, "qr")  # (J' mu = s)
     Mmu = ca.mtimes(M, mu)
     Bb = abar - Mmu
     Bvb = vb - alpha_r * Mmu
+    if dfv is not None:
+        Bvb = Bvb - ca.mtimes(dfv.T, mu)
     Db = abb + h * gamma * Bvb + c1 * Bb
     Sq = -Db / (h * h * beta)
     Sv = Bvb - Db / (h * beta)
     Sa = -af / (1 - af) * Bb
     Sab = h * (1 - gamma) * Bvb + am / (1 - af) * Bb - (0.5 - beta) / beta * Db
-    step = ca.Function("adjoint_step", [acc, ca.vertcat(x, wq, wv)], [ca.vertcat(Sq, Sv, Sa, Sab), mu])
+    step = ca.Function("adjoint_step", [acc, ca.vertcat(x, v, wq, wv)], [ca.vertcat(Sq, Sv, Sa, Sab), mu])
     sweep = step.mapaccum("adjoint_steps", n)
-    a0, U = ca.MX.sym("acc0", 4 * nf), ca.MX.sym("U", 3 * nf, n)
+    a0, U = ca.MX.sym("acc0", 4 * nf), ca.MX.sym("U", 4 * nf, n)
     ACC, MU = sweep(a0, U)
     # (only the last accumulated adjoint leaves the graph: no 4 nf x n output to copy)
     f = ca.Function("adjoint_sweep", [a0, U], [ACC[:, n - 1], MU])
@@ -301,7 +306,7 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
     acc = np.zeros(4 * nf)
     if N:
         f = backward_sweep(S, options, alpha_r, N)
-        U = np.ascontiguousarray(np.hstack([Q[:0:-1], WQ[:0:-1], WV[:0:-1]]))  # (column j: step N - j)
+        U = np.ascontiguousarray(np.hstack([Q[:0:-1], Vr[:0:-1], WQ[:0:-1], WV[:0:-1]]))  # (column j: step N - j)
         MUb = np.zeros((N, nf))
         _, evaluate = bind(f, [np.zeros(4 * nf), U], [acc, MUb])
         evaluate()
@@ -319,8 +324,8 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
     grad, cache = {}, {}
     M = S.M
     for p in paths:
-        if damping_index(d, p) is not None:  # dC/dalpha_R = M: F_n = M v_n
-            grad[p] = -float(np.sum(MU * (Vr @ M)))
+        if damping_index(d, p) is not None:  # F_n = M v_n (Rayleigh alpha), d f_d / dc (strain rate)
+            grad[p] = -float(np.sum(MU * forcing(run, p)))
             continue
         md = model_derivative(asm, d, p)
         g = -residual_sum(md, LamR, X, cache)

@@ -10,8 +10,9 @@ the run applies them; they depend on no scene parameter.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
+import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
@@ -27,20 +28,26 @@ from ancf_sym.io.scene_toml import scene_from_dict
 from ancf_sym.scene.builder import SceneError
 from ancf_sym.sensitivity.model_derivative import check_model_paths, model_derivative, read_document
 from ancf_sym.sensitivity.paths import get_parameter, parse_path
+from ancf_sym.system import water
+from ancf_sym.system.damping import strain_rate_mx
 from ancf_sym.system.step_system import StepSystem
 from ancf_sym.util.casadi_buffers import bind
+from ancf_sym.util.sparsity import dm
 
 # -- parameters that the dynamics adds to the model's ---------------------------------------------------------------
 def damping_index(doc: dict, path: str) -> int | None:
-    """i of a path dampings[i].alpha (a Rayleigh mass coefficient), else None; other damping keys refused."""
+    """i of a path dampings[i].alpha (Rayleigh mass coefficient) or dampings[i].axial | bending (strain-rate
+    coefficients), else None; other damping keys refused by name."""
     p = parse_path(path)
     if p.keys[0] != "dampings":
         return None
     get_parameter(doc, path)
     d = doc["dampings"][p.keys[1]] if len(p.keys) == 3 else None
-    if d is None or d.get("type") != "rayleigh" or p.keys[2] != "alpha":
+    ok = d is not None and ((d.get("type") == "rayleigh" and p.keys[2] == "alpha") or
+                            (d.get("type") == "strain_rate" and p.keys[2] in ("axial", "bending")))
+    if not ok:
         raise SceneError(f"parameter path {path!r}: differentiable damping coefficients: dampings[i].alpha of a "
-                         "rayleigh damping (mass-proportional)")
+                         "rayleigh damping (mass-proportional), dampings[i].axial | bending of a strain_rate damping")
     return p.keys[1]
 
 
@@ -61,8 +68,10 @@ def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
     if integ.kdamp.active:
         why.append("stiffness-proportional Rayleigh damping (beta: its tangent's derivative needs third "
                    "derivatives of the energies)")
-    if S.damp_f is not None:
-        why.append("strain-rate or contact damping (velocity-dependent forces)")
+    if contact.dissipation_calls(S.asm.mesh):
+        why.append("contact damping or friction")
+    if water.has_forces(S.asm):
+        why.append("lines in water (drag, added mass)")
     if S.drives is not None:
         why.append("drives or torques (time-dependent constraints and forces)")
     if opts.release or opts.from_result or opts.initial or opts.q0 is not None or opts.v0 is not None:
@@ -232,8 +241,13 @@ def forcing(run: AlphaRun, path: str, statics: bool = False) -> np.ndarray:
     """F_n on the reduced coordinates for every step, (steps + 1, nf): E' (dR/dp(x_n) + dM/dp (a_n + alpha_R v_n))
     and, for dampings[i].alpha, M v_n. statics: E' dR/dp(x_0) alone (the static start's right-hand side)."""
     S = run.S
-    if damping_index(run.doc, path) is not None:
-        return np.zeros((1, S.nf)) if statics else run.V @ S.M
+    i = damping_index(run.doc, path)
+    if i is not None:
+        if statics:
+            return np.zeros((1, S.nf))
+        if run.doc["dampings"][i]["type"] == "rayleigh":
+            return run.V @ S.M
+        return strain_rate_forcing(run, i, parse_path(path).keys[2])
     md = model_derivative(run.asm, run.doc, path)
     X = run.X[:1] if statics else run.X
     R = np.zeros(X.shape)
@@ -247,6 +261,46 @@ def forcing(run: AlphaRun, path: str, statics: bool = False) -> np.ndarray:
     if not statics and md.dM is not None:
         R += (md.dM @ (run.A_full + run.alpha_r * run.V_full).T).T
     return np.asarray((S.E.T @ R.T).T)
+
+
+_UNIT_F: dict = {}
+
+
+def strain_rate_forcing(run: AlphaRun, i: int, which: str) -> np.ndarray:
+    """d f_d / d c at every state (rows): the strain-rate force with the coefficient `which` (axial | bending) of
+    damping i set to 1 on its members' points and every other coefficient 0 (f_d is linear in them)."""
+    S, sr = run.S, run.S.strain_rate
+    mask = point_mask(run, i)
+    unit = replace(sr, c_axial=mask * (which == "axial"), c_bending=mask * (which == "bending"))
+    key = (S.graph_key, i, which, len(run.Q), unit.c_axial.tobytes(), unit.c_bending.tobytes())
+    if key not in _UNIT_F:
+        xf, vf = ca.MX.sym("x", S.nf), ca.MX.sym("v", S.nf)
+        X, V = S.x_full_mx(xf), ca.mtimes(dm(S.E), vf)
+        f = ca.Function("unit_strain_rate", [xf, vf], [strain_rate_mx(unit, xf, X, V, vf)[0]])
+        _UNIT_F[key] = f.map(len(run.Q))
+    return np.asarray(_UNIT_F[key](run.Q.T, run.V.T)).T
+
+
+def point_mask(run: AlphaRun, i: int) -> np.ndarray:
+    """1 at the strain-rate damping's Gauss points on the members of dampings[i], else 0, in the point order of
+    ancf_sym.system.damping.strain_rate_data (members in order of first mention, elements, 5 points each)."""
+    scene = run.scene
+    order: list = []
+    for d in scene.dampings:
+        if d.kind == "strain_rate":
+            order += [name for name in (d.members or list(scene.members)) if name not in order]
+    d_i = scene.dampings[i]  # (the TOML reader adds one Damping per [[dampings]] entry, in order)
+    mine = set(d_i.members or list(scene.members))
+    return np.concatenate([np.full(len(run.asm.mesh.members[name].elem_nodes) * 5, float(name in mine))
+                           for name in order])
+
+
+def damping_tangents(S: StepSystem, x: ca.MX, v: ca.MX) -> tuple:
+    """(df_d/dx, df_d/dv) of the system's velocity-dependent damping force at (x, v) in a graph, or (None, None)."""
+    if S.damp_f is None:
+        return None, None
+    _, dfx, dfv = S.damp_f(x, v)
+    return dfx, dfv
 
 
 def start_tangent(run: AlphaRun) -> sp.csc_matrix:

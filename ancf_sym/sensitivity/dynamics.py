@@ -40,8 +40,8 @@ from ancf_sym.dynamics.run import make_integrator
 from ancf_sym.dynamics.sensors import Sensor, SensorEval
 from ancf_sym.system.step_system import StepSystem
 from ancf_sym.scene.builder import Scene
-from ancf_sym.sensitivity.alpha_run import contact_notes, forcing, mass_solve, refuse_unsupported, \
-    run_for_sensitivity, start_tangent
+from ancf_sym.sensitivity.alpha_run import contact_notes, damping_tangents, forcing, mass_solve, \
+    refuse_unsupported, run_for_sensitivity, start_tangent
 from ancf_sym.util.casadi_buffers import bind
 from ancf_sym.util.sparsity import dm
 
@@ -106,9 +106,9 @@ _SWEEPS: dict = {}
 
 
 def forward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int, P: int) -> ca.Function:
-    """sweep(z0, X, F) -> Z: n steps of the sensitivity recursion (module docstring) for P parameters; z = [Sq; Sv;
-    Sa; Sab] (4 nf x P), X (nf x n): q_{n+1} per step, F (nf x n P): the forcing per step; Z (4 nf x n P): z after
-    each step."""
+    """sweep(z0, X, V, F) -> Z: n steps of the sensitivity recursion (module docstring) for P parameters; z = [Sq;
+    Sv; Sa; Sab] (4 nf x P), X, V (nf x n): q_{n+1}, v_{n+1} per step, F (nf x n P): the forcing per step; Z (4 nf x
+    n P): z after each step."""
     sch = opts.scheme()
     h = opts.dt
     key = (S.graph_key, sch, h, alpha_r, n, P, S.par.tobytes())
@@ -119,14 +119,20 @@ def forward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int, P
     cm, cc = sch.cm(h), sch.cc(h)
     c1 = (1 - am) / (1 - af)
     M = dm(S.M)
-    z, x, F = ca.MX.sym("z", 4 * nf, P), ca.MX.sym("x", nf), ca.MX.sym("F", nf, P)
+    z, x, v, F = ca.MX.sym("z", 4 * nf, P), ca.MX.sym("x", nf), ca.MX.sym("v", nf), ca.MX.sym("F", nf, P)
     J = (cm + cc * alpha_r) * M + S.forces_pf(x, ca.DM(S.par))[1]
+    dfx, dfv = damping_tangents(S, x, v)  # (strain-rate damping: its exact tangents at the step's end)
+    if dfx is not None:
+        J = J + dfx + cc * dfv
     Sq, Sv, Sa, Sab = (z[i * nf:(i + 1) * nf, :] for i in range(4))
     D = -(Sq + h * Sv + h * h * (0.5 - beta) * Sab) / (h * h * beta)
     B = c1 * D + (am * Sab - af * Sa) / (1 - af)
     Bv = Sv + h * (1 - gamma) * Sab + h * gamma * D
-    Sq1 = ca.solve(J, -(ca.mtimes(M, B + alpha_r * Bv) + F), "ldl")
-    step = ca.Function("sensitivity_step", [z, x, F],
+    rhs = ca.mtimes(M, B + alpha_r * Bv) + F
+    if dfv is not None:
+        rhs = rhs + ca.mtimes(dfv, Bv)
+    Sq1 = ca.solve(J, -rhs, "ldl" if dfx is None else "qr")  # (d f_d / dq is unsymmetric: QR)
+    step = ca.Function("sensitivity_step", [z, x, v, F],
                        [ca.vertcat(Sq1, cc * Sq1 + Bv, cm * Sq1 + B, Sq1 / (h * h * beta) + D)])
     _SWEEPS[key] = f = step.mapaccum("sensitivity_sweep", n)
     return f
@@ -155,8 +161,8 @@ def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
         Z = np.zeros(4 * nf * P * N)
         # (column-major inputs: X's column j is q_{j+1}; F's columns j P .. j P + P - 1 step j + 1's parameters)
         Fin = np.ascontiguousarray(Fs[1:].transpose(0, 2, 1)).ravel()
-        _, evaluate = bind(f, [np.ascontiguousarray(z0.T).ravel(), np.ascontiguousarray(run.Q[1:]).ravel(), Fin],
-                           [Z])
+        _, evaluate = bind(f, [np.ascontiguousarray(z0.T).ravel(), np.ascontiguousarray(run.Q[1:]).ravel(),
+                               np.ascontiguousarray(run.V[1:]).ravel(), Fin], [Z])
         evaluate()
         Zs = Z.reshape(N, P, 4 * nf)
         dq[1:] = Zs[:, :, :nf].transpose(0, 2, 1)

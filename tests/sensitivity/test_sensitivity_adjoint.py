@@ -99,12 +99,34 @@ def test_static_start_newmark_least_squares():
         assert abs(g.gradient[p] - fd) <= 1e-5 * abs(fd), p
 
 
-@pytest.mark.parametrize("damping, match", [
-    ({"type": "rayleigh", "beta": 1e-3}, "stiffness-proportional Rayleigh"),
-    ({"type": "strain_rate", "axial": 1.0}, "strain-rate")])
-def test_unsupported_damping_refused_by_name(damping, match):
+@pytest.mark.parametrize("integrator", ["generalized_alpha", "newmark"])
+def test_strain_rate_damping(integrator):
+    """Kelvin-Voigt strain-rate damping (its exact tangents d f_d/dq, d f_d/dv in the step's, QR solves) with its
+    coefficients as parameters, beside Rayleigh mass damping: adjoint = forward = Richardson differences."""
+    doc = copy.deepcopy(DOC)
+    doc["dampings"].append({"type": "strain_rate", "axial": 2.0, "bending": 2e-4})  # (axial: tau = c / EA = 4 ms)
+    o = opts(integrator)
+    out = SensorOutput("tip", 1, "integral")
+    paths = ["dampings[1].axial", "dampings[1].bending", "materials.m.E", "dampings[0].alpha"]
+    g = dynamic_gradient(doc, paths, o, out)
+    fw = dynamic_sensitivity(doc, paths, o)
+    for p in paths:
+        ref = weights(out, fw.t) @ fw.sensor(p, "tip")[:, 1]
+        assert abs(g.gradient[p] - ref) <= 1e-8 * abs(ref), p
+    for p in paths[:2]:  # (E and alpha: checked against differences above)
+        fd = richardson(lambda d: dynamic_gradient(d, [], o, out).value, doc, p)
+        assert abs(g.gradient[p] - fd) <= 1e-5 * abs(fd), p
+
+
+@pytest.mark.parametrize("damping, contact, match", [
+    ({"type": "rayleigh", "beta": 1e-3}, None, "stiffness-proportional Rayleigh"),
+    ({"type": "rayleigh", "alpha": 1.0}, {"type": "ground", "member": "rope", "level": -0.5, "stiffness": 1e4,
+                                          "thickness": 0.0, "damping": 10.0}, "contact damping")])
+def test_unsupported_damping_refused_by_name(damping, contact, match):
     doc = copy.deepcopy(DOC)
     doc["dampings"] = [damping]
+    if contact:
+        doc["contacts"] = [contact]
     with pytest.raises(SceneError, match=match):
         dynamic_gradient(doc, ["materials.m.E"], opts(), OUTPUTS[0])
     with pytest.raises(SceneError, match=match):
