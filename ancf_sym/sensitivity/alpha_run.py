@@ -2,11 +2,12 @@
 paths, before any step), the run itself (the package's compiled alpha steps, every state kept) and the parameter
 forcing F_n = dR/dp(q_n) + dM/dp a_n + dC/dp v_n of the differentiated step equations at every step.
 
-Parameters: the model's TOML paths (ancf_sym.sensitivity.model_derivative) and the Rayleigh mass coefficient
-dampings[i].alpha (C = alpha_R M). Damping the derivative does not follow is refused by name: stiffness-
-proportional Rayleigh (beta: the derivative of its tangent K_el(q_n) needs third derivatives of the energies),
-strain-rate and contact damping, as are drives and multiplier rows. Time loads (analysis.loads) are applied as
-the run applies them; they depend on no scene parameter.
+Parameters: the model's TOML paths (ancf_sym.sensitivity.model_derivative), the Rayleigh mass coefficient
+dampings[i].alpha (C = alpha_R M) and the strain-rate coefficients dampings[i].axial | bending (the force f_d(q, v)
+is linear in them; its tangents df/dq, df/dv are the step system's). Damping the derivative does not follow is
+refused by name: stiffness-proportional Rayleigh (beta: the derivative of its tangent K_el(q_n) needs third
+derivatives of the energies), contact damping and friction, lines in water, as are drives and multiplier rows.
+Time loads (analysis.loads) are applied as the run applies them; they depend on no scene parameter.
 """
 from __future__ import annotations
 

@@ -23,9 +23,10 @@ is one CasADi mapaccum (the step's tangent from the system's compiled force grap
 parameter's column as right-hand sides), the forcing dR/dp at every step one mapped kernel call per derivative
 piece.
 
-Scope (refused by name before any step, ancf_sym.sensitivity.alpha_run): fixed steps; no stiffness-proportional
-or strain-rate damping, drives or multiplier rows (rigid joints, bodies' joints); time loads (analysis.loads) are
-applied as the run applies them.
+Strain-rate damping f_d(q, v) adds df/dq + cc df/dv to the tangent (sparse QR: unsymmetric) and df/dv Bv to the
+right-hand side; dampings[i].axial | bending are parameters. Scope (refused by name before any step,
+ancf_sym.sensitivity.alpha_run): fixed steps; no stiffness-proportional Rayleigh or contact damping, drives or
+multiplier rows (rigid joints, bodies' joints); time loads (analysis.loads) are applied as the run applies them.
 """
 from __future__ import annotations
 
