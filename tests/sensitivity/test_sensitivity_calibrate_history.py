@@ -33,15 +33,34 @@ def test_decay_damping_recovered(tmp_path):
     assert out["zeta_std"] <= 1e-2 * example.ZETA
     assert out["png"].stat().st_size > 10_000
     # the record read back is the one fitted; the residual noise is the data's order (model error adds a little)
-    data = read_history(tmp_path / "decay_record.csv")
+    data = read_history(out["csv"])
     assert list(data.columns) == [("tip", 1)] and len(data.t) == cal.residuals.size
     assert example.NOISE / 2 <= cal.noise <= 5 * example.NOISE
 
 
 def test_history_checks():
-    doc = example.scene_doc(2, 2e-3, 0.02, 1.0)
+    doc = example.scene_doc(2, 2e-3, 0.02)
     t = np.arange(0, 0.021, 2e-3)
     with pytest.raises(SceneError, match="names no sensor"):
         calibrate(doc, SensorHistory(t, {("tap", 1): np.zeros(len(t))}), ["dampings[0].alpha"])
     with pytest.raises(SceneError, match="not a step time"):
         calibrate(doc, SensorHistory(t + 1e-4, {("tip", 1): np.zeros(len(t))}), ["dampings[0].alpha"])
+
+
+def test_cli_calibrate_history(tmp_path):
+    """`ancf-sym calibrate` with the example's scene file and its committed decay record (CSV t, tip[1]): the
+    dynamic fit, calibration.json and the PNG; the damping ratio as the example states it (docs: -2.0e-3)."""
+    import json
+    import subprocess
+    import sys
+    data = ROOT / "examples" / "data" / "decay_record.csv"
+    cmd = [sys.executable, "-m", "ancf_sym.cli", "calibrate", str(example.SCENE), str(data), "--parameter",
+           "materials.steel.E", "--parameter", "dampings[0].alpha", "--out", str(tmp_path / "fit"), "--quiet"]
+    subprocess.run(cmd, check=True, cwd=tmp_path)
+    res = json.loads((tmp_path / "fit" / "calibration.json").read_text())
+    assert res["converged"]
+    doc = example.scene_doc(8, 1e-3, 2.0)
+    doc["materials"]["steel"]["E"] = res["parameters"]["materials.steel.E"]["estimate"]
+    zeta = res["parameters"]["dampings[0].alpha"]["estimate"] / (2 * example.omega1(doc))
+    assert abs(zeta / example.ZETA - 1) <= 1e-2
+    assert (tmp_path / "fit" / "calibration.png").stat().st_size > 10_000
