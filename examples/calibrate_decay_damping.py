@@ -10,7 +10,8 @@ alpha (about 50 % off): E takes up the coarse mesh's frequency error, alpha the 
 model is alpha / (2 omega_1) with omega_1 of its own modal analysis, compared with the fine model's. It writes
 decay_calibration.png and the data CSV (by default examples/data/decay_record.csv: the command line's data).
 
-Run: python examples/calibrate_decay_damping.py [OUT_DIR] [--quick]   (quick: 1.2 s of record on 4 elements)
+Run: python examples/calibrate_decay_damping.py [--quick] [--json out.json] [--out DIR]   (quick: 1.2 s of record on
+4 elements; the CSV goes to DIR, or to examples/data without --out and --quick)
 """
 import sys
 import tomllib
@@ -81,6 +82,22 @@ def main(out: Path | None, quick: bool = False) -> dict:
             "csv": csv_path}
 
 
+def cli(argv: list[str] | None = None) -> dict:
+    import argparse
+    import json
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="1.2 s of record on 4 elements")
+    ap.add_argument("--out", help="folder of the PNG and the CSV")
+    ap.add_argument("--json", help="write the key figures to this file")
+    a = ap.parse_args(argv)
+    r = main(Path(a.out) if a.out else None, quick=a.quick)
+    if a.json:
+        cal = r["calibration"]
+        Path(a.json).write_text(json.dumps({"zeta": r["zeta"], "zeta_std": r["zeta_std"], "zeta_true": ZETA,
+                                            "alpha_true": r["alpha_true"], **cal.to_dict()}, indent=1))
+    return r
+
+
 if __name__ == "__main__":
-    args = [a for a in sys.argv[1:] if not a.startswith("--")]
-    main(Path(args[0]) if args else None, quick="--quick" in sys.argv)
+    cli()
