@@ -64,6 +64,9 @@ def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
         why.append(f"integrator {opts.integrator!r} (alpha schemes only)")
     if opts.adaptive:
         why.append("adaptive steps")
+    elif abs(opts.t_start + opts.n_grid * opts.dt - opts.t_end) > 1e-9 * opts.dt:
+        why.append(f"a shorter last step (t_end - t_start = {opts.t_end - opts.t_start:g} s is not a whole number of "
+                   f"dt = {opts.dt:g} s)")
     if S.mc:
         why.append("constraint rows with multipliers (rigid joints, bodies' joints)")
     if integ.kdamp.active:
