@@ -384,11 +384,12 @@ def _main(argv: list[str] | None = None) -> int:
                         "sensitivities (repeatable)")
     p.set_defaults(func=cmd_run)
     c = sub.add_parser("calibrate", help="fit scene numbers (TOML paths) to measured node positions (CSV: member, "
-                       "node, x, y[, z]) or natural frequencies (CSV: mode, frequency) by Levenberg-Marquardt with the "
-                       "exact Jacobian")
+                       "node, x, y[, z]), natural frequencies (CSV: mode, frequency) or a dynamic sensor history (CSV: t, "
+                       "NAME[j], ...) by Levenberg-Marquardt with the exact Jacobian")
     c.add_argument("scene", help="scene file (TOML; its values at the paths are the start)")
-    c.add_argument("data", help="CSV of measured positions (member, node, x, y[, z]) or frequencies (mode, frequency "
-                   "[Hz], mode counted from 0)")
+    c.add_argument("data", help="CSV of measured positions (member, node, x, y[, z]), frequencies (mode, frequency "
+                   "[Hz], mode counted from 0) or a sensor history of the scene's dynamics analysis (t, NAME[j], ...: "
+                   "times on the step grid)")
     c.add_argument("--parameter", action="append", required=True, metavar="PATH", help="a TOML path to fit (repeatable)")
     c.add_argument("--out", required=True, help="output directory: calibration.json, calibration.png")
     c.add_argument("--max-iter", type=int, default=30, help="Levenberg-Marquardt iterations at most (default 30)")

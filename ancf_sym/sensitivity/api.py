@@ -26,6 +26,9 @@ def check_paths(scene: Scene, doc: dict, paths: list[str], analysis: dict | None
             from ancf_sym.dynamics.options import options_from_dict
             options = options_from_dict(analysis)
         check_dynamic(scene, options)
+        from ancf_sym.sensitivity.alpha_run import check_dynamic_paths  # (also dampings[i].alpha)
+        check_dynamic_paths(scene, doc, paths)
+        return
     check_model_paths(scene, doc, paths)
 
 
@@ -122,6 +125,8 @@ def _add_dynamic(result_file: Path, doc: dict, analysis: dict, paths: list[str])
                 entry.setdefault("notes", []).append(str(exc))
         if not on_grid.all():
             entry.setdefault("notes", []).append("derivatives at the output times that are step times only")
+        for note in ds.notes:  # (contact events: where the derivative is one-sided)
+            entry.setdefault("notes", []).append(note)
         out[p] = entry
     data["sensitivities"] = to_json(out)
     write_json(result_file, data, clean=False)

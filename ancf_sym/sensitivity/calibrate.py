@@ -23,6 +23,7 @@ from ancf_sym.scene.builder import SceneError
 from ancf_sym.io.scene_toml import scene_from_dict
 from ancf_sym.statics.problem import problem_for
 from ancf_sym.sensitivity.api import read_document
+from ancf_sym.sensitivity.calibrate_history import SensorHistory, calibrate_history, is_history_file, run_history_cli
 from ancf_sym.sensitivity.paths import get_parameter, with_parameter
 from ancf_sym.sensitivity.static import StaticSensitivity
 
@@ -135,7 +136,10 @@ def calibrate(doc: dict | str | Path, data: list[Measurement] | str | Path, para
               start: list[float] | None = None, max_iter: int = 30) -> Calibration:
     """Fit the scene numbers at `parameters` (TOML paths) to measured node positions (see the module docstring).
 
-    start: the first estimate (default: the document's values)."""
+    start: the first estimate (default: the document's values). A sensor history as data (SensorHistory, or a CSV
+    whose header starts with t) fits the scene's dynamic run instead (ancf_sym.sensitivity.calibrate_history)."""
+    if isinstance(data, SensorHistory) or (isinstance(data, (str, Path)) and is_history_file(data)):
+        return calibrate_history(doc, data, parameters, start, max_iter)
     doc = read_document(doc)
     parameters = list(parameters)
     p0 = np.array([get_parameter(doc, p) for p in parameters]) if start is None else np.asarray(start, float)
@@ -215,6 +219,8 @@ def run_cli(scene_file: str | Path, data_file: str | Path, parameters: list[str]
     """`ancf-sym calibrate`: the fit, out/calibration.json and out/calibration.png; exit code 0 when converged."""
     from ancf_sym.io.json_out import write_json
 
+    if is_history_file(data_file):  # (a sensor history: the dynamic run's fit)
+        return run_history_cli(scene_file, data_file, parameters, out, max_iter, quiet)
     doc = read_document(scene_file)
     scene, _ = scene_from_dict(doc)
     for path in parameters:  # every path checked before any solving

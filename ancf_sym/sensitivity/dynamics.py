@@ -16,24 +16,35 @@ parameter. The start: q_0 fixed (the reference) or the static equilibrium (its s
 consistent initial acceleration M a_0 = -R(q_0, p) differentiated. The derivative is that of the discrete
 solution; the integrator's states differ from it by its Newton tolerance (newton.xtol, lte_fraction).
 
-Scope: fixed steps; no damping, time-dependent loads, drives or multiplier rows (rigid joints, bodies' joints):
-refused by name before any step.
+Rayleigh mass damping C = alpha_R M adds cc C to the tangent and C Bv + dC/dp v_{n+1} to the right-hand side
+(Bv: the part of d v_{n+1}/dp from the previous state); dampings[i].alpha is a parameter. The run is the
+integrator's compiled chunks with every state kept (ancf_sym.sensitivity.alpha_run); the recursion over the steps
+is one CasADi mapaccum (the step's tangent from the system's compiled force graph, a sparse LDL^T solve with every
+parameter's column as right-hand sides), the forcing dR/dp at every step one mapped kernel call per derivative
+piece.
+
+Strain-rate damping f_d(q, v) adds df/dq + cc df/dv to the tangent (sparse QR: unsymmetric) and df/dv Bv to the
+right-hand side; dampings[i].axial | bending are parameters. Scope (refused by name before any step,
+ancf_sym.sensitivity.alpha_run): fixed steps; no stiffness-proportional Rayleigh or contact damping, drives or
+multiplier rows (rigid joints, bodies' joints); time loads (analysis.loads) are applied as the run applies them.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import casadi as ca
 import numpy as np
-import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.run import make_integrator
 from ancf_sym.dynamics.sensors import Sensor, SensorEval
 from ancf_sym.system.step_system import StepSystem
-from ancf_sym.scene.builder import Scene, SceneError
-from ancf_sym.io.scene_toml import scene_from_dict
-from ancf_sym.sensitivity.model_derivative import check_model_paths, model_derivative, read_document
+from ancf_sym.scene.builder import Scene
+from ancf_sym.sensitivity.alpha_run import contact_notes, damping_tangents, forcing, mass_solve, \
+    refuse_unsupported, run_for_sensitivity, start_tangent
+from ancf_sym.util.casadi_buffers import bind
+from ancf_sym.util.sparsity import dm
 
 
 LINEAR_SENSORS = ("position", "displacement", "velocity", "coordinates", "strain")  # (strain: by the chain rule)
@@ -50,6 +61,7 @@ class DynamicSensitivity:
     dv: dict
     assembly: object
     sensors: list = field(default_factory=list)  # SensorEval of the options' sensors
+    notes: list = field(default_factory=list)  # what the derivative does not cover (contact events)
 
     def sensor(self, path: str, name: str) -> np.ndarray:
         """d(sensor record)/dp per step, (steps + 1, k): the sensor's kinds that are linear in the state
@@ -82,128 +94,85 @@ class DynamicSensitivity:
         return d[:, mm.public_nodes, :asm.scene.dim]
 
 
-def _check(S: StepSystem, opts: DynamicOptions, integ) -> None:
-    why = []
-    if opts.integrator not in ("newmark", "hht", "generalized_alpha"):
-        why.append(f"integrator {opts.integrator!r} (alpha schemes only)")
-    if opts.adaptive:
-        why.append("adaptive steps")
-    if S.mc:
-        why.append("constraint rows with multipliers (rigid joints, bodies' joints)")
-    if S.damped or S.damp_f is not None or integ.kdamp.active:
-        why.append("damping")
-    if opts.loads or S.drives is not None:
-        why.append("time-dependent loads or drives")
-    if opts.release or opts.from_result or opts.initial or opts.q0 is not None or opts.v0 is not None:
-        why.append("a start other than the reference or the static equilibrium at rest")
-    if why:
-        raise SceneError("dynamic sensitivities: not available with " + ", ".join(why))
-
-
 def check_dynamic(scene: Scene, options: DynamicOptions) -> None:
     """Refuse, before any step, a run whose sensitivities this module cannot propagate (SceneError naming why)."""
     from ancf_sym.dynamics.newton import Counters
     from ancf_sym.statics.problem import problem_for
 
     S = StepSystem.for_scene(problem_for(scene).asm)
-    _check(S, options, make_integrator(S, options, Counters(), 0.0, options.newton.xtol * S.length_scale))
+    refuse_unsupported(S, options, make_integrator(S, options, Counters(), 0.0, options.newton.xtol * S.length_scale))
+
+
+_SWEEPS: dict = {}
+
+
+def forward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int, P: int) -> ca.Function:
+    """sweep(z0, X, V, F) -> Z: n steps of the sensitivity recursion (module docstring) for P parameters; z = [Sq;
+    Sv; Sa; Sab] (4 nf x P), X, V (nf x n): q_{n+1}, v_{n+1} per step, F (nf x n P): the forcing per step; Z (4 nf x
+    n P): z after each step."""
+    sch = opts.scheme()
+    h = opts.dt
+    key = (S.graph_key, sch, h, alpha_r, n, P, S.par.tobytes())
+    if key in _SWEEPS:
+        return _SWEEPS[key]
+    nf = S.nf
+    am, af, beta, gamma = sch.alpha_m, sch.alpha_f, sch.beta, sch.gamma
+    cm, cc = sch.cm(h), sch.cc(h)
+    c1 = (1 - am) / (1 - af)
+    M = dm(S.M)
+    z, x, v, F = ca.MX.sym("z", 4 * nf, P), ca.MX.sym("x", nf), ca.MX.sym("v", nf), ca.MX.sym("F", nf, P)
+    J = (cm + cc * alpha_r) * M + S.forces_pf(x, ca.DM(S.par))[1]
+    dfx, dfv = damping_tangents(S, x, v)  # (strain-rate damping: its exact tangents at the step's end)
+    if dfx is not None:
+        J = J + dfx + cc * dfv
+    Sq, Sv, Sa, Sab = (z[i * nf:(i + 1) * nf, :] for i in range(4))
+    D = -(Sq + h * Sv + h * h * (0.5 - beta) * Sab) / (h * h * beta)
+    B = c1 * D + (am * Sab - af * Sa) / (1 - af)
+    Bv = Sv + h * (1 - gamma) * Sab + h * gamma * D
+    rhs = ca.mtimes(M, B + alpha_r * Bv) + F
+    if dfv is not None:
+        rhs = rhs + ca.mtimes(dfv, Bv)
+    Sq1 = ca.solve(J, -rhs, "ldl" if dfx is None else "qr")  # (d f_d / dq is unsymmetric: QR)
+    step = ca.Function("sensitivity_step", [z, x, v, F],
+                       [ca.vertcat(Sq1, cc * Sq1 + Bv, cm * Sq1 + B, Sq1 / (h * h * beta) + D)])
+    _SWEEPS[key] = f = step.mapaccum("sensitivity_sweep", n)
+    return f
 
 
 def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptions) -> DynamicSensitivity:
     """Run the scene of `doc` with `options` (fixed steps of an alpha scheme) and propagate d(state)/dp for every
     path alongside (see the module docstring)."""
-    from ancf_sym.dynamics.newton import Counters
-    from ancf_sym.statics.problem import problem_for
-
-    d = read_document(doc)
-    scene, _ = scene_from_dict(d)
     paths = list(paths)
-    check_model_paths(scene, d, paths)
-    asm = problem_for(scene).asm
-    S = StepSystem.for_scene(asm)
-    L = S.length_scale
-    integ = make_integrator(S, options, Counters(), 0.0, options.newton.xtol * L)
-    _check(S, options, integ)
-    E = S.E.tocsc()
-    EtE = (E.T @ E).tocsc()
-    P = len(paths)
-    derivs = [model_derivative(asm, d, p) for p in paths]
-    # start: the reference, or the equilibrium with its sensitivity
-    if options.start == "static":
-        res = problem_for(scene).solve()
-        if not res.success:
-            raise SceneError(f"dynamic sensitivities: the static start failed ({res.status})")
-        q0 = res.x
-        from ancf_sym.sensitivity.static import StaticSensitivity
-        st = StaticSensitivity(scene, res, d)
-        dq0 = np.column_stack([st.dx(p) for p in paths]) if P else np.zeros((asm.n, 0))
+    run = run_for_sensitivity(doc, paths, options)
+    S, asm, nf, P = run.S, run.asm, run.S.nf, len(paths)
+    N = len(run.Q) - 1
+    # start: the reference, or the equilibrium with its sensitivity; M a_0 = -R(q_0, p) differentiated
+    K0 = start_tangent(run)
+    if options.start == "static" and P:
+        Sq = -spla.splu(K0).solve(np.column_stack([forcing(run, p, statics=True)[0] for p in paths]))
     else:
-        q0, dq0 = asm.x0.copy(), np.zeros((asm.n, P))
-    Sq = spla.spsolve(EtE, E.T @ dq0).reshape(-1, P) if P else np.zeros((S.nf, 0))
-    integ.initialize(S.reduce(q0), np.zeros(S.nf), np.zeros(S.nf), options.t_start)
-    integ.tol_q = options.newton.tol * max(float(np.max(np.abs(S.f_lin))), float(np.max(np.abs(S.M @ integ.a))),
-                                           1e-300)
-    M = S.M.tocsc()
-    sch = options.scheme()
-    am, af, beta, gamma = sch.alpha_m, sch.alpha_f, sch.beta, sch.gamma
-    dM = [E.T @ md.dM @ E if md.dM is not None else None for md in derivs]
+        Sq = np.zeros((nf, P))
+    Fs = np.stack([forcing(run, p) for p in paths], axis=2) if P else np.zeros((N + 1, nf, 0))  # (N + 1, nf, P)
+    Sa = -mass_solve(run)(K0 @ Sq + Fs[0]) if P else np.zeros((nf, 0))
+    z0 = np.vstack([Sq, np.zeros((nf, P)), Sa, Sa])
+    dq, dv = np.zeros((N + 1, nf, P)), np.zeros((N + 1, nf, P))
+    dq[0] = Sq
+    if N and P:
+        f = forward_sweep(S, options, run.alpha_r, N, P)
+        Z = np.zeros(4 * nf * P * N)
+        # (column-major inputs: X's column j is q_{j+1}; F's columns j P .. j P + P - 1 step j + 1's parameters)
+        Fin = np.ascontiguousarray(Fs[1:].transpose(0, 2, 1)).ravel()
+        _, evaluate = bind(f, [np.ascontiguousarray(z0.T).ravel(), np.ascontiguousarray(run.Q[1:]).ravel(),
+                               np.ascontiguousarray(run.V[1:]).ravel(), Fin], [Z])
+        evaluate()
+        Zs = Z.reshape(N, P, 4 * nf)
+        dq[1:] = Zs[:, :, :nf].transpose(0, 2, 1)
+        dv[1:] = Zs[:, :, nf:2 * nf].transpose(0, 2, 1)
 
-    def step_matrix(q: np.ndarray, cm: float) -> sp.csc_matrix:
-        """cm M + K(q) on the reduced coordinates: the step system's own compiled tangent (a copy: the system
-        writes it in place)."""
-        S.x[:] = q
-        S.p[:] = -S.f_lin
-        S.cm[:], S.cc[:], S.kc[:] = cm, 0.0, 1.0
-        return S.jacobian().copy()
-
-    fixed: dict = {}
-
-    def forcing(x_full: np.ndarray, a: np.ndarray) -> np.ndarray:
-        """dR/dp + dM/dp a per parameter (nf, P)."""
-        F = np.zeros((S.nf, P))
-        for k, md in enumerate(derivs):
-            if md.constant_residual:  # (loads, gravity: evaluated once)
-                if k not in fixed:
-                    fixed[k] = E.T @ md.residual(x_full)[1]
-                F[:, k] = fixed[k]
-            else:
-                F[:, k] = E.T @ md.residual(x_full)[1]
-            if dM[k] is not None:
-                F[:, k] += dM[k] @ a
-        return F
-
-    x = S.full(integ.q)
-    F, K = forcing(x, integ.a), step_matrix(integ.q, 0.0)
-    lu_M = spla.splu(M)
-    Sa = -lu_M.solve(K @ Sq + F) if P else np.zeros((S.nf, 0))
-    Sab, Sv = Sa.copy(), np.zeros_like(Sq)
-    h = options.dt
-    n_steps = int(round((options.t_end - options.t_start) / h))
-    ts, xs, vs, dxs, dvs = [options.t_start], [x], [S.full_v(integ.v)], [E @ Sq], [E @ Sv]
-    cm = sch.cm(h)
-    t = options.t_start
-    for _ in range(n_steps):
-        out = integ.attempt(t, h)
-        if not out.converged:
-            raise SceneError(f"dynamic sensitivities: the step at t = {t:.6g} s did not converge ({out.reason})")
-        integ.accept()
-        t += h
-        x = S.full(integ.q)
-        F = forcing(x, integ.a)
-        # d a_{n+1} = cm dq_{n+1} + B (B from the previous state)
-        B = (1 - am) / (1 - af) * (-(Sq + h * Sv + h * h * (0.5 - beta) * Sab) / (h * h * beta)) + \
-            (am * Sab - af * Sa) / (1 - af)
-        Sq_new = spla.splu(step_matrix(integ.q, cm)).solve(-(M @ B + F)) if P else Sq
-        Sab_new = (Sq_new - Sq - h * Sv - h * h * (0.5 - beta) * Sab) / (h * h * beta)
-        Sa_new = ((1 - am) * Sab_new + am * Sab - af * Sa) / (1 - af)
-        Sv = Sv + h * (1 - gamma) * Sab + h * gamma * Sab_new
-        Sq, Sab, Sa = Sq_new, Sab_new, Sa_new
-        ts.append(t)
-        xs.append(x)
-        vs.append(S.full_v(integ.v))
-        dxs.append(E @ Sq)
-        dvs.append(E @ Sv)
-    dx, dv = np.stack(dxs), np.stack(dvs)  # (steps + 1, n, P)
+    def full(d: np.ndarray) -> np.ndarray:  # (E d per step and parameter, as one gather)
+        rows = S.full_v_rows(d.transpose(0, 2, 1).reshape(-1, nf))
+        return rows.reshape(N + 1, P, -1).transpose(0, 2, 1)
+    dx, dvf = (full(dq), full(dv)) if P else (np.zeros((N + 1, asm.n, 0)), np.zeros((N + 1, asm.n, 0)))
     sensors = [SensorEval(Sensor.from_dict(sn, i), asm, i) for i, sn in enumerate(options.sensors)]
-    return DynamicSensitivity(np.array(ts), np.stack(xs), np.stack(vs), {p: dx[:, :, k] for k, p in enumerate(paths)},
-                              {p: dv[:, :, k] for k, p in enumerate(paths)}, asm, sensors)
+    return DynamicSensitivity(run.t, run.X, run.V_full, {p: dx[:, :, k] for k, p in enumerate(paths)},
+                              {p: dvf[:, :, k] for k, p in enumerate(paths)}, asm, sensors, contact_notes(run))

@@ -1,0 +1,317 @@
+"""What the forward and adjoint sensitivities of a dynamic run share: the checks (refused features and parameter
+paths, before any step), the run itself (the package's compiled alpha steps, every state kept) and the parameter
+forcing F_n = dR/dp(q_n) + dM/dp a_n + dC/dp v_n of the differentiated step equations at every step.
+
+Parameters: the model's TOML paths (ancf_sym.sensitivity.model_derivative), the Rayleigh mass coefficient
+dampings[i].alpha (C = alpha_R M) and the strain-rate coefficients dampings[i].axial | bending (the force f_d(q, v)
+is linear in them; its tangents df/dq, df/dv are the step system's). Damping the derivative does not follow is
+refused by name: stiffness-proportional Rayleigh (beta: the derivative of its tangent K_el(q_n) needs third
+derivatives of the energies), contact damping and friction, lines in water, as are drives and multiplier rows.
+Time loads (analysis.loads) are applied as the run applies them; they depend on no scene parameter.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import casadi as ca
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from ancf_sym import kernels
+from ancf_sym.contact import laws as contact
+from ancf_sym.dynamics import DynamicOptions
+from ancf_sym.dynamics.newton import Counters
+from ancf_sym.dynamics.run import make_integrator
+from ancf_sym.dynamics.time_loads import LoadSum
+from ancf_sym.dynamics.time_loop import chunk_size
+from ancf_sym.io.scene_toml import scene_from_dict
+from ancf_sym.scene.builder import SceneError
+from ancf_sym.sensitivity.model_derivative import check_model_paths, model_derivative, read_document
+from ancf_sym.sensitivity.paths import get_parameter, parse_path
+from ancf_sym.system import water
+from ancf_sym.system.damping import strain_rate_mx
+from ancf_sym.system.step_system import StepSystem
+from ancf_sym.util.casadi_buffers import bind
+from ancf_sym.util.sparsity import dm
+
+# -- parameters that the dynamics adds to the model's ---------------------------------------------------------------
+def damping_index(doc: dict, path: str) -> int | None:
+    """i of a path dampings[i].alpha (Rayleigh mass coefficient) or dampings[i].axial | bending (strain-rate
+    coefficients), else None; other damping keys refused by name."""
+    p = parse_path(path)
+    if p.keys[0] != "dampings":
+        return None
+    get_parameter(doc, path)
+    d = doc["dampings"][p.keys[1]] if len(p.keys) == 3 else None
+    ok = d is not None and ((d.get("type") == "rayleigh" and p.keys[2] == "alpha") or
+                            (d.get("type") == "strain_rate" and p.keys[2] in ("axial", "bending")))
+    if not ok:
+        raise SceneError(f"parameter path {path!r}: differentiable damping coefficients: dampings[i].alpha of a "
+                         "rayleigh damping (mass-proportional), dampings[i].axial | bending of a strain_rate damping")
+    return p.keys[1]
+
+
+def check_dynamic_paths(scene, doc: dict, paths: list[str]) -> None:
+    """Refuse, before any step, a path that names no differentiable number of a dynamic run."""
+    check_model_paths(scene, doc, [p for p in paths if damping_index(doc, p) is None])
+
+
+def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
+    """SceneError naming every feature of the run whose derivative is not propagated."""
+    why = []
+    if opts.integrator not in ("newmark", "hht", "generalized_alpha"):
+        why.append(f"integrator {opts.integrator!r} (alpha schemes only)")
+    if opts.adaptive:
+        why.append("adaptive steps")
+    elif abs(opts.t_start + opts.n_grid * opts.dt - opts.t_end) > 1e-9 * opts.dt:
+        why.append(f"a shorter last step (t_end - t_start = {opts.t_end - opts.t_start:g} s is not a whole number of "
+                   f"dt = {opts.dt:g} s)")
+    if S.mc:
+        why.append("constraint rows with multipliers (rigid joints, bodies' joints)")
+    if integ.kdamp.active:
+        why.append("stiffness-proportional Rayleigh damping (beta: its tangent's derivative needs third "
+                   "derivatives of the energies)")
+    if contact.dissipation_calls(S.asm.mesh):
+        why.append("contact damping or friction")
+    if water.has_forces(S.asm):
+        why.append("lines in water (drag, added mass)")
+    if S.drives is not None:
+        why.append("drives or torques (time-dependent constraints and forces)")
+    if opts.release or opts.from_result or opts.initial or opts.q0 is not None or opts.v0 is not None:
+        why.append("a start other than the reference or the static equilibrium at rest")
+    if why:
+        raise SceneError("dynamic sensitivities: not available with " + ", ".join(why))
+
+
+# -- the forward run: the package's compiled steps, every state kept -----------------------------------------------
+def forward_states(S: StepSystem, integ, opts: DynamicOptions, loads: LoadSum | None = None
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(Q, V, A): reduced q, v, a after each step (row 0: the start), from the integrator's compiled chunks (the
+    run's own steps) and its per-step Newton where a chunk stops; loads: the time loads (LoadSum) or None."""
+    h = opts.dt
+    n = opts.n_grid
+    rows = [integ.state[:3 * S.nf].copy()]
+    size = chunk_size(n) if integ.chunkable else 0
+    t, k = opts.t_start, 0
+    pl = np.repeat(-S.f_lin[:, None], size, axis=1) if size else None
+    if pl is not None:
+        pl.flags.writeable = False  # (copied into the chunk's buffer once)
+    while k < n:
+        if size and n - k >= size:
+            if loads is not None:  # (the loads at the chunk's step ends, as the time loop gives them)
+                pl = -np.column_stack([S.f_lin + loads(opts.t_start + (k + j + 1) * h) for j in range(size)])
+            states, n_ok = integ.run_chunk(h, pl)
+            rows.extend(states[:, :3 * S.nf].copy())  # (the chunk buffer is reused by the next chunk)
+            k += n_ok
+            t = opts.t_start + k * h
+            if n_ok == size:
+                continue
+        out = integ.attempt(t, h, loads)
+        if not out.converged:
+            raise SceneError(f"dynamic sensitivities: the step at t = {t:.6g} s did not converge ({out.reason}); "
+                             "a fixed-step derivative cannot take a smaller step there (try a smaller dt)")
+        integ.accept()
+        rows.append(integ.state[:3 * S.nf].copy())
+        k += 1
+        t = opts.t_start + k * h
+    R = np.array(rows)
+    nf = S.nf
+    return R[:, :nf], R[:, nf:2 * nf], R[:, 2 * nf:3 * nf]
+
+
+@dataclass
+class AlphaRun:
+    """A run of the scene of `doc` kept for differentiation: the model (asm, S), the reduced states Q, V, A after
+    each step (row 0: the start), the full X, V_full, A_full, the step times t, the Rayleigh mass coefficient, the
+    static start's tangent K0 (None: the reference start)."""
+    doc: dict
+    scene: object
+    asm: object
+    S: StepSystem
+    options: DynamicOptions
+    Q: np.ndarray
+    V: np.ndarray
+    A: np.ndarray
+    t: np.ndarray
+    alpha_r: float
+
+    @property
+    def X(self) -> np.ndarray:
+        return self.S.full_rows(self.Q)
+
+    @property
+    def V_full(self) -> np.ndarray:
+        return self.S.full_v_rows(self.V)
+
+    @property
+    def A_full(self) -> np.ndarray:
+        return self.S.full_v_rows(self.A)
+
+
+def run_for_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptions) -> AlphaRun:
+    """Check the run and the paths (refused before any step), then run the scene with the package's own alpha
+    steps, from the reference or the static equilibrium at rest."""
+    from ancf_sym.statics.problem import problem_for
+
+    d = read_document(doc)
+    scene, _ = scene_from_dict(d)
+    check_dynamic_paths(scene, d, list(paths))
+    asm = problem_for(scene).asm
+    contact.check_dynamics(asm)  # (exact contact is a statics method: refused as the run refuses it)
+    S = StepSystem.for_scene(asm)
+    integ = make_integrator(S, options, Counters(), 0.0, options.newton.xtol * S.length_scale)
+    refuse_unsupported(S, options, integ)
+    nf = S.nf
+    if options.start == "static":
+        res = problem_for(scene).solve()
+        if not res.success:
+            raise SceneError(f"dynamic sensitivities: the static start failed ({res.status})")
+        q0 = res.x
+    else:
+        q0 = asm.x0.copy()
+    # time loads (analysis.loads): a forcing that no scene parameter changes, applied as the run applies it
+    loads = LoadSum(options.loads, asm, S.E) if options.loads else None
+    Q0 = loads(options.t_start) if loads else np.zeros(nf)
+    integ.initialize(S.reduce(q0), np.zeros(nf), Q0, options.t_start)
+    integ.tol_q = options.newton.tol * max(float(np.max(np.abs(S.f_lin))), float(np.max(np.abs(S.M @ integ.a))),
+                                           float(np.max(np.abs(Q0))), 1e-300)
+    Q, V, A = forward_states(S, integ, options, loads)
+    t = options.t_start + options.dt * np.arange(len(Q))
+    return AlphaRun(d, scene, asm, S, options, Q, V, A, t, S.rayleigh.alpha if S.rayleigh is not None else 0.0)
+
+
+def _scatter(idx: np.ndarray, n: int) -> sp.csr_matrix:
+    """(ne nd) -> n: the sum of element vectors into the full coordinates."""
+    k = idx.size
+    return sp.csr_matrix((np.ones(k), (np.arange(k), idx.ravel())), shape=(k, n))
+
+
+_MAPPED: dict = {}
+
+
+def _gradients(pc, X: np.ndarray) -> np.ndarray:
+    """The piece's assembled gradient at every state (rows of X), (len(X), n): one mapped kernel call."""
+    ne, nd = pc.idx.shape
+    k = len(X)
+    key = (pc.element, pc.effect, pc.gauss, k * ne)
+    if key not in _MAPPED:
+        _MAPPED[key] = kernels.load_grad(pc.element, pc.effect, pc.gauss).map(k * ne)
+    f = _MAPPED[key]
+    e, g = np.zeros(k * ne), np.zeros(k * ne * nd)
+    _, evaluate = bind(f, [np.ascontiguousarray(X[:, pc.idx]).ravel(),
+                           np.ascontiguousarray(np.tile(np.asarray(pc.P, float), (k, 1))).ravel()], [e, g])
+    evaluate()
+    return (_scatter(pc.idx, X.shape[1]).T @ g.reshape(k, ne * nd).T).T
+
+
+def _energies(term, X: np.ndarray) -> np.ndarray:
+    """A term's element energies at every state (rows of X), (len(X), elements): one mapped kernel call."""
+    ne, nd = term.idx.shape
+    k = len(X)
+    key = (term.element, term.effect, term.gauss, k * ne)
+    if key not in _MAPPED:
+        _MAPPED[key] = kernels.load_grad(term.element, term.effect, term.gauss).map(k * ne)
+    e, g = np.zeros(k * ne), np.zeros(k * ne * nd)
+    _, evaluate = bind(_MAPPED[key], [np.ascontiguousarray(X[:, term.idx]).ravel(),
+                                      np.ascontiguousarray(np.tile(np.asarray(term.P, float), (k, 1))).ravel()], [e, g])
+    evaluate()
+    return e.reshape(k, ne)
+
+
+def contact_notes(run: AlphaRun) -> list[str]:
+    """Where the run's penalty contacts open or close: the steps after which the set of elements with contact
+    energy differs from the step before. The law's force has a kink at zero gap, so the step map is not
+    differentiable where a contact point sits exactly there, and the derivative jumps as a parameter moves a
+    contact event across a step: the notes name those steps."""
+    X = run.X
+    change = np.zeros(len(X) - 1, bool)
+    terms = [t for t in run.asm.terms if t.label.startswith("contact")]
+    for t in terms:
+        on = _energies(t, X) > 0.0
+        change |= np.any(on[1:] != on[:-1], axis=1)
+    if not terms:
+        return []
+    times = run.t[1:][change]
+    if not len(times):
+        return ["contacts: no contact opens or closes along the run (the derivative is that of the penalty law)"]
+    return [f"contacts open or close in {len(times)} step(s) (first at t = {times[0]:.6g} s, last at "
+            f"{times[-1]:.6g} s): the penalty force has a kink at zero gap, so the derivative there is one-sided "
+            "and jumps where a parameter moves a contact event across a step; differences of runs across those "
+            "steps are not smooth"]
+
+
+def forcing(run: AlphaRun, path: str, statics: bool = False) -> np.ndarray:
+    """F_n on the reduced coordinates for every step, (steps + 1, nf): E' (dR/dp(x_n) + dM/dp (a_n + alpha_R v_n))
+    and, for dampings[i].alpha, M v_n. statics: E' dR/dp(x_0) alone (the static start's right-hand side)."""
+    S = run.S
+    i = damping_index(run.doc, path)
+    if i is not None:
+        if statics:
+            return np.zeros((1, S.nf))
+        if run.doc["dampings"][i]["type"] == "rayleigh":
+            return run.V @ S.M
+        return strain_rate_forcing(run, i, parse_path(path).keys[2])
+    md = model_derivative(run.asm, run.doc, path)
+    X = run.X[:1] if statics else run.X
+    R = np.zeros(X.shape)
+    for pc in md.pieces:
+        if pc.effect == "gravity":  # (linear in q: a constant gradient)
+            R += _gradients(pc, X[:1])
+        else:
+            R += _gradients(pc, X)
+    if md.dQ is not None:
+        R -= md.dQ
+    if not statics and md.dM is not None:
+        R += (md.dM @ (run.A_full + run.alpha_r * run.V_full).T).T
+    return np.asarray((S.E.T @ R.T).T)
+
+
+_UNIT_F: dict = {}
+
+
+def strain_rate_forcing(run: AlphaRun, i: int, which: str) -> np.ndarray:
+    """d f_d / d c at every state (rows): the strain-rate force with the coefficient `which` (axial | bending) of
+    damping i set to 1 on its members' points and every other coefficient 0 (f_d is linear in them)."""
+    S, sr = run.S, run.S.strain_rate
+    mask = point_mask(run, i)
+    unit = replace(sr, c_axial=mask * (which == "axial"), c_bending=mask * (which == "bending"))
+    key = (S.graph_key, i, which, len(run.Q), unit.c_axial.tobytes(), unit.c_bending.tobytes())
+    if key not in _UNIT_F:
+        xf, vf = ca.MX.sym("x", S.nf), ca.MX.sym("v", S.nf)
+        X, V = S.x_full_mx(xf), ca.mtimes(dm(S.E), vf)
+        f = ca.Function("unit_strain_rate", [xf, vf], [strain_rate_mx(unit, xf, X, V, vf)[0]])
+        _UNIT_F[key] = f.map(len(run.Q))
+    return np.asarray(_UNIT_F[key](run.Q.T, run.V.T)).T
+
+
+def point_mask(run: AlphaRun, i: int) -> np.ndarray:
+    """1 at the strain-rate damping's Gauss points on the members of dampings[i], else 0, in the point order of
+    ancf_sym.system.damping.strain_rate_data (members in order of first mention, elements, 5 points each)."""
+    scene = run.scene
+    order: list = []
+    for d in scene.dampings:
+        if d.kind == "strain_rate":
+            order += [name for name in (d.members or list(scene.members)) if name not in order]
+    d_i = scene.dampings[i]  # (the TOML reader adds one Damping per [[dampings]] entry, in order)
+    mine = set(d_i.members or list(scene.members))
+    return np.concatenate([np.full(len(run.asm.mesh.members[name].elem_nodes) * 5, float(name in mine))
+                           for name in order])
+
+
+def damping_tangents(S: StepSystem, x: ca.MX, v: ca.MX) -> tuple:
+    """(df_d/dx, df_d/dv) of the system's velocity-dependent damping force at (x, v) in a graph, or (None, None)."""
+    if S.damp_f is None:
+        return None, None
+    _, dfx, dfv = S.damp_f(x, v)
+    return dfx, dfv
+
+
+def start_tangent(run: AlphaRun) -> sp.csc_matrix:
+    """K(q_0) on the reduced coordinates: the static start's tangent and the initial acceleration's."""
+    return sp.csc_matrix(run.S.forces(run.Q[0])[1])
+
+
+def mass_solve(run: AlphaRun):
+    """A solver of M x = b (the initial acceleration's matrix)."""
+    return spla.splu(run.S.M.tocsc()).solve
