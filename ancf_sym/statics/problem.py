@@ -46,6 +46,7 @@ from ancf_sym.scene.schema import STATIC_OPTIONS
 
 from ancf_sym.contact.steps import IterateWatch, deep_starts
 from ancf_sym.statics.inertia import STABILITY_EPS, reduced_inertia
+from ancf_sym.statics.held import held_coordinates
 from ancf_sym.scene.member_effects import START_STRAIN
 from ancf_sym.statics.evaluation import BIOT, ResultEnergies
 from ancf_sym.util.html import html_table
@@ -326,18 +327,23 @@ class StaticProblem:
                 "error_on_fail": False, **watch})
         return self._solvers[key]
 
-    def _run(self, x0, lam_g0, load, line_search, opts):
-        what = ("line search" if line_search else "full steps") + ("" if load == 1.0 else f", load {load:.3g}")
+    def _run(self, x0, lam_g0, load, line_search, opts, held=None):
+        what = ("line search" if line_search else "full steps") + ("" if load == 1.0 else f", load {load:.3g}") + \
+            ("" if held is None else ", symmetric coordinates held")
         if self.progress is not None:
             self.progress(f"IPOPT {what} ...")
-        ok, status, it, x, lam = self._ipopt_run(x0, lam_g0, load, line_search, opts)
+        ok, status, it, x, lam = self._ipopt_run(x0, lam_g0, load, line_search, opts, held)
         if self.progress is not None:
             self.progress(f"IPOPT {what}: {status}, {it} it")
         return ok, status, it, x, lam
 
-    def _ipopt_run(self, x0, lam_g0, load, line_search, opts):
+    def _ipopt_run(self, x0, lam_g0, load, line_search, opts, held=None):
         m = self.asm.exact.m
         args = {"x0": x0, "p": load, "lbg": np.zeros(m), "ubg": np.zeros(m)}
+        if held is not None and held.size:  # coordinates a symmetry holds (statics.held): fixed at x0's values
+            lbx, ubx = np.full(self.asm.n, -np.inf), np.full(self.asm.n, np.inf)
+            lbx[held] = ubx[held] = x0[held]
+            args["lbx"], args["ubx"] = lbx, ubx
         if lam_g0 is not None:
             args["lam_g0"] = lam_g0
         # Ctrl-C / SIGTERM inside IPOPT: raised here, not tried again as a failed attempt. Building the solver is
@@ -359,11 +365,13 @@ class StaticProblem:
         return ok, status, int(st["iter_count"]), x, np.asarray(sol["lam_g"]).ravel()
 
     def _ipopt(self, x, opts, attempts, ceiling):
-        """IPOPT's attempts: full steps, line search, load steps. (ok, x, lam_g, path)."""
-        for line_search in (False, True):
-            ok, status, it, xs, lg = self._run(x, None, 1.0, line_search, opts)
-            attempts.append({"method": "ipopt " + ("line search" if line_search else "full steps"),
-                             "status": status, "iterations": it})
+        """IPOPT's attempts: full steps, line search (first with the coordinates a symmetry holds fixed, where there
+        are such: statics.held), load steps. (ok, x, lam_g, path)."""
+        held = self._held(x)
+        for hold, line_search in ([(True, False), (True, True)] if held.size else []) + [(False, False), (False, True)]:
+            ok, status, it, xs, lg = self._run(x, None, 1.0, line_search, opts, held if hold else None)
+            attempts.append({"method": "ipopt " + ("line search" if line_search else "full steps") +
+                             (", symmetric coordinates held" if hold else ""), "status": status, "iterations": it})
             if ok and self.asm.energy(xs) > ceiling:  # full steps can jump into another basin and converge there
                 ok = False
                 attempts[-1]["rejected"] = "potential above that of the feasible start point"
@@ -377,6 +385,17 @@ class StaticProblem:
                 return False, x, None, "ipopt load steps"
             xk, lgk = xs, lg
         return True, xk, lgk, "ipopt load steps+newton"
+
+    def _held(self, x: np.ndarray) -> np.ndarray:
+        """Coordinates that nothing loads or couples at x (statics.held: a symmetry keeps them there), at the
+        round-off levels of the gradient (the problem's floor) and of the Hessian (eps x max |K|)."""
+        a = self.asm
+        if self.nlp is None:
+            self.build_nlp()
+        ev = a.evaluate(x)
+        kmax = float(abs(ev.hessian).max()) if ev.hessian is not None and ev.hessian.nnz else 0.0
+        rows = a.exact.jacobian(x) if a.exact.m else None
+        return held_coordinates(ev.gradient, ev.hessian, rows, self.floor, np.finfo(float).eps * kmax)
 
     # -- the solve ----------------------------------------------------------------------------------------------
     def coarser(self, scene: Scene) -> "StaticProblem":
