@@ -375,6 +375,9 @@ class StaticProblem:
             if ok and self.asm.energy(xs) > ceiling:  # full steps can jump into another basin and converge there
                 ok = False
                 attempts[-1]["rejected"] = "potential above that of the feasible start point"
+            if ok and hold and not self._still_held(xs, held):
+                ok = False
+                attempts[-1]["rejected"] = "the held coordinates are loaded at its answer (no symmetry holds them)"
             if ok:
                 return True, xs, lg, "ipopt+newton"
         xk, lgk = x, None  # continuation from the last converged load level
@@ -396,6 +399,13 @@ class StaticProblem:
         kmax = float(abs(ev.hessian).max()) if ev.hessian is not None and ev.hessian.nnz else 0.0
         rows = a.exact.jacobian(x) if a.exact.m else None
         return held_coordinates(ev.gradient, ev.hessian, rows, self.floor, np.finfo(float).eps * kmax)
+
+    def _still_held(self, x: np.ndarray, held: np.ndarray) -> bool:
+        """Nothing loads the held coordinates at x either (their gradient within the round-off floor, as at the
+        start): a symmetry held them along the way, and x is an equilibrium in them too. A decoupling of the start's
+        tangent alone (a straight beam's transverse and axial coordinates) does not pass."""
+        g = self.asm.evaluate(x, hessian=False).gradient
+        return bool(np.max(np.abs(g[held])) <= self.floor)
 
     # -- the solve ----------------------------------------------------------------------------------------------
     def coarser(self, scene: Scene) -> "StaticProblem":
