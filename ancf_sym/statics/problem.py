@@ -7,7 +7,7 @@
    on a cantilever at any mesh size up to 100 000 elements, where a line search creeps along the narrow valley that
    a large EA/EI makes.
 2. If Newton does not converge cleanly (diverges, stalls, exceeds its iterations), Newton again along the load
-   factor in adaptive steps; if that fails too (or a result lies above the start's potential), IPOPT minimises: first accepting every trial step, then with its line search, then stepping the loads up; Newton
+   factor in adaptive steps; if that fails too (or a result lies above the start's potential), IPOPT minimises: first accepting every trial step, then with its line search (each first with the coordinates a symmetry holds fixed, statics/held.py), then stepping the loads up; Newton
    finishes from IPOPT's point, so every answer passes the same convergence test.
    With penalty drums every Newton step is cut back before a contact point reaches a drum's axis and an IPOPT run
    with such a step is rejected (contact/steps.py); with penalty contact a converged full-load Newton is compared with
