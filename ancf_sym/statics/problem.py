@@ -420,6 +420,8 @@ class StaticProblem:
             from ancf_sym.statics.water import solve_in_water  # (Newton on the residual: drag, water line, fairleads)
 
             return solve_in_water(a.scene, opts, x0, solve_static=solve_static, result_type=StaticResult)
+        if getattr(a.scene, "drives", None):  # dry: a drive is the dynamics' prescribed motion, which the statics'
+            a.scene.validate_for_statics()  # rows leave out: refused (as solve_static does) rather than ignored
         t0 = time.perf_counter()
         self.solves += 1
         self.newton = self._engine()

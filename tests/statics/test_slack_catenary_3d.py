@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import scipy.optimize
 
-from ancf_sym import Material, Scene, Section
+from ancf_sym import Material, Scene, SceneError, Section, solve_static
 from ancf_sym.statics import StaticProblem
 
 ELEMENTS = (2, 3, 4, 5, 6, 8, 16)
@@ -49,7 +49,8 @@ def elastic_catenary(L0: float, EA: float, w: float, dx: float, dz: float):
     return lambda s: np.stack(ends(sol.x, np.asarray(s, float)), axis=1)
 
 
-CASES = [(b, w, d) for b in (False, True) for w in (False, True) for d in (False, True)]
+# (a position drive holds its node in the statics in water; a dry statics refuses drives: test below)
+CASES = [(b, w, d) for b in (False, True) for w in (False, True) for d in (False, True) if w or not d]
 
 
 @pytest.mark.parametrize("bending,water,drive", CASES,
@@ -67,6 +68,9 @@ def test_slack_catenary_3d_solves_at_every_mesh_and_equals_2d(bending, water, dr
         # problem is the 3-D one restricted to its plane: they differ by at most 2 tol L, and nothing moves out of it
         assert np.max(np.abs(n3[:, [0, 2]] - n2)) <= 2 * TOL * L, n
         assert np.max(np.abs(n3[:, 1])) <= 2 * TOL * L, n
+        if drive:  # the drive holds its node where a pin does
+            pinned = StaticProblem(slack_scene(3, n, bending, water, False)).solve()
+            assert np.max(np.abs(n3 - pinned.nodes("l"))) <= 2 * TOL * L, n
         below = (-10.0 - 40.0 * n3[1:-1, 0] / 60.0) - n3[1:-1, 2]  # below the chord (5 % slack: metres of sag)
         assert below.min() > 0.0 and below.max() > 1.0, n  # it hangs, not the straight compressed saddle
 
@@ -90,3 +94,12 @@ def test_slack_catenary_3d_converges_to_the_elastic_catenary(water):
     assert errors[0] > errors[1] > errors[2]
     assert errors[2] < errors[0] * (4 / 16) ** 3
     assert errors[2] < 2 * errors[1] / 2 ** 4
+
+
+def test_dry_statics_refuses_a_drive_rather_than_leaving_it_out():
+    """A dry statics has no rows for drives (the dynamics' prescribed motion): StaticProblem.solve refuses the scene
+    as solve_static does (it once solved it with the drive left out: the cable hanging straight down from its
+    other pin, reported as a success)."""
+    for solve in (solve_static, lambda s: StaticProblem(s).solve()):
+        with pytest.raises(SceneError, match="drives: 'top'"):
+            solve(slack_scene(3, 4, False, False, True))
