@@ -736,6 +736,8 @@ class Scene:
             return
         from ancf_sym.bodies.planar import connected_supported
         supported = {s.member for s in self.supports if s.kind in ("clamp", "pin")}
+        if self.water is not None:  # in water the statics hold member-node position drives (fairleads) as pins
+            supported |= {d.member for d in self.drives if type(d).__name__ == "PositionDrive" and d.member is not None}
         held = connected_supported(self)
         supported |= held
         for j in self.body_joints:  # a body pinned to a supported member is held

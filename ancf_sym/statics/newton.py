@@ -66,7 +66,9 @@ class NewtonStatics:
         g, K = S.forces_f(xf)[:2]
         r_q = g + p
         if mc:
-            phi = S.constraint_mx(xf)
+            # drive rows (held in statics, e.g. fairleads in water: ancf_sym.statics.water) at their t = 0 values
+            w0 = ca.DM(S.drives.w(0.0)) if S.drives is not None and S.drives.m else None
+            phi = S.constraint_mx(xf, w0)
             Jx = ca.jacobian(phi, xf)
             r_q = r_q + ca.mtimes(Jx.T, lam)
             if len(S.cons.qrow):

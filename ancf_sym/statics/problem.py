@@ -7,7 +7,7 @@
    on a cantilever at any mesh size up to 100 000 elements, where a line search creeps along the narrow valley that
    a large EA/EI makes.
 2. If Newton does not converge cleanly (diverges, stalls, exceeds its iterations), Newton again along the load
-   factor in adaptive steps; if that fails too (or a result lies above the start's potential), IPOPT minimises: first accepting every trial step, then with its line search, then stepping the loads up; Newton
+   factor in adaptive steps; if that fails too (or a result lies above the start's potential), IPOPT minimises: first accepting every trial step, then with its line search (each first with the coordinates a symmetry holds fixed, statics/held.py), then stepping the loads up; Newton
    finishes from IPOPT's point, so every answer passes the same convergence test.
    With penalty drums every Newton step is cut back before a contact point reaches a drum's axis and an IPOPT run
    with such a step is rejected (contact/steps.py); with penalty contact a converged full-load Newton is compared with
@@ -46,6 +46,7 @@ from ancf_sym.scene.schema import STATIC_OPTIONS
 
 from ancf_sym.contact.steps import IterateWatch, deep_starts
 from ancf_sym.statics.inertia import STABILITY_EPS, reduced_inertia
+from ancf_sym.statics.held import held_coordinates
 from ancf_sym.scene.member_effects import START_STRAIN
 from ancf_sym.statics.evaluation import BIOT, ResultEnergies
 from ancf_sym.util.html import html_table
@@ -326,18 +327,23 @@ class StaticProblem:
                 "error_on_fail": False, **watch})
         return self._solvers[key]
 
-    def _run(self, x0, lam_g0, load, line_search, opts):
-        what = ("line search" if line_search else "full steps") + ("" if load == 1.0 else f", load {load:.3g}")
+    def _run(self, x0, lam_g0, load, line_search, opts, held=None):
+        what = ("line search" if line_search else "full steps") + ("" if load == 1.0 else f", load {load:.3g}") + \
+            ("" if held is None else ", symmetric coordinates held")
         if self.progress is not None:
             self.progress(f"IPOPT {what} ...")
-        ok, status, it, x, lam = self._ipopt_run(x0, lam_g0, load, line_search, opts)
+        ok, status, it, x, lam = self._ipopt_run(x0, lam_g0, load, line_search, opts, held)
         if self.progress is not None:
             self.progress(f"IPOPT {what}: {status}, {it} it")
         return ok, status, it, x, lam
 
-    def _ipopt_run(self, x0, lam_g0, load, line_search, opts):
+    def _ipopt_run(self, x0, lam_g0, load, line_search, opts, held=None):
         m = self.asm.exact.m
         args = {"x0": x0, "p": load, "lbg": np.zeros(m), "ubg": np.zeros(m)}
+        if held is not None and held.size:  # coordinates a symmetry holds (statics.held): fixed at x0's values
+            lbx, ubx = np.full(self.asm.n, -np.inf), np.full(self.asm.n, np.inf)
+            lbx[held] = ubx[held] = x0[held]
+            args["lbx"], args["ubx"] = lbx, ubx
         if lam_g0 is not None:
             args["lam_g0"] = lam_g0
         # Ctrl-C / SIGTERM inside IPOPT: raised here, not tried again as a failed attempt. Building the solver is
@@ -359,14 +365,19 @@ class StaticProblem:
         return ok, status, int(st["iter_count"]), x, np.asarray(sol["lam_g"]).ravel()
 
     def _ipopt(self, x, opts, attempts, ceiling):
-        """IPOPT's attempts: full steps, line search, load steps. (ok, x, lam_g, path)."""
-        for line_search in (False, True):
-            ok, status, it, xs, lg = self._run(x, None, 1.0, line_search, opts)
-            attempts.append({"method": "ipopt " + ("line search" if line_search else "full steps"),
-                             "status": status, "iterations": it})
+        """IPOPT's attempts: full steps, line search (first with the coordinates a symmetry holds fixed, where there
+        are such: statics.held), load steps. (ok, x, lam_g, path)."""
+        held = self._held(x)
+        for hold, line_search in ([(True, False), (True, True)] if held.size else []) + [(False, False), (False, True)]:
+            ok, status, it, xs, lg = self._run(x, None, 1.0, line_search, opts, held if hold else None)
+            attempts.append({"method": "ipopt " + ("line search" if line_search else "full steps") +
+                             (", symmetric coordinates held" if hold else ""), "status": status, "iterations": it})
             if ok and self.asm.energy(xs) > ceiling:  # full steps can jump into another basin and converge there
                 ok = False
                 attempts[-1]["rejected"] = "potential above that of the feasible start point"
+            if ok and hold and not self._still_held(xs, held):
+                ok = False
+                attempts[-1]["rejected"] = "the held coordinates are loaded at its answer (no symmetry holds them)"
             if ok:
                 return True, xs, lg, "ipopt+newton"
         xk, lgk = x, None  # continuation from the last converged load level
@@ -377,6 +388,24 @@ class StaticProblem:
                 return False, x, None, "ipopt load steps"
             xk, lgk = xs, lg
         return True, xk, lgk, "ipopt load steps+newton"
+
+    def _held(self, x: np.ndarray) -> np.ndarray:
+        """Coordinates that nothing loads or couples at x (statics.held: a symmetry keeps them there), at the
+        round-off levels of the gradient (the problem's floor) and of the Hessian (eps x max |K|)."""
+        a = self.asm
+        if self.nlp is None:
+            self.build_nlp()
+        ev = a.evaluate(x)
+        kmax = float(abs(ev.hessian).max()) if ev.hessian is not None and ev.hessian.nnz else 0.0
+        rows = a.exact.jacobian(x) if a.exact.m else None
+        return held_coordinates(ev.gradient, ev.hessian, rows, self.floor, np.finfo(float).eps * kmax)
+
+    def _still_held(self, x: np.ndarray, held: np.ndarray) -> bool:
+        """Nothing loads the held coordinates at x either (their gradient within the round-off floor, as at the
+        start): a symmetry held them along the way, and x is an equilibrium in them too. A decoupling of the start's
+        tangent alone (a straight beam's transverse and axial coordinates) does not pass."""
+        g = self.asm.evaluate(x, hessian=False).gradient
+        return bool(np.max(np.abs(g[held])) <= self.floor)
 
     # -- the solve ----------------------------------------------------------------------------------------------
     def coarser(self, scene: Scene) -> "StaticProblem":
@@ -391,6 +420,8 @@ class StaticProblem:
             from ancf_sym.statics.water import solve_in_water  # (Newton on the residual: drag, water line, fairleads)
 
             return solve_in_water(a.scene, opts, x0, solve_static=solve_static, result_type=StaticResult)
+        if getattr(a.scene, "drives", None):  # dry: a drive is the dynamics' prescribed motion, which the statics'
+            a.scene.validate_for_statics()  # rows leave out: refused (as solve_static does) rather than ignored
         t0 = time.perf_counter()
         self.solves += 1
         self.newton = self._engine()
