@@ -12,7 +12,7 @@ at lambda = 1 (Euler's theorem on homogeneous functions):
 
 with U_c the energy with coefficient c alone (each kernel is linear in its coefficients). The identity holds for the
 discrete element too (Hermite fields r_x = (h1' r0 + h3' r1)/L + h2' t0 + h4' t1, Gauss points in xi, dx = L dxi), so
-it is exact, not an approximation; tests/sensitivity/test_prestrain.py checks it against differences in L of every
+it is exact, not an approximation; tests/sensitivity/test_sensitivity_prestrain.py checks it against differences in L of every
 cable kernel. Its gradient and Hessian in q follow by differentiating it; the Hessian's needs the third derivatives
 contracted with the positions, the kernels' compiled Hessian-vector companion d(H v)/dq with v the positions. The mass
 matrix: M_ij = rho A int S_i S_j L dxi with S = h for a position, L h for a slope, so L dM_ij/dL = (1 + s_i + s_j)

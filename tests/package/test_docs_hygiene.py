@@ -106,3 +106,12 @@ def test_cited_documents_are_in_the_project():
     hits = [str(p.relative_to(ROOT)) for p in tracked_text_files()
             if DESIGN_DOC in p.read_text(encoding="utf-8", errors="replace")]
     assert not hits, f"cite what the project contains (docs/...), not {DESIGN_DOC}: {hits}"
+
+
+def test_test_files_have_unique_names():
+    # the test folders are not packages: pytest imports each file by its basename, and a second file of the same
+    # name in another folder stops the whole collection
+    names: dict[str, list[str]] = {}
+    for p in sorted((ROOT / "tests").rglob("test_*.py")):
+        names.setdefault(p.name, []).append(str(p.relative_to(ROOT)))
+    assert {n: ps for n, ps in names.items() if len(ps) > 1} == {}

@@ -134,7 +134,7 @@ def test_refused_paths(solved, path, message):
 
 
 def test_prestrain_refused_with_reason():
-    """(A prestrain is differentiable, tests/sensitivity/test_prestrain.py; not with a load at a material coordinate,
+    """(A prestrain is differentiable, tests/sensitivity/test_sensitivity_prestrain.py; not with a load at a material coordinate,
     whose element and place in it move with the reference length.)"""
     doc = copy.deepcopy(DOC)
     doc["members"][0]["prestrain"] = 0.01
