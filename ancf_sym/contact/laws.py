@@ -226,13 +226,6 @@ def dissipation_calls(mesh) -> list[tuple[str, int, np.ndarray, np.ndarray]]:
     return out
 
 
-def kinked(scene) -> bool:
-    """Whether a penalty contact of the scene has a linear law (stiffness k > 0): its normal force k max(0, -g) is
-    continuous but its tangent jumps by k where a point touches down (and so do friction's, mu times it). The Hertz
-    law k_h delta^1.5 has a continuous tangent."""
-    return any(c.method == "penalty" and c.stiffness > 0 for c in getattr(scene, "contacts", ()))
-
-
 def exact_contacts(asm) -> list:
     """The scene's exact (unilateral-row) contacts, in declaration order; empty: no contact rows."""
     return [c for c in getattr(asm.scene, "contacts", ()) if c.method == "exact"]

@@ -11,7 +11,7 @@ make the full update overshoot from outside a narrow region.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -46,10 +46,8 @@ class NewtonOptions:
     contraction: float = 0.5  # modified Newton: refactorise when the contraction |dz_k+1| / |dz_k| exceeds this
     max_modified: int = 8  # modified Newton: at most this many iterations on one factorisation within a step
     # full Newton in Python: back off along an update that neither lowered the residual nor contracted (Armijo on
-    # the scaled residual); for laws that saturate (regularised friction with a small eps) where full updates cycle,
-    # and for laws with a kink (linear penalty contact). None: automatic, on in scenes whose contact law has a kink
-    # (ancf_sym.contact.laws.kinked; resolved by `for_scene`), off elsewhere
-    line_search: bool | None = None
+    # the scaled residual); for laws that saturate (regularised friction with a small eps) where full updates cycle
+    line_search: bool = False
 
     def __post_init__(self):
         if isinstance(self.lte_fraction, bool) or not isinstance(self.lte_fraction, (int, float)) or \
@@ -66,26 +64,8 @@ class NewtonOptions:
         if self.contraction >= 1:
             raise SceneError(f"newton.contraction must be below 1, got {self.contraction!r}")
         for name in ("modified", "single", "line_search"):
-            v = getattr(self, name)
-            if not isinstance(v, bool) and not (name == "line_search" and v is None):
-                raise SceneError(f"newton.{name} must be true or false, got {v!r}")
-
-    def for_scene(self, kinked: bool) -> NewtonOptions:
-        """The options a run uses: line_search None (automatic) resolved. Where a contact law has a kink (the linear
-        penalty's force k max(0, -g) is continuous, its tangent jumps by k where a point touches down), a full
-        Newton update can carry points across the kink and back, and the iteration neither contracts nor lowers the
-        residual (the 48-element belt on 1e8 N/m^2: updates growing 0.7 mm -> 2 cm over 12 iterations at a residual
-        of ~180 N, 3729 rejected sub-steps in 600 steps); Armijo backtracking along the update (a globalised
-        semismooth Newton on the exact one-sided tangents) restores the descent. Such a step needs more iterations
-        than a smooth one: the budget is at least KINK_MAX_ITER (12 left 5 rejected steps on that belt, 30 none)."""
-        if self.line_search is not None:
-            return self
-        if not kinked:
-            return replace(self, line_search=False)
-        return replace(self, line_search=True, max_iter=max(self.max_iter, KINK_MAX_ITER))
-
-
-KINK_MAX_ITER = 30  # Newton iterations of a step (Python loop) in a scene with a kinked contact law
+            if not isinstance(getattr(self, name), bool):
+                raise SceneError(f"newton.{name} must be true or false, got {getattr(self, name)!r}")
 
 
 @dataclass

@@ -59,11 +59,10 @@ def _velocity_source(asm: Assembly, opts: DynamicOptions, coords: np.ndarray) ->
 def make_integrator(system: StepSystem, opts: DynamicOptions, counters: Counters, tol_q: float,
                     tol_x: float) -> Integrator:
     """The integrator the options name: an alpha scheme or collocation (Radau IIA, Gauss-Legendre)."""
-    nw = opts.newton.for_scene(contact.kinked(system.asm.scene))  # (line search where a contact law has a kink)
     if opts.integrator in ("radau", "gauss"):
         stages = opts.stages or (3 if opts.integrator == "radau" else 2)
-        return CollocationIntegrator(system, opts.integrator, stages, nw, tol_q, tol_x, counters)
-    return AlphaIntegrator(system, opts.scheme(), nw, tol_q, tol_x, counters)
+        return CollocationIntegrator(system, opts.integrator, stages, opts.newton, tol_q, tol_x, counters)
+    return AlphaIntegrator(system, opts.scheme(), opts.newton, tol_q, tol_x, counters)
 
 
 def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callable[[float, float], Any] | None = None,
