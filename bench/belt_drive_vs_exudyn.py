@@ -49,6 +49,10 @@ from ancf_sym.system.graph_cache import clear_graph_cache  # noqa: E402
 
 R2, OMEGA, TORQUE, T_END, DT = 0.15, 20.0, 20.0, 0.6, 1e-3
 K_N = 1e8  # linear penalty [N/m^2], both codes
+# the linear law's Newton: Armijo backtracking where a full update neither lowers the residual nor contracts (its
+# kink), with the iterations such steps need (default 12: 5 rejected steps in 600; without the line search 3729
+# rejected sub-steps; docs/contact.md, "Newton through the kink of the linear law")
+KINK_NEWTON = {"line_search": True, "max_iter": 30}
 
 
 def ramp(t: float) -> float:
@@ -67,7 +71,7 @@ def ancf_run(n: int, k_n: float | None):
     q0 = BD.start(asm, R2, n, k_n)
     settle = time.perf_counter() - t1
     opts = DynamicOptions(dt=DT, t_end=T_END, integrator="generalized_alpha", rho_inf=0.6, output_dt=0.01,
-                          energies=False, q0=q0, sensors=[{"name": b, "kind": "body", "member": b}
+                          energies=False, q0=q0, newton=KINK_NEWTON if k_n else {}, sensors=[{"name": b, "kind": "body", "member": b}
                                                           for b in ("driver", "driven")])
     res = simulate(asm, opts)
     setup = time.perf_counter() - t0 - res.wall_s - settle
@@ -180,7 +184,7 @@ def breakdown(n: int, k_n: float | None, repeats: int = 20) -> dict:
     xf, vf = ca.MX.sym("x", S.nf), ca.MX.sym("v", S.nf)
     X, V = S.x_full_mx(xf), ca.mtimes(dm(S.E), vf)
     contact_f = ca.Function("c", [xf, vf], list(damping.contact_dissipation_mx(S, X, V)))
-    rate_f = ca.Function("s", [xf, vf], damping.strain_rate_mx(S.strain_rate, xf, X, V, vf))
+    rate_f = ca.Function("s", [xf, vf], damping.strain_rate_mx(S.strain_rate, xf, X, V, vf, E=S.E))
 
     def per_call(f):
         f()

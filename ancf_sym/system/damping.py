@@ -28,7 +28,7 @@ from ancf_sym.elements.quadrature import gauss01
 from ancf_sym.elements.hermite import weights
 from ancf_sym.scene.member_effects import AXIAL_STRAINS
 from ancf_sym.scene.builder import SceneError
-from ancf_sym.util.sparsity import dm, gather_sum, scatter
+from ancf_sym.util.sparsity import casadi_sparsity, csc_pattern, dm, gather_sum, scatter
 from ancf_sym.system.interface import StepSystemView
 
 
@@ -152,9 +152,13 @@ def rayleigh_matrix(S: StepSystemView, kel: np.ndarray | None) -> sp.csc_matrix 
     return sp.csc_matrix(C)
 
 
-def strain_rate_mx(sr: StrainRateData, xf: ca.MX, X: ca.MX, V: ca.MX, vf: ca.MX) -> list[ca.MX]:
+def strain_rate_mx(sr: StrainRateData, xf: ca.MX, X: ca.MX, V: ca.MX, vf: ca.MX,
+                   E: sp.spmatrix | None = None) -> list[ca.MX]:
     """(f_d, df_d/dx, df_d/dv) of the strain-rate dissipation for full coordinates X and velocities V (MX in the
-    unknowns xf, vf): exact derivatives by AD of one vectorized graph."""
+    unknowns xf, vf): exact derivatives by AD of one vectorized graph, or (axial damping only, E = dX/dxf given)
+    in closed form (_axial_rate_mx)."""
+    if E is not None and not np.any(sr.c_bending):
+        return _axial_rate_mx(sr, X, V, E)
     d = sr.dim
     P = len(sr.wL)
     R, Rd, RR = ca.mtimes(dm(sr.Bx), X), ca.mtimes(dm(sr.Bx), V), ca.mtimes(dm(sr.Bxx), X)
@@ -178,6 +182,63 @@ def strain_rate_mx(sr: StrainRateData, xf: ca.MX, X: ca.MX, V: ca.MX, vf: ca.MX)
         D += 0.5 * ca.dot(cb, kdot * kdot)
     fd = ca.gradient(D, vf)
     return [fd, ca.jacobian(fd, xf), ca.jacobian(fd, vf)]
+
+
+def _axial_rate_mx(sr: StrainRateData, X: ca.MX, V: ca.MX, E: sp.spmatrix) -> list[ca.MX]:
+    """Axial strain-rate damping D = 1/2 sum_p c_p w_p edot_p^2 in closed form: edot = m (r_x . r_x'), m = 1
+    (Green) or 1/|r_x| (Biot), so f = B^T [c w edot m r_x] and both tangents are B^T A_p B with 2 x 2 (3 x 3) point
+    blocks A_p (B = Bx E: r_x of the unknowns), assembled by one constant sparse map from the blocks to the
+    nonzeros. The same derivatives as AD of the graph (to round-off), at half its cost on a 48-element belt (221 ->
+    111 us): AD's Jacobian runs one directional pass per colour of the closed loop's pattern."""
+    d, P = sr.dim, len(sr.wL)
+    Bu = sp.csr_matrix(sr.Bx @ E)
+    Bu.sort_indices()
+    R, Rd = ca.mtimes(dm(sr.Bx), X), ca.mtimes(dm(sr.Bx), V)
+    rx = [R[k * P:(k + 1) * P] for k in range(d)]
+    rd = [Rd[k * P:(k + 1) * P] for k in range(d)]
+    n2 = sum(c * c for c in rx)
+    dot = sum(a * b for a, b in zip(rx, rd))
+    g = ca.DM(sr.green.astype(float))
+    s = ca.sqrt(n2)
+    m = g + (1 - g) / s  # d edot / d r_x' = m r_x
+    ed = m * dot
+    cw = ca.DM(sr.c_axial * sr.wL)
+    f = ca.densify(ca.mtimes(dm(sp.csr_matrix(Bu.T)), ca.vertcat(*[cw * ed * m * rx[a] for a in range(d)])))
+    s3 = n2 * s
+    de = [g * rd[b] + (1 - g) * (rd[b] / s - dot * rx[b] / s3) for b in range(d)]  # d edot / d r_x
+    dm_ = [-(1 - g) * rx[b] / s3 for b in range(d)]  # d m / d r_x
+    Av, Ax = [], []
+    for a in range(d):
+        for b in range(d):
+            Av.append(cw * m * m * rx[a] * rx[b])
+            Ax.append(cw * ((de[b] * m + ed * dm_[b]) * rx[a] + (ed * m if a == b else 0)))
+    pattern, M = _block_map(Bu, d, P)
+    return [f, ca.MX(pattern, ca.mtimes(M, ca.vertcat(*Ax))), ca.MX(pattern, ca.mtimes(M, ca.vertcat(*Av)))]
+
+
+def _block_map(Bu: sp.csr_matrix, d: int, P: int) -> tuple[ca.Sparsity, ca.DM]:
+    """Pattern of sum_p B_p^T A_p B_p (B_p: rows p, P + p, ... of Bu) and the constant sparse map from the point
+    blocks, stacked (a, b, p) -> (a d + b) P + p, to its nonzeros."""
+    nf = Bu.shape[1]
+    coo = Bu.tocoo()
+    rows, cols, vals = coo.row, coo.col, coo.data
+    r, c, w, src = [], [], [], []
+    for a in range(d):
+        for b in range(d):
+            ka = np.flatnonzero((rows >= a * P) & (rows < (a + 1) * P))
+            pa = rows[ka] - a * P
+            lo, hi = Bu.indptr[b * P + pa], Bu.indptr[b * P + pa + 1]
+            rep = hi - lo
+            left = np.repeat(ka, rep)
+            right = np.repeat(lo, rep) + np.arange(rep.sum()) - np.repeat(np.cumsum(rep) - rep, rep)
+            r.append(cols[left])
+            c.append(Bu.indices[right])
+            w.append(vals[left] * Bu.data[right])
+            src.append((a * d + b) * P + np.repeat(pa, rep))
+    r, c, w, src = map(np.concatenate, (r, c, w, src))
+    indptr, indices, inv = csc_pattern(r, c, nf, nf)
+    M = sp.csr_matrix((w, (inv, src)), shape=(len(indices), d * d * P))
+    return casadi_sparsity(nf, nf, indptr, indices), dm(M)
 
 
 def _contact_inputs(S: StepSystemView, X: ca.MX, V: ca.MX):
@@ -288,7 +349,7 @@ def dissipation_functions(S: StepSystemView) -> tuple[ca.Function | None, ca.Fun
             return None, None
         return (ca.Function("contact_dissipation", ins, list(dc), names, ["f", "df_dx", "df_dv"]),
                 ca.Function("contact_force", ins, [fc], names, ["f"]))
-    outs = strain_rate_mx(sr, xf, X, V, vf)
+    outs = strain_rate_mx(sr, xf, X, V, vf, E=S.E)
     force = outs[0]
     if dc is not None:
         outs = [a + b for a, b in zip(outs, dc)]

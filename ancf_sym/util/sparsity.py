@@ -108,15 +108,30 @@ def kron_product_mx(d: int, Bt: ca.DM, u: ca.MX) -> ca.MX:
     return vec(ca.mtimes(reshape(u, d, u.size1() // d), Bt))
 
 
+GATHER_LEVELS = 8  # targets summing more entries than this are summed by one sparse product (gather_sum)
+
+
 def gather_sum(vals: list, target: np.ndarray, n_out: int) -> ca.MX:
     """out[t] = sum of the entries k of vertcat(vals) with target[k] = t (target -1: dropped), as a few gathers
-    (one per multiplicity) and additions: cheaper in the MX virtual machine than a product with a 0/1 matrix."""
+    (one per multiplicity) and additions: cheaper in the MX virtual machine than a product with a 0/1 matrix.
+    Each gather runs over all n_out targets, so the targets that sum more than GATHER_LEVELS entries (a body's
+    coordinates in the contact blocks of every element on its drum: 48 on a 48-element belt) are summed instead by
+    one product with a 0/1 sparse matrix, whose cost is their entries' count; scenes without such targets are summed
+    exactly as before."""
+    valid = np.flatnonzero(target >= 0)
+    cnt = np.bincount(target[valid], minlength=n_out)
+    if len(valid) and cnt.max() > GATHER_LEVELS:
+        heavy = cnt[target[valid]] > GATHER_LEVELS
+        hk = valid[heavy]
+        light = target.copy()
+        light[hk] = -1
+        n_src = int(sum(v.numel() for v in vals))
+        P = ca.DM(casadi_sparsity(n_out, n_src, *_csc_of(target[hk], hk, n_out, n_src)), 1.0)
+        return add(gather_sum(vals, light, n_out), ca.densify(ca.mtimes(P, ca.vertcat(*vals))))
     src = ca.vertcat(*vals, ca.MX.zeros(1))
     n_src = src.shape[0] - 1
-    valid = np.flatnonzero(target >= 0)
     t = target[valid]
     order = valid[np.argsort(t, kind="stable")]
-    cnt = np.bincount(t, minlength=n_out)
     if not len(order):
         return ca.MX.zeros(n_out)
     start = np.cumsum(cnt) - cnt
@@ -126,6 +141,14 @@ def gather_sum(vals: list, target: np.ndarray, n_out: int) -> ca.MX:
         term = src[idx.tolist()]
         out = term if out is None else add(out, term)  # (ancf_sym.util.mx_ops: the + operator takes ~30 us to resolve)
     return out
+
+
+def _csc_of(rows: np.ndarray, cols: np.ndarray, n_rows: int, n_cols: int) -> tuple[np.ndarray, np.ndarray]:
+    """(indptr, indices) of the n_rows x n_cols pattern with one entry per (rows[k], cols[k]), cols distinct."""
+    order = np.argsort(cols, kind="stable")
+    indptr = np.zeros(n_cols + 1, dtype=np.int64)
+    np.add.at(indptr, cols + 1, 1)
+    return np.cumsum(indptr), rows[order]
 
 
 def scatter(vals: list, r: np.ndarray, c: np.ndarray, n: int, src: np.ndarray | None = None,
