@@ -113,7 +113,6 @@ def reach_cost(repeats: int) -> None:
     """The driven vehicle (ELM) with the contact kernels on every pair and on the blocks in reach, alternating."""
     from ancf_sym.system import contact_reach
     from ancf_sym.system.graph_cache import clear_graph_cache
-    from ancf_sym.system.step_system import pruned
 
     asm, q0, _ = TV.vehicle_start("elastic_line", drive_start=0.0)
     rows: dict = {}
@@ -133,7 +132,8 @@ def reach_cost(repeats: int) -> None:
             S.jacobian()
             r["jacobian"].append(1e3 * best(S.jacobian, 10)[0])
             r["residual"].append(1e3 * best(S.residual, 50)[0])
-            A, P = S.kkt.copy(), pruned(S.kkt)
+            A, P = S.kkt.copy(), S.kkt.copy()
+            P.eliminate_zeros()  # (the pairs out of reach: stored zeros)
             for key, M in (("lu_full", A), ("lu_pruned", P)):
                 r[key].append(1e3 * best(lambda: spla.splu(M, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.1,
                                                            options={"SymmetricMode": True}), 5)[0])

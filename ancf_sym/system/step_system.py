@@ -39,22 +39,6 @@ from ancf_sym.util.mx_ops import add, fabs, mul, neg
 from ancf_sym.system import water
 
 
-# jacobian(): a KKT matrix with this many stored entries or more comes back without its exact zeros (the blocks of
-# contact pairs out of reach, ancf_sym.system.contact_reach: the tracked vehicle's element-wheel blocks fill 159k
-# entries of its 983 x 983 pattern, some 80 % of them zero at any time), so the sparse LU that follows factorises
-# the pairs in contact only
-PRUNE_NNZ = 20000
-
-
-def pruned(A: sp.csc_matrix) -> sp.csc_matrix:
-    """A copy of A without its stored zeros (the same matrix, a sparser pattern); A itself where it has none."""
-    keep = A.data != 0.0
-    if keep.all():
-        return A
-    indptr = np.concatenate([[0], np.cumsum(keep)])[A.indptr]
-    return sp.csc_matrix((A.data[keep], A.indices[keep], indptr), shape=A.shape)
-
-
 class StepSystem(ReducedModel):
     """A scene's equations of motion on its free coordinates, as compiled CasADi Functions.
 
@@ -539,14 +523,13 @@ class StepSystem(ReducedModel):
         return self.r
 
     def jacobian(self) -> sp.csc_matrix:
-        """r and the KKT values at the current buffers (self.r, self.kkt in place; returned without its stored
-        zeros where it has PRUNE_NNZ entries or more); updates the round-off floor of the residual, eps x largest
-        matrix entry x coordinate span (as statics._roundoff_floor)."""
+        """r and the KKT values at the current buffers (self.r, self.kkt in place); updates the round-off floor
+        of the residual, eps x largest matrix entry x coordinate span (as statics._roundoff_floor)."""
         self._bind()[2][1]()
         self.norms[:2] = self._jac_norms[:2]
         self.norms[4] = self._jac_norms[2]
         self.floor = float(np.finfo(float).eps * self._jac_norms[2] * self.span)
-        return self._kkt if self._kkt.nnz < PRUNE_NNZ else pruned(self._kkt)
+        return self._kkt
 
     def forces(self, xf: np.ndarray) -> tuple[np.ndarray, sp.csc_matrix, np.ndarray | None]:
         """(gradient of the nonlinear potential, its Hessian, K_el values or None) at free coordinates xf."""

@@ -108,6 +108,9 @@ def kron_product_mx(d: int, Bt: ca.DM, u: ca.MX) -> ca.MX:
     return vec(ca.mtimes(reshape(u, d, u.size1() // d), Bt))
 
 
+GATHER_SUBSET = 4  # gather_sum: a level with fewer than 1/4 of the targets updates those alone
+
+
 def gather_sum(vals: list, target: np.ndarray, n_out: int) -> ca.MX:
     """out[t] = sum of the entries k of vertcat(vals) with target[k] = t (target -1: dropped), as a few gathers
     (one per multiplicity) and additions: cheaper in the MX virtual machine than a product with a 0/1 matrix."""
@@ -122,7 +125,15 @@ def gather_sum(vals: list, target: np.ndarray, n_out: int) -> ca.MX:
     start = np.cumsum(cnt) - cnt
     out = None
     for j in range(int(cnt.max())):
-        idx = np.where(cnt > j, order[np.minimum(start + j, len(order) - 1)], n_src)
+        many = cnt > j
+        if out is not None and np.count_nonzero(many) * GATHER_SUBSET < n_out:
+            # the few targets with a (j+1)-th term: updated alone (the same sums in the same order), where a full
+            # gather would copy every target with a zero added (an element table's entries shared by many terms:
+            # the tracked vehicle's element-wheel blocks, 10-20 levels over 158k entries)
+            sel = np.flatnonzero(many)
+            out[sel.tolist()] = add(out[sel.tolist()], src[order[start[sel] + j].tolist()])
+            continue
+        idx = np.where(many, order[np.minimum(start + j, len(order) - 1)], n_src)
         term = src[idx.tolist()]
         out = term if out is None else add(out, term)  # (ancf_sym.util.mx_ops: the + operator takes ~30 us to resolve)
     return out

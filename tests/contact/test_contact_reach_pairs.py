@@ -127,25 +127,16 @@ def test_run_through_touchdown_and_liftoff_equals_all_pairs(switch, modified):
     assert gaps[first] < 0 and np.any(gaps[first:] > 0), gaps
 
 
-def test_drive_reaction_and_pruned_jacobian_are_the_same_numbers():
+def test_drive_reaction_without_its_jacobian_is_the_same_force():
     """The work bookkeeping's drive reaction J^T y without forming J equals the sparse product (sums of the same
-    terms in another order: 1e-12 relative); the step Jacobian without its stored zeros is the same matrix."""
-    from ancf_sym.system.step_system import pruned
-
+    terms in another order: 1e-12 relative)."""
     sc = _scene()
     sc.drive("wheel", omega=[(0.0, 0.0), (1.0, 2.0)])
     asm = Assembly(sc)
-    S = StepSystem.for_scene(asm)
-    d = S.drives
+    d = StepSystem.for_scene(asm).drives
     rng = np.random.default_rng(3)
     x, y = asm.x0 + 0.01 * rng.normal(size=asm.n), rng.normal(size=d.m)
     for t in (0.0, 0.5):
         ref = d.jacobian(x, d.w(t)).T @ y
+        assert np.abs(ref).max() > 0
         assert np.allclose(d.transpose_product(x, d.w(t), y), ref, rtol=0, atol=1e-12 * np.abs(ref).max())
-    S.x[:] = S.reduce(_states(asm, rng)[3])
-    S.cm[:] = 1e4
-    A = S.jacobian()
-    full = S.kkt.copy()
-    P = pruned(full)
-    assert P.nnz < full.nnz and np.all(P.data != 0)  # the out-of-reach pairs' blocks are stored zeros
-    assert np.array_equal(P.toarray(), full.toarray()) and np.array_equal(A.toarray(), full.toarray())
