@@ -22,7 +22,9 @@ With --reach, the driven vehicle with the contact kernels on all element-surface
 reach (ancf_sym.system.contact_reach, switched in one process, alternating): the time loop (0.04 s from the static
 start, drive from 0), the step Jacobian, its SuperLU factorisation with and without its stored zeros, the residual.
 
-Run: python bench/tracked_vehicle_cost.py [--repeats 3] [--driven | --reach]
+With --window T, the driven vehicle's time loop over T s (drive from t = 0) with and without the energy bookkeeping.
+
+Run: python bench/tracked_vehicle_cost.py [--repeats 3] [--driven | --reach | --window T]
 """
 from __future__ import annotations
 
@@ -158,14 +160,35 @@ def reach_cost(repeats: int) -> None:
     print(f"stored entries of the step Jacobian: {rows[True]['nnz'][0]}, nonzero: {rows[True]['nnz'][1]}")
 
 
+def window_cost(t_end: float, repeats: int) -> None:
+    """CPU ms per step of the driven vehicle (ELM) over t_end s from its static start, drive from t = 0, the
+    example's options (modified Newton, outputs every 0.05 s), with the energy and work bookkeeping and without
+    (alternating; run it on each commit to compare versions)."""
+    asm, q0, _ = TV.vehicle_start("elastic_line", drive_start=0.0)
+    per: dict = {True: [], False: []}
+    for _ in range(repeats):
+        for energies in (True, False):
+            res = simulate(asm, DynamicOptions(dt=2e-4, t_end=t_end, rho_inf=0.5, q0=q0, output_dt=0.05,
+                                               energies=energies, newton=TV.NEWTON))
+            assert res.success, res.message
+            per[energies].append(1e3 * res.cpu_s / res.steps)
+    for energies, v in per.items():
+        print(f"driven vehicle (ELM), {t_end:g} s, energies {energies}: CPU ms per step min {min(v):.3f} "
+              f"median {statistics.median(v):.3f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--driven", action="store_true", help="the driven vehicle instead of the chain on fixed wheels")
     ap.add_argument("--reach", action="store_true", help="the driven vehicle, contact kernels on all pairs / in reach")
+    ap.add_argument("--window", type=float, default=0.0, help="the driven vehicle's time loop over this many s")
     a = ap.parse_args()
     if a.reach:
         reach_cost(a.repeats)
+        return
+    if a.window:
+        window_cost(a.window, a.repeats)
         return
     if a.driven:
         driven_cost(a.repeats)
