@@ -20,9 +20,10 @@ with the drum's centre and axis read from the same inputs as the kernel's (fixed
 the body's coordinates in the state). A pair is out of reach when the bound exceeds contact.gap.FLOOR x L (round-off
 of the positions).
 
-Blocks, not single pairs: a conditional call and its input and output slices cost about as much as a contact
-kernel on one element, so blocks of a few elements (the pairs in reach of a surface are consecutive along the
-member) cost least (bench/tracked_vehicle_cost.py --reach).
+Blocks, not single pairs: the pairs in reach of a surface are consecutive along the member, and each block costs
+a conditional call with its input and output slices. Measured on the tracked vehicle's wheel (64 elements, 3 in
+reach, Hessian kernel): 0.071, 0.079, 0.103 ms with blocks of 4, 8, 16 elements against 0.139 ms for all pairs;
+the gradient kernels 0.015-0.019 ms either way (they are cheap: 0.3 us per element). 8 keeps the graphs small.
 """
 from __future__ import annotations
 
