@@ -18,7 +18,13 @@ With --driven, the same for the driven half vehicle (chassis and wheels as bodie
 turned by omega(t) from t = 0): the time loop (modified Newton, 0.04 s from the vehicle's static start) and the
 kernels with their tangents at the start: elastic, the 8 normal laws, the ground's and the sprocket's friction.
 
-Run: python bench/tracked_vehicle_cost.py [--repeats 3] [--driven]
+With --reach, the driven vehicle with the contact kernels on all element-surface pairs and only on the blocks in
+reach (ancf_sym.system.contact_reach, switched in one process, alternating): the time loop (0.04 s from the static
+start, drive from 0), the step Jacobian, its SuperLU factorisation with and without its stored zeros, the residual.
+
+With --window T, the driven vehicle's time loop over T s (drive from t = 0) with and without the energy bookkeeping.
+
+Run: python bench/tracked_vehicle_cost.py [--repeats 3] [--driven | --reach | --window T]
 """
 from __future__ import annotations
 
@@ -105,11 +111,85 @@ def driven_cost(repeats: int) -> None:
         print(f"{key:34s} {sc * c[0]:9.2f} {sc * c[1]:8.2f} {sc * e[0]:9.2f} {sc * e[1]:8.2f}")
 
 
+def reach_cost(repeats: int) -> None:
+    """The driven vehicle (ELM) with the contact kernels on every pair and on the blocks in reach, alternating."""
+    from ancf_sym.system import contact_reach
+    from ancf_sym.system.graph_cache import clear_graph_cache
+
+    from ancf_sym.dynamics import newton as dyn_newton
+
+    asm, q0, _ = TV.vehicle_start("elastic_line", drive_start=0.0)
+    rows: dict = {}
+    kept: list = []  # the last step matrix a run factorised (the Newton's own, at a converging state)
+    factorize = dyn_newton.Factor.factorize
+
+    def keep(self, A, key, counters):
+        kept[:] = [A.copy()]
+        return factorize(self, A, key, counters)
+    dyn_newton.Factor.factorize = keep
+    for rep in range(repeats):
+        for on in (False, True):
+            contact_reach.ENABLED = on
+            clear_graph_cache()
+            res = simulate(asm, DynamicOptions(dt=2e-4, t_end=0.04, rho_inf=0.5, q0=q0, output_dt=0.05,
+                                               newton=TV.NEWTON))
+            assert res.success, res.message
+            r = rows.setdefault(on, {k: [] for k in ("loop", "jacobian", "lu_full", "lu_pruned", "residual")})
+            r["loop"].append(1e3 * res.cpu_s / res.steps)
+            S = StepSystem.for_scene(asm)  # the step graphs at the run's last state
+            S.x[:] = S.reduce(res.x)
+            S.jacobian()
+            r["jacobian"].append(1e3 * best(S.jacobian, 10)[0])
+            r["residual"].append(1e3 * best(S.residual, 50)[0])
+            A, P = kept[0].copy(), kept[0].copy()
+            P.eliminate_zeros()  # (the pairs out of reach: stored zeros)
+            for key, M in (("lu_full", A), ("lu_pruned", P)):
+                r[key].append(1e3 * best(lambda: spla.splu(M, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.1,
+                                                           options={"SymmetricMode": True}), 5)[0])
+            r["nnz"] = (A.nnz, P.nnz)
+    contact_reach.ENABLED = True
+    dyn_newton.Factor.factorize = factorize
+    print(f"{'driven vehicle (ELM), CPU ms':38s} {'all pairs min':>14s} {'median':>8s} {'in reach min':>13s} "
+          f"{'median':>8s}")
+    labels = {"loop": "time loop, per step (0.04 s)", "jacobian": "step Jacobian (graph)",
+              "lu_full": "SuperLU of the Jacobian as stored", "lu_pruned": "SuperLU without its stored zeros",
+              "residual": "residual (graph)"}
+    for key, lab in labels.items():
+        a, b = rows[False][key], rows[True][key]
+        print(f"{lab:38s} {min(a):14.3f} {statistics.median(a):8.3f} {min(b):13.3f} {statistics.median(b):8.3f}")
+    print(f"stored entries of the step Jacobian: {rows[True]['nnz'][0]}, nonzero: {rows[True]['nnz'][1]}")
+
+
+def window_cost(t_end: float, repeats: int) -> None:
+    """CPU ms per step of the driven vehicle (ELM) over t_end s from its static start, drive from t = 0, the
+    example's options (modified Newton, outputs every 0.05 s), with the energy and work bookkeeping and without
+    (alternating; run it on each commit to compare versions)."""
+    asm, q0, _ = TV.vehicle_start("elastic_line", drive_start=0.0)
+    per: dict = {True: [], False: []}
+    for _ in range(repeats):
+        for energies in (True, False):
+            res = simulate(asm, DynamicOptions(dt=2e-4, t_end=t_end, rho_inf=0.5, q0=q0, output_dt=0.05,
+                                               energies=energies, newton=TV.NEWTON))
+            assert res.success, res.message
+            per[energies].append(1e3 * res.cpu_s / res.steps)
+    for energies, v in per.items():
+        print(f"driven vehicle (ELM), {t_end:g} s, energies {energies}: CPU ms per step min {min(v):.3f} "
+              f"median {statistics.median(v):.3f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--driven", action="store_true", help="the driven vehicle instead of the chain on fixed wheels")
+    ap.add_argument("--reach", action="store_true", help="the driven vehicle, contact kernels on all pairs / in reach")
+    ap.add_argument("--window", type=float, default=0.0, help="the driven vehicle's time loop over this many s")
     a = ap.parse_args()
+    if a.reach:
+        reach_cost(a.repeats)
+        return
+    if a.window:
+        window_cost(a.window, a.repeats)
+        return
     if a.driven:
         driven_cost(a.repeats)
         return

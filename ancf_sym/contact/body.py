@@ -51,3 +51,12 @@ def pose(c, asm, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
     b = asm.scene.bodies[c.body]
     E = x[o + 3:o + BODY_SIZE].reshape(3, 3)
     return x[o:o + 3] + E.T @ b.local(c.centre), E.T @ b.local_direction(c.axis)
+
+
+def poses(c, asm, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """pose of a spatial body's drum in each of the states X (S, n): centres (S, 3) and axes (S, 3)."""
+    o = asm.mesh.bodies[c.body]
+    b = asm.scene.bodies[c.body]
+    E = np.asarray(X, float)[:, o + 3:o + BODY_SIZE].reshape(-1, 3, 3)  # rows e1, e2, e3
+    return X[:, o:o + 3] + np.einsum("ski,k->si", E, b.local(c.centre)), \
+        np.einsum("ski,k->si", E, b.local_direction(c.axis))

@@ -28,7 +28,9 @@ from ancf_sym.elements.quadrature import gauss01
 from ancf_sym.elements.hermite import weights
 from ancf_sym.scene.member_effects import AXIAL_STRAINS
 from ancf_sym.scene.builder import SceneError
+from ancf_sym.util.casadi_buffers import bind
 from ancf_sym.util.sparsity import casadi_sparsity, csc_pattern, dm, gather_sum, scatter
+from ancf_sym.system import contact_reach
 from ancf_sym.system.interface import StepSystemView
 
 
@@ -258,9 +260,11 @@ def contact_dissipation_mx(S: StepSystemView, X: ca.MX, V: ca.MX):
         return None
     nf, pos = S.nf, S.pos
     fv, ft, hv, rx, cx, sx, rv, cv, sv = [], [], [], [], [], [], [], [], []
-    n_h = 0
+    n_h, balls = 0, {}
     for element, effect, gauss, Z, Pd, idx, nd, N in _contact_inputs(S, X, V):
-        F, J = kernels.load_rows(element, effect, gauss).map(N)(Z, Pd)  # F (nd x N), J (nd x 2nd N)
+        rows = kernels.load_rows(element, effect, gauss)  # (only the blocks in reach: ancf_sym.system.contact_reach)
+        F, J = contact_reach.call(rows.map, element, effect, idx, Z, Pd, X, S.asm.scene.dim, balls)
+        # F (nd x N), J (nd x 2nd N)
         fv.append(ca.vec(F))
         ft.append(pos[idx.ravel()])  # vec of F: element e, row a -> coordinate idx[e, a]
         hv.append(ca.vec(J))
@@ -287,9 +291,10 @@ def contact_dissipation_force_mx(S: StepSystemView, X: ca.MX, V: ca.MX):
     work (the same gradient, summed in the same order), or None without dissipative contact."""
     if not contact.dissipation_calls(S.asm.mesh):
         return None
-    fv, ft = [], []
+    fv, ft, balls = [], [], {}
     for element, effect, gauss, Z, Pd, idx, nd, N in _contact_inputs(S, X, V):
-        _, G = kernels.load_grad(element, effect, gauss).map(N)(Z, Pd)
+        grad = kernels.load_grad(element, effect, gauss)
+        _, G = contact_reach.call(grad.map, element, effect, idx, Z, Pd, X, S.asm.scene.dim, balls)
         fv.append(ca.vec(G[nd:, :]))
         ft.append(S.pos[idx.ravel()])
     return gather_sum(fv, np.concatenate(ft), S.nf)
@@ -372,12 +377,29 @@ def damping_force(S: StepSystemView, xf: np.ndarray, vf: np.ndarray, t: float | 
     if C is not None:
         f = C @ vf
     if S.damp_force_f is not None:  # the force alone: damp_f's tangents cost 2x more and are not needed here
-        if timed(S) and t is None:
-            raise ValueError("damping_force: the water's forces under waves need the time t")
-        args = (xf, vf, t) if timed(S) else (xf, vf)
-        fd = np.asarray(S.damp_force_f(*args)).ravel()
+        if timed(S):
+            if t is None:
+                raise ValueError("damping_force: the water's forces under waves need the time t")
+            fd = np.asarray(S.damp_force_f(xf, vf, t)).ravel()
+        else:
+            fd = _force_alone(S, xf, vf)
         f = fd if f is None else f + fd
     return f
+
+
+def _force_alone(S: StepSystemView, xf: np.ndarray, vf: np.ndarray) -> np.ndarray:
+    """S.damp_force_f(xf, vf) through a buffer bound once per system (kept in S.damp_force_maps under "bound"):
+    the DM call's conversions cost as much as the graph (0.1 ms a step on the tracked vehicle)."""
+    if not S.damp_force_f.sparsity_out(0).is_dense():
+        return np.asarray(ca.densify(S.damp_force_f(xf, vf))).ravel()
+    b = S.damp_force_maps.get("bound")
+    if b is None:
+        arrays = (np.zeros(S.nf), np.zeros(S.nf), np.zeros(S.nf))
+        b = S.damp_force_maps["bound"] = (bind(S.damp_force_f, arrays[:2], arrays[2:]), arrays)
+    (_, evaluate), (x, v, out) = b
+    x[:], v[:] = xf, vf
+    evaluate()
+    return out.copy()
 
 
 def damping_force_rows(S: StepSystemView, Q: np.ndarray, V: np.ndarray, T: np.ndarray | None = None) -> np.ndarray:

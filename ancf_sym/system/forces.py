@@ -18,6 +18,7 @@ from ancf_sym import kernels
 from ancf_sym.model.assembly import map_elements
 from ancf_sym.util.mx_ops import add, mul, neg, reshape, vec
 from ancf_sym.util.sparsity import assemble_mx, elements_key, gather_sum, group_calls, hessian_entries, mx_nonzeros, scatter
+from ancf_sym.system import contact_reach
 from ancf_sym.system.band import PAD_PIVOT, BandLayout
 from ancf_sym.system.interface import StepSystemView
 
@@ -48,11 +49,25 @@ def _element_coordinates(x: ca.MX, idx: np.ndarray, nd: int, N: int, seen: dict 
 
 def _kernel_calls(S: StepSystemView, x: ca.MX, Pft: list, seen: dict | None = None) -> list:
     """(elements, G, H) of every force term's mapped kernel call at the scene coordinates x."""
-    calls = []
+    calls, balls = [], {}
     for ft, Pk in zip(S.force_terms, Pft):
-        _, G, H = ft.mapped()(_element_coordinates(x, ft.idx, ft.nd, ft.N, seen), Pk)
+        Xe = _element_coordinates(x, ft.idx, ft.nd, ft.N, seen)
+        _, G, H = _call(S, ft, "", x, Xe, Pk, balls)
         calls.append((ft.idx, G, H))
     return calls
+
+
+def _call(S: StepSystemView, ft, kind: str, x: ca.MX, Xe: ca.MX, Pk: ca.MX, balls: dict) -> list:
+    """A force term's mapped kernel call (kind "": energy, gradient, Hessian; "_grad": energy, gradient); a contact
+    law's kernels only on the blocks of elements in reach of its surface (ancf_sym.system.contact_reach)."""
+    load = kernels.load if not kind else kernels.load_grad
+    if not ft.effect.startswith("contact_"):
+        return (ft.mapped() if not kind else ft.mapped_grad()).call([Xe, Pk])
+
+    def mapper(n: int) -> ca.Function:
+        return map_elements(load(ft.element, ft.effect, ft.gauss),
+                            kernels.load_batch(ft.element, ft.effect, ft.gauss, kind), n)
+    return contact_reach.call(mapper, ft.element, ft.effect, ft.idx, Xe, Pk, x, S.asm.scene.dim, balls)
 
 
 def band_force_graph(S: StepSystemView, layout: "BandLayout") -> ca.Function:
@@ -81,10 +96,10 @@ def gradient_graph(S: StepSystemView) -> ca.Function:
     modified Newton). Built on first use (StepSystem.grad_pf): a full-Newton run never needs it."""
     xf, par = ca.MX.sym("x", S.nf), ca.MX.sym("par", S.par.size)
     x = S.x_full_mx(xf)
-    gcalls = []
+    gcalls, balls = [], {}
     for ft, Pk in zip(S.force_terms, _parameters(S, par)[0]):
         Xe = _element_coordinates(x, ft.idx, ft.nd, ft.N)
-        gcalls.append((ft.idx, ft.mapped_grad()(Xe, Pk)[1], None))
+        gcalls.append((ft.idx, _call(S, ft, "_grad", x, Xe, Pk, balls)[1], None))
     gg, _ = assemble_mx(gcalls, S.pos, S.nf, hessian=False)
     pen = _penalty_energy(S, x)
     if pen is not None:

@@ -659,7 +659,7 @@ class StepSystem(ReducedModel):
         x, w = self.full(xf), d.w(t)
         f = d.torque_force(x, w)
         if d.m:
-            f = f - d.jacobian(x, w).T @ lam[self.mc - d.m:]
+            f = f - d.transpose_product(x, w, lam[self.mc - d.m:])
         return self.E.T @ f
 
     def stiffness_scale(self) -> float:

@@ -109,6 +109,7 @@ def kron_product_mx(d: int, Bt: ca.DM, u: ca.MX) -> ca.MX:
 
 
 GATHER_LEVELS = 8  # targets summing more entries than this are summed by one sparse product (gather_sum)
+GATHER_SUBSET = 4  # gather_sum: a level with fewer than 1/4 of the targets updates those alone
 
 
 def gather_sum(vals: list, target: np.ndarray, n_out: int) -> ca.MX:
@@ -137,7 +138,15 @@ def gather_sum(vals: list, target: np.ndarray, n_out: int) -> ca.MX:
     start = np.cumsum(cnt) - cnt
     out = None
     for j in range(int(cnt.max())):
-        idx = np.where(cnt > j, order[np.minimum(start + j, len(order) - 1)], n_src)
+        many = cnt > j
+        if out is not None and np.count_nonzero(many) * GATHER_SUBSET < n_out:
+            # the few targets with a (j+1)-th term: updated alone (the same sums in the same order), where a full
+            # gather would copy every target with a zero added (an element table's entries shared by many terms:
+            # the tracked vehicle's element-wheel blocks, 10-20 levels over 158k entries)
+            sel = np.flatnonzero(many)
+            out[sel.tolist()] = add(out[sel.tolist()], src[order[start[sel] + j].tolist()])
+            continue
+        idx = np.where(many, order[np.minimum(start + j, len(order) - 1)], n_src)
         term = src[idx.tolist()]
         out = term if out is None else add(out, term)  # (ancf_sym.util.mx_ops: the + operator takes ~30 us to resolve)
     return out
