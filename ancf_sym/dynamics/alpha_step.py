@@ -26,9 +26,8 @@ Two step graphs:
   iterations (hundreds of scalar MX nodes cost more than the logic itself).
 
 The update tolerance is max(xtol L, lte_fraction x the step's local truncation error |beta - 1/6| h^2
-|a_n+1 - a_n| x min(1, cm max M_ii / max |step matrix|)): Newton's error stays a small fraction of the
-time-discretization error, measured as a force (an update error along a stiff direction weighs max|K| / (cm M)
-more than the same error of the resolved motion), so the accuracy is the scheme's. State: q, v (true velocity), a (true acceleration), ab (algorithmic acceleration), a_prev (acceleration
+|a_n+1 - a_n|): Newton's error stays a small fraction of the time-discretization error, so the accuracy is the
+scheme's. State: q, v (true velocity), a (true acceleration), ab (algorithmic acceleration), a_prev (acceleration
 of the previous step), lam (true multipliers) and the controls (omega, steps since a measurement; modified:
 contraction rate, factor age, step size of the factor, largest step-matrix entry, the last |dz0|, update
 tolerance and truncation error, the cost of the factor's cycle); modified: the factor.
@@ -45,6 +44,26 @@ from ancf_sym.util.mx_ops import add as _add, div as _div, mul as _mul, sub as _
 from ancf_sym.dynamics.newton import NewtonOptions
 from ancf_sym.dynamics.schemes import Scheme
 from ancf_sym.system.step_system import StepSystem
+
+
+# The residual force an accepted Newton error may leave along the stiffest direction, as a fraction of the scene's
+# force scale (update_tolerance). 1: the energy it can put into the stiff modes per step, F^2 / max|K|, is the
+# scene's force scale F times its static stretch under F (F / max|K|, ~1e-10 m on a spinning steel cable), and it
+# does not grow with their state. Measured: 0.01 doubled the Newton iterations of a 30-element pendulum under
+# Newmark and of the double pendulum; 1 costs 1-15 % there and keeps every spinning-cable run stable.
+NEWTON_FORCE_FRACTION = 1.0
+
+
+def update_tolerance(o: NewtonOptions, tols, lte, kmax):
+    """The step's update tolerance [m] (SX): max(xtol L, lte_fraction x the truncation error), the truncation-error
+    part capped where an update error of that size along the stiffest direction (max |step matrix| = kmax) would
+    leave a residual force above NEWTON_FORCE_FRACTION x the force scale (tols[0] / newton.tol). The
+    truncation-error estimate h^2 |a_n+1 - a_n| grows with the accelerations of modes the step does not resolve
+    (axial, omega h >> 1), which an update error left along them drives: without the cap that loop fed a spinning
+    bending-free cable energy until it blew up (docs/hard_cases.md). With it the energy the accepted error can
+    put into the stiff modes per step is at most (fraction x force scale)^2 / kmax, independent of their state."""
+    cap = NEWTON_FORCE_FRACTION * tols[0] / (o.tol * ca.fmax(kmax, 1e-300))
+    return ca.fmax(tols[1], ca.fmin(o.lte_fraction * lte, cap))
 
 
 class AlphaStepGraphs:
@@ -138,16 +157,8 @@ class AlphaStepGraphs:
         if S.rayleigh is not None:
             pload = ca.vertcat(Cvh + pload[:nf], pload[nf:]) if S.nw else Cvh + pload
 
-        def lte(x, kmax):
-            # the truncation error as the update tolerance sees it: |beta - 1/6| h^2 |a_n+1 - a_n| times
-            # min(1, kc / max |step matrix|), kc = cm max M_ii. The estimate is a displacement error of the motion
-            # the step resolves (step matrix ~ cm M there); an update error of the same size along a stiff
-            # direction (axial, omega h >> 1) leaves a residual force max|K| / (cm M) times larger, whose work feeds
-            # the stiff modes, whose accelerations inflate the next estimate: a loop that made spinning bending-free
-            # cables blow up (docs/hard_cases.md). Judged in force (step-matrix) terms it stays a fraction of the
-            # scheme's own error.
-            e = _mul(k["lte"], ca.norm_inf(_sub(_add(_mul(cm, _sub(x, qh)), k0), a)))
-            return _mul(e, ca.fmin(1, _div(kc, ca.fmax(kmax, 1e-300))))
+        def lte(x):
+            return _mul(k["lte"], ca.norm_inf(_sub(_add(_mul(cm, _sub(x, qh)), k0), a)))
 
         def block(x):  # q, v, a, ab of the new state and a_prev (parts of the state's one concatenation)
             d = _sub(x, qh)
@@ -161,7 +172,7 @@ class AlphaStepGraphs:
         one if it ran); the first takes the scene's coordinate span (round-off floor) as an input: they depend on
         the Newton options only, and are built once per process (SCHEME_FUNCTIONS)."""
         o = self.opts
-        key = ("full_controls", o.single, o.lte_fraction, self.refresh_every)
+        key = ("full_controls", o.single, o.lte_fraction, o.tol, self.refresh_every)
         if key not in SCHEME_FUNCTIONS:
             SCHEME_FUNCTIONS[key] = self._build_full_control_functions()
         return SCHEME_FUNCTIONS[key]
@@ -172,7 +183,7 @@ class AlphaStepGraphs:
         C, N0, L, T, span = sx("ctl", 2), sx("n0", 5), sx("lte"), sx("tols", 2), sx("span")
         om, since = C[0], C[1]
         d0 = ca.fmax(N0[2], N0[3])
-        tolx = ca.fmax(T[1], o.lte_fraction * L)
+        tolx = update_tolerance(o, T, L, N0[4])
         tq = ca.fmax(T[0], 2 * np.finfo(float).eps * N0[4] * span)
         conv0 = ca.logic_and(N0[0] <= tq, N0[1] <= T[1])
         est1 = 2 * om * d0 * d0
@@ -242,7 +253,7 @@ class AlphaStepGraphs:
         dz, n0 = it.call([x0, *lm, p, cm, cc, kc, vc, *extra, y, par], True, False)
         x1 = _add(x0, dz[:nf] if mc else dz)
         l1 = _add(l0, dz[nf:]) if mc else l0
-        lte = c["lte"](x1, n0[4])  # (n0[4]: max |KKT| of the first iteration's step matrix)
+        lte = c["lte"](x1)
         first, final = self._full_control_functions()
         second, a1, ctl1, info1 = first(ctl, n0, lte, tols, self.S.span)
         # the second iteration and the controls after it, evaluated only when needed (a switch whose keep branch
@@ -328,7 +339,7 @@ class AlphaStepGraphs:
         ref0 = M0 == FULL
         kmax1 = ca.if_else(ref0, N[2], kmax)
         lte_use = ca.if_else(ltep > 0, ca.fmin(L1, 2 * ltep), L1)  # x1 may be off by the tolerance
-        tolx = ca.fmax(T[1], o.lte_fraction * lte_use)
+        tolx = update_tolerance(o, T, lte_use, kmax1)
         tq = ca.fmax(T[0], 2 * np.finfo(float).eps * kmax1 * self.S.span)
         ok_full = ca.logic_and(ref0, ca.logic_or(d0 <= 0.1 * tolx, ca.logic_and(ca.logic_and(om > 0, fresh),
                                                                                 2 * om * d0 * d0 <= tolx)))
@@ -411,12 +422,11 @@ class AlphaStepGraphs:
         dm = cf["decide"](ctl, h)
         mode0, th0 = dm[0], dm[1]
         x, Dk, Uk, UTk, n = slot(mode0, x0, D0, U0, UT0, p, cm, cc, vc, *extra, y, par)
-        kmax0 = ca.if_else(mode0 == 2, n[2], ctl[5])  # (the step matrix's largest entry: refactorised, or kept)
-        cv = cf["first"](ctl, n, c["lte"](x, kmax0), tols, mode0, th0)
+        cv = cf["first"](ctl, n, c["lte"](x), tols, mode0, th0)
         for k in range(1, self.max_slots):
             x, Dk, Uk, UTk, n = slot(cv[cf["mode"]], x, Dk, Uk, UTk, p, cm, cc, vc, *extra, y, par)
             cv = (cf["second"] if k == 1 else cf["later"])(cv, n)
-        ctl_new, info = cf["final"](ctl, cv, c["lte"](x, cv[self._CV.index("kmax")]), h)
+        ctl_new, info = cf["final"](ctl, cv, c["lte"](x), h)
         new_state = ca.vertcat(*c["block"](x), lam, ctl_new)
         return self.make_step_f([st, D0, U0, UT0], col, [new_state, Dk, Uk, UTk], info)
 
