@@ -26,8 +26,8 @@ Two step graphs:
   iterations (hundreds of scalar MX nodes cost more than the logic itself).
 
 The update tolerance is max(xtol L, lte_fraction x the step's local truncation error |beta - 1/6| h^2
-|a_n+1 - a_n|): Newton's error stays a small fraction of the time-discretization error, so the accuracy is the
-scheme's. State: q, v (true velocity), a (true acceleration), ab (algorithmic acceleration), a_prev (acceleration
+|a_n+1 - a_n|, the latter capped by the work its residual may do, update_tolerance): Newton's error stays a small
+fraction of the time-discretization error, so the accuracy is the scheme's. State: q, v (true velocity), a (true acceleration), ab (algorithmic acceleration), a_prev (acceleration
 of the previous step), lam (true multipliers) and the controls (omega, steps since a measurement; modified:
 contraction rate, factor age, step size of the factor, largest step-matrix entry, the last |dz0|, update
 tolerance and truncation error, the cost of the factor's cycle); modified: the factor.
