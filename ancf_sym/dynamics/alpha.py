@@ -187,8 +187,13 @@ class AlphaIntegrator:
         if not out.converged:
             return StepOutcome(False, out.iterations, out.reason)
         self._correct(h, S.x, S.lam * kc)
-        # controls after a Python step: estimates to be re-measured; the kept factor (modified) one step older
+        # controls after a Python step: estimates to be re-measured; the kept factor (modified) one step older.
+        # omega unknown (0): the graph's omega is that of its last two-iteration step, which may be many steps and
+        # a different Newton regime ago (a spinning bending-free cable: 2e-3 kept over 14 Python steps whose
+        # iterations showed 1-800, and the steps after them accepted after one iteration on it created 15 % of the
+        # energy); the next graph step runs two iterations and measures it
         self._new_ctl[:] = self.ctl
+        self._new_ctl[0] = 0.0
         self._new_ctl[1] = 0.0
         if self.modified_graph:
             self._new_ctl[3] += 1  # factor age

@@ -26,8 +26,8 @@ Two step graphs:
   iterations (hundreds of scalar MX nodes cost more than the logic itself).
 
 The update tolerance is max(xtol L, lte_fraction x the step's local truncation error |beta - 1/6| h^2
-|a_n+1 - a_n|): Newton's error stays a small fraction of the time-discretization error, so the accuracy is the
-scheme's. State: q, v (true velocity), a (true acceleration), ab (algorithmic acceleration), a_prev (acceleration
+|a_n+1 - a_n|, the latter capped by the work its residual may do, update_tolerance): Newton's error stays a small
+fraction of the time-discretization error, so the accuracy is the scheme's. State: q, v (true velocity), a (true acceleration), ab (algorithmic acceleration), a_prev (acceleration
 of the previous step), lam (true multipliers) and the controls (omega, steps since a measurement; modified:
 contraction rate, factor age, step size of the factor, largest step-matrix entry, the last |dz0|, update
 tolerance and truncation error, the cost of the factor's cycle); modified: the factor.
@@ -44,6 +44,24 @@ from ancf_sym.util.mx_ops import add as _add, div as _div, mul as _mul, sub as _
 from ancf_sym.dynamics.newton import NewtonOptions
 from ancf_sym.dynamics.schemes import Scheme
 from ancf_sym.system.step_system import StepSystem
+
+
+# The work the residual of an accepted Newton error may do over a step, as a fraction of the scene's force scale
+# times its span (update_tolerance). Measured (docs/hard_cases.md): 1e-3 keeps every spinning bending-free cable
+# run stable and its energy decaying, at 1-10 % more Newton iterations on stiff pendulums.
+NEWTON_WORK_FRACTION = 1e-3
+
+
+def update_tolerance(o: NewtonOptions, tols, lte, kmax, span, dq):
+    """The step's update tolerance [m] (SX): max(xtol L, lte_fraction x the truncation error), the truncation-error
+    part capped where an update error e of that size along the stiffest direction (max |step matrix| = kmax) would
+    leave a residual force kmax e whose work over the step's motion dq (max |q_n+1 - q_n|) exceeds
+    NEWTON_WORK_FRACTION x the force scale F (tols[0] / newton.tol) x the scene's span. The truncation-error
+    estimate h^2 |a_n+1 - a_n| grows with the accelerations of modes the step does not resolve (axial,
+    omega h >> 1), which an update error left along them drives: without the cap that loop fed a spinning
+    bending-free cable energy until it blew up (docs/hard_cases.md); the cap does not grow with their state."""
+    cap = NEWTON_WORK_FRACTION * tols[0] / o.tol * span / (ca.fmax(kmax, 1e-300) * ca.fmax(dq, 1e-300))
+    return ca.fmax(tols[1], ca.fmin(o.lte_fraction * lte, cap))
 
 
 class AlphaStepGraphs:
@@ -152,7 +170,7 @@ class AlphaStepGraphs:
         one if it ran); the first takes the scene's coordinate span (round-off floor) as an input: they depend on
         the Newton options only, and are built once per process (SCHEME_FUNCTIONS)."""
         o = self.opts
-        key = ("full_controls", o.single, o.lte_fraction, self.refresh_every)
+        key = ("full_controls", o.single, o.lte_fraction, o.tol, self.refresh_every, NEWTON_WORK_FRACTION)
         if key not in SCHEME_FUNCTIONS:
             SCHEME_FUNCTIONS[key] = self._build_full_control_functions()
         return SCHEME_FUNCTIONS[key]
@@ -160,10 +178,10 @@ class AlphaStepGraphs:
     def _build_full_control_functions(self) -> tuple[ca.Function, ca.Function]:
         o, tiny = self.opts, 1e-300
         sx = ca.SX.sym
-        C, N0, L, T, span = sx("ctl", 2), sx("n0", 5), sx("lte"), sx("tols", 2), sx("span")
+        C, N0, L, T, span, dq = sx("ctl", 2), sx("n0", 5), sx("lte"), sx("tols", 2), sx("span"), sx("dq")
         om, since = C[0], C[1]
         d0 = ca.fmax(N0[2], N0[3])
-        tolx = ca.fmax(T[1], o.lte_fraction * L)
+        tolx = update_tolerance(o, T, L, N0[4], span, dq)
         tq = ca.fmax(T[0], 2 * np.finfo(float).eps * N0[4] * span)
         conv0 = ca.logic_and(N0[0] <= tq, N0[1] <= T[1])
         est1 = 2 * om * d0 * d0
@@ -175,7 +193,7 @@ class AlphaStepGraphs:
         flag = ca.if_else(accept1, 0, 1)  # (an output of its own: the switch reads it with no extraction node)
         # and the controls and info of a step accepted now (what `final` gives then), passed on by the switch's
         # keep branch: a one-iteration step calls no SX function after the switch
-        first = ca.Function("after_first", [C, N0, L, T, span],
+        first = ca.Function("after_first", [C, N0, L, T, span, dq],
                             [flag, ca.vertcat(flag, tq, tolx, d0), ca.vertcat(om, since + 1),
                              ca.vertcat(1, 1, 1, d0, 0, L, N0[4])])
         A, N1 = sx("a", 4), sx("n1", 5)
@@ -235,7 +253,7 @@ class AlphaStepGraphs:
         l1 = _add(l0, dz[nf:]) if mc else l0
         lte = c["lte"](x1)
         first, final = self._full_control_functions()
-        second, a1, ctl1, info1 = first(ctl, n0, lte, tols, self.S.span)
+        second, a1, ctl1, info1 = first(ctl, n0, lte, tols, self.S.span, ca.norm_inf(_sub(x1, q)))
         # the second iteration and the controls after it, evaluated only when needed (a switch whose keep branch
         # passes x1, l1 and the controls of a step accepted after one iteration on)
         xb, pb = ca.MX.sym("xb", nf), ca.MX.sym("pb", nf + S.nw)
@@ -314,12 +332,12 @@ class AlphaStepGraphs:
                              ca.logic_and(known, ca.logic_or(th0 >= cmax, costly)))
         decide = ca.Function("decide", [C, hs], [ca.vertcat(ca.if_else(refac0, FULL, MOD), th0)])
         # after the first iteration
-        N, L1, M0, TH0 = sx("n", 3), sx("lte1"), sx("mode0"), sx("th0")
+        N, L1, M0, TH0, DQ = sx("n", 3), sx("lte1"), sx("mode0"), sx("th0"), sx("dq")
         rq0, d0 = N[0], N[1]
         ref0 = M0 == FULL
         kmax1 = ca.if_else(ref0, N[2], kmax)
         lte_use = ca.if_else(ltep > 0, ca.fmin(L1, 2 * ltep), L1)  # x1 may be off by the tolerance
-        tolx = ca.fmax(T[1], o.lte_fraction * lte_use)
+        tolx = update_tolerance(o, T, lte_use, kmax1, self.S.span, DQ)
         tq = ca.fmax(T[0], 2 * np.finfo(float).eps * kmax1 * self.S.span)
         ok_full = ca.logic_and(ref0, ca.logic_or(d0 <= 0.1 * tolx, ca.logic_and(ca.logic_and(om > 0, fresh),
                                                                                 2 * om * d0 * d0 <= tolx)))
@@ -327,7 +345,7 @@ class AlphaStepGraphs:
         vals = dict(conv=conv, tolx=tolx, tq=tq, kmax=kmax1, iters=1, nfull=ref0, since_full=0, d_prev=d0,
                     last_full=ref0, th=0, mode=ca.if_else(conv, KEEP, MOD), d1=0, th1=0, conv0=conv, refac0=ref0,
                     d0=d0, th0=TH0, lte1=L1)
-        first = ca.Function("after_first", [C, N, L1, T, M0, TH0], [ca.vertcat(*[vals[k] for k in self._CV])])
+        first = ca.Function("after_first", [C, N, L1, T, M0, TH0, DQ], [ca.vertcat(*[vals[k] for k in self._CV])])
         # after a further iteration: keep when converged; after a refactorisation the new factor; else refactorise
         # when the kept factor contracted too slowly (theta measured in this step)
         CV, Nk = sx("cv", len(self._CV)), sx("n", 3)
@@ -402,7 +420,7 @@ class AlphaStepGraphs:
         dm = cf["decide"](ctl, h)
         mode0, th0 = dm[0], dm[1]
         x, Dk, Uk, UTk, n = slot(mode0, x0, D0, U0, UT0, p, cm, cc, vc, *extra, y, par)
-        cv = cf["first"](ctl, n, c["lte"](x), tols, mode0, th0)
+        cv = cf["first"](ctl, n, c["lte"](x), tols, mode0, th0, ca.norm_inf(_sub(x, q)))
         for k in range(1, self.max_slots):
             x, Dk, Uk, UTk, n = slot(cv[cf["mode"]], x, Dk, Uk, UTk, p, cm, cc, vc, *extra, y, par)
             cv = (cf["second"] if k == 1 else cf["later"])(cv, n)

@@ -31,9 +31,10 @@ class NewtonOptions:
     twice the round-off floor) and the constraints below xtol x length scale, or when the estimated error of the
     last update, theta/(1 - theta) |dz| with theta the contraction of successive updates, is below the update
     tolerance (saves the residual evaluation that would only confirm convergence). Alpha schemes: the update
-    tolerance is max(xtol x length scale, lte_fraction x the step's local truncation error), and with `single`
-    a step is accepted after one full Newton iteration when Newton's own estimate 2 omega |dz0|^2 is below it
-    (an iteration on a kept factor is never accepted before the next one measured the contraction)."""
+    tolerance is max(xtol x length scale, lte_fraction x the step's local truncation error; the latter capped where
+    the accepted error's residual on the stiffest direction would do work, alpha_step.update_tolerance), and with
+    `single` a step is accepted after one full Newton iteration when Newton's own estimate 2 omega |dz0|^2 is below
+    it (an iteration on a kept factor is never accepted before the next one measured the contraction)."""
     tol: float = 1e-8  # residual, relative to the scene's force scale
     xtol: float = 1e-10  # updates and constraints, relative to the scene's length scale
     max_iter: int = 12
