@@ -344,10 +344,7 @@ def cmd_study(args) -> int:
 
 def cmd_calibrate(args) -> int:
     from ancf_sym.sensitivity.calibrate import run_cli
-    from ancf_sym.sensitivity.frequency_fit import is_frequency_data, run_cli as run_frequencies
     try:
-        if Path(args.data).is_file() and is_frequency_data(args.data):  # (header mode,frequency)
-            run_cli = run_frequencies
         return run_cli(args.scene, args.data, args.parameter, Path(args.out), args.max_iter, args.quiet)
     except (SceneError, KeyError, ValueError) as exc:  # (a bad path, column or value: named in the message)
         _fail(str(exc).strip('"'))

@@ -1,20 +1,21 @@
-"""Least-squares calibration of scene parameters to measured static node positions, with the exact Jacobian.
+"""Least-squares calibration of scene parameters to measured data, with the exact Jacobian: the one entry point.
 
-Data: rows (member, node, x, y[, z]): the measured position of a member's public node (index from 0; "start",
+calibrate() and `ancf-sym calibrate` decide here, and only here, which data they are given (data_kind): static node
+positions (this module), natural frequencies (ancf_sym.sensitivity.frequency_fit) or a dynamic sensor history
+(ancf_sym.sensitivity.calibrate_history). All three fit by the one Levenberg-Marquardt loop of
+ancf_sym.sensitivity.least_squares (parameters scaled by their start values; converged where the Gauss-Newton
+correction still to come is below 1e-6 of the estimate's standard deviation) and report a
+ancf_sym.sensitivity.calibration.Calibration.
+
+Positions: rows (member, node, x, y[, z]): the measured position of a member's public node (index from 0; "start",
 "end"). The model's positions come from the static equilibrium of the scene with the parameters set; their
 Jacobian from the implicit function theorem (ancf_sym.sensitivity.static: one factorisation, one back-substitution
-per parameter). Levenberg-Marquardt on the parameters scaled by their start values: (J'J + mu diag J'J) d = -J'r,
-a step accepted when it lowers the sum of squares (mu / 3), else mu x 4 and a new trial; a trial whose statics fails
-or whose values the scene refuses counts as rejected. It stops when the step is below 1e-6 of the estimate's
-standard deviation (further steps cannot change the answer at the data's resolution) or after max_iter iterations.
-
-Statistics at the estimate: the noise sigma^2 = r'r / (m - n) (m residuals, n parameters) and the covariance
-sigma^2 (J'J)^-1 of the linearised model: standard deviations of the estimate.
+per parameter). A trial whose statics fails or whose values the scene refuses counts as rejected.
 """
 from __future__ import annotations
 
 import csv
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -23,11 +24,15 @@ from ancf_sym.scene.builder import SceneError
 from ancf_sym.io.scene_toml import scene_from_dict
 from ancf_sym.statics.problem import problem_for
 from ancf_sym.sensitivity.api import read_document
-from ancf_sym.sensitivity.calibrate_history import SensorHistory, calibrate_history, is_history_file, run_history_cli
-from ancf_sym.sensitivity.paths import get_parameter, with_parameter
+from ancf_sym.sensitivity.calibrate_history import SensorHistory, calibrate_history
+from ancf_sym.sensitivity.calibration import Calibration, check_count, save_figure, start_values, with_parameters
+from ancf_sym.sensitivity.frequency_fit import FrequencyMeasurement, HEADER as FREQUENCY_HEADER, calibrate_frequencies
+from ancf_sym.sensitivity.least_squares import levenberg_marquardt
+from ancf_sym.sensitivity.model_derivative import check_model_paths
 from ancf_sym.sensitivity.static import StaticSensitivity
 
-STEP_TOL = 1e-6  # stop when every parameter step is below this fraction of its standard deviation
+__all__ = ["Calibration", "PositionCalibration", "Measurement", "calibrate", "calibrate_positions", "data_kind",
+           "read_data", "run_cli"]
 
 
 @dataclass
@@ -37,36 +42,11 @@ class Measurement:
     position: np.ndarray
 
 
-@dataclass
-class Calibration:
-    parameters: list
-    estimate: np.ndarray
-    std: np.ndarray  # standard deviations of the estimate (linearised, noise from the residuals)
-    noise: float  # residual standard deviation sigma [m]
-    residuals: np.ndarray  # (measurements, dim) model - data at the estimate [m]
-    iterations: int
-    converged: bool
-    status: str
-    start: np.ndarray
-    history: list = field(default_factory=list)  # (iteration, sum of squares, estimate)
-    data: list = field(default_factory=list, repr=False)
-    result: object = field(default=None, repr=False)  # the StaticResult at the estimate
-    doc: dict | None = field(default=None, repr=False)
-    covariance: np.ndarray | None = field(default=None, repr=False)  # sigma^2 (J'J)^-1 [parameter units^2]
+class PositionCalibration(Calibration):
+    """A Calibration whose data are node positions: residuals (measurements, dim) [m], the StaticResult at the
+    estimate as `result`."""
 
-    def to_dict(self) -> dict:
-        return {"status": self.status, "converged": self.converged, "iterations": self.iterations,
-                "parameters": {p: {"estimate": float(v), "std": float(s), "start": float(s0)}
-                               for p, v, s, s0 in zip(self.parameters, self.estimate, self.std, self.start)},
-                "covariance": None if self.covariance is None else self.covariance.tolist(),
-                "noise": self.noise, "residuals": self.residuals.tolist(),
-                "history": [{"iteration": k, "sum_of_squares": c, "estimate": list(map(float, e))}
-                            for k, c, e in self.history]}
-
-    def summary(self) -> str:
-        est = ", ".join(f"{p} = {v:.6g} +- {s:.2g}" for p, v, s in zip(self.parameters, self.estimate, self.std))
-        return (f"calibration {'converged' if self.converged else 'NOT converged: ' + self.status} in "
-                f"{self.iterations} iterations: {est}; residual noise {self.noise:.3g} m")
+    unit = "m"
 
     def plot(self, path: str | Path) -> Path:
         """PNG of the measured points against the fitted equilibrium (the members' centre lines)."""
@@ -84,14 +64,27 @@ class Calibration:
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
         ax.set_aspect("equal", adjustable="datalim")
-        ax.set_title("; ".join(f"{p.split('.')[-1]} = {v:.5g} +- {s:.2g}" for p, v, s in
-                               zip(self.parameters, self.estimate, self.std)), fontsize=9)
+        ax.set_title(self.title(short=True), fontsize=9)
         ax.legend(fontsize=8)
-        fig.tight_layout()
-        path = Path(path)
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-        return path
+        return save_figure(fig, path)
+
+
+def data_kind(data: object) -> str:
+    """"positions", "frequencies" or "history": what `data` holds (a CSV file by its header: `t, NAME[j], ...` a
+    sensor history, `mode,frequency` frequencies, else node positions; or the objects the readers make)."""
+    if isinstance(data, SensorHistory):
+        return "history"
+    if isinstance(data, (str, Path)):
+        if not Path(data).is_file():
+            raise SceneError(f"calibrate: data file {str(data)!r} not found")
+        with open(data, newline="") as fh:
+            head = [h.strip() for h in next(csv.reader(fh), [])]
+        if head[:1] == ["t"]:
+            return "history"
+        return "frequencies" if head == list(FREQUENCY_HEADER) else "positions"
+    if isinstance(data, list) and data and all(isinstance(d, FrequencyMeasurement) for d in data):
+        return "frequencies"
+    return "positions"
 
 
 def read_data(path: str | Path, dim: int) -> list[Measurement]:
@@ -132,102 +125,60 @@ def _index(asm, data: list[Measurement]) -> np.ndarray:
     return np.asarray(out)
 
 
-def calibrate(doc: dict | str | Path, data: list[Measurement] | str | Path, parameters: list[str],
-              start: list[float] | None = None, max_iter: int = 30) -> Calibration:
-    """Fit the scene numbers at `parameters` (TOML paths) to measured node positions (see the module docstring).
+def calibrate(doc: dict | str | Path, data: object, parameters: list[str], start: list[float] | None = None,
+              max_iter: int = 30) -> Calibration:
+    """Fit the scene numbers at `parameters` (TOML paths) to measured data, whichever they are (data_kind): node
+    positions (calibrate_positions), frequencies (ancf_sym.sensitivity.frequency_fit.calibrate_frequencies) or a
+    sensor history of the scene's dynamic run (ancf_sym.sensitivity.calibrate_history.calibrate_history).
 
-    start: the first estimate (default: the document's values). A sensor history as data (SensorHistory, or a CSV
-    whose header starts with t) fits the scene's dynamic run instead (ancf_sym.sensitivity.calibrate_history)."""
-    if isinstance(data, SensorHistory) or (isinstance(data, (str, Path)) and is_history_file(data)):
-        return calibrate_history(doc, data, parameters, start, max_iter)
+    start: the first estimate (default: the document's values)."""
+    fit = {"positions": calibrate_positions, "frequencies": calibrate_frequencies,
+           "history": calibrate_history}[data_kind(data)]
+    return fit(doc, data, parameters, start, max_iter)
+
+
+def calibrate_positions(doc: dict | str | Path, data: list[Measurement] | str | Path, parameters: list[str],
+                        start: list[float] | None = None, max_iter: int = 30) -> PositionCalibration:
+    """Fit the scene numbers at `parameters` (TOML paths) to measured node positions (see the module docstring)."""
     doc = read_document(doc)
     parameters = list(parameters)
-    p0 = np.array([get_parameter(doc, p) for p in parameters]) if start is None else np.asarray(start, float)
-    if np.any(p0 == 0):
-        raise SceneError(f"calibrate: start values must be non-zero (they scale the parameters): {p0.tolist()}")
     scene, _ = scene_from_dict(doc)
+    check_model_paths(scene, doc, parameters)  # (every path checked before any solving)
+    p0 = start_values(doc, parameters, start)
     if not isinstance(data, list):
         data = read_data(data, scene.dim)
     idx = _index(problem_for(scene).asm, data)
     meas = np.concatenate([d.position for d in data])
-    m, n = meas.size, len(parameters)
-    if m <= n:
-        raise SceneError(f"calibrate: {m} measured coordinates cannot determine {n} parameters (and the noise)")
+    check_count(meas.size, len(parameters), "coordinates")
 
-    def evaluate(p, x0=None):
-        d = doc
-        for path, v in zip(parameters, p):
-            d = with_parameter(d, path, v)
+    def evaluate(p, before):
+        d = with_parameters(doc, parameters, p)
         try:
             sc, _ = scene_from_dict(d)
-            res = problem_for(sc).solve(x0=x0)
+            res = problem_for(sc).solve(x0=None if before is None else before[2].x)
         except SceneError:
             return None
         if not res.success:
             return None
-        return d, sc, res, res.x[idx].ravel() - meas
+        return (d, sc, res), res.x[idx].ravel() - meas
 
-    p = p0.copy()
-    cur = evaluate(p)
-    if cur is None:
-        raise SceneError("calibrate: the statics at the start values failed")
-    mu, history, status, converged = 1e-3, [], "max_iter reached", False
-    it = 0
-    for it in range(1, max_iter + 1):
-        d, sc, res, r = cur
+    def jacobian(state):
+        d, sc, res = state
         S = StaticSensitivity(sc, res, d)
-        J = np.column_stack([S.dx(path)[idx].ravel() for path in parameters]) * p0  # d r / d (p / p0)
-        JtJ, g = J.T @ J, J.T @ r
-        cost = float(r @ r)
-        history.append((it - 1, cost, p.copy()))
-        sigma2 = cost / (m - n)
-        std_theta = np.sqrt(np.maximum(np.diag(np.linalg.inv(JtJ)) * sigma2, 0.0))
-        # the Gauss-Newton correction still to come already below the data's resolution: converged here (where no
-        # trial lowers the sum of squares any more, which round-off decides at the minimum)
-        if np.all(np.abs(np.linalg.solve(JtJ, -g)) <= STEP_TOL * np.maximum(std_theta, 1e-15)):
-            converged, status = True, "converged"
-            break
-        while True:
-            step = np.linalg.solve(JtJ + mu * np.diag(np.diag(JtJ)), -g)
-            trial = evaluate(p + step * p0, res.x)
-            if trial is not None and float(trial[3] @ trial[3]) <= cost:
-                break
-            mu *= 4.0
-            if mu > 1e12:
-                status = "no step lowers the sum of squares"
-                break
-        if mu > 1e12:
-            break
-        p, cur, mu = p + step * p0, trial, max(mu / 3.0, 1e-9)
-        if np.all(np.abs(step) <= STEP_TOL * np.maximum(std_theta, 1e-15)):
-            converged, status = True, "converged"
-            break
-    d, sc, res, r = cur
-    S = StaticSensitivity(sc, res, d)
-    J = np.column_stack([S.dx(path)[idx].ravel() for path in parameters]) * p0  # (scaled: J'J well conditioned)
-    cost = float(r @ r)
-    history.append((it, cost, p.copy()))
-    sigma2 = cost / (m - n)
-    cov = np.linalg.inv(J.T @ J) * sigma2 * np.outer(p0, p0)
-    std = np.sqrt(np.diag(cov))
-    return Calibration(parameters, p, std, float(np.sqrt(sigma2)), r.reshape(len(data), -1), it, converged, status,
-                       p0, history, data, res, d, cov)
+        return np.column_stack([S.dx(path)[idx].ravel() for path in parameters])
+
+    fit = levenberg_marquardt(evaluate, jacobian, p0, max_iter=max_iter, model="the statics")
+    d, _, res = fit.state
+    return PositionCalibration.from_fit(parameters, fit, fit.r.reshape(len(data), -1), data, res, d)
 
 
 def run_cli(scene_file: str | Path, data_file: str | Path, parameters: list[str], out: Path, max_iter: int = 30,
             quiet: bool = False) -> int:
-    """`ancf-sym calibrate`: the fit, out/calibration.json and out/calibration.png; exit code 0 when converged."""
+    """`ancf-sym calibrate`: the fit (whichever data the CSV holds), out/calibration.json and out/calibration.png;
+    exit code 0 when converged. Every path is checked before any solving."""
     from ancf_sym.io.json_out import write_json
 
-    if is_history_file(data_file):  # (a sensor history: the dynamic run's fit)
-        return run_history_cli(scene_file, data_file, parameters, out, max_iter, quiet)
-    doc = read_document(scene_file)
-    scene, _ = scene_from_dict(doc)
-    for path in parameters:  # every path checked before any solving
-        from ancf_sym.sensitivity.model_derivative import model_derivative
-        model_derivative(problem_for(scene).asm, doc, path)
-    data = read_data(data_file, scene.dim)
-    cal = calibrate(doc, data, parameters, max_iter=max_iter)
+    cal = calibrate(read_document(scene_file), Path(data_file), parameters, max_iter=max_iter)
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "calibration.json", cal.to_dict())
     cal.plot(out / "calibration.png")

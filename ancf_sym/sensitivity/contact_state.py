@@ -63,20 +63,22 @@ def curved_contact_rows(asm) -> list[str]:
             if r.A is None and not registry.has_third_derivatives(r.element, r.effect, None)]
 
 
-def drum_form(asm, x: np.ndarray, f: np.ndarray, active: np.ndarray, df: np.ndarray, nu: np.ndarray,
-              phi: np.ndarray, dx: np.ndarray) -> float:
-    """The drum rows' share of d(w^2)/dp for a mode phi (full coordinates), with f the contact forces (all points,
-    row order), active their mask, df the held points' force derivatives and nu the mode's multipliers of the held
-    points' rows (in the order of the active points):
+def drum_terms(asm, x: np.ndarray, f: np.ndarray, active: np.ndarray, df: np.ndarray, nu: np.ndarray,
+               phi: np.ndarray, dx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The drum rows' share of the differentiated mode equation for a mode phi (full coordinates), with f the contact
+    forces (all points, row order), active their mask, df the held points' force derivatives and nu the mode's
+    multipliers of the held points' rows (in the order of the active points):
 
-        sum_i (-df_i phi'Hess g_i phi - f_i phi'(D Hess g_i [dx]) phi) + 2 sum_held nu_i dx'Hess g_i phi
+        v = sum_i (-df_i Hess g_i phi - f_i (D Hess g_i [dx]) phi) + sum_held nu_i Hess g_i dx   (full coordinates)
+        t_i = dx' Hess g_i phi   (per held point: the row's turn dG_i phi)
 
     (K_L holds -sum f_i Hess g_i; a held row's Jacobian turns by Hess g_i dx). The gap kernels' Hessians and their
     compiled Hessian-vector companion (third derivatives); ground rows are linear and add nothing."""
+    n = len(x)
     act = np.flatnonzero(active)
     dfa, nua = np.zeros(len(f)), np.zeros(len(f))
     dfa[act], nua[act] = df, nu
-    out, o = 0.0, 0
+    v, turn, o = np.zeros(n), np.zeros(len(f)), 0
     for r in contact_exact.rows(asm):
         N = r.m
         if r.A is not None:
@@ -89,11 +91,24 @@ def drum_form(asm, x: np.ndarray, f: np.ndarray, active: np.ndarray, df: np.ndar
         H = kernels.load(r.element, r.effect).map(N)(Z.T, r.P.T)[2]
         H = H.full().reshape(nin, N, nin).transpose(1, 0, 2)
         T = kernels.load_hvp(r.element, r.effect).map(N)(Z.T, r.P.T, Fz.T)[1].full()
-        T = T.reshape(nin, N, nin).transpose(1, 0, 2)  # per point d(Hess g phi)/dz
-        a = np.einsum("ei,eij,ej->e", Fz, H, Fz)
-        b = np.einsum("ei,eij,ej->e", Fz, T, Dz)
-        c = np.einsum("ei,eij,ej->e", Dz, H, Fz)
+        T = T.reshape(nin, N, nin).transpose(1, 0, 2)  # per point d(Hess g phi)/dz (symmetric in its use here)
         sl = slice(o, o + N)
-        out += float(np.sum(-dfa[sl] * a - f[sl] * b + 2.0 * nua[sl] * c))
+        Hphi, Hdx, Tdx = (np.einsum("eij,ej->ei", H, Fz), np.einsum("eij,ej->ei", H, Dz),
+                          np.einsum("eij,ej->ei", T, Dz))
+        per = -dfa[sl, None] * Hphi - f[sl, None] * Tdx + nua[sl, None] * Hdx
+        real = r.idx < n  # (the constants after x: the drum's centre, fixed)
+        v += np.bincount(r.idx[real], per[real], minlength=n)
+        turn[sl] = np.einsum("ei,ei->e", Dz, Hphi)
         o += N
-    return out
+    return v, turn[act]
+
+
+def drum_form(asm, x: np.ndarray, f: np.ndarray, active: np.ndarray, df: np.ndarray, nu: np.ndarray,
+              phi: np.ndarray, dx: np.ndarray) -> float:
+    """The drum rows' share of d(w^2)/dp for a mode phi (drum_terms' arguments):
+
+        sum_i (-df_i phi'Hess g_i phi - f_i phi'(D Hess g_i [dx]) phi) + 2 sum_held nu_i dx'Hess g_i phi
+
+    = phi'v + nu't of drum_terms."""
+    v, turn = drum_terms(asm, x, f, active, df, nu, phi, dx)
+    return float(phi @ v + np.asarray(nu) @ turn)

@@ -23,11 +23,10 @@ import numpy as np
 from ancf_sym.io.scene_toml import scene_from_dict
 from ancf_sym.modal import modal_analysis
 from ancf_sym.scene.builder import SceneError
-from ancf_sym.sensitivity.calibrate import Calibration
+from ancf_sym.sensitivity.calibration import Calibration, check_count, save_figure, start_values, with_parameters
 from ancf_sym.sensitivity.least_squares import levenberg_marquardt
 from ancf_sym.sensitivity.model_derivative import check_model_paths, read_document
 from ancf_sym.sensitivity.modal import ModalSensitivity
-from ancf_sym.sensitivity.paths import get_parameter, with_parameter
 from ancf_sym.statics.problem import problem_for
 
 HEADER = ("mode", "frequency")
@@ -43,10 +42,14 @@ class FrequencyCalibration(Calibration):
     """A Calibration whose data are frequencies: residuals (model - data) [Hz] per measured mode, noise [Hz], the
     ModalResult at the estimate as `result`."""
 
-    def summary(self) -> str:
-        est = ", ".join(f"{p} = {v:.6g} +- {s:.2g}" for p, v, s in zip(self.parameters, self.estimate, self.std))
-        return (f"calibration {'converged' if self.converged else 'NOT converged: ' + self.status} in "
-                f"{self.iterations} iterations: {est}; residual noise {self.noise:.3g} Hz")
+    unit = "Hz"
+
+    def to_dict(self) -> dict:
+        """Calibration.to_dict with the data and the fitted model's frequencies."""
+        record = super().to_dict()
+        record["data"] = [{"mode": d.mode, "frequency": d.frequency} for d in self.data]
+        record["frequencies"] = self.result.frequencies.tolist()
+        return record
 
     def plot(self, path: str | Path) -> Path:
         """PNG: the fitted equilibrium with the measured modes' shapes (left), measured against fitted frequencies
@@ -83,22 +86,10 @@ class FrequencyCalibration(Calibration):
         ax.set_xlabel("mode (rank from 0)")
         ax.set_ylabel("frequency [Hz]")
         ax.set_xticks(k)
-        ax.set_title("; ".join(f"{p} = {v:.5g} +- {s:.2g}" for p, v, s in
-                               zip(self.parameters, self.estimate, self.std)), fontsize=9)
+        ax.set_title(self.title(), fontsize=9)
         ax.legend(fontsize=8)
         ax.grid(alpha=0.3)
-        fig.tight_layout()
-        path = Path(path)
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-        return path
-
-
-def is_frequency_data(path: str | Path) -> bool:
-    """Does the CSV's header name measured frequencies (mode, frequency) rather than positions?"""
-    with open(path, newline="") as fh:
-        header = next(csv.reader(fh), [])
-    return [h.strip() for h in header] == list(HEADER)
+        return save_figure(fig, path)
 
 
 def read_frequencies(path: str | Path) -> list[FrequencyMeasurement]:
@@ -138,20 +129,14 @@ def calibrate_frequencies(doc: dict | str | Path, data: list[FrequencyMeasuremen
     check_model_paths(scene, doc, parameters)  # (every path checked before any solving)
     if not isinstance(data, list):
         data = read_frequencies(data)
-    p0 = np.array([get_parameter(doc, p) for p in parameters]) if start is None else np.asarray(start, float)
-    if np.any(p0 == 0):
-        raise SceneError(f"calibrate: start values must be non-zero (they scale the parameters): {p0.tolist()}")
-    m, n = len(data), len(parameters)
-    if m <= n:
-        raise SceneError(f"calibrate: {m} measured frequencies cannot determine {n} parameters (and the noise)")
+    p0 = start_values(doc, parameters, start)
+    check_count(len(data), len(parameters), "frequencies")
     ranks = np.array([d.mode for d in data])
     meas = np.array([d.frequency for d in data])
     modes = int(ranks.max()) + 1
 
     def evaluate(p, before):
-        d = doc
-        for path, v in zip(parameters, p):
-            d = with_parameter(d, path, v)
+        d = with_parameters(doc, parameters, p)
         try:
             sc, _ = scene_from_dict(d)
             res = problem_for(sc).solve(x0=None if before is None else before[2].static.x)
@@ -175,33 +160,7 @@ def calibrate_frequencies(doc: dict | str | Path, data: list[FrequencyMeasuremen
             cols.append(df[ranks])
         return np.column_stack(cols)
 
-    try:
-        fit = levenberg_marquardt(evaluate, jacobian, p0, max_iter=max_iter)
-    except ValueError as exc:
-        if "start" in str(exc):
-            raise SceneError("calibrate: the statics or the modal analysis at the start values failed") from None
-        raise
-    noise, cov = fit.statistics()
-    d, sc, mr = fit.state
-    return FrequencyCalibration(parameters, fit.p, np.sqrt(np.diag(cov)), noise, fit.r, fit.iterations, fit.converged,
-                                fit.status, p0, fit.history, data, mr, d, cov)
+    fit = levenberg_marquardt(evaluate, jacobian, p0, max_iter=max_iter, model="the statics or the modal analysis")
+    d, _, mr = fit.state
+    return FrequencyCalibration.from_fit(parameters, fit, fit.r, data, mr, d)
 
-
-def run_cli(scene_file: str | Path, data_file: str | Path, parameters: list[str], out: Path, max_iter: int = 30,
-            quiet: bool = False) -> int:
-    """`ancf-sym calibrate` with a CSV of frequencies: out/calibration.json and out/calibration.png; exit code 0 when
-    converged."""
-    from ancf_sym.io.json_out import write_json
-
-    doc = read_document(scene_file)
-    data = read_frequencies(data_file)
-    cal = calibrate_frequencies(doc, data, parameters, max_iter=max_iter)
-    out.mkdir(parents=True, exist_ok=True)
-    record = cal.to_dict()
-    record["data"] = [{"mode": d.mode, "frequency": d.frequency} for d in data]
-    record["frequencies"] = cal.result.frequencies.tolist()
-    write_json(out / "calibration.json", record)
-    cal.plot(out / "calibration.png")
-    if not quiet:
-        print(f"{cal.summary()} -> {out}")
-    return 0 if cal.converged else 1

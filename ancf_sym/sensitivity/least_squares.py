@@ -13,6 +13,8 @@ from typing import Any, Callable
 
 import numpy as np
 
+from ancf_sym.util.checks import SceneError
+
 
 @dataclass
 class Fit:
@@ -20,30 +22,35 @@ class Fit:
     state: Any  # evaluate's state at the estimate
     r: np.ndarray  # residuals there
     J: np.ndarray  # d r / d p there (unscaled)
+    scale: np.ndarray  # the start values the parameters were scaled by
     iterations: int
     converged: bool
     status: str
     history: list = field(default_factory=list)  # (iteration, sum of squares, estimate)
 
     def statistics(self) -> tuple[float, np.ndarray]:
-        """(noise sigma, covariance sigma^2 (J'J)^-1 of the estimate) of the linearised model, sigma^2 = r'r/(m-n)."""
+        """(noise sigma, covariance sigma^2 (J'J)^-1 of the estimate) of the linearised model, sigma^2 = r'r/(m-n)
+        (inverted on the scaled parameters, where J'J is well conditioned)."""
         m, n = self.J.shape
         sigma2 = float(self.r @ self.r) / (m - n)
-        return float(np.sqrt(sigma2)), np.linalg.inv(self.J.T @ self.J) * sigma2
+        Js = self.J * self.scale
+        return float(np.sqrt(sigma2)), np.linalg.inv(Js.T @ Js) * sigma2 * np.outer(self.scale, self.scale)
 
 
 def levenberg_marquardt(evaluate: Callable[[np.ndarray, Any], tuple[Any, np.ndarray] | None],
                         jacobian: Callable[[Any], np.ndarray], p0: np.ndarray, max_iter: int = 30,
-                        step_tol: float = 1e-6) -> Fit:
+                        step_tol: float = 1e-6, model: str = "the model") -> Fit:
     """Minimise |r(p)|^2. evaluate(p, state_before) -> (state, r) or None (the model failed at p); jacobian(state)
-    -> d r / d p (m x n). The start must evaluate (ValueError otherwise)."""
+    -> d r / d p (m x n), called once at the start and once after each accepted step. The start must evaluate
+    (SceneError otherwise, naming `model`: what evaluate solves)."""
     p0 = np.asarray(p0, float)
     cur = evaluate(p0, None)
     if cur is None:
-        raise ValueError("the model failed at the start values")
+        raise SceneError(f"calibrate: {model} at the start values failed")
     p, mu, history, status, converged, it = p0.copy(), 1e-3, [], "max_iter reached", False, 0
     m, n = len(cur[1]), len(p0)
-    J = jacobian(cur[0]) * p0
+    Jp = jacobian(cur[0])
+    J = Jp * p0  # d r / d (p / p0)
     for it in range(1, max_iter + 1):
         state, r = cur
         JtJ, g = J.T @ J, J.T @ r
@@ -67,9 +74,10 @@ def levenberg_marquardt(evaluate: Callable[[np.ndarray, Any], tuple[Any, np.ndar
         if mu > 1e12:
             break
         p, cur, mu = p + step * p0, trial, max(mu / 3.0, 1e-9)
-        J = jacobian(cur[0]) * p0
+        Jp = jacobian(cur[0])
+        J = Jp * p0
         if np.all(np.abs(step) <= tol):
             converged, status = True, "converged"
             break
     history.append((it, float(cur[1] @ cur[1]), p.copy()))
-    return Fit(p, cur[0], cur[1], J / p0, it, converged, status, history)
+    return Fit(p, cur[0], cur[1], Jp, p0, it, converged, status, history)

@@ -29,7 +29,7 @@ from ancf_sym.scene.builder import Scene
 from ancf_sym.model.reduced import partition
 from ancf_sym.contact import exact as contact_exact
 from ancf_sym.modal.contact_rows import contact_points
-from ancf_sym.sensitivity.contact_state import check_differentiable, curved_contact_rows, drum_form
+from ancf_sym.sensitivity.contact_state import curved_contact_rows, drum_form, drum_terms
 from ancf_sym.sensitivity.model_derivative import ParameterError
 from ancf_sym.sensitivity.static import StaticSensitivity
 
@@ -52,14 +52,14 @@ class ModalSensitivity:
         if not modal.success:
             raise ValueError(f"frequency sensitivities need a successful modal result (status {modal.status!r})")
         self.modal = modal
-        self.static = StaticSensitivity(scene, modal.static, doc, modal.linearization)
+        # (with exact contact, the static sensitivity refuses a point touching without pressing)
+        self.static = StaticSensitivity(scene, modal.static, doc, modal.linearization, "frequency sensitivities")
         asm = self.static.asm
         self._rows = partition(asm).rows  # the exact rows kept with multipliers (rows of G)
         if getattr(asm.scene, "water", None) is not None:
             raise ParameterError("frequency sensitivities in water are not available (the added mass's and the drag's "
                                  "derivatives are not in the model derivative)")
         if contact.exact_contacts(asm):  # the held points are rows (as in the statics' sensitivity)
-            check_differentiable(asm, modal.static, "frequency sensitivities")
             drums = curved_contact_rows(asm)
             if drums:
                 raise ParameterError(f"frequency sensitivities with exact drum contact on beam3d members or spatial "
@@ -99,19 +99,31 @@ class ModalSensitivity:
 
     def shape_derivative(self, path: str) -> np.ndarray:
         """d(mode shapes)/dp, full coordinates (n, modes), of the M-normalised shapes (phi' M phi = 1 kept): per
-        mode the bordered system [[K - w^2 M, M phi], [phi' M, 0]] [dphi; c] = [-(dK - dw^2 M - w^2 dM) phi;
-        -phi' dM phi / 2] (Nelson's normalisation). Scenes whose modes keep constraint rows (rigid joints): not
-        available. Repeated frequencies: NaN columns."""
+        mode Nelson's bordered system, with the rows G of the points held in exact contact (y: the reduced mode,
+        mu its multipliers, K_L y + G'mu = w^2 M y, G y = 0):
+
+            [K - w^2 M  G'  M y] [dy ]   [-(dK - dw^2 M - w^2 dM) y - dG'mu]
+            [G          0   0  ] [dmu] = [-dG y                           ]
+            [y'M        0   0  ] [c  ]   [-y'dM y / 2                     ]
+
+        (dK: the kernels' tangents' derivatives, the prestress's change and, on a drum, the held points' curvature
+        -sum f_i Hess g_i changing; dG: a drum row turning with the state, Hess g_i dx; ground rows are constant).
+        Scenes with rigid joints (bilinear rows): not available. Repeated frequencies: NaN columns."""
         m, s = self.modal, self.static
-        lin = s.lin
-        if lin.G.shape[0]:
-            raise ParameterError("mode-shape derivatives with constraint rows kept in the modes (rigid joints, "
-                                 "exact contact) are not available")
+        lin, asm = s.lin, s.asm
+        if len(asm.exact.qrow):
+            raise ParameterError("mode-shape derivatives with rigid joints (bilinear constraint rows kept in the "
+                                 "modes) are not available")
         x = m.static.x
         md = s.model(path)
-        dx = s.solve(md.residual(x)[1])[0]
+        dR = md.residual(x)[1]
+        dx, dmu = s.solve(dR)
         df, _ = self.derivative(path)
-        E = lin.E
+        E, G = lin.E, lin.G
+        ng, nr = G.shape[0], len(self._rows)
+        drums = contact.exact_contacts(asm) and any(r.A is None for r in contact_exact.rows(asm))
+        if drums:
+            fc, _, active = contact_points(asm, m.static)
         EtE = (E.T @ E).tocsc()
         out = np.full((len(x), m.modes), np.nan)
         for k in range(m.modes):
@@ -120,13 +132,18 @@ class ModalSensitivity:
             w2, phi = m.omega2[k], m.shapes[:, k]
             y = spla.spsolve(EtE, E.T @ phi)
             dw2 = df[k] * 8 * np.pi ** 2 * m.frequencies[k]
-            dKphi = E.T @ (md.hessian_vector(x, phi) + self._third_vector(dx, phi))
+            dKphi = md.hessian_vector(x, phi) + self._third_vector(dx, phi)
+            turn = np.zeros(ng)
+            if drums:  # (the drum rows' curvature changing, dG'mu, and the rows' turn dG y)
+                v, turn[nr:] = drum_terms(asm, x, fc, active, -dmu[nr:], self._mode_multipliers(k)[nr:], phi, dx)
+                dKphi = dKphi + v
             dMphi = E.T @ (md.dM @ phi) if md.dM is not None else np.zeros(len(y))
             My = lin.M @ y
-            A = sp.bmat([[lin.K - w2 * lin.M, sp.csc_matrix(My[:, None])], [sp.csr_matrix(My[None, :]), None]],
-                        format="csc")
-            rhs = np.r_[-(dKphi - dw2 * My - w2 * dMphi), -0.5 * float(y @ dMphi)]
-            out[:, k] = E @ spla.spsolve(A, rhs)[:-1]
+            col, row = sp.csc_matrix(My[:, None]), sp.csr_matrix(My[None, :])
+            A = sp.bmat([[lin.K - w2 * lin.M, G.T, col], [G, None, None], [row, None, None]] if ng else
+                        [[lin.K - w2 * lin.M, col], [row, None]], format="csc")
+            rhs = np.r_[-(E.T @ dKphi - dw2 * My - w2 * dMphi), -turn, -0.5 * float(y @ dMphi)]
+            out[:, k] = E @ spla.spsolve(A, rhs)[:len(y)]
         return out
 
     def _mode_multipliers(self, k: int) -> np.ndarray:

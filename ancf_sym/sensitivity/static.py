@@ -27,18 +27,24 @@ from ancf_sym.modal.linearize import Linearization, linearize
 from ancf_sym.model.reduced import partition
 from ancf_sym.scene.builder import Scene
 from ancf_sym.statics.problem import StaticResult
+from ancf_sym.sensitivity.contact_state import check_differentiable
 from ancf_sym.sensitivity.model_derivative import ModelDerivative, model_derivative
 
 
 class StaticSensitivity:
     """The linearisation of one equilibrium, factorised once; derivatives of its reported quantities per parameter.
 
-    doc: the scene document (a parsed TOML file) the scene was built from; paths address its numbers."""
+    doc: the scene document (a parsed TOML file) the scene was built from; paths address its numbers. With exact
+    contact, an equilibrium with a point touching without pressing is refused (ContactStateError naming the points:
+    the derivative would hold one way only); `what` names the derivative in that message."""
 
-    def __init__(self, scene: Scene, result: StaticResult, doc: dict, linearization: Linearization | None = None):
+    def __init__(self, scene: Scene, result: StaticResult, doc: dict, linearization: Linearization | None = None,
+                 what: str = "static sensitivities"):
         if not isinstance(result, StaticResult) or not result.success:
             raise ValueError("sensitivities need a successful static result (its status: "
                              f"{getattr(result, 'status', result)!r})")
+        if contact.exact_contacts(result.assembly):
+            check_differentiable(result.assembly, result, what)
         self.scene, self.result, self.doc = scene, result, doc
         self.lin = linearization if linearization is not None else _stiffness(scene, result)
         self.asm = self.lin.assembly
