@@ -39,8 +39,8 @@ import scipy.sparse.linalg as spla
 from ancf_sym import kernels
 from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.sensors import Sensor, SensorEval
-from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, damping_tangents, forcing, mass_solve, \
-    run_for_sensitivity, start_tangent
+from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, forcing, mass_solve, \
+    run_for_sensitivity, start_tangent, step_matrix
 from ancf_sym.sensitivity.model_derivative import STIFFNESS_COLUMNS, ModelDerivative, model_derivative, \
     read_document
 from ancf_sym.system.step_system import StepSystem
@@ -94,7 +94,7 @@ _SWEEPS: dict = {}
 
 
 def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int) -> ca.Function:
-    """sweep(acc0, U) -> (acc, MU), U = [X; V; WQ; WV]: n backward steps (columns: steps N, N-1, .., 1) of the adjoint
+    """sweep(acc0, U) -> (acc, MU), U = [X; V; WQ; WV[; Lam; W]]: n backward steps (columns: steps N, N-1, .., 1) of the adjoint
     recursion (see the module docstring); acc = the adjoints flowing into (q, v, a, abar) of the earlier state."""
     sch = opts.scheme()
     h = opts.dt
@@ -106,17 +106,18 @@ def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int) 
     cm, cc = sch.cm(h), sch.cc(h)
     c1 = (1 - am) / (1 - af)
     M = dm(S.M)
+    mc = S.mc
     acc = ca.MX.sym("acc", 4 * nf)
     x, v, wq, wv = ca.MX.sym("x", nf), ca.MX.sym("v", nf), ca.MX.sym("wq", nf), ca.MX.sym("wv", nf)
-    K = S.forces_pf(x, ca.DM(S.par))[1]
-    J = (cm + cc * alpha_r) * M + K
-    dfx, dfv = damping_tangents(S, x, v)  # (strain-rate damping: its exact tangents at the step's end)
-    if dfx is not None:
-        J = J + dfx + cc * dfv
+    y = ca.MX.sym("y", mc + S.nw) if mc else None  # (the true multipliers and the drives' time inputs)
+    J, dfv, solver = step_matrix(S, cm, cc, alpha_r, x, v, y)
     qb, vb, abar, abb = (acc[i * nf:(i + 1) * nf] for i in range(4))
     qb, vb = qb + wq, vb + wv
     s = qb + abb / (h * h * beta) + cm * abar + cc * vb
-    mu = ca.solve(J, s, "ldl") if dfx is None else ca.solve(J.T, s, "qr")  # (J' mu = s)
+    if mc:  # (the KKT step: its transpose with [s; 0], mu the coordinates' part)
+        mu = ca.solve(J.T, ca.vertcat(s, ca.MX(mc, 1)), solver)[:nf]
+    else:
+        mu = ca.solve(J, s, "ldl") if solver == "ldl" else ca.solve(J.T, s, solver)  # (J' mu = s)
     Mmu = ca.mtimes(M, mu)
     Bb = abar - Mmu
     Bvb = vb - alpha_r * Mmu
@@ -127,9 +128,10 @@ def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int) 
     Sv = Bvb - Db / (h * beta)
     Sa = -af / (1 - af) * Bb
     Sab = h * (1 - gamma) * Bvb + am / (1 - af) * Bb - (0.5 - beta) / beta * Db
-    step = ca.Function("adjoint_step", [acc, ca.vertcat(x, v, wq, wv)], [ca.vertcat(Sq, Sv, Sa, Sab), mu])
+    u = ca.vertcat(x, v, wq, wv, *([y] if mc else []))
+    step = ca.Function("adjoint_step", [acc, u], [ca.vertcat(Sq, Sv, Sa, Sab), mu])
     sweep = step.mapaccum("adjoint_steps", n)
-    a0, U = ca.MX.sym("acc0", 4 * nf), ca.MX.sym("U", 4 * nf, n)
+    a0, U = ca.MX.sym("acc0", 4 * nf), ca.MX.sym("U", u.size1(), n)
     ACC, MU = sweep(a0, U)
     # (only the last accumulated adjoint leaves the graph: no 4 nf x n output to copy)
     f = ca.Function("adjoint_sweep", [a0, U], [ACC[:, n - 1], MU])
@@ -307,7 +309,8 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
     acc = np.zeros(4 * nf)
     if N:
         f = backward_sweep(S, options, alpha_r, N)
-        U = np.ascontiguousarray(np.hstack([Q[:0:-1], Vr[:0:-1], WQ[:0:-1], WV[:0:-1]]))  # (column j: step N - j)
+        cols = [Q[:0:-1], Vr[:0:-1], WQ[:0:-1], WV[:0:-1]] + ([run.Lam[:0:-1], run.W[:0:-1]] if S.mc else [])
+        U = np.ascontiguousarray(np.hstack(cols))  # (column j: step N - j)
         MUb = np.zeros((N, nf))
         _, evaluate = bind(f, [np.zeros(4 * nf), U], [acc, MUb])
         evaluate()

@@ -26,6 +26,7 @@ from ancf_sym.dynamics.run import make_integrator
 from ancf_sym.dynamics.time_loads import LoadSum
 from ancf_sym.dynamics.time_loop import chunk_size
 from ancf_sym.io.scene_toml import scene_from_dict
+from ancf_sym.model.assembly import Assembly
 from ancf_sym.scene.builder import SceneError
 from ancf_sym.sensitivity.model_derivative import check_model_paths, model_derivative, read_document
 from ancf_sym.sensitivity.paths import get_parameter, parse_path
@@ -52,9 +53,25 @@ def damping_index(doc: dict, path: str) -> int | None:
     return p.keys[1]
 
 
-def check_dynamic_paths(scene, doc: dict, paths: list[str]) -> None:
-    """Refuse, before any step, a path that names no differentiable number of a dynamic run."""
-    check_model_paths(scene, doc, [p for p in paths if damping_index(doc, p) is None])
+def check_dynamic_paths(scene, doc: dict, paths: list[str], asm=None) -> None:
+    """Refuse, before any step, a path that names no differentiable number of a dynamic run (asm: the run's
+    assembly, for scenes with drives that statics refuses)."""
+    model_paths = [p for p in paths if damping_index(doc, p) is None]
+    if asm is None:
+        check_model_paths(scene, doc, model_paths)
+        return
+    for p in model_paths:
+        get_parameter(doc, p)
+    for p in model_paths:
+        model_derivative(asm, doc, p)
+
+
+def dynamic_assembly(scene):
+    """The assembly a dynamic run of the scene uses: the statics' (shared, cached), or for a scene with drives
+    (motion prescribed in time, which statics refuses) its own."""
+    from ancf_sym.statics.problem import problem_for
+
+    return Assembly(scene) if scene.drives else problem_for(scene).asm
 
 
 def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
@@ -67,8 +84,8 @@ def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
     elif abs(opts.t_start + opts.n_grid * opts.dt - opts.t_end) > 1e-9 * opts.dt:
         why.append(f"a shorter last step (t_end - t_start = {opts.t_end - opts.t_start:g} s is not a whole number of "
                    f"dt = {opts.dt:g} s)")
-    if S.mc:
-        why.append("constraint rows with multipliers (rigid joints, bodies' joints)")
+    if S.mc and opts.start == "static":
+        why.append("a static start with constraint rows carrying multipliers (rigid joints, bodies' rows, drives)")
     if integ.kdamp.active:
         why.append("stiffness-proportional Rayleigh damping (beta: its tangent's derivative needs third "
                    "derivatives of the energies)")
@@ -76,8 +93,8 @@ def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
         why.append("contact damping or friction")
     if water.has_forces(S.asm):
         why.append("lines in water (drag, added mass)")
-    if S.drives is not None:
-        why.append("drives or torques (time-dependent constraints and forces)")
+    if S.drives is not None and S.drives.torques:
+        why.append("applied torques (a time-dependent force with an unsymmetric tangent)")
     if opts.release or opts.from_result or opts.initial or opts.q0 is not None or opts.v0 is not None:
         why.append("a start other than the reference or the static equilibrium at rest")
     if why:
@@ -86,12 +103,15 @@ def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
 
 # -- the forward run: the package's compiled steps, every state kept -----------------------------------------------
 def forward_states(S: StepSystem, integ, opts: DynamicOptions, loads: LoadSum | None = None
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(Q, V, A): reduced q, v, a after each step (row 0: the start), from the integrator's compiled chunks (the
-    run's own steps) and its per-step Newton where a chunk stops; loads: the time loads (LoadSum) or None."""
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(Q, V, A, Lam): reduced q, v, a and the true multipliers after each step (row 0: the start), from the
+    integrator's compiled chunks (the run's own steps) and its per-step Newton where a chunk stops; loads: the time
+    loads (LoadSum) or None."""
     h = opts.dt
     n = opts.n_grid
-    rows = [integ.state[:3 * S.nf].copy()]
+    nf, mc = S.nf, S.mc
+    lam = slice(5 * nf, 5 * nf + mc)  # (the integrator's state: q, v, a, abar, a_prev, lam, controls)
+    rows = [np.r_[integ.state[:3 * nf], integ.state[lam]]]
     size = chunk_size(n) if integ.chunkable else 0
     t, k = opts.t_start, 0
     pl = np.repeat(-S.f_lin[:, None], size, axis=1) if size else None
@@ -101,8 +121,11 @@ def forward_states(S: StepSystem, integ, opts: DynamicOptions, loads: LoadSum | 
         if size and n - k >= size:
             if loads is not None:  # (the loads at the chunk's step ends, as the time loop gives them)
                 pl = -np.column_stack([S.f_lin + loads(opts.t_start + (k + j + 1) * h) for j in range(size)])
-            states, n_ok = integ.run_chunk(h, pl)
-            rows.extend(states[:, :3 * S.nf].copy())  # (the chunk buffer is reused by the next chunk)
+            plw = pl if not S.nw else \
+                np.vstack([pl, np.column_stack([S.w(opts.t_start + (k + j + 1) * h) for j in range(size)])])
+            states, n_ok = integ.run_chunk(h, plw)
+            # (copies: the chunk buffer is reused by the next chunk)
+            rows.extend(np.hstack([states[:, :3 * nf], states[:, lam]]))
             k += n_ok
             t = opts.t_start + k * h
             if n_ok == size:
@@ -112,19 +135,19 @@ def forward_states(S: StepSystem, integ, opts: DynamicOptions, loads: LoadSum | 
             raise SceneError(f"dynamic sensitivities: the step at t = {t:.6g} s did not converge ({out.reason}); "
                              "a fixed-step derivative cannot take a smaller step there (try a smaller dt)")
         integ.accept()
-        rows.append(integ.state[:3 * S.nf].copy())
+        rows.append(np.r_[integ.state[:3 * nf], integ.state[lam]])
         k += 1
         t = opts.t_start + k * h
     R = np.array(rows)
-    nf = S.nf
-    return R[:, :nf], R[:, nf:2 * nf], R[:, 2 * nf:3 * nf]
+    return R[:, :nf], R[:, nf:2 * nf], R[:, 2 * nf:3 * nf], R[:, 3 * nf:]
 
 
 @dataclass
 class AlphaRun:
     """A run of the scene of `doc` kept for differentiation: the model (asm, S), the reduced states Q, V, A after
-    each step (row 0: the start), the full X, V_full, A_full, the step times t, the Rayleigh mass coefficient, the
-    static start's tangent K0 (None: the reference start)."""
+    each step (row 0: the start), the true multipliers Lam of the constraint rows and drives (steps + 1, mc), the
+    full X, V_full, A_full, the step times t, the Rayleigh mass coefficient, the drives' time inputs W (steps + 1,
+    nw)."""
     doc: dict
     scene: object
     asm: object
@@ -135,6 +158,8 @@ class AlphaRun:
     A: np.ndarray
     t: np.ndarray
     alpha_r: float
+    Lam: np.ndarray
+    W: np.ndarray
 
     @property
     def X(self) -> np.ndarray:
@@ -156,8 +181,8 @@ def run_for_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
 
     d = read_document(doc)
     scene, _ = scene_from_dict(d)
-    check_dynamic_paths(scene, d, list(paths))
-    asm = problem_for(scene).asm
+    asm = dynamic_assembly(scene)
+    check_dynamic_paths(scene, d, list(paths), asm)
     contact.check_dynamics(asm)  # (exact contact is a statics method: refused as the run refuses it)
     S = StepSystem.for_scene(asm)
     integ = make_integrator(S, options, Counters(), 0.0, options.newton.xtol * S.length_scale)
@@ -176,9 +201,11 @@ def run_for_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
     integ.initialize(S.reduce(q0), np.zeros(nf), Q0, options.t_start)
     integ.tol_q = options.newton.tol * max(float(np.max(np.abs(S.f_lin))), float(np.max(np.abs(S.M @ integ.a))),
                                            float(np.max(np.abs(Q0))), 1e-300)
-    Q, V, A = forward_states(S, integ, options, loads)
+    Q, V, A, Lam = forward_states(S, integ, options, loads)
     t = options.t_start + options.dt * np.arange(len(Q))
-    return AlphaRun(d, scene, asm, S, options, Q, V, A, t, S.rayleigh.alpha if S.rayleigh is not None else 0.0)
+    W = np.array([S.w(ti) for ti in t]).reshape(len(t), S.nw)
+    return AlphaRun(d, scene, asm, S, options, Q, V, A, t, S.rayleigh.alpha if S.rayleigh is not None else 0.0,
+                    Lam, W)
 
 
 def _scatter(idx: np.ndarray, n: int) -> sp.csr_matrix:
@@ -307,11 +334,53 @@ def damping_tangents(S: StepSystem, x: ca.MX, v: ca.MX) -> tuple:
     return dfx, dfv
 
 
+def step_matrix(S: StepSystem, cm: float, cc: float, alpha_r: float, x: ca.MX, v: ca.MX, y: ca.MX | None
+                ) -> tuple[ca.MX, ca.MX | None, str]:
+    """(A, df_d/dv, linear solver): the differentiated step's matrix at the step's end in a graph, A = cm M + cc C +
+    K(x) (+ df_d/dx + cc df_d/dv) and, with constraint rows or drives, the KKT matrix [[A + H, J'], [J, 0]] with
+    J = dPhi/dx(x, w), H = d2(lam . Phi)/dx2 (y = [lam; w]: the true multipliers and the drives' time inputs)."""
+    nf, mc = S.nf, S.mc
+    A = (cm + cc * alpha_r) * dm(S.M) + S.forces_pf(x, ca.DM(S.par))[1]
+    dfx, dfv = damping_tangents(S, x, v)  # (strain-rate damping: its exact tangents at the step's end)
+    if dfx is not None:
+        A = A + dfx + cc * dfv
+    if not mc:
+        return A, dfv, "ldl" if dfx is None else "qr"  # (d f_d / dq is unsymmetric: QR)
+    lam, w = y[:mc], (y[mc:] if S.nw else None)
+    phi = S.constraint_mx(x, w)
+    Jx = ca.jacobian(phi, x)
+    if S.bilinear:
+        A = A + ca.hessian(ca.dot(lam, phi), x)[0]
+    return ca.blockcat([[A, Jx.T], [Jx, ca.MX(mc, mc)]]), dfv, "qr"  # (indefinite: QR)
+
+
 def start_tangent(run: AlphaRun) -> sp.csc_matrix:
     """K(q_0) on the reduced coordinates: the static start's tangent and the initial acceleration's."""
     return sp.csc_matrix(run.S.forces(run.Q[0])[1])
 
 
 def mass_solve(run: AlphaRun):
-    """A solver of M x = b (the initial acceleration's matrix)."""
-    return spla.splu(run.S.M.tocsc()).solve
+    """A solver of the initial acceleration's matrix: M x = b, or with constraint rows [M J'; J 0] [x; y] = [b; 0]
+    (J at the start; the matrix is symmetric, so the same solver serves the adjoint), returning x."""
+    S = run.S
+    if not S.mc:
+        return spla.splu(S.M.tocsc()).solve
+    J = S.jac_phi(run.Q[0], run.t[0])
+    lu = spla.splu(sp.bmat([[S.M, J.T], [J, None]], format="csc"))
+    nf, mc = S.nf, S.mc
+
+    def solve(b: np.ndarray) -> np.ndarray:
+        b = np.asarray(b, float)
+        pad = np.zeros((mc,) + b.shape[1:])
+        return lu.solve(np.concatenate([b, pad]))[:nf]
+    return solve
+
+
+def start_multipliers(run: AlphaRun, b: np.ndarray) -> np.ndarray:
+    """The multipliers' part of [M J'; J 0]^-1 [b; 0] at the start (columns of b): d lam_0/dp of the initial
+    acceleration."""
+    S = run.S
+    J = S.jac_phi(run.Q[0], run.t[0])
+    z = spla.splu(sp.bmat([[S.M, J.T], [J, None]], format="csc")).solve(np.concatenate([b, np.zeros((S.mc,) +
+                                                                                                      b.shape[1:])]))
+    return z[S.nf:]
