@@ -23,7 +23,9 @@ Outputs: functions of the sensor records (their sum, time integral, end value, o
 data record) and the kinetic, potential or total energy at the end. Parameters: the TOML paths of
 model_derivative, and the scene's Rayleigh coefficient dampings[i].alpha. Scope as the forward sensitivities
 (refused by name before any step, ancf_sym.sensitivity.alpha_run): no stiffness-proportional Rayleigh (beta: its
-tangent's derivative needs third derivatives of the energies), no contact damping, no multiplier rows or drives;
+tangent's derivative needs third derivatives of the energies), no contact damping, no applied torques; with
+multiplier rows or drives the step is a KKT system and the adjoint solves its transpose with [s; 0] (mu: the
+coordinates' part);
 strain-rate damping adds its tangents df/dq + cc df/dv to J' and df/dv to the velocity's adjoint; time loads are
 applied as the run applies them. Penalty contacts: the steps where one opens or closes are
 named in the notes (the law's kink: one-sided derivatives there).

@@ -6,7 +6,9 @@ Parameters: the model's TOML paths (ancf_sym.sensitivity.model_derivative), the 
 dampings[i].alpha (C = alpha_R M) and the strain-rate coefficients dampings[i].axial | bending (the force f_d(q, v)
 is linear in them; its tangents df/dq, df/dv are the step system's). Damping the derivative does not follow is
 refused by name: stiffness-proportional Rayleigh (beta: the derivative of its tangent K_el(q_n) needs third
-derivatives of the energies), contact damping and friction, lines in water, as are drives and multiplier rows.
+derivatives of the energies), contact damping and friction, lines in water, as are applied torques and a static start
+with multiplier rows. Constraint rows with multipliers (rigid joints, bodies' rows) and drives make the step a KKT
+system: `step_matrix` builds its differentiated matrix, the run keeps the multipliers and the drives' time inputs.
 Time loads (analysis.loads) are applied as the run applies them; they depend on no scene parameter.
 """
 from __future__ import annotations

@@ -24,9 +24,13 @@ parameter's column as right-hand sides), the forcing dR/dp at every step one map
 piece.
 
 Strain-rate damping f_d(q, v) adds df/dq + cc df/dv to the tangent (sparse QR: unsymmetric) and df/dv Bv to the
-right-hand side; dampings[i].axial | bending are parameters. Scope (refused by name before any step,
-ancf_sym.sensitivity.alpha_run): fixed steps; no stiffness-proportional Rayleigh or contact damping, drives or
-multiplier rows (rigid joints, bodies' joints); time loads (analysis.loads) are applied as the run applies them.
+right-hand side; dampings[i].axial | bending are parameters. Constraint rows with multipliers (rigid joints, bodies'
+rows) and drives (rows with time-dependent coefficients): M a' + ... + J(q')' lam' = 0, Phi(q', t') = 0 give the KKT
+solve [[J' + H(lam'), J(q')'], [J(q'), 0]] [S'; dlam'/dp] = -[rhs; 0] (H: the rows' curvature weighted by the
+multipliers; no parameter enters a row), and the start's [M J'; J 0] [a_0; lam_0] differentiated alike.
+Scope (refused by name before any step, ancf_sym.sensitivity.alpha_run): fixed steps; no stiffness-proportional
+Rayleigh or contact damping, no applied torques, no static start with multiplier rows; time loads
+(analysis.loads) are applied as the run applies them.
 """
 from __future__ import annotations
 
