@@ -41,8 +41,8 @@ import scipy.sparse.linalg as spla
 from ancf_sym import kernels
 from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.sensors import Sensor, SensorEval
-from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, forcing, mass_solve, \
-    run_for_sensitivity, start_tangent, step_matrix
+from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, damping_matrices, forcing, mass_solve, \
+    run_for_sensitivity, start_tangent, step_matrix, stiffness_damped, stiffness_damping_forcing
 from ancf_sym.sensitivity.model_derivative import STIFFNESS_COLUMNS, ModelDerivative, model_derivative, \
     read_document
 from ancf_sym.system.step_system import StepSystem
@@ -100,7 +100,7 @@ def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int) 
     recursion (see the module docstring); acc = the adjoints flowing into (q, v, a, abar) of the earlier state."""
     sch = opts.scheme()
     h = opts.dt
-    key = (S.graph_key, sch, h, alpha_r, n, S.par.tobytes())
+    key = (S.graph_key, sch, h, alpha_r, S.rayleigh.beta if S.rayleigh is not None else 0.0, n, S.par.tobytes())
     if key in _SWEEPS:
         return _SWEEPS[key]
     nf = S.nf
@@ -112,7 +112,9 @@ def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int) 
     acc = ca.MX.sym("acc", 4 * nf)
     x, v, wq, wv = ca.MX.sym("x", nf), ca.MX.sym("v", nf), ca.MX.sym("wq", nf), ca.MX.sym("wv", nf)
     y = ca.MX.sym("y", mc + S.nw) if mc else None  # (the true multipliers and the drives' time inputs)
-    J, dfv, solver = step_matrix(S, cm, cc, alpha_r, x, v, y)
+    xp = ca.MX.sym("xp", nf) if stiffness_damped(S) else None  # (q_n: where the run took K_el of the step)
+    C, T = damping_matrices(S, alpha_r, xp, v)
+    J, dfv, solver = step_matrix(S, cm, cc, C, x, v, y)
     qb, vb, abar, abb = (acc[i * nf:(i + 1) * nf] for i in range(4))
     qb, vb = qb + wq, vb + wv
     s = qb + abb / (h * h * beta) + cm * abar + cc * vb
@@ -122,15 +124,17 @@ def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int) 
         mu = ca.solve(J, s, "ldl") if solver == "ldl" else ca.solve(J.T, s, solver)  # (J' mu = s)
     Mmu = ca.mtimes(M, mu)
     Bb = abar - Mmu
-    Bvb = vb - alpha_r * Mmu
+    Bvb = vb - ca.mtimes(C.T, mu)
     if dfv is not None:
         Bvb = Bvb - ca.mtimes(dfv.T, mu)
     Db = abb + h * gamma * Bvb + c1 * Bb
     Sq = -Db / (h * h * beta)
+    if T is not None:  # (beta K_el(q_n) v_{n+1}: its change with q_n)
+        Sq = Sq - ca.mtimes(T.T, mu)
     Sv = Bvb - Db / (h * beta)
     Sa = -af / (1 - af) * Bb
     Sab = h * (1 - gamma) * Bvb + am / (1 - af) * Bb - (0.5 - beta) / beta * Db
-    u = ca.vertcat(x, v, wq, wv, *([y] if mc else []))
+    u = ca.vertcat(x, v, wq, wv, *([y] if mc else []), *([xp] if xp is not None else []))
     step = ca.Function("adjoint_step", [acc, u], [ca.vertcat(Sq, Sv, Sa, Sab), mu])
     sweep = step.mapaccum("adjoint_steps", n)
     a0, U = ca.MX.sym("acc0", 4 * nf), ca.MX.sym("U", u.size1(), n)
@@ -311,7 +315,8 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
     acc = np.zeros(4 * nf)
     if N:
         f = backward_sweep(S, options, alpha_r, N)
-        cols = [Q[:0:-1], Vr[:0:-1], WQ[:0:-1], WV[:0:-1]] + ([run.Lam[:0:-1], run.W[:0:-1]] if S.mc else [])
+        cols = [Q[:0:-1], Vr[:0:-1], WQ[:0:-1], WV[:0:-1]] + ([run.Lam[:0:-1], run.W[:0:-1]] if S.mc else []) + \
+            ([Q[-2::-1]] if stiffness_damped(S) else [])
         U = np.ascontiguousarray(np.hstack(cols))  # (column j: step N - j)
         MUb = np.zeros((N, nf))
         _, evaluate = bind(f, [np.zeros(4 * nf), U], [acc, MUb])
@@ -335,6 +340,9 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
             continue
         md = model_derivative(asm, d, p)
         g = -residual_sum(md, LamR, X, cache)
+        sd = stiffness_damping_forcing(run, p)  # (beta dK_el/dp (q_{n-1}) v_n)
+        if sd is not None:
+            g -= float(np.sum(MU * sd))
         dM = md.dM
         if dM is not None:
             g -= float(np.sum(Lam * (dM @ (A + alpha_r * V).T).T))

@@ -20,7 +20,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ancf_sym import kernels
+from ancf_sym import kernels, registry
 from ancf_sym.contact import laws as contact
 from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.newton import Counters
@@ -33,25 +33,26 @@ from ancf_sym.scene.builder import SceneError
 from ancf_sym.sensitivity.model_derivative import check_model_paths, model_derivative, read_document
 from ancf_sym.sensitivity.paths import get_parameter, parse_path
 from ancf_sym.system import water
-from ancf_sym.system.damping import strain_rate_mx
+from ancf_sym.system.damping import rayleigh_mx, strain_rate_mx
+from ancf_sym.system.forces import ELASTIC_LABELS
 from ancf_sym.system.step_system import StepSystem
 from ancf_sym.util.casadi_buffers import bind
 from ancf_sym.util.sparsity import dm
 
 # -- parameters that the dynamics adds to the model's ---------------------------------------------------------------
 def damping_index(doc: dict, path: str) -> int | None:
-    """i of a path dampings[i].alpha (Rayleigh mass coefficient) or dampings[i].axial | bending (strain-rate
+    """i of a path dampings[i].alpha | beta (Rayleigh coefficients) or dampings[i].axial | bending (strain-rate
     coefficients), else None; other damping keys refused by name."""
     p = parse_path(path)
     if p.keys[0] != "dampings":
         return None
     get_parameter(doc, path)
     d = doc["dampings"][p.keys[1]] if len(p.keys) == 3 else None
-    ok = d is not None and ((d.get("type") == "rayleigh" and p.keys[2] == "alpha") or
+    ok = d is not None and ((d.get("type") == "rayleigh" and p.keys[2] in ("alpha", "beta")) or
                             (d.get("type") == "strain_rate" and p.keys[2] in ("axial", "bending")))
     if not ok:
-        raise SceneError(f"parameter path {path!r}: differentiable damping coefficients: dampings[i].alpha of a "
-                         "rayleigh damping (mass-proportional), dampings[i].axial | bending of a strain_rate damping")
+        raise SceneError(f"parameter path {path!r}: differentiable damping coefficients: dampings[i].alpha | beta "
+                         "of a rayleigh damping, dampings[i].axial | bending of a strain_rate damping")
     return p.keys[1]
 
 
@@ -89,8 +90,7 @@ def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
     if S.mc and opts.start == "static":
         why.append("a static start with constraint rows carrying multipliers (rigid joints, bodies' rows, drives)")
     if integ.kdamp.active:
-        why.append("stiffness-proportional Rayleigh damping (beta: its tangent's derivative needs third "
-                   "derivatives of the energies)")
+        why += stiffness_damping_refusals(S)
     if contact.dissipation_calls(S.asm.mesh):
         why.append("contact damping or friction")
     if water.has_forces(S.asm):
@@ -101,6 +101,90 @@ def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
         why.append("a start other than the reference or the static equilibrium at rest")
     if why:
         raise SceneError("dynamic sensitivities: not available with " + ", ".join(why))
+
+
+def elastic_terms(S: StepSystem) -> list:
+    """The nonlinear terms in the Rayleigh elastic tangent K_el (elastic labels, a non-zero element weight)."""
+    w = S.rayleigh.element_weight if (S.rayleigh is not None and S.rayleigh.beta) else {}
+    return [(ti, mk.term) for ti, mk in enumerate(S.nonlinear)
+            if mk.term.label in ELASTIC_LABELS and w.get(ti) is not None and np.any(np.asarray(w[ti]))]
+
+
+def stiffness_damping_refusals(S: StepSystem) -> list[str]:
+    """What of a stiffness-proportional Rayleigh damping the derivative does not follow: a beta on some members
+    only (element weights other than 1), more than one rayleigh beta, an elastic energy without compiled third
+    derivatives (the kernels' Hessian-vector companions, cables' axial and bending)."""
+    why = []
+    ds = [d for d in S.asm.scene.dampings if d.kind == "rayleigh" and d.beta]
+    if len(ds) > 1 or ds[0].members is not None:
+        why.append("stiffness-proportional Rayleigh damping on some members only or given twice (beta: one "
+                   "[[dampings]] entry for the whole scene)")
+    for ti, t in elastic_terms(S):
+        if not registry.has_third_derivatives(t.element, t.effect, t.gauss):
+            why.append(f"stiffness-proportional Rayleigh damping (beta) on {t.element}/{t.effect} energies (gauss "
+                       f"{t.gauss}: no compiled third derivatives)")
+            break
+    return why
+
+
+def stiffness_damping_jacobian_mx(S: StepSystem, x: ca.MX, v: ca.MX) -> ca.MX:
+    """beta d(K_el(q) v)/dq at (x, v) on the reduced coordinates, in a graph: the kernels' compiled Hessian-vector
+    companions (q, P, v) -> (H v, d(H v)/dq) mapped over each elastic term's elements (exact third derivatives
+    contracted with v), scattered by constant index maps."""
+    X, V = S.x_full_mx(x), ca.mtimes(dm(S.E), v)
+    n = S.E.shape[0]
+    rows, cols, vals = [], [], []
+    for ti, t in elastic_terms(S):
+        ne, nd = t.idx.shape
+        w = np.asarray(S.rayleigh.element_weight[ti], float) * np.ones(ne)
+        f = kernels.load_hvp(t.element, t.effect).map(ne)
+        Xe = ca.reshape(X[t.idx.ravel().tolist()], nd, ne)
+        Ve = ca.reshape(V[t.idx.ravel().tolist()], nd, ne)
+        D = f(Xe, ca.DM(np.asarray(t.P, float).T), Ve)[1]  # (nd, ne nd): block e is d(H_e v_e)/dq_e
+        # (entry (i, e nd + j) of D: row idx[e, i], column idx[e, j], weight w_e)
+        i, e, j = np.meshgrid(np.arange(nd), np.arange(ne), np.arange(nd), indexing="ij")
+        rows.append(t.idx[e, i].ravel())
+        cols.append(t.idx[e, j].ravel())
+        # (ca.vec is column-major: entry (i, e nd + j) of D at (e nd + j) nd + i)
+        order = ((e * nd + j) * nd + i).ravel()
+        vals.append(ca.vec(D)[order.tolist()] * ca.DM(w[e.ravel()]))
+    if not rows:
+        return ca.MX(S.nf, S.nf)
+    r, c = np.concatenate(rows), np.concatenate(cols)
+    A = ca.DM(ca.Sparsity.triplet(n * n, len(r), (c * n + r).tolist(), list(range(len(r)))), 1.0)
+    T = ca.reshape(ca.mtimes(A, ca.vertcat(*vals)), n, n)  # (column-major: entry (r, c) at c n + r)
+    E = dm(S.E)
+    return S.rayleigh.beta * ca.mtimes(E.T, ca.mtimes(T, E))
+
+
+def stiffness_damping_forcing(run: "AlphaRun", path: str) -> np.ndarray | None:
+    """The Rayleigh stiffness damping's part of F_n on the reduced coordinates, (steps + 1, nf): d(beta K_el(q_{n-1})
+    v_n)/dp at fixed states, beta dK_el/dp (q_{n-1}) v_n for a model path (the elastic pieces' Hessians) or
+    K_el(q_{n-1}) v_n for dampings[i].beta; row 0 is zero (v_0 = 0 in the start's acceleration). None: no beta."""
+    S = run.S
+    if S.rayleigh is None or not S.rayleigh.beta:
+        return None
+    X, Vf = run.X, run.V_full
+    out = np.zeros((len(X), S.nf))
+    i = damping_index(run.doc, path)
+    if i is not None:
+        if run.doc["dampings"][i]["type"] != "rayleigh" or parse_path(path).keys[2] != "beta":
+            return None
+        spk = S.kel_sparsity
+        for n in range(1, len(X)):
+            kel = S.forces(run.Q[n - 1])[2]
+            Kel = sp.csc_matrix((kel, np.array(spk.row()), np.array(spk.colind())), shape=(S.nf, S.nf))
+            out[n] = Kel @ run.V[n]  # (C = beta K_el, kel: K_el with the element weights, 1 here)
+        return out
+    md = model_derivative(run.asm, run.doc, path)
+    pieces = [pc for pc in md.pieces if pc.label in ELASTIC_LABELS]
+    for n in range(1, len(X)):
+        f = np.zeros(X.shape[1])
+        for pc in pieces:
+            Hb = pc.hessian(X[n - 1])
+            f += np.bincount(pc.idx.ravel(), np.einsum("eij,ej->ei", Hb, Vf[n][pc.idx]).ravel(), minlength=len(f))
+        out[n] = S.rayleigh.beta * (S.E.T @ f)
+    return out
 
 
 # -- the forward run: the package's compiled steps, every state kept -----------------------------------------------
@@ -279,6 +363,8 @@ def forcing(run: AlphaRun, path: str, statics: bool = False) -> np.ndarray:
         if statics:
             return np.zeros((1, S.nf))
         if run.doc["dampings"][i]["type"] == "rayleigh":
+            if parse_path(path).keys[2] == "beta":
+                return stiffness_damping_forcing(run, path)
             return run.V @ S.M
         return strain_rate_forcing(run, i, parse_path(path).keys[2])
     md = model_derivative(run.asm, run.doc, path)
@@ -293,7 +379,9 @@ def forcing(run: AlphaRun, path: str, statics: bool = False) -> np.ndarray:
         R -= md.dQ
     if not statics and md.dM is not None:
         R += (md.dM @ (run.A_full + run.alpha_r * run.V_full).T).T
-    return np.asarray((S.E.T @ R.T).T)
+    F = np.asarray((S.E.T @ R.T).T)
+    sd = None if statics else stiffness_damping_forcing(run, path)
+    return F if sd is None else F + sd
 
 
 _UNIT_F: dict = {}
@@ -336,13 +424,27 @@ def damping_tangents(S: StepSystem, x: ca.MX, v: ca.MX) -> tuple:
     return dfx, dfv
 
 
-def step_matrix(S: StepSystem, cm: float, cc: float, alpha_r: float, x: ca.MX, v: ca.MX, y: ca.MX | None
+def stiffness_damped(S: StepSystem) -> bool:
+    """The run has stiffness-proportional Rayleigh damping (beta K_el(q_n))."""
+    return S.rayleigh is not None and bool(S.rayleigh.beta)
+
+
+def damping_matrices(S: StepSystem, alpha_r: float, xp: ca.MX | None, v: ca.MX) -> tuple[ca.MX, ca.MX | None]:
+    """(C_n, T_n) of the Rayleigh damping over the step from q_n = xp to v_{n+1} = v: C_n = alpha M + beta K_el(q_n)
+    (the run's: K_el at the step's start) and T_n = beta d(K_el(q) v)/dq at q_n (None without beta)."""
+    if xp is None or S.rayleigh is None or not S.rayleigh.beta:
+        return alpha_r * dm(S.M), None
+    kel = S.forces_pf(xp, ca.DM(S.par))[2]
+    return rayleigh_mx(S, v, kel)[1], stiffness_damping_jacobian_mx(S, xp, v)
+
+
+def step_matrix(S: StepSystem, cm: float, cc: float, C: ca.MX, x: ca.MX, v: ca.MX, y: ca.MX | None
                 ) -> tuple[ca.MX, ca.MX | None, str]:
     """(A, df_d/dv, linear solver): the differentiated step's matrix at the step's end in a graph, A = cm M + cc C +
     K(x) (+ df_d/dx + cc df_d/dv) and, with constraint rows or drives, the KKT matrix [[A + H, J'], [J, 0]] with
     J = dPhi/dx(x, w), H = d2(lam . Phi)/dx2 (y = [lam; w]: the true multipliers and the drives' time inputs)."""
     nf, mc = S.nf, S.mc
-    A = (cm + cc * alpha_r) * dm(S.M) + S.forces_pf(x, ca.DM(S.par))[1]
+    A = cm * dm(S.M) + cc * C + S.forces_pf(x, ca.DM(S.par))[1]
     dfx, dfv = damping_tangents(S, x, v)  # (strain-rate damping: its exact tangents at the step's end)
     if dfx is not None:
         A = A + dfx + cc * dfv

@@ -46,7 +46,7 @@ from ancf_sym.dynamics.sensors import Sensor, SensorEval
 from ancf_sym.system.step_system import StepSystem
 from ancf_sym.scene.builder import Scene
 from ancf_sym.sensitivity.alpha_run import contact_notes, dynamic_assembly, forcing, mass_solve, refuse_unsupported, \
-    run_for_sensitivity, start_multipliers, start_tangent, step_matrix
+    damping_matrices, run_for_sensitivity, start_multipliers, start_tangent, step_matrix, stiffness_damped
 from ancf_sym.util.casadi_buffers import bind
 from ancf_sym.util.sparsity import dm
 
@@ -115,10 +115,10 @@ def forward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int, P
     """sweep(z0, X, V, F[, Y]) -> (Z[, L]): n steps of the sensitivity recursion (module docstring) for P parameters;
     z = [Sq; Sv; Sa; Sab] (4 nf x P), X, V (nf x n): q_{n+1}, v_{n+1} per step, F (nf x n P): the forcing per step,
     Y ((mc + nw) x n): the true multipliers and the drives' time inputs per step (only with constraint rows); Z (4 nf
-    x n P): z after each step, L (mc x n P): d lam_{n+1}/dp."""
+    x n P): z after each step, L (mc x n P): d lam_{n+1}/dp; with Rayleigh beta one more input XP (nf x n): q_n."""
     sch = opts.scheme()
     h = opts.dt
-    key = (S.graph_key, sch, h, alpha_r, n, P, S.par.tobytes())
+    key = (S.graph_key, sch, h, alpha_r, S.rayleigh.beta if S.rayleigh is not None else 0.0, n, P, S.par.tobytes())
     if key in _SWEEPS:
         return _SWEEPS[key]
     nf, mc = S.nf, S.mc
@@ -128,12 +128,16 @@ def forward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int, P
     M = dm(S.M)
     z, x, v, F = ca.MX.sym("z", 4 * nf, P), ca.MX.sym("x", nf), ca.MX.sym("v", nf), ca.MX.sym("F", nf, P)
     y = ca.MX.sym("y", mc + S.nw) if mc else None
-    J, dfv, solver = step_matrix(S, cm, cc, alpha_r, x, v, y)
+    xp = ca.MX.sym("xp", nf) if stiffness_damped(S) else None  # (q_n: where the run took K_el of the step)
+    C, T = damping_matrices(S, alpha_r, xp, v)
+    J, dfv, solver = step_matrix(S, cm, cc, C, x, v, y)
     Sq, Sv, Sa, Sab = (z[i * nf:(i + 1) * nf, :] for i in range(4))
     D = -(Sq + h * Sv + h * h * (0.5 - beta) * Sab) / (h * h * beta)
     B = c1 * D + (am * Sab - af * Sa) / (1 - af)
     Bv = Sv + h * (1 - gamma) * Sab + h * gamma * D
-    rhs = ca.mtimes(M, B + alpha_r * Bv) + F
+    rhs = ca.mtimes(M, B) + ca.mtimes(C, Bv) + F
+    if T is not None:  # (beta K_el(q_n) v_{n+1}: its change with q_n)
+        rhs = rhs + ca.mtimes(T, Sq)
     if dfv is not None:
         rhs = rhs + ca.mtimes(dfv, Bv)
     if mc:  # (the constraint rows: J dq' = 0, Phi reads no parameter)
@@ -141,7 +145,7 @@ def forward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int, P
         Sq1, outs = sol[:nf, :], [sol[nf:, :]]
     else:
         Sq1, outs = ca.solve(J, -rhs, solver), []
-    step = ca.Function("sensitivity_step", [z, x, v, F] + ([y] if mc else []),
+    step = ca.Function("sensitivity_step", [z, x, v, F] + ([y] if mc else []) + ([xp] if xp is not None else []),
                        [ca.vertcat(Sq1, cc * Sq1 + Bv, cm * Sq1 + B, Sq1 / (h * h * beta) + D)] + outs)
     _SWEEPS[key] = f = step.mapaccum("sensitivity_sweep", n)
     return f
@@ -179,6 +183,8 @@ def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
                np.ascontiguousarray(run.V[1:]).ravel(), Fin]
         if mc:
             ins.append(np.ascontiguousarray(np.hstack([run.Lam[1:], run.W[1:]])).ravel())
+        if stiffness_damped(S):
+            ins.append(np.ascontiguousarray(run.Q[:-1]).ravel())
         _, evaluate = bind(f, ins, [Z] + ([L] if mc else []))
         evaluate()
         Zs = Z.reshape(N, P, 4 * nf)
