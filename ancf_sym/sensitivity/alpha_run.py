@@ -53,6 +53,9 @@ def damping_index(doc: dict, path: str) -> int | None:
     if not ok:
         raise SceneError(f"parameter path {path!r}: differentiable damping coefficients: dampings[i].alpha | beta "
                          "of a rayleigh damping, dampings[i].axial | bending of a strain_rate damping")
+    if p.keys[2] == "beta" and not d.get("beta"):
+        raise SceneError(f"parameter path {path!r}: beta = 0 builds no stiffness damping in the run (its tangent "
+                         "K_el is not formed); give beta > 0 to differentiate with respect to it")
     return p.keys[1]
 
 
@@ -441,8 +444,9 @@ def damping_matrices(S: StepSystem, alpha_r: float, xp: ca.MX | None, v: ca.MX) 
 def step_matrix(S: StepSystem, cm: float, cc: float, C: ca.MX, x: ca.MX, v: ca.MX, y: ca.MX | None
                 ) -> tuple[ca.MX, ca.MX | None, str]:
     """(A, df_d/dv, linear solver): the differentiated step's matrix at the step's end in a graph, A = cm M + cc C +
-    K(x) (+ df_d/dx + cc df_d/dv) and, with constraint rows or drives, the KKT matrix [[A + H, J'], [J, 0]] with
-    J = dPhi/dx(x, w), H = d2(lam . Phi)/dx2 (y = [lam; w]: the true multipliers and the drives' time inputs)."""
+    K(x) (+ df_d/dx + cc df_d/dv) and, with constraint rows or drives, the KKT matrix [[A + H, kc J'], [kc J, 0]]
+    with J = dPhi/dx(x, w), H = d2(lam . Phi)/dx2 (y = [lam; w]: the true multipliers and the drives' time inputs),
+    kc = cm max diag M (the solution's multiplier part: dlam / kc)."""
     nf, mc = S.nf, S.mc
     A = cm * dm(S.M) + cc * C + S.forces_pf(x, ca.DM(S.par))[1]
     dfx, dfv = damping_tangents(S, x, v)  # (strain-rate damping: its exact tangents at the step's end)
@@ -455,7 +459,10 @@ def step_matrix(S: StepSystem, cm: float, cc: float, C: ca.MX, x: ca.MX, v: ca.M
     Jx = ca.jacobian(phi, x)
     if S.bilinear:
         A = A + ca.hessian(ca.dot(lam, phi), x)[0]
-    return ca.blockcat([[A, Jx.T], [Jx, ca.MX(mc, mc)]]), dfv, "qr"  # (indefinite: QR)
+    # (rows scaled by kc = cm max diag M as the run's step scales them: the KKT matrix's blocks of one size, its
+    # condition that of the run's; the solution's multiplier part is dlam / kc)
+    kc = cm * S.stiffness_scale()
+    return ca.blockcat([[A, kc * Jx.T], [kc * Jx, ca.MX(mc, mc)]]), dfv, "qr"  # (indefinite: QR)
 
 
 def start_tangent(run: AlphaRun) -> sp.csc_matrix:

@@ -142,7 +142,7 @@ def forward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int, P
         rhs = rhs + ca.mtimes(dfv, Bv)
     if mc:  # (the constraint rows: J dq' = 0, Phi reads no parameter)
         sol = ca.solve(J, -ca.vertcat(rhs, ca.MX(mc, P)), solver)
-        Sq1, outs = sol[:nf, :], [sol[nf:, :]]
+        Sq1, outs = sol[:nf, :], [cm * S.stiffness_scale() * sol[nf:, :]]  # (dlam = kc times the scaled part)
     else:
         Sq1, outs = ca.solve(J, -rhs, solver), []
     step = ca.Function("sensitivity_step", [z, x, v, F] + ([y] if mc else []) + ([xp] if xp is not None else []),
