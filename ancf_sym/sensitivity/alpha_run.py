@@ -30,7 +30,7 @@ from ancf_sym.dynamics.time_loop import chunk_size
 from ancf_sym.io.scene_toml import scene_from_dict
 from ancf_sym.model.assembly import Assembly
 from ancf_sym.scene.builder import SceneError
-from ancf_sym.sensitivity.model_derivative import check_model_paths, model_derivative, read_document
+from ancf_sym.sensitivity.model_derivative import model_derivative, read_document
 from ancf_sym.sensitivity.paths import get_parameter, parse_path
 from ancf_sym.system import water
 from ancf_sym.system.damping import rayleigh_mx, strain_rate_mx
@@ -61,13 +61,11 @@ def damping_index(doc: dict, path: str) -> int | None:
 
 def check_dynamic_paths(scene, doc: dict, paths: list[str], asm=None) -> None:
     """Refuse, before any step, a path that names no differentiable number of a dynamic run (asm: the run's
-    assembly, for scenes with drives that statics refuses)."""
+    assembly; default dynamic_assembly(scene), which also takes scenes with drives that statics refuses)."""
     model_paths = [p for p in paths if damping_index(doc, p) is None]
-    if asm is None:
-        check_model_paths(scene, doc, model_paths)
-        return
     for p in model_paths:
         get_parameter(doc, p)
+    asm = dynamic_assembly(scene) if asm is None else asm
     for p in model_paths:
         model_derivative(asm, doc, p)
 
