@@ -21,9 +21,10 @@ product each: 100 parameters cost a few mapped calls, not 100 runs.
 
 Outputs: functions of the sensor records (their sum, time integral, end value, or the least-squares misfit to a
 data record) and the kinetic, potential or total energy at the end. Parameters: the TOML paths of
-model_derivative, and the scene's Rayleigh coefficient dampings[i].alpha. Scope as the forward sensitivities
-(refused by name before any step, ancf_sym.sensitivity.alpha_run): no stiffness-proportional Rayleigh (beta: its
-tangent's derivative needs third derivatives of the energies), no contact damping, no applied torques; with
+model_derivative, and the scene's Rayleigh coefficients dampings[i].alpha | beta. Scope as the forward sensitivities
+(refused by name before any step, ancf_sym.sensitivity.alpha_run): no contact damping, no applied torques;
+stiffness-proportional Rayleigh damping C_n = alpha M + beta K_el(q_n) enters J' through C_n and the earlier state's
+adjoint through -T_n' mu (T_n = beta d(K_el(q) v_{n+1})/dq at q_n, the kernels' Hessian-vector companions); with
 multiplier rows or drives the step is a KKT system and the adjoint solves its transpose with [s; 0] (mu: the
 coordinates' part);
 strain-rate damping adds its tangents df/dq + cc df/dv to J' and df/dv to the velocity's adjoint; time loads are

@@ -2,12 +2,13 @@
 paths, before any step), the run itself (the package's compiled alpha steps, every state kept) and the parameter
 forcing F_n = dR/dp(q_n) + dM/dp a_n + dC/dp v_n of the differentiated step equations at every step.
 
-Parameters: the model's TOML paths (ancf_sym.sensitivity.model_derivative), the Rayleigh mass coefficient
-dampings[i].alpha (C = alpha_R M) and the strain-rate coefficients dampings[i].axial | bending (the force f_d(q, v)
-is linear in them; its tangents df/dq, df/dv are the step system's). Damping the derivative does not follow is
-refused by name: stiffness-proportional Rayleigh (beta: the derivative of its tangent K_el(q_n) needs third
-derivatives of the energies), contact damping and friction, lines in water, as are applied torques and a static start
-with multiplier rows. Constraint rows with multipliers (rigid joints, bodies' rows) and drives make the step a KKT
+Parameters: the model's TOML paths (ancf_sym.sensitivity.model_derivative), the Rayleigh coefficients
+dampings[i].alpha | beta (C_n = alpha_R M + beta K_el(q_n): the run takes the elastic tangent at each step's start;
+the change of beta K_el(q_n) v_{n+1} with q_n is the kernels' compiled Hessian-vector companions' exact third
+derivatives contracted with v) and the strain-rate coefficients dampings[i].axial | bending (the force f_d(q, v) is
+linear in them; its tangents df/dq, df/dv are the step system's). Refused by name: contact damping and friction,
+lines in water, a beta on some members only or on energies without compiled third derivatives, applied torques and
+a static start with multiplier rows. Constraint rows with multipliers (rigid joints, bodies' rows) and drives make the step a KKT
 system: `step_matrix` builds its differentiated matrix, the run keeps the multipliers and the drives' time inputs.
 Time loads (analysis.loads) are applied as the run applies them; they depend on no scene parameter.
 """
