@@ -10,7 +10,7 @@ Scene: the catenary example (rubber rope, 10 m, pinned ends) at n elements with 
 - finite differences: central differences of the same output over the same 100 parameters (200 solves, each a
   scene rebuilt with one value changed, warm-started from the equilibrium: from the straight start some perturbed
   scenes find another equilibrium of this slack rope), and the largest relative difference from the exact gradient.
-min / median over repeats. Run: python bench/sensitivity_cost.py [--repeats N] [--only kkt]
+min / median over repeats. Run: python bench/sensitivity_cost.py [--repeats N] [--only kkt|beta]
 """
 import argparse
 import copy
@@ -214,10 +214,40 @@ def kkt_adjoint_cost(repeats: int, elements: int) -> None:
           f"{rel:.1e}")
 
 
+def beta_adjoint_cost(repeats: int, elements: int) -> None:
+    """adjoint_cost's damped cantilever with stiffness-proportional Rayleigh damping as well (alpha = 0.5 1/s,
+    beta = 1e-4 s: C_n = alpha M + beta K_el(q_n)), 100 parameters (dampings[0].beta in place of the last force
+    component); against the sensitivities' own run of the same steps (stiffness damping: one step at a time)."""
+    from ancf_sym.dynamics import DynamicOptions
+    from ancf_sym.sensitivity.adjoint import SensorOutput, dynamic_gradient
+    from ancf_sym.sensitivity.alpha_run import run_for_sensitivity
+
+    nodes = np.linspace(1, elements, 48).round().astype(int)
+    doc = {"scene": {"name": "c", "dim": 2, "gravity": [0.0, -9.81]},
+           "materials": {"m": {"E": 2e9, "density": 7800.0}}, "sections": {"s": {"area": 1e-4, "I": 1e-9}},
+           "members": [{"name": "beam", "points": [[0, 0], [1.0, 0]], "elements": elements, "material": "m",
+                        "section": "s", "bending": True}],
+           "supports": [{"type": "clamp", "member": "beam", "at": "start"}],
+           "loads": [{"type": "force", "member": "beam", "at": int(k), "value": [0.1, -0.2]} for k in nodes],
+           "dampings": [{"type": "rayleigh", "alpha": 0.5, "beta": 1e-4}]}
+    sensors = [{"name": "tip", "kind": "position", "member": "beam", "at": "end"}]
+    opts = DynamicOptions(dt=1e-3, t_end=1.0, sensors=sensors, energies=False)
+    paths = ["materials.m.E", "materials.m.density", "sections.s.I", "dampings[0].alpha", "dampings[0].beta"] + \
+        [f"loads[{i}].value[{j}]" for i in range(48) for j in range(2)][:95]
+    out = SensorOutput("tip", 1, "integral")
+    dynamic_gradient(doc, paths, opts, out)  # warm
+    k_min, k_med, _ = timed(lambda: run_for_sensitivity(doc, [], opts), repeats)
+    a_min, a_med, _ = timed(lambda: dynamic_gradient(doc, paths, opts, out), repeats)
+    print(f"dynamics adjoint, Rayleigh beta, {elements} elements, 1000 steps, {len(paths)} parameters: the run "
+          f"{k_min * 1e3:.1f} / {k_med * 1e3:.1f} ms; gradient (run + adjoint) {a_min * 1e3:.1f} / {a_med * 1e3:.1f} "
+          f"ms = {a_min / k_min:.2f}x / {a_med / k_med:.2f}x the run (min / median)")
+
+
 if __name__ == "__main__":
     ap = argparse.ArgumentParser()
     ap.add_argument("--repeats", type=int, default=10)
-    ap.add_argument("--only", choices=("kkt",), default=None, help="only the KKT-step (drive + joint) adjoint case")
+    ap.add_argument("--only", choices=("kkt", "beta"), default=None,
+                    help="only the KKT-step (drive + joint) or the Rayleigh beta adjoint case")
     a = ap.parse_args()
     repeats = a.repeats
     if a.only is None:
@@ -226,5 +256,9 @@ if __name__ == "__main__":
             dynamics_cost(max(1, repeats // 3), n)
         for n in (10, 40, 80):
             adjoint_cost(max(1, repeats // 2), n)
-    for n in (10, 40, 80):
-        kkt_adjoint_cost(max(1, repeats // 2), n)
+    if a.only in (None, "kkt"):
+        for n in (10, 40, 80):
+            kkt_adjoint_cost(max(1, repeats // 2), n)
+    if a.only in (None, "beta"):
+        for n in (10, 40):
+            beta_adjoint_cost(max(1, repeats // 2), n)

@@ -159,33 +159,59 @@ def stiffness_damping_jacobian_mx(S: StepSystem, x: ca.MX, v: ca.MX) -> ca.MX:
     return S.rayleigh.beta * ca.mtimes(E.T, ca.mtimes(T, E))
 
 
+def _hessian_vectors(element: str, effect: str, gauss, idx: np.ndarray, P: np.ndarray, X: np.ndarray,
+                     V: np.ndarray) -> np.ndarray:
+    """sum_e H_e(x_k; P_e) v_k[idx_e] scattered on the full coordinates for every row k of X, V, (len(X), n): the
+    kernel's Hessian-vector companion where compiled (one mapped call over every row's elements), else its Hessian."""
+    ne, nd = idx.shape
+    k, n = X.shape
+    if registry.has_third_derivatives(element, effect, gauss):
+        key = ("hvp", element, effect, k * ne)
+        if key not in _MAPPED:
+            _MAPPED[key] = kernels.load_hvp(element, effect).map(k * ne)
+        hv = np.zeros(k * ne * nd)
+        _, evaluate = bind(_MAPPED[key], [np.ascontiguousarray(X[:, idx]).ravel(),
+                                          np.ascontiguousarray(np.tile(np.asarray(P, float), (k, 1))).ravel(),
+                                          np.ascontiguousarray(V[:, idx]).ravel()], [hv])
+        evaluate()
+        hv = hv.reshape(k, ne * nd)
+    else:
+        key = ("full", element, effect, gauss, ne)
+        if key not in _MAPPED:
+            _MAPPED[key] = kernels.load(element, effect, gauss).map(ne)
+        hv = np.zeros((k, ne * nd))
+        for r in range(k):
+            H = _MAPPED[key](X[r, idx].T, np.asarray(P, float).T)[2].full().reshape(nd, ne, nd).transpose(1, 0, 2)
+            hv[r] = np.einsum("eij,ej->ei", H, V[r, idx]).ravel()
+    return (_scatter(idx, n).T @ hv.T).T
+
+
 def stiffness_damping_forcing(run: "AlphaRun", path: str) -> np.ndarray | None:
     """The Rayleigh stiffness damping's part of F_n on the reduced coordinates, (steps + 1, nf): d(beta K_el(q_{n-1})
     v_n)/dp at fixed states, beta dK_el/dp (q_{n-1}) v_n for a model path (the elastic pieces' Hessians) or
-    K_el(q_{n-1}) v_n for dampings[i].beta; row 0 is zero (v_0 = 0 in the start's acceleration). None: no beta."""
+    K_el(q_{n-1}) v_n for dampings[i].beta; row 0 is zero (v_0 = 0 in the start's acceleration). None: no beta, or
+    the path changes no elastic energy."""
     S = run.S
-    if S.rayleigh is None or not S.rayleigh.beta:
+    if not stiffness_damped(S):
         return None
     X, Vf = run.X, run.V_full
-    out = np.zeros((len(X), S.nf))
     i = damping_index(run.doc, path)
     if i is not None:
         if run.doc["dampings"][i]["type"] != "rayleigh" or parse_path(path).keys[2] != "beta":
             return None
-        spk = S.kel_sparsity
-        for n in range(1, len(X)):
-            kel = S.forces(run.Q[n - 1])[2]
-            Kel = sp.csc_matrix((kel, np.array(spk.row()), np.array(spk.colind())), shape=(S.nf, S.nf))
-            out[n] = Kel @ run.V[n]  # (C = beta K_el, kel: K_el with the element weights, 1 here)
-        return out
-    md = model_derivative(run.asm, run.doc, path)
-    pieces = [pc for pc in md.pieces if pc.label in ELASTIC_LABELS]
-    for n in range(1, len(X)):
-        f = np.zeros(X.shape[1])
-        for pc in pieces:
-            Hb = pc.hessian(X[n - 1])
-            f += np.bincount(pc.idx.ravel(), np.einsum("eij,ej->ei", Hb, Vf[n][pc.idx]).ravel(), minlength=len(f))
-        out[n] = S.rayleigh.beta * (S.E.T @ f)
+        # (C = beta K_el with K_el the elastic terms' Hessians, element weights 1: stiffness_damping_refusals)
+        pieces = [(t.element, t.effect, t.gauss, t.idx, t.P, 1.0) for _, t in elastic_terms(S)]
+    else:
+        md = model_derivative(run.asm, run.doc, path)
+        pieces = [(pc.element, pc.effect, pc.gauss, pc.idx, pc.P, S.rayleigh.beta) for pc in md.pieces
+                  if pc.label in ELASTIC_LABELS]
+    if not pieces:
+        return None
+    f = np.zeros((len(X) - 1, X.shape[1]))
+    for element, effect, gauss, idx, P, c in pieces:
+        f += c * _hessian_vectors(element, effect, gauss, idx, P, X[:-1], Vf[1:])
+    out = np.zeros((len(X), S.nf))
+    out[1:] = np.asarray((S.E.T @ f.T).T)
     return out
 
 
