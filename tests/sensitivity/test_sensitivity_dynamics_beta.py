@@ -89,3 +89,20 @@ def test_beta_zero_or_partial_refused_by_name():
     d["dampings"] = [{"type": "rayleigh", "alpha": 2.0, "beta": 1e-3}, {"type": "rayleigh", "beta": 1e-3}]
     with pytest.raises(SceneError, match="given twice"):
         dynamic_sensitivity(d, ["materials.m.E"], opts())
+
+
+def test_beta_from_the_static_start_under_a_load_pulse():
+    """Start at the static equilibrium (its sensitivity is the first state's: the damping's q_n-term is fed from
+    the start), a sideways pulse (analysis.loads) sets the rope moving; forward = adjoint, adjoint = differences."""
+    doc = copy.deepcopy(DOC)
+    pulse = [{"member": "rope", "at": "end", "force": [0.4, 0.0], "history": [[0.0, 0.0], [0.05, 1.0], [0.1, 0.0]]}]
+    o = DynamicOptions(dt=2e-3, t_end=0.1, newton=TIGHT, sensors=SENSORS, start="static", loads=pulse)
+    out = SensorOutput("tip", 0, "integral")
+    paths = ["materials.m.E", "dampings[0].beta", "sections.s.I"]
+    fw = dynamic_sensitivity(doc, paths, o)
+    g = dynamic_gradient(doc, paths, o, out)
+    for p in paths:
+        ref = trapezoid(fw.t) @ fw.sensor(p, "tip")[:, 0]
+        assert abs(g.gradient[p] - ref) <= 1e-8 * abs(ref), p
+        fd = richardson(lambda d: dynamic_gradient(d, [], o, out).value, doc, p)
+        assert abs(g.gradient[p] - fd) <= 1e-5 * abs(fd), (p, g.gradient[p], fd)
