@@ -22,7 +22,8 @@ product each: 100 parameters cost a few mapped calls, not 100 runs.
 Outputs: functions of the sensor records (their sum, time integral, end value, or the least-squares misfit to a
 data record) and the kinetic, potential or total energy at the end. Parameters: the TOML paths of
 model_derivative, and the scene's Rayleigh coefficients dampings[i].alpha | beta. Scope as the forward sensitivities
-(refused by name before any step, ancf_sym.sensitivity.alpha_run): no contact damping, no applied torques;
+(refused by name before any step, ancf_sym.sensitivity.alpha_run): no contact damping (applied torques: their skew
+tangent in J', solved transposed);
 stiffness-proportional Rayleigh damping C_n = alpha M + beta K_el(q_n) enters J' through C_n and the earlier state's
 adjoint through -T_n' mu (T_n = beta d(K_el(q) v_{n+1})/dq at q_n, the kernels' Hessian-vector companions); with
 multiplier rows or drives the step is a KKT system and the adjoint solves its transpose with [s; 0] (mu: the
@@ -43,7 +44,7 @@ from ancf_sym import kernels
 from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.sensors import Sensor, SensorEval
 from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, damping_matrices, forcing, mass_solve, \
-    run_for_sensitivity, start_tangent, step_matrix, stiffness_damped, stiffness_damping_forcing
+    run_for_sensitivity, start_tangent, step_inputs, step_matrix, stiffness_damped, stiffness_damping_forcing
 from ancf_sym.sensitivity.model_derivative import STIFFNESS_COLUMNS, ModelDerivative, model_derivative, \
     read_document
 from ancf_sym.system.step_system import StepSystem
@@ -112,7 +113,7 @@ def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int) 
     mc = S.mc
     acc = ca.MX.sym("acc", 4 * nf)
     x, v, wq, wv = ca.MX.sym("x", nf), ca.MX.sym("v", nf), ca.MX.sym("wq", nf), ca.MX.sym("wv", nf)
-    y = ca.MX.sym("y", mc + S.nw) if mc else None  # (the true multipliers and the drives' time inputs)
+    y = ca.MX.sym("y", step_inputs(S)) if step_inputs(S) else None  # (the true multipliers, the drives' inputs)
     xp = ca.MX.sym("xp", nf) if stiffness_damped(S) else None  # (q_n: where the run took K_el of the step)
     C, T = damping_matrices(S, alpha_r, xp, v)
     J, dfv, solver = step_matrix(S, cm, cc, C, x, v, y)
@@ -135,7 +136,7 @@ def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int) 
     Sv = Bvb - Db / (h * beta)
     Sa = -af / (1 - af) * Bb
     Sab = h * (1 - gamma) * Bvb + am / (1 - af) * Bb - (0.5 - beta) / beta * Db
-    u = ca.vertcat(x, v, wq, wv, *([y] if mc else []), *([xp] if xp is not None else []))
+    u = ca.vertcat(x, v, wq, wv, *([y] if y is not None else []), *([xp] if xp is not None else []))
     step = ca.Function("adjoint_step", [acc, u], [ca.vertcat(Sq, Sv, Sa, Sab), mu])
     sweep = step.mapaccum("adjoint_steps", n)
     a0, U = ca.MX.sym("acc0", 4 * nf), ca.MX.sym("U", u.size1(), n)
@@ -316,8 +317,8 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
     acc = np.zeros(4 * nf)
     if N:
         f = backward_sweep(S, options, alpha_r, N)
-        cols = [Q[:0:-1], Vr[:0:-1], WQ[:0:-1], WV[:0:-1]] + ([run.Lam[:0:-1], run.W[:0:-1]] if S.mc else []) + \
-            ([Q[-2::-1]] if stiffness_damped(S) else [])
+        cols = [Q[:0:-1], Vr[:0:-1], WQ[:0:-1], WV[:0:-1]] + \
+            ([run.Lam[:0:-1], run.W[:0:-1]] if step_inputs(S) else []) + ([Q[-2::-1]] if stiffness_damped(S) else [])
         U = np.ascontiguousarray(np.hstack(cols))  # (column j: step N - j)
         MUb = np.zeros((N, nf))
         _, evaluate = bind(f, [np.zeros(4 * nf), U], [acc, MUb])

@@ -7,8 +7,8 @@ dampings[i].alpha | beta (C_n = alpha_R M + beta K_el(q_n): the run takes the el
 the change of beta K_el(q_n) v_{n+1} with q_n is the kernels' compiled Hessian-vector companions' exact third
 derivatives contracted with v) and the strain-rate coefficients dampings[i].axial | bending (the force f_d(q, v) is
 linear in them; its tangents df/dq, df/dv are the step system's). Refused by name: contact damping and friction,
-lines in water, a beta on some members only or on energies without compiled third derivatives, applied torques and
-a static start with multiplier rows. Constraint rows with multipliers (rigid joints, bodies' rows) and drives make the step a KKT
+lines in water, a beta on some members only or on energies without compiled third derivatives, and a static start
+with multiplier rows. Applied torques add their skew tangent to the step's matrix. Constraint rows with multipliers (rigid joints, bodies' rows) and drives make the step a KKT
 system: `step_matrix` builds its differentiated matrix, the run keeps the multipliers and the drives' time inputs.
 Time loads (analysis.loads) are applied as the run applies them; they depend on no scene parameter.
 """
@@ -97,8 +97,6 @@ def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
         why.append("contact damping or friction")
     if water.has_forces(S.asm):
         why.append("lines in water (drag, added mass)")
-    if S.drives is not None and S.drives.torques:
-        why.append("applied torques (a time-dependent force with an unsymmetric tangent)")
     if opts.release or opts.from_result or opts.initial or opts.q0 is not None or opts.v0 is not None:
         why.append("a start other than the reference or the static equilibrium at rest")
     if why:
@@ -452,6 +450,12 @@ def damping_tangents(S: StepSystem, x: ca.MX, v: ca.MX) -> tuple:
     return dfx, dfv
 
 
+def step_inputs(S: StepSystem) -> int:
+    """The size of a step's extra input y = [lam; w] of step_matrix (the multipliers, the drives' time inputs), 0:
+    none."""
+    return S.mc + S.nw if (S.mc or S.nw) else 0
+
+
 def stiffness_damped(S: StepSystem) -> bool:
     """The run has stiffness-proportional Rayleigh damping (beta K_el(q_n))."""
     return S.rayleigh is not None and bool(S.rayleigh.beta)
@@ -470,16 +474,22 @@ def step_matrix(S: StepSystem, cm: float, cc: float, C: ca.MX, x: ca.MX, v: ca.M
                 ) -> tuple[ca.MX, ca.MX | None, str]:
     """(A, df_d/dv, linear solver): the differentiated step's matrix at the step's end in a graph, A = cm M + cc C +
     K(x) (+ df_d/dx + cc df_d/dv) and, with constraint rows or drives, the KKT matrix [[A + H, kc J'], [kc J, 0]]
-    with J = dPhi/dx(x, w), H = d2(lam . Phi)/dx2 (y = [lam; w]: the true multipliers and the drives' time inputs),
-    kc = cm max diag M (the solution's multiplier part: dlam / kc)."""
+    with J = dPhi/dx(x, w), H = d2(lam . Phi)/dx2 (y = [lam; w]: the true multipliers and the drives' time inputs,
+    None without drives or rows), kc = cm max diag M (the solution's multiplier part: dlam / kc); applied torques
+    add minus their force's Jacobian to A."""
     nf, mc = S.nf, S.mc
     A = cm * dm(S.M) + cc * C + S.forces_pf(x, ca.DM(S.par))[1]
     dfx, dfv = damping_tangents(S, x, v)  # (strain-rate damping: its exact tangents at the step's end)
+    unsym = dfx is not None
     if dfx is not None:
         A = A + dfx + cc * dfv
+    lam, w = (y[:mc], y[mc:]) if y is not None else (None, None)
+    tq = S.torque_mx(x, w) if w is not None else None
+    if tq is not None:  # (applied torques tau(t) (-s, c): their tangent, skew)
+        A = A - ca.jacobian(tq, x)
+        unsym = True
     if not mc:
-        return A, dfv, "ldl" if dfx is None else "qr"  # (d f_d / dq is unsymmetric: QR)
-    lam, w = y[:mc], (y[mc:] if S.nw else None)
+        return A, dfv, "qr" if unsym else "ldl"  # (d f_d / dq, a torque's tangent: unsymmetric, QR)
     phi = S.constraint_mx(x, w)
     Jx = ca.jacobian(phi, x)
     if S.bilinear:

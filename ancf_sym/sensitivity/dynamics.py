@@ -31,7 +31,7 @@ multipliers; no parameter enters a row), and the start's [M J'; J 0] [a_0; lam_0
 Stiffness-proportional Rayleigh damping (C_n = alpha M + beta K_el(q_n)) adds cc C_n to the tangent and
 C_n Bv + beta d(K_el(q) v_{n+1})/dq|_{q_n} S_n to the right-hand side (S_n: the previous state's sensitivity; the
 kernels' compiled Hessian-vector companions). Scope (refused by name before any step, ancf_sym.sensitivity.alpha_run):
-fixed steps; no contact damping, no applied torques, no static start with multiplier rows; time loads
+fixed steps; no contact damping (applied torques: their skew tangent in the step's matrix), no static start with multiplier rows; time loads
 (analysis.loads) are applied as the run applies them.
 """
 from __future__ import annotations
@@ -48,7 +48,7 @@ from ancf_sym.dynamics.sensors import Sensor, SensorEval
 from ancf_sym.system.step_system import StepSystem
 from ancf_sym.scene.builder import Scene
 from ancf_sym.sensitivity.alpha_run import contact_notes, dynamic_assembly, forcing, mass_solve, refuse_unsupported, \
-    damping_matrices, run_for_sensitivity, start_multipliers, start_tangent, step_matrix, stiffness_damped
+    damping_matrices, run_for_sensitivity, start_multipliers, start_tangent, step_inputs, step_matrix, stiffness_damped
 from ancf_sym.util.casadi_buffers import bind
 from ancf_sym.util.sparsity import dm
 
@@ -129,7 +129,7 @@ def forward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int, P
     c1 = (1 - am) / (1 - af)
     M = dm(S.M)
     z, x, v, F = ca.MX.sym("z", 4 * nf, P), ca.MX.sym("x", nf), ca.MX.sym("v", nf), ca.MX.sym("F", nf, P)
-    y = ca.MX.sym("y", mc + S.nw) if mc else None
+    y = ca.MX.sym("y", step_inputs(S)) if step_inputs(S) else None
     xp = ca.MX.sym("xp", nf) if stiffness_damped(S) else None  # (q_n: where the run took K_el of the step)
     C, T = damping_matrices(S, alpha_r, xp, v)
     J, dfv, solver = step_matrix(S, cm, cc, C, x, v, y)
@@ -147,7 +147,8 @@ def forward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int, P
         Sq1, outs = sol[:nf, :], [cm * S.stiffness_scale() * sol[nf:, :]]  # (dlam = kc times the scaled part)
     else:
         Sq1, outs = ca.solve(J, -rhs, solver), []
-    step = ca.Function("sensitivity_step", [z, x, v, F] + ([y] if mc else []) + ([xp] if xp is not None else []),
+    step = ca.Function("sensitivity_step", [z, x, v, F] + ([y] if y is not None else []) +
+                       ([xp] if xp is not None else []),
                        [ca.vertcat(Sq1, cc * Sq1 + Bv, cm * Sq1 + B, Sq1 / (h * h * beta) + D)] + outs)
     _SWEEPS[key] = f = step.mapaccum("sensitivity_sweep", n)
     return f
@@ -183,7 +184,7 @@ def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
         Fin = np.ascontiguousarray(Fs[1:].transpose(0, 2, 1)).ravel()
         ins = [np.ascontiguousarray(z0.T).ravel(), np.ascontiguousarray(run.Q[1:]).ravel(),
                np.ascontiguousarray(run.V[1:]).ravel(), Fin]
-        if mc:
+        if step_inputs(S):
             ins.append(np.ascontiguousarray(np.hstack([run.Lam[1:], run.W[1:]])).ravel())
         if stiffness_damped(S):
             ins.append(np.ascontiguousarray(run.Q[:-1]).ravel())
