@@ -98,8 +98,9 @@ _SWEEPS: dict = {}
 
 
 def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int) -> ca.Function:
-    """sweep(acc0, U) -> (acc, MU), U = [X; V; WQ; WV[; Lam; W]]: n backward steps (columns: steps N, N-1, .., 1) of the adjoint
-    recursion (see the module docstring); acc = the adjoints flowing into (q, v, a, abar) of the earlier state."""
+    """sweep(acc0, U) -> (acc, MU), U = [X; V; WQ; WV[; Lam; W][; X_prev]]: n backward steps (columns: steps N, N-1,
+    .., 1) of the adjoint recursion (see the module docstring); acc = the adjoints flowing into (q, v, a, abar) of the
+    earlier state; Lam, W: the multipliers and drives' time inputs, X_prev: q_n (Rayleigh beta)."""
     sch = opts.scheme()
     h = opts.dt
     key = (S.graph_key, sch, h, alpha_r, S.rayleigh.beta if S.rayleigh is not None else 0.0, n, S.par.tobytes())

@@ -8,8 +8,9 @@ the change of beta K_el(q_n) v_{n+1} with q_n is the kernels' compiled Hessian-v
 derivatives contracted with v) and the strain-rate coefficients dampings[i].axial | bending (the force f_d(q, v) is
 linear in them; its tangents df/dq, df/dv are the step system's). Refused by name: contact damping and friction,
 lines in water, a beta on some members only or on energies without compiled third derivatives, and a static start
-with multiplier rows. Applied torques add their skew tangent to the step's matrix. Constraint rows with multipliers (rigid joints, bodies' rows) and drives make the step a KKT
-system: `step_matrix` builds its differentiated matrix, the run keeps the multipliers and the drives' time inputs.
+with multiplier rows. Applied torques add their skew tangent to the step's matrix. Constraint rows with multipliers
+(rigid joints, bodies' rows) and drives make the step a KKT system: `step_matrix` builds its differentiated matrix,
+the run keeps the multipliers and the drives' time inputs.
 Time loads (analysis.loads) are applied as the run applies them; they depend on no scene parameter.
 """
 from __future__ import annotations

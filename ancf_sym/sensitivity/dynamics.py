@@ -30,9 +30,9 @@ solve [[J' + H(lam'), J(q')'], [J(q'), 0]] [S'; dlam'/dp] = -[rhs; 0] (H: the ro
 multipliers; no parameter enters a row), and the start's [M J'; J 0] [a_0; lam_0] differentiated alike.
 Stiffness-proportional Rayleigh damping (C_n = alpha M + beta K_el(q_n)) adds cc C_n to the tangent and
 C_n Bv + beta d(K_el(q) v_{n+1})/dq|_{q_n} S_n to the right-hand side (S_n: the previous state's sensitivity; the
-kernels' compiled Hessian-vector companions). Scope (refused by name before any step, ancf_sym.sensitivity.alpha_run):
-fixed steps; no contact damping (applied torques: their skew tangent in the step's matrix), no static start with multiplier rows; time loads
-(analysis.loads) are applied as the run applies them.
+kernels' compiled Hessian-vector companions). Scope (refused by name before any step,
+ancf_sym.sensitivity.alpha_run): fixed steps; no contact damping (applied torques: their skew tangent in the step's
+matrix), no static start with multiplier rows; time loads (analysis.loads) are applied as the run applies them.
 """
 from __future__ import annotations
 
