@@ -1,6 +1,6 @@
 """Dynamic sensitivities through the KKT step: position drives (prescribed node motion, time-dependent rows),
-rigid joints and a rigid body's rows (multipliers), an applied torque (skew tangent), forward against adjoint and
-against central differences of re-run scenes.
+rigid joints and a rigid body's rows (multipliers), an angle drive on the body, an applied torque (skew tangent),
+forward against adjoint and against central differences of re-run scenes.
 
 The forward and adjoint recursions solve the same differentiated KKT systems, one the transpose of the other:
 they agree to the round-off of ~50 sparse QR solves (condition ~1e5 with the multiplier rows), far inside the 1e-8
@@ -39,14 +39,16 @@ JOINT = dict(BASE, members=[{"name": "a", "points": [[0, 0], [0.5, 0]], "element
              bodies=[{"name": "tip", "mass": 0.05, "inertia": 1e-4, "position": [0.6, -0.5], "pin": [["b", "end"]]}])
 # the frame with a torque tau = 0.05 t on its tip body (a time-dependent force with a skew tangent)
 TORQUE = dict(JOINT, drives=[{"type": "torque", "body": "tip", "torque": [[0.0, [0.0, 0.05]]]}])
+# the frame with its tip body's angle prescribed, theta = 10 t^2 (a bilinear row with time-dependent coefficients)
+ANGLE = dict(JOINT, drives=[{"type": "angle", "body": "tip", "angle": [[0.0, [0.0, 0.0, 10.0]]]}])
 SENSORS = {"drive": [{"name": "tip", "kind": "position", "member": "rope", "at": "end"}],
            "joint": [{"name": "tip", "kind": "position", "member": "b", "at": "end"}]}
-SENSORS["torque"] = SENSORS["joint"]
-SCENES = {"drive": DRIVE, "joint": JOINT, "torque": TORQUE}
+SENSORS["torque"] = SENSORS["angle"] = SENSORS["joint"]
+SCENES = {"drive": DRIVE, "joint": JOINT, "torque": TORQUE, "angle": ANGLE}
 PATHS = {"drive": ["materials.m.E", "materials.m.density", "sections.s.I", "masses[0].mass", "scene.gravity[1]",
                    "dampings[0].alpha"],
          "joint": ["materials.m.E", "materials.m.density", "sections.s.I", "scene.gravity[1]"]}
-PATHS["torque"] = PATHS["joint"]
+PATHS["torque"] = PATHS["angle"] = PATHS["joint"]
 
 
 def opts(which, integrator="generalized_alpha"):
@@ -62,7 +64,7 @@ def trapezoid(t):
 
 @pytest.mark.parametrize("which,integrator", [("drive", "generalized_alpha"), ("drive", "hht"),
                                               ("joint", "generalized_alpha"), ("joint", "newmark"),
-                                              ("torque", "generalized_alpha")])
+                                              ("torque", "generalized_alpha"), ("angle", "hht")])
 def test_kkt_adjoint_equals_forward(which, integrator):
     doc, o = SCENES[which], opts(which, integrator)
     fw = dynamic_sensitivity(doc, PATHS[which], o)
@@ -91,8 +93,9 @@ def richardson(f, doc, path):
                                        ("drive", EnergyOutput("kinetic")),
                                        ("joint", SensorOutput("tip", 1, "integral")),
                                        ("joint", EnergyOutput("kinetic")),
-                                       ("torque", SensorOutput("tip", 1, "integral"))],
-                         ids=["drive_tip", "drive_kinetic", "joint_tip", "joint_kinetic", "torque_tip"])
+                                       ("torque", SensorOutput("tip", 1, "integral")),
+                                       ("angle", SensorOutput("tip", 1, "integral"))],
+                         ids=["drive_tip", "drive_kinetic", "joint_tip", "joint_kinetic", "torque_tip", "angle_tip"])
 def test_kkt_adjoint_matches_central_differences(which, out):
     doc, o = SCENES[which], opts(which)
     paths = ["materials.m.E", "materials.m.density", "sections.s.I"]
