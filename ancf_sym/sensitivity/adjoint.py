@@ -19,14 +19,14 @@ in the graph); the parameter terms sum_n mu_n . dR/dp(q_n) are one mapped kernel
 per distinct derivative piece (ancf_sym.sensitivity.model_derivative), the dead loads' and the mass's sums one
 product each: 100 parameters cost a few mapped calls, not 100 runs.
 
-Outputs: functions of the sensor records (their sum, time integral, end value, or the least-squares misfit to a
-data record) and the kinetic, potential or total energy at the end. Parameters: the TOML paths of
-model_derivative, and the scene's Rayleigh coefficients dampings[i].alpha | beta. Scope as the forward sensitivities
-(refused by name before any step, ancf_sym.sensitivity.alpha_run): no contact damping (applied torques: their skew
-tangent in J', solved transposed);
+Outputs: functions of the sensor records or of a constraint row's multiplier (a reaction: MultiplierOutput) (their
+sum, time integral, end value, or the least-squares misfit to a data record) and the kinetic, potential or total
+energy at the end. Parameters: the TOML paths of model_derivative, and the scene's Rayleigh coefficients
+dampings[i].alpha | beta. Scope as the forward sensitivities (refused by name before any step,
+ancf_sym.sensitivity.alpha_run): no contact damping (applied torques: their skew tangent in J', solved transposed);
 stiffness-proportional Rayleigh damping C_n = alpha M + beta K_el(q_n) enters J' through C_n and the earlier state's
 adjoint through -T_n' mu (T_n = beta d(K_el(q) v_{n+1})/dq at q_n, the kernels' Hessian-vector companions); with
-multiplier rows or drives the step is a KKT system and the adjoint solves its transpose with [s; 0] (mu: the
+multiplier rows or drives the step is a KKT system and the adjoint solves its transpose with [s; kc wl] (mu: the
 coordinates' part);
 strain-rate damping adds its tangents df/dq + cc df/dv to J' and df/dv to the velocity's adjoint; time loads are
 applied as the run applies them. Penalty contacts: the steps where one opens or closes are
@@ -82,6 +82,36 @@ class KineticEnergyOutput(EnergyOutput):
 
 
 @dataclass
+class MultiplierOutput:
+    """One number from the multiplier of a constraint row over the steps (a joint's or a drive's reaction: the row
+    `row` of the kept exact rows, then the drives' rows, as DynamicSensitivity.lam), reduced as SensorOutput's."""
+    row: int
+    reduce: str = "integral"
+    data: np.ndarray | None = None
+
+
+def _reduction(reduce: str, y: np.ndarray, t: np.ndarray, data) -> tuple[float, np.ndarray]:
+    """(value, d value / d y_n) of a record y_n over the steps (see SensorOutput)."""
+    N1 = len(t)
+    if reduce == "sum":
+        return float(y.sum()), np.ones(N1)
+    if reduce == "end":
+        w = np.zeros(N1)
+        w[-1] = 1.0
+        return float(y[-1]), w
+    if reduce == "integral":
+        dt = np.diff(t)
+        w = np.zeros(N1)
+        w[:-1] += dt / 2
+        w[1:] += dt / 2
+        return float(w @ y), w
+    d = np.asarray(data, float).ravel()
+    if d.shape != y.shape:
+        raise ValueError(f"output data: {d.size} values for {y.size} step times")
+    return 0.5 * float((y - d) @ (y - d)), y - d
+
+
+@dataclass
 class DynamicGradient:
     """value: the output; gradient[path]: d(output)/dp; t, x, v: the step times and full states of the run it
     differentiates (steps + 1 rows); notes: what the derivative does not cover."""
@@ -121,8 +151,9 @@ def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int) 
     qb, vb, abar, abb = (acc[i * nf:(i + 1) * nf] for i in range(4))
     qb, vb = qb + wq, vb + wv
     s = qb + abb / (h * h * beta) + cm * abar + cc * vb
-    if mc:  # (the KKT step: its transpose with [s; 0], mu the coordinates' part)
-        mu = ca.solve(J.T, ca.vertcat(s, ca.MX(mc, 1)), solver)[:nf]
+    wl = ca.MX.sym("wl", mc)  # (d output / d lam_{n+1}: a multiplier output's weights)
+    if mc:  # (the KKT step: its transpose with [s; kc wl], mu the coordinates' part; lam = kc times the solution's)
+        mu = ca.solve(J.T, ca.vertcat(s, cm * S.stiffness_scale() * wl), solver)[:nf]
     else:
         mu = ca.solve(J, s, "ldl") if solver == "ldl" else ca.solve(J.T, s, solver)  # (J' mu = s)
     Mmu = ca.mtimes(M, mu)
@@ -137,7 +168,8 @@ def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int) 
     Sv = Bvb - Db / (h * beta)
     Sa = -af / (1 - af) * Bb
     Sab = h * (1 - gamma) * Bvb + am / (1 - af) * Bb - (0.5 - beta) / beta * Db
-    u = ca.vertcat(x, v, wq, wv, *([y] if y is not None else []), *([xp] if xp is not None else []))
+    u = ca.vertcat(x, v, wq, wv, *([y] if y is not None else []), *([xp] if xp is not None else []),
+                   *([wl] if mc else []))
     step = ca.Function("adjoint_step", [acc, u], [ca.vertcat(Sq, Sv, Sa, Sab), mu])
     sweep = step.mapaccum("adjoint_steps", n)
     a0, U = ca.MX.sym("acc0", 4 * nf), ca.MX.sym("U", u.size1(), n)
@@ -297,7 +329,7 @@ def residual_sum(md: ModelDerivative, Lam: np.ndarray, X: np.ndarray, cache: dic
 
 
 def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
-                     output: SensorOutput | EnergyOutput) -> DynamicGradient:
+                     output: SensorOutput | EnergyOutput | MultiplierOutput) -> DynamicGradient:
     """Run the scene of `doc` with `options` (fixed steps of an alpha scheme) and return the output's value and
     its gradient with respect to every path by the discrete adjoint (see the module docstring)."""
     d = read_document(doc)
@@ -311,7 +343,16 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
     Q, Vr, t = run.Q, run.V, run.t
     N = len(Q) - 1
     X, V, A = run.X, run.V_full, run.A_full
-    value, WQ, WV = output_weights(output, sensors, S, t, X, V, Vr)
+    WL = np.zeros((len(t), S.mc))
+    if isinstance(output, MultiplierOutput):
+        if not 0 <= output.row < S.mc:
+            raise ValueError(f"output row {output.row}: the run has {S.mc} multiplier rows")
+        if output.reduce not in REDUCTIONS:
+            raise ValueError(f"output reduce {output.reduce!r}: one of {REDUCTIONS}")
+        value, WL[:, output.row] = _reduction(output.reduce, run.Lam[:, output.row], t, output.data)
+        WQ, WV = np.zeros((len(t), nf)), np.zeros((len(t), nf))
+    else:
+        value, WQ, WV = output_weights(output, sensors, S, t, X, V, Vr)
     alpha_r = run.alpha_r
     # backward: steps N .. 1 in one compiled sweep, then the start (M a_0 = -R(q_0); the static start's adjoint)
     MU = np.zeros((N + 1, nf))
@@ -319,13 +360,14 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
     if N:
         f = backward_sweep(S, options, alpha_r, N)
         cols = [Q[:0:-1], Vr[:0:-1], WQ[:0:-1], WV[:0:-1]] + \
-            ([run.Lam[:0:-1], run.W[:0:-1]] if step_inputs(S) else []) + ([Q[-2::-1]] if stiffness_damped(S) else [])
+            ([run.Lam[:0:-1], run.W[:0:-1]] if step_inputs(S) else []) + \
+            ([Q[-2::-1]] if stiffness_damped(S) else []) + ([WL[:0:-1]] if S.mc else [])
         U = np.ascontiguousarray(np.hstack(cols))  # (column j: step N - j)
         MUb = np.zeros((N, nf))
         _, evaluate = bind(f, [np.zeros(4 * nf), U], [acc, MUb])
         evaluate()
         MU[1:] = MUb[::-1]
-    MU[0] = mass_solve(run)(acc[2 * nf:3 * nf] + acc[3 * nf:])  # (a_0 = abar_0)
+    MU[0] = mass_solve(run)(acc[2 * nf:3 * nf] + acc[3 * nf:], WL[0])  # (a_0 = abar_0; lam_0: its weights)
     Lam = S.full_v_rows(MU)
     LamR = Lam
     if options.start == "static":  # dq_0/dp = -K_0^-1 E' dR/dp(x_0): its adjoint xi = K_0^-1 qbar_0

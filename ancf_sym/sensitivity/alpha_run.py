@@ -507,18 +507,19 @@ def start_tangent(run: AlphaRun) -> sp.csc_matrix:
 
 
 def mass_solve(run: AlphaRun):
-    """A solver of the initial acceleration's matrix: M x = b, or with constraint rows [M J'; J 0] [x; y] = [b; 0]
-    (J at the start; the matrix is symmetric, so the same solver serves the adjoint), returning x."""
+    """A solver of the initial acceleration's matrix: M x = b, or with constraint rows [M J'; J 0] [x; y] = [b; c]
+    (c: 0 by default; J at the start; the matrix is symmetric, so the same solver serves the adjoint), returning x."""
     S = run.S
     if not S.mc:
-        return spla.splu(S.M.tocsc()).solve
+        lu_m = spla.splu(S.M.tocsc())
+        return lambda b, c=None: lu_m.solve(np.asarray(b, float))
     J = S.jac_phi(run.Q[0], run.t[0])
     lu = spla.splu(sp.bmat([[S.M, J.T], [J, None]], format="csc"))
     nf, mc = S.nf, S.mc
 
-    def solve(b: np.ndarray) -> np.ndarray:
+    def solve(b: np.ndarray, c: np.ndarray | None = None) -> np.ndarray:
         b = np.asarray(b, float)
-        pad = np.zeros((mc,) + b.shape[1:])
+        pad = np.zeros((mc,) + b.shape[1:]) if c is None else np.asarray(c, float)
         return lu.solve(np.concatenate([b, pad]))[:nf]
     return solve
 

@@ -15,7 +15,7 @@ from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.newton import NewtonOptions
 from ancf_sym.scene import SceneError
 from ancf_sym.sensitivity import get_parameter, with_parameter
-from ancf_sym.sensitivity.adjoint import EnergyOutput, SensorOutput, dynamic_gradient
+from ancf_sym.sensitivity.adjoint import EnergyOutput, MultiplierOutput, SensorOutput, dynamic_gradient
 from ancf_sym.sensitivity.dynamics import dynamic_sensitivity
 
 TIGHT = NewtonOptions(xtol=1e-13, tol=1e-12, lte_fraction=0.0, single=False)
@@ -125,3 +125,20 @@ def test_still_refused_by_name():
     """A static start with multiplier rows stays refused before any step."""
     with pytest.raises(SceneError, match="static start"):
         dynamic_sensitivity(JOINT, ["materials.m.E"], DynamicOptions(dt=2e-3, t_end=0.12, start="static"))
+
+
+@pytest.mark.parametrize("which", ["drive", "angle"])
+def test_multiplier_output_adjoint_equals_forward(which):
+    """The adjoint gradient of a reaction's time integral and end value (MultiplierOutput: the drive's rows are
+    last) against the forward d lam / dp (checked against differences above)."""
+    doc, o = SCENES[which], opts(which)
+    fw = dynamic_sensitivity(doc, PATHS[which], o)
+    row = fw.lam.shape[1] - 1
+    for reduce in ("integral", "end"):
+        g = dynamic_gradient(doc, PATHS[which], o, MultiplierOutput(row, reduce))
+        w = trapezoid(fw.t) if reduce == "integral" else np.eye(len(fw.t))[-1]
+        assert abs(g.value - w @ fw.lam[:, row]) <= 1e-12 * np.max(np.abs(fw.lam[:, row]))
+        for p in PATHS[which]:
+            ref = w @ fw.dlam[p][:, row]
+            scale = w @ np.max(np.abs(fw.dlam[p]), axis=1)  # (round-off relative to the multipliers' sensitivity)
+            assert abs(g.gradient[p] - ref) <= 1e-8 * max(abs(ref), scale), (which, reduce, p, g.gradient[p], ref)
