@@ -19,11 +19,15 @@ in the graph); the parameter terms sum_n mu_n . dR/dp(q_n) are one mapped kernel
 per distinct derivative piece (ancf_sym.sensitivity.model_derivative), the dead loads' and the mass's sums one
 product each: 100 parameters cost a few mapped calls, not 100 runs.
 
-Outputs: functions of the sensor records (their sum, time integral, end value, or the least-squares misfit to a
-data record) and the kinetic, potential or total energy at the end. Parameters: the TOML paths of
-model_derivative, and the scene's Rayleigh coefficient dampings[i].alpha. Scope as the forward sensitivities
-(refused by name before any step, ancf_sym.sensitivity.alpha_run): no stiffness-proportional Rayleigh (beta: its
-tangent's derivative needs third derivatives of the energies), no contact damping, no multiplier rows or drives;
+Outputs: functions of the sensor records or of a constraint row's multiplier (a reaction: MultiplierOutput) (their
+sum, time integral, end value, or the least-squares misfit to a data record) and the kinetic, potential or total
+energy at the end. Parameters: the TOML paths of model_derivative, and the scene's Rayleigh coefficients
+dampings[i].alpha | beta. Scope as the forward sensitivities (refused by name before any step,
+ancf_sym.sensitivity.alpha_run): no contact damping (applied torques: their skew tangent in J', solved transposed);
+stiffness-proportional Rayleigh damping C_n = alpha M + beta K_el(q_n) enters J' through C_n and the earlier state's
+adjoint through -T_n' mu (T_n = beta d(K_el(q) v_{n+1})/dq at q_n, the kernels' Hessian-vector companions); with
+multiplier rows or drives the step is a KKT system and the adjoint solves its transpose with [s; kc wl] (mu: the
+coordinates' part);
 strain-rate damping adds its tangents df/dq + cc df/dv to J' and df/dv to the velocity's adjoint; time loads are
 applied as the run applies them. Penalty contacts: the steps where one opens or closes are
 named in the notes (the law's kink: one-sided derivatives there).
@@ -39,8 +43,8 @@ import scipy.sparse.linalg as spla
 from ancf_sym import kernels
 from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.sensors import Sensor, SensorEval
-from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, damping_tangents, forcing, mass_solve, \
-    run_for_sensitivity, start_tangent
+from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, damping_matrices, forcing, mass_solve, \
+    run_for_sensitivity, start_tangent, step_inputs, step_matrix, stiffness_damped, stiffness_damping_forcing
 from ancf_sym.sensitivity.model_derivative import STIFFNESS_COLUMNS, ModelDerivative, model_derivative, \
     read_document
 from ancf_sym.system.step_system import StepSystem
@@ -78,6 +82,36 @@ class KineticEnergyOutput(EnergyOutput):
 
 
 @dataclass
+class MultiplierOutput:
+    """One number from the multiplier of a constraint row over the steps (a joint's or a drive's reaction: the row
+    `row` of the kept exact rows, then the drives' rows, as DynamicSensitivity.lam), reduced as SensorOutput's."""
+    row: int
+    reduce: str = "integral"
+    data: np.ndarray | None = None
+
+
+def _reduction(reduce: str, y: np.ndarray, t: np.ndarray, data) -> tuple[float, np.ndarray]:
+    """(value, d value / d y_n) of a record y_n over the steps (see SensorOutput)."""
+    N1 = len(t)
+    if reduce == "sum":
+        return float(y.sum()), np.ones(N1)
+    if reduce == "end":
+        w = np.zeros(N1)
+        w[-1] = 1.0
+        return float(y[-1]), w
+    if reduce == "integral":
+        dt = np.diff(t)
+        w = np.zeros(N1)
+        w[:-1] += dt / 2
+        w[1:] += dt / 2
+        return float(w @ y), w
+    d = np.asarray(data, float).ravel()
+    if d.shape != y.shape:
+        raise ValueError(f"output data: {d.size} values for {y.size} step times")
+    return 0.5 * float((y - d) @ (y - d)), y - d
+
+
+@dataclass
 class DynamicGradient:
     """value: the output; gradient[path]: d(output)/dp; t, x, v: the step times and full states of the run it
     differentiates (steps + 1 rows); notes: what the derivative does not cover."""
@@ -94,11 +128,12 @@ _SWEEPS: dict = {}
 
 
 def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int) -> ca.Function:
-    """sweep(acc0, U) -> (acc, MU), U = [X; V; WQ; WV]: n backward steps (columns: steps N, N-1, .., 1) of the adjoint
-    recursion (see the module docstring); acc = the adjoints flowing into (q, v, a, abar) of the earlier state."""
+    """sweep(acc0, U) -> (acc, MU), U = [X; V; WQ; WV[; Lam; W][; X_prev]]: n backward steps (columns: steps N, N-1,
+    .., 1) of the adjoint recursion (see the module docstring); acc = the adjoints flowing into (q, v, a, abar) of the
+    earlier state; Lam, W: the multipliers and drives' time inputs, X_prev: q_n (Rayleigh beta)."""
     sch = opts.scheme()
     h = opts.dt
-    key = (S.graph_key, sch, h, alpha_r, n, S.par.tobytes())
+    key = (S.graph_key, sch, h, alpha_r, S.rayleigh.beta if S.rayleigh is not None else 0.0, n, S.par.tobytes())
     if key in _SWEEPS:
         return _SWEEPS[key]
     nf = S.nf
@@ -106,30 +141,38 @@ def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int) 
     cm, cc = sch.cm(h), sch.cc(h)
     c1 = (1 - am) / (1 - af)
     M = dm(S.M)
+    mc = S.mc
     acc = ca.MX.sym("acc", 4 * nf)
     x, v, wq, wv = ca.MX.sym("x", nf), ca.MX.sym("v", nf), ca.MX.sym("wq", nf), ca.MX.sym("wv", nf)
-    K = S.forces_pf(x, ca.DM(S.par))[1]
-    J = (cm + cc * alpha_r) * M + K
-    dfx, dfv = damping_tangents(S, x, v)  # (strain-rate damping: its exact tangents at the step's end)
-    if dfx is not None:
-        J = J + dfx + cc * dfv
+    y = ca.MX.sym("y", step_inputs(S)) if step_inputs(S) else None  # (the true multipliers, the drives' inputs)
+    xp = ca.MX.sym("xp", nf) if stiffness_damped(S) else None  # (q_n: where the run took K_el of the step)
+    C, T = damping_matrices(S, alpha_r, xp, v)
+    J, dfv, solver = step_matrix(S, cm, cc, C, x, v, y)
     qb, vb, abar, abb = (acc[i * nf:(i + 1) * nf] for i in range(4))
     qb, vb = qb + wq, vb + wv
     s = qb + abb / (h * h * beta) + cm * abar + cc * vb
-    mu = ca.solve(J, s, "ldl") if dfx is None else ca.solve(J.T, s, "qr")  # (J' mu = s)
+    wl = ca.MX.sym("wl", mc)  # (d output / d lam_{n+1}: a multiplier output's weights)
+    if mc:  # (the KKT step: its transpose with [s; kc wl], mu the coordinates' part; lam = kc times the solution's)
+        mu = ca.solve(J.T, ca.vertcat(s, cm * S.stiffness_scale() * wl), solver)[:nf]
+    else:
+        mu = ca.solve(J, s, "ldl") if solver == "ldl" else ca.solve(J.T, s, solver)  # (J' mu = s)
     Mmu = ca.mtimes(M, mu)
     Bb = abar - Mmu
-    Bvb = vb - alpha_r * Mmu
+    Bvb = vb - ca.mtimes(C.T, mu)
     if dfv is not None:
         Bvb = Bvb - ca.mtimes(dfv.T, mu)
     Db = abb + h * gamma * Bvb + c1 * Bb
     Sq = -Db / (h * h * beta)
+    if T is not None:  # (beta K_el(q_n) v_{n+1}: its change with q_n)
+        Sq = Sq - ca.mtimes(T.T, mu)
     Sv = Bvb - Db / (h * beta)
     Sa = -af / (1 - af) * Bb
     Sab = h * (1 - gamma) * Bvb + am / (1 - af) * Bb - (0.5 - beta) / beta * Db
-    step = ca.Function("adjoint_step", [acc, ca.vertcat(x, v, wq, wv)], [ca.vertcat(Sq, Sv, Sa, Sab), mu])
+    u = ca.vertcat(x, v, wq, wv, *([y] if y is not None else []), *([xp] if xp is not None else []),
+                   *([wl] if mc else []))
+    step = ca.Function("adjoint_step", [acc, u], [ca.vertcat(Sq, Sv, Sa, Sab), mu])
     sweep = step.mapaccum("adjoint_steps", n)
-    a0, U = ca.MX.sym("acc0", 4 * nf), ca.MX.sym("U", 4 * nf, n)
+    a0, U = ca.MX.sym("acc0", 4 * nf), ca.MX.sym("U", u.size1(), n)
     ACC, MU = sweep(a0, U)
     # (only the last accumulated adjoint leaves the graph: no 4 nf x n output to copy)
     f = ca.Function("adjoint_sweep", [a0, U], [ACC[:, n - 1], MU])
@@ -286,7 +329,7 @@ def residual_sum(md: ModelDerivative, Lam: np.ndarray, X: np.ndarray, cache: dic
 
 
 def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
-                     output: SensorOutput | EnergyOutput) -> DynamicGradient:
+                     output: SensorOutput | EnergyOutput | MultiplierOutput) -> DynamicGradient:
     """Run the scene of `doc` with `options` (fixed steps of an alpha scheme) and return the output's value and
     its gradient with respect to every path by the discrete adjoint (see the module docstring)."""
     d = read_document(doc)
@@ -300,19 +343,31 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
     Q, Vr, t = run.Q, run.V, run.t
     N = len(Q) - 1
     X, V, A = run.X, run.V_full, run.A_full
-    value, WQ, WV = output_weights(output, sensors, S, t, X, V, Vr)
+    WL = np.zeros((len(t), S.mc))
+    if isinstance(output, MultiplierOutput):
+        if not 0 <= output.row < S.mc:
+            raise ValueError(f"output row {output.row}: the run has {S.mc} multiplier rows")
+        if output.reduce not in REDUCTIONS:
+            raise ValueError(f"output reduce {output.reduce!r}: one of {REDUCTIONS}")
+        value, WL[:, output.row] = _reduction(output.reduce, run.Lam[:, output.row], t, output.data)
+        WQ, WV = np.zeros((len(t), nf)), np.zeros((len(t), nf))
+    else:
+        value, WQ, WV = output_weights(output, sensors, S, t, X, V, Vr)
     alpha_r = run.alpha_r
     # backward: steps N .. 1 in one compiled sweep, then the start (M a_0 = -R(q_0); the static start's adjoint)
     MU = np.zeros((N + 1, nf))
     acc = np.zeros(4 * nf)
     if N:
         f = backward_sweep(S, options, alpha_r, N)
-        U = np.ascontiguousarray(np.hstack([Q[:0:-1], Vr[:0:-1], WQ[:0:-1], WV[:0:-1]]))  # (column j: step N - j)
+        cols = [Q[:0:-1], Vr[:0:-1], WQ[:0:-1], WV[:0:-1]] + \
+            ([run.Lam[:0:-1], run.W[:0:-1]] if step_inputs(S) else []) + \
+            ([Q[-2::-1]] if stiffness_damped(S) else []) + ([WL[:0:-1]] if S.mc else [])
+        U = np.ascontiguousarray(np.hstack(cols))  # (column j: step N - j)
         MUb = np.zeros((N, nf))
         _, evaluate = bind(f, [np.zeros(4 * nf), U], [acc, MUb])
         evaluate()
         MU[1:] = MUb[::-1]
-    MU[0] = mass_solve(run)(acc[2 * nf:3 * nf] + acc[3 * nf:])  # (a_0 = abar_0)
+    MU[0] = mass_solve(run)(acc[2 * nf:3 * nf] + acc[3 * nf:], WL[0])  # (a_0 = abar_0; lam_0: its weights)
     Lam = S.full_v_rows(MU)
     LamR = Lam
     if options.start == "static":  # dq_0/dp = -K_0^-1 E' dR/dp(x_0): its adjoint xi = K_0^-1 qbar_0
@@ -330,6 +385,9 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
             continue
         md = model_derivative(asm, d, p)
         g = -residual_sum(md, LamR, X, cache)
+        sd = stiffness_damping_forcing(run, p)  # (beta dK_el/dp (q_{n-1}) v_n)
+        if sd is not None:
+            g -= float(np.sum(MU * sd))
         dM = md.dM
         if dM is not None:
             g -= float(np.sum(Lam * (dM @ (A + alpha_r * V).T).T))

@@ -2,11 +2,15 @@
 paths, before any step), the run itself (the package's compiled alpha steps, every state kept) and the parameter
 forcing F_n = dR/dp(q_n) + dM/dp a_n + dC/dp v_n of the differentiated step equations at every step.
 
-Parameters: the model's TOML paths (ancf_sym.sensitivity.model_derivative), the Rayleigh mass coefficient
-dampings[i].alpha (C = alpha_R M) and the strain-rate coefficients dampings[i].axial | bending (the force f_d(q, v)
-is linear in them; its tangents df/dq, df/dv are the step system's). Damping the derivative does not follow is
-refused by name: stiffness-proportional Rayleigh (beta: the derivative of its tangent K_el(q_n) needs third
-derivatives of the energies), contact damping and friction, lines in water, as are drives and multiplier rows.
+Parameters: the model's TOML paths (ancf_sym.sensitivity.model_derivative), the Rayleigh coefficients
+dampings[i].alpha | beta (C_n = alpha_R M + beta K_el(q_n): the run takes the elastic tangent at each step's start;
+the change of beta K_el(q_n) v_{n+1} with q_n is the kernels' compiled Hessian-vector companions' exact third
+derivatives contracted with v) and the strain-rate coefficients dampings[i].axial | bending (the force f_d(q, v) is
+linear in them; its tangents df/dq, df/dv are the step system's). Refused by name: contact damping and friction,
+lines in water, a beta on some members only or on energies without compiled third derivatives, and a static start
+with multiplier rows. Applied torques add their skew tangent to the step's matrix. Constraint rows with multipliers
+(rigid joints, bodies' rows) and drives make the step a KKT system: `step_matrix` builds its differentiated matrix,
+the run keeps the multipliers and the drives' time inputs.
 Time loads (analysis.loads) are applied as the run applies them; they depend on no scene parameter.
 """
 from __future__ import annotations
@@ -18,7 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ancf_sym import kernels
+from ancf_sym import kernels, registry
 from ancf_sym.contact import laws as contact
 from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.newton import Counters
@@ -26,35 +30,54 @@ from ancf_sym.dynamics.run import make_integrator
 from ancf_sym.dynamics.time_loads import LoadSum
 from ancf_sym.dynamics.time_loop import chunk_size
 from ancf_sym.io.scene_toml import scene_from_dict
+from ancf_sym.model.assembly import Assembly
 from ancf_sym.scene.builder import SceneError
-from ancf_sym.sensitivity.model_derivative import check_model_paths, model_derivative, read_document
+from ancf_sym.sensitivity.model_derivative import model_derivative, read_document
 from ancf_sym.sensitivity.paths import get_parameter, parse_path
 from ancf_sym.system import water
-from ancf_sym.system.damping import strain_rate_mx
+from ancf_sym.system.damping import rayleigh_mx, strain_rate_mx
+from ancf_sym.system.forces import ELASTIC_LABELS
 from ancf_sym.system.step_system import StepSystem
 from ancf_sym.util.casadi_buffers import bind
 from ancf_sym.util.sparsity import dm
 
 # -- parameters that the dynamics adds to the model's ---------------------------------------------------------------
 def damping_index(doc: dict, path: str) -> int | None:
-    """i of a path dampings[i].alpha (Rayleigh mass coefficient) or dampings[i].axial | bending (strain-rate
+    """i of a path dampings[i].alpha | beta (Rayleigh coefficients) or dampings[i].axial | bending (strain-rate
     coefficients), else None; other damping keys refused by name."""
     p = parse_path(path)
     if p.keys[0] != "dampings":
         return None
     get_parameter(doc, path)
     d = doc["dampings"][p.keys[1]] if len(p.keys) == 3 else None
-    ok = d is not None and ((d.get("type") == "rayleigh" and p.keys[2] == "alpha") or
+    ok = d is not None and ((d.get("type") == "rayleigh" and p.keys[2] in ("alpha", "beta")) or
                             (d.get("type") == "strain_rate" and p.keys[2] in ("axial", "bending")))
     if not ok:
-        raise SceneError(f"parameter path {path!r}: differentiable damping coefficients: dampings[i].alpha of a "
-                         "rayleigh damping (mass-proportional), dampings[i].axial | bending of a strain_rate damping")
+        raise SceneError(f"parameter path {path!r}: differentiable damping coefficients: dampings[i].alpha | beta "
+                         "of a rayleigh damping, dampings[i].axial | bending of a strain_rate damping")
+    if p.keys[2] == "beta" and not d.get("beta"):
+        raise SceneError(f"parameter path {path!r}: beta = 0 builds no stiffness damping in the run (its tangent "
+                         "K_el is not formed); give beta > 0 to differentiate with respect to it")
     return p.keys[1]
 
 
-def check_dynamic_paths(scene, doc: dict, paths: list[str]) -> None:
-    """Refuse, before any step, a path that names no differentiable number of a dynamic run."""
-    check_model_paths(scene, doc, [p for p in paths if damping_index(doc, p) is None])
+def check_dynamic_paths(scene, doc: dict, paths: list[str], asm=None) -> None:
+    """Refuse, before any step, a path that names no differentiable number of a dynamic run (asm: the run's
+    assembly; default dynamic_assembly(scene), which also takes scenes with drives that statics refuses)."""
+    model_paths = [p for p in paths if damping_index(doc, p) is None]
+    for p in model_paths:
+        get_parameter(doc, p)
+    asm = dynamic_assembly(scene) if asm is None else asm
+    for p in model_paths:
+        model_derivative(asm, doc, p)
+
+
+def dynamic_assembly(scene):
+    """The assembly a dynamic run of the scene uses: the statics' (shared, cached), or for a scene with drives
+    (motion prescribed in time, which statics refuses) its own."""
+    from ancf_sym.statics.problem import problem_for
+
+    return Assembly(scene) if scene.drives else problem_for(scene).asm
 
 
 def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
@@ -67,31 +90,141 @@ def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
     elif abs(opts.t_start + opts.n_grid * opts.dt - opts.t_end) > 1e-9 * opts.dt:
         why.append(f"a shorter last step (t_end - t_start = {opts.t_end - opts.t_start:g} s is not a whole number of "
                    f"dt = {opts.dt:g} s)")
-    if S.mc:
-        why.append("constraint rows with multipliers (rigid joints, bodies' joints)")
+    if S.mc and opts.start == "static":
+        why.append("a static start with constraint rows carrying multipliers (rigid joints, bodies' rows, drives)")
     if integ.kdamp.active:
-        why.append("stiffness-proportional Rayleigh damping (beta: its tangent's derivative needs third "
-                   "derivatives of the energies)")
+        why += stiffness_damping_refusals(S)
     if contact.dissipation_calls(S.asm.mesh):
         why.append("contact damping or friction")
     if water.has_forces(S.asm):
         why.append("lines in water (drag, added mass)")
-    if S.drives is not None:
-        why.append("drives or torques (time-dependent constraints and forces)")
     if opts.release or opts.from_result or opts.initial or opts.q0 is not None or opts.v0 is not None:
         why.append("a start other than the reference or the static equilibrium at rest")
     if why:
         raise SceneError("dynamic sensitivities: not available with " + ", ".join(why))
 
 
+def elastic_terms(S: StepSystem) -> list:
+    """The nonlinear terms in the Rayleigh elastic tangent K_el (elastic labels, a non-zero element weight)."""
+    w = S.rayleigh.element_weight if (S.rayleigh is not None and S.rayleigh.beta) else {}
+    return [(ti, mk.term) for ti, mk in enumerate(S.nonlinear)
+            if mk.term.label in ELASTIC_LABELS and w.get(ti) is not None and np.any(np.asarray(w[ti]))]
+
+
+def stiffness_damping_refusals(S: StepSystem) -> list[str]:
+    """What of a stiffness-proportional Rayleigh damping the derivative does not follow: a beta on some members
+    only (element weights other than 1), more than one rayleigh beta, an elastic energy without compiled third
+    derivatives (the kernels' Hessian-vector companions, cables' axial and bending)."""
+    why = []
+    ds = [d for d in S.asm.scene.dampings if d.kind == "rayleigh" and d.beta]
+    if len(ds) > 1 or ds[0].members is not None:
+        why.append("stiffness-proportional Rayleigh damping on some members only or given twice (beta: one "
+                   "[[dampings]] entry for the whole scene)")
+    for ti, t in elastic_terms(S):
+        if not registry.has_third_derivatives(t.element, t.effect, t.gauss):
+            why.append(f"stiffness-proportional Rayleigh damping (beta) on {t.element}/{t.effect} energies (gauss "
+                       f"{t.gauss}: no compiled third derivatives)")
+            break
+    return why
+
+
+def stiffness_damping_jacobian_mx(S: StepSystem, x: ca.MX, v: ca.MX) -> ca.MX:
+    """beta d(K_el(q) v)/dq at (x, v) on the reduced coordinates, in a graph: the kernels' compiled Hessian-vector
+    companions (q, P, v) -> (H v, d(H v)/dq) mapped over each elastic term's elements (exact third derivatives
+    contracted with v), scattered by constant index maps."""
+    X, V = S.x_full_mx(x), ca.mtimes(dm(S.E), v)
+    n = S.E.shape[0]
+    rows, cols, vals = [], [], []
+    for ti, t in elastic_terms(S):
+        ne, nd = t.idx.shape
+        w = np.asarray(S.rayleigh.element_weight[ti], float) * np.ones(ne)
+        f = kernels.load_hvp(t.element, t.effect).map(ne)
+        Xe = ca.reshape(X[t.idx.ravel().tolist()], nd, ne)
+        Ve = ca.reshape(V[t.idx.ravel().tolist()], nd, ne)
+        D = f(Xe, ca.DM(np.asarray(t.P, float).T), Ve)[1]  # (nd, ne nd): block e is d(H_e v_e)/dq_e
+        # (entry (i, e nd + j) of D: row idx[e, i], column idx[e, j], weight w_e)
+        i, e, j = np.meshgrid(np.arange(nd), np.arange(ne), np.arange(nd), indexing="ij")
+        rows.append(t.idx[e, i].ravel())
+        cols.append(t.idx[e, j].ravel())
+        # (ca.vec is column-major: entry (i, e nd + j) of D at (e nd + j) nd + i)
+        order = ((e * nd + j) * nd + i).ravel()
+        vals.append(ca.vec(D)[order.tolist()] * ca.DM(w[e.ravel()]))
+    if not rows:
+        return ca.MX(S.nf, S.nf)
+    r, c = np.concatenate(rows), np.concatenate(cols)
+    A = ca.DM(ca.Sparsity.triplet(n * n, len(r), (c * n + r).tolist(), list(range(len(r)))), 1.0)
+    T = ca.reshape(ca.mtimes(A, ca.vertcat(*vals)), n, n)  # (column-major: entry (r, c) at c n + r)
+    E = dm(S.E)
+    return S.rayleigh.beta * ca.mtimes(E.T, ca.mtimes(T, E))
+
+
+def _hessian_vectors(element: str, effect: str, gauss, idx: np.ndarray, P: np.ndarray, X: np.ndarray,
+                     V: np.ndarray) -> np.ndarray:
+    """sum_e H_e(x_k; P_e) v_k[idx_e] scattered on the full coordinates for every row k of X, V, (len(X), n): the
+    kernel's Hessian-vector companion where compiled (one mapped call over every row's elements), else its Hessian."""
+    ne, nd = idx.shape
+    k, n = X.shape
+    if registry.has_third_derivatives(element, effect, gauss):
+        key = ("hvp", element, effect, k * ne)
+        if key not in _MAPPED:
+            _MAPPED[key] = kernels.load_hvp(element, effect).map(k * ne)
+        hv = np.zeros(k * ne * nd)
+        _, evaluate = bind(_MAPPED[key], [np.ascontiguousarray(X[:, idx]).ravel(),
+                                          np.ascontiguousarray(np.tile(np.asarray(P, float), (k, 1))).ravel(),
+                                          np.ascontiguousarray(V[:, idx]).ravel()], [hv])
+        evaluate()
+        hv = hv.reshape(k, ne * nd)
+    else:
+        key = ("full", element, effect, gauss, ne)
+        if key not in _MAPPED:
+            _MAPPED[key] = kernels.load(element, effect, gauss).map(ne)
+        hv = np.zeros((k, ne * nd))
+        for r in range(k):
+            H = _MAPPED[key](X[r, idx].T, np.asarray(P, float).T)[2].full().reshape(nd, ne, nd).transpose(1, 0, 2)
+            hv[r] = np.einsum("eij,ej->ei", H, V[r, idx]).ravel()
+    return (_scatter(idx, n).T @ hv.T).T
+
+
+def stiffness_damping_forcing(run: "AlphaRun", path: str) -> np.ndarray | None:
+    """The Rayleigh stiffness damping's part of F_n on the reduced coordinates, (steps + 1, nf): d(beta K_el(q_{n-1})
+    v_n)/dp at fixed states, beta dK_el/dp (q_{n-1}) v_n for a model path (the elastic pieces' Hessians) or
+    K_el(q_{n-1}) v_n for dampings[i].beta; row 0 is zero (v_0 = 0 in the start's acceleration). None: no beta, or
+    the path changes no elastic energy."""
+    S = run.S
+    if not stiffness_damped(S):
+        return None
+    X, Vf = run.X, run.V_full
+    i = damping_index(run.doc, path)
+    if i is not None:
+        if run.doc["dampings"][i]["type"] != "rayleigh" or parse_path(path).keys[2] != "beta":
+            return None
+        # (C = beta K_el with K_el the elastic terms' Hessians, element weights 1: stiffness_damping_refusals)
+        pieces = [(t.element, t.effect, t.gauss, t.idx, t.P, 1.0) for _, t in elastic_terms(S)]
+    else:
+        md = model_derivative(run.asm, run.doc, path)
+        pieces = [(pc.element, pc.effect, pc.gauss, pc.idx, pc.P, S.rayleigh.beta) for pc in md.pieces
+                  if pc.label in ELASTIC_LABELS]
+    if not pieces:
+        return None
+    f = np.zeros((len(X) - 1, X.shape[1]))
+    for element, effect, gauss, idx, P, c in pieces:
+        f += c * _hessian_vectors(element, effect, gauss, idx, P, X[:-1], Vf[1:])
+    out = np.zeros((len(X), S.nf))
+    out[1:] = np.asarray((S.E.T @ f.T).T)
+    return out
+
+
 # -- the forward run: the package's compiled steps, every state kept -----------------------------------------------
 def forward_states(S: StepSystem, integ, opts: DynamicOptions, loads: LoadSum | None = None
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(Q, V, A): reduced q, v, a after each step (row 0: the start), from the integrator's compiled chunks (the
-    run's own steps) and its per-step Newton where a chunk stops; loads: the time loads (LoadSum) or None."""
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(Q, V, A, Lam): reduced q, v, a and the true multipliers after each step (row 0: the start), from the
+    integrator's compiled chunks (the run's own steps) and its per-step Newton where a chunk stops; loads: the time
+    loads (LoadSum) or None."""
     h = opts.dt
     n = opts.n_grid
-    rows = [integ.state[:3 * S.nf].copy()]
+    nf, mc = S.nf, S.mc
+    lam = slice(5 * nf, 5 * nf + mc)  # (the integrator's state: q, v, a, abar, a_prev, lam, controls)
+    rows = [np.r_[integ.state[:3 * nf], integ.state[lam]]]
     size = chunk_size(n) if integ.chunkable else 0
     t, k = opts.t_start, 0
     pl = np.repeat(-S.f_lin[:, None], size, axis=1) if size else None
@@ -101,8 +234,11 @@ def forward_states(S: StepSystem, integ, opts: DynamicOptions, loads: LoadSum | 
         if size and n - k >= size:
             if loads is not None:  # (the loads at the chunk's step ends, as the time loop gives them)
                 pl = -np.column_stack([S.f_lin + loads(opts.t_start + (k + j + 1) * h) for j in range(size)])
-            states, n_ok = integ.run_chunk(h, pl)
-            rows.extend(states[:, :3 * S.nf].copy())  # (the chunk buffer is reused by the next chunk)
+            plw = pl if not S.nw else \
+                np.vstack([pl, np.column_stack([S.w(opts.t_start + (k + j + 1) * h) for j in range(size)])])
+            states, n_ok = integ.run_chunk(h, plw)
+            # (copies: the chunk buffer is reused by the next chunk)
+            rows.extend(np.hstack([states[:, :3 * nf], states[:, lam]]))
             k += n_ok
             t = opts.t_start + k * h
             if n_ok == size:
@@ -112,19 +248,19 @@ def forward_states(S: StepSystem, integ, opts: DynamicOptions, loads: LoadSum | 
             raise SceneError(f"dynamic sensitivities: the step at t = {t:.6g} s did not converge ({out.reason}); "
                              "a fixed-step derivative cannot take a smaller step there (try a smaller dt)")
         integ.accept()
-        rows.append(integ.state[:3 * S.nf].copy())
+        rows.append(np.r_[integ.state[:3 * nf], integ.state[lam]])
         k += 1
         t = opts.t_start + k * h
     R = np.array(rows)
-    nf = S.nf
-    return R[:, :nf], R[:, nf:2 * nf], R[:, 2 * nf:3 * nf]
+    return R[:, :nf], R[:, nf:2 * nf], R[:, 2 * nf:3 * nf], R[:, 3 * nf:]
 
 
 @dataclass
 class AlphaRun:
     """A run of the scene of `doc` kept for differentiation: the model (asm, S), the reduced states Q, V, A after
-    each step (row 0: the start), the full X, V_full, A_full, the step times t, the Rayleigh mass coefficient, the
-    static start's tangent K0 (None: the reference start)."""
+    each step (row 0: the start), the true multipliers Lam of the constraint rows and drives (steps + 1, mc), the
+    full X, V_full, A_full, the step times t, the Rayleigh mass coefficient, the drives' time inputs W (steps + 1,
+    nw)."""
     doc: dict
     scene: object
     asm: object
@@ -135,6 +271,8 @@ class AlphaRun:
     A: np.ndarray
     t: np.ndarray
     alpha_r: float
+    Lam: np.ndarray
+    W: np.ndarray
 
     @property
     def X(self) -> np.ndarray:
@@ -156,8 +294,8 @@ def run_for_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
 
     d = read_document(doc)
     scene, _ = scene_from_dict(d)
-    check_dynamic_paths(scene, d, list(paths))
-    asm = problem_for(scene).asm
+    asm = dynamic_assembly(scene)
+    check_dynamic_paths(scene, d, list(paths), asm)
     contact.check_dynamics(asm)  # (exact contact is a statics method: refused as the run refuses it)
     S = StepSystem.for_scene(asm)
     integ = make_integrator(S, options, Counters(), 0.0, options.newton.xtol * S.length_scale)
@@ -176,9 +314,11 @@ def run_for_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
     integ.initialize(S.reduce(q0), np.zeros(nf), Q0, options.t_start)
     integ.tol_q = options.newton.tol * max(float(np.max(np.abs(S.f_lin))), float(np.max(np.abs(S.M @ integ.a))),
                                            float(np.max(np.abs(Q0))), 1e-300)
-    Q, V, A = forward_states(S, integ, options, loads)
+    Q, V, A, Lam = forward_states(S, integ, options, loads)
     t = options.t_start + options.dt * np.arange(len(Q))
-    return AlphaRun(d, scene, asm, S, options, Q, V, A, t, S.rayleigh.alpha if S.rayleigh is not None else 0.0)
+    W = np.array([S.w(ti) for ti in t]).reshape(len(t), S.nw)
+    return AlphaRun(d, scene, asm, S, options, Q, V, A, t, S.rayleigh.alpha if S.rayleigh is not None else 0.0,
+                    Lam, W)
 
 
 def _scatter(idx: np.ndarray, n: int) -> sp.csr_matrix:
@@ -250,6 +390,8 @@ def forcing(run: AlphaRun, path: str, statics: bool = False) -> np.ndarray:
         if statics:
             return np.zeros((1, S.nf))
         if run.doc["dampings"][i]["type"] == "rayleigh":
+            if parse_path(path).keys[2] == "beta":
+                return stiffness_damping_forcing(run, path)
             return run.V @ S.M
         return strain_rate_forcing(run, i, parse_path(path).keys[2])
     md = model_derivative(run.asm, run.doc, path)
@@ -264,7 +406,9 @@ def forcing(run: AlphaRun, path: str, statics: bool = False) -> np.ndarray:
         R -= md.dQ
     if not statics and md.dM is not None:
         R += (md.dM @ (run.A_full + run.alpha_r * run.V_full).T).T
-    return np.asarray((S.E.T @ R.T).T)
+    F = np.asarray((S.E.T @ R.T).T)
+    sd = None if statics else stiffness_damping_forcing(run, path)
+    return F if sd is None else F + sd
 
 
 _UNIT_F: dict = {}
@@ -307,11 +451,84 @@ def damping_tangents(S: StepSystem, x: ca.MX, v: ca.MX) -> tuple:
     return dfx, dfv
 
 
+def step_inputs(S: StepSystem) -> int:
+    """The size of a step's extra input y = [lam; w] of step_matrix (the multipliers, the drives' time inputs), 0:
+    none."""
+    return S.mc + S.nw if (S.mc or S.nw) else 0
+
+
+def stiffness_damped(S: StepSystem) -> bool:
+    """The run has stiffness-proportional Rayleigh damping (beta K_el(q_n))."""
+    return S.rayleigh is not None and bool(S.rayleigh.beta)
+
+
+def damping_matrices(S: StepSystem, alpha_r: float, xp: ca.MX | None, v: ca.MX) -> tuple[ca.MX, ca.MX | None]:
+    """(C_n, T_n) of the Rayleigh damping over the step from q_n = xp to v_{n+1} = v: C_n = alpha M + beta K_el(q_n)
+    (the run's: K_el at the step's start) and T_n = beta d(K_el(q) v)/dq at q_n (None without beta)."""
+    if xp is None or S.rayleigh is None or not S.rayleigh.beta:
+        return alpha_r * dm(S.M), None
+    kel = S.forces_pf(xp, ca.DM(S.par))[2]
+    return rayleigh_mx(S, v, kel)[1], stiffness_damping_jacobian_mx(S, xp, v)
+
+
+def step_matrix(S: StepSystem, cm: float, cc: float, C: ca.MX, x: ca.MX, v: ca.MX, y: ca.MX | None
+                ) -> tuple[ca.MX, ca.MX | None, str]:
+    """(A, df_d/dv, linear solver): the differentiated step's matrix at the step's end in a graph, A = cm M + cc C +
+    K(x) (+ df_d/dx + cc df_d/dv) and, with constraint rows or drives, the KKT matrix [[A + H, kc J'], [kc J, 0]]
+    with J = dPhi/dx(x, w), H = d2(lam . Phi)/dx2 (y = [lam; w]: the true multipliers and the drives' time inputs,
+    None without drives or rows), kc = cm max diag M (the solution's multiplier part: dlam / kc); applied torques
+    add minus their force's Jacobian to A."""
+    nf, mc = S.nf, S.mc
+    A = cm * dm(S.M) + cc * C + S.forces_pf(x, ca.DM(S.par))[1]
+    dfx, dfv = damping_tangents(S, x, v)  # (strain-rate damping: its exact tangents at the step's end)
+    unsym = dfx is not None
+    if dfx is not None:
+        A = A + dfx + cc * dfv
+    lam, w = (y[:mc], y[mc:]) if y is not None else (None, None)
+    tq = S.torque_mx(x, w) if w is not None else None
+    if tq is not None:  # (applied torques tau(t) (-s, c): their tangent, skew)
+        A = A - ca.jacobian(tq, x)
+        unsym = True
+    if not mc:
+        return A, dfv, "qr" if unsym else "ldl"  # (d f_d / dq, a torque's tangent: unsymmetric, QR)
+    phi = S.constraint_mx(x, w)
+    Jx = ca.jacobian(phi, x)
+    if S.bilinear:
+        A = A + ca.hessian(ca.dot(lam, phi), x)[0]
+    # (rows scaled by kc = cm max diag M as the run's step scales them: the KKT matrix's blocks of one size, its
+    # condition that of the run's; the solution's multiplier part is dlam / kc)
+    kc = cm * S.stiffness_scale()
+    return ca.blockcat([[A, kc * Jx.T], [kc * Jx, ca.MX(mc, mc)]]), dfv, "qr"  # (indefinite: QR)
+
+
 def start_tangent(run: AlphaRun) -> sp.csc_matrix:
     """K(q_0) on the reduced coordinates: the static start's tangent and the initial acceleration's."""
     return sp.csc_matrix(run.S.forces(run.Q[0])[1])
 
 
 def mass_solve(run: AlphaRun):
-    """A solver of M x = b (the initial acceleration's matrix)."""
-    return spla.splu(run.S.M.tocsc()).solve
+    """A solver of the initial acceleration's matrix: M x = b, or with constraint rows [M J'; J 0] [x; y] = [b; c]
+    (c: 0 by default; J at the start; the matrix is symmetric, so the same solver serves the adjoint), returning x."""
+    S = run.S
+    if not S.mc:
+        lu_m = spla.splu(S.M.tocsc())
+        return lambda b, c=None: lu_m.solve(np.asarray(b, float))
+    J = S.jac_phi(run.Q[0], run.t[0])
+    lu = spla.splu(sp.bmat([[S.M, J.T], [J, None]], format="csc"))
+    nf, mc = S.nf, S.mc
+
+    def solve(b: np.ndarray, c: np.ndarray | None = None) -> np.ndarray:
+        b = np.asarray(b, float)
+        pad = np.zeros((mc,) + b.shape[1:]) if c is None else np.asarray(c, float)
+        return lu.solve(np.concatenate([b, pad]))[:nf]
+    return solve
+
+
+def start_multipliers(run: AlphaRun, b: np.ndarray) -> np.ndarray:
+    """The multipliers' part of [M J'; J 0]^-1 [b; 0] at the start (columns of b): d lam_0/dp of the initial
+    acceleration."""
+    S = run.S
+    J = S.jac_phi(run.Q[0], run.t[0])
+    z = spla.splu(sp.bmat([[S.M, J.T], [J, None]], format="csc")).solve(np.concatenate([b, np.zeros((S.mc,) +
+                                                                                                      b.shape[1:])]))
+    return z[S.nf:]

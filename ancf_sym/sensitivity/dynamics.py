@@ -24,9 +24,15 @@ parameter's column as right-hand sides), the forcing dR/dp at every step one map
 piece.
 
 Strain-rate damping f_d(q, v) adds df/dq + cc df/dv to the tangent (sparse QR: unsymmetric) and df/dv Bv to the
-right-hand side; dampings[i].axial | bending are parameters. Scope (refused by name before any step,
-ancf_sym.sensitivity.alpha_run): fixed steps; no stiffness-proportional Rayleigh or contact damping, drives or
-multiplier rows (rigid joints, bodies' joints); time loads (analysis.loads) are applied as the run applies them.
+right-hand side; dampings[i].axial | bending are parameters. Constraint rows with multipliers (rigid joints, bodies'
+rows) and drives (rows with time-dependent coefficients): M a' + ... + J(q')' lam' = 0, Phi(q', t') = 0 give the KKT
+solve [[J' + H(lam'), J(q')'], [J(q'), 0]] [S'; dlam'/dp] = -[rhs; 0] (H: the rows' curvature weighted by the
+multipliers; no parameter enters a row), and the start's [M J'; J 0] [a_0; lam_0] differentiated alike.
+Stiffness-proportional Rayleigh damping (C_n = alpha M + beta K_el(q_n)) adds cc C_n to the tangent and
+C_n Bv + beta d(K_el(q) v_{n+1})/dq|_{q_n} S_n to the right-hand side (S_n: the previous state's sensitivity; the
+kernels' compiled Hessian-vector companions). Scope (refused by name before any step,
+ancf_sym.sensitivity.alpha_run): fixed steps; no contact damping (applied torques: their skew tangent in the step's
+matrix), no static start with multiplier rows; time loads (analysis.loads) are applied as the run applies them.
 """
 from __future__ import annotations
 
@@ -41,8 +47,8 @@ from ancf_sym.dynamics.run import make_integrator
 from ancf_sym.dynamics.sensors import Sensor, SensorEval
 from ancf_sym.system.step_system import StepSystem
 from ancf_sym.scene.builder import Scene
-from ancf_sym.sensitivity.alpha_run import contact_notes, damping_tangents, forcing, mass_solve, \
-    refuse_unsupported, run_for_sensitivity, start_tangent
+from ancf_sym.sensitivity.alpha_run import contact_notes, dynamic_assembly, forcing, mass_solve, refuse_unsupported, \
+    damping_matrices, run_for_sensitivity, start_multipliers, start_tangent, step_inputs, step_matrix, stiffness_damped
 from ancf_sym.util.casadi_buffers import bind
 from ancf_sym.util.sparsity import dm
 
@@ -62,6 +68,8 @@ class DynamicSensitivity:
     assembly: object
     sensors: list = field(default_factory=list)  # SensorEval of the options' sensors
     notes: list = field(default_factory=list)  # what the derivative does not cover (contact events)
+    lam: np.ndarray | None = None  # (steps + 1, mc): the true multipliers of the constraint rows and drives
+    dlam: dict = field(default_factory=dict)  # dlam[path]: their derivatives per step (the reactions')
 
     def sensor(self, path: str, name: str) -> np.ndarray:
         """d(sensor record)/dp per step, (steps + 1, k): the sensor's kinds that are linear in the state
@@ -97,9 +105,8 @@ class DynamicSensitivity:
 def check_dynamic(scene: Scene, options: DynamicOptions) -> None:
     """Refuse, before any step, a run whose sensitivities this module cannot propagate (SceneError naming why)."""
     from ancf_sym.dynamics.newton import Counters
-    from ancf_sym.statics.problem import problem_for
 
-    S = StepSystem.for_scene(problem_for(scene).asm)
+    S = StepSystem.for_scene(dynamic_assembly(scene))
     refuse_unsupported(S, options, make_integrator(S, options, Counters(), 0.0, options.newton.xtol * S.length_scale))
 
 
@@ -107,34 +114,42 @@ _SWEEPS: dict = {}
 
 
 def forward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int, P: int) -> ca.Function:
-    """sweep(z0, X, V, F) -> Z: n steps of the sensitivity recursion (module docstring) for P parameters; z = [Sq;
-    Sv; Sa; Sab] (4 nf x P), X, V (nf x n): q_{n+1}, v_{n+1} per step, F (nf x n P): the forcing per step; Z (4 nf x
-    n P): z after each step."""
+    """sweep(z0, X, V, F[, Y]) -> (Z[, L]): n steps of the sensitivity recursion (module docstring) for P parameters;
+    z = [Sq; Sv; Sa; Sab] (4 nf x P), X, V (nf x n): q_{n+1}, v_{n+1} per step, F (nf x n P): the forcing per step,
+    Y ((mc + nw) x n): the true multipliers and the drives' time inputs per step (only with constraint rows); Z (4 nf
+    x n P): z after each step, L (mc x n P): d lam_{n+1}/dp; with Rayleigh beta one more input XP (nf x n): q_n."""
     sch = opts.scheme()
     h = opts.dt
-    key = (S.graph_key, sch, h, alpha_r, n, P, S.par.tobytes())
+    key = (S.graph_key, sch, h, alpha_r, S.rayleigh.beta if S.rayleigh is not None else 0.0, n, P, S.par.tobytes())
     if key in _SWEEPS:
         return _SWEEPS[key]
-    nf = S.nf
+    nf, mc = S.nf, S.mc
     am, af, beta, gamma = sch.alpha_m, sch.alpha_f, sch.beta, sch.gamma
     cm, cc = sch.cm(h), sch.cc(h)
     c1 = (1 - am) / (1 - af)
     M = dm(S.M)
     z, x, v, F = ca.MX.sym("z", 4 * nf, P), ca.MX.sym("x", nf), ca.MX.sym("v", nf), ca.MX.sym("F", nf, P)
-    J = (cm + cc * alpha_r) * M + S.forces_pf(x, ca.DM(S.par))[1]
-    dfx, dfv = damping_tangents(S, x, v)  # (strain-rate damping: its exact tangents at the step's end)
-    if dfx is not None:
-        J = J + dfx + cc * dfv
+    y = ca.MX.sym("y", step_inputs(S)) if step_inputs(S) else None
+    xp = ca.MX.sym("xp", nf) if stiffness_damped(S) else None  # (q_n: where the run took K_el of the step)
+    C, T = damping_matrices(S, alpha_r, xp, v)
+    J, dfv, solver = step_matrix(S, cm, cc, C, x, v, y)
     Sq, Sv, Sa, Sab = (z[i * nf:(i + 1) * nf, :] for i in range(4))
     D = -(Sq + h * Sv + h * h * (0.5 - beta) * Sab) / (h * h * beta)
     B = c1 * D + (am * Sab - af * Sa) / (1 - af)
     Bv = Sv + h * (1 - gamma) * Sab + h * gamma * D
-    rhs = ca.mtimes(M, B + alpha_r * Bv) + F
+    rhs = ca.mtimes(M, B) + ca.mtimes(C, Bv) + F
+    if T is not None:  # (beta K_el(q_n) v_{n+1}: its change with q_n)
+        rhs = rhs + ca.mtimes(T, Sq)
     if dfv is not None:
         rhs = rhs + ca.mtimes(dfv, Bv)
-    Sq1 = ca.solve(J, -rhs, "ldl" if dfx is None else "qr")  # (d f_d / dq is unsymmetric: QR)
-    step = ca.Function("sensitivity_step", [z, x, v, F],
-                       [ca.vertcat(Sq1, cc * Sq1 + Bv, cm * Sq1 + B, Sq1 / (h * h * beta) + D)])
+    if mc:  # (the constraint rows: J dq' = 0, Phi reads no parameter)
+        sol = ca.solve(J, -ca.vertcat(rhs, ca.MX(mc, P)), solver)
+        Sq1, outs = sol[:nf, :], [cm * S.stiffness_scale() * sol[nf:, :]]  # (dlam = kc times the scaled part)
+    else:
+        Sq1, outs = ca.solve(J, -rhs, solver), []
+    step = ca.Function("sensitivity_step", [z, x, v, F] + ([y] if y is not None else []) +
+                       ([xp] if xp is not None else []),
+                       [ca.vertcat(Sq1, cc * Sq1 + Bv, cm * Sq1 + B, Sq1 / (h * h * beta) + D)] + outs)
     _SWEEPS[key] = f = step.mapaccum("sensitivity_sweep", n)
     return f
 
@@ -156,18 +171,29 @@ def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
     Sa = -mass_solve(run)(K0 @ Sq + Fs[0]) if P else np.zeros((nf, 0))
     z0 = np.vstack([Sq, np.zeros((nf, P)), Sa, Sa])
     dq, dv = np.zeros((N + 1, nf, P)), np.zeros((N + 1, nf, P))
+    mc = S.mc
+    dl = np.zeros((N + 1, mc, P))
     dq[0] = Sq
+    if mc and P:  # (the start's multipliers: [M J'; J 0] [a_0; lam_0] = [-R; -gamma] differentiated, dq_0 = 0)
+        dl[0] = start_multipliers(run, -(K0 @ Sq + Fs[0]))
     if N and P:
         f = forward_sweep(S, options, run.alpha_r, N, P)
         Z = np.zeros(4 * nf * P * N)
+        L = np.zeros(mc * P * N)
         # (column-major inputs: X's column j is q_{j+1}; F's columns j P .. j P + P - 1 step j + 1's parameters)
         Fin = np.ascontiguousarray(Fs[1:].transpose(0, 2, 1)).ravel()
-        _, evaluate = bind(f, [np.ascontiguousarray(z0.T).ravel(), np.ascontiguousarray(run.Q[1:]).ravel(),
-                               np.ascontiguousarray(run.V[1:]).ravel(), Fin], [Z])
+        ins = [np.ascontiguousarray(z0.T).ravel(), np.ascontiguousarray(run.Q[1:]).ravel(),
+               np.ascontiguousarray(run.V[1:]).ravel(), Fin]
+        if step_inputs(S):
+            ins.append(np.ascontiguousarray(np.hstack([run.Lam[1:], run.W[1:]])).ravel())
+        if stiffness_damped(S):
+            ins.append(np.ascontiguousarray(run.Q[:-1]).ravel())
+        _, evaluate = bind(f, ins, [Z] + ([L] if mc else []))
         evaluate()
         Zs = Z.reshape(N, P, 4 * nf)
         dq[1:] = Zs[:, :, :nf].transpose(0, 2, 1)
         dv[1:] = Zs[:, :, nf:2 * nf].transpose(0, 2, 1)
+        dl[1:] = L.reshape(N, P, mc).transpose(0, 2, 1)
 
     def full(d: np.ndarray) -> np.ndarray:  # (E d per step and parameter, as one gather)
         rows = S.full_v_rows(d.transpose(0, 2, 1).reshape(-1, nf))
@@ -175,4 +201,5 @@ def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
     dx, dvf = (full(dq), full(dv)) if P else (np.zeros((N + 1, asm.n, 0)), np.zeros((N + 1, asm.n, 0)))
     sensors = [SensorEval(Sensor.from_dict(sn, i), asm, i) for i, sn in enumerate(options.sensors)]
     return DynamicSensitivity(run.t, run.X, run.V_full, {p: dx[:, :, k] for k, p in enumerate(paths)},
-                              {p: dvf[:, :, k] for k, p in enumerate(paths)}, asm, sensors, contact_notes(run))
+                              {p: dvf[:, :, k] for k, p in enumerate(paths)}, asm, sensors, contact_notes(run),
+                              run.Lam, {p: dl[:, :, k] for k, p in enumerate(paths)})
