@@ -9,8 +9,16 @@ too (measured: 4 elements, 500 iterations creeping to 0.1 % of the potential, wh
 71). Held at their start values, those coordinates leave IPOPT the planar problem; the Newton finish and the
 stability check then judge the answer in all coordinates, so holding them cannot make a wrong answer succeed
 (an answer unstable out of the plane is left along its negative curvature as any saddle is).
+
+Unloaded and uncoupled at the start is not yet a symmetry: a straight rope's axial coordinates are both under a
+transverse end load, and their first order decoupling ends as soon as it bends. `mirrored` asks the scene itself:
+a symmetry that holds the coordinates is a mirror about their start values, under which the gradient at a
+displaced state mirrors too (to round-off, at a displacement far from infinitesimal); without one, no held phase
+(it would cost two IPOPT runs whose answers the check after the solve then rejects).
 """
 from __future__ import annotations
+
+from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
@@ -44,3 +52,25 @@ def held_coordinates(gradient: np.ndarray, hessian: sp.spmatrix | None, rows: sp
     if held.all() or not held.any():
         return np.zeros(0, dtype=np.int64)
     return np.flatnonzero(held)
+
+
+def mirrored(gradient: Callable[[np.ndarray], np.ndarray], x0: np.ndarray, held: np.ndarray,
+             rows: sp.spmatrix | None = None, size: float = 1e-2, tol: float = 1e-8) -> bool:
+    """Is the potential even in the held coordinates about their start values? g(x0 + R d) = R g(x0 + d) for a
+    displacement d of `size` times the coordinates' scale (R: the held coordinates' sign flipped), to `tol` of the
+    gradient's size: a mirror symmetry holds to round-off at any d, a mere first-order decoupling fails at O(d^2).
+    Coordinates in constraint rows (`rows`: a pin's, a joint's) stay at x0 and are not compared: their rows hold
+    them (a pinned end's out-of-plane coordinate is on the mirror plane)."""
+    rng = np.random.default_rng(0)  # (fixed: the same decision on every run)
+    d = size * max(1.0, float(np.abs(x0).max())) * rng.standard_normal(x0.size)
+    free = np.ones(x0.size, dtype=bool)
+    if rows is not None and rows.shape[0]:
+        free[np.unique(sp.csr_matrix(rows).indices)] = False
+    d[~free] = 0.0
+    Rd = d.copy()
+    Rd[held] *= -1.0
+    g1, g2 = gradient(x0 + d), gradient(x0 + Rd)
+    g1[held] *= -1.0
+    g1, g2 = g1[free], g2[free]
+    scale = max(float(np.abs(g1).max()), float(np.abs(g2).max()))
+    return bool(np.all(np.isfinite(g1)) and np.all(np.isfinite(g2)) and np.abs(g2 - g1).max() <= tol * scale)

@@ -46,7 +46,7 @@ from ancf_sym.scene.schema import STATIC_OPTIONS
 
 from ancf_sym.contact.steps import IterateWatch, deep_starts
 from ancf_sym.statics.inertia import STABILITY_EPS, reduced_inertia
-from ancf_sym.statics.held import held_coordinates
+from ancf_sym.statics.held import held_coordinates, mirrored
 from ancf_sym.scene.member_effects import START_STRAIN
 from ancf_sym.statics.evaluation import BIOT, ResultEnergies
 from ancf_sym.util.html import html_table
@@ -398,7 +398,10 @@ class StaticProblem:
         ev = a.evaluate(x)
         kmax = float(abs(ev.hessian).max()) if ev.hessian is not None and ev.hessian.nnz else 0.0
         rows = a.exact.jacobian(x) if a.exact.m else None
-        return held_coordinates(ev.gradient, ev.hessian, rows, self.floor, np.finfo(float).eps * kmax)
+        held = held_coordinates(ev.gradient, ev.hessian, rows, self.floor, np.finfo(float).eps * kmax)
+        if held.size and not mirrored(lambda y: a.evaluate(y, hessian=False).gradient, x, held, rows):
+            return np.zeros(0, dtype=np.int64)  # (decoupled at the start only: no symmetry holds them)
+        return held
 
     def _still_held(self, x: np.ndarray, held: np.ndarray) -> bool:
         """Nothing loads the held coordinates at x either (their gradient within the round-off floor, as at the
