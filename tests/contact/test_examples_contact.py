@@ -16,7 +16,7 @@ element angle, of order 1-2 % at mu theta = 0.63), the rope mass beyond first or
 masses) and the fit over the residual axial oscillation; the friction regularisation costs eps^2 / (2 v^2) < 1e-3
 of the friction force once the speed v >> eps. Sticking cases: zero acceleration within 2 % of g (the stick
 criterion) and a creep speed below eps: the regularised law holds a friction fraction f = ln(ratio) / (mu theta)
-(0.65 and 0.58 here) at the creep speed eps f / sqrt(1 - f^2) < eps [4.16 and 3.52 mm/s against 4.22 and 3.56].
+(0.65 and 0.58 here) at the creep speed eps f / sqrt(1 - f^2) < eps [4.18 and 3.52 mm/s against 4.22 and 3.56].
 """
 from __future__ import annotations
 
