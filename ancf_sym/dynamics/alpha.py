@@ -169,14 +169,19 @@ class AlphaIntegrator:
             # the graph did not converge: full Newton in Python, from the graph's last iterate if finite
             python_newton = NewtonOptions(**{**self.opts.__dict__, "modified": False})
             kc = self.scheme.cm(h) * S.stiffness_scale()
+            xp, lp, S.p[:] = self._predict(h, pload, kc)
+            it0 = 0
             if finite:
                 u = self.unpack(self._s_out)
-                S.x[:], S.lam[:] = u["q"], u["lam"] / kc
-                S.p[:] = self._predict(h, pload, kc)[2]
+                xg, lg = u["q"], u["lam"] / kc
                 it0 = k
-            else:
-                S.x[:], S.lam[:], S.p[:] = self._predict(h, pload, kc)
-                it0 = 0
+                # the graph's last iterate only where its residual is below the predictor's: full updates through
+                # a kink of a contact law can diverge (residual 3e7 N on the capstan's first step), and Newton
+                # continued from there reached a distant root of the step equations (a rope 47 mm deep in the
+                # drum, accepted as converged)
+                if self._merit(h, kc, xg, lg) < self._merit(h, kc, xp, lp):
+                    xp, lp = xg, lg
+            S.x[:], S.lam[:] = xp, lp
         else:
             S.x[:], S.lam[:], S.p[:] = self._predict(h, pload, self.scheme.cm(h) * S.stiffness_scale())
             it0 = 0
@@ -201,6 +206,18 @@ class AlphaIntegrator:
         for dst, src in zip(self._new_fac, self.fac):
             dst[:] = src
         return StepOutcome(True, out.iterations)
+
+    def _merit(self, h: float, kc: float, x: np.ndarray, lam: np.ndarray) -> float:
+        """The Newton loop's scaled residual max(|r_q| / tol_q, |Phi| / tol_x) of the step at (x, lam) (inf if not
+        finite); the step's inputs p, vc as set by _predict."""
+        S, sc = self.S, self.scheme
+        S.cm[0], S.cc[0], S.kc[0] = sc.cm(h), sc.cc(h), kc
+        S.x[:], S.lam[:] = x, lam
+        S.residual()
+        self.counters.residuals += 1
+        rq, rc = S.norms[0], S.norms[1]
+        m = max(rq / max(self.tol_q, 2.0 * S.floor), rc / self.tol_x)
+        return m if math.isfinite(m) else math.inf
 
     def _system_inputs(self, cols: np.ndarray) -> None:
         """The system's kel (updated along damped runs) and par into the step input column(s) (rows of cols)."""

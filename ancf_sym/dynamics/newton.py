@@ -11,7 +11,7 @@ make the full update overshoot from outside a narrow region.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -47,8 +47,10 @@ class NewtonOptions:
     contraction: float = 0.5  # modified Newton: refactorise when the contraction |dz_k+1| / |dz_k| exceeds this
     max_modified: int = 8  # modified Newton: at most this many iterations on one factorisation within a step
     # full Newton in Python: back off along an update that neither lowered the residual nor contracted (Armijo on
-    # the scaled residual); for laws that saturate (regularised friction with a small eps) where full updates cycle
-    line_search: bool = False
+    # the scaled residual); for laws that saturate (regularised friction with a small eps) where full updates cycle.
+    # None (automatic): on, with max_iter at least KINK_MAX_ITER, where the scene has a linear-law contact (its
+    # tangent jumps where a point touches down), else off
+    line_search: bool | None = None
 
     def __post_init__(self):
         if isinstance(self.lte_fraction, bool) or not isinstance(self.lte_fraction, (int, float)) or \
@@ -65,8 +67,25 @@ class NewtonOptions:
         if self.contraction >= 1:
             raise SceneError(f"newton.contraction must be below 1, got {self.contraction!r}")
         for name in ("modified", "single", "line_search"):
+            if name == "line_search" and self.line_search is None:
+                continue
             if not isinstance(getattr(self, name), bool):
                 raise SceneError(f"newton.{name} must be true or false, got {getattr(self, name)!r}")
+
+
+# iterations a step through the kink of a linear contact law may take (the belt drive on the linear law: 12 with
+# the line search still rejected 5 steps of 600, 30 none)
+KINK_MAX_ITER = 30
+
+
+def resolve_kinks(opts: NewtonOptions, kinked: bool) -> NewtonOptions:
+    """The options with an automatic line search (None) decided: on, with at least KINK_MAX_ITER iterations, for a
+    scene with a kinked (linear-law) contact; off otherwise. Explicit true/false are kept as given."""
+    if opts.line_search is not None:
+        return opts
+    if not kinked:
+        return replace(opts, line_search=False)
+    return replace(opts, line_search=True, max_iter=max(opts.max_iter, KINK_MAX_ITER))
 
 
 @dataclass

@@ -15,7 +15,7 @@ from ancf_sym.scene.builder import Scene, SceneError
 from ancf_sym.dynamics.alpha import AlphaIntegrator
 from ancf_sym.dynamics.collocation import CollocationIntegrator
 from ancf_sym.dynamics.integrator import Integrator
-from ancf_sym.dynamics.newton import Counters
+from ancf_sym.dynamics.newton import Counters, resolve_kinks
 from ancf_sym.dynamics.options import DynamicOptions, options_from_dict
 from ancf_sym.dynamics.recording import DEFAULT_OUTPUTS, Recorder, output_grid
 from ancf_sym.dynamics.result import DynamicResult
@@ -59,10 +59,12 @@ def _velocity_source(asm: Assembly, opts: DynamicOptions, coords: np.ndarray) ->
 def make_integrator(system: StepSystem, opts: DynamicOptions, counters: Counters, tol_q: float,
                     tol_x: float) -> Integrator:
     """The integrator the options name: an alpha scheme or collocation (Radau IIA, Gauss-Legendre)."""
+    # a linear-law contact's tangent jumps where a point touches down: the automatic line search for such scenes
+    newton = resolve_kinks(opts.newton, any(getattr(c, "stiffness", 0.0) > 0 for c in system.asm.scene.contacts))
     if opts.integrator in ("radau", "gauss"):
         stages = opts.stages or (3 if opts.integrator == "radau" else 2)
-        return CollocationIntegrator(system, opts.integrator, stages, opts.newton, tol_q, tol_x, counters)
-    return AlphaIntegrator(system, opts.scheme(), opts.newton, tol_q, tol_x, counters)
+        return CollocationIntegrator(system, opts.integrator, stages, newton, tol_q, tol_x, counters)
+    return AlphaIntegrator(system, opts.scheme(), newton, tol_q, tol_x, counters)
 
 
 def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callable[[float, float], Any] | None = None,

@@ -16,9 +16,11 @@ element angle, of order 1-2 % at mu theta = 0.63), the rope mass beyond first or
 masses) and the fit over the residual axial oscillation; the friction regularisation costs eps^2 / (2 v^2) < 1e-3
 of the friction force once the speed v >> eps. Sticking cases: zero acceleration within 2 % of g (the stick
 criterion) and a creep speed below eps: the regularised law holds a friction fraction f = ln(ratio) / (mu theta)
-(0.65 and 0.58 here) at the creep speed eps f / sqrt(1 - f^2) < eps.
+(0.65 and 0.58 here) at the creep speed eps f / sqrt(1 - f^2) < eps [4.18 and 3.52 mm/s against 4.22 and 3.56].
 """
 from __future__ import annotations
+
+import math
 
 import pytest
 
@@ -53,6 +55,9 @@ def test_dropped_rope_comes_to_rest(rope, law):
     assert abs(r["energy_error_J"]) < 0.05 * r["initial_energy_J"]
 
 
+EPS = 5e-3  # the example's friction regularisation velocity [m/s]
+
+
 @pytest.fixture(scope="module")
 def capstan(tmp_path_factory):
     return run_example("capstan", tmp_path_factory)
@@ -74,3 +79,8 @@ def test_capstan_sticks_below_the_limit(capstan):
     for r in sticks:
         assert r["ratio"] < r["stick_limit"] and r["stick"], r
         assert abs(r["creep_speed"]) < 5e-3, r["case"]  # eps of the example
+        # the steady creep of the regularised law: a start with the rope inside the drum's contact surface (bounces
+        # of 0.1-0.4 m/s through 0.2 s) gave 25 % more at mu 0.1. 10 %: the polygonal wrap raises the attainable
+        # tension ratio by up to 2 %, which lowers f by up to 6 % at mu theta = 0.31 and the creep by up to 9 %
+        f = math.log(r["ratio"]) / (r["mu"] * r["wrap_rad"])
+        assert r["creep_speed"] == pytest.approx(EPS * f / math.sqrt(1 - f * f), rel=0.1), r["case"]
