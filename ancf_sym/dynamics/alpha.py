@@ -25,6 +25,10 @@ from ancf_sym.dynamics.newton import Counters, Factor, NewtonOptions, newton
 from ancf_sym.dynamics.schemes import Scheme
 from ancf_sym.system.step_system import StepSystem
 
+# the Python Newton continues from the compiled graph's last iterate only where that iterate cut the predictor's
+# scaled residual by this factor (it was converging); else it starts again from the predictor
+RESTART_GAIN = 1e-2
+
 
 class AlphaIntegrator:
     """Newmark / HHT / generalized-alpha on a StepSystem (see the module docstring and alpha_step's).
@@ -179,7 +183,7 @@ class AlphaIntegrator:
                 # a kink of a contact law can diverge (residual 3e7 N on the capstan's first step), and Newton
                 # continued from there reached a distant root of the step equations (a rope 47 mm deep in the
                 # drum, accepted as converged)
-                if self._merit(h, kc, xg, lg) < self._merit(h, kc, xp, lp):
+                if self._merit(h, kc, xg, lg) < RESTART_GAIN * self._merit(h, kc, xp, lp):
                     xp, lp = xg, lg
             S.x[:], S.lam[:] = xp, lp
         else:
