@@ -179,7 +179,7 @@ class AlphaIntegrator:
                 u = self.unpack(self._s_out)
                 xg, lg = u["q"], u["lam"] / kc
                 it0 = k
-                # the graph's last iterate only where its residual is below the predictor's: full updates through
+                # the graph's last iterate only where it cut the predictor's residual (RESTART_GAIN): full updates through
                 # a kink of a contact law can diverge (residual 3e7 N on the capstan's first step), and Newton
                 # continued from there reached a distant root of the step equations (a rope 47 mm deep in the
                 # drum, accepted as converged)
