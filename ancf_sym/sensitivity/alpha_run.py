@@ -330,33 +330,31 @@ def _scatter(idx: np.ndarray, n: int) -> sp.csr_matrix:
 _MAPPED: dict = {}
 
 
-def _gradients(pc, X: np.ndarray) -> np.ndarray:
-    """The piece's assembled gradient at every state (rows of X), (len(X), n): one mapped kernel call."""
+def _mapped_grad(pc, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(element energies (k ne), element gradients (k ne nd)) of a piece or term at every state (rows of X): one
+    mapped call of its gradient kernel."""
     ne, nd = pc.idx.shape
     k = len(X)
     key = (pc.element, pc.effect, pc.gauss, k * ne)
     if key not in _MAPPED:
         _MAPPED[key] = kernels.load_grad(pc.element, pc.effect, pc.gauss).map(k * ne)
-    f = _MAPPED[key]
     e, g = np.zeros(k * ne), np.zeros(k * ne * nd)
-    _, evaluate = bind(f, [np.ascontiguousarray(X[:, pc.idx]).ravel(),
-                           np.ascontiguousarray(np.tile(np.asarray(pc.P, float), (k, 1))).ravel()], [e, g])
+    _, evaluate = bind(_MAPPED[key], [np.ascontiguousarray(X[:, pc.idx]).ravel(),
+                                      np.ascontiguousarray(np.tile(np.asarray(pc.P, float), (k, 1))).ravel()], [e, g])
     evaluate()
-    return (_scatter(pc.idx, X.shape[1]).T @ g.reshape(k, ne * nd).T).T
+    return e, g
+
+
+def _gradients(pc, X: np.ndarray) -> np.ndarray:
+    """The piece's assembled gradient at every state (rows of X), (len(X), n): one mapped kernel call."""
+    ne, nd = pc.idx.shape
+    _, g = _mapped_grad(pc, X)
+    return (_scatter(pc.idx, X.shape[1]).T @ g.reshape(len(X), ne * nd).T).T
 
 
 def _energies(term, X: np.ndarray) -> np.ndarray:
     """A term's element energies at every state (rows of X), (len(X), elements): one mapped kernel call."""
-    ne, nd = term.idx.shape
-    k = len(X)
-    key = (term.element, term.effect, term.gauss, k * ne)
-    if key not in _MAPPED:
-        _MAPPED[key] = kernels.load_grad(term.element, term.effect, term.gauss).map(k * ne)
-    e, g = np.zeros(k * ne), np.zeros(k * ne * nd)
-    _, evaluate = bind(_MAPPED[key], [np.ascontiguousarray(X[:, term.idx]).ravel(),
-                                      np.ascontiguousarray(np.tile(np.asarray(term.P, float), (k, 1))).ravel()], [e, g])
-    evaluate()
-    return e.reshape(k, ne)
+    return _mapped_grad(term, X)[0].reshape(len(X), term.idx.shape[0])
 
 
 def contact_notes(run: AlphaRun) -> list[str]:
