@@ -105,6 +105,28 @@ def dynamics_cost(repeats: int, elements: int = 24) -> None:
               f"{d_med / r_med:.1f}x; central differences would be {2 * len(paths)} runs = {2 * len(paths)}x")
 
 
+def largest_difference_from_central(doc: dict, check: list, sensors: list, out) -> float:
+    """The adjoint gradient's largest relative difference from Richardson-extrapolated central differences on the
+    paths `check`, all runs with Newton to 1e-13 of the length (the default tolerances' state error, divided by the
+    difference step, would swamp the comparison)."""
+    from ancf_sym.dynamics import DynamicOptions
+    from ancf_sym.dynamics.newton import NewtonOptions
+    from ancf_sym.sensitivity.adjoint import dynamic_gradient
+    tight = DynamicOptions(dt=1e-3, t_end=1.0, sensors=sensors, energies=False,
+                           newton=NewtonOptions(xtol=1e-13, tol=1e-12, lte_fraction=0.0, single=False))
+    gt = dynamic_gradient(doc, check, tight, out).gradient
+    rel = 0.0
+    for p in check:
+        v = get_parameter(doc, p)
+
+        def D(h):
+            ys = [dynamic_gradient(with_parameter(doc, p, v + s), [], tight, out).value for s in (h, -h)]
+            return (ys[0] - ys[1]) / (2 * h)
+        fd = (4 * D(5e-4 * abs(v)) - D(1e-3 * abs(v))) / 3
+        rel = max(rel, abs(gt[p] - fd) / abs(fd))
+    return rel
+
+
 def adjoint_cost(repeats: int, elements: int) -> None:
     """The gradient of one output of a dynamic run w.r.t. 100 parameters by the discrete adjoint, against the run
     alone. Scene: a damped steel cantilever (1 m, Rayleigh alpha = 0.5 1/s) released straight under gravity with
@@ -132,23 +154,9 @@ def adjoint_cost(repeats: int, elements: int) -> None:
     dynamic_gradient(doc, paths, opts, out)  # warm: step graphs, sweep graph, mapped kernels built
     r_min, r_med, _ = timed(lambda: simulate(scene, opts), repeats)
     a_min, a_med, g = timed(lambda: dynamic_gradient(doc, paths, opts, out), repeats)
-    # the check: runs with Newton to 1e-13 of the length (the default tolerances' state error, divided by the
-    # difference step, would swamp the comparison), Richardson-extrapolated central differences
-    from ancf_sym.dynamics.newton import NewtonOptions
-    tight = DynamicOptions(dt=1e-3, t_end=1.0, sensors=sensors, energies=False,
-                           newton=NewtonOptions(xtol=1e-13, tol=1e-12, lte_fraction=0.0, single=False))
-    # (forces on the outer half: near the clamp a force moves the tip by ~1e-10 m per N, below the runs' noise)
+    # the check against central differences (forces on the outer half: near the clamp a force moves the tip by ~1e-10 m per N, below the runs' noise)
     check = paths[:4] + ["loads[47].value[1]", "loads[36].value[0]", "loads[30].value[1]", "loads[24].value[0]"]
-    gt = dynamic_gradient(doc, check, tight, out).gradient
-    rel = 0.0
-    for p in check:
-        v = get_parameter(doc, p)
-
-        def D(h):
-            ys = [dynamic_gradient(with_parameter(doc, p, v + s), [], tight, out).value for s in (h, -h)]
-            return (ys[0] - ys[1]) / (2 * h)
-        fd = (4 * D(5e-4 * abs(v)) - D(1e-3 * abs(v))) / 3
-        rel = max(rel, abs(gt[p] - fd) / abs(fd))
+    rel = largest_difference_from_central(doc, check, sensors, out)
     print(f"dynamics adjoint, {elements} elements, 1000 steps, {len(paths)} parameters: run {r_min * 1e3:.1f} / "
           f"{r_med * 1e3:.1f} ms; gradient (run + adjoint) {a_min * 1e3:.1f} / {a_med * 1e3:.1f} ms = "
           f"{a_min / r_min:.2f}x / {a_med / r_med:.2f}x the run (min / median); central differences: 200 runs; "
@@ -192,20 +200,8 @@ def kkt_adjoint_cost(repeats: int, elements: int) -> None:
     # no records; the cause was not investigated: both are printed, the ratio is to the latter)
     from ancf_sym.sensitivity.alpha_run import run_for_sensitivity
     k_min, k_med, _ = timed(lambda: run_for_sensitivity(doc, [], opts), repeats)
-    from ancf_sym.dynamics.newton import NewtonOptions
-    tight = DynamicOptions(dt=1e-3, t_end=1.0, sensors=sensors, energies=False,
-                           newton=NewtonOptions(xtol=1e-13, tol=1e-12, lte_fraction=0.0, single=False))
     check = paths[:4] + ["loads[47].value[1]", "loads[40].value[0]", "loads[23].value[1]", "loads[20].value[0]"]
-    gt = dynamic_gradient(doc, check, tight, out).gradient
-    rel = 0.0
-    for p in check:
-        v = get_parameter(doc, p)
-
-        def D(h):
-            ys = [dynamic_gradient(with_parameter(doc, p, v + s), [], tight, out).value for s in (h, -h)]
-            return (ys[0] - ys[1]) / (2 * h)
-        fd = (4 * D(5e-4 * abs(v)) - D(1e-3 * abs(v))) / 3
-        rel = max(rel, abs(gt[p] - fd) / abs(fd))
+    rel = largest_difference_from_central(doc, check, sensors, out)
     print(f"dynamics adjoint, drive + rigid joint (KKT step), {elements} elements, 1000 steps, {len(paths)} "
           f"parameters: simulate {r_min * 1e3:.1f} / {r_med * 1e3:.1f} ms, the run without records {k_min * 1e3:.1f} / "
           f"{k_med * 1e3:.1f} ms; gradient (run + adjoint) {a_min * 1e3:.1f} / {a_med * 1e3:.1f} ms = "
