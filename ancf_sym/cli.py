@@ -64,7 +64,7 @@ class Progress:
     """A tqdm bar over the stages of a run (stderr); `note` shows what the current stage is doing."""
 
     def __init__(self, stages: list[str], quiet: bool):
-        from tqdm import tqdm
+        from ancf_sym.util.interrupts import progress_bar as tqdm
         self.bar = tqdm(total=len(stages), disable=True if quiet else None,  # None: only on a terminal
                         leave=False, dynamic_ncols=True,
                         bar_format="{desc}{postfix}  [{n_fmt}/{total_fmt} stages done, {elapsed}]")

@@ -87,7 +87,7 @@ class ReferenceParts:
                 self.announce(f"reference part{of} ({label}): resumed from its checkpoint ({partial})")
             except (OSError, json.JSONDecodeError):
                 state = None
-        from tqdm import tqdm
+        from ancf_sym.util.interrupts import progress_bar as tqdm
         bar = tqdm(total=span, desc=f"{self.study}: reference part{of} ({label})", disable=not self.progress,
                    dynamic_ncols=True, leave=True, file=sys.stderr,
                    bar_format="{desc}: {percentage:3.0f}% {bar} [{elapsed}<{remaining}]" if span else None)

@@ -79,7 +79,7 @@ def run_sweep(func: Callable[[dict], dict], settings: list[dict], *, out: str | 
     jobs: local worker processes (1: in this process); scheduler: a Dask scheduler address or distributed.Client
     (then jobs is ignored: the cluster's workers run the settings). on_record(record) -> record runs in this
     process on each finished record before it is stored (e.g. an error against a reference)."""
-    from tqdm import tqdm
+    from ancf_sym.util.interrupts import progress_bar as tqdm
 
     keys = [setting_key(s) for s in settings]
     if len(set(keys)) != len(keys):

@@ -114,3 +114,16 @@ def interruptible() -> Iterator[_Recorder]:
     for sig, handler in saved.items():
         if int(sig) in arrived:
             handler(int(sig), None)  # raises (KeyboardInterrupt / Terminated) for the handlers this module expects
+
+
+def progress_bar(**kwargs):
+    """A tqdm bar whose clean-up survives a Ctrl-C that lands inside its own constructor: tqdm's __del__ then finds
+    no `pos` and prints a traceback at garbage collection, after the run has reported its interrupt in one line."""
+    from tqdm import tqdm
+
+    class _Bar(tqdm):
+        def __del__(self):
+            if hasattr(self, "pos"):
+                super().__del__()
+
+    return _Bar(**kwargs)
