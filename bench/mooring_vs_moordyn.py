@@ -20,84 +20,26 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
-import tempfile
-import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "examples"))
+sys.path.insert(0, str(ROOT / "bench"))
 
 import numpy as np  # noqa: E402
 
 import lowe_langley_jumper as J  # noqa: E402
+from moordyn_jumper import top_tension  # noqa: E402
 
 RAMP = J.PERIOD
-
-MOORDYN_INPUT = """MoorDyn input file: the Lowe and Langley (2006) flexible jumper
-False  Echo
------------------------ LINE TYPES ------------------------------------------
-TypeName   Diam     Mass/m     EA         BA/-zeta    EI         Cd     Ca     CdAx    CaAx
-(name)     (m)      (kg/m)     (N)        (N-s/-)     (N-m^2)    (-)    (-)    (-)     (-)
-main       0.396    165.0      500.0e6    -0.5        120.8e3    1.0    1.0    0.0     0.0
----------------------- POINTS --------------------------------
-ID    Type      X       Y       Z       Mass    Volume      CdA    Ca
-(#)   (-)       (m)     (m)     (m)     (kg)    (m^3)       (m^2)  (-)
-1     Fixed     -100    0       -55     0       0           0      0
-2     Coupled   0       0       -5      0       0           0      0
----------------------- LINES ----------------------------------------
-ID   LineType   AttachA  AttachB  UnstrLen  NumSegs  LineOutputs
-(#)   (name)     (#)      (#)       (m)       (-)     (-)
-1      main      1        2         170       68      -
----------------------- OPTIONS -----------------------------------------
-0             writeLog
-0.001         dtM
-3.0e6         kBot
-3.0e5         cBot
-100           WtrDpth
-1000.0        WtrDnsty
-9.807         g
-midpoint5     tScheme
-5.0           CdScaleIC
-30            TmaxIC
-1.0           dtIC
-5e-3          threshIC
-0             ICgenDynamic
-1             disableOutTime
-------------------------- need this line --------------------------------------
-"""
-
 
 def ours(n: int, dt: float) -> dict:
     return J.dynamic_case1(n, dt)
 
 
 def moordyn(times: np.ndarray) -> dict:
-    import moordyn as md
-
-    with tempfile.TemporaryDirectory() as tmp:
-        path = os.path.join(tmp, "jumper.txt")
-        Path(path).write_text(MOORDYN_INPUT)
-        system = md.Create(path)
-        point = md.GetPoint(system, 2)
-        r0 = list(md.GetPointPos(point))
-        md.Init(system, r0, [0.0, 0.0, 0.0])
-        dt, t, k = 0.005, 0.0, 0
-        out = np.full(len(times), np.nan)
-        c0 = time.process_time()
-        while k < len(times):
-            x = r0[0] + J.surge(t + dt)[0]
-            r = list(md.GetPointPos(point))
-            u = [(x - r[0]) / dt, 0.0, 0.0]
-            md.Step(system, r, u, t, dt)
-            t += dt
-            while k < len(times) and times[k] <= t + 1e-9:
-                out[k] = float(np.linalg.norm(md.GetPointForce(point)))
-                k += 1
-        cpu = time.process_time() - c0
-        md.Close(system)
-    return dict(tension=out, cpu_s=cpu)
+    return top_tension(times, surge=lambda t: J.surge(t)[0])
 
 
 def main(argv=None) -> dict:

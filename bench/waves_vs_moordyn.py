@@ -25,9 +25,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -38,7 +36,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 import numpy as np  # noqa: E402
 
 import lowe_langley_jumper as J  # noqa: E402
-from mooring_vs_moordyn import MOORDYN_INPUT  # noqa: E402
+from moordyn_jumper import top_tension  # noqa: E402
 
 from ancf_sym import Scene, solve_static  # noqa: E402
 
@@ -73,35 +71,15 @@ def ours(n: int, dt: float, height: float, period: float, t_end: float) -> dict:
 
 
 def moordyn(times: np.ndarray, water) -> dict:
-    import moordyn as md
     from ancf_sym.model.waves import kinematics
 
-    text = MOORDYN_INPUT.replace("0.001         dtM", "0.001         dtM\n1             WaveKin")
-    with tempfile.TemporaryDirectory() as tmp:
-        path = os.path.join(tmp, "jumper.txt")
-        Path(path).write_text(text)
-        system = md.Create(path)
-        point = md.GetPoint(system, 2)
-        r0 = list(md.GetPointPos(point))
-        md.Init(system, r0, [0.0, 0.0, 0.0])
-        md.ExternalWaveKinInit(system)
-        dt, t, k = 0.005, 0.0, 0
-        out = np.full(len(times), np.nan)
-        c0 = time.process_time()
-        while k < len(times):
-            p = np.array(md.ExternalWaveKinGetCoordinates(system))  # (x, y, z) of MoorDyn's nodes now
-            _, u, a = kinematics(water, J.G, p[:, [0, 2]], t + 0.5 * dt)  # (the planar waves along x: x-z)
-            U, A = np.zeros_like(p), np.zeros_like(p)
-            U[:, [0, 2]], A[:, [0, 2]] = u, a
-            md.ExternalWaveKinSet(system, U.tolist(), A.tolist(), t)
-            md.Step(system, r0, [0.0, 0.0, 0.0], t, dt)
-            t += dt
-            while k < len(times) and times[k] <= t + 1e-9:
-                out[k] = float(np.linalg.norm(md.GetPointForce(point)))
-                k += 1
-        cpu = time.process_time() - c0
-        md.Close(system)
-    return dict(tension=out, cpu_s=cpu)
+    def waves(p: np.ndarray, t: float):
+        _, u, a = kinematics(water, J.G, p[:, [0, 2]], t)  # (the planar waves along x: x-z)
+        U, A = np.zeros_like(p), np.zeros_like(p)
+        U[:, [0, 2]], A[:, [0, 2]] = u, a
+        return U, A
+
+    return top_tension(times, waves=waves)
 
 
 def main(argv=None) -> dict:
