@@ -14,6 +14,7 @@ from ancf_sym.model.mesh import check_stretch
 from ancf_sym.scene.builder import Scene, SceneError
 from ancf_sym.dynamics.alpha import AlphaIntegrator
 from ancf_sym.dynamics.collocation import CollocationIntegrator
+from ancf_sym.dynamics.diagnosis import compressed_strings
 from ancf_sym.dynamics.integrator import Integrator
 from ancf_sym.dynamics.newton import Counters, resolve_kinks
 from ancf_sym.dynamics.options import DynamicOptions, options_from_dict
@@ -184,6 +185,9 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
     wall, cpu = time.perf_counter() - t_wall, time.process_time() - t_cpu
     t, status, message, steps, rejected = run.t, run.status, run.message, run.steps, run.rejected
     h_used = [run.h_min, run.h_max] if steps else []
+    if status in ("newton_failed", "step_size_underflow", "energy_blowup"):
+        why = compressed_strings(asm, S.full(integ.q))
+        message = f"{message}; {why}" if why and message else (why or message)
     ener = {k: np.array(v) for k, v in rec.energies.items()}
     res = DynamicResult(status, status == "completed", message, opts.integrator, np.array(rec.t), sens, ener,
                         np.array(rec.viol), float(t), steps, rejected, counters.as_dict(), wall,
