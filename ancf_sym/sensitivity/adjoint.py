@@ -45,6 +45,7 @@ from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.sensors import Sensor, SensorEval
 from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, damping_matrices, forcing, mass_solve, \
     run_for_sensitivity, start_tangent, step_inputs, step_matrix, stiffness_damped, stiffness_damping_forcing
+from ancf_sym.sensitivity.contact_dissipation import dissipation_forcing, dissipation_index
 from ancf_sym.sensitivity.model_derivative import STIFFNESS_COLUMNS, ModelDerivative, model_derivative, \
     read_document
 from ancf_sym.system.step_system import StepSystem
@@ -380,7 +381,8 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
     grad, cache = {}, {}
     M = S.M
     for p in paths:
-        if damping_index(d, p) is not None:  # F_n = M v_n (Rayleigh alpha), d f_d / dc (strain rate)
+        if damping_index(d, p) is not None or dissipation_index(d, p) is not None:
+            # (F_n = M v_n (Rayleigh alpha), d f_d / dc (strain rate, contact damping and friction))
             grad[p] = -float(np.sum(MU * forcing(run, p)))
             continue
         md = model_derivative(asm, d, p)
@@ -388,6 +390,9 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
         sd = stiffness_damping_forcing(run, p)  # (beta dK_el/dp (q_{n-1}) v_n)
         if sd is not None:
             g -= float(np.sum(MU * sd))
+        fd = dissipation_forcing(run, p)  # (a contact's stiffness scales its friction force)
+        if fd is not None:
+            g -= float(np.sum(MU * fd))
         dM = md.dM
         if dM is not None:
             g -= float(np.sum(Lam * (dM @ (A + alpha_r * V).T).T))
