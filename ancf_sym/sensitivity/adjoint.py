@@ -23,12 +23,14 @@ Outputs: functions of the sensor records or of a constraint row's multiplier (a 
 sum, time integral, end value, or the least-squares misfit to a data record) and the kinetic, potential or total
 energy at the end. Parameters: the TOML paths of model_derivative, and the scene's Rayleigh coefficients
 dampings[i].alpha | beta. Scope as the forward sensitivities (refused by name before any step,
-ancf_sym.sensitivity.alpha_run): no contact damping (applied torques: their skew tangent in J', solved transposed);
+ancf_sym.sensitivity.alpha_run) (applied torques: their skew tangent in J', solved transposed);
 stiffness-proportional Rayleigh damping C_n = alpha M + beta K_el(q_n) enters J' through C_n and the earlier state's
 adjoint through -T_n' mu (T_n = beta d(K_el(q) v_{n+1})/dq at q_n, the kernels' Hessian-vector companions); with
 multiplier rows or drives the step is a KKT system and the adjoint solves its transpose with [s; kc wl] (mu: the
 coordinates' part);
-strain-rate damping adds its tangents df/dq + cc df/dv to J' and df/dv to the velocity's adjoint; time loads are
+strain-rate damping, contact damping and friction (one dissipation force f_d(q, v)) add their tangents df/dq +
+cc df/dv to J' and df/dv to the velocity's adjoint, their coefficients' terms -sum_n mu_n . df_d/dp (contacts[i].mu |
+damping | stiffness | hertz: ancf_sym.sensitivity.contact_dissipation); time loads are
 applied as the run applies them. Penalty contacts: the steps where one opens or closes are
 named in the notes (the law's kink: one-sided derivatives there).
 """
