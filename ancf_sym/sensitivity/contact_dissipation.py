@@ -106,11 +106,9 @@ def dissipation_forcing(run, path: str) -> np.ndarray | None:
     return np.asarray((run.S.E.T @ f.T).T)
 
 
-def point_gaps(asm, c, X: np.ndarray) -> np.ndarray | None:
-    """(states, elements x gauss) the gap at the law's own points (its Gauss points) in the full states X, for a
-    ground or a fixed drum's contact; None for a drum carried by a body."""
-    if contact_gap.is_drum(c) and c.body is not None:
-        return None
+def point_gaps(asm, c, X: np.ndarray) -> np.ndarray:
+    """(states, elements x gauss) the gap at the law's own points (its Gauss points) in the full states X: ground,
+    fixed drums and drums carried by bodies (their centre and axis in each state, contact.gap.surfaces)."""
     A = contact_gap.cubic(asm, c, X)  # (S, n_el, 4, d)
     S, ne = A.shape[:2]
     xi = gauss01(c.gauss)[0]
@@ -135,21 +133,15 @@ def dissipation_notes(run) -> list[str]:
         if not c.dissipative:
             continue
         what = " and ".join(w for w, on in (("damping", c.damping), ("friction", c.mu)) if on)
-        g = point_gaps(run.asm, c, run.X)
-        if g is None:
-            notes.append(f"contacts[{i}] ({what}): a drum carried by a body; touch-down and lift-off of its points "
-                         "are named by element (the contacts' note)")
+        on = point_gaps(run.asm, c, run.X)[1:] < 0.0  # (the states after each step; the start is the reference)
+        change = np.flatnonzero(np.any(on[1:] != on[:-1], axis=1)) + 2
+        if len(change):
+            t = run.t[change]
+            notes.append(f"contacts[{i}] ({what}): contact points touch down or lift off in {len(change)} step(s) "
+                         f"(first at t = {t[0]:.6g} s, last at {t[-1]:.6g} s): the penetration's kink at zero gap "
+                         "makes the derivative one-sided there")
         else:
-            on = g[1:] < 0.0  # (the states after each step; the start is the reference)
-            change = np.flatnonzero(np.any(on[1:] != on[:-1], axis=1)) + 2
-            if len(change):
-                t = run.t[change]
-                notes.append(f"contacts[{i}] ({what}): contact points touch down or lift off in {len(change)} "
-                             f"step(s) (first at t = {t[0]:.6g} s, last at {t[-1]:.6g} s): the penetration's kink at "
-                             "zero gap makes the derivative one-sided there")
-            else:
-                notes.append(f"contacts[{i}] ({what}): no contact point touches down or lifts off after the first "
-                             "step")
+            notes.append(f"contacts[{i}] ({what}): no contact point touches down or lifts off after the first step")
         if c.mu:
             notes.append(f"contacts[{i}] friction: the regularised Coulomb law (eps = {c.eps:g} m/s) is smooth in "
                          "the slip velocity: stick-slip transitions are no kink of it, and its derivative is exact "

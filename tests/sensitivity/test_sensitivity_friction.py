@@ -67,15 +67,24 @@ DRUM = {"scene": {"name": "capstan", "dim": 2, "gravity": [0.0, 0.0]},
         "contacts": [{"type": "circle", "member": "rope", "centre": [0.0, 0.0], "radius": R, "hertz": 1e7,
                       "thickness": 0.0, "damping": 8e5, "mu": 0.2, "eps": 0.01}]}
 
-CASES = {  # scene, options, sensor component, paths
+# The same rope over a pulley: the drum carried by a rigid body on a revolute joint (0.005 kg m^2), which the friction
+# spins (the body's rows with multipliers: a KKT step; the kernel's inputs hold the body's coordinates and rates).
+PULLEY = copy.deepcopy(DRUM)
+PULLEY["bodies"] = [{"name": "p", "mass": 1.0, "inertia": 0.005, "position": [0.0, 0.0], "revolute": [0.0, 0.0]}]
+del PULLEY["contacts"][0]["centre"]
+PULLEY["contacts"][0]["body"] = "p"
+
+CASES = {  # scene, options, sensor member and place, its component, paths
     "ground": (GROUND, dict(dt=2e-3, t_end=0.2), "rope", "end", 0,
                ["contacts[0].mu", "contacts[0].stiffness", "contacts[0].damping", "materials.m.E"]),
     "drum": (DRUM, dict(dt=1e-3, t_end=0.05), "rope", "end", 1,
              ["contacts[0].mu", "contacts[0].hertz", "contacts[0].damping", "loads[0].value[1]"]),
+    "pulley": (PULLEY, dict(dt=1e-3, t_end=0.05), "rope", "end", 1,
+               ["contacts[0].mu", "contacts[0].hertz", "contacts[0].damping"]),
 }
 
 
-def options(case, integrator="generalized_alpha"):
+def options(case: str, integrator: str = "generalized_alpha") -> DynamicOptions:
     _, kw, member, at, _, _ = CASES[case]
     return DynamicOptions(integrator=integrator, newton=TIGHT, sensors=[{"name": "s", "kind": "position",
                                                                          "member": member, "at": at}], **kw)
@@ -115,9 +124,9 @@ def test_forward_and_adjoint_match_central_differences(case):
         assert np.linalg.norm(got - fd) <= 1e-5 * np.linalg.norm(fd), p
         ref = w @ got
         assert abs(g.gradient[p] - ref) <= 1e-8 * abs(ref), p
-    # physics: more friction holds the rope back (the ground rope's end slides less far along +x; the drum's heavy
-    # end descends less, its height integral rises)
-    assert g.gradient["contacts[0].mu"] * (1 if case == "drum" else -1) > 0
+    # physics: more friction holds the rope back (the ground rope's end slides less far along +x; over the drum and
+    # the pulley (whose inertia the friction must spin up) the heavy end descends less, its height integral rises)
+    assert g.gradient["contacts[0].mu"] * (-1 if case == "ground" else 1) > 0
 
 
 @pytest.mark.parametrize("integrator", ["newmark", "hht"])
