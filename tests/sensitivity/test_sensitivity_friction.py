@@ -74,9 +74,18 @@ PULLEY["bodies"] = [{"name": "p", "mass": 1.0, "inertia": 0.005, "position": [0.
 del PULLEY["contacts"][0]["centre"]
 PULLEY["contacts"][0]["body"] = "p"
 
+# The ground rope in space (cable3d), pulled obliquely: friction against the slip's direction in the plane.
+GROUND3D = copy.deepcopy(GROUND)
+GROUND3D["scene"].update(dim=3, gravity=[0.0, 0.0, -9.81])
+GROUND3D["members"][0]["points"] = [[0, 0, 0], [1.0, 0, 0]]
+GROUND3D["members"][1]["points"] = [[-0.5, 0, 0], [0, 0, 0]]
+GROUND3D["loads"][0]["value"] = [0.6, 0.3, 0.0]
+
 CASES = {  # scene, options, sensor member and place, its component, paths
     "ground": (GROUND, dict(dt=2e-3, t_end=0.2), "rope", "end", 0,
                ["contacts[0].mu", "contacts[0].stiffness", "contacts[0].damping", "materials.m.E"]),
+    "ground3d": (GROUND3D, dict(dt=2e-3, t_end=0.2), "rope", "end", 1,
+                 ["contacts[0].mu", "contacts[0].stiffness", "contacts[0].damping"]),
     "drum": (DRUM, dict(dt=1e-3, t_end=0.05), "rope", "end", 1,
              ["contacts[0].mu", "contacts[0].hertz", "contacts[0].damping", "loads[0].value[1]"]),
     "pulley": (PULLEY, dict(dt=1e-3, t_end=0.05), "rope", "end", 1,
@@ -124,9 +133,9 @@ def test_forward_and_adjoint_match_central_differences(case):
         assert np.linalg.norm(got - fd) <= 1e-5 * np.linalg.norm(fd), p
         ref = w @ got
         assert abs(g.gradient[p] - ref) <= 1e-8 * abs(ref), p
-    # physics: more friction holds the rope back (the ground rope's end slides less far along +x; over the drum and
+    # physics: more friction holds the rope back (the ground rope's end slides less far along the pull; over the drum and
     # the pulley (whose inertia the friction must spin up) the heavy end descends less, its height integral rises)
-    assert g.gradient["contacts[0].mu"] * (-1 if case == "ground" else 1) > 0
+    assert g.gradient["contacts[0].mu"] * (-1 if case.startswith("ground") else 1) > 0
 
 
 @pytest.mark.parametrize("integrator", ["newmark", "hht"])
