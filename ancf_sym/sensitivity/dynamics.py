@@ -33,7 +33,8 @@ C_n Bv + beta d(K_el(q) v_{n+1})/dq|_{q_n} S_n to the right-hand side (S_n: the 
 kernels' compiled Hessian-vector companions). Scope (refused by name before any step,
 ancf_sym.sensitivity.alpha_run): fixed steps (applied torques: their skew tangent in the step's matrix), no static
 start with multiplier rows; contact damping and friction enter as the strain-rate damping does (their tangents are
-in the same dissipation force), their coefficients' forcing from ancf_sym.sensitivity.contact_dissipation; time loads (analysis.loads) are applied as the run applies them.
+in the same dissipation force), their coefficients' forcing from ancf_sym.sensitivity.contact_dissipation; time
+loads (analysis.loads) are applied as the run applies them.
 """
 from __future__ import annotations
 

@@ -133,8 +133,9 @@ def test_forward_and_adjoint_match_central_differences(case):
         assert np.linalg.norm(got - fd) <= 1e-5 * np.linalg.norm(fd), p
         ref = w @ got
         assert abs(g.gradient[p] - ref) <= 1e-8 * abs(ref), p
-    # physics: more friction holds the rope back (the ground rope's end slides less far along the pull; over the drum and
-    # the pulley (whose inertia the friction must spin up) the heavy end descends less, its height integral rises)
+    # physics: more friction holds the rope back (the ground rope's end slides less far along the pull; over the
+    # drum and the pulley (whose inertia the friction must spin up) the heavy end descends less: its height's
+    # integral rises)
     assert g.gradient["contacts[0].mu"] * (-1 if case.startswith("ground") else 1) > 0
 
 
