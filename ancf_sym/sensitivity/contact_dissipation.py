@@ -25,6 +25,7 @@ friction and damping forces vanish at rest): those paths are refused there by na
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 
 from ancf_sym import kernels
 from ancf_sym.contact import gap as contact_gap
@@ -99,11 +100,10 @@ def dissipation_forcing(run, path: str) -> np.ndarray | None:
     _, evaluate = bind(_MAPPED[fk], [np.ascontiguousarray(Z).ravel(), np.ascontiguousarray(np.tile(U, (k, 1))).ravel()],
                        [e, g])
     evaluate()
-    fv = g.reshape(k, ne, 2 * nd)[:, :, nd:]  # (the v-part of D's gradient: the force)
-    f = np.zeros((k, X.shape[1]))
-    for j in range(nd):  # (scatter-add every element's rows onto the full coordinates)
-        np.add.at(f, (slice(None), idx[:, j]), fv[:, :, j])
-    return np.asarray((run.S.E.T @ f.T).T)
+    fv = g.reshape(k, ne, 2 * nd)[:, :, nd:].reshape(k, ne * nd)  # (the v-part of D's gradient: the force)
+    # (element rows summed onto the unknowns: E' times the scatter of (element, row) to its coordinate)
+    scatter = sp.csr_matrix((np.ones(idx.size), (np.arange(idx.size), idx.ravel())), shape=(idx.size, X.shape[1]))
+    return np.asarray((fv @ (scatter @ run.S.E)))
 
 
 def point_gaps(asm, c, X: np.ndarray) -> np.ndarray:
