@@ -23,12 +23,14 @@ Outputs: functions of the sensor records or of a constraint row's multiplier (a 
 sum, time integral, end value, or the least-squares misfit to a data record) and the kinetic, potential or total
 energy at the end. Parameters: the TOML paths of model_derivative, and the scene's Rayleigh coefficients
 dampings[i].alpha | beta. Scope as the forward sensitivities (refused by name before any step,
-ancf_sym.sensitivity.alpha_run): no contact damping (applied torques: their skew tangent in J', solved transposed);
+ancf_sym.sensitivity.alpha_run) (applied torques: their skew tangent in J', solved transposed);
 stiffness-proportional Rayleigh damping C_n = alpha M + beta K_el(q_n) enters J' through C_n and the earlier state's
 adjoint through -T_n' mu (T_n = beta d(K_el(q) v_{n+1})/dq at q_n, the kernels' Hessian-vector companions); with
 multiplier rows or drives the step is a KKT system and the adjoint solves its transpose with [s; kc wl] (mu: the
 coordinates' part);
-strain-rate damping adds its tangents df/dq + cc df/dv to J' and df/dv to the velocity's adjoint; time loads are
+strain-rate damping, contact damping and friction (one dissipation force f_d(q, v)) add their tangents df/dq +
+cc df/dv to J' and df/dv to the velocity's adjoint, their coefficients' terms -sum_n mu_n . df_d/dp (contacts[i].mu |
+damping | stiffness | hertz: ancf_sym.sensitivity.contact_dissipation); time loads are
 applied as the run applies them. Penalty contacts: the steps where one opens or closes are
 named in the notes (the law's kink: one-sided derivatives there).
 """
@@ -45,6 +47,7 @@ from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.sensors import Sensor, SensorEval
 from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, damping_matrices, forcing, mass_solve, \
     run_for_sensitivity, start_tangent, step_inputs, step_matrix, stiffness_damped, stiffness_damping_forcing
+from ancf_sym.sensitivity.contact_dissipation import dissipation_forcing, dissipation_index
 from ancf_sym.sensitivity.model_derivative import STIFFNESS_COLUMNS, ModelDerivative, model_derivative, \
     read_document
 from ancf_sym.system.step_system import StepSystem
@@ -380,7 +383,8 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
     grad, cache = {}, {}
     M = S.M
     for p in paths:
-        if damping_index(d, p) is not None:  # F_n = M v_n (Rayleigh alpha), d f_d / dc (strain rate)
+        if damping_index(d, p) is not None or dissipation_index(d, p) is not None:
+            # (F_n = M v_n (Rayleigh alpha), d f_d / dc (strain rate, contact damping and friction))
             grad[p] = -float(np.sum(MU * forcing(run, p)))
             continue
         md = model_derivative(asm, d, p)
@@ -388,6 +392,9 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
         sd = stiffness_damping_forcing(run, p)  # (beta dK_el/dp (q_{n-1}) v_n)
         if sd is not None:
             g -= float(np.sum(MU * sd))
+        fd = dissipation_forcing(run, p)  # (a contact's stiffness scales its friction force)
+        if fd is not None:
+            g -= float(np.sum(MU * fd))
         dM = md.dM
         if dM is not None:
             g -= float(np.sum(Lam * (dM @ (A + alpha_r * V).T).T))

@@ -6,9 +6,11 @@ Parameters: the model's TOML paths (ancf_sym.sensitivity.model_derivative), the 
 dampings[i].alpha | beta (C_n = alpha_R M + beta K_el(q_n): the run takes the elastic tangent at each step's start;
 the change of beta K_el(q_n) v_{n+1} with q_n is the kernels' compiled Hessian-vector companions' exact third
 derivatives contracted with v) and the strain-rate coefficients dampings[i].axial | bending (the force f_d(q, v) is
-linear in them; its tangents df/dq, df/dv are the step system's). Refused by name: contact damping and friction,
-lines in water, a beta on some members only or on energies without compiled third derivatives, and a static start
-with multiplier rows. Applied torques add their skew tangent to the step's matrix. Constraint rows with multipliers
+linear in them; its tangents df/dq, df/dv are the step system's), and contact damping and friction: their
+tangents are in the same graph, their parameters contacts[i].mu | damping (and the friction's share of
+contacts[i].stiffness | hertz) in ancf_sym.sensitivity.contact_dissipation. Refused by name: lines in water, a
+beta on some members only or on energies without compiled third derivatives, and a static start with multiplier
+rows. Applied torques add their skew tangent to the step's matrix. Constraint rows with multipliers
 (rigid joints, bodies' rows) and drives make the step a KKT system: `step_matrix` builds its differentiated matrix,
 the run keeps the multipliers and the drives' time inputs.
 Time loads (analysis.loads) are applied as the run applies them; they depend on no scene parameter.
@@ -32,6 +34,7 @@ from ancf_sym.dynamics.time_loop import chunk_size
 from ancf_sym.io.scene_toml import scene_from_dict
 from ancf_sym.model.assembly import Assembly
 from ancf_sym.scene.builder import SceneError
+from ancf_sym.sensitivity.contact_dissipation import dissipation_forcing, dissipation_index, dissipation_notes
 from ancf_sym.sensitivity.model_derivative import model_derivative, read_document
 from ancf_sym.sensitivity.paths import get_parameter, parse_path
 from ancf_sym.system import water
@@ -64,7 +67,7 @@ def damping_index(doc: dict, path: str) -> int | None:
 def check_dynamic_paths(scene, doc: dict, paths: list[str], asm=None) -> None:
     """Refuse, before any step, a path that names no differentiable number of a dynamic run (asm: the run's
     assembly; default dynamic_assembly(scene), which also takes scenes with drives that statics refuses)."""
-    model_paths = [p for p in paths if damping_index(doc, p) is None]
+    model_paths = [p for p in paths if damping_index(doc, p) is None and dissipation_index(doc, p) is None]
     for p in model_paths:
         get_parameter(doc, p)
     asm = dynamic_assembly(scene) if asm is None else asm
@@ -94,8 +97,6 @@ def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
         why.append("a static start with constraint rows carrying multipliers (rigid joints, bodies' rows, drives)")
     if integ.kdamp.active:
         why += stiffness_damping_refusals(S)
-    if contact.dissipation_calls(S.asm.mesh):
-        why.append("contact damping or friction")
     if water.has_forces(S.asm):
         why.append("lines in water (drag, added mass)")
     if opts.release or opts.from_result or opts.initial or opts.q0 is not None or opts.v0 is not None:
@@ -371,18 +372,22 @@ def contact_notes(run: AlphaRun) -> list[str]:
     if not terms:
         return []
     times = run.t[1:][change]
+    extra = dissipation_notes(run)  # (contact damping and friction: by contact point, and the friction law)
     if not len(times):
-        return ["contacts: no contact opens or closes along the run (the derivative is that of the penalty law)"]
+        return ["contacts: no contact opens or closes along the run (the derivative is that of the penalty law)"] \
+            + extra
     return [f"contacts open or close in {len(times)} step(s) (first at t = {times[0]:.6g} s, last at "
             f"{times[-1]:.6g} s): the penalty force has a kink at zero gap, so the derivative there is one-sided "
             "and jumps where a parameter moves a contact event across a step; differences of runs across those "
-            "steps are not smooth"]
+            "steps are not smooth"] + extra
 
 
 def forcing(run: AlphaRun, path: str, statics: bool = False) -> np.ndarray:
     """F_n on the reduced coordinates for every step, (steps + 1, nf): E' (dR/dp(x_n) + dM/dp (a_n + alpha_R v_n))
     and, for dampings[i].alpha, M v_n. statics: E' dR/dp(x_0) alone (the static start's right-hand side)."""
     S = run.S
+    if dissipation_index(run.doc, path) is not None:  # (contacts[i].mu | damping: the dissipation force alone)
+        return np.zeros((1, S.nf)) if statics else dissipation_forcing(run, path)
     i = damping_index(run.doc, path)
     if i is not None:
         if statics:
@@ -405,8 +410,12 @@ def forcing(run: AlphaRun, path: str, statics: bool = False) -> np.ndarray:
     if not statics and md.dM is not None:
         R += (md.dM @ (run.A_full + run.alpha_r * run.V_full).T).T
     F = np.asarray((S.E.T @ R.T).T)
-    sd = None if statics else stiffness_damping_forcing(run, path)
-    return F if sd is None else F + sd
+    if statics:
+        return F
+    for extra in (stiffness_damping_forcing(run, path), dissipation_forcing(run, path)):  # (beta; friction's k)
+        if extra is not None:
+            F = F + extra
+    return F
 
 
 _UNIT_F: dict = {}

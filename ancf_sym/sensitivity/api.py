@@ -66,6 +66,8 @@ def to_json(sens: dict) -> dict:
     def conv(v):
         if isinstance(v, dict):
             return {k: conv(w) for k, w in v.items()}
+        if isinstance(v, (list, tuple)) and any(isinstance(w, str) for w in v):  # (notes: text, kept)
+            return [str(w) for w in v]
         if isinstance(v, (np.ndarray, list, tuple)):
             a = np.asarray(v, float)
             return [conv(w) for w in a] if a.ndim else conv(float(a))

@@ -31,8 +31,10 @@ multipliers; no parameter enters a row), and the start's [M J'; J 0] [a_0; lam_0
 Stiffness-proportional Rayleigh damping (C_n = alpha M + beta K_el(q_n)) adds cc C_n to the tangent and
 C_n Bv + beta d(K_el(q) v_{n+1})/dq|_{q_n} S_n to the right-hand side (S_n: the previous state's sensitivity; the
 kernels' compiled Hessian-vector companions). Scope (refused by name before any step,
-ancf_sym.sensitivity.alpha_run): fixed steps; no contact damping (applied torques: their skew tangent in the step's
-matrix), no static start with multiplier rows; time loads (analysis.loads) are applied as the run applies them.
+ancf_sym.sensitivity.alpha_run): fixed steps (applied torques: their skew tangent in the step's matrix), no static
+start with multiplier rows; contact damping and friction enter as the strain-rate damping does (their tangents are
+in the same dissipation force), their coefficients' forcing from ancf_sym.sensitivity.contact_dissipation; time
+loads (analysis.loads) are applied as the run applies them.
 """
 from __future__ import annotations
 

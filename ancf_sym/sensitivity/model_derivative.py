@@ -369,6 +369,14 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         P[:, names.index("kh")] = 1.0 if keys[2] == "hertz" else 0.0
         out.pieces = [Piece(element, effect, gauss, np.asarray(idx), P, "contact")]
         return out
+    if keys[0] == "contacts" and len(keys) == 3 and keys[2] in ("mu", "damping"):
+        # (the dissipation acts on velocities: at rest it is zero whatever mu and c, so an equilibrium and its
+        # undamped frequencies have derivative exactly zero; refused rather than a zero column that a calibration
+        # cannot use. Dynamics: ancf_sym.sensitivity.contact_dissipation)
+        refuse("friction and contact damping act on velocities only: a static equilibrium and its undamped "
+               "frequencies do not depend on them (the derivative is zero); differentiate them in a dynamics run")
+    if keys[0] == "contacts" and len(keys) == 3 and keys[2] == "eps":
+        refuse("the friction's regularisation velocity enters its force nonlinearly (not differentiable here)")
     if keys[0] in ("members", "loops") and len(keys) == 3 and keys[2] == "prestrain":
         name = doc[keys[0]][keys[1]]["name"]
         why = prestrain_refusal(asm, name)
