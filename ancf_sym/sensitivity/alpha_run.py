@@ -7,8 +7,7 @@ dampings[i].alpha | beta (C_n = alpha_R M + beta K_el(q_n): the run takes the el
 the change of beta K_el(q_n) v_{n+1} with q_n is the kernels' compiled Hessian-vector companions' exact third
 derivatives contracted with v) and the strain-rate coefficients dampings[i].axial | bending (the force f_d(q, v) is
 linear in them; its tangents df/dq, df/dv are the step system's). Refused by name: contact damping and friction,
-lines in water, a beta on some members only or on energies without compiled third derivatives, and a static start
-with multiplier rows. Applied torques add their skew tangent to the step's matrix. Constraint rows with multipliers
+lines in water, a beta on some members only or on energies without compiled third derivatives. Applied torques add their skew tangent to the step's matrix. Constraint rows with multipliers
 (rigid joints, bodies' rows) and drives make the step a KKT system: `step_matrix` builds its differentiated matrix,
 the run keeps the multipliers and the drives' time inputs.
 Time loads (analysis.loads) are applied as the run applies them; they depend on no scene parameter.
@@ -90,8 +89,6 @@ def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
     elif abs(opts.t_start + opts.n_grid * opts.dt - opts.t_end) > 1e-9 * opts.dt:
         why.append(f"a shorter last step (t_end - t_start = {opts.t_end - opts.t_start:g} s is not a whole number of "
                    f"dt = {opts.dt:g} s)")
-    if S.mc and opts.start == "static":
-        why.append("a static start with constraint rows carrying multipliers (rigid joints, bodies' rows, drives)")
     if integ.kdamp.active:
         why += stiffness_damping_refusals(S)
     if contact.dissipation_calls(S.asm.mesh):
