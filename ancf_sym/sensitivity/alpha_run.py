@@ -7,7 +7,7 @@ dampings[i].alpha | beta (C_n = alpha_R M + beta K_el(q_n): the run takes the el
 the change of beta K_el(q_n) v_{n+1} with q_n is the kernels' compiled Hessian-vector companions' exact third
 derivatives contracted with v) and the strain-rate coefficients dampings[i].axial | bending (the force f_d(q, v) is
 linear in them; its tangents df/dq, df/dv are the step system's). Refused by name: contact damping and friction,
-lines in water, a beta on some members only or on energies without compiled third derivatives. Applied torques add their skew tangent to the step's matrix. Constraint rows with multipliers
+lines in water, a beta on energies without compiled third derivatives. Applied torques add their skew tangent to the step's matrix. Constraint rows with multipliers
 (rigid joints, bodies' rows) and drives make the step a KKT system: `step_matrix` builds its differentiated matrix,
 the run keeps the multipliers and the drives' time inputs.
 Time loads (analysis.loads) are applied as the run applies them; they depend on no scene parameter.
@@ -33,6 +33,7 @@ from ancf_sym.model.assembly import Assembly
 from ancf_sym.scene.builder import SceneError
 from ancf_sym.sensitivity.model_derivative import model_derivative, read_document
 from ancf_sym.sensitivity.paths import get_parameter, parse_path
+from ancf_sym.sensitivity.rayleigh_beta import beta_pieces
 from ancf_sym.system import water
 from ancf_sym.system.damping import rayleigh_mx, strain_rate_mx
 from ancf_sym.system.forces import ELASTIC_LABELS
@@ -109,14 +110,11 @@ def elastic_terms(S: StepSystem) -> list:
 
 
 def stiffness_damping_refusals(S: StepSystem) -> list[str]:
-    """What of a stiffness-proportional Rayleigh damping the derivative does not follow: a beta on some members
-    only (element weights other than 1), more than one rayleigh beta, an elastic energy without compiled third
-    derivatives (the kernels' Hessian-vector companions, cables' axial and bending)."""
+    """What of a stiffness-proportional Rayleigh damping the derivative does not follow: an elastic energy without
+    compiled third derivatives (the kernels' Hessian-vector companions: cables' axial and bending, beam3d's elastic
+    energies at their default quadrature). Betas per member (several entries) are followed
+    (ancf_sym.sensitivity.rayleigh_beta)."""
     why = []
-    ds = [d for d in S.asm.scene.dampings if d.kind == "rayleigh" and d.beta]
-    if len(ds) > 1 or ds[0].members is not None:
-        why.append("stiffness-proportional Rayleigh damping on some members only or given twice (beta: one "
-                   "[[dampings]] entry for the whole scene)")
     for ti, t in elastic_terms(S):
         if not registry.has_third_derivatives(t.element, t.effect, t.gauss):
             why.append(f"stiffness-proportional Rayleigh damping (beta) on {t.element}/{t.effect} energies (gauss "
@@ -195,12 +193,10 @@ def stiffness_damping_forcing(run: "AlphaRun", path: str) -> np.ndarray | None:
     if i is not None:
         if run.doc["dampings"][i]["type"] != "rayleigh" or parse_path(path).keys[2] != "beta":
             return None
-        # (C = beta K_el with K_el the elastic terms' Hessians, element weights 1: stiffness_damping_refusals)
-        pieces = [(t.element, t.effect, t.gauss, t.idx, t.P, 1.0) for _, t in elastic_terms(S)]
+        # (C's elastic part is sum_e beta_m(e) H_e: the Hessians on the members entry i gives their beta)
+        pieces = beta_pieces(S, run.scene, i, None)
     else:
-        md = model_derivative(run.asm, run.doc, path)
-        pieces = [(pc.element, pc.effect, pc.gauss, pc.idx, pc.P, S.rayleigh.beta) for pc in md.pieces
-                  if pc.label in ELASTIC_LABELS]
+        pieces = beta_pieces(S, run.scene, None, model_derivative(run.asm, run.doc, path).pieces)
     if not pieces:
         return None
     f = np.zeros((len(X) - 1, X.shape[1]))
@@ -385,8 +381,9 @@ def forcing(run: AlphaRun, path: str, statics: bool = False) -> np.ndarray:
         if statics:
             return np.zeros((1, S.nf))
         if run.doc["dampings"][i]["type"] == "rayleigh":
-            if parse_path(path).keys[2] == "beta":
-                return stiffness_damping_forcing(run, path)
+            if parse_path(path).keys[2] == "beta":  # (None: the entry's beta acts on no element, later ones win)
+                sd = stiffness_damping_forcing(run, path)
+                return np.zeros((len(run.Q), S.nf)) if sd is None else sd
             return run.V @ S.M
         return strain_rate_forcing(run, i, parse_path(path).keys[2])
     md = model_derivative(run.asm, run.doc, path)

@@ -119,8 +119,6 @@ def test_strain_rate_damping(integrator):
 
 
 @pytest.mark.parametrize("damping, contact, match", [
-    ({"type": "rayleigh", "beta": 1e-3, "members": ["rope"]}, None, "stiffness-proportional Rayleigh damping on "
-     "some members only"),
     ({"type": "rayleigh", "alpha": 1.0}, {"type": "ground", "member": "rope", "level": -0.5, "stiffness": 1e4,
                                           "thickness": 0.0, "damping": 10.0}, "contact damping")])
 def test_unsupported_damping_refused_by_name(damping, contact, match):
