@@ -19,7 +19,6 @@ from dataclasses import dataclass, replace
 import casadi as ca
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from ancf_sym import kernels, registry
 from ancf_sym.contact import laws as contact
@@ -496,31 +495,3 @@ def step_matrix(S: StepSystem, cm: float, cc: float, C: ca.MX, x: ca.MX, v: ca.M
 def start_tangent(run: AlphaRun) -> sp.csc_matrix:
     """K(q_0) on the reduced coordinates: the static start's tangent and the initial acceleration's."""
     return sp.csc_matrix(run.S.forces(run.Q[0])[1])
-
-
-def mass_solve(run: AlphaRun):
-    """A solver of the initial acceleration's matrix: M x = b, or with constraint rows [M J'; J 0] [x; y] = [b; c]
-    (c: 0 by default; J at the start; the matrix is symmetric, so the same solver serves the adjoint), returning x."""
-    S = run.S
-    if not S.mc:
-        lu_m = spla.splu(S.M.tocsc())
-        return lambda b, c=None: lu_m.solve(np.asarray(b, float))
-    J = S.jac_phi(run.Q[0], run.t[0])
-    lu = spla.splu(sp.bmat([[S.M, J.T], [J, None]], format="csc"))
-    nf, mc = S.nf, S.mc
-
-    def solve(b: np.ndarray, c: np.ndarray | None = None) -> np.ndarray:
-        b = np.asarray(b, float)
-        pad = np.zeros((mc,) + b.shape[1:]) if c is None else np.asarray(c, float)
-        return lu.solve(np.concatenate([b, pad]))[:nf]
-    return solve
-
-
-def start_multipliers(run: AlphaRun, b: np.ndarray) -> np.ndarray:
-    """The multipliers' part of [M J'; J 0]^-1 [b; 0] at the start (columns of b): d lam_0/dp of the initial
-    acceleration."""
-    S = run.S
-    J = S.jac_phi(run.Q[0], run.t[0])
-    z = spla.splu(sp.bmat([[S.M, J.T], [J, None]], format="csc")).solve(np.concatenate([b, np.zeros((S.mc,) +
-                                                                                                      b.shape[1:])]))
-    return z[S.nf:]
