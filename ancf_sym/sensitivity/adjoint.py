@@ -40,16 +40,16 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
-import scipy.sparse.linalg as spla
 
 from ancf_sym import kernels
 from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.sensors import Sensor, SensorEval
-from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, damping_matrices, forcing, mass_solve, \
-    run_for_sensitivity, start_tangent, step_inputs, step_matrix, stiffness_damped, stiffness_damping_forcing
+from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, damping_matrices, forcing, \
+    run_for_sensitivity, step_inputs, step_matrix, stiffness_damped, stiffness_damping_forcing
 from ancf_sym.sensitivity.contact_dissipation import dissipation_forcing, dissipation_index
 from ancf_sym.sensitivity.model_derivative import STIFFNESS_COLUMNS, ModelDerivative, model_derivative, \
     read_document
+from ancf_sym.sensitivity.static_start import StartSystem
 from ancf_sym.system.step_system import StepSystem
 from ancf_sym.util.casadi_buffers import bind
 from ancf_sym.util.sparsity import dm
@@ -370,16 +370,14 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
         _, evaluate = bind(f, [np.zeros(4 * nf), U], [acc, MUb])
         evaluate()
         MU[1:] = MUb[::-1]
-    MU[0] = mass_solve(run)(acc[2 * nf:3 * nf] + acc[3 * nf:], WL[0])  # (a_0 = abar_0; lam_0: its weights)
+    # the start (ancf_sym.sensitivity.static_start): a_0 = abar_0; lam_0: its weights; the static start's adjoint xi
+    MU[0], xi = StartSystem(run).adjoint(acc[:nf] + WQ[0], acc[2 * nf:3 * nf] + acc[3 * nf:],
+                                         WL[0] if S.mc else None)
     Lam = S.full_v_rows(MU)
     LamR = Lam
-    if options.start == "static":  # dq_0/dp = -K_0^-1 E' dR/dp(x_0): its adjoint xi = K_0^-1 qbar_0
-        K0 = start_tangent(run)
-        qb0 = acc[:nf] + WQ[0] - K0 @ MU[0]
+    if xi is not None:  # (dq_0/dp from the statics' dR/dp(x_0): its share of the gradient is -xi . dR_s/dp)
         LamR = Lam.copy()
-        LamR[0] += S.full_v(spla.splu(K0).solve(qb0))
-    else:
-        K0 = None
+        LamR[0] += S.full_v(xi)
     grad, cache = {}, {}
     M = S.M
     for p in paths:

@@ -9,8 +9,8 @@ derivatives contracted with v) and the strain-rate coefficients dampings[i].axia
 linear in them; its tangents df/dq, df/dv are the step system's), and contact damping and friction: their
 tangents are in the same graph, their parameters contacts[i].mu | damping (and the friction's share of
 contacts[i].stiffness | hertz) in ancf_sym.sensitivity.contact_dissipation. Refused by name: lines in water, a
-beta on some members only or on energies without compiled third derivatives, and a static start with multiplier
-rows. Applied torques add their skew tangent to the step's matrix. Constraint rows with multipliers
+beta on energies without compiled third derivatives. Applied torques add their skew tangent to the step's matrix.
+Constraint rows with multipliers
 (rigid joints, bodies' rows) and drives make the step a KKT system: `step_matrix` builds its differentiated matrix,
 the run keeps the multipliers and the drives' time inputs.
 Time loads (analysis.loads) are applied as the run applies them; they depend on no scene parameter.
@@ -22,7 +22,6 @@ from dataclasses import dataclass, replace
 import casadi as ca
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from ancf_sym import kernels, registry
 from ancf_sym.contact import laws as contact
@@ -37,6 +36,7 @@ from ancf_sym.scene.builder import SceneError
 from ancf_sym.sensitivity.contact_dissipation import dissipation_forcing, dissipation_index, dissipation_notes
 from ancf_sym.sensitivity.model_derivative import model_derivative, read_document
 from ancf_sym.sensitivity.paths import get_parameter, parse_path
+from ancf_sym.sensitivity.rayleigh_beta import beta_pieces
 from ancf_sym.system import water
 from ancf_sym.system.damping import rayleigh_mx, strain_rate_mx
 from ancf_sym.system.forces import ELASTIC_LABELS
@@ -93,8 +93,6 @@ def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
     elif abs(opts.t_start + opts.n_grid * opts.dt - opts.t_end) > 1e-9 * opts.dt:
         why.append(f"a shorter last step (t_end - t_start = {opts.t_end - opts.t_start:g} s is not a whole number of "
                    f"dt = {opts.dt:g} s)")
-    if S.mc and opts.start == "static":
-        why.append("a static start with constraint rows carrying multipliers (rigid joints, bodies' rows, drives)")
     if integ.kdamp.active:
         why += stiffness_damping_refusals(S)
     if water.has_forces(S.asm):
@@ -113,14 +111,11 @@ def elastic_terms(S: StepSystem) -> list:
 
 
 def stiffness_damping_refusals(S: StepSystem) -> list[str]:
-    """What of a stiffness-proportional Rayleigh damping the derivative does not follow: a beta on some members
-    only (element weights other than 1), more than one rayleigh beta, an elastic energy without compiled third
-    derivatives (the kernels' Hessian-vector companions, cables' axial and bending)."""
+    """What of a stiffness-proportional Rayleigh damping the derivative does not follow: an elastic energy without
+    compiled third derivatives (the kernels' Hessian-vector companions: cables' axial and bending, beam3d's elastic
+    energies at their default quadrature). Betas per member (several entries) are followed
+    (ancf_sym.sensitivity.rayleigh_beta)."""
     why = []
-    ds = [d for d in S.asm.scene.dampings if d.kind == "rayleigh" and d.beta]
-    if len(ds) > 1 or ds[0].members is not None:
-        why.append("stiffness-proportional Rayleigh damping on some members only or given twice (beta: one "
-                   "[[dampings]] entry for the whole scene)")
     for ti, t in elastic_terms(S):
         if not registry.has_third_derivatives(t.element, t.effect, t.gauss):
             why.append(f"stiffness-proportional Rayleigh damping (beta) on {t.element}/{t.effect} energies (gauss "
@@ -199,12 +194,10 @@ def stiffness_damping_forcing(run: "AlphaRun", path: str) -> np.ndarray | None:
     if i is not None:
         if run.doc["dampings"][i]["type"] != "rayleigh" or parse_path(path).keys[2] != "beta":
             return None
-        # (C = beta K_el with K_el the elastic terms' Hessians, element weights 1: stiffness_damping_refusals)
-        pieces = [(t.element, t.effect, t.gauss, t.idx, t.P, 1.0) for _, t in elastic_terms(S)]
+        # (C's elastic part is sum_e beta_m(e) H_e: the Hessians on the members entry i gives their beta)
+        pieces = beta_pieces(S, run.scene, i, None)
     else:
-        md = model_derivative(run.asm, run.doc, path)
-        pieces = [(pc.element, pc.effect, pc.gauss, pc.idx, pc.P, S.rayleigh.beta) for pc in md.pieces
-                  if pc.label in ELASTIC_LABELS]
+        pieces = beta_pieces(S, run.scene, None, model_derivative(run.asm, run.doc, path).pieces)
     if not pieces:
         return None
     f = np.zeros((len(X) - 1, X.shape[1]))
@@ -393,8 +386,9 @@ def forcing(run: AlphaRun, path: str, statics: bool = False) -> np.ndarray:
         if statics:
             return np.zeros((1, S.nf))
         if run.doc["dampings"][i]["type"] == "rayleigh":
-            if parse_path(path).keys[2] == "beta":
-                return stiffness_damping_forcing(run, path)
+            if parse_path(path).keys[2] == "beta":  # (None: the entry's beta acts on no element, later ones win)
+                sd = stiffness_damping_forcing(run, path)
+                return np.zeros((len(run.Q), S.nf)) if sd is None else sd
             return run.V @ S.M
         return strain_rate_forcing(run, i, parse_path(path).keys[2])
     md = model_derivative(run.asm, run.doc, path)
@@ -511,31 +505,3 @@ def step_matrix(S: StepSystem, cm: float, cc: float, C: ca.MX, x: ca.MX, v: ca.M
 def start_tangent(run: AlphaRun) -> sp.csc_matrix:
     """K(q_0) on the reduced coordinates: the static start's tangent and the initial acceleration's."""
     return sp.csc_matrix(run.S.forces(run.Q[0])[1])
-
-
-def mass_solve(run: AlphaRun):
-    """A solver of the initial acceleration's matrix: M x = b, or with constraint rows [M J'; J 0] [x; y] = [b; c]
-    (c: 0 by default; J at the start; the matrix is symmetric, so the same solver serves the adjoint), returning x."""
-    S = run.S
-    if not S.mc:
-        lu_m = spla.splu(S.M.tocsc())
-        return lambda b, c=None: lu_m.solve(np.asarray(b, float))
-    J = S.jac_phi(run.Q[0], run.t[0])
-    lu = spla.splu(sp.bmat([[S.M, J.T], [J, None]], format="csc"))
-    nf, mc = S.nf, S.mc
-
-    def solve(b: np.ndarray, c: np.ndarray | None = None) -> np.ndarray:
-        b = np.asarray(b, float)
-        pad = np.zeros((mc,) + b.shape[1:]) if c is None else np.asarray(c, float)
-        return lu.solve(np.concatenate([b, pad]))[:nf]
-    return solve
-
-
-def start_multipliers(run: AlphaRun, b: np.ndarray) -> np.ndarray:
-    """The multipliers' part of [M J'; J 0]^-1 [b; 0] at the start (columns of b): d lam_0/dp of the initial
-    acceleration."""
-    S = run.S
-    J = S.jac_phi(run.Q[0], run.t[0])
-    z = spla.splu(sp.bmat([[S.M, J.T], [J, None]], format="csc")).solve(np.concatenate([b, np.zeros((S.mc,) +
-                                                                                                      b.shape[1:])]))
-    return z[S.nf:]

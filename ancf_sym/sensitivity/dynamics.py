@@ -31,10 +31,11 @@ multipliers; no parameter enters a row), and the start's [M J'; J 0] [a_0; lam_0
 Stiffness-proportional Rayleigh damping (C_n = alpha M + beta K_el(q_n)) adds cc C_n to the tangent and
 C_n Bv + beta d(K_el(q) v_{n+1})/dq|_{q_n} S_n to the right-hand side (S_n: the previous state's sensitivity; the
 kernels' compiled Hessian-vector companions). Scope (refused by name before any step,
-ancf_sym.sensitivity.alpha_run): fixed steps (applied torques: their skew tangent in the step's matrix), no static
-start with multiplier rows; contact damping and friction enter as the strain-rate damping does (their tangents are
-in the same dissipation force), their coefficients' forcing from ancf_sym.sensitivity.contact_dissipation; time
-loads (analysis.loads) are applied as the run applies them.
+ancf_sym.sensitivity.alpha_run): fixed steps (applied torques: their skew tangent in the step's matrix); a static
+start with multiplier rows differentiates the equilibrium's KKT system (ancf_sym.sensitivity.static_start);
+contact damping and friction enter as the strain-rate damping does (their tangents are in the same dissipation
+force), their coefficients' forcing from ancf_sym.sensitivity.contact_dissipation; time loads (analysis.loads) are
+applied as the run applies them.
 """
 from __future__ import annotations
 
@@ -42,15 +43,15 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
-import scipy.sparse.linalg as spla
 
 from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.run import make_integrator
 from ancf_sym.dynamics.sensors import Sensor, SensorEval
 from ancf_sym.system.step_system import StepSystem
 from ancf_sym.scene.builder import Scene
-from ancf_sym.sensitivity.alpha_run import contact_notes, dynamic_assembly, forcing, mass_solve, refuse_unsupported, \
-    damping_matrices, run_for_sensitivity, start_multipliers, start_tangent, step_inputs, step_matrix, stiffness_damped
+from ancf_sym.sensitivity.alpha_run import contact_notes, dynamic_assembly, forcing, refuse_unsupported, \
+    damping_matrices, run_for_sensitivity, step_inputs, step_matrix, stiffness_damped
+from ancf_sym.sensitivity.static_start import StartSystem
 from ancf_sym.util.casadi_buffers import bind
 from ancf_sym.util.sparsity import dm
 
@@ -163,21 +164,19 @@ def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
     run = run_for_sensitivity(doc, paths, options)
     S, asm, nf, P = run.S, run.asm, run.S.nf, len(paths)
     N = len(run.Q) - 1
-    # start: the reference, or the equilibrium with its sensitivity; M a_0 = -R(q_0, p) differentiated
-    K0 = start_tangent(run)
-    if options.start == "static" and P:
-        Sq = -spla.splu(K0).solve(np.column_stack([forcing(run, p, statics=True)[0] for p in paths]))
-    else:
-        Sq = np.zeros((nf, P))
+    # start: the reference, or the equilibrium with its sensitivity (with its rows' multipliers); M a_0 = -R(q_0, p)
+    # (with rows: [M J'; J 0] [a_0; lam_0]) differentiated (ancf_sym.sensitivity.static_start)
     Fs = np.stack([forcing(run, p) for p in paths], axis=2) if P else np.zeros((N + 1, nf, 0))  # (N + 1, nf, P)
-    Sa = -mass_solve(run)(K0 @ Sq + Fs[0]) if P else np.zeros((nf, 0))
+    F0s = np.column_stack([forcing(run, p, statics=True)[0] for p in paths]) \
+        if options.start == "static" and P else None
+    Sq, Sa, dl0 = StartSystem(run).forward(F0s, Fs[0])
     z0 = np.vstack([Sq, np.zeros((nf, P)), Sa, Sa])
     dq, dv = np.zeros((N + 1, nf, P)), np.zeros((N + 1, nf, P))
     mc = S.mc
     dl = np.zeros((N + 1, mc, P))
     dq[0] = Sq
-    if mc and P:  # (the start's multipliers: [M J'; J 0] [a_0; lam_0] = [-R; -gamma] differentiated, dq_0 = 0)
-        dl[0] = start_multipliers(run, -(K0 @ Sq + Fs[0]))
+    if mc:
+        dl[0] = dl0
     if N and P:
         f = forward_sweep(S, options, run.alpha_r, N, P)
         Z = np.zeros(4 * nf * P * N)

@@ -28,6 +28,7 @@ from ancf_sym.model.assembly import Assembly
 from ancf_sym.model.loads import load_vector, point_mass_triplets
 from ancf_sym.model.terms import distributed_term, moment_term
 from ancf_sym.scene.builder import Scene
+from ancf_sym.sensitivity.body_derivative import body_derivative
 from ancf_sym.sensitivity.length_derivative import mass_derivative, prestrain_pieces, prestrain_refusal
 from ancf_sym.sensitivity.paths import ParameterPath, get_parameter, parse_path
 
@@ -298,8 +299,6 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         return out
     if keys[:2] == ("scene", "gravity") and len(keys) == 3:
         j = keys[2]
-        if asm.mesh.bodies and scene.dim == 3:
-            refuse("the weight of spatial rigid bodies is not differentiated here")
         for t in asm.terms:
             if t.label != "gravity":
                 continue
@@ -312,7 +311,7 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         e = np.zeros(scene.dim)
         e[j] = 1.0
         dQ = load_vector(_MeshView(asm.mesh, gravity=e, point_masses=getattr(scene, "point_masses", ())))
-        for name, o in asm.mesh.bodies.items():  # planar bodies: m g at the centre of mass (x, y first)
+        for name, o in asm.mesh.bodies.items():  # bodies: m g at the centre of mass (its coordinates first)
             dQ[o + j] += scene.bodies[name].mass
         out.dQ = dQ
         return out
@@ -345,14 +344,8 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         r, c, v = point_mass_triplets(view)
         out.mass = lambda: sp.csc_matrix((v, (r, c)), shape=(asm.n, asm.n))
         return out
-    if keys[0] == "bodies" and len(keys) == 3 and keys[2] == "mass":
-        if scene.dim == 3:
-            refuse("spatial bodies' masses are not differentiated here")
-        name = doc["bodies"][keys[1]]["name"]
-        o = asm.mesh.bodies[name]
-        out.dQ = np.zeros(asm.n)
-        out.dQ[o:o + 2] = np.asarray(scene.gravity, float)
-        out.mass = lambda: sp.csc_matrix((np.ones(2), (np.arange(o, o + 2), np.arange(o, o + 2))), shape=(asm.n, asm.n))
+    if keys[0] == "bodies" and len(keys) >= 3:
+        out.dQ, out.mass = body_derivative(asm, doc, keys, refuse)
         return out
     if keys[0] == "contacts" and len(keys) == 3 and keys[2] in ("stiffness", "hertz"):
         from ancf_sym.contact import laws as contact
@@ -386,7 +379,8 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         out.mass = lambda: mass_derivative(asm, [name], -1.0 / (1.0 + value))
         return out
     refuse("not a differentiable parameter here (materials.M.E | density, sections.S.area | I | diameter, "
-           "scene.gravity[j], loads[i].value[j], masses[i].mass, bodies[i].mass (2D), contacts[i].stiffness | hertz, "
+           "scene.gravity[j], loads[i].value[j], masses[i].mass, bodies[i].mass | inertia | force[j], "
+           "contacts[i].stiffness | hertz, "
            "members[i].prestrain, loops[i].prestrain)")
 
 
