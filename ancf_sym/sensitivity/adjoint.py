@@ -372,9 +372,9 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
     LamR = Lam
     if options.start == "static":  # dq_0/dp = -K_0^-1 E' dR/dp(x_0): its adjoint xi = K_0^-1 qbar_0
         K0 = start_tangent(run)
-        qb0 = acc[:nf] + WQ[0] - K0 @ MU[0]
+        qb0 = acc[:nf] + WQ[0] - K0.T @ MU[0]  # (K0 unsymmetric for lines in a current: the drag's load stiffness)
         LamR = Lam.copy()
-        LamR[0] += S.full_v(spla.splu(K0).solve(qb0))
+        LamR[0] += S.full_v(spla.splu(K0).solve(qb0, trans="T"))
     else:
         K0 = None
     grad, cache = {}, {}
@@ -385,6 +385,10 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
             continue
         md = model_derivative(asm, d, p)
         g = -residual_sum(md, LamR, X, cache)
+        if md.water is not None:  # (lines in water: the water's forces at every state; the static start's at rest)
+            g -= float(np.sum(Lam * md.water.forcing(X, V, t, A)))
+            if options.start == "static":
+                g -= float((LamR[0] - Lam[0]) @ md.water.forcing(X[:1], None, None)[0])
         sd = stiffness_damping_forcing(run, p)  # (beta dK_el/dp (q_{n-1}) v_n)
         if sd is not None:
             g -= float(np.sum(MU * sd))

@@ -34,6 +34,7 @@ from ancf_sym.model.assembly import Assembly
 from ancf_sym.scene.builder import SceneError
 from ancf_sym.sensitivity.model_derivative import model_derivative, read_document
 from ancf_sym.sensitivity.paths import get_parameter, parse_path
+from ancf_sym.sensitivity.water_derivative import water_refusals
 from ancf_sym.system import water
 from ancf_sym.system.damping import rayleigh_mx, strain_rate_mx
 from ancf_sym.system.forces import ELASTIC_LABELS
@@ -96,8 +97,7 @@ def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
         why += stiffness_damping_refusals(S)
     if contact.dissipation_calls(S.asm.mesh):
         why.append("contact damping or friction")
-    if water.has_forces(S.asm):
-        why.append("lines in water (drag, added mass)")
+    why += water_refusals(S, opts)
     if opts.release or opts.from_result or opts.initial or opts.q0 is not None or opts.v0 is not None:
         why.append("a start other than the reference or the static equilibrium at rest")
     if why:
@@ -402,6 +402,8 @@ def forcing(run: AlphaRun, path: str, statics: bool = False) -> np.ndarray:
             R += _gradients(pc, X)
     if md.dQ is not None:
         R -= md.dQ
+    if md.water is not None:  # (lines in water: the drag, water line and waves' forces; statics: at rest)
+        R += md.water.forcing(X, None if statics else run.V_full, None if statics else run.t, run.A_full)
     if not statics and md.dM is not None:
         R += (md.dM @ (run.A_full + run.alpha_r * run.V_full).T).T
     F = np.asarray((S.E.T @ R.T).T)
@@ -441,11 +443,12 @@ def point_mask(run: AlphaRun, i: int) -> np.ndarray:
                            for name in order])
 
 
-def damping_tangents(S: StepSystem, x: ca.MX, v: ca.MX) -> tuple:
-    """(df_d/dx, df_d/dv) of the system's velocity-dependent damping force at (x, v) in a graph, or (None, None)."""
+def damping_tangents(S: StepSystem, x: ca.MX, v: ca.MX, t: ca.MX | None = None) -> tuple:
+    """(df_d/dx, df_d/dv) of the system's velocity-dependent damping force at (x, v) in a graph, or (None, None);
+    t: the time, where the force reads it (lines in water under waves)."""
     if S.damp_f is None:
         return None, None
-    _, dfx, dfv = S.damp_f(x, v)
+    _, dfx, dfv = S.damp_f(x, v, t) if water.timed(S.asm) else S.damp_f(x, v)
     return dfx, dfv
 
 
@@ -478,7 +481,9 @@ def step_matrix(S: StepSystem, cm: float, cc: float, C: ca.MX, x: ca.MX, v: ca.M
     add minus their force's Jacobian to A."""
     nf, mc = S.nf, S.mc
     A = cm * dm(S.M) + cc * C + S.forces_pf(x, ca.DM(S.par))[1]
-    dfx, dfv = damping_tangents(S, x, v)  # (strain-rate damping: its exact tangents at the step's end)
+    # (strain-rate damping, lines in water: their exact tangents at the step's end; under waves at its time, the
+    # last of the time inputs)
+    dfx, dfv = damping_tangents(S, x, v, y[-1] if water.timed(S.asm) else None)
     unsym = dfx is not None
     if dfx is not None:
         A = A + dfx + cc * dfv
@@ -500,8 +505,14 @@ def step_matrix(S: StepSystem, cm: float, cc: float, C: ca.MX, x: ca.MX, v: ca.M
 
 
 def start_tangent(run: AlphaRun) -> sp.csc_matrix:
-    """K(q_0) on the reduced coordinates: the static start's tangent and the initial acceleration's."""
-    return sp.csc_matrix(run.S.forces(run.Q[0])[1])
+    """K(q_0) on the reduced coordinates: the static start's tangent and the initial acceleration's (with the
+    velocity-dependent forces' d f_d/dq at rest: lines in water, whose drag in a current and water line act at
+    rest; refused under waves, water_refusals)."""
+    S = run.S
+    K = sp.csc_matrix(S.forces(run.Q[0])[1])
+    if S.damp_f is not None and not water.timed(S.asm):
+        K = (K + sp.csc_matrix(S.damp_f(run.Q[0], np.zeros(S.nf))[1].sparse())).tocsc()
+    return K
 
 
 def mass_solve(run: AlphaRun):

@@ -32,6 +32,7 @@ from ancf_sym.modal.contact_rows import contact_points
 from ancf_sym.sensitivity.contact_state import curved_contact_rows, drum_form, drum_terms
 from ancf_sym.sensitivity.model_derivative import ParameterError
 from ancf_sym.sensitivity.static import StaticSensitivity
+from ancf_sym.sensitivity.water_derivative import water_terms
 
 REPEATED_REL = 1e-6  # relative gap below which two frequencies count as one repeated eigenvalue
 
@@ -56,9 +57,7 @@ class ModalSensitivity:
         self.static = StaticSensitivity(scene, modal.static, doc, modal.linearization, "frequency sensitivities")
         asm = self.static.asm
         self._rows = partition(asm).rows  # the exact rows kept with multipliers (rows of G)
-        if getattr(asm.scene, "water", None) is not None:
-            raise ParameterError("frequency sensitivities in water are not available (the added mass's and the drag's "
-                                 "derivatives are not in the model derivative)")
+        self._water = water_terms(asm)  # (lines in water: the water line's and the added mass's state derivatives)
         if contact.exact_contacts(asm):  # the held points are rows (as in the statics' sensitivity)
             drums = curved_contact_rows(asm)
             if drums:
@@ -111,6 +110,8 @@ class ModalSensitivity:
         Scenes with rigid joints (bilinear rows): not available. Repeated frequencies: NaN columns."""
         m, s = self.modal, self.static
         lin, asm = s.lin, s.asm
+        if self._water is not None:
+            raise ParameterError("mode-shape derivatives of lines in water are not available (frequencies are)")
         if len(asm.exact.qrow):
             raise ParameterError("mode-shape derivatives with rigid joints (bilinear constraint rows kept in the "
                                  "modes) are not available")
@@ -206,6 +207,11 @@ class ModalSensitivity:
                 fc, active, dfc = drums
                 dK += drum_form(asm, x, fc, active, dfc, self._mode_multipliers(k)[len(self._rows):], phi, dx)
             dM = float(phi @ (md.dM @ phi)) if md.dM is not None else 0.0
+            if self._water is not None:  # (the water line's Jacobian and the turning added mass move with dx)
+                dK += self._water.third_form(x, dx, phi)
+                dM += self._water.mass_form(x, phi, dx)[1]
+                if md.water is not None and md.water.added_mass_moves():  # (md.dM: at the reference's tangents)
+                    dM += md.water.mass_form(x, phi, dx)[0] - md.water.mass_form(asm.x0, phi, dx)[0]
             dw2 = dK - m.omega2[k] * dM
             out[k] = dw2 / (8 * np.pi ** 2 * f[k])
         return out, notes

@@ -128,6 +128,8 @@ class StaticSensitivity:
             cols = np.unique(J.tocsr().indices)
             Jd = J[:, cols].toarray()
             dlam = np.linalg.lstsq(Jd.T, -r[cols], rcond=None)[0]
+            if self.water:  # (the statics in water report a support's force as the residual there: + its row's)
+                dlam = np.where(np.diff(J.tocsr().indptr) == 1, -dlam, dlam)
             for lbl, v in zip(asm.exact.labels, dlam):
                 forces.setdefault(lbl, []).append(float(v))
         if asm.penalty is not None:

@@ -33,6 +33,7 @@ from ancf_sym.model.water_forces import (added_mass_product, current_mx, drag_fo
 from ancf_sym.model.water_points import wet_points
 from ancf_sym.model.waves import kinematics_mx
 from ancf_sym.scene.water import Current, diameter, displaced_area
+from ancf_sym.system import water as system_water
 
 LINE_PARAMETERS = ("cd", "cd_axial", "ca", "ca_axial", "diameter")
 
@@ -249,7 +250,7 @@ class WaterTerms:
             dx = ca.MX.sym("dx", n)
             q = ca.dot(u, Mw)
             f = ca.Function(key, [X, u, w, dx, s], [ca.jacobian(ca.jacobian(Mw, s), w), ca.jacobian(q, s),
-                                                     ca.jtimes(q, X, dx)])
+                                                     ca.jtimes(q, X, dx), ca.jacobian(Mw, s)])
         else:
             raise KeyError(key)
         self._f[key] = f
@@ -301,16 +302,29 @@ class WaterTerms:
         return float(a), float(b)
 
     # -- dynamics --------------------------------------------------------------------------------------------------
-    def forcing(self, X: np.ndarray, V: np.ndarray | None, t: np.ndarray | None) -> np.ndarray | None:
+    def forcing(self, X: np.ndarray, V: np.ndarray | None, t: np.ndarray | None, A: np.ndarray | None = None
+                ) -> np.ndarray | None:
         """d r/dp at every state (rows of X, V at times t), full coordinates (len(X), n); V None: the statics'
-        (at rest, current only). None: the parameter moves no water force."""
+        (at rest, current only). None: the parameter moves no water force. A: the accelerations, where the
+        parameter changes ca and ca_axial differently: the run's inertia is M_a(q_n) a_n (its constant mass matrix
+        holds M_a(q_0), ancf_sym.system.water), so its derivative adds (dM_a/dp (q_n) - dM_a/dp (q_0)) a_n to the
+        model derivative's dM/dp (q_0) a_n."""
         if not self.tan.moves_water_terms():
             return None
         if V is None:
             return np.array([self.residual(x)[1] for x in X])
         f = self._function("dynamic").map(len(X))
         tt = np.zeros(len(X)) if t is None else np.asarray(t, float)
-        return np.asarray(f(X.T, V.T, tt[None, :], 0.0)).T
+        out = np.asarray(f(X.T, V.T, tt[None, :], 0.0)).T
+        if A is not None and self.added_mass_moves() and \
+                np.any(self.tan.point.get("dca", 0) - self.tan.point.get("dcaa", 0)):
+            state = getattr(self.asm, "added_mass_state", None)
+            x0 = self.asm.x0 if state is None else np.asarray(state, float)
+            z = np.zeros((self.asm.n, len(X)))
+            m = self._function("mass").map(len(X))
+            out += (np.asarray(m(X.T, z, A.T, z, 0.0)[3]) - np.asarray(m(np.repeat(x0[:, None], len(X), 1), z,
+                                                                          A.T, z, 0.0)[3])).T
+        return out
 
 
 def gravity_pieces(asm, tan: WaterTangent, piece: Callable) -> list:
@@ -346,3 +360,30 @@ def water_line_gradient(asm, x: np.ndarray) -> np.ndarray | None:
     if Ub is None:
         return None
     return np.asarray(ca.Function("g", [X], [ca.gradient(Ub, X)])(x)).ravel()
+
+
+def water_terms(asm) -> WaterTerms | None:
+    """The water's terms of a scene with no parameter tangent (their state derivatives: a frequency's derivative
+    follows the water line's Jacobian and the turning added mass along the equilibrium's change); None: dry. A
+    current's drag makes the linear model unsymmetric: its frequencies' derivatives need left eigenvectors, refused
+    here by name."""
+    water = getattr(asm.scene, "water", None)
+    if water is None:
+        return None
+    wp = wet_points(asm, water)
+    if water.current is not None and wp.drag:
+        raise ValueError("frequency sensitivities of lines in a current are not available (the drag's load "
+                         "stiffness makes the linear model unsymmetric: its eigenvalues' derivatives need the left "
+                         "eigenvectors)")
+    return WaterTerms(asm, WaterTangent())
+
+
+def water_refusals(S, opts) -> list[str]:
+    """What of lines in water the dynamic derivatives do not follow: an added mass that turns with the line
+    (ca != ca_axial: the run's mass then depends on the state), a static start under waves (the statics have none)."""
+    why = []
+    if system_water.nonlinear_inertia(S.asm):
+        why.append("lines in water whose added mass turns with the line (ca != ca_axial)")
+    if system_water.timed(S.asm) and opts.start == "static":
+        why.append("a static start under waves")
+    return why
