@@ -32,7 +32,7 @@ from ancf_sym.modal.contact_rows import contact_points
 from ancf_sym.sensitivity.contact_state import curved_contact_rows, drum_form, drum_terms
 from ancf_sym.sensitivity.model_derivative import ParameterError
 from ancf_sym.sensitivity.static import StaticSensitivity
-from ancf_sym.sensitivity.water_derivative import water_terms
+from ancf_sym.sensitivity.water_derivative import frequency_refusal, water_terms
 
 REPEATED_REL = 1e-6  # relative gap below which two frequencies count as one repeated eigenvalue
 
@@ -57,6 +57,8 @@ class ModalSensitivity:
         self.static = StaticSensitivity(scene, modal.static, doc, modal.linearization, "frequency sensitivities")
         asm = self.static.asm
         self._rows = partition(asm).rows  # the exact rows kept with multipliers (rows of G)
+        if frequency_refusal(asm) is not None:
+            raise ParameterError(frequency_refusal(asm))
         self._water = water_terms(asm)  # (lines in water: the water line's and the added mass's state derivatives)
         if contact.exact_contacts(asm):  # the held points are rows (as in the statics' sensitivity)
             drums = curved_contact_rows(asm)

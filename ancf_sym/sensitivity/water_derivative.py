@@ -298,7 +298,7 @@ class WaterTerms:
         wp = self.wp
         if not (wp.added_mass or self.added_mass_moves()):
             return 0.0, 0.0
-        _, a, b = self._function("mass")(x, u, u, dx, 0.0)
+        _, a, b, _ = self._function("mass")(x, u, u, dx, 0.0)
         return float(a), float(b)
 
     # -- dynamics --------------------------------------------------------------------------------------------------
@@ -364,18 +364,20 @@ def water_line_gradient(asm, x: np.ndarray) -> np.ndarray | None:
 
 def water_terms(asm) -> WaterTerms | None:
     """The water's terms of a scene with no parameter tangent (their state derivatives: a frequency's derivative
-    follows the water line's Jacobian and the turning added mass along the equilibrium's change); None: dry. A
-    current's drag makes the linear model unsymmetric: its frequencies' derivatives need left eigenvectors, refused
-    here by name."""
-    water = getattr(asm.scene, "water", None)
-    if water is None:
+    follows the water line's Jacobian and the turning added mass along the equilibrium's change); None: dry."""
+    if getattr(asm.scene, "water", None) is None:
         return None
-    wp = wet_points(asm, water)
-    if water.current is not None and wp.drag:
-        raise ValueError("frequency sensitivities of lines in a current are not available (the drag's load "
-                         "stiffness makes the linear model unsymmetric: its eigenvalues' derivatives need the left "
-                         "eigenvectors)")
     return WaterTerms(asm, WaterTangent())
+
+
+def frequency_refusal(asm) -> str | None:
+    """Why the frequencies of a scene in water have no derivative here (None: they have): a current's drag makes
+    the linear model unsymmetric, whose eigenvalues' derivatives need the left eigenvectors."""
+    water = getattr(asm.scene, "water", None)
+    if water is not None and water.current is not None and wet_points(asm, water).drag:
+        return ("frequency sensitivities of lines in a current are not available (the drag's load stiffness makes "
+                "the linear model unsymmetric: its eigenvalues' derivatives need the left eigenvectors)")
+    return None
 
 
 def water_refusals(S, opts) -> list[str]:
