@@ -68,6 +68,9 @@ def check_dynamic_paths(scene, doc: dict, paths: list[str], asm=None) -> None:
     model_paths = [p for p in paths if damping_index(doc, p) is None]
     for p in model_paths:
         get_parameter(doc, p)
+        if parse_path(p).keys[-1] == "prestrain":  # (its length pieces and the reference start's slopes |r_x| =
+            # 1 + eps are not in the forcing: the runs' derivative was nil where differences found O(1))
+            raise SceneError(f"parameter path {p!r}: a prestrain is not differentiated in dynamic runs here")
     asm = dynamic_assembly(scene) if asm is None else asm
     for p in model_paths:
         model_derivative(asm, doc, p)

@@ -167,8 +167,6 @@ def prestrain_refusal(asm, name: str) -> str | None:
     for j in scene.joints:
         if j.kind == "rigid" and scene.dim == 3 and name in (j.a[0], j.b[0]) and j.a[0] != j.b[0]:
             return "a spatial rigid joint to another member keeps the ratio of the reference slopes' lengths"
-    if getattr(scene, "water", None) is not None:
-        return "lines in water are not differentiated with respect to the prestrain"
     for t in asm.terms:
         if t.effect not in WEIGHTS and _member_rows(asm, t, name).any():
             return f"its {t.effect!r} energy has no length derivative here"

@@ -34,6 +34,7 @@ from ancf_sym.model.water_points import wet_points
 from ancf_sym.model.waves import kinematics_mx
 from ancf_sym.scene.water import Current, diameter, displaced_area
 from ancf_sym.system import water as system_water
+from ancf_sym.util.sparsity import dm
 
 LINE_PARAMETERS = ("cd", "cd_axial", "ca", "ca_axial", "diameter")
 
@@ -69,9 +70,11 @@ class WaterTangent:
     current: Current | None = None
     point: dict = dataclasses.field(default_factory=dict)  # name -> (P,) array
     dnet: dict = dataclasses.field(default_factory=dict)  # member -> float
+    dB: sp.csr_matrix | None = None  # a prestrain: the point maps' derivatives (the elements' lengths move)
+    dBx: sp.csr_matrix | None = None
 
     def moves_water_terms(self) -> bool:
-        return bool(self.drho or self.dg or self.dheight or self.current is not None or
+        return bool(self.drho or self.dg or self.dheight or self.current is not None or self.dB is not None or
                     any(np.any(v) for v in self.point.values()))
 
 
@@ -158,6 +161,8 @@ def water_tangent(asm, doc: dict, keys: tuple, value: float, refuse: Callable) -
                 section_change(name, 1.0)
             elif shape == "circle" and keys[2] == "diameter":
                 section_change(name, math.pi * value / 2)
+    elif keys[0] in ("members", "loops") and len(keys) == 3 and keys[2] == "prestrain":
+        _prestrain(asm, wp, slices, doc[keys[0]][keys[1]]["name"], value, tan)
     elif keys[:2] == ("scene", "gravity") and len(keys) == 3:
         if keys[2] != scene.dim - 1:
             refuse("in water gravity points down the vertical axis: only its last component is a parameter")
@@ -165,6 +170,31 @@ def water_tangent(asm, doc: dict, keys: tuple, value: float, refuse: Callable) -
             refuse("under waves |g| sets the waves' wave number (the dispersion relation), not differentiated here")
         tan.dg = -1.0  # (|g| = -g_vertical)
     return tan
+
+
+def _prestrain(asm, wp, slices: dict, name: str, eps: float, tan: WaterTangent) -> None:
+    """A member's prestrain: its elements' reference length L = l / (1 + eps), dL/deps = -L / (1 + eps). At a point
+    r = sum h_i(xi) r_i + L sum h_j(xi) t_j and r_x = sum h_i'(xi) r_i / L + sum h_j'(xi) t_j (positions r_i, slopes
+    t_j), with weight w L: d/deps multiplies the slopes' columns of B, the positions' columns of Bx and the weights
+    by -1, +1 and -1 over (1 + eps)."""
+    mm = asm.mesh.members[name]
+    dim, P = wp.dim, wp.P
+    idx = mm.elem_dofs()
+    slope = np.zeros(asm.n, bool)
+    slope[idx[:, dim:2 * dim].ravel()] = True
+    slope[idx[:, 3 * dim:4 * dim].ravel()] = True
+    rows = np.zeros(dim * P, bool)
+    for k in range(dim):
+        rows[k * P + np.arange(P)[slices[name]]] = True
+    f = 1.0 / (1.0 + eps)
+
+    def part(A: sp.csr_matrix, cols: np.ndarray, c: float) -> sp.csr_matrix:
+        A = A.tocoo()
+        keep = rows[A.row] & cols[A.col]
+        return sp.csr_matrix((c * A.data[keep], (A.row[keep], A.col[keep])), shape=A.shape)
+    tan.dB, tan.dBx = part(wp.B, slope, -f), part(wp.Bx, ~slope, f)
+    d = tan.point.setdefault("dwL", np.zeros(P))
+    d[slices[name]] = -f * wp.wL[slices[name]]
 
 
 class WaterTerms:
@@ -190,7 +220,10 @@ class WaterTerms:
         mask = (wp.area > 0).astype(float)
         inertia = ca.DM(mask) * area + ca.DM(1 - mask) * (np.pi / 4) * d * d if isinstance(d, ca.MX) or \
             isinstance(area, ca.MX) else wp.inertia_area
-        pts = _Points(wp.dim, wp.B, wp.Bx, wp.wL, d, area, v("dcd", wp.cd), v("dcda", wp.cd_axial),
+        B, Bx = wp.B, wp.Bx
+        if tan.dB is not None:  # (a prestrain: the point maps move with the elements' lengths)
+            B, Bx = dm(wp.B) + s * dm(tan.dB), dm(wp.Bx) + s * dm(tan.dBx)
+        pts = _Points(wp.dim, B, Bx, v("dwL", wp.wL), d, area, v("dcd", wp.cd), v("dcda", wp.cd_axial),
                       v("dca", wp.ca), v("dcaa", wp.ca_axial), inertia, wp.P, wp.buoyant,
                       wp.drag or bool(np.any(tan.point.get("dcd", 0))) or bool(np.any(tan.point.get("dcda", 0))),
                       wp.added_mass or bool(np.any(tan.point.get("dca", 0))) or
@@ -291,7 +324,8 @@ class WaterTerms:
         tan, wp = self.tan, self.wp
         if not (wp.added_mass or np.any(tan.point.get("dca", 0)) or np.any(tan.point.get("dcaa", 0))):
             return False
-        return bool(tan.drho or any(np.any(tan.point.get(k, 0)) for k in ("dd", "darea", "dca", "dcaa")))
+        return bool(tan.drho or tan.dB is not None or
+                    any(np.any(tan.point.get(k, 0)) for k in ("dd", "darea", "dca", "dcaa", "dwL")))
 
     def mass_form(self, x: np.ndarray, u: np.ndarray, dx: np.ndarray) -> tuple[float, float]:
         """(u' (dM_a/dp)(x) u, u' (dM_a/dx [dx]) u): the added mass's derivative at x, its change with the state."""

@@ -81,8 +81,10 @@ def _relative(an: np.ndarray, fd: np.ndarray) -> float:
 
 @pytest.mark.parametrize("case,paths", [
     ("current", ["water.density", "water.current[0]", "water.lines.line.cd", "water.lines.line.cd_axial",
-                 "materials.steel.density", "materials.steel.E", "sections.rope.diameter", "scene.gravity[1]"]),
-    ("water_line", ["water.density", "sections.rope.diameter", "scene.gravity[1]", "water.current[0]"]),
+                 "materials.steel.density", "materials.steel.E", "sections.rope.diameter", "scene.gravity[1]",
+                 "members[0].prestrain"]),
+    ("water_line", ["water.density", "sections.rope.diameter", "scene.gravity[1]", "water.current[0]",
+                    "members[0].prestrain"]),
     ("hydro_diameter", ["water.lines.line.diameter", "sections.rope.diameter", "materials.steel.density"]),
 ])
 def test_static_sensitivities_in_water_match_central_differences(case, paths):
@@ -132,7 +134,7 @@ def test_frequency_sensitivities_in_water_match_central_differences():
     extrapolated truncation is ~1e-8)."""
     doc = mooring(current=False, fairlead=0.5)
     paths = ["water.density", "water.lines.line.ca", "water.lines.line.ca_axial", "materials.steel.density",
-             "materials.steel.E", "scene.gravity[1]", "sections.rope.diameter"]
+             "materials.steel.E", "scene.gravity[1]", "members[0].prestrain", "sections.rope.diameter"]
     s = sensitivities(doc, paths, modes=4)
     f = _frequencies(doc)
     for p in paths:
@@ -193,6 +195,8 @@ def test_refused_in_water_with_the_reason():
                       ("water.current[1]", "vertical component")]:
         with pytest.raises(ValueError, match=why):
             sensitivities(doc, [path])
+    with pytest.raises(SceneError, match="prestrain is not differentiated in dynamic runs"):
+        dynamic_sensitivity(mooring(ca_axial=1.0), ["members[0].prestrain"], o)
     waves = mooring(waves=True, ca_axial=1.0)
     with pytest.raises(SceneError, match="static start under waves"):
         dynamic_sensitivity(waves, ["water.density"], DynamicOptions(dt=0.05, t_end=0.2, start="static"))
