@@ -308,9 +308,9 @@ class WaterTerms:
             return 0.0
         return float(self._function("forms")(x, u, w, np.zeros(len(x)), 0.0)[1])
 
-    def third_form(self, x: np.ndarray, dx: np.ndarray, u: np.ndarray) -> float:
-        """u' (D J[dx]) u: the water part of the Jacobian changing with the state along dx (no parameter in it)."""
-        return float(self._function("forms")(x, u, u, dx, 0.0)[2])
+    def third_form(self, x: np.ndarray, dx: np.ndarray, u: np.ndarray, w: np.ndarray | None = None) -> float:
+        """w' (D J[dx]) u (w = u by default): the water part of the Jacobian changing with the state along dx."""
+        return float(self._function("forms")(x, u, u if w is None else w, dx, 0.0)[2])
 
     # -- the added mass -------------------------------------------------------------------------------------------
     def mass(self, x: np.ndarray) -> sp.csc_matrix | None:
@@ -327,12 +327,14 @@ class WaterTerms:
         return bool(tan.drho or tan.dB is not None or
                     any(np.any(tan.point.get(k, 0)) for k in ("dd", "darea", "dca", "dcaa", "dwL")))
 
-    def mass_form(self, x: np.ndarray, u: np.ndarray, dx: np.ndarray) -> tuple[float, float]:
-        """(u' (dM_a/dp)(x) u, u' (dM_a/dx [dx]) u): the added mass's derivative at x, its change with the state."""
+    def mass_form(self, x: np.ndarray, u: np.ndarray, dx: np.ndarray, w: np.ndarray | None = None
+                  ) -> tuple[float, float]:
+        """(w' (dM_a/dp)(x) u, w' (dM_a/dx [dx]) u) (w = u by default): the added mass's derivative at x, its
+        change with the state."""
         wp = self.wp
         if not (wp.added_mass or self.added_mass_moves()):
             return 0.0, 0.0
-        _, a, b, _ = self._function("mass")(x, u, u, dx, 0.0)
+        _, a, b, _ = self._function("mass")(x, u if w is None else w, u, dx, 0.0)
         return float(a), float(b)
 
     # -- dynamics --------------------------------------------------------------------------------------------------
@@ -404,14 +406,10 @@ def water_terms(asm) -> WaterTerms | None:
     return WaterTerms(asm, WaterTangent())
 
 
-def frequency_refusal(asm) -> str | None:
-    """Why the frequencies of a scene in water have no derivative here (None: they have): a current's drag makes
-    the linear model unsymmetric, whose eigenvalues' derivatives need the left eigenvectors."""
+def unsymmetric(asm) -> bool:
+    """Is the linear model about an equilibrium in water unsymmetric (a current's drag: its load stiffness)?"""
     water = getattr(asm.scene, "water", None)
-    if water is not None and water.current is not None and wet_points(asm, water).drag:
-        return ("frequency sensitivities of lines in a current are not available (the drag's load stiffness makes "
-                "the linear model unsymmetric: its eigenvalues' derivatives need the left eigenvectors)")
-    return None
+    return bool(water is not None and water.current is not None and wet_points(asm, water).drag)
 
 
 def water_refusals(S, opts) -> list[str]:
