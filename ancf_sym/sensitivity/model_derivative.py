@@ -259,6 +259,9 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         raise ParameterError(f"parameter path {p.text!r} = {value!r}: {why}")
     tan = water_tangent(asm, doc, p.keys, value, refuse)
     out = ModelDerivative(p.text, value) if p.keys[0] == "water" else _dry_model_derivative(asm, doc, p)
+    if p.keys == ("water", "seabed", "stiffness"):  # (the seabed's ground contacts: the law linear in k)
+        out.pieces = _seabed_pieces(asm, doc)
+        return out
     if tan.dnet:  # (the gravity kernel carries the net weight rho A - rho_w A_displaced)
         out.pieces = [pc for pc in out.pieces if pc.effect != "gravity"] + gravity_pieces(asm, tan, Piece)
     terms = WaterTerms(asm, tan)
@@ -268,6 +271,25 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         dry, state = out.mass, getattr(asm, "added_mass_state", None)
         xm = asm.x0 if state is None else np.asarray(state, float)
         out.mass = lambda: terms.mass(xm) if dry is None else (dry() + terms.mass(xm)).tocsc()
+    return out
+
+
+def _seabed_pieces(asm: Assembly, doc: dict) -> list[Piece]:
+    """The seabed's contact kernels with their stiffness column 1 (the document's own contacts come first in the
+    scene, then one ground contact per wet member)."""
+    from ancf_sym.contact import laws as contact
+    calls: list = []  # (the penalty contacts' normal-law kernel calls, in declaration order)
+    contact.energy_terms({}, asm.mesh, lambda _t, _label, *call: calls.append(call))
+    penalty = [k for k in asm.scene.contacts if k.method == "penalty"]
+    seabed = set(map(id, asm.scene.contacts[len(doc.get("contacts", [])):]))
+    out = []
+    for c, (element, effect, gauss, idx, P) in zip(penalty, calls):
+        if id(c) in seabed:
+            names = kernels.parameters(element, effect)
+            P = np.array(P, float)
+            P[:, names.index("k")] = 1.0
+            P[:, names.index("kh")] = 0.0
+            out.append(Piece(element, effect, gauss, np.asarray(idx), P, "contact"))
     return out
 
 
@@ -313,7 +335,8 @@ def _dry_model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -
         if any(scene.members[m].element == "beam3d" for m in members):
             refuse("a beam3d section's b x h enter its kernels nonlinearly (not differentiable here)")
         for i, c in enumerate(getattr(scene, "contacts", ())):
-            if c.member in members and "thickness" not in doc["contacts"][i]:
+            # (the seabed's contacts, after the document's, take water.seabed.thickness)
+            if c.member in members and i < len(doc.get("contacts", [])) and "thickness" not in doc["contacts"][i]:
                 refuse(f"the contact on member {c.member!r} takes its thickness from the section (give the "
                        "contact a thickness to differentiate the section)")
         shape = sec.get("shape")

@@ -146,10 +146,13 @@ def water_tangent(asm, doc: dict, keys: tuple, value: float, refuse: Callable) -
                 point({"cd": "dcd", "cd_axial": "dcda", "ca": "dca", "ca_axial": "dcaa"}[key], name, 1.0)
         elif rest == ("waves", "height"):
             tan.dheight = 1.0
+        elif rest == ("seabed", "stiffness"):
+            pass  # (the seabed's contact kernels: model_derivative's pieces)
         else:
             refuse("differentiable water numbers: water.density, water.current[k] (or a profile point's "
                    "velocity water.current[j][1][k]), water.lines.NAME.cd | cd_axial | ca | ca_axial | diameter, "
-                   "water.waves.height (not the depth, surface, seabed, or the waves' period, direction, phase)")
+                   "water.waves.height, water.seabed.stiffness (not the depth, surface, the seabed's other numbers, or the "
+                   "waves' period, direction, phase)")
         return tan
     if keys[0] == "materials" and len(keys) == 3 and keys[2] == "density":
         for name in members_of("material", keys[1]):

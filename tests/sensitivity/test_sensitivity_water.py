@@ -105,6 +105,31 @@ def test_static_sensitivities_in_water_match_central_differences(case, paths):
         assert _relative(an[n + 2:], fd[n + 2:]) <= 1e-6, (p, "support forces")
 
 
+def test_static_sensitivities_on_the_seabed():
+    """A line 30 % longer than the span, resting partly on the seabed (its penalty ground contact) in the current:
+    the seabed's stiffness is a parameter too. The perturbed scenes are solved from the equilibrium (from the
+    straight start this slack line can find another equilibrium, or a hidden penetration, and the 'difference' is
+    wrong by orders of magnitude)."""
+    doc = mooring(elements=10)
+    doc["members"][0]["prestrain"] = -0.3
+    doc["water"].update(depth=20.0, seabed={"stiffness": 1e5})
+    scene, r = _solve(doc)
+    assert r.energies["contact"] > 0  # (it rests on the seabed)
+    s = StaticSensitivity(scene, r, doc)
+    n = len(r.x)
+
+    def record(d):
+        rr = problem_for(scene_from_dict(d)[0]).solve(StaticOptions(tol=1e-13), r.x)
+        assert rr.success, rr.status
+        return np.r_[rr.x, rr.potential, rr.constraint_forces["pin line@end"]]
+    for p in ["water.seabed.stiffness", "water.density", "water.current[0]", "sections.rope.diameter"]:
+        d = s.derivative(p)
+        an = np.r_[s.dx(p), d["potential"], d["constraint_forces"]["pin line@end"]]
+        fd = richardson(record, doc, p)
+        assert _relative(an[:n], fd[:n]) <= 1e-6 and abs(an[n] - fd[n]) <= 1e-6 * abs(fd[n]), p
+        assert _relative(an[n + 1:], fd[n + 1:]) <= 1e-6, p
+
+
 def test_static_adjoint_in_a_current_is_the_transpose():
     """The drag's load stiffness makes the tangent unsymmetric: the adjoint gradient solves the transposed system
     (solved untransposed it is off by 3e-2 to 0.14 here)."""
