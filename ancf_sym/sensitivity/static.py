@@ -132,6 +132,8 @@ class StaticSensitivity:
                 dlam = np.where(np.diff(J.tocsr().indptr) == 1, -dlam, dlam)
             for lbl, v in zip(asm.exact.labels, dlam):
                 forces.setdefault(lbl, []).append(float(v))
+        for name, dofs in getattr(getattr(self.result, "water", None), "drive_labels", ()):
+            forces[name] = [float(r[i]) for i in dofs]  # (fairleads held by drives in water: the residual there)
         if asm.penalty is not None:
             dc = asm.penalty.jacobian(self.result.x) @ dx
             for lbl, k, v in zip(asm.penalty.labels, asm.penalty.k, dc):

@@ -130,6 +130,28 @@ def test_static_sensitivities_on_the_seabed():
         assert _relative(an[n + 1:], fd[n + 1:]) <= 1e-6, p
 
 
+FAIRLEAD = {"type": "position", "member": "line", "at": "end", "name": "fairlead",
+            "position": [[[0.0, [24.0, 0.0, 1.0]]], -2.0]}  # (x = 24 + t^2 m: a surge from rest)
+
+
+def test_static_sensitivities_with_the_fairlead_held_by_a_drive():
+    """The fairlead held by a position drive (its value at t = 0) instead of a pin: its force's derivative."""
+    doc = mooring()
+    doc["supports"] = doc["supports"][:1]
+    doc["drives"] = [FAIRLEAD]
+    scene, r = _solve(doc)
+    s = StaticSensitivity(scene, r, doc)
+    n = len(r.x)
+
+    def record(d):
+        _, rr = _solve(d)
+        return np.r_[rr.x, rr.constraint_forces["fairlead"]]
+    for p in ["water.density", "water.current[0]", "materials.steel.E"]:
+        an = np.r_[s.dx(p), s.derivative(p)["constraint_forces"]["fairlead"]]
+        fd = richardson(record, doc, p, rel=1e-2)
+        assert _relative(an[:n], fd[:n]) <= 1e-6 and _relative(an[n:], fd[n:]) <= 1e-6, p
+
+
 def test_static_adjoint_in_a_current_is_the_transpose():
     """The drag's load stiffness makes the tangent unsymmetric: the adjoint gradient solves the transposed system
     (solved untransposed it is off by 3e-2 to 0.14 here)."""
@@ -177,14 +199,22 @@ TIGHT = NewtonOptions(xtol=1e-13, tol=1e-12, lte_fraction=0.0, single=False)
 SENSORS = [{"name": "mid", "kind": "position", "member": "line", "at": 0.5}]
 
 
-@pytest.mark.parametrize("case", ["waves", "current_static_start"])
+@pytest.mark.parametrize("case", ["waves", "current_static_start", "fairlead_surge"])
 def test_dynamic_sensitivities_in_water_forward_adjoint_and_differences(case):
     """waves: a taut line from its reference in a current and Airy waves (drag on the relative velocity, fluid
     inertia); current_static_start: the slack line from its equilibrium in a current, pulled sideways by a time
-    load (the start's sensitivity with the drag's load stiffness). Added mass isotropic (ca = ca_axial = 1), ca alone
+    load (the start's sensitivity with the drag's load stiffness); fairlead_surge: the waves' case with the fairlead
+    moved by a position drive (a KKT step whose time inputs end with the waves' time). Added mass isotropic (ca = ca_axial = 1), ca alone
     as a parameter (the turning added mass's derivative at ca = ca_axial)."""
-    doc = mooring(waves=case == "waves", ca_axial=1.0, elements=5)
-    if case == "waves":
+    doc = mooring(waves=case != "current_static_start", ca_axial=1.0, elements=5)
+    if case == "fairlead_surge":
+        doc["members"][0]["prestrain"] = 0.002
+        doc["supports"] = doc["supports"][:1]
+        doc["drives"] = [FAIRLEAD]
+        o = DynamicOptions(dt=0.05, t_end=1.0, newton=TIGHT, sensors=SENSORS)
+        paths = ["water.density", "water.current[0]", "water.lines.line.cd", "water.lines.line.ca",
+                 "water.waves.height", "materials.steel.density"]
+    elif case == "waves":
         doc["members"][0]["prestrain"] = 0.002
         o = DynamicOptions(dt=0.05, t_end=1.0, newton=TIGHT, sensors=SENSORS)
         paths = ["water.density", "water.current[0]", "water.lines.line.cd", "water.lines.line.cd_axial",
