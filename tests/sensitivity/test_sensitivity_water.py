@@ -86,11 +86,14 @@ def _relative(an: np.ndarray, fd: np.ndarray) -> float:
     ("water_line", ["water.density", "sections.rope.diameter", "scene.gravity[1]", "water.current[0]",
                     "members[0].prestrain"]),
     ("hydro_diameter", ["water.lines.line.diameter", "sections.rope.diameter", "materials.steel.density"]),
+    ("profile", ["water.current[0][1][0]", "water.current[1][1][0]", "water.current[2][1][0]"]),
 ])
 def test_static_sensitivities_in_water_match_central_differences(case, paths):
     doc = mooring(fairlead=0.5 if case == "water_line" else -2.0)  # (0.5: the top pierces the surface)
     if case == "hydro_diameter":
         doc["water"]["lines"]["line"]["diameter"] = 0.05  # (buoyancy, drag on 5 cm: not the section's 3 cm)
+    if case == "profile":  # (a current by height, piecewise linear: linear in its points' velocities)
+        doc["water"]["current"] = [[-20.0, [0.3, 0.0]], [-10.0, [0.5, 0.0]], [0.0, [0.8, 0.0]]]
     scene, r = _solve(doc)
     s = StaticSensitivity(scene, r, doc)
     n = len(r.x)
@@ -252,6 +255,10 @@ def test_refused_in_water_with_the_reason():
                       ("water.current[1]", "vertical component")]:
         with pytest.raises(ValueError, match=why):
             sensitivities(doc, [path])
+    profile = mooring()
+    profile["water"]["current"] = [[-20.0, [0.3, 0.0]], [0.0, [0.8, 0.0]]]
+    with pytest.raises(ValueError, match="not its height"):
+        sensitivities(profile, ["water.current[0][0]"])
     with pytest.raises(SceneError, match="prestrain is not differentiated in dynamic runs"):
         dynamic_sensitivity(mooring(ca_axial=1.0), ["members[0].prestrain"], o)
     waves = mooring(waves=True, ca_axial=1.0)
