@@ -12,10 +12,11 @@ linear in rho A).
 
 Parameters: `water.density`; `water.current[k]` (a uniform current) and `water.current[j][1][k]` (a point of a
 current profile: the piecewise-linear profile is linear in its values); `water.lines.NAME.cd | cd_axial | ca |
-ca_axial | diameter`; `water.waves.height`; and the model's own (materials.M.density, sections.S.area | diameter,
-scene.gravity[last]) where they change the water's terms. Refused by name: the water's depth and surface (they move
-the seabed and the water line), the seabed's numbers, the waves' period, direction and phase (the dispersion
-relation), horizontal gravity components (water needs gravity along the vertical), and gravity under waves.
+ca_axial | diameter`; `water.waves.height | period | phase` (the wave number by the dispersion relation differentiated
+implicitly); `water.seabed.stiffness` (model_derivative's contact pieces); and the model's own (materials.M.density,
+sections.S.area | diameter, scene.gravity[last], a member's prestrain: its wet points' lengths) where they change the
+water's terms. Refused by name: the water's depth and surface (they move the seabed and the water line), the seabed's
+other numbers, the waves' direction, horizontal gravity components (water needs gravity along the vertical).
 """
 from __future__ import annotations
 
@@ -31,7 +32,7 @@ from ancf_sym import kernels
 from ancf_sym.model.water_forces import (added_mass_product, current_mx, drag_force, fluid_inertia_force,
                                          gravity_magnitude, point_positions, water_line_energy)
 from ancf_sym.model.water_points import wet_points
-from ancf_sym.model.waves import kinematics_mx
+from ancf_sym.model.waves import kinematics_mx, wave_number
 from ancf_sym.scene.water import Current, diameter, displaced_area
 from ancf_sym.system import water as system_water
 from ancf_sym.util.sparsity import dm
@@ -67,6 +68,8 @@ class WaterTangent:
     drho: float = 0.0
     dg: float = 0.0
     dheight: float = 0.0
+    dperiod: float = 0.0
+    dphase: float = 0.0
     current: Current | None = None
     point: dict = dataclasses.field(default_factory=dict)  # name -> (P,) array
     dnet: dict = dataclasses.field(default_factory=dict)  # member -> float
@@ -74,7 +77,8 @@ class WaterTangent:
     dBx: sp.csr_matrix | None = None
 
     def moves_water_terms(self) -> bool:
-        return bool(self.drho or self.dg or self.dheight or self.current is not None or self.dB is not None or
+        return bool(self.drho or self.dg or self.dheight or self.dperiod or self.dphase or self.current is not None or
+                    self.dB is not None or
                     any(np.any(v) for v in self.point.values()))
 
 
@@ -146,13 +150,17 @@ def water_tangent(asm, doc: dict, keys: tuple, value: float, refuse: Callable) -
                 point({"cd": "dcd", "cd_axial": "dcda", "ca": "dca", "ca_axial": "dcaa"}[key], name, 1.0)
         elif rest == ("waves", "height"):
             tan.dheight = 1.0
+        elif rest == ("waves", "period"):
+            tan.dperiod = 1.0
+        elif rest == ("waves", "phase"):
+            tan.dphase = 1.0
         elif rest == ("seabed", "stiffness"):
             pass  # (the seabed's contact kernels: model_derivative's pieces)
         else:
             refuse("differentiable water numbers: water.density, water.current[k] (or a profile point's "
                    "velocity water.current[j][1][k]), water.lines.NAME.cd | cd_axial | ca | ca_axial | diameter, "
-                   "water.waves.height, water.seabed.stiffness (not the depth, surface, the seabed's other numbers, or the "
-                   "waves' period, direction, phase)")
+                   "water.waves.height | period | phase, water.seabed.stiffness (not the depth, surface, the seabed's "
+                   "other numbers, or the waves' direction)")
         return tan
     if keys[0] == "materials" and len(keys) == 3 and keys[2] == "density":
         for name in members_of("material", keys[1]):
@@ -169,9 +177,7 @@ def water_tangent(asm, doc: dict, keys: tuple, value: float, refuse: Callable) -
     elif keys[:2] == ("scene", "gravity") and len(keys) == 3:
         if keys[2] != scene.dim - 1:
             refuse("in water gravity points down the vertical axis: only its last component is a parameter")
-        if water.waves is not None:
-            refuse("under waves |g| sets the waves' wave number (the dispersion relation), not differentiated here")
-        tan.dg = -1.0  # (|g| = -g_vertical)
+        tan.dg = -1.0  # (|g| = -g_vertical; under waves it also sets the wave number)
     return tan
 
 
@@ -232,9 +238,24 @@ class WaterTerms:
                       wp.added_mass or bool(np.any(tan.point.get("dca", 0))) or
                       bool(np.any(tan.point.get("dcaa", 0))))
         wat = dataclasses.replace(w, density=w.density + s * tan.drho if tan.drho else w.density)
-        if w.waves is not None and tan.dheight:
-            wat.waves = dataclasses.replace(w.waves, height=w.waves.height + s * tan.dheight)
+        if w.waves is not None and (tan.dheight or tan.dperiod or tan.dphase):
+            wv = w.waves
+            wat.waves = dataclasses.replace(wv, height=wv.height + s * tan.dheight, period=wv.period + s * tan.dperiod,
+                                            phase=wv.phase + s * tan.dphase)
         return pts, wat, self.g + s * tan.dg if tan.dg else self.g
+
+    def _wave_number(self, s: ca.MX):
+        """k + s dk/dp: the dispersion relation omega^2 = g k tanh(k h) differentiated (implicitly) in omega =
+        2 pi / T and g; None where neither moves."""
+        tan, w = self.tan, self.water
+        if not (tan.dperiod or tan.dg):
+            return None
+        om, h, g = 2 * math.pi / w.waves.period, w.depth, self.g
+        k = wave_number(om, h, g)
+        th = math.tanh(k * h)
+        dom = -om / w.waves.period * tan.dperiod
+        dk = (2 * om * dom - k * th * tan.dg) / (g * th + g * k * h * (1 - th * th))
+        return k + s * dk
 
     def _flow(self, pts, X: ca.MX, s: ca.MX, flow: list | None) -> list | None:
         """The waves' velocity plus s times the current's derivative at the points."""
@@ -253,7 +274,7 @@ class WaterTerms:
         Ub = Ub if Ub is not None else ca.MX(0)
         flow = acc = None
         if t is not None and wat.waves is not None:
-            _, flow, acc = kinematics_mx(wat, self.g, point_positions(pts, X), t)
+            _, flow, acc = kinematics_mx(wat, self.g, point_positions(pts, X), t, self._wave_number(s))
         flow = self._flow(pts, X, s, flow)
         statics = V is None
         if pts.drag and (not statics or self.water.current is not None):

@@ -219,9 +219,11 @@ def test_dynamic_sensitivities_in_water_forward_adjoint_and_differences(case):
                  "water.waves.height", "materials.steel.density"]
     elif case == "waves":
         doc["members"][0]["prestrain"] = 0.002
+        doc["water"]["waves"]["phase"] = 0.3
         o = DynamicOptions(dt=0.05, t_end=1.0, newton=TIGHT, sensors=SENSORS)
         paths = ["water.density", "water.current[0]", "water.lines.line.cd", "water.lines.line.cd_axial",
-                 "water.lines.line.ca", "water.waves.height", "materials.steel.density", "sections.rope.diameter"]
+                 "water.lines.line.ca", "water.waves.height", "water.waves.period", "water.waves.phase",
+                 "scene.gravity[1]", "materials.steel.density", "sections.rope.diameter"]
     else:
         o = DynamicOptions(dt=0.05, t_end=1.0, newton=TIGHT, sensors=SENSORS, start="static",
                            loads=[{"member": "line", "at": 0.5, "force": [300.0, 0.0],
