@@ -114,8 +114,9 @@ class ModalSensitivity:
         Scenes with rigid joints (bilinear rows): not available. Repeated frequencies: NaN columns."""
         m, s = self.modal, self.static
         lin, asm = s.lin, s.asm
-        if self._water is not None:
-            raise ParameterError("mode-shape derivatives of lines in water are not available (frequencies are)")
+        if self._left:
+            raise ParameterError("mode-shape derivatives of lines in a current (an unsymmetric K) are not available "
+                                 "(frequencies are)")
         if len(asm.exact.qrow):
             raise ParameterError("mode-shape derivatives with rigid joints (bilinear constraint rows kept in the "
                                  "modes) are not available")
@@ -143,6 +144,12 @@ class ModalSensitivity:
                 v, turn[nr:] = drum_terms(asm, x, fc, active, -dmu[nr:], self._mode_multipliers(k)[nr:], phi, dx)
                 dKphi = dKphi + v
             dMphi = E.T @ (md.dM @ phi) if md.dM is not None else np.zeros(len(y))
+            if self._water is not None:  # (the water line's change along dx; the added mass's at x and along dx)
+                dKphi = dKphi + self._water.third_vector(x, dx, phi)
+                dMphi = dMphi + E.T @ self._water.mass_vectors(x, phi, dx)[1]
+                if md.water is not None and md.water.added_mass_moves():  # (md.dM: at the reference's tangents)
+                    dMphi = dMphi + E.T @ (md.water.mass_vectors(x, phi, dx)[0] -
+                                           md.water.mass_vectors(asm.x0, phi, dx)[0])
             My = lin.M @ y
             col, row = sp.csc_matrix(My[:, None]), sp.csr_matrix(My[None, :])
             A = sp.bmat([[lin.K - w2 * lin.M, G.T, col], [G, None, None], [row, None, None]] if ng else

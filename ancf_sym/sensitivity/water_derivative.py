@@ -300,14 +300,15 @@ class WaterTerms:
             Ju = ca.jtimes(r, X, u)
             dx = ca.MX.sym("dx", n)
             q = ca.dot(w, Ju)
-            f = ca.Function(key, [X, u, w, dx, s], [ca.jacobian(Ju, s), ca.jacobian(q, s), ca.jtimes(q, X, dx)])
+            f = ca.Function(key, [X, u, w, dx, s], [ca.jacobian(Ju, s), ca.jacobian(q, s), ca.jtimes(q, X, dx),
+                                                     ca.jtimes(Ju, X, dx)])
         elif key == "mass":  # dM_a/dp, u' (dM_a/dp) w, u' (dM_a/dx [dx]) w
             pts, wat, _ = self._symbolic(s)
             Mw = added_mass_product(pts, wat, X, w)
             dx = ca.MX.sym("dx", n)
             q = ca.dot(u, Mw)
             f = ca.Function(key, [X, u, w, dx, s], [ca.jacobian(ca.jacobian(Mw, s), w), ca.jacobian(q, s),
-                                                     ca.jtimes(q, X, dx), ca.jacobian(Mw, s)])
+                                                     ca.jtimes(q, X, dx), ca.jacobian(Mw, s), ca.jtimes(Mw, X, dx)])
         else:
             raise KeyError(key)
         self._f[key] = f
@@ -336,6 +337,10 @@ class WaterTerms:
         """w' (D J[dx]) u (w = u by default): the water part of the Jacobian changing with the state along dx."""
         return float(self._function("forms")(x, u, u if w is None else w, dx, 0.0)[2])
 
+    def third_vector(self, x: np.ndarray, dx: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """(D J[dx]) u: the water part of the Jacobian's change along dx, times u (full coordinates)."""
+        return np.asarray(self._function("forms")(x, u, u, dx, 0.0)[3]).ravel()
+
     # -- the added mass -------------------------------------------------------------------------------------------
     def mass(self, x: np.ndarray) -> sp.csc_matrix | None:
         """d M_added/dp with the tangents of state x (None: the added mass does not depend on p)."""
@@ -358,8 +363,16 @@ class WaterTerms:
         wp = self.wp
         if not (wp.added_mass or self.added_mass_moves()):
             return 0.0, 0.0
-        _, a, b, _ = self._function("mass")(x, u if w is None else w, u, dx, 0.0)
+        _, a, b, _, _ = self._function("mass")(x, u if w is None else w, u, dx, 0.0)
         return float(a), float(b)
+
+    def mass_vectors(self, x: np.ndarray, u: np.ndarray, dx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """((dM_a/dp)(x) u, (D M_a[dx]) u) on the full coordinates."""
+        z = np.zeros(len(x))
+        if not (self.wp.added_mass or self.added_mass_moves()):
+            return z, z
+        out = self._function("mass")(x, z, u, dx, 0.0)
+        return np.asarray(out[3]).ravel(), np.asarray(out[4]).ravel()
 
     # -- dynamics --------------------------------------------------------------------------------------------------
     def forcing(self, X: np.ndarray, V: np.ndarray | None, t: np.ndarray | None, A: np.ndarray | None = None

@@ -27,6 +27,7 @@ from ancf_sym.sensitivity import get_parameter, with_parameter
 from ancf_sym.sensitivity.adjoint import SensorOutput, dynamic_gradient
 from ancf_sym.sensitivity.api import sensitivities
 from ancf_sym.sensitivity.dynamics import dynamic_sensitivity
+from ancf_sym.sensitivity.modal import ModalSensitivity
 from ancf_sym.sensitivity.static import StaticSensitivity
 from ancf_sym.statics.problem import StaticOptions, problem_for
 
@@ -196,6 +197,20 @@ def test_frequency_sensitivities_in_water_match_central_differences(current):
         an = s[p]["frequencies"]
         scale = np.abs(fd) if p != "sections.rope.diameter" else f / get_parameter(doc, p)
         assert np.all(np.abs(an - fd) <= 1e-6 * scale), (p, an, fd)
+
+
+def test_mode_shape_sensitivities_in_still_water():
+    """d(M-normalised shapes)/dp (Nelson's bordered system) with the water line's and the turning added mass's
+    changes along the equilibrium's (ca != ca_axial), against differences of the perturbed scenes' shapes."""
+    doc = mooring(current=False, fairlead=0.5)
+    scene, r = _solve(doc)
+    ms = ModalSensitivity(modal_analysis(scene, modes=3, static=r), scene, doc)
+
+    def shapes(d):
+        sc, rr = _solve(d)
+        return modal_analysis(sc, modes=3, static=rr).shapes
+    for p in ["water.density", "water.lines.line.ca_axial", "members[0].prestrain", "scene.gravity[1]"]:
+        assert _relative(ms.shape_derivative(p), richardson(shapes, doc, p, rel=1e-2)) <= 1e-6, p
 
 
 TIGHT = NewtonOptions(xtol=1e-13, tol=1e-12, lte_fraction=0.0, single=False)
