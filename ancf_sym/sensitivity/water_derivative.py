@@ -295,14 +295,14 @@ class WaterTerms:
         elif key == "dynamic":
             _, r = self._residual_mx(X, V, t, s)
             f = ca.Function(key, [X, V, t, s], [ca.jacobian(r, s)])
-        elif key == "forms":  # u' (dJ/dp) w and u' (dJ/dx [w2]) w ... (J: the statics' residual's Jacobian)
+        elif key == "forms":  # (dJ/dp) u, w' (dJ/dp) u, w' (D J[dx]) u, (D J[dx]) u; J: the statics' Jacobian
             _, r = self._residual_mx(X, None, None, s)
             Ju = ca.jtimes(r, X, u)
             dx = ca.MX.sym("dx", n)
             q = ca.dot(w, Ju)
             f = ca.Function(key, [X, u, w, dx, s], [ca.jacobian(Ju, s), ca.jacobian(q, s), ca.jtimes(q, X, dx),
                                                      ca.jtimes(Ju, X, dx)])
-        elif key == "mass":  # dM_a/dp, u' (dM_a/dp) w, u' (dM_a/dx [dx]) w
+        elif key == "mass":  # dM_a/dp, u' (dM_a/dp) w, u' (D M_a[dx]) w, (dM_a/dp) w, (D M_a[dx]) w
             pts, wat, _ = self._symbolic(s)
             Mw = added_mass_product(pts, wat, X, w)
             dx = ca.MX.sym("dx", n)
