@@ -262,6 +262,22 @@ def test_dynamic_sensitivities_in_water_forward_adjoint_and_differences(case):
         assert _relative(an, richardson(record, doc, p)) <= 1e-5, (p, "forward")
 
 
+def test_calibrate_drag_coefficient_and_density_from_positions_in_a_current():
+    """The calibration (Levenberg-Marquardt on the exact Jacobian) of a line's drag coefficient and its steel's
+    density from 11 node positions with 1 mm noise, from 30 % and 10 % off: the estimate within 3 standard deviations
+    of the truth (seeded noise: measured 1.2 and 1.1 sigma, 7 iterations)."""
+    from ancf_sym.sensitivity.calibrate import Measurement, calibrate
+
+    doc = mooring(elements=12)
+    _, r = _solve(doc)
+    nodes = r.assembly.member_coordinates(r.x, "line")[r.assembly.mesh.members["line"].public_nodes, :2]
+    rng = np.random.default_rng(1)
+    data = [Measurement("line", k, nodes[k] + rng.normal(0.0, 1e-3, 2)) for k in range(1, 12)]
+    c = calibrate(doc, data, ["water.lines.line.cd", "materials.steel.density"], start=[0.8, 7000.0])
+    assert c.converged and c.iterations <= 15
+    assert np.all(np.abs(c.estimate - [1.2, 7800.0]) <= 3 * c.std), (c.estimate, c.std)
+
+
 def test_refused_in_water_with_the_reason():
     doc = mooring(ca_axial=0.5)
     o = DynamicOptions(dt=0.05, t_end=0.2, sensors=SENSORS)
