@@ -32,6 +32,7 @@ from ancf_sym.dynamics.time_loop import chunk_size
 from ancf_sym.io.scene_toml import scene_from_dict
 from ancf_sym.model.assembly import Assembly
 from ancf_sym.scene.builder import SceneError
+from ancf_sym.sensitivity.length_derivative import LengthPiece, reference_derivative
 from ancf_sym.sensitivity.model_derivative import model_derivative, read_document
 from ancf_sym.sensitivity.paths import get_parameter, parse_path
 from ancf_sym.sensitivity.water_derivative import water_refusals
@@ -62,18 +63,57 @@ def damping_index(doc: dict, path: str) -> int | None:
     return p.keys[1]
 
 
-def check_dynamic_paths(scene, doc: dict, paths: list[str], asm=None) -> None:
+def check_dynamic_paths(scene, doc: dict, paths: list[str], asm=None, options: DynamicOptions | None = None
+                        ) -> None:
     """Refuse, before any step, a path that names no differentiable number of a dynamic run (asm: the run's
-    assembly; default dynamic_assembly(scene), which also takes scenes with drives that statics refuses)."""
+    assembly; default dynamic_assembly(scene), which also takes scenes with drives that statics refuses; options:
+    the run's, for what a prestrain needs of them)."""
     model_paths = [p for p in paths if damping_index(doc, p) is None]
     for p in model_paths:
         get_parameter(doc, p)
-        if parse_path(p).keys[-1] == "prestrain":  # (its length pieces and the reference start's slopes |r_x| =
-            # 1 + eps are not in the forcing: the runs' derivative was nil where differences found O(1))
-            raise SceneError(f"parameter path {p!r}: a prestrain is not differentiated in dynamic runs here")
     asm = dynamic_assembly(scene) if asm is None else asm
     for p in model_paths:
         model_derivative(asm, doc, p)
+        keys = parse_path(p).keys
+        if keys[-1] == "prestrain":
+            why = prestrain_run_refusal(asm, doc[keys[0]][keys[1]]["name"], options)
+            if why is not None:
+                raise SceneError(f"parameter path {p!r}: {why}")
+
+
+def prestrain_run_refusal(asm, name: str, options: DynamicOptions | None) -> str | None:
+    """Why a run's derivative by member `name`'s prestrain is not followed here (None: it is): the reference start
+    moves with it (slopes (1 + eps) t), which held slopes (clamps) and constraint rows would have to follow; the
+    stiffness and strain-rate damping's kernels take the length too; a sensor or time load at a material
+    coordinate moves in its element."""
+    S = StepSystem.for_scene(asm)
+    mm = asm.mesh.members[name]
+    dim = asm.scene.dim
+    idx = mm.elem_dofs()
+    slopes = np.unique(np.r_[idx[:, dim:2 * dim].ravel(), idx[:, 3 * dim:4 * dim].ravel()])
+    held = np.asarray(abs(S.E).sum(axis=1)).ravel() == 0
+    if np.any(held[slopes]) or S.mc:
+        return "a prestrain in a run with the member's slopes held (clamps) or constraint rows (joints, drives)"
+    if any(d.kind == "strain_rate" or (d.kind == "rayleigh" and d.beta) for d in asm.scene.dampings):
+        return "a prestrain with strain-rate or stiffness-proportional damping (their kernels take the length)"
+    for what, items in (("sensor", options.sensors if options is not None else []),
+                        ("time load", options.loads if options is not None else [])):
+        for it in items:
+            member, at = (it.get("member"), it.get("at", "end")) if isinstance(it, dict) else (it.member, it.at)
+            if member == name and isinstance(at, float):
+                return f"a {what} at the material coordinate {at:g} on the member (it moves with the prestrain; " \
+                       "put it at a node)"
+    return None
+
+
+def start_derivative(run: "AlphaRun", path: str) -> np.ndarray | None:
+    """d q_0/dp on the reduced coordinates of a run from the reference (a prestrain's slopes), None: nil."""
+    keys = parse_path(path).keys
+    if run.options.start == "static" or keys[-1] != "prestrain":
+        return None
+    S = run.S
+    dx0 = reference_derivative(run.asm, run.doc[keys[0]][keys[1]]["name"], get_parameter(run.doc, path))
+    return spla.spsolve((S.E.T @ S.E).tocsc(), S.E.T @ dx0)
 
 
 def dynamic_assembly(scene):
@@ -298,7 +338,7 @@ def run_for_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
     d = read_document(doc)
     scene, _ = scene_from_dict(d)
     asm = dynamic_assembly(scene)
-    check_dynamic_paths(scene, d, list(paths), asm)
+    check_dynamic_paths(scene, d, list(paths), asm, options)
     contact.check_dynamics(asm)  # (exact contact is a statics method: refused as the run refuses it)
     S = StepSystem.for_scene(asm)
     integ = make_integrator(S, options, Counters(), 0.0, options.newton.xtol * S.length_scale)
@@ -399,7 +439,9 @@ def forcing(run: AlphaRun, path: str, statics: bool = False) -> np.ndarray:
     X = run.X[:1] if statics else run.X
     R = np.zeros(X.shape)
     for pc in md.pieces:
-        if pc.effect == "gravity":  # (linear in q: a constant gradient)
+        if isinstance(pc, LengthPiece):  # (a prestrain: the kernels' length derivative at every state)
+            R += pc.gradients(X)
+        elif pc.effect == "gravity":  # (linear in q: a constant gradient)
             R += _gradients(pc, X[:1])
         else:
             R += _gradients(pc, X)

@@ -100,6 +100,13 @@ class LengthPiece:
             V, dV = V + a * ea, dV + a * ga
         return self.factor * float(V.sum()), self.factor * dV
 
+    def gradients(self, X: np.ndarray) -> np.ndarray:
+        """d gradient/deps assembled on the full coordinates at every state (rows of X), (len(X), n)."""
+        out = np.zeros(X.shape)
+        for k, x in enumerate(X):
+            out[k] = np.bincount(self.idx.ravel(), self.grad(x)[1].ravel(), minlength=X.shape[1])
+        return out
+
     def hessian(self, x: np.ndarray) -> np.ndarray:
         """d Hessian/deps per element (N, nd, nd): the identity differentiated twice; its third-derivative part
         from the compiled Hessian-vector companion (kept for the last x: every mode's derivative reads it)."""
@@ -171,6 +178,18 @@ def prestrain_refusal(asm, name: str) -> str | None:
         if t.effect not in WEIGHTS and _member_rows(asm, t, name).any():
             return f"its {t.effect!r} energy has no length derivative here"
     return None
+
+
+def reference_derivative(asm, name: str, prestrain: float) -> np.ndarray:
+    """d x0/deps on the full coordinates: the member's reference slopes are (1 + eps) times its tangents (the
+    positions stay), so their derivative is the slope / (1 + eps)."""
+    mm = asm.mesh.members[name]
+    dim = asm.scene.dim
+    idx = mm.elem_dofs()
+    slopes = np.unique(np.r_[idx[:, dim:2 * dim].ravel(), idx[:, 3 * dim:4 * dim].ravel()])
+    out = np.zeros(asm.n)
+    out[slopes] = asm.x0[slopes] / (1.0 + prestrain)
+    return out
 
 
 def _member_rows(asm, term, name: str) -> np.ndarray:

@@ -309,6 +309,41 @@ def test_calibrate_drag_coefficient_and_density_from_positions_in_a_current():
     assert np.all(np.abs(c.estimate - [1.2, 7800.0]) <= 3 * c.std), (c.estimate, c.std)
 
 
+@pytest.mark.parametrize("case", ["dry_reference", "wet_reference_waves", "wet_static"])
+def test_dynamic_sensitivities_to_a_prestrain(case):
+    """A line's prestrain (its length) in a run: the kernels' length derivative at every state, the wet points'
+    lengths, and from the reference the start itself (slopes (1 + eps) t); the sensor at a node (a material
+    coordinate would move in its element). Forward against differences, adjoint against forward, and the total
+    energy at the end by the adjoint against differences."""
+    from ancf_sym.sensitivity.adjoint import EnergyOutput
+
+    doc = mooring(waves=case == "wet_reference_waves", ca_axial=1.0, elements=5)
+    if case == "dry_reference":
+        del doc["water"]
+    sensors = [{"name": "node", "kind": "position", "member": "line", "at": 2}]
+    if case == "wet_static":
+        o = DynamicOptions(dt=0.05, t_end=1.0, newton=TIGHT, sensors=sensors, start="static",
+                           loads=[{"member": "line", "at": 2, "force": [300.0, 0.0],
+                                   "history": [[0.0, 0.0], [0.3, 1.0], [1.0, 1.0]]}])
+    else:
+        doc["members"][0]["prestrain"] = 0.002
+        o = DynamicOptions(dt=0.05, t_end=1.0, newton=TIGHT, sensors=sensors)
+    p = "members[0].prestrain"
+    fw = dynamic_sensitivity(doc, [p], o)
+    an = fw.sensor(p, "node")
+    g = dynamic_gradient(doc, [p], o, SensorOutput("node", 1, "end"))
+    assert abs(g.gradient[p] - an[-1, 1]) <= 1e-8 * abs(an[-1, 1])
+
+    def record(d):
+        rr = simulate(scene_from_dict(d)[0], o)
+        assert rr.success, rr.status
+        return rr.sensors["node"]
+    assert _relative(an, richardson(record, doc, p)) <= 1e-5
+    ge = dynamic_gradient(doc, [p], o, EnergyOutput("total"))
+    fe = richardson(lambda d: dynamic_gradient(d, [], o, EnergyOutput("total")).value, doc, p)
+    assert abs(ge.gradient[p] - fe) <= 1e-5 * abs(fe)
+
+
 def test_refused_in_water_with_the_reason():
     doc = mooring(ca_axial=0.5)
     o = DynamicOptions(dt=0.05, t_end=0.2, sensors=SENSORS)
@@ -323,7 +358,7 @@ def test_refused_in_water_with_the_reason():
     profile["water"]["current"] = [[-20.0, [0.3, 0.0]], [0.0, [0.8, 0.0]]]
     with pytest.raises(ValueError, match="not its height"):
         sensitivities(profile, ["water.current[0][0]"])
-    with pytest.raises(SceneError, match="prestrain is not differentiated in dynamic runs"):
+    with pytest.raises(SceneError, match="sensor at the material coordinate"):  # (it moves with the prestrain)
         dynamic_sensitivity(mooring(ca_axial=1.0), ["members[0].prestrain"], o)
     waves = mooring(waves=True, ca_axial=1.0)
     with pytest.raises(SceneError, match="static start under waves"):
