@@ -44,7 +44,7 @@ from ancf_sym import kernels
 from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.sensors import Sensor, SensorEval
 from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, damping_matrices, forcing, mass_solve, \
-    run_for_sensitivity, start_derivative, start_tangent, step_inputs, step_matrix, stiffness_damped, stiffness_damping_forcing
+    run_for_sensitivity, start_tangent, step_inputs, step_matrix, stiffness_damped, stiffness_damping_forcing
 from ancf_sym.sensitivity.length_derivative import LengthPiece
 from ancf_sym.sensitivity.model_derivative import STIFFNESS_COLUMNS, ModelDerivative, model_derivative, \
     read_document
@@ -381,9 +381,6 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
         LamR[0] += S.full_v(spla.splu(K0).solve(qb0, trans="T"))
     else:
         K0 = None
-    starts = {p: start_derivative(run, p) for p in paths if damping_index(d, p) is None}
-    if any(v is not None for v in starts.values()):  # (from the reference: a prestrain moves q_0, and a_0 with it)
-        qb0 = acc[:nf] + WQ[0] - start_tangent(run).T @ MU[0]
     grad, cache = {}, {}
     M = S.M
     for p in paths:
@@ -392,8 +389,6 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
             continue
         md = model_derivative(asm, d, p)
         g = -residual_sum(md, LamR, X, cache)
-        if starts.get(p) is not None:
-            g += float(qb0 @ starts[p])
         if md.water is not None:  # (lines in water: the water's forces at every state; the static start's at rest)
             g -= float(np.sum(Lam * md.water.forcing(X, V, t, A)))
             if options.start == "static":

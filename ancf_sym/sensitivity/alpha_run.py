@@ -32,7 +32,7 @@ from ancf_sym.dynamics.time_loop import chunk_size
 from ancf_sym.io.scene_toml import scene_from_dict
 from ancf_sym.model.assembly import Assembly
 from ancf_sym.scene.builder import SceneError
-from ancf_sym.sensitivity.length_derivative import LengthPiece, reference_derivative
+from ancf_sym.sensitivity.length_derivative import LengthPiece
 from ancf_sym.sensitivity.model_derivative import model_derivative, read_document
 from ancf_sym.sensitivity.paths import get_parameter, parse_path
 from ancf_sym.sensitivity.water_derivative import water_refusals
@@ -82,18 +82,12 @@ def check_dynamic_paths(scene, doc: dict, paths: list[str], asm=None, options: D
 
 
 def prestrain_run_refusal(asm, name: str, options: DynamicOptions | None) -> str | None:
-    """Why a run's derivative by member `name`'s prestrain is not followed here (None: it is): the reference start
-    moves with it (slopes (1 + eps) t), which held slopes (clamps) and constraint rows would have to follow; the
-    stiffness and strain-rate damping's kernels take the length too; a sensor or time load at a material
-    coordinate moves in its element."""
-    S = StepSystem.for_scene(asm)
-    mm = asm.mesh.members[name]
-    dim = asm.scene.dim
-    idx = mm.elem_dofs()
-    slopes = np.unique(np.r_[idx[:, dim:2 * dim].ravel(), idx[:, 3 * dim:4 * dim].ravel()])
-    held = np.asarray(abs(S.E).sum(axis=1)).ravel() == 0
-    if np.any(held[slopes]) or S.mc:
-        return "a prestrain in a run with the member's slopes held (clamps) or constraint rows (joints, drives)"
+    """Why a run's derivative by member `name`'s prestrain is not followed here (None: it is): a start at the
+    reference moves with it (its slopes are (1 + eps) t: not followed here); the stiffness and strain-rate damping's
+    kernels take the length too; a sensor or time load at a material coordinate moves in its element."""
+    if options is not None and options.start != "static":
+        return ("a prestrain in a run from the reference (the start's slopes (1 + eps) t move with it; "
+                "start = \"static\" is differentiated)")
     if any(d.kind == "strain_rate" or (d.kind == "rayleigh" and d.beta) for d in asm.scene.dampings):
         return "a prestrain with strain-rate or stiffness-proportional damping (their kernels take the length)"
     for what, items in (("sensor", options.sensors if options is not None else []),
@@ -104,16 +98,6 @@ def prestrain_run_refusal(asm, name: str, options: DynamicOptions | None) -> str
                 return f"a {what} at the material coordinate {at:g} on the member (it moves with the prestrain; " \
                        "put it at a node)"
     return None
-
-
-def start_derivative(run: "AlphaRun", path: str) -> np.ndarray | None:
-    """d q_0/dp on the reduced coordinates of a run from the reference (a prestrain's slopes), None: nil."""
-    keys = parse_path(path).keys
-    if run.options.start == "static" or keys[-1] != "prestrain":
-        return None
-    S = run.S
-    dx0 = reference_derivative(run.asm, run.doc[keys[0]][keys[1]]["name"], get_parameter(run.doc, path))
-    return spla.spsolve((S.E.T @ S.E).tocsc(), S.E.T @ dx0)
 
 
 def dynamic_assembly(scene):

@@ -48,8 +48,7 @@ from ancf_sym.dynamics.sensors import Sensor, SensorEval
 from ancf_sym.system.step_system import StepSystem
 from ancf_sym.scene.builder import Scene
 from ancf_sym.sensitivity.alpha_run import contact_notes, dynamic_assembly, forcing, mass_solve, refuse_unsupported, \
-    damping_matrices, run_for_sensitivity, start_derivative, start_multipliers, start_tangent, step_inputs, step_matrix, \
-    stiffness_damped
+    damping_matrices, run_for_sensitivity, start_multipliers, start_tangent, step_inputs, step_matrix, stiffness_damped
 from ancf_sym.util.casadi_buffers import bind
 from ancf_sym.util.sparsity import dm
 
@@ -166,12 +165,8 @@ def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
     K0 = start_tangent(run)
     if options.start == "static" and P:
         Sq = -spla.splu(K0).solve(np.column_stack([forcing(run, p, statics=True)[0] for p in paths]))
-    else:  # (from the reference: a prestrain moves it)
+    else:
         Sq = np.zeros((nf, P))
-        for k, p in enumerate(paths):
-            d0 = start_derivative(run, p)
-            if d0 is not None:
-                Sq[:, k] = d0
     Fs = np.stack([forcing(run, p) for p in paths], axis=2) if P else np.zeros((N + 1, nf, 0))  # (N + 1, nf, P)
     Sa = -mass_solve(run)(K0 @ Sq + Fs[0]) if P else np.zeros((nf, 0))
     z0 = np.vstack([Sq, np.zeros((nf, P)), Sa, Sa])

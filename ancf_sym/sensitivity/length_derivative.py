@@ -180,18 +180,6 @@ def prestrain_refusal(asm, name: str) -> str | None:
     return None
 
 
-def reference_derivative(asm, name: str, prestrain: float) -> np.ndarray:
-    """d x0/deps on the full coordinates: the member's reference slopes are (1 + eps) times its tangents (the
-    positions stay), so their derivative is the slope / (1 + eps)."""
-    mm = asm.mesh.members[name]
-    dim = asm.scene.dim
-    idx = mm.elem_dofs()
-    slopes = np.unique(np.r_[idx[:, dim:2 * dim].ravel(), idx[:, 3 * dim:4 * dim].ravel()])
-    out = np.zeros(asm.n)
-    out[slopes] = asm.x0[slopes] / (1.0 + prestrain)
-    return out
-
-
 def _member_rows(asm, term, name: str) -> np.ndarray:
     mm = asm.mesh.members[name]
     first = term.idx[:, 0]

@@ -309,25 +309,21 @@ def test_calibrate_drag_coefficient_and_density_from_positions_in_a_current():
     assert np.all(np.abs(c.estimate - [1.2, 7800.0]) <= 3 * c.std), (c.estimate, c.std)
 
 
-@pytest.mark.parametrize("case", ["dry_reference", "wet_reference_waves", "wet_static"])
+@pytest.mark.parametrize("case", ["dry", "wet"])
 def test_dynamic_sensitivities_to_a_prestrain(case):
-    """A line's prestrain (its length) in a run: the kernels' length derivative at every state, the wet points'
-    lengths, and from the reference the start itself (slopes (1 + eps) t); the sensor at a node (a material
-    coordinate would move in its element). Forward against differences, adjoint against forward, and the total
-    energy at the end by the adjoint against differences."""
+    """A line's prestrain (its length) in a run from its equilibrium (dry; in water in the current), pulled by a time
+    load: the kernels' length derivative at every state and the wet points' lengths; the sensor at a node (a
+    material coordinate would move in its element). Forward against differences, adjoint against forward, and the
+    total energy at the end by the adjoint against differences."""
     from ancf_sym.sensitivity.adjoint import EnergyOutput
 
-    doc = mooring(waves=case == "wet_reference_waves", ca_axial=1.0, elements=5)
-    if case == "dry_reference":
+    doc = mooring(ca_axial=1.0, elements=5)
+    if case == "dry":
         del doc["water"]
     sensors = [{"name": "node", "kind": "position", "member": "line", "at": 2}]
-    if case == "wet_static":
-        o = DynamicOptions(dt=0.05, t_end=1.0, newton=TIGHT, sensors=sensors, start="static",
-                           loads=[{"member": "line", "at": 2, "force": [300.0, 0.0],
-                                   "history": [[0.0, 0.0], [0.3, 1.0], [1.0, 1.0]]}])
-    else:
-        doc["members"][0]["prestrain"] = 0.002
-        o = DynamicOptions(dt=0.05, t_end=1.0, newton=TIGHT, sensors=sensors)
+    o = DynamicOptions(dt=0.05, t_end=1.0, newton=TIGHT, sensors=sensors, start="static",
+                       loads=[{"member": "line", "at": 2, "force": [300.0, 0.0],
+                               "history": [[0.0, 0.0], [0.3, 1.0], [1.0, 1.0]]}])
     p = "members[0].prestrain"
     fw = dynamic_sensitivity(doc, [p], o)
     an = fw.sensor(p, "node")
@@ -358,8 +354,11 @@ def test_refused_in_water_with_the_reason():
     profile["water"]["current"] = [[-20.0, [0.3, 0.0]], [0.0, [0.8, 0.0]]]
     with pytest.raises(ValueError, match="not its height"):
         sensitivities(profile, ["water.current[0][0]"])
-    with pytest.raises(SceneError, match="sensor at the material coordinate"):  # (it moves with the prestrain)
+    with pytest.raises(SceneError, match="from the reference"):  # (the start's slopes move with the prestrain)
         dynamic_sensitivity(mooring(ca_axial=1.0), ["members[0].prestrain"], o)
+    with pytest.raises(SceneError, match="sensor at the material coordinate"):  # (it moves in its element)
+        dynamic_sensitivity(mooring(ca_axial=1.0), ["members[0].prestrain"],
+                            DynamicOptions(dt=0.05, t_end=0.2, sensors=SENSORS, start="static"))
     waves = mooring(waves=True, ca_axial=1.0)
     with pytest.raises(SceneError, match="static start under waves"):
         dynamic_sensitivity(waves, ["water.density"], DynamicOptions(dt=0.05, t_end=0.2, start="static"))
