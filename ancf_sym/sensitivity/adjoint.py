@@ -47,6 +47,7 @@ from ancf_sym.dynamics.sensors import Sensor, SensorEval
 from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, damping_matrices, forcing, \
     run_for_sensitivity, step_inputs, step_matrix, stiffness_damped, stiffness_damping_forcing
 from ancf_sym.sensitivity.contact_dissipation import dissipation_forcing, dissipation_index
+from ancf_sym.sensitivity.length_derivative import LengthPiece
 from ancf_sym.sensitivity.model_derivative import STIFFNESS_COLUMNS, ModelDerivative, model_derivative, \
     read_document
 from ancf_sym.sensitivity.static_start import StartSystem
@@ -305,6 +306,9 @@ def residual_sum(md: ModelDerivative, Lam: np.ndarray, X: np.ndarray, cache: dic
     share the bending term's)."""
     total = 0.0
     for pc in md.pieces:
+        if isinstance(pc, LengthPiece):  # (a prestrain: the kernels' length derivative at every state)
+            total += float(np.sum(Lam * pc.gradients(X)))
+            continue
         names = kernels.parameters(pc.element, pc.effect)
         group = STIFFNESS_COLUMNS.get(pc.effect, ("rhoA",) if pc.effect == "gravity" else ())
         cols = [names.index(c) for c in group if c in names]
@@ -387,6 +391,10 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
             continue
         md = model_derivative(asm, d, p)
         g = -residual_sum(md, LamR, X, cache)
+        if md.water is not None:  # (lines in water: the water's forces at every state; the static start's at rest)
+            g -= float(np.sum(Lam * md.water.forcing(X, V, t, A)))
+            if options.start == "static":
+                g -= float((LamR[0] - Lam[0]) @ md.water.forcing(X[:1], None, None)[0])
         sd = stiffness_damping_forcing(run, p)  # (beta dK_el/dp (q_{n-1}) v_n)
         if sd is not None:
             g -= float(np.sum(MU * sd))

@@ -34,9 +34,11 @@ from ancf_sym.io.scene_toml import scene_from_dict
 from ancf_sym.model.assembly import Assembly
 from ancf_sym.scene.builder import SceneError
 from ancf_sym.sensitivity.contact_dissipation import dissipation_forcing, dissipation_index, dissipation_notes
+from ancf_sym.sensitivity.length_derivative import LengthPiece
 from ancf_sym.sensitivity.model_derivative import model_derivative, read_document
 from ancf_sym.sensitivity.paths import get_parameter, parse_path
 from ancf_sym.sensitivity.rayleigh_beta import beta_pieces
+from ancf_sym.sensitivity.water_derivative import water_refusals
 from ancf_sym.system import water
 from ancf_sym.system.damping import rayleigh_mx, strain_rate_mx
 from ancf_sym.system.forces import ELASTIC_LABELS
@@ -64,15 +66,41 @@ def damping_index(doc: dict, path: str) -> int | None:
     return p.keys[1]
 
 
-def check_dynamic_paths(scene, doc: dict, paths: list[str], asm=None) -> None:
+def check_dynamic_paths(scene, doc: dict, paths: list[str], asm=None, options: DynamicOptions | None = None
+                        ) -> None:
     """Refuse, before any step, a path that names no differentiable number of a dynamic run (asm: the run's
-    assembly; default dynamic_assembly(scene), which also takes scenes with drives that statics refuses)."""
+    assembly; default dynamic_assembly(scene), which also takes scenes with drives that statics refuses; options:
+    the run's, for what a prestrain needs of them)."""
     model_paths = [p for p in paths if damping_index(doc, p) is None and dissipation_index(doc, p) is None]
     for p in model_paths:
         get_parameter(doc, p)
     asm = dynamic_assembly(scene) if asm is None else asm
     for p in model_paths:
         model_derivative(asm, doc, p)
+        keys = parse_path(p).keys
+        if keys[-1] == "prestrain":
+            why = prestrain_run_refusal(asm, doc[keys[0]][keys[1]]["name"], options)
+            if why is not None:
+                raise SceneError(f"parameter path {p!r}: {why}")
+
+
+def prestrain_run_refusal(asm, name: str, options: DynamicOptions | None) -> str | None:
+    """Why a run's derivative by member `name`'s prestrain is not followed here (None: it is): a start at the
+    reference moves with it (its slopes are (1 + eps) t: not followed here); the stiffness and strain-rate damping's
+    kernels take the length too; a sensor or time load at a material coordinate moves in its element."""
+    if options is not None and options.start != "static":
+        return ("a prestrain in a run from the reference (the start's slopes (1 + eps) t move with it; "
+                "start = \"static\" is differentiated)")
+    if any(d.kind == "strain_rate" or (d.kind == "rayleigh" and d.beta) for d in asm.scene.dampings):
+        return "a prestrain with strain-rate or stiffness-proportional damping (their kernels take the length)"
+    for what, items in (("sensor", options.sensors if options is not None else []),
+                        ("time load", options.loads if options is not None else [])):
+        for it in items:
+            member, at = (it.get("member"), it.get("at", "end")) if isinstance(it, dict) else (it.member, it.at)
+            if member == name and isinstance(at, float):
+                return f"a {what} at the material coordinate {at:g} on the member (it moves with the prestrain; " \
+                       "put it at a node)"
+    return None
 
 
 def dynamic_assembly(scene):
@@ -95,8 +123,7 @@ def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
                    f"dt = {opts.dt:g} s)")
     if integ.kdamp.active:
         why += stiffness_damping_refusals(S)
-    if water.has_forces(S.asm):
-        why.append("lines in water (drag, added mass)")
+    why += water_refusals(S, opts)
     if opts.release or opts.from_result or opts.initial or opts.q0 is not None or opts.v0 is not None:
         why.append("a start other than the reference or the static equilibrium at rest")
     if why:
@@ -289,7 +316,7 @@ def run_for_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
     d = read_document(doc)
     scene, _ = scene_from_dict(d)
     asm = dynamic_assembly(scene)
-    check_dynamic_paths(scene, d, list(paths), asm)
+    check_dynamic_paths(scene, d, list(paths), asm, options)
     contact.check_dynamics(asm)  # (exact contact is a statics method: refused as the run refuses it)
     S = StepSystem.for_scene(asm)
     integ = make_integrator(S, options, Counters(), 0.0, options.newton.xtol * S.length_scale)
@@ -395,12 +422,16 @@ def forcing(run: AlphaRun, path: str, statics: bool = False) -> np.ndarray:
     X = run.X[:1] if statics else run.X
     R = np.zeros(X.shape)
     for pc in md.pieces:
-        if pc.effect == "gravity":  # (linear in q: a constant gradient)
+        if isinstance(pc, LengthPiece):  # (a prestrain: the kernels' length derivative at every state)
+            R += pc.gradients(X)
+        elif pc.effect == "gravity":  # (linear in q: a constant gradient)
             R += _gradients(pc, X[:1])
         else:
             R += _gradients(pc, X)
     if md.dQ is not None:
         R -= md.dQ
+    if md.water is not None:  # (lines in water: the drag, water line and waves' forces; statics: at rest)
+        R += md.water.forcing(X, None if statics else run.V_full, None if statics else run.t, run.A_full)
     if not statics and md.dM is not None:
         R += (md.dM @ (run.A_full + run.alpha_r * run.V_full).T).T
     F = np.asarray((S.E.T @ R.T).T)
@@ -444,11 +475,12 @@ def point_mask(run: AlphaRun, i: int) -> np.ndarray:
                            for name in order])
 
 
-def damping_tangents(S: StepSystem, x: ca.MX, v: ca.MX) -> tuple:
-    """(df_d/dx, df_d/dv) of the system's velocity-dependent damping force at (x, v) in a graph, or (None, None)."""
+def damping_tangents(S: StepSystem, x: ca.MX, v: ca.MX, t: ca.MX | None = None) -> tuple:
+    """(df_d/dx, df_d/dv) of the system's velocity-dependent damping force at (x, v) in a graph, or (None, None);
+    t: the time, where the force reads it (lines in water under waves)."""
     if S.damp_f is None:
         return None, None
-    _, dfx, dfv = S.damp_f(x, v)
+    _, dfx, dfv = S.damp_f(x, v, t) if water.timed(S.asm) else S.damp_f(x, v)
     return dfx, dfv
 
 
@@ -481,7 +513,9 @@ def step_matrix(S: StepSystem, cm: float, cc: float, C: ca.MX, x: ca.MX, v: ca.M
     add minus their force's Jacobian to A."""
     nf, mc = S.nf, S.mc
     A = cm * dm(S.M) + cc * C + S.forces_pf(x, ca.DM(S.par))[1]
-    dfx, dfv = damping_tangents(S, x, v)  # (strain-rate damping: its exact tangents at the step's end)
+    # (strain-rate damping, lines in water: their exact tangents at the step's end; under waves at its time, the
+    # last of the time inputs)
+    dfx, dfv = damping_tangents(S, x, v, y[-1] if water.timed(S.asm) else None)
     unsym = dfx is not None
     if dfx is not None:
         A = A + dfx + cc * dfv
@@ -503,5 +537,12 @@ def step_matrix(S: StepSystem, cm: float, cc: float, C: ca.MX, x: ca.MX, v: ca.M
 
 
 def start_tangent(run: AlphaRun) -> sp.csc_matrix:
-    """K(q_0) on the reduced coordinates: the static start's tangent and the initial acceleration's."""
-    return sp.csc_matrix(run.S.forces(run.Q[0])[1])
+    """K(q_0) on the reduced coordinates: the static start's tangent and the initial acceleration's (with the
+    velocity-dependent forces' d f_d/dq at rest: lines in water, whose drag in a current and water line act at
+    rest; refused under waves, water_refusals)."""
+    S = run.S
+    K = sp.csc_matrix(S.forces(run.Q[0])[1])
+    if S.damp_f is not None and not water.timed(S.asm):
+        K = (K + sp.csc_matrix(S.damp_f(run.Q[0], np.zeros(S.nf))[1].sparse())).tocsc()
+    return K
+

@@ -12,7 +12,7 @@ rows) and K_0 the potential's Hessian at q_0:
 
 dR_s/dp: the statics' parameter derivative E' dR/dp(x_0); F_0 the dynamics' forcing at the start (with dM/dp a_0).
 Without time loads at the start a_0 = 0 and lam_0 = lam_s: then da_0 = 0 and dlam_0 = dmu, the equilibrium's
-reactions differentiated. The adjoint transposes both symmetric systems.
+reactions differentiated. The adjoint transposes both systems (K_0 is unsymmetric for lines in a current).
 """
 from __future__ import annotations
 
@@ -98,7 +98,8 @@ class StartSystem:
         mu = z[:nf]
         if not self.static:
             return mu, None
-        qb = qbar - self.K0 @ mu
+        # (transposed: K_0 is unsymmetric for lines in a current, the drag's load stiffness at rest)
+        qb = qbar - self.K0.T @ mu
         if self.mc:
             qb = qb - self.H0 @ mu - self.Ja0.T @ z[nf:]
-        return mu, self._static.solve(self._pad(qb))[:nf]
+        return mu, self._static.solve(self._pad(qb), trans="T")[:nf]
