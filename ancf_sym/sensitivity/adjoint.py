@@ -45,6 +45,7 @@ from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.sensors import Sensor, SensorEval
 from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, damping_matrices, forcing, mass_solve, \
     run_for_sensitivity, start_tangent, step_inputs, step_matrix, stiffness_damped, stiffness_damping_forcing
+from ancf_sym.sensitivity.kernel_direction import DirectionPiece
 from ancf_sym.sensitivity.model_derivative import STIFFNESS_COLUMNS, ModelDerivative, model_derivative, \
     read_document
 from ancf_sym.system.step_system import StepSystem
@@ -302,6 +303,9 @@ def residual_sum(md: ModelDerivative, Lam: np.ndarray, X: np.ndarray, cache: dic
     share the bending term's)."""
     total = 0.0
     for pc in md.pieces:
+        if isinstance(pc, DirectionPiece):  # (the companion's gradient derivative at every state)
+            total += float(np.sum(Lam * pc.gradients(X)))
+            continue
         names = kernels.parameters(pc.element, pc.effect)
         group = STIFFNESS_COLUMNS.get(pc.effect, ("rhoA",) if pc.effect == "gravity" else ())
         cols = [names.index(c) for c in group if c in names]

@@ -32,7 +32,8 @@ from ancf_sym.dynamics.time_loop import chunk_size
 from ancf_sym.io.scene_toml import scene_from_dict
 from ancf_sym.model.assembly import Assembly
 from ancf_sym.scene.builder import SceneError
-from ancf_sym.sensitivity.model_derivative import model_derivative, read_document
+from ancf_sym.sensitivity.kernel_direction import DirectionPiece
+from ancf_sym.sensitivity.model_derivative import ParameterError, model_derivative, read_document
 from ancf_sym.sensitivity.paths import get_parameter, parse_path
 from ancf_sym.system import water
 from ancf_sym.system.damping import rayleigh_mx, strain_rate_mx
@@ -202,6 +203,10 @@ def stiffness_damping_forcing(run: "AlphaRun", path: str) -> np.ndarray | None:
         pieces = [(t.element, t.effect, t.gauss, t.idx, t.P, 1.0) for _, t in elastic_terms(S)]
     else:
         md = model_derivative(run.asm, run.doc, path)
+        if any(isinstance(pc, DirectionPiece) and pc.label in ELASTIC_LABELS for pc in md.pieces):
+            raise ParameterError(f"parameter path {path!r}: enters the elastic kernels nonlinearly; with stiffness-"
+                                 "proportional Rayleigh damping (beta) its derivative needs d(K v)/dp of those "
+                                 "kernels, which is not compiled")
         pieces = [(pc.element, pc.effect, pc.gauss, pc.idx, pc.P, S.rayleigh.beta) for pc in md.pieces
                   if pc.label in ELASTIC_LABELS]
     if not pieces:
@@ -396,7 +401,9 @@ def forcing(run: AlphaRun, path: str, statics: bool = False) -> np.ndarray:
     X = run.X[:1] if statics else run.X
     R = np.zeros(X.shape)
     for pc in md.pieces:
-        if pc.effect == "gravity":  # (linear in q: a constant gradient)
+        if isinstance(pc, DirectionPiece):  # (a kernel's parameter-direction companion)
+            R += pc.gradients(X)
+        elif pc.effect == "gravity":  # (linear in q: a constant gradient)
             R += _gradients(pc, X[:1])
         else:
             R += _gradients(pc, X)

@@ -9,8 +9,11 @@ kernel evaluated with its coefficients' derivatives gives the exact derivative o
 I = pi d^4 / 64 of a diameter d, rhoA = density area, G J = E J / (2 (1 + nu))): a coefficient c of degree k in p
 has dc/dp = k c / p. A cable member's prestrain enters through its elements' reference length L, whose derivative
 follows exactly from the kernels' outputs by a change of the unit of length (ancf_sym.sensitivity.length_derivative).
-Parameters that enter anywhere else (a beam's b x h, Poisson's ratio, an arc's reference moment) are refused by
-name: their kernels have no derivative with respect to those inputs yet.
+Where a scene number enters a kernel's parameters nonlinearly (a beam3d member's Poisson ratio, E with G given,
+its section's b x h; a penalty contact's drum radius and centre, ground level and thickness), the rows' derivative
+dP/dp is exact (ancf_sym.sensitivity.beam_rows) and the kernel's compiled parameter-direction companion gives
+d/dP [U, grad U, H] . dP (ancf_sym.sensitivity.kernel_direction). Parameters that enter anywhere else (an arc's
+reference moment, an exact contact's geometry) are refused by name.
 """
 from __future__ import annotations
 
@@ -23,17 +26,21 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from ancf_sym import kernels
+from ancf_sym import kernels, registry
 from ancf_sym.model.assembly import Assembly
 from ancf_sym.model.loads import load_vector, point_mass_triplets
 from ancf_sym.model.terms import distributed_term, moment_term
 from ancf_sym.scene.builder import Scene
+from ancf_sym.sensitivity.beam_rows import MATERIAL_KEYS, SECTION_KEYS, base_derivatives, mass_direction, \
+    row_derivative
+from ancf_sym.sensitivity.kernel_direction import DirectionPiece
 from ancf_sym.sensitivity.length_derivative import mass_derivative, prestrain_pieces, prestrain_refusal
 from ancf_sym.sensitivity.paths import ParameterPath, get_parameter, parse_path
 
 STIFFNESS_COLUMNS = {  # effect -> its coefficient columns (the energy is linear in them jointly)
     "axial_green": ("EA",), "axial_biot": ("EA",), "axial_decoupled": ("EA",), "axial_decoupled_biot": ("EA",),
     "bending": ("EI",), "line_bending": ("EIy", "EIz"), "line_torsion": ("GIp",), "line_strain": ("E",),
+    "continuum": ("E",),
 }
 NOT_STIFFNESS = ("gravity", "loads", "contact", "penalty")  # energy labels that hold no member stiffness
 
@@ -253,30 +260,34 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
     if keys[0] == "materials" and len(keys) == 3:
         members = _members_with(doc, "material", keys[1])
         _refuse_arcs(asm, members, text)
+        beams = [m for m in members if scene.members[m].element == "beam3d"]
+        if keys[2] in MATERIAL_KEYS and beams:
+            out.pieces, out.mass = _beam_pieces(asm, doc, beams, keys[2], None, text, refuse)
         if keys[2] == "E":
             degrees = {c: 1 for cols in STIFFNESS_COLUMNS.values() for c in cols}
-            if "G" in doc["materials"][keys[1]]:  # a given shear modulus: GJ does not scale with E, but nu = E/2G - 1
+            if "G" in doc["materials"][keys[1]]:  # a given shear modulus: GJ does not scale with E
                 degrees["GIp"] = 0
-                if any(scene.members[m].element == "beam3d" for m in members):
-                    refuse("with G given, Poisson's ratio E/2G - 1 of the beam3d kernels depends on E "
-                           "(give poisson instead to differentiate E)")
-            if any(asm.mesh.members[m].member.element == "beam3d" and "continuum" in
-                   [t.effect for t in asm.terms] for m in members):
-                refuse("the continuum beam's kernel is not differentiated with respect to E here")
-            out.pieces = _scaled_pieces(asm, members, degrees, value, text, None)
+            cables = [m for m in members if m not in beams]
+            out.pieces += _scaled_pieces(asm, cables, degrees, value, text, None) if cables else []
+        elif keys[2] in ("poisson", "G"):
+            pass  # (a cable's kernels take neither: only the beams' pieces)
         elif keys[2] == "density":
             grav = [m for m in members if scene.members[m].gravity]
             out.pieces = _scaled_pieces(asm, grav, {"rhoA": 1}, value, text, ("gravity",))
             out.mass = (lambda: _mass_derivative(asm, members, 1) / value) if members else None
         else:
-            refuse("enters the model nonlinearly or not at all (differentiable material keys: E, density)")
+            refuse("enters the model nonlinearly or not at all (differentiable material keys: E, density, poisson, G)")
         return out
     if keys[0] == "sections" and len(keys) == 3:
         sec = doc["sections"][keys[1]]
         members = _members_with(doc, "section", keys[1])
         _refuse_arcs(asm, members, text)
-        if any(scene.members[m].element == "beam3d" for m in members):
-            refuse("a beam3d section's b x h enter its kernels nonlinearly (not differentiable here)")
+        beams = [m for m in members if scene.members[m].element == "beam3d"]
+        if beams:
+            if keys[2] not in SECTION_KEYS or len(beams) < len(members):
+                refuse("differentiable keys of a beam3d section: b, h (of sections used by beam3d members only)")
+            out.pieces, out.mass = _beam_pieces(asm, doc, beams, keys[2], sec.get("shape"), text, refuse)
+            return out
         for i, c in enumerate(getattr(scene, "contacts", ())):
             if c.member in members and "thickness" not in doc["contacts"][i]:
                 refuse(f"the contact on member {c.member!r} takes its thickness from the section (give the "
@@ -355,19 +366,21 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         out.mass = lambda: sp.csc_matrix((np.ones(2), (np.arange(o, o + 2), np.arange(o, o + 2))), shape=(asm.n, asm.n))
         return out
     if keys[0] == "contacts" and len(keys) == 3 and keys[2] in ("stiffness", "hertz"):
-        from ancf_sym.contact import laws as contact
         c = scene.contacts[keys[1]]
         if c.method != "penalty":
             refuse("an exact contact has no stiffness")
-        calls: list = []  # (the penalty contacts' normal-law kernel calls, in declaration order)
-        contact.energy_terms({}, asm.mesh, lambda _t, _label, *call: calls.append(call))
-        penalty = [k for k in scene.contacts if k.method == "penalty"]
-        element, effect, gauss, idx, P = calls[next(i for i, k in enumerate(penalty) if k is c)]
+        element, effect, gauss, idx, P = _penalty_call(asm, c)
         names = kernels.parameters(element, effect)
         P = np.array(P, float)
         P[:, names.index("k")] = 1.0 if keys[2] == "stiffness" else 0.0  # (the law is linear in k and kh jointly)
         P[:, names.index("kh")] = 1.0 if keys[2] == "hertz" else 0.0
         out.pieces = [Piece(element, effect, gauss, np.asarray(idx), P, "contact")]
+        return out
+    if keys[0] == "contacts" and (keys[2:] in (("radius",), ("level",), ("thickness",)) or
+                                  (len(keys) == 4 and keys[2] == "centre")):
+        c = scene.contacts[keys[1]]
+        col = {"radius": "R", "level": "d", "thickness": "t"}.get(keys[2]) or "c" + "xyz"[keys[3]]
+        out.pieces = _contact_pieces(asm, c, {col: 1.0}, text, refuse)
         return out
     if keys[0] in ("members", "loops") and len(keys) == 3 and keys[2] == "prestrain":
         name = doc[keys[0]][keys[1]]["name"]
@@ -377,9 +390,111 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         out.pieces = prestrain_pieces(asm, name, value)
         out.mass = lambda: mass_derivative(asm, [name], -1.0 / (1.0 + value))
         return out
-    refuse("not a differentiable parameter here (materials.M.E | density, sections.S.area | I | diameter, "
-           "scene.gravity[j], loads[i].value[j], masses[i].mass, bodies[i].mass (2D), contacts[i].stiffness | hertz, "
-           "members[i].prestrain, loops[i].prestrain)")
+    refuse("not a differentiable parameter here (materials.M.E | density | poisson | G, sections.S.area | I | "
+           "diameter | b | h, scene.gravity[j], loads[i].value[j], masses[i].mass, bodies[i].mass (2D), "
+           "contacts[i].stiffness | hertz | radius | centre[j] | level | thickness, members[i].prestrain, "
+           "loops[i].prestrain)")
+
+
+# -- parameters that enter kernels nonlinearly: the rows' derivative dP and the kernels' direction companions ------
+def _direction(element: str, effect: str, gauss, idx: np.ndarray, P: np.ndarray, dP: np.ndarray, label: str,
+               text: str) -> list:
+    """The pieces of one kernel call whose parameter rows P change by dP per unit p: a Piece where only columns of
+    the kernel's linear coefficient group change (the kernel evaluated with the group replaced by its derivative),
+    else a DirectionPiece (the compiled companion's d/dP . dP); refused where the kernel has no companion."""
+    nz = np.flatnonzero(np.any(dP != 0.0, axis=0))
+    if not len(nz):
+        return []
+    names = kernels.parameters(element, effect)
+    group = STIFFNESS_COLUMNS.get(effect, ("rhoA",) if effect == "gravity" else ())
+    if {names[j] for j in nz} <= set(group):
+        Pg = np.array(P, float)
+        for c in group:
+            Pg[:, names.index(c)] = dP[:, names.index(c)]
+        return [Piece(element, effect, gauss, idx, Pg, label)]
+    if registry.has_parameter_direction(element, effect, gauss):
+        return [DirectionPiece(element, effect, gauss, idx, np.array(P, float), dP, label)]
+    raise ParameterError(f"parameter path {text!r}: changes {[names[j] for j in nz]} of the {element}/{effect} "
+                         f"kernel (gauss {gauss}), which enter it nonlinearly, and that kernel has no compiled "
+                         "parameter-direction companion (registry.PARAMETER_DIRECTION_EFFECTS: beams at their default "
+                         "Gauss order)")
+
+
+def _penalty_call(asm: Assembly, c) -> tuple:
+    """(element, effect, gauss, idx, P) of a penalty contact's normal-law kernel call."""
+    from ancf_sym.contact import laws as contact
+    calls: list = []  # (the penalty contacts' normal-law kernel calls, in declaration order)
+    contact.energy_terms({}, asm.mesh, lambda _t, _label, *call: calls.append(call))
+    penalty = [k for k in asm.scene.contacts if k.method == "penalty"]
+    return calls[next(i for i, k in enumerate(penalty) if k is c)]
+
+
+def _contact_pieces(asm: Assembly, c, columns: dict, text: str, refuse: Callable) -> list:
+    """Pieces of a penalty contact whose kernel parameters `columns` (name -> d/dp) change."""
+    if c.method != "penalty":
+        refuse("an exact contact's geometry sits in its unilateral rows, which are not differentiated with respect "
+               "to it (give the contact a stiffness: method = \"penalty\")")
+    if c.dissipative:
+        refuse("the contact's damping and friction forces depend on its geometry too (not differentiated here)")
+    if getattr(c, "body", None) is not None:
+        refuse("a drum carried by a body: its geometry enters the body's kernels (not differentiated here)")
+    element, effect, gauss, idx, P = _penalty_call(asm, c)
+    names = kernels.parameters(element, effect)
+    P = np.array(P, float)
+    dP = np.zeros_like(P)
+    for name, v in columns.items():
+        dP[:, names.index(name)] = v
+    return _direction(element, effect, gauss, np.asarray(idx), P, dP, "contact", text)
+
+
+def _beam_pieces(asm: Assembly, doc: dict, beams: list[str], key: str, shape: str | None, text: str,
+                 refuse: Callable) -> tuple[list, Callable | None]:
+    """(pieces, mass derivative builder or None) of beam3d members for their material's E | poisson | G or their
+    section's b | h (ancf_sym.sensitivity.beam_rows)."""
+    scene = asm.scene
+    if getattr(scene, "water", None) is not None:
+        refuse("the beam's buoyancy and added mass in water are not differentiated with respect to it")
+    pieces, masses = [], {}
+    for name in beams:
+        m = scene.members[name]
+        d = base_derivatives(m, key, shape)
+        if isinstance(d, str):
+            refuse(d)
+        for t in asm.terms:
+            if t.label.startswith("contact") or (t.effect == "gravity" and t.label != "gravity"):
+                continue  # (contacts below; a distributed load uses the gravity kernel)
+            rows = _member_rows(asm, t, [name])
+            if not rows.any():
+                continue
+            P = np.array(t.P[rows], float)
+            dp = row_derivative(t.effect, m, d, P.shape[1])
+            if dp is None:
+                continue
+            pieces += _direction(t.element, t.effect, t.gauss, t.idx[rows], P, np.tile(dp, (len(P), 1)), t.label,
+                                 text)
+        for i, c in enumerate(getattr(scene, "contacts", ())):
+            if c.member == name and d["h"] and "thickness" not in doc["contacts"][i]:
+                pieces += _contact_pieces(asm, c, {"t": d["h"] / 2}, text, refuse)  # (thickness h/2)
+        if d["b"] or d["h"]:
+            masses[name] = mass_direction(m, d)
+    return pieces, ((lambda: _beam_mass_derivative(asm, masses)) if masses else None)
+
+
+def _beam_mass_derivative(asm: Assembly, directions: dict) -> sp.csc_matrix:
+    """d M / dp of beam3d members whose mass parameters (L, b, h, rho) change by directions[name] per unit p (the
+    mass kernel's direction companion: its b x h enter the section's moments nonlinearly)."""
+    rows, cols, vals = [], [], []
+    for name, dmp in directions.items():
+        mm = asm.mesh.members[name]
+        idx = mm.elem_dofs()
+        s, mat = mm.member.section, mm.member.material
+        nd = idx.shape[1]
+        for e, L in enumerate(np.asarray(mm.elem_length, float)):
+            dM = kernels.mass_matrix_direction("beam3d", [float(L), s.b, s.h, mat.density], dmp)
+            rows.append(np.repeat(idx[e], nd))
+            cols.append(np.tile(idx[e], nd))
+            vals.append(dM.ravel())
+    return sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(asm.n, asm.n))
 
 
 class _MeshView:
