@@ -60,6 +60,8 @@
 #include "beam3d_contact_drum_friction.h"
 #include "beam3d_continuum_dp.h"
 #include "beam3d_line_strain_dp.h"
+#include "beam3d_line_bending_dp.h"
+#include "beam3d_line_torsion_dp.h"
 #include "cable2d_contact_ground_dp.h"
 #include "cable2d_contact_drum_dp.h"
 #include "cable3d_contact_ground_dp.h"

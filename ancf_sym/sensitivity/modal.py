@@ -76,9 +76,10 @@ class ModalSensitivity:
                 raise ParameterError(f"frequency sensitivities need the third derivatives of every curved energy; "
                                      f"{t.element}/{t.effect} (gauss {t.gauss}) has none compiled")
 
-    def _state_hessians(self, t, dx: np.ndarray, phi: np.ndarray) -> np.ndarray:
-        """Per element d(H phi)/dq (N, nd, nd) from the _hvp companion, or, for a kernel without one, d H/dq . dx from
-        its direction companion (then phi' D phi = phi' (D K[dx]) phi as well)."""
+    def _state_hessians(self, t, dx: np.ndarray, phi: np.ndarray) -> tuple[np.ndarray, bool]:
+        """(D, along): per element d(H phi)/dq (N, nd, nd) from the _hvp companion (along False: D dx is
+        (D K[dx]) phi), or, for a kernel without one, D = d H/dq . dx from its direction companion (along True:
+        D phi is (D K[dx]) phi)."""
         x = self.modal.static.x
         N, nd = t.idx.shape
         if not registry.has_third_derivatives(t.element, t.effect, t.gauss):
