@@ -69,8 +69,20 @@ def check_dynamic_paths(scene, doc: dict, paths: list[str], asm=None) -> None:
     for p in model_paths:
         get_parameter(doc, p)
     asm = dynamic_assembly(scene) if asm is None else asm
+    beta = any(d.get("type") == "rayleigh" and d.get("beta") for d in doc.get("dampings", []))
     for p in model_paths:
-        model_derivative(asm, doc, p)
+        md = model_derivative(asm, doc, p)
+        if beta:
+            _refuse_direction_with_beta(p, md)
+
+
+def _refuse_direction_with_beta(path: str, md) -> None:
+    """Stiffness damping beta K_el v differentiates through the elastic kernels' Hessians at P: a path whose
+    kernels change nonlinearly (a DirectionPiece) would need d(K v)/dP, which is not compiled."""
+    if any(isinstance(pc, DirectionPiece) and pc.label in ELASTIC_LABELS for pc in md.pieces):
+        raise ParameterError(f"parameter path {path!r}: enters the elastic kernels nonlinearly; with stiffness-"
+                             "proportional Rayleigh damping (beta) its derivative needs d(K v)/dp of those kernels, "
+                             "which is not compiled")
 
 
 def dynamic_assembly(scene):
@@ -203,10 +215,7 @@ def stiffness_damping_forcing(run: "AlphaRun", path: str) -> np.ndarray | None:
         pieces = [(t.element, t.effect, t.gauss, t.idx, t.P, 1.0) for _, t in elastic_terms(S)]
     else:
         md = model_derivative(run.asm, run.doc, path)
-        if any(isinstance(pc, DirectionPiece) and pc.label in ELASTIC_LABELS for pc in md.pieces):
-            raise ParameterError(f"parameter path {path!r}: enters the elastic kernels nonlinearly; with stiffness-"
-                                 "proportional Rayleigh damping (beta) its derivative needs d(K v)/dp of those "
-                                 "kernels, which is not compiled")
+        _refuse_direction_with_beta(path, md)
         pieces = [(pc.element, pc.effect, pc.gauss, pc.idx, pc.P, S.rayleigh.beta) for pc in md.pieces
                   if pc.label in ELASTIC_LABELS]
     if not pieces:

@@ -206,26 +206,32 @@ def _scaled_pieces(asm: Assembly, members: list[str], degrees: dict, value: floa
     return pieces
 
 
-def _mass_derivative(asm: Assembly, members: list[str], degree: int) -> sp.csc_matrix:
-    """d M / dp where every listed member's rhoA has degree `degree` in p (the mass kernel is linear in rhoA)."""
+def _element_matrices(asm: Assembly, members: list[str], matrix: Callable) -> sp.csc_matrix:
+    """The sum over the members' elements of matrix(member, [L, *mass parameters]) scattered to their coordinates
+    (mass parameters: cables rho A, beam3d b, h, rho)."""
     rows, cols, vals = [], [], []
     for name in members:
         mm = asm.mesh.members[name]
         idx = mm.elem_dofs()
         m = mm.member
-        # (the mass kernels are linear in rho A (cables) and in rho (beam3d: L, b, h, rho))
         mp = [m.section.b, m.section.h, m.material.density] if m.element == "beam3d" else \
             [m.material.density * m.section.area]
+        nd = idx.shape[1]
         for e, L in enumerate(np.asarray(mm.elem_length, float)):
-            Me = kernels.mass_matrix(m.element, [float(L), *mp])
-            nd = idx.shape[1]
             rows.append(np.repeat(idx[e], nd))
             cols.append(np.tile(idx[e], nd))
-            vals.append(Me.ravel())
+            vals.append(np.asarray(matrix(name, [float(L), *mp])).ravel())
     n = asm.n
     if not vals:
         return sp.csc_matrix((n, n))
-    return sp.csc_matrix((degree * np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
+    return sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
+
+
+def _mass_derivative(asm: Assembly, members: list[str], degree: int) -> sp.csc_matrix:
+    """d M / dp where every listed member's rhoA has degree `degree` in p (the mass kernels are linear in rho A
+    (cables) and in rho (beam3d: L, b, h, rho))."""
+    return degree * _element_matrices(asm, members, lambda name, p: kernels.mass_matrix(
+        asm.mesh.members[name].member.element, p))
 
 
 def _term_pieces(add: Callable, *args) -> list[Piece]:
@@ -483,18 +489,8 @@ def _beam_pieces(asm: Assembly, doc: dict, beams: list[str], key: str, shape: st
 def _beam_mass_derivative(asm: Assembly, directions: dict) -> sp.csc_matrix:
     """d M / dp of beam3d members whose mass parameters (L, b, h, rho) change by directions[name] per unit p (the
     mass kernel's direction companion: its b x h enter the section's moments nonlinearly)."""
-    rows, cols, vals = [], [], []
-    for name, dmp in directions.items():
-        mm = asm.mesh.members[name]
-        idx = mm.elem_dofs()
-        s, mat = mm.member.section, mm.member.material
-        nd = idx.shape[1]
-        for e, L in enumerate(np.asarray(mm.elem_length, float)):
-            dM = kernels.mass_matrix_direction("beam3d", [float(L), s.b, s.h, mat.density], dmp)
-            rows.append(np.repeat(idx[e], nd))
-            cols.append(np.tile(idx[e], nd))
-            vals.append(dM.ravel())
-    return sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(asm.n, asm.n))
+    return _element_matrices(asm, list(directions), lambda name, p: kernels.mass_matrix_direction(
+        "beam3d", p, directions[name]))
 
 
 class _MeshView:

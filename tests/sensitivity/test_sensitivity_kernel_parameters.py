@@ -43,6 +43,11 @@ DRUM = {"scene": {"name": "drum", "dim": 2, "gravity": [0.0, -9.81]},
         "loads": [{"type": "force", "member": "rope", "at": 4, "value": [0.0, -3.0]}],
         "contacts": [{"type": "circle", "member": "rope", "centre": [0.45, -0.18], "radius": 0.2, "stiffness": 1e6,
                       "thickness": 0.002}]}
+DRUM3D = copy.deepcopy(DRUM)  # the same over a cylinder of axis y (cable3d, contact_drum with its axis)
+DRUM3D["scene"].update(dim=3, gravity=[0.0, 0.0, -9.81])
+DRUM3D["members"][0].update(points=[[0, 0, 0], [1, 0, 0]], element="cable3d")
+DRUM3D["loads"][0]["value"] = [0.0, 0.0, -3.0]
+DRUM3D["contacts"][0].update(centre=[0.45, 0.0, -0.18], axis=[0.0, 1.0, 0.0])
 GROUND = {"scene": {"name": "ground", "dim": 2, "gravity": [0.0, -9.81]},
           "materials": {"m": {"E": 1e8, "density": 2000.0}},
           "sections": {"s": {"area": 1e-3, "I": 1e-7}},
@@ -99,7 +104,8 @@ def test_beam_parameters(doc, path):
 
 @pytest.mark.parametrize("doc, path", [
     (DRUM, "contacts[0].radius"), (DRUM, "contacts[0].centre[0]"), (DRUM, "contacts[0].centre[1]"),
-    (DRUM, "contacts[0].thickness"), (GROUND, "contacts[0].level"), (GROUND, "contacts[0].thickness"),
+    (DRUM, "contacts[0].thickness"), (DRUM3D, "contacts[0].radius"), (DRUM3D, "contacts[0].centre[2]"),
+    (GROUND, "contacts[0].level"), (GROUND, "contacts[0].thickness"),
     (BEAM_GROUND, "sections.s.h")])
 def test_contact_geometry(doc, path):
     r, d = check(doc, path)
