@@ -294,9 +294,12 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
                 refuse("differentiable keys of a beam3d section: b, h (of sections used by beam3d members only)")
             out.pieces, out.mass = _beam_pieces(asm, doc, beams, keys[2], sec.get("shape"), text, refuse)
             return out
-        for i, c in enumerate(getattr(scene, "contacts", ())):
-            if c.member in members and "thickness" not in doc["contacts"][i]:
-                refuse(f"the contact on member {c.member!r} takes its thickness from the section (give the "
+        # (contacts that take their thickness from the section: a cable's radius sqrt(area / pi))
+        thick = [c for i, c in enumerate(getattr(scene, "contacts", ()))
+                 if c.member in members and "thickness" not in doc["contacts"][i]]
+        for c in thick:
+            if c.method != "penalty":
+                refuse(f"the exact contact on member {c.member!r} takes its thickness from the section (give the "
                        "contact a thickness to differentiate the section)")
         shape = sec.get("shape")
         if shape is None and keys[2] == "area":
@@ -310,6 +313,8 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         out.pieces = _scaled_pieces(asm, members, deg, value, text, None)
         grav = [m for m in members if scene.members[m].gravity]
         out.pieces += _scaled_pieces(asm, grav, deg, value, text, ("gravity",))
+        for c in thick:  # (t = sqrt(area / pi) has half the area's degree in p)
+            out.pieces += _contact_pieces(asm, c, {"t": deg.get("rhoA", 0) / 2 * c.thickness / value}, text, refuse)
         if deg.get("mass"):
             out.mass = lambda: _mass_derivative(asm, members, deg["mass"]) / value
         return out

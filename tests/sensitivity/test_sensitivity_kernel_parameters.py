@@ -57,6 +57,11 @@ GROUND = {"scene": {"name": "ground", "dim": 2, "gravity": [0.0, -9.81]},
           "loads": [{"type": "force", "member": "beam", "at": "end", "value": [0.0, -200.0]}],
           "contacts": [{"type": "ground", "member": "beam", "stiffness": 1e5, "hertz": 1e6, "thickness": 0.01,
                         "level": 0.02}]}
+ROUND_GROUND = copy.deepcopy(GROUND)  # a round cable on the ground, its thickness the section's radius
+ROUND_GROUND["sections"]["s"] = {"shape": "circle", "diameter": 0.03}
+del ROUND_GROUND["contacts"][0]["thickness"]
+AREA_GROUND = copy.deepcopy(GROUND)
+del AREA_GROUND["contacts"][0]["thickness"]
 BEAM_GROUND = copy.deepcopy(CONTINUUM)  # a beam3d on the ground, thickness h/2 from its section
 BEAM_GROUND["members"][0]["points"] = [[0, 0, 0.02], [1, 0, 0.02]]
 BEAM_GROUND["loads"] = [{"type": "force", "member": "beam", "at": "end", "value": [0.0, 5.0, -200.0]}]
@@ -106,7 +111,7 @@ def test_beam_parameters(doc, path):
     (DRUM, "contacts[0].radius"), (DRUM, "contacts[0].centre[0]"), (DRUM, "contacts[0].centre[1]"),
     (DRUM, "contacts[0].thickness"), (DRUM3D, "contacts[0].radius"), (DRUM3D, "contacts[0].centre[2]"),
     (GROUND, "contacts[0].level"), (GROUND, "contacts[0].thickness"),
-    (BEAM_GROUND, "sections.s.h")])
+    (BEAM_GROUND, "sections.s.h"), (ROUND_GROUND, "sections.s.diameter"), (AREA_GROUND, "sections.s.area")])
 def test_contact_geometry(doc, path):
     r, d = check(doc, path)
     assert r.energies["contact"] > 0  # (the member presses on the obstacle: the derivative is not trivially 0)
