@@ -393,6 +393,14 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         col = {"radius": "R", "level": "d", "thickness": "t"}.get(keys[2]) or "c" + "xyz"[keys[3]]
         out.pieces = _contact_pieces(asm, c, {col: 1.0}, text, refuse)
         return out
+    if keys[0] == "contacts" and len(keys) == 4 and keys[2] == "normal":
+        # the kernel takes the unit normal n = v / |v| of the file's v: dn/dv_j = (e_j - n n_j) / |v|
+        v = np.asarray(doc["contacts"][keys[1]]["normal"], float)
+        n = v / np.linalg.norm(v)
+        dn = (np.eye(len(v))[keys[3]] - n * n[keys[3]]) / np.linalg.norm(v)
+        cols = {"n" + a: float(d) for a, d in zip("xyz", dn)}
+        out.pieces = _contact_pieces(asm, scene.contacts[keys[1]], cols, text, refuse)
+        return out
     if keys[0] in ("members", "loops") and len(keys) == 3 and keys[2] == "prestrain":
         name = doc[keys[0]][keys[1]]["name"]
         why = prestrain_refusal(asm, name)
@@ -403,7 +411,7 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         return out
     refuse("not a differentiable parameter here (materials.M.E | density | poisson | G, sections.S.area | I | "
            "diameter | b | h, scene.gravity[j], loads[i].value[j], masses[i].mass, bodies[i].mass (2D), "
-           "contacts[i].stiffness | hertz | radius | centre[j] | level | thickness, members[i].prestrain, "
+           "contacts[i].stiffness | hertz | radius | centre[j] | level | normal[j] | thickness, members[i].prestrain, "
            "loops[i].prestrain)")
 
 

@@ -56,7 +56,7 @@ GROUND = {"scene": {"name": "ground", "dim": 2, "gravity": [0.0, -9.81]},
           "supports": [{"type": "clamp", "member": "beam", "at": "start"}],
           "loads": [{"type": "force", "member": "beam", "at": "end", "value": [0.0, -200.0]}],
           "contacts": [{"type": "ground", "member": "beam", "stiffness": 1e5, "hertz": 1e6, "thickness": 0.01,
-                        "level": 0.02}]}
+                        "level": 0.02, "normal": [0.1, 1.0]}]}
 ROUND_GROUND = copy.deepcopy(GROUND)  # a round cable on the ground, its thickness the section's radius
 ROUND_GROUND["sections"]["s"] = {"shape": "circle", "diameter": 0.03}
 del ROUND_GROUND["contacts"][0]["thickness"]
@@ -110,7 +110,7 @@ def test_beam_parameters(doc, path):
 @pytest.mark.parametrize("doc, path", [
     (DRUM, "contacts[0].radius"), (DRUM, "contacts[0].centre[0]"), (DRUM, "contacts[0].centre[1]"),
     (DRUM, "contacts[0].thickness"), (DRUM3D, "contacts[0].radius"), (DRUM3D, "contacts[0].centre[2]"),
-    (GROUND, "contacts[0].level"), (GROUND, "contacts[0].thickness"),
+    (GROUND, "contacts[0].level"), (GROUND, "contacts[0].normal[0]"), (GROUND, "contacts[0].normal[1]"), (GROUND, "contacts[0].thickness"),
     (BEAM_GROUND, "sections.s.h"), (ROUND_GROUND, "sections.s.diameter"), (AREA_GROUND, "sections.s.area")])
 def test_contact_geometry(doc, path):
     r, d = check(doc, path)
