@@ -28,6 +28,8 @@ BEAM = {"scene": {"name": "b", "dim": 3, "gravity": [0.0, 0.0, -9.81]},
                      "section": "s", "element": "beam3d", "beam_method": "elastic_line"}],
         "supports": [{"type": "clamp", "member": "beam", "at": "start"}],
         "loads": [{"type": "force", "member": "beam", "at": "end", "value": [-300.0, 5.0, -20.0]}]}
+CONTINUUM = copy.deepcopy(BEAM)
+CONTINUUM["members"][0]["beam_method"] = "continuum"
 DRUM = {"scene": {"name": "drum", "dim": 2, "gravity": [0.0, -9.81]},
         "materials": {"m": {"E": 2e9, "density": 1000.0}},
         "sections": {"s": {"shape": "circle", "diameter": 0.004}},
@@ -51,6 +53,7 @@ def richardson(doc, path, rel):
 
 @pytest.mark.parametrize("doc, path, rel", [
     (BEAM, "materials.m.poisson", 1e-2), (BEAM, "sections.s.b", 1e-2), (BEAM, "sections.s.h", 1e-2),
+    (CONTINUUM, "materials.m.poisson", 1e-2), (CONTINUUM, "sections.s.h", 1e-2),
     (DRUM, "contacts[0].radius", 1e-3), (DRUM, "contacts[0].centre[1]", 1e-3), (DRUM, "materials.m.E", 1e-3)])
 def test_frequency_sensitivity(doc, path, rel):
     got = np.asarray(sensitivities(doc, [path], modes=MODES)[path]["frequencies"])
