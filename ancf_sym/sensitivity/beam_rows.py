@@ -6,7 +6,8 @@ The scene's numbers reach them through nu = poisson (or E / 2G - 1 with G given)
 for a shape = "rectangle" section A = b h, Iy = b h^3/12, Iz = h b^3/12 and St. Venant's J of the rectangle
 (scene.builder.Section.rectangle: J = a c^3 (1/3 - 0.21 c/a (1 - c^4/12a^4)), a = max(b, h), c = min(b, h)),
 differentiated here by hand; a section that gives area, Iy, Iz, J itself keeps them when b or h change (only the
-continuum, line-strain and mass kernels, and a contact's default thickness h/2, see b and h).
+continuum, line-strain and mass kernels, and a contact's default thickness h/2, see b and h), and its own area
+(weight), I, Iy, Iz (bending) and J (torsion, the continuum's torsion scaling) are parameters too.
 """
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ import numpy as np
 
 MATERIAL_KEYS = ("E", "poisson", "G")
 SECTION_KEYS = ("b", "h")
+GIVEN_SECTION_KEYS = ("area", "I", "Iy", "Iz", "J")  # of a section that gives them (no shape)
 
 
 def _rectangle_J_derivatives(b: float, h: float) -> tuple[float, float]:
@@ -24,9 +26,9 @@ def _rectangle_J_derivatives(b: float, h: float) -> tuple[float, float]:
     return (da, dc) if b > h else (dc, da)
 
 
-def base_derivatives(member, key: str, shape: str | None) -> dict[str, float] | str:
-    """d(E, nu, G, b, h, A, Iy, Iz, J)/dp of the member's quantities for p its material's or section's `key`; a
-    string: why that is not differentiable."""
+def base_derivatives(member, key: str, shape: str | None, given: tuple = ()) -> dict[str, float] | str:
+    """d(E, nu, G, b, h, A, Iy, Iz, J)/dp of the member's quantities for p its material's or section's `key`
+    (given: the keys the section's table gives); a string: why that is not differentiable."""
     mat, sec = member.material, member.section
     d = dict.fromkeys(("E", "nu", "G", "b", "h", "A", "Iy", "Iz", "J"), 0.0)
     E, nu, G = mat.E, mat.nu, mat.shear_modulus
@@ -58,8 +60,19 @@ def base_derivatives(member, key: str, shape: str | None) -> dict[str, float] | 
             if b == h:
                 return "the rectangle's torsion constant J has a kink at b = h (max/min of b and h swap there)"
             d["J"] = _rectangle_J_derivatives(b, h)[0 if key == "b" else 1]
+    elif key in GIVEN_SECTION_KEYS and shape is None:
+        # Section: I sets Iy and Iz where not given, Iy alone also Iz (and Iz alone Iy), J = Iy + Iz where not given
+        if key == "area":
+            d["A"] = 1.0
+        elif key == "J":
+            d["J"] = 1.0
+        else:
+            d["Iy"] = float(key == "Iy" or (key in ("I", "Iz") and "Iy" not in given))
+            d["Iz"] = float(key == "Iz" or (key in ("I", "Iy") and "Iz" not in given))
+            if "J" not in given:
+                d["J"] = d["Iy"] + d["Iz"]
     else:
-        raise KeyError(key)
+        return f"not a differentiable key of a{' ' + shape if shape else ''} beam3d section"
     return d
 
 

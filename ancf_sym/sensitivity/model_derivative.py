@@ -31,8 +31,7 @@ from ancf_sym.model.assembly import Assembly
 from ancf_sym.model.loads import load_vector, point_mass_triplets
 from ancf_sym.model.terms import distributed_term, moment_term
 from ancf_sym.scene.builder import Scene
-from ancf_sym.sensitivity.beam_rows import MATERIAL_KEYS, SECTION_KEYS, base_derivatives, mass_direction, \
-    row_derivative
+from ancf_sym.sensitivity.beam_rows import MATERIAL_KEYS, base_derivatives, mass_direction, row_derivative
 from ancf_sym.sensitivity.kernel_direction import DirectionPiece
 from ancf_sym.sensitivity.length_derivative import mass_derivative, prestrain_pieces, prestrain_refusal
 from ancf_sym.sensitivity.paths import ParameterPath, get_parameter, parse_path
@@ -290,9 +289,10 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         _refuse_arcs(asm, members, text)
         beams = [m for m in members if scene.members[m].element == "beam3d"]
         if beams:
-            if keys[2] not in SECTION_KEYS or len(beams) < len(members):
-                refuse("differentiable keys of a beam3d section: b, h (of sections used by beam3d members only)")
-            out.pieces, out.mass = _beam_pieces(asm, doc, beams, keys[2], sec.get("shape"), text, refuse)
+            if len(beams) < len(members):
+                refuse("a section used by beam3d members and cables is not differentiated")
+            out.pieces, out.mass = _beam_pieces(asm, doc, beams, keys[2], sec.get("shape"), text, refuse,
+                                                tuple(sec))
             return out
         # (contacts that take their thickness from the section: a cable's radius sqrt(area / pi))
         thick = [c for i, c in enumerate(getattr(scene, "contacts", ()))
@@ -467,7 +467,7 @@ def _contact_pieces(asm: Assembly, c, columns: dict, text: str, refuse: Callable
 
 
 def _beam_pieces(asm: Assembly, doc: dict, beams: list[str], key: str, shape: str | None, text: str,
-                 refuse: Callable) -> tuple[list, Callable | None]:
+                 refuse: Callable, given: tuple = ()) -> tuple[list, Callable | None]:
     """(pieces, mass derivative builder or None) of beam3d members for their material's E | poisson | G or their
     section's b | h (ancf_sym.sensitivity.beam_rows)."""
     scene = asm.scene
@@ -476,7 +476,7 @@ def _beam_pieces(asm: Assembly, doc: dict, beams: list[str], key: str, shape: st
     pieces, masses = [], {}
     for name in beams:
         m = scene.members[name]
-        d = base_derivatives(m, key, shape)
+        d = base_derivatives(m, key, shape, given)
         if isinstance(d, str):
             refuse(d)
         for t in asm.terms:

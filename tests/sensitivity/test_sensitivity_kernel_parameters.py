@@ -23,7 +23,7 @@ BEAM = {"scene": {"name": "b", "dim": 3, "gravity": [0.0, 0.0, -9.81]},
         "materials": {"m": {"E": 2e8, "density": 2000.0, "poisson": 0.3}},
         "sections": {"s": {"shape": "rectangle", "b": 0.02, "h": 0.03}},
         "members": [{"name": "beam", "points": [[0, 0, 0], [1, 0, 0]], "elements": 4, "material": "m",
-                     "section": "s", "element": "beam3d", "beam_method": "elastic_line"}],
+                     "section": "s", "element": "beam3d", "beam_method": "elastic_line", "torsion": True}],
         "supports": [{"type": "clamp", "member": "beam", "at": "start"}],
         "loads": [{"type": "force", "member": "beam", "at": "end", "value": [20.0, 5.0, -20.0]},
                   {"type": "moment", "member": "beam", "at": "end", "value": [0.0, 3.0, 1.0]}]}
@@ -35,6 +35,8 @@ CONTINUUM_G = copy.deepcopy(BEAM_G)
 CONTINUUM_G["members"][0]["beam_method"] = "continuum"
 EXPLICIT = copy.deepcopy(BEAM)  # b x h with the section's own area and moments: only the line strain sees them
 EXPLICIT["sections"]["s"] = {"area": 6e-4, "Iy": 4.5e-8, "Iz": 2e-8, "J": 4e-8, "b": 0.02, "h": 0.03}
+EXPLICIT_I = copy.deepcopy(BEAM)  # I sets Iy = Iz = I and J = 2 I
+EXPLICIT_I["sections"]["s"] = {"area": 6e-4, "I": 3e-8, "b": 0.02, "h": 0.03}
 DRUM = {"scene": {"name": "drum", "dim": 2, "gravity": [0.0, -9.81]},
         "materials": {"m": {"E": 2e9, "density": 1000.0}},
         "sections": {"s": {"shape": "circle", "diameter": 0.004}},
@@ -94,6 +96,7 @@ def check(doc, path, rel=1e-3):
                 outputs(solved(with_parameter(doc, path, v - s))[1])) / (2 * s)
     fd = (4 * D(h / 2) - D(h)) / 3
     n = len(r.x)
+    assert abs(v) * np.linalg.norm(fd[:n]) > 1e-6 * np.linalg.norm(r.x)  # (p moves the equilibrium: not 0 = 0)
     for part in (slice(0, n), slice(n, n + 1), slice(n + 1, None)):
         assert np.linalg.norm(exact[part] - fd[part]) <= 1e-6 * np.linalg.norm(fd[part]), (path, part)
     return r, d
@@ -101,7 +104,8 @@ def check(doc, path, rel=1e-3):
 
 @pytest.mark.parametrize("doc, path", [
     (BEAM, "materials.m.poisson"), (BEAM, "sections.s.b"), (BEAM, "sections.s.h"), (BEAM_G, "materials.m.E"),
-    (BEAM_G, "materials.m.G"), (EXPLICIT, "sections.s.b"), (CONTINUUM, "materials.m.E"),
+    (BEAM_G, "materials.m.G"), (EXPLICIT, "sections.s.b"), (EXPLICIT, "sections.s.area"),
+    (EXPLICIT, "sections.s.Iy"), (EXPLICIT, "sections.s.Iz"), (EXPLICIT, "sections.s.J"), (EXPLICIT_I, "sections.s.I"), (CONTINUUM, "materials.m.E"),
     (CONTINUUM, "materials.m.poisson"), (CONTINUUM, "sections.s.h"), (CONTINUUM_G, "materials.m.E")])
 def test_beam_parameters(doc, path):
     check(doc, path)
