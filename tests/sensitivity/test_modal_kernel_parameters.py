@@ -60,3 +60,24 @@ def test_frequency_sensitivity(doc, path, rel):
     fd = richardson(doc, path, rel)
     assert np.all(np.isfinite(got)) and np.linalg.norm(fd) > 0
     assert np.linalg.norm(got - fd) <= 1e-6 * np.linalg.norm(fd), (path, got, fd)
+
+
+@pytest.mark.parametrize("doc, path, rel", [(BEAM, "sections.s.h", 1e-2), (DRUM, "contacts[0].radius", 1e-3)])
+def test_mode_shape_sensitivity(doc, path, rel):
+    """Nelson's system with dK/dp from the direction companions (and dM of the beam's b x h): against differences of
+    the M-normalised shapes, each perturbed mode signed like the base one."""
+    from ancf_sym.sensitivity.modal import ModalSensitivity
+    scene = scene_from_dict(doc)[0]
+    base = modal_analysis(scene, modes=MODES)
+    M = base.linearization.assembly.mass_matrix()
+    got = ModalSensitivity(base, scene, doc).shape_derivative(path)
+    v = get_parameter(doc, path)
+    h = rel * abs(v)
+
+    def shapes(d):
+        s = modal_analysis(scene_from_dict(d)[0], modes=MODES).shapes
+        return s * np.sign(np.sum(s * (M @ base.shapes), axis=0))
+    D = lambda s: (shapes(with_parameter(doc, path, v + s)) - shapes(with_parameter(doc, path, v - s))) / (2 * s)
+    fd = (4 * D(h / 2) - D(h)) / 3
+    for k in range(MODES):
+        assert np.linalg.norm(got[:, k] - fd[:, k]) <= 1e-6 * np.linalg.norm(fd[:, k]), (path, k)
