@@ -228,3 +228,29 @@ def catalogue() -> list[dict]:
             "library": str(library_path(k["library"])), "cflags": k["cflags"], "functions": k["functions"],
         })
     return out
+
+
+@functools.lru_cache(maxsize=None)
+def load_direction(element: str, effect: str, gauss: int | None = None) -> ca.Function:
+    """(q, p, dq, dp) -> (de, dg, dH): the forward derivative of the kernel's energy, gradient and Hessian along
+    (dq, dp) (registry.PARAMETER_DIRECTION_EFFECTS: where scene numbers enter the parameters nonlinearly)."""
+    _check_names(element, effect)
+    if not registry.has_parameter_direction(element, effect, gauss):
+        raise KernelError(f"{element}/{effect} (gauss {gauss}) has no parameter-direction companion; available for "
+                          f"{list(registry.PARAMETER_DIRECTION_EFFECTS)} (beams at the default order)")
+    name = registry.kernel_name(element, effect, gauss) + registry.PARAMETER_DIRECTION_SUFFIX
+    return ca.external(name, str(library_path(registry.direction_library(element, effect))))
+
+
+@functools.lru_cache(maxsize=None)
+def _mass_direction_function(element: str) -> ca.Function:
+    if element != "beam3d":
+        raise KernelError(f"{element}: its mass is linear in rhoA (no mass direction companion)")
+    return ca.external("beam3d_mass" + registry.PARAMETER_DIRECTION_SUFFIX,
+                       str(library_path("ancf_mass" + registry.PARAMETER_DIRECTION_SUFFIX)))
+
+
+def mass_matrix_direction(element: str, p: Any, dp: Any) -> np.ndarray:
+    """d(element mass matrix) along dp at p (beam3d: p = L, b, h, rho)."""
+    f = _mass_direction_function(element)
+    return np.asarray(f(_as_numeric(p, "p").ravel(), _as_numeric(dp, "dp").ravel()))

@@ -227,6 +227,35 @@ def has_third_derivatives(element: str, effect: str, gauss: int | None) -> bool:
         gauss in (None, eff.default_gauss)
 
 
+# Kernels with a parameter-direction companion <name>_dp: (q, p, dq, dp) -> the forward derivative of (energy,
+# gradient, Hessian) along (dq, dp), in its own library <element>_<effect>_dp (codegen.forms.direction_function).
+# The sensitivities use it where a scene number enters a kernel nonlinearly (dq = 0: d/dP of the outputs along the
+# parameter rows' derivative dP: the beam's Poisson ratio and b x h, a contact's geometry (radius, centre, level,
+# thickness)) and, for the modal prestress change, where a curved kernel has no _hvp (dp = 0: the beam's bending
+# and torsion, the contacts). Beam kernels at their
+# default quadrature order only, contacts at every order (cheap: 0.2-0.6 s of gcc each).
+PARAMETER_DIRECTION_EFFECTS = (("beam3d", "line_strain"), ("beam3d", "continuum"), ("beam3d", "line_bending"),
+                               ("beam3d", "line_torsion"),
+                               *((el, ef) for el in ("cable2d", "cable3d", "beam3d")
+                                 for ef in ("contact_ground", "contact_drum")))
+PARAMETER_DIRECTION_SUFFIX = "_dp"
+# the continuum companion is one 70 000-instruction function: gcc -O2 47 s, -O1 24 s, -O0 2.5 s; line_bending's
+# 38 000: -O2 19 s, -O1 15 s, -O0 1.1 s (measured, gcc 12). They run once per parameter and state (or mode), so
+# they are compiled without optimisation.
+PARAMETER_DIRECTION_CFLAGS = {"beam3d_continuum_dp": ["-O0", "-g0"], "beam3d_line_bending_dp": ["-O0", "-g0"]}
+
+
+def has_parameter_direction(element: str, effect: str, gauss: int | None) -> bool:
+    eff = EFFECTS[(element, effect)]
+    return (element, effect) in PARAMETER_DIRECTION_EFFECTS and \
+        (effect.startswith("contact") or gauss in (None, eff.default_gauss))
+
+
+def direction_library(element: str, effect: str) -> str:
+    """The library of a kernel's parameter-direction companions (all its orders)."""
+    return library_name(element, effect) + PARAMETER_DIRECTION_SUFFIX
+
+
 def fused_effect(element: str, effects: tuple[str, ...]) -> str | None:
     """The internal effect summing exactly `effects` (in any order) on `element`, or None."""
     for (el, ef), eff in EFFECTS.items():

@@ -72,6 +72,7 @@ def generate(out_dir: Path = GENERATED, verbose: bool = False) -> dict:
             print(f"  {lib}: {len(functions)} functions, {len(files[lib + '.c'].splitlines())} lines")
     for e in entries:
         e["sha256"] = digests[e["library"]]
+    entries += _direction_libraries(out_dir, verbose)
     mass = [definitions.mass(el) for el in registry.ELEMENTS]
     files = writer.write_c("ancf_mass", mass, out_dir)
     entries.append({"name": "ancf_mass", "element": None, "effect": "mass", "gauss": None, "params": None,
@@ -93,6 +94,32 @@ def generate(out_dir: Path = GENERATED, verbose: bool = False) -> dict:
                 "kernels": entries}
     (out_dir / MANIFEST).write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
     return manifest
+
+
+def _direction_libraries(out_dir: Path, verbose: bool) -> list[dict]:
+    """The parameter-direction companions (registry.PARAMETER_DIRECTION_EFFECTS), one library per kernel with all
+    its orders, and the beam's mass companion (ancf_mass_dp): manifest entries of their own (element None), so the
+    kernels' own files stay as they are."""
+    from ancf_sym.codegen import definitions, forms, writer
+
+    groups: dict = {}
+    for element, effect, gauss in registry.all_kernels():
+        if registry.has_parameter_direction(element, effect, gauss):
+            k = definitions.kernel(element, effect, gauss)
+            fn = forms.direction_function(k, k.name() + registry.PARAMETER_DIRECTION_SUFFIX)
+            groups.setdefault(registry.direction_library(element, effect), []).append(fn)
+    groups["ancf_mass" + registry.PARAMETER_DIRECTION_SUFFIX] = [
+        forms.mass_direction(definitions.mass("beam3d"), "beam3d_mass" + registry.PARAMETER_DIRECTION_SUFFIX)]
+    out = []
+    for lib, functions in groups.items():
+        files = writer.write_c(lib, functions, out_dir)
+        flags = registry.PARAMETER_DIRECTION_CFLAGS.get(lib, DEFAULT_CFLAGS)
+        out.append({"name": lib, "element": None, "effect": "parameter_direction", "gauss": None, "params": None,
+                    "library": lib, "c_file": lib + ".c", "cflags": flags, "functions": [f.name() for f in functions],
+                    "sha256": hashlib.sha256(files[lib + ".c"].encode()).hexdigest()})
+        if verbose:
+            print(f"  {lib}: {len(functions)} functions, {len(files[lib + '.c'].splitlines())} lines")
+    return out
 
 
 def check(committed: Path = GENERATED) -> list[str]:

@@ -178,3 +178,27 @@ def stretch_kernel(name: str, nq: int, n_p: int, gauss: int, coordinates: Callab
     e, g, H = ca.substitute([e, ca.mtimes(R.T, g), ca.tril(ca.mtimes([R.T, ca.tril2symm(H), R]))], [y], [yq])
     e, g, H = ca.cse([e, g, ca.densify(ca.tril2symm(H))])
     return ca.Function(name, [q, p], [e, g, H], KERNEL_IN, KERNEL_OUT)
+
+
+def direction_function(kernel: ca.Function, name: str) -> ca.Function:
+    """(q, p, dq, dp) -> (de, dg, dH): the forward derivative of the kernel's (energy, gradient, Hessian) along
+    (dq, dp), exact (CasADi AD of the same symbolic graph, expanded to SX).
+
+    The sensitivities need d/dP of a kernel's outputs where a scene number enters its parameters nonlinearly (a
+    beam's Poisson ratio, a drum's radius: dq = 0, dp = dP/dp) and, along dq with dp = 0, the Hessian's change with
+    the state (the third derivatives of a curved kernel without an _hvp companion)."""
+    sx = kernel if kernel.is_a("SXFunction") else kernel.expand()
+    nq, n_p = sx.size1_in(0), sx.size1_in(1)
+    q, p, dq, dp = ca.SX.sym("q", nq), ca.SX.sym("p", n_p), ca.SX.sym("dq", nq), ca.SX.sym("dp", n_p)
+    z, dz = ca.vertcat(q, p), ca.vertcat(dq, dp)
+    de, dg, dH = (ca.jtimes(ca.vec(o), z, dz) for o in sx(q, p))
+    return ca.Function(name, [q, p, dq, dp], [de, dg, ca.densify(ca.reshape(dH, nq, nq))],
+                       ["q", "p", "dq", "dp"], KERNEL_OUT)
+
+
+def mass_direction(mass: ca.Function, name: str) -> ca.Function:
+    """(p, dp) -> dM: the mass matrix's derivative along dp (the beam's mass is not linear in its b x h)."""
+    p, dp = ca.SX.sym("p", mass.size1_in(0)), ca.SX.sym("dp", mass.size1_in(0))
+    M = mass(p)
+    return ca.Function(name, [p, dp], [ca.densify(ca.reshape(ca.jtimes(ca.vec(M), p, dp), M.shape))], ["p", "dp"],
+                       ["mass"])

@@ -35,8 +35,11 @@ def penetration(gap):
 
 def normal_energy(delta, k, kh):
     """Energy density of the normal law: k/2 delta^2 + 2/5 kh delta^2.5 (constant power: its derivative is
-    5/2 delta^1.5 and its second 15/4 delta^0.5, finite at delta = 0)."""
-    return k / 2 * delta**2 + 0.4 * kh * delta**2.5
+    5/2 delta^1.5 and its second 15/4 delta^0.5, finite at delta = 0). The power is taken of a stand-in 1 where
+    delta = 0 (as in normal_force): its third derivative 15/8 delta^-1/2, which the parameter-direction companions
+    (the Hessian's derivative) contain, would otherwise give NaN at every point out of contact (0 times inf)."""
+    touching = delta > 0
+    return k / 2 * delta**2 + 0.4 * kh * ca.if_else(touching, ca.if_else(touching, delta, 1) ** 2.5, 0)
 
 
 def normal_force(delta, k, kh):

@@ -48,6 +48,7 @@ from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, damping
     run_for_sensitivity, step_inputs, step_matrix, stiffness_damped, stiffness_damping_forcing
 from ancf_sym.sensitivity.contact_dissipation import dissipation_forcing, dissipation_index
 from ancf_sym.sensitivity.length_derivative import LengthPiece
+from ancf_sym.sensitivity.kernel_direction import DirectionPiece
 from ancf_sym.sensitivity.model_derivative import STIFFNESS_COLUMNS, ModelDerivative, model_derivative, \
     read_document
 from ancf_sym.sensitivity.static_start import StartSystem
@@ -306,7 +307,8 @@ def residual_sum(md: ModelDerivative, Lam: np.ndarray, X: np.ndarray, cache: dic
     share the bending term's)."""
     total = 0.0
     for pc in md.pieces:
-        if isinstance(pc, LengthPiece):  # (a prestrain: the kernels' length derivative at every state)
+        if isinstance(pc, (LengthPiece, DirectionPiece)):  # (a prestrain's length derivative, a kernel's companion:
+            # the gradient's derivative at every state)
             total += float(np.sum(Lam * pc.gradients(X)))
             continue
         names = kernels.parameters(pc.element, pc.effect)

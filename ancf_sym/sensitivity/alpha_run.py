@@ -34,8 +34,9 @@ from ancf_sym.io.scene_toml import scene_from_dict
 from ancf_sym.model.assembly import Assembly
 from ancf_sym.scene.builder import SceneError
 from ancf_sym.sensitivity.contact_dissipation import dissipation_forcing, dissipation_index, dissipation_notes
+from ancf_sym.sensitivity.kernel_direction import DirectionPiece
 from ancf_sym.sensitivity.length_derivative import LengthPiece
-from ancf_sym.sensitivity.model_derivative import model_derivative, read_document
+from ancf_sym.sensitivity.model_derivative import ParameterError, model_derivative, read_document
 from ancf_sym.sensitivity.paths import get_parameter, parse_path
 from ancf_sym.sensitivity.rayleigh_beta import beta_pieces
 from ancf_sym.sensitivity.water_derivative import water_refusals
@@ -75,8 +76,11 @@ def check_dynamic_paths(scene, doc: dict, paths: list[str], asm=None, options: D
     for p in model_paths:
         get_parameter(doc, p)
     asm = dynamic_assembly(scene) if asm is None else asm
+    beta = any(d.get("type") == "rayleigh" and d.get("beta") for d in doc.get("dampings", []))
     for p in model_paths:
-        model_derivative(asm, doc, p)
+        md = model_derivative(asm, doc, p)
+        if beta:
+            _refuse_direction_with_beta(p, md)
         keys = parse_path(p).keys
         if keys[-1] == "prestrain":
             why = prestrain_run_refusal(asm, doc[keys[0]][keys[1]]["name"], options)
@@ -101,6 +105,15 @@ def prestrain_run_refusal(asm, name: str, options: DynamicOptions | None) -> str
                 return f"a {what} at the material coordinate {at:g} on the member (it moves with the prestrain; " \
                        "put it at a node)"
     return None
+
+
+def _refuse_direction_with_beta(path: str, md) -> None:
+    """Stiffness damping beta K_el v differentiates through the elastic kernels' Hessians at P: a path whose
+    kernels change nonlinearly (a DirectionPiece) would need d(K v)/dP, which is not compiled."""
+    if any(isinstance(pc, DirectionPiece) and pc.label in ELASTIC_LABELS for pc in md.pieces):
+        raise ParameterError(f"parameter path {path!r}: enters the elastic kernels nonlinearly; with stiffness-"
+                             "proportional Rayleigh damping (beta) its derivative needs d(K v)/dp of those kernels, "
+                             "which is not compiled")
 
 
 def dynamic_assembly(scene):
@@ -224,7 +237,9 @@ def stiffness_damping_forcing(run: "AlphaRun", path: str) -> np.ndarray | None:
         # (C's elastic part is sum_e beta_m(e) H_e: the Hessians on the members entry i gives their beta)
         pieces = beta_pieces(S, run.scene, i, None)
     else:
-        pieces = beta_pieces(S, run.scene, None, model_derivative(run.asm, run.doc, path).pieces)
+        md = model_derivative(run.asm, run.doc, path)
+        _refuse_direction_with_beta(path, md)
+        pieces = beta_pieces(S, run.scene, None, md.pieces)
     if not pieces:
         return None
     f = np.zeros((len(X) - 1, X.shape[1]))
@@ -422,7 +437,8 @@ def forcing(run: AlphaRun, path: str, statics: bool = False) -> np.ndarray:
     X = run.X[:1] if statics else run.X
     R = np.zeros(X.shape)
     for pc in md.pieces:
-        if isinstance(pc, LengthPiece):  # (a prestrain: the kernels' length derivative at every state)
+        if isinstance(pc, (LengthPiece, DirectionPiece)):  # (a prestrain's length derivative, a kernel's
+            # parameter-direction companion: at every state)
             R += pc.gradients(X)
         elif pc.effect == "gravity":  # (linear in q: a constant gradient)
             R += _gradients(pc, X[:1])

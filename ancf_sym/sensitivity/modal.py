@@ -6,7 +6,8 @@ For a simple eigenvalue w^2 with M-normalised mode phi (phi' M phi = 1, G phi = 
 
 dK/dp|_x: the kernels' Hessians with their coefficients' derivatives (ancf_sym.sensitivity.model_derivative);
 D K[dx]: the third derivatives of the elastic energies along the static sensitivity dx*/dp (the kernels'
-compiled Hessian-vector companions: phi' (d(H phi)/dq) dx), plus the multipliers' change times the constraint
+compiled Hessian-vector companions: phi' (d(H phi)/dq) dx; a kernel without one, e.g. a penalty contact's, its
+parameter-direction companion along (dx, 0): phi' (dH/dq . dx) phi), plus the multipliers' change times the constraint
 curvature of bilinear rows, and 2 mu'(dG phi) of those rows turning with dx (mu: the mode's multipliers).
 Exact contact: the points held at the equilibrium are rows of G as in the statics' sensitivity; a drum's rows add
 their curvature's change -sum (df_i Hess g_i + f_i D Hess g_i [dx]) and their turn 2 mu'(Hess g dx phi)
@@ -30,6 +31,7 @@ from ancf_sym.model.reduced import partition
 from ancf_sym.contact import exact as contact_exact
 from ancf_sym.modal.contact_rows import contact_points
 from ancf_sym.sensitivity.contact_state import curved_contact_rows, drum_form, drum_terms
+from ancf_sym.sensitivity.kernel_direction import state_direction_hessians
 from ancf_sym.sensitivity.model_derivative import ParameterError
 from ancf_sym.sensitivity.static import StaticSensitivity
 from ancf_sym.sensitivity.water_derivative import unsymmetric, water_terms
@@ -72,32 +74,40 @@ class ModalSensitivity:
             raise ParameterError("frequency sensitivities with penalty rigid joints are not available")
         for mk in asm.curved:
             t = mk.term
-            if not registry.has_third_derivatives(t.element, t.effect, t.gauss):
+            if not (registry.has_third_derivatives(t.element, t.effect, t.gauss) or
+                    registry.has_parameter_direction(t.element, t.effect, t.gauss)):
                 raise ParameterError(f"frequency sensitivities need the third derivatives of every curved energy; "
                                      f"{t.element}/{t.effect} (gauss {t.gauss}) has none compiled")
 
+    def _state_hessians(self, t, dx: np.ndarray, phi: np.ndarray) -> tuple[np.ndarray, bool]:
+        """(D, along): per element d(H phi)/dq (N, nd, nd) from the _hvp companion (along False: D dx is
+        (D K[dx]) phi), or, for a kernel without one, D = d H/dq . dx from its direction companion (along True:
+        D phi is (D K[dx]) phi)."""
+        x = self.modal.static.x
+        N, nd = t.idx.shape
+        if not registry.has_third_derivatives(t.element, t.effect, t.gauss):
+            return state_direction_hessians(t.element, t.effect, t.gauss, t.idx, t.P, x, dx), True
+        dhv = _hvp(t.element, t.effect, N)(x[t.idx].T, t.P.T, phi[t.idx].T)[1].full()
+        return dhv.reshape(nd, N, nd).transpose(1, 0, 2), False
+
     def _third(self, dx: np.ndarray, phi: np.ndarray) -> float:
         """phi' (D K[dx]) phi over the curved kernels."""
-        x, out = self.modal.static.x, 0.0
+        out = 0.0
         for mk in self.static.asm.curved:
             t = mk.term
-            N = len(t.idx)
-            dhv = _hvp(t.element, t.effect, N)(x[t.idx].T, t.P.T, phi[t.idx].T)[1].full()
-            nd = t.idx.shape[1]
-            D = dhv.reshape(nd, N, nd).transpose(1, 0, 2)  # per element d(H phi)/dq
-            out += float(np.einsum("ei,eij,ej->", phi[t.idx], D, dx[t.idx]))
+            D, along = self._state_hessians(t, dx, phi)
+            out += float(np.einsum("ei,eij,ej->", phi[t.idx], D, phi[t.idx] if along else dx[t.idx]))
         return out
 
     def _third_vector(self, dx: np.ndarray, phi: np.ndarray) -> np.ndarray:
         """(D K[dx]) phi on the full coordinates over the curved kernels (d(H phi)/dq dx per element)."""
-        x, n = self.modal.static.x, len(dx)
+        n = len(dx)
         out = np.zeros(n)
         for mk in self.static.asm.curved:
             t = mk.term
-            N, nd = t.idx.shape
-            dhv = _hvp(t.element, t.effect, N)(x[t.idx].T, t.P.T, phi[t.idx].T)[1].full()
-            D = dhv.reshape(nd, N, nd).transpose(1, 0, 2)
-            out += np.bincount(t.idx.ravel(), np.einsum("eij,ej->ei", D, dx[t.idx]).ravel(), minlength=n)
+            D, along = self._state_hessians(t, dx, phi)
+            v = phi if along else dx
+            out += np.bincount(t.idx.ravel(), np.einsum("eij,ej->ei", D, v[t.idx]).ravel(), minlength=n)
         return out
 
     def shape_derivative(self, path: str) -> np.ndarray:

@@ -9,8 +9,11 @@ kernel evaluated with its coefficients' derivatives gives the exact derivative o
 I = pi d^4 / 64 of a diameter d, rhoA = density area, G J = E J / (2 (1 + nu))): a coefficient c of degree k in p
 has dc/dp = k c / p. A cable member's prestrain enters through its elements' reference length L, whose derivative
 follows exactly from the kernels' outputs by a change of the unit of length (ancf_sym.sensitivity.length_derivative).
-Parameters that enter anywhere else (a beam's b x h, Poisson's ratio, an arc's reference moment) are refused by
-name: their kernels have no derivative with respect to those inputs yet.
+Where a scene number enters a kernel's parameters nonlinearly (a beam3d member's Poisson ratio, E with G given,
+its section's b x h; a penalty contact's drum radius and centre, ground level and thickness), the rows' derivative
+dP/dp is exact (ancf_sym.sensitivity.beam_rows) and the kernel's compiled parameter-direction companion gives
+d/dP [U, grad U, H] . dP (ancf_sym.sensitivity.kernel_direction). Parameters that enter anywhere else (an arc's
+reference moment, an exact contact's geometry) are refused by name.
 """
 from __future__ import annotations
 
@@ -23,12 +26,14 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from ancf_sym import kernels
+from ancf_sym import kernels, registry
 from ancf_sym.model.assembly import Assembly
 from ancf_sym.model.loads import load_vector, point_mass_triplets
 from ancf_sym.model.terms import distributed_term, moment_term
 from ancf_sym.scene.builder import Scene
 from ancf_sym.sensitivity.body_derivative import body_derivative
+from ancf_sym.sensitivity.beam_rows import MATERIAL_KEYS, base_derivatives, mass_direction, row_derivative
+from ancf_sym.sensitivity.kernel_direction import DirectionPiece
 from ancf_sym.sensitivity.length_derivative import mass_derivative, prestrain_pieces, prestrain_refusal
 from ancf_sym.sensitivity.paths import ParameterPath, get_parameter, parse_path
 from ancf_sym.sensitivity.water_derivative import WaterTerms, gravity_pieces, water_tangent
@@ -36,6 +41,7 @@ from ancf_sym.sensitivity.water_derivative import WaterTerms, gravity_pieces, wa
 STIFFNESS_COLUMNS = {  # effect -> its coefficient columns (the energy is linear in them jointly)
     "axial_green": ("EA",), "axial_biot": ("EA",), "axial_decoupled": ("EA",), "axial_decoupled_biot": ("EA",),
     "bending": ("EI",), "line_bending": ("EIy", "EIz"), "line_torsion": ("GIp",), "line_strain": ("E",),
+    "continuum": ("E",),
 }
 NOT_STIFFNESS = ("gravity", "loads", "contact", "penalty")  # energy labels that hold no member stiffness
 
@@ -211,26 +217,32 @@ def _scaled_pieces(asm: Assembly, members: list[str], degrees: dict, value: floa
     return pieces
 
 
-def _mass_derivative(asm: Assembly, members: list[str], degree: int) -> sp.csc_matrix:
-    """d M / dp where every listed member's rhoA has degree `degree` in p (the mass kernel is linear in rhoA)."""
+def _element_matrices(asm: Assembly, members: list[str], matrix: Callable) -> sp.csc_matrix:
+    """The sum over the members' elements of matrix(member, [L, *mass parameters]) scattered to their coordinates
+    (mass parameters: cables rho A, beam3d b, h, rho)."""
     rows, cols, vals = [], [], []
     for name in members:
         mm = asm.mesh.members[name]
         idx = mm.elem_dofs()
         m = mm.member
-        # (the mass kernels are linear in rho A (cables) and in rho (beam3d: L, b, h, rho))
         mp = [m.section.b, m.section.h, m.material.density] if m.element == "beam3d" else \
             [m.material.density * m.section.area]
+        nd = idx.shape[1]
         for e, L in enumerate(np.asarray(mm.elem_length, float)):
-            Me = kernels.mass_matrix(m.element, [float(L), *mp])
-            nd = idx.shape[1]
             rows.append(np.repeat(idx[e], nd))
             cols.append(np.tile(idx[e], nd))
-            vals.append(Me.ravel())
+            vals.append(np.asarray(matrix(name, [float(L), *mp])).ravel())
     n = asm.n
     if not vals:
         return sp.csc_matrix((n, n))
-    return sp.csc_matrix((degree * np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
+    return sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
+
+
+def _mass_derivative(asm: Assembly, members: list[str], degree: int) -> sp.csc_matrix:
+    """d M / dp where every listed member's rhoA has degree `degree` in p (the mass kernels are linear in rho A
+    (cables) and in rho (beam3d: L, b, h, rho))."""
+    return degree * _element_matrices(asm, members, lambda name, p: kernels.mass_matrix(
+        asm.mesh.members[name].member.element, p))
 
 
 def _term_pieces(add: Callable, *args) -> list[Piece]:
@@ -311,34 +323,42 @@ def _dry_model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -
     if keys[0] == "materials" and len(keys) == 3:
         members = _members_with(doc, "material", keys[1])
         _refuse_arcs(asm, members, text)
+        beams = [m for m in members if scene.members[m].element == "beam3d"]
+        if keys[2] in MATERIAL_KEYS and beams:
+            out.pieces, out.mass = _beam_pieces(asm, doc, beams, keys[2], None, text, refuse)
         if keys[2] == "E":
             degrees = {c: 1 for cols in STIFFNESS_COLUMNS.values() for c in cols}
-            if "G" in doc["materials"][keys[1]]:  # a given shear modulus: GJ does not scale with E, but nu = E/2G - 1
+            if "G" in doc["materials"][keys[1]]:  # a given shear modulus: GJ does not scale with E
                 degrees["GIp"] = 0
-                if any(scene.members[m].element == "beam3d" for m in members):
-                    refuse("with G given, Poisson's ratio E/2G - 1 of the beam3d kernels depends on E "
-                           "(give poisson instead to differentiate E)")
-            if any(asm.mesh.members[m].member.element == "beam3d" and "continuum" in
-                   [t.effect for t in asm.terms] for m in members):
-                refuse("the continuum beam's kernel is not differentiated with respect to E here")
-            out.pieces = _scaled_pieces(asm, members, degrees, value, text, None)
+            cables = [m for m in members if m not in beams]
+            out.pieces += _scaled_pieces(asm, cables, degrees, value, text, None) if cables else []
+        elif keys[2] in ("poisson", "G"):
+            pass  # (a cable's kernels take neither: only the beams' pieces)
         elif keys[2] == "density":
             grav = [m for m in members if scene.members[m].gravity]
             out.pieces = _scaled_pieces(asm, grav, {"rhoA": 1}, value, text, ("gravity",))
             out.mass = (lambda: _mass_derivative(asm, members, 1) / value) if members else None
         else:
-            refuse("enters the model nonlinearly or not at all (differentiable material keys: E, density)")
+            refuse("enters the model nonlinearly or not at all (differentiable material keys: E, density, poisson, G)")
         return out
     if keys[0] == "sections" and len(keys) == 3:
         sec = doc["sections"][keys[1]]
         members = _members_with(doc, "section", keys[1])
         _refuse_arcs(asm, members, text)
-        if any(scene.members[m].element == "beam3d" for m in members):
-            refuse("a beam3d section's b x h enter its kernels nonlinearly (not differentiable here)")
-        for i, c in enumerate(getattr(scene, "contacts", ())):
-            # (the seabed's contacts, after the document's, take water.seabed.thickness)
-            if c.member in members and i < len(doc.get("contacts", [])) and "thickness" not in doc["contacts"][i]:
-                refuse(f"the contact on member {c.member!r} takes its thickness from the section (give the "
+        beams = [m for m in members if scene.members[m].element == "beam3d"]
+        if beams:
+            if len(beams) < len(members):
+                refuse("a section used by beam3d members and cables is not differentiated")
+            out.pieces, out.mass = _beam_pieces(asm, doc, beams, keys[2], sec.get("shape"), text, refuse,
+                                                tuple(sec))
+            return out
+        # (contacts that take their thickness from the section: a cable's radius sqrt(area / pi))
+        thick = [c for i, c in enumerate(getattr(scene, "contacts", ()))
+                 if c.member in members and i < len(doc.get("contacts", []))
+                 and "thickness" not in doc["contacts"][i]]  # (the seabed's contacts, after the document's, take water.seabed.thickness)
+        for c in thick:
+            if c.method != "penalty":
+                refuse(f"the exact contact on member {c.member!r} takes its thickness from the section (give the "
                        "contact a thickness to differentiate the section)")
         shape = sec.get("shape")
         if shape is None and keys[2] == "area":
@@ -352,6 +372,8 @@ def _dry_model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -
         out.pieces = _scaled_pieces(asm, members, deg, value, text, None)
         grav = [m for m in members if scene.members[m].gravity]
         out.pieces += _scaled_pieces(asm, grav, deg, value, text, ("gravity",))
+        for c in thick:  # (t = sqrt(area / pi) has half the area's degree in p)
+            out.pieces += _contact_pieces(asm, c, {"t": deg.get("rhoA", 0) / 2 * c.thickness / value}, text, refuse)
         if deg.get("mass"):
             out.mass = lambda: _mass_derivative(asm, members, deg["mass"]) / value
         return out
@@ -406,14 +428,10 @@ def _dry_model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -
         out.dQ, out.mass = body_derivative(asm, doc, keys, refuse)
         return out
     if keys[0] == "contacts" and len(keys) == 3 and keys[2] in ("stiffness", "hertz"):
-        from ancf_sym.contact import laws as contact
         c = scene.contacts[keys[1]]
         if c.method != "penalty":
             refuse("an exact contact has no stiffness")
-        calls: list = []  # (the penalty contacts' normal-law kernel calls, in declaration order)
-        contact.energy_terms({}, asm.mesh, lambda _t, _label, *call: calls.append(call))
-        penalty = [k for k in scene.contacts if k.method == "penalty"]
-        element, effect, gauss, idx, P = calls[next(i for i, k in enumerate(penalty) if k is c)]
+        element, effect, gauss, idx, P = _penalty_call(asm, c)
         names = kernels.parameters(element, effect)
         P = np.array(P, float)
         P[:, names.index("k")] = 1.0 if keys[2] == "stiffness" else 0.0  # (the law is linear in k and kh jointly)
@@ -428,6 +446,20 @@ def _dry_model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -
                "frequencies do not depend on them (the derivative is zero); differentiate them in a dynamics run")
     if keys[0] == "contacts" and len(keys) == 3 and keys[2] == "eps":
         refuse("the friction's regularisation velocity enters its force nonlinearly (not differentiable here)")
+    if keys[0] == "contacts" and (keys[2:] in (("radius",), ("level",), ("thickness",)) or
+                                  (len(keys) == 4 and keys[2] == "centre")):
+        c = scene.contacts[keys[1]]
+        col = {"radius": "R", "level": "d", "thickness": "t"}.get(keys[2]) or "c" + "xyz"[keys[3]]
+        out.pieces = _contact_pieces(asm, c, {col: 1.0}, text, refuse)
+        return out
+    if keys[0] == "contacts" and len(keys) == 4 and keys[2] == "normal":
+        # the kernel takes the unit normal n = v / |v| of the file's v: dn/dv_j = (e_j - n n_j) / |v|
+        v = np.asarray(doc["contacts"][keys[1]]["normal"], float)
+        n = v / np.linalg.norm(v)
+        dn = (np.eye(len(v))[keys[3]] - n * n[keys[3]]) / np.linalg.norm(v)
+        cols = {"n" + a: float(d) for a, d in zip("xyz", dn)}
+        out.pieces = _contact_pieces(asm, scene.contacts[keys[1]], cols, text, refuse)
+        return out
     if keys[0] in ("members", "loops") and len(keys) == 3 and keys[2] == "prestrain":
         name = doc[keys[0]][keys[1]]["name"]
         why = prestrain_refusal(asm, name)
@@ -436,10 +468,101 @@ def _dry_model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -
         out.pieces = prestrain_pieces(asm, name, value)
         out.mass = lambda: mass_derivative(asm, [name], -1.0 / (1.0 + value))
         return out
-    refuse("not a differentiable parameter here (materials.M.E | density, sections.S.area | I | diameter, "
-           "scene.gravity[j], loads[i].value[j], masses[i].mass, bodies[i].mass | inertia | force[j], "
-           "contacts[i].stiffness | hertz, "
-           "members[i].prestrain, loops[i].prestrain)")
+    refuse("not a differentiable parameter here (materials.M.E | density | poisson | G, sections.S.area | I | "
+           "diameter | b | h, scene.gravity[j], loads[i].value[j], masses[i].mass, bodies[i].mass | inertia | "
+           "force[j], contacts[i].stiffness | hertz | mu | damping | radius | centre[j] | level | normal[j] | "
+           "thickness, members[i].prestrain, loops[i].prestrain, water.*: see docs/sensitivity.md)")
+
+
+# -- parameters that enter kernels nonlinearly: the rows' derivative dP and the kernels' direction companions ------
+def _direction(element: str, effect: str, gauss, idx: np.ndarray, P: np.ndarray, dP: np.ndarray, label: str,
+               text: str) -> list:
+    """The pieces of one kernel call whose parameter rows P change by dP per unit p: a Piece where only columns of
+    the kernel's linear coefficient group change (the kernel evaluated with the group replaced by its derivative),
+    else a DirectionPiece (the compiled companion's d/dP . dP); refused where the kernel has no companion."""
+    nz = np.flatnonzero(np.any(dP != 0.0, axis=0))
+    if not len(nz):
+        return []
+    names = kernels.parameters(element, effect)
+    group = STIFFNESS_COLUMNS.get(effect, ("rhoA",) if effect == "gravity" else ())
+    if {names[j] for j in nz} <= set(group):
+        Pg = np.array(P, float)
+        for c in group:
+            Pg[:, names.index(c)] = dP[:, names.index(c)]
+        return [Piece(element, effect, gauss, idx, Pg, label)]
+    if registry.has_parameter_direction(element, effect, gauss):
+        return [DirectionPiece(element, effect, gauss, idx, np.array(P, float), dP, label)]
+    raise ParameterError(f"parameter path {text!r}: changes {[names[j] for j in nz]} of the {element}/{effect} "
+                         f"kernel (gauss {gauss}), which enter it nonlinearly, and that kernel has no compiled "
+                         "parameter-direction companion (registry.PARAMETER_DIRECTION_EFFECTS: beams at their default "
+                         "Gauss order)")
+
+
+def _penalty_call(asm: Assembly, c) -> tuple:
+    """(element, effect, gauss, idx, P) of a penalty contact's normal-law kernel call."""
+    from ancf_sym.contact import laws as contact
+    calls: list = []  # (the penalty contacts' normal-law kernel calls, in declaration order)
+    contact.energy_terms({}, asm.mesh, lambda _t, _label, *call: calls.append(call))
+    penalty = [k for k in asm.scene.contacts if k.method == "penalty"]
+    return calls[next(i for i, k in enumerate(penalty) if k is c)]
+
+
+def _contact_pieces(asm: Assembly, c, columns: dict, text: str, refuse: Callable) -> list:
+    """Pieces of a penalty contact whose kernel parameters `columns` (name -> d/dp) change."""
+    if c.method != "penalty":
+        refuse("an exact contact's geometry sits in its unilateral rows, which are not differentiated with respect "
+               "to it (give the contact a stiffness: method = \"penalty\")")
+    if c.dissipative:
+        refuse("the contact's damping and friction forces depend on its geometry too (not differentiated here)")
+    if getattr(c, "body", None) is not None:
+        refuse("a drum carried by a body: its geometry enters the body's kernels (not differentiated here)")
+    element, effect, gauss, idx, P = _penalty_call(asm, c)
+    names = kernels.parameters(element, effect)
+    P = np.array(P, float)
+    dP = np.zeros_like(P)
+    for name, v in columns.items():
+        dP[:, names.index(name)] = v
+    return _direction(element, effect, gauss, np.asarray(idx), P, dP, "contact", text)
+
+
+def _beam_pieces(asm: Assembly, doc: dict, beams: list[str], key: str, shape: str | None, text: str,
+                 refuse: Callable, given: tuple = ()) -> tuple[list, Callable | None]:
+    """(pieces, mass derivative builder or None) of beam3d members for their material's E | poisson | G or their
+    section's b | h (ancf_sym.sensitivity.beam_rows)."""
+    scene = asm.scene
+    if getattr(scene, "water", None) is not None:
+        refuse("the beam's buoyancy and added mass in water are not differentiated with respect to it")
+    pieces, masses = [], {}
+    for name in beams:
+        m = scene.members[name]
+        d = base_derivatives(m, key, shape, given)
+        if isinstance(d, str):
+            refuse(d)
+        for t in asm.terms:
+            if t.label.startswith("contact") or (t.effect == "gravity" and t.label != "gravity"):
+                continue  # (contacts below; a distributed load uses the gravity kernel)
+            rows = _member_rows(asm, t, [name])
+            if not rows.any():
+                continue
+            P = np.array(t.P[rows], float)
+            dp = row_derivative(t.effect, m, d, P.shape[1])
+            if dp is None:
+                continue
+            pieces += _direction(t.element, t.effect, t.gauss, t.idx[rows], P, np.tile(dp, (len(P), 1)), t.label,
+                                 text)
+        for i, c in enumerate(getattr(scene, "contacts", ())):
+            if c.member == name and d["h"] and "thickness" not in doc["contacts"][i]:
+                pieces += _contact_pieces(asm, c, {"t": d["h"] / 2}, text, refuse)  # (thickness h/2)
+        if d["b"] or d["h"]:
+            masses[name] = mass_direction(m, d)
+    return pieces, ((lambda: _beam_mass_derivative(asm, masses)) if masses else None)
+
+
+def _beam_mass_derivative(asm: Assembly, directions: dict) -> sp.csc_matrix:
+    """d M / dp of beam3d members whose mass parameters (L, b, h, rho) change by directions[name] per unit p (the
+    mass kernel's direction companion: its b x h enter the section's moments nonlinearly)."""
+    return _element_matrices(asm, list(directions), lambda name, p: kernels.mass_matrix_direction(
+        "beam3d", p, directions[name]))
 
 
 class _MeshView:

@@ -80,7 +80,7 @@ def test_exact_drum_contact(path):
 def test_diameter_with_section_thickness_refused():
     res, _ = outputs(DRUM)
     S = StaticSensitivity(scene_from_dict(DRUM)[0], res, DRUM)
-    with pytest.raises(ParameterError, match="takes its thickness from the section"):
+    with pytest.raises(ParameterError, match="exact contact on member .rope. takes its thickness from the section"):
         S.derivative("sections.s.diameter")
 
 

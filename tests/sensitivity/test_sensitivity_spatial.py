@@ -54,9 +54,13 @@ def test_spatial_sensitivity(doc, path, rel):
     assert np.linalg.norm(dx - fd) <= 1e-6 * np.linalg.norm(fd)
 
 
-@pytest.mark.parametrize("path, message", [("sections.s.b", "b x h enter its kernels nonlinearly"),
-                                           ("materials.m.poisson", "nonlinearly or not at all")])
-def test_beam_refusals(path, message):
-    scene, r = solved(BEAM)
+@pytest.mark.parametrize("change, path, message", [
+    ({"sections": {"s": {"shape": "rectangle", "b": 0.03, "h": 0.03}}}, "sections.s.b", "kink at b = h"),
+    ({"members": [dict(BEAM["members"][0], gauss=3)]}, "materials.m.poisson", "no compiled parameter-direction")])
+def test_beam_refusals(change, path, message):
+    """What stays refused: the square rectangle's J (max/min of b, h swap), and a kernel of another Gauss order
+    than the one its direction companion is compiled for."""
+    doc = dict(BEAM, **change)
+    scene, r = solved(doc)
     with pytest.raises(ParameterError, match=message):
-        StaticSensitivity(scene, r, BEAM).dx(path)
+        StaticSensitivity(scene, r, doc).dx(path)
