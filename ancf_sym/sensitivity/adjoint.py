@@ -48,6 +48,8 @@ from ancf_sym.dynamics.sensors import Sensor, SensorEval
 from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, damping_matrices, forcing, mass_solve, \
     run_for_sensitivity, start_tangent, step_inputs, step_matrix, stiffness_damped, stiffness_damping_forcing
 from ancf_sym.sensitivity.contact_dissipation import dissipation_forcing, dissipation_index
+from ancf_sym.sensitivity.run_start import velocity_map
+from ancf_sym.sensitivity.start_derivative import start_tangents, static_start_gradient
 from ancf_sym.sensitivity.model_derivative import STIFFNESS_COLUMNS, ModelDerivative, model_derivative, \
     read_document
 from ancf_sym.system.step_system import StepSystem
@@ -130,13 +132,15 @@ class DynamicGradient:
 _SWEEPS: dict = {}
 
 
-def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int) -> ca.Function:
+def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int, variable: bool = False
+                   ) -> ca.Function:
     """sweep(acc0, U) -> (acc, MU), U = [X; V; WQ; WV[; Lam; W][; X_prev]]: n backward steps (columns: steps N, N-1,
     .., 1) of the adjoint recursion (see the module docstring); acc = the adjoints flowing into (q, v, a, abar) of the
-    earlier state; Lam, W: the multipliers and drives' time inputs, X_prev: q_n (Rayleigh beta)."""
+    earlier state; Lam, W: the multipliers and drives' time inputs, X_prev: q_n (Rayleigh beta); variable: the step
+    sizes as U's last row (the scheme's coefficients per step), else h = dt."""
     sch = opts.scheme()
-    h = opts.dt
-    key = (S.graph_key, sch, h, alpha_r, S.rayleigh.beta if S.rayleigh is not None else 0.0, n, S.par.tobytes())
+    h = ca.MX.sym("h") if variable else opts.dt
+    key = (S.graph_key, sch, None if variable else h, alpha_r, S.rayleigh.beta if S.rayleigh is not None else 0.0, n, S.par.tobytes())
     if key in _SWEEPS:
         return _SWEEPS[key]
     nf = S.nf
@@ -172,7 +176,7 @@ def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int) 
     Sa = -af / (1 - af) * Bb
     Sab = h * (1 - gamma) * Bvb + am / (1 - af) * Bb - (0.5 - beta) / beta * Db
     u = ca.vertcat(x, v, wq, wv, *([y] if y is not None else []), *([xp] if xp is not None else []),
-                   *([wl] if mc else []))
+                   *([wl] if mc else []), *([h] if variable else []))
     step = ca.Function("adjoint_step", [acc, u], [ca.vertcat(Sq, Sv, Sa, Sab), mu])
     sweep = step.mapaccum("adjoint_steps", n)
     a0, U = ca.MX.sym("acc0", 4 * nf), ca.MX.sym("U", u.size1(), n)
@@ -361,10 +365,11 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
     MU = np.zeros((N + 1, nf))
     acc = np.zeros(4 * nf)
     if N:
-        f = backward_sweep(S, options, alpha_r, N)
+        f = backward_sweep(S, options, alpha_r, N, run.H is not None)
         cols = [Q[:0:-1], Vr[:0:-1], WQ[:0:-1], WV[:0:-1]] + \
             ([run.Lam[:0:-1], run.W[:0:-1]] if step_inputs(S) else []) + \
-            ([Q[-2::-1]] if stiffness_damped(S) else []) + ([WL[:0:-1]] if S.mc else [])
+            ([Q[-2::-1]] if stiffness_damped(S) else []) + ([WL[:0:-1]] if S.mc else []) + \
+            ([run.H[::-1, None]] if run.H is not None else [])  # (the accepted step sizes, held)
         U = np.ascontiguousarray(np.hstack(cols))  # (column j: step N - j)
         MUb = np.zeros((N, nf))
         _, evaluate = bind(f, [np.zeros(4 * nf), U], [acc, MUb])
@@ -373,13 +378,20 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
     MU[0] = mass_solve(run)(acc[2 * nf:3 * nf] + acc[3 * nf:], WL[0])  # (a_0 = abar_0; lam_0: its weights)
     Lam = S.full_v_rows(MU)
     LamR = Lam
-    if options.start == "static":  # dq_0/dp = -K_0^-1 E' dR/dp(x_0): its adjoint xi = K_0^-1 qbar_0
-        K0 = start_tangent(run)
-        qb0 = acc[:nf] + WQ[0] - K0 @ MU[0]
-        LamR = Lam.copy()
-        LamR[0] += S.full_v(spla.splu(K0).solve(qb0))
-    else:
-        K0 = None
+    # the start (ancf_sym.sensitivity.start_derivative): the output's adjoint of q_0, through a_0 and through a
+    # rotation's v_0 = v_0(q_0); a static start's dq_0/dp = -K_0^-1 E' dR/dp(x_0), its adjoint xi = K_0^-1 qbar_0
+    start_grad = None
+    if run.start is not None and run.start.static is not None:
+        Kq, Kv = start_tangents(run)
+        qb0 = acc[:nf] + WQ[0] - Kq.T @ MU[0]
+        Lv = velocity_map(run.start, S)
+        if Lv is not None:
+            qb0 = qb0 + Lv.T @ (acc[nf:2 * nf] + WV[0] - Kv.T @ MU[0])
+        if run.start.released:  # (the held scene's statics: its own adjoint)
+            start_grad = dict(zip(paths, static_start_gradient(run, list(paths), qb0)))
+        else:
+            LamR = Lam.copy()
+            LamR[0] += S.full_v(spla.splu(start_tangent(run)).solve(qb0))
     grad, cache = {}, {}
     M = S.M
     for p in paths:
@@ -403,5 +415,5 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
                 g += 0.5 * float(V[-1] @ (dM @ V[-1]))
             if output.which in ("potential", "total"):
                 g += md.residual(X[-1])[0]
-        grad[p] = g
+        grad[p] = g + (start_grad[p] if start_grad is not None else 0.0)
     return DynamicGradient(value, grad, t, X, V, contact_notes(run))

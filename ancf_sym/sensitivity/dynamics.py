@@ -42,7 +42,6 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
-import scipy.sparse.linalg as spla
 
 from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.run import make_integrator
@@ -50,7 +49,9 @@ from ancf_sym.dynamics.sensors import Sensor, SensorEval
 from ancf_sym.system.step_system import StepSystem
 from ancf_sym.scene.builder import Scene
 from ancf_sym.sensitivity.alpha_run import contact_notes, dynamic_assembly, forcing, mass_solve, refuse_unsupported, \
-    damping_matrices, run_for_sensitivity, start_multipliers, start_tangent, step_inputs, step_matrix, stiffness_damped
+    damping_matrices, run_for_sensitivity, start_multipliers, step_inputs, step_matrix, stiffness_damped
+from ancf_sym.sensitivity.run_start import velocity_map
+from ancf_sym.sensitivity.start_derivative import start_tangents, static_start_columns
 from ancf_sym.util.casadi_buffers import bind
 from ancf_sym.util.sparsity import dm
 
@@ -115,14 +116,16 @@ def check_dynamic(scene: Scene, options: DynamicOptions) -> None:
 _SWEEPS: dict = {}
 
 
-def forward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int, P: int) -> ca.Function:
+def forward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int, P: int, variable: bool = False
+                  ) -> ca.Function:
     """sweep(z0, X, V, F[, Y]) -> (Z[, L]): n steps of the sensitivity recursion (module docstring) for P parameters;
     z = [Sq; Sv; Sa; Sab] (4 nf x P), X, V (nf x n): q_{n+1}, v_{n+1} per step, F (nf x n P): the forcing per step,
     Y ((mc + nw) x n): the true multipliers and the drives' time inputs per step (only with constraint rows); Z (4 nf
-    x n P): z after each step, L (mc x n P): d lam_{n+1}/dp; with Rayleigh beta one more input XP (nf x n): q_n."""
+    x n P): z after each step, L (mc x n P): d lam_{n+1}/dp; with Rayleigh beta one more input XP (nf x n): q_n;
+    variable: the step sizes (1 x n) as the last input (the scheme's coefficients per step), else h = dt."""
     sch = opts.scheme()
-    h = opts.dt
-    key = (S.graph_key, sch, h, alpha_r, S.rayleigh.beta if S.rayleigh is not None else 0.0, n, P, S.par.tobytes())
+    h = ca.MX.sym("h") if variable else opts.dt
+    key = (S.graph_key, sch, None if variable else h, alpha_r, S.rayleigh.beta if S.rayleigh is not None else 0.0, n, P, S.par.tobytes())
     if key in _SWEEPS:
         return _SWEEPS[key]
     nf, mc = S.nf, S.mc
@@ -150,7 +153,7 @@ def forward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int, P
     else:
         Sq1, outs = ca.solve(J, -rhs, solver), []
     step = ca.Function("sensitivity_step", [z, x, v, F] + ([y] if y is not None else []) +
-                       ([xp] if xp is not None else []),
+                       ([xp] if xp is not None else []) + ([h] if variable else []),
                        [ca.vertcat(Sq1, cc * Sq1 + Bv, cm * Sq1 + B, Sq1 / (h * h * beta) + D)] + outs)
     _SWEEPS[key] = f = step.mapaccum("sensitivity_sweep", n)
     return f
@@ -163,23 +166,24 @@ def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
     run = run_for_sensitivity(doc, paths, options)
     S, asm, nf, P = run.S, run.asm, run.S.nf, len(paths)
     N = len(run.Q) - 1
-    # start: the reference, or the equilibrium with its sensitivity; M a_0 = -R(q_0, p) differentiated
-    K0 = start_tangent(run)
-    if options.start == "static" and P:
-        Sq = -spla.splu(K0).solve(np.column_stack([forcing(run, p, statics=True)[0] for p in paths]))
-    else:
-        Sq = np.zeros((nf, P))
+    # start: dq_0/dp of a static start (its statics sensitivity), dv_0/dp of a rotation of it, the initial
+    # acceleration M a_0 = -(R + C v_0 + f_d)(q_0, v_0, p) differentiated (ancf_sym.sensitivity.start_derivative)
+    Sq = static_start_columns(run, paths)
+    Lv = velocity_map(run.start, S)
+    Sv = Lv @ Sq if Lv is not None else np.zeros((nf, P))
+    Kq, Kv = start_tangents(run)
     Fs = np.stack([forcing(run, p) for p in paths], axis=2) if P else np.zeros((N + 1, nf, 0))  # (N + 1, nf, P)
-    Sa = -mass_solve(run)(K0 @ Sq + Fs[0]) if P else np.zeros((nf, 0))
-    z0 = np.vstack([Sq, np.zeros((nf, P)), Sa, Sa])
+    r0 = Kq @ Sq + Fs[0] + (Kv @ Sv if Kv is not None else 0.0)
+    Sa = -mass_solve(run)(r0) if P else np.zeros((nf, 0))
+    z0 = np.vstack([Sq, Sv, Sa, Sa])
     dq, dv = np.zeros((N + 1, nf, P)), np.zeros((N + 1, nf, P))
     mc = S.mc
     dl = np.zeros((N + 1, mc, P))
-    dq[0] = Sq
+    dq[0], dv[0] = Sq, Sv
     if mc and P:  # (the start's multipliers: [M J'; J 0] [a_0; lam_0] = [-R; -gamma] differentiated, dq_0 = 0)
-        dl[0] = start_multipliers(run, -(K0 @ Sq + Fs[0]))
+        dl[0] = start_multipliers(run, -r0)
     if N and P:
-        f = forward_sweep(S, options, run.alpha_r, N, P)
+        f = forward_sweep(S, options, run.alpha_r, N, P, run.H is not None)
         Z = np.zeros(4 * nf * P * N)
         L = np.zeros(mc * P * N)
         # (column-major inputs: X's column j is q_{j+1}; F's columns j P .. j P + P - 1 step j + 1's parameters)
@@ -190,6 +194,8 @@ def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
             ins.append(np.ascontiguousarray(np.hstack([run.Lam[1:], run.W[1:]])).ravel())
         if stiffness_damped(S):
             ins.append(np.ascontiguousarray(run.Q[:-1]).ravel())
+        if run.H is not None:  # (the accepted step sizes, held)
+            ins.append(np.ascontiguousarray(run.H))
         _, evaluate = bind(f, ins, [Z] + ([L] if mc else []))
         evaluate()
         Zs = Z.reshape(N, P, 4 * nf)
