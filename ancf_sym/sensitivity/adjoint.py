@@ -49,6 +49,7 @@ from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, damping
     run_for_sensitivity, start_tangent, step_inputs, step_matrix, stiffness_damped, stiffness_damping_forcing
 from ancf_sym.sensitivity.contact_dissipation import dissipation_forcing, dissipation_index
 from ancf_sym.sensitivity.run_start import velocity_map
+from ancf_sym.sensitivity.step_sequence import step_notes
 from ancf_sym.sensitivity.start_derivative import start_tangents, static_start_gradient
 from ancf_sym.sensitivity.model_derivative import STIFFNESS_COLUMNS, ModelDerivative, model_derivative, \
     read_document
@@ -416,4 +417,4 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
             if output.which in ("potential", "total"):
                 g += md.residual(X[-1])[0]
         grad[p] = g + (start_grad[p] if start_grad is not None else 0.0)
-    return DynamicGradient(value, grad, t, X, V, contact_notes(run))
+    return DynamicGradient(value, grad, t, X, V, contact_notes(run) + step_notes(run))

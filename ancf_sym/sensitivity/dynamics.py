@@ -51,6 +51,7 @@ from ancf_sym.scene.builder import Scene
 from ancf_sym.sensitivity.alpha_run import contact_notes, dynamic_assembly, forcing, mass_solve, refuse_unsupported, \
     damping_matrices, run_for_sensitivity, start_multipliers, step_inputs, step_matrix, stiffness_damped
 from ancf_sym.sensitivity.run_start import velocity_map
+from ancf_sym.sensitivity.step_sequence import step_notes
 from ancf_sym.sensitivity.start_derivative import start_tangents, static_start_columns
 from ancf_sym.util.casadi_buffers import bind
 from ancf_sym.util.sparsity import dm
@@ -209,5 +210,6 @@ def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
     dx, dvf = (full(dq), full(dv)) if P else (np.zeros((N + 1, asm.n, 0)), np.zeros((N + 1, asm.n, 0)))
     sensors = [SensorEval(Sensor.from_dict(sn, i), asm, i) for i, sn in enumerate(options.sensors)]
     return DynamicSensitivity(run.t, run.X, run.V_full, {p: dx[:, :, k] for k, p in enumerate(paths)},
-                              {p: dvf[:, :, k] for k, p in enumerate(paths)}, asm, sensors, contact_notes(run),
+                              {p: dvf[:, :, k] for k, p in enumerate(paths)}, asm, sensors,
+                              contact_notes(run) + step_notes(run),
                               run.Lam, {p: dl[:, :, k] for k, p in enumerate(paths)})

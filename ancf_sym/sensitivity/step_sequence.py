@@ -59,3 +59,12 @@ def held_steps(integ, t_start: float, steps: np.ndarray, loads: LoadSum | None, 
         rows.append(row())
         t = t + float(h)
     return rows
+
+
+def step_notes(run) -> list[str]:
+    """What the derivative of an adaptive run (an alpha_run.AlphaRun) holds fixed: its accepted steps."""
+    if not run.options.adaptive or run.H is None:
+        return []
+    return [f"adaptive steps: the derivative of the run on its {len(run.H)} accepted steps held (h from "
+            f"{run.H.min():.3g} to {run.H.max():.3g} s); the step sizes' dependence on the parameters through the "
+            "error control is not differentiated"]
