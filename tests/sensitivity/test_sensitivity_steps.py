@@ -121,3 +121,14 @@ def test_sensitivities_at_output_times_inside_steps():
         assert np.max(np.abs(got - ref)) <= 1e-5 * np.max(np.abs(ref)), p
     assert not dynamic_sensitivity(DOC, PATHS[:1], o).notes  # (fixed steps: nothing held to note)
     assert "accepted steps held" in dynamic_sensitivity(DOC, PATHS[:1], adaptive()).notes[0]
+
+
+def test_history_calibration_refuses_adaptive_steps():
+    """A fit to a sensor history needs a run that is a smooth function of the parameters: refused by name."""
+    from ancf_sym.scene import SceneError
+    from ancf_sym.sensitivity.calibrate_history import SensorHistory, calibrate_history
+
+    t = np.arange(0, 0.021, 2e-3)
+    o = DynamicOptions(dt=2e-3, t_end=0.02, sensors=SENSORS, adaptive=True)
+    with pytest.raises(SceneError, match="analysis.adaptive"):
+        calibrate_history(DOC, SensorHistory(t, {("tip", 1): np.zeros(len(t))}), ["dampings[0].alpha"], options=o)
