@@ -53,6 +53,7 @@ from ancf_sym.sensitivity.step_sequence import step_notes
 from ancf_sym.sensitivity.start_derivative import start_tangents, static_start_gradient
 from ancf_sym.sensitivity.model_derivative import STIFFNESS_COLUMNS, ModelDerivative, model_derivative, \
     read_document
+from ancf_sym.scene.builder import SceneError
 from ancf_sym.system.step_system import StepSystem
 from ancf_sym.util.casadi_buffers import bind
 from ancf_sym.util.sparsity import dm
@@ -345,6 +346,9 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
         names = [s.get("name") if isinstance(s, dict) else s.name for s in options.sensors]
         if output.sensor not in names:
             raise KeyError(f"output sensor {output.sensor!r}: no such sensor in analysis.sensors (named: {names})")
+    if options.integrator in ("radau", "gauss"):
+        raise SceneError(f"dynamic gradient: integrator {options.integrator!r}: no adjoint of collocation steps "
+                         "(their forward sensitivities: ancf_sym.sensitivity.dynamics.dynamic_sensitivity)")
     run = run_for_sensitivity(d, paths, options)
     S, asm, nf = run.S, run.asm, run.S.nf
     sensors = [SensorEval(Sensor.from_dict(sn, i), asm, i) for i, sn in enumerate(options.sensors)]

@@ -89,8 +89,11 @@ def dynamic_assembly(scene):
 def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
     """SceneError naming every feature of the run whose derivative is not propagated."""
     why = []
-    if opts.integrator not in ("newmark", "hht", "generalized_alpha"):
-        why.append(f"integrator {opts.integrator!r} (alpha schemes only)")
+    if opts.integrator not in ("newmark", "hht", "generalized_alpha", "radau", "gauss"):
+        why.append(f"integrator {opts.integrator!r} (alpha schemes and collocation only)")
+    elif opts.integrator in ("radau", "gauss") and (S.mc or integ.kdamp.active):
+        why.append(f"integrator {opts.integrator!r} with constraint rows carrying multipliers or stiffness-"
+                   "proportional Rayleigh damping (collocation: forward sensitivities without them)")
     if S.mc and opts.start == "static":
         why.append("a static start with constraint rows carrying multipliers (rigid joints, bodies' rows, drives)")
     if integ.kdamp.active:
@@ -301,6 +304,9 @@ def run_for_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
     S = StepSystem.for_scene(asm)
     integ = make_integrator(S, options, Counters(), 0.0, options.newton.xtol * S.length_scale)
     refuse_unsupported(S, options, integ)
+    if options.integrator in ("radau", "gauss"):
+        raise SceneError(f"dynamic sensitivities: integrator {options.integrator!r}: the alpha schemes' run; "
+                         "collocation runs: ancf_sym.sensitivity.collocation_run (forward sensitivities)")
     nf = S.nf
     start = run_start(given, asm, options)
     # time loads (analysis.loads): a forcing that no scene parameter changes, applied as the run applies it

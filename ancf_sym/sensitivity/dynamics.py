@@ -50,6 +50,7 @@ from ancf_sym.system.step_system import StepSystem
 from ancf_sym.scene.builder import Scene
 from ancf_sym.sensitivity.alpha_run import contact_notes, dynamic_assembly, forcing, mass_solve, refuse_unsupported, \
     damping_matrices, run_for_sensitivity, start_multipliers, step_inputs, step_matrix, stiffness_damped
+from ancf_sym.sensitivity.collocation_run import COLLOCATION, collocation_sensitivity
 from ancf_sym.sensitivity.run_start import velocity_map
 from ancf_sym.sensitivity.step_sequence import step_notes
 from ancf_sym.sensitivity.start_derivative import start_tangents, static_start_columns
@@ -161,9 +162,12 @@ def forward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int, P
 
 
 def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptions) -> DynamicSensitivity:
-    """Run the scene of `doc` with `options` (fixed steps of an alpha scheme) and propagate d(state)/dp for every
-    path alongside (see the module docstring)."""
+    """Run the scene of `doc` with `options` (an alpha scheme or collocation, fixed or adaptive steps) and propagate
+    d(state)/dp for every path alongside (see the module docstring)."""
     paths = list(paths)
+    if options.integrator in COLLOCATION:  # (Radau IIA, Gauss: ancf_sym.sensitivity.collocation_run)
+        run, dq, dv = collocation_sensitivity(doc, paths, options)
+        return answer(run, paths, dq, dv, np.zeros((len(dq), 0, len(paths))))
     run = run_for_sensitivity(doc, paths, options)
     S, asm, nf, P = run.S, run.asm, run.S.nf, len(paths)
     N = len(run.Q) - 1
@@ -203,6 +207,15 @@ def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
         dq[1:] = Zs[:, :, :nf].transpose(0, 2, 1)
         dv[1:] = Zs[:, :, nf:2 * nf].transpose(0, 2, 1)
         dl[1:] = L.reshape(N, P, mc).transpose(0, 2, 1)
+    return answer(run, paths, dq, dv, dl)
+
+
+def answer(run, paths: list[str], dq: np.ndarray, dv: np.ndarray, dl: np.ndarray) -> DynamicSensitivity:
+    """The DynamicSensitivity of a kept run (alpha_run.AlphaRun) from the reduced derivatives per step (steps + 1,
+    nf | mc, P)."""
+    S, asm, nf, P = run.S, run.asm, run.S.nf, len(paths)
+    N = len(dq) - 1
+    options = run.options
 
     def full(d: np.ndarray) -> np.ndarray:  # (E d per step and parameter, as one gather)
         rows = S.full_v_rows(d.transpose(0, 2, 1).reshape(-1, nf))

@@ -27,11 +27,14 @@ def adaptive_steps(S: StepSystem, integ, opts: DynamicOptions, loads: LoadSum | 
                    row: Callable[[], np.ndarray]) -> tuple[list, np.ndarray]:
     """(rows, h): row() of the integrator after each accepted step of the adaptive run (the start's first), and the
     accepted step sizes, from the package's time loop with the run's own limits (dt_min, dt_max, tol)."""
-    rows, hs = [row()], []
+    rows, hs, ts = [row()], [], [opts.t_start]
 
     def keep(t_new: float) -> None:
         rows.append(row())
-        hs.append(integ.h_prev)  # (the step just accepted, as the integrator took it)
+        # (the step just accepted as the alpha integrator took it; collocation keeps no h: t_new - t, within an
+        # ulp of t)
+        hs.append(integ.h_prev if hasattr(integ, "h_prev") else t_new - ts[-1])
+        ts.append(t_new)
     dt_min = opts.dt_min or opts.dt * 2.0 ** -12  # (the run's defaults: ancf_sym.dynamics.run.simulate)
     dt_max = opts.dt_max or opts.dt * 100
     err_tol = opts.tol or 1e-6 * S.length_scale
