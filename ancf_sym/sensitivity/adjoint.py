@@ -48,6 +48,7 @@ from ancf_sym.dynamics.sensors import Sensor, SensorEval
 from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, damping_matrices, forcing, mass_solve, \
     run_for_sensitivity, start_tangent, step_inputs, step_matrix, stiffness_damped, stiffness_damping_forcing
 from ancf_sym.sensitivity.contact_dissipation import dissipation_forcing, dissipation_index
+from ancf_sym.sensitivity.collocation_run import COLLOCATION, collocation_adjoint, collocation_run
 from ancf_sym.sensitivity.run_start import velocity_map
 from ancf_sym.sensitivity.step_sequence import step_notes
 from ancf_sym.sensitivity.start_derivative import start_tangents, static_start_gradient
@@ -337,6 +338,21 @@ def residual_sum(md: ModelDerivative, Lam: np.ndarray, X: np.ndarray, cache: dic
     return total
 
 
+def energy_partial(output, asm, doc: dict, path: str, X: np.ndarray, V: np.ndarray) -> float:
+    """An energy output's explicit derivative at the end state (the mass's in the kinetic energy, the energies' own
+    in the potential); 0 for other outputs and for damping paths."""
+    if not isinstance(output, EnergyOutput) or damping_index(doc, path) is not None or \
+            dissipation_index(doc, path) is not None:
+        return 0.0
+    md = model_derivative(asm, doc, path)
+    g = 0.0
+    if md.dM is not None and output.which in ("kinetic", "total"):
+        g += 0.5 * float(V[-1] @ (md.dM @ V[-1]))
+    if output.which in ("potential", "total"):
+        g += md.residual(X[-1])[0]
+    return g
+
+
 def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
                      output: SensorOutput | EnergyOutput | MultiplierOutput) -> DynamicGradient:
     """Run the scene of `doc` with `options` (fixed steps of an alpha scheme) and return the output's value and
@@ -346,10 +362,11 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
         names = [s.get("name") if isinstance(s, dict) else s.name for s in options.sensors]
         if output.sensor not in names:
             raise KeyError(f"output sensor {output.sensor!r}: no such sensor in analysis.sensors (named: {names})")
-    if options.integrator in ("radau", "gauss"):
-        raise SceneError(f"dynamic gradient: integrator {options.integrator!r}: no adjoint of collocation steps "
-                         "(their forward sensitivities: ancf_sym.sensitivity.dynamics.dynamic_sensitivity)")
-    run = run_for_sensitivity(d, paths, options)
+    stages = None
+    if options.integrator in COLLOCATION:  # (Radau IIA, Gauss: ancf_sym.sensitivity.collocation_run)
+        run, stages, integ = collocation_run(d, paths, options)
+    else:
+        run = run_for_sensitivity(d, paths, options)
     S, asm, nf = run.S, run.asm, run.S.nf
     sensors = [SensorEval(Sensor.from_dict(sn, i), asm, i) for i, sn in enumerate(options.sensors)]
     Q, Vr, t = run.Q, run.V, run.t
@@ -365,6 +382,10 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
         WQ, WV = np.zeros((len(t), nf)), np.zeros((len(t), nf))
     else:
         value, WQ, WV = output_weights(output, sensors, S, t, X, V, Vr)
+    if stages is not None:
+        g = collocation_adjoint(run, stages, integ, list(paths), WQ, WV)
+        grad = {p: float(g[k]) + energy_partial(output, asm, d, p, X, V) for k, p in enumerate(paths)}
+        return DynamicGradient(value, grad, t, X, V, contact_notes(run) + step_notes(run))
     alpha_r = run.alpha_r
     # backward: steps N .. 1 in one compiled sweep, then the start (M a_0 = -R(q_0); the static start's adjoint)
     MU = np.zeros((N + 1, nf))

@@ -1,5 +1,5 @@
-"""Forward sensitivities of a dynamic run of the collocation integrators (Radau IIA, Gauss-Legendre), exact for the
-discrete scheme (ancf_sym.dynamics.collocation).
+"""Forward sensitivities and the discrete adjoint of a dynamic run of the collocation integrators (Radau IIA,
+Gauss-Legendre), exact for the discrete scheme (ancf_sym.dynamics.collocation).
 
 A step solves the condensed stage equations for the stage positions Q_1..Q_s; with W = A^-1 of the Butcher matrix
 and w = W 1, the stage velocities and accelerations are V_j = (sum_m W_jm Q_m - w_j q_n) / h and A_j = (sum_m W_jm
@@ -15,8 +15,9 @@ V_i)), R_v = -w_i / h M per stage, F_p the parameters' forcing at the stage stat
 dv_n. The start's acceleration only guesses the first stages (no equation of the run holds it), so the start
 enters through dq_0, dv_0 alone (ancf_sym.sensitivity.start_derivative). One sparse LU of J_Z per step serves every
 parameter. Steps: fixed (a shorter last one as the run takes it) or the adaptive run's accepted steps held
-(ancf_sym.sensitivity.step_sequence). Refused by name: constraint rows with multipliers, stiffness-proportional
-Rayleigh damping (alpha_run.refuse_unsupported), the adjoint (forward only).
+(ancf_sym.sensitivity.step_sequence). The adjoint (collocation_adjoint) runs the transposed recursion backward:
+one transposed solve with J_Z per step, the parameters' terms -sum mu . F_p over the stages. Refused by name:
+constraint rows with multipliers, stiffness-proportional Rayleigh damping (alpha_run.refuse_unsupported).
 """
 from __future__ import annotations
 
@@ -39,7 +40,7 @@ from ancf_sym.sensitivity.alpha_run import AlphaRun, check_dynamic_paths, dynami
     refuse_unsupported
 from ancf_sym.sensitivity.model_derivative import read_document
 from ancf_sym.sensitivity.run_start import run_start, velocity_map
-from ancf_sym.sensitivity.start_derivative import static_start_columns
+from ancf_sym.sensitivity.start_derivative import static_start_columns, static_start_gradient
 from ancf_sym.sensitivity.step_sequence import adaptive_steps, held_steps
 from ancf_sym.system.step_system import StepSystem
 
@@ -100,46 +101,94 @@ def collocation_sensitivity(doc: dict | str, paths: list[str], options: DynamicO
     w = W.sum(axis=1)
     Ww = W @ w
     M = sp.csc_matrix(S.M)
-    alpha = run.alpha_r
     dq, dv = np.zeros((N + 1, nf, P)), np.zeros((N + 1, nf, P))
     Sq = static_start_columns(run, paths)
     Lv = velocity_map(run.start, S)
     dq[0], dv[0] = Sq, (Lv @ Sq if Lv is not None else np.zeros((nf, P)))
     if not (N and P):
         return run, dq, dv
-    # the stage states of every step (rows: step n + 1's stage j at n s + j) and the parameters' forcing there
-    Qs = stages[1:].transpose(0, 2, 1).reshape(N * s, nf)
-    qn, vn = np.repeat(run.Q[:-1], s, axis=0), np.repeat(run.V[:-1], s, axis=0)
-    hs = np.repeat(run.H, s)[:, None]
-    Wrep = np.tile(W, (N, 1))  # (row n s + j: W[j, :])
-    Qb = stages[1:].transpose(0, 2, 1)  # (N, s, nf)
-    Vs = (np.einsum("njm,nmk->njk", Wrep.reshape(N, s, s), Qb).reshape(N * s, nf) - w[np.tile(np.arange(s), N),
-                                                                                       None] * qn) / hs
-    As = (np.einsum("njm,nmk->njk", Wrep.reshape(N, s, s), Vs.reshape(N, s, nf)).reshape(N * s, nf) -
-          w[np.tile(np.arange(s), N), None] * vn) / hs
-    staged = replace(run, Q=Qs, V=Vs, A=As)
-    Fp = np.stack([forcing(staged, p) for p in paths], axis=2).reshape(N, s, nf, P)
-    spj = integ.fns["sparsity"]
-    jac = integ.fns["jacobian"]
-    kc = 1.0
-    F = np.tile(S.f_lin[:, None], (1, s))
+    Vs, Fp = stage_forcing(run, stages, tab, paths)
     for n in range(N):
         h = run.H[n]
-        args = [stages[n + 1], ca.DM(0, s), run.Q[n], run.V[n], h, F, kc] + \
-            ([S.kel] if S.kel is not None else [])
-        nz = np.asarray(jac(*args)[2]).ravel()
-        Jz = sp.csc_matrix((nz, spj.row(), spj.colind()), shape=(spj.size1(), spj.size2()))
+        lu, Cv = step_pieces(run, stages, integ, Vs, n)
         rhs = np.empty((s, nf, P))
         for i in range(s):
-            Vi = Vs[n * s + i]
-            Cv = alpha * M
-            if S.damp_f is not None:
-                Cv = Cv + S.damp_f(stages[n + 1][:, i], Vi)[2].sparse()
-            rhs[i] = -(-(Ww[i] / h ** 2) * (M @ dq[n]) - (w[i] / h) * (Cv @ dq[n]) - (w[i] / h) * (M @ dv[n])
-                       + Fp[n, i])
-        dQ = spla.splu(Jz).solve(rhs.reshape(s * nf, P)).reshape(s, nf, P)
+            rhs[i] = (Ww[i] / h ** 2) * (M @ dq[n]) + (w[i] / h) * (Cv[i] @ dq[n]) + (w[i] / h) * (M @ dv[n]) \
+                - Fp[n, i]
+        dQ = lu.solve(rhs.reshape(s * nf, P)).reshape(s, nf, P)
         dV = (np.einsum("jm,mkp->jkp", W, dQ) - w[:, None, None] * dq[n]) / h
         dA = (np.einsum("jm,mkp->jkp", W, dV) - w[:, None, None] * dv[n]) / h
         dq[n + 1] = dQ[-1] if tab.stiffly_accurate else dq[n] + h * np.einsum("j,jkp->kp", tab.b, dV)
         dv[n + 1] = dv[n] + h * np.einsum("j,jkp->kp", tab.b, dA)
     return run, dq, dv
+
+
+def stage_forcing(run: AlphaRun, stages: np.ndarray, tab, paths: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """(V, F_p): the stage velocities of every step (rows n s + j: step n + 1's stage j) and the parameters'
+    forcing at the stage states (steps, s, nf, P)."""
+    S = run.S
+    nf, s, N, P = S.nf, tab.s, len(run.Q) - 1, len(paths)
+    W, w = tab.W, tab.W.sum(axis=1)
+    Qb = stages[1:].transpose(0, 2, 1)  # (N, s, nf)
+    hs = run.H[:, None, None]
+    Vb = (np.einsum("jm,nmk->njk", W, Qb) - w[None, :, None] * run.Q[:-1, None, :]) / hs
+    Ab = (np.einsum("jm,nmk->njk", W, Vb) - w[None, :, None] * run.V[:-1, None, :]) / hs
+    staged = replace(run, Q=Qb.reshape(N * s, nf), V=Vb.reshape(N * s, nf), A=Ab.reshape(N * s, nf))
+    Fp = np.stack([forcing(staged, p) for p in paths], axis=2).reshape(N, s, nf, P) if P else \
+        np.zeros((N, s, nf, 0))
+    return Vb.reshape(N * s, nf), Fp
+
+
+def step_pieces(run: AlphaRun, stages: np.ndarray, integ, Vs: np.ndarray, n: int) -> tuple:
+    """(LU of the stage tangent J_Z, [C + df_d/dv at each stage]) of step n + 1 (the integrator's own tangent)."""
+    S, s = run.S, integ.tab.s
+    spj = integ.fns["sparsity"]
+    F = np.tile(S.f_lin[:, None], (1, s))  # (the forces enter R, not its tangent)
+    args = [stages[n + 1], ca.DM(0, s), run.Q[n], run.V[n], run.H[n], F, 1.0] + \
+        ([S.kel] if S.kel is not None else [])
+    nz = np.asarray(integ.fns["jacobian"](*args)[2]).ravel()
+    Jz = sp.csc_matrix((nz, spj.row(), spj.colind()), shape=(spj.size1(), spj.size2()))
+    Cv = []
+    for i in range(s):
+        C = run.alpha_r * sp.csc_matrix(S.M)
+        if S.damp_f is not None:
+            C = C + S.damp_f(stages[n + 1][:, i], Vs[n * s + i])[2].sparse()
+        Cv.append(C)
+    return spla.splu(Jz), Cv
+
+
+def collocation_adjoint(run: AlphaRun, stages: np.ndarray, integ, paths: list[str], WQ: np.ndarray,
+                        WV: np.ndarray) -> np.ndarray:
+    """d output / dp (P,) for an output with d/dq_n = WQ[n], d/dv_n = WV[n] (reduced, rows n = 0..N): the
+    transpose of collocation_sensitivity's recursion, backward over the steps (one transposed solve with J_Z per
+    step), then the start's (a static start's statics adjoint, a rotation's dv_0 = L dq_0)."""
+    S, tab = run.S, integ.tab
+    nf, s, P, N = S.nf, tab.s, len(paths), len(run.Q) - 1
+    W, b = tab.W, tab.b
+    w = W.sum(axis=1)
+    Ww, bW, bW2, bWw, bw = W @ w, b @ W, b @ W @ W, b @ W @ w, b @ w
+    M = sp.csc_matrix(S.M)
+    Vs, Fp = stage_forcing(run, stages, tab, paths)
+    grad = np.zeros(P)
+    gq, gv = WQ[N].copy(), WV[N].copy()
+    for n in range(N - 1, -1, -1):
+        h = run.H[n]
+        lu, Cv = step_pieces(run, stages, integ, Vs, n)
+        # (q_{n+1}, v_{n+1}) from dQ, dq_n, dv_n (collocation_sensitivity), transposed
+        gQ = np.outer(bW2 / h, gv)
+        if tab.stiffly_accurate:
+            gQ[-1] += gq
+            gq_n = -(bWw / h) * gv
+        else:
+            gQ += np.outer(bW, gq)
+            gq_n = (1 - bw) * gq - (bWw / h) * gv
+        gv_n = (1 - bw) * gv
+        mu = lu.solve(gQ.ravel(), trans="T").reshape(s, nf)  # (J_Z' mu = gQ)
+        for i in range(s):
+            gq_n = gq_n + (Ww[i] / h ** 2) * (M.T @ mu[i]) + (w[i] / h) * (Cv[i].T @ mu[i])
+            gv_n = gv_n + (w[i] / h) * (M.T @ mu[i])
+        grad -= np.einsum("ik,ikp->p", mu, Fp[n])
+        gq, gv = gq_n + WQ[n], gv_n + WV[n]
+    Lv = velocity_map(run.start, S)
+    g0 = gq + (Lv.T @ gv if Lv is not None else 0.0)
+    return grad + static_start_gradient(run, paths, g0)
