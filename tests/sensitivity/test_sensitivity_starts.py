@@ -132,3 +132,42 @@ def test_released_start_differs_from_the_held_run():
     d_rel = rel.sensor("materials.m.density", "mid")[-1, 1]
     d_held = held.sensor("materials.m.density", "mid")[-1, 1]
     assert abs(d_rel - d_held) > 0.1 * abs(d_held)
+
+
+def test_cli_release(tmp_path):
+    """`ancf-sym run` of a scene file with a static start and a support released (the pendulum example held at
+    both ends, then let go at one) with --sensitivity: the tip's derivative at every output time (output_dt off
+    the step grid: interpolated) against differences of the package's own runs of that file (run_dynamics), 1e-5."""
+    import subprocess
+    import sys
+    import tomllib
+    from pathlib import Path
+
+    from ancf_sym.dynamics import run_dynamics
+    from ancf_sym.io.scene_toml import scene_from_dict
+
+    text = (Path(__file__).resolve().parents[2] / "examples" / "scenes" / "pendulum.toml").read_text()
+    text = text.replace("t_end = 1.0", "t_end = 0.05\nstart = \"static\"\nrelease = [\"pin beam@end\"]")
+    text = text.replace("output_dt = 0.02", "output_dt = 0.0013")
+    # (Newton converged tightly, lte_fraction = 0: the default stops at a fraction of the step's truncation error,
+    # whose scatter between runs, ~1e-7 m, would dominate differences over the parameter step)
+    text = text.replace("sensors = [", "newton = { xtol = 1e-13, tol = 1e-12, lte_fraction = 0.0, single = false }\n"
+                        "sensors = [")
+    text += '\n[[supports]]\ntype = "pin"\nmember = "beam"\nat = "end"\n'
+    scene_file = tmp_path / "pendulum.toml"
+    scene_file.write_text(text)
+    out = tmp_path / "d"
+    path = "scene.gravity[1]"
+    subprocess.run([sys.executable, "-m", "ancf_sym.cli", "run", str(scene_file), "--out", str(out), "--quiet",
+                    "--no-animation", "--sensitivity", path], check=True, cwd=tmp_path)
+    data = json.loads((out / "result.json").read_text())
+    got = data["sensitivities"][path]
+    assert got["t"] == data["t"] and len(got["t"]) == 40 and not got.get("notes")
+    doc = tomllib.loads(text)
+
+    def tip(d):
+        scene, analysis = scene_from_dict(d)
+        return run_dynamics(scene, analysis).sensors["tip"][:, 1]
+    ref = richardson(tip, doc, path)
+    d_cli = np.asarray(got["sensors"]["tip"])[:, 1]
+    assert np.max(np.abs(d_cli - ref)) <= 1e-5 * np.max(np.abs(ref))
