@@ -306,7 +306,7 @@ def run_for_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
     refuse_unsupported(S, options, integ)
     if options.integrator in ("radau", "gauss"):
         raise SceneError(f"dynamic sensitivities: integrator {options.integrator!r}: the alpha schemes' run; "
-                         "collocation runs: ancf_sym.sensitivity.collocation_run (forward sensitivities)")
+                         "collocation runs: ancf_sym.sensitivity.collocation_run")
     nf = S.nf
     start = run_start(given, asm, options)
     # time loads (analysis.loads): a forcing that no scene parameter changes, applied as the run applies it
