@@ -8,7 +8,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ancf_sym.sensitivity.alpha_run import damping_index, damping_matrices, damping_tangents, forcing
+from ancf_sym.sensitivity.alpha_run import damping_index, damping_matrices, damping_tangents, forcing, start_tangent
 from ancf_sym.sensitivity.contact_dissipation import dissipation_index
 from ancf_sym.sensitivity.run_start import velocity_map
 from ancf_sym.sensitivity.static import StaticSensitivity
@@ -28,10 +28,10 @@ def start_tangents(run) -> tuple[sp.csc_matrix, sp.csc_matrix | None]:
     q-derivatives vanish at rest)."""
     S = run.S
     q0, v0 = run.Q[0], run.V[0]
-    K0 = sp.csc_matrix(S.forces(q0)[1])
     moving = np.any(v0 != 0.0) or (run.start is not None and velocity_map(run.start, S) is not None)
     if not moving:
-        return K0, None
+        return start_tangent(run), None
+    K0 = sp.csc_matrix(S.forces(q0)[1])
     key = (S.graph_key, run.alpha_r, S.par.tobytes())
     if key not in _TANGENTS:
         x, v = ca.MX.sym("x", S.nf), ca.MX.sym("v", S.nf)
@@ -44,6 +44,13 @@ def start_tangents(run) -> tuple[sp.csc_matrix, sp.csc_matrix | None]:
         _TANGENTS[key] = ca.Function("start_tangents", [x, v], [ca.densify(Kq), ca.densify(Kv)])
     Kq, Kv = _TANGENTS[key](q0, v0)
     return sp.csc_matrix(K0 + np.asarray(Kq)), sp.csc_matrix(np.asarray(Kv))
+
+
+def own_start(run) -> bool:
+    """The start is a static equilibrium whose derivative this module gives beyond the run's own static start: its
+    supports released for the run, or a rotation of it (v_0 reads q_0)."""
+    st = run.start
+    return st is not None and st.static is not None and (st.released or velocity_map(st, run.S) is not None)
 
 
 def static_start_columns(run, paths: list[str]) -> np.ndarray:
