@@ -214,8 +214,15 @@ THIRD_DERIVATIVE_EFFECTS = ("axial_green", "axial_biot", "axial_decoupled", "ben
 THIRD_DERIVATIVE_GAPS = ("contact_circle_gap",)
 
 
+# The beam3d elastic energies carry it too (emitted in point form, codegen.hvp_forms): the change of a
+# stiffness-proportional Rayleigh damping beta K_el(q_n) v with q_n in the dynamic sensitivities.
+THIRD_DERIVATIVE_BEAM_EFFECTS = ("line_strain", "line_bending", "line_torsion", "continuum")
+
+
 def has_third_derivatives(element: str, effect: str, gauss: int | None) -> bool:
     eff = EFFECTS[(element, effect)]
+    if element == "beam3d":
+        return effect in THIRD_DERIVATIVE_BEAM_EFFECTS and gauss in (None, eff.default_gauss)
     return element.startswith("cable") and effect in THIRD_DERIVATIVE_EFFECTS + THIRD_DERIVATIVE_GAPS and \
         gauss in (None, eff.default_gauss)
 

@@ -89,6 +89,24 @@ int beam3d_line_bending_grad_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, 
 #define beam3d_line_bending_grad_SZ_RES 4
 #define beam3d_line_bending_grad_SZ_IW 0
 #define beam3d_line_bending_grad_SZ_W 171
+int beam3d_line_bending_hvp(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
+int beam3d_line_bending_hvp_checkout(void);
+void beam3d_line_bending_hvp_release(int mem);
+void beam3d_line_bending_hvp_incref(void);
+void beam3d_line_bending_hvp_decref(void);
+casadi_int beam3d_line_bending_hvp_n_in(void);
+casadi_int beam3d_line_bending_hvp_n_out(void);
+casadi_real beam3d_line_bending_hvp_default_in(casadi_int i);
+const char* beam3d_line_bending_hvp_name_in(casadi_int i);
+const char* beam3d_line_bending_hvp_name_out(casadi_int i);
+const casadi_int* beam3d_line_bending_hvp_sparsity_in(casadi_int i);
+const casadi_int* beam3d_line_bending_hvp_sparsity_out(casadi_int i);
+int beam3d_line_bending_hvp_work(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+int beam3d_line_bending_hvp_work_bytes(casadi_int *sz_arg, casadi_int* sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+#define beam3d_line_bending_hvp_SZ_ARG 8
+#define beam3d_line_bending_hvp_SZ_RES 4
+#define beam3d_line_bending_hvp_SZ_IW 25
+#define beam3d_line_bending_hvp_SZ_W 3037
 int beam3d_line_bending_g3(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem);
 int beam3d_line_bending_g3_checkout(void);
 void beam3d_line_bending_g3_release(int mem);

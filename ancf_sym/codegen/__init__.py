@@ -50,7 +50,8 @@ def generate(out_dir: Path = GENERATED, verbose: bool = False) -> dict:
         energy, grad = definitions.lower_orders(element, effect, gauss, k)
         lib = registry.library_name(element, effect)
         rows = definitions.rates_rows(element, effect, gauss, k)
-        groups.setdefault(lib, []).extend(writer.companions(k, energy, grad, third) + ([rows] if rows else []))
+        hvp = definitions.hvp(element, effect, gauss) if third else None
+        groups.setdefault(lib, []).extend(writer.companions(k, energy, grad, third, hvp) + ([rows] if rows else []))
         batch = registry.batched(element, effect, gauss)
         if batch:
             by_suffix = {"": k, "_grad": grad, "_energy": energy}

@@ -6,7 +6,7 @@ import casadi as ca
 from ancf_sym import registry
 from ancf_sym.elements import beam, cable, contact
 from ancf_sym.elements.quadrature import gauss01
-from ancf_sym.codegen import forms
+from ancf_sym.codegen import forms, hvp_forms
 
 
 def _cable_station(effect: str, dim: int):
@@ -220,6 +220,18 @@ def kernel(element: str, effect: str, gauss: int | None = None) -> ca.Function:
         return k.expand(name, {}) if small else k
     return forms.direct_kernel(name, registry.input_size(element, effect), len(eff.params),
                                _direct_energy(element, effect, gauss))
+
+
+def hvp(element: str, effect: str, gauss: int | None) -> ca.Function | None:
+    """The <name>_hvp companion in point form (codegen.hvp_forms) for the beam3d elastic energies; None: the kernel's
+    own third derivative (codegen.forms.hvp_function, the cables')."""
+    if element != "beam3d":
+        return None
+    eff = registry.EFFECTS[(element, effect)]
+    pt = hvp_forms.point_hvp_function(f"{element}_{effect}_hvp_point", registry.input_size(element, effect),
+                                      len(eff.params), beam_station(effect))
+    return hvp_forms.quadrature_hvp(registry.kernel_name(element, effect, gauss) + "_hvp", pt,
+                                    gauss or eff.default_gauss)
 
 
 def mass(element: str) -> ca.Function:

@@ -10,16 +10,18 @@ import casadi as ca
 CODEGEN_OPTIONS = {"with_header": True, "casadi_real": "double", "casadi_int": "long long int"}
 
 
-def companions(kernel: ca.Function, energy: ca.Function, grad: ca.Function, third: bool = False) -> list[ca.Function]:
+def companions(kernel: ca.Function, energy: ca.Function, grad: ca.Function, third: bool = False,
+               hvp: ca.Function | None = None) -> list[ca.Function]:
     """The kernel, its energy alone, that energy's reverse-mode companion adj1_<name>_energy, energy + gradient
-    (<name>_grad); with third=True also <name>_hvp (Hessian-vector product and its Jacobian, for optimal control).
+    (<name>_grad); with third=True also <name>_hvp (Hessian-vector product and its Jacobian, for optimal control):
+    `hvp` where given (a point-form companion, codegen.hvp_forms), else the kernel's own third derivative.
 
     casadi.external(<name>_energy) finds adj1_<name>_energy in the same library, so an MX objective built from it
     (e.g. an IPOPT problem) gets its gradient from compiled code; the Hessian comes from the kernel itself.
     """
     from ancf_sym.codegen.forms import hvp_function
 
-    return [kernel, energy, energy.reverse(1), grad] + ([hvp_function(kernel)] if third else [])
+    return [kernel, energy, energy.reverse(1), grad] + ([hvp or hvp_function(kernel)] if third else [])
 
 
 def write_c(name: str, functions: list[ca.Function], out_dir: Path,

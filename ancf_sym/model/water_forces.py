@@ -20,6 +20,22 @@ EPS_SPEED = 1e-4  # [m/s] |u| is sqrt(u.u + EPS^2): its derivative stays finite 
 # relative change is EPS^2 / (2 u^2), below 1e-8 for the 1 cm/s and faster relative speeds drag matters at
 
 
+def _col(v):
+    """A per-point coefficient as a CasADi column: numbers as DM, an MX expression (a coefficient that depends on a
+    parameter, ancf_sym.sensitivity.water_derivative) as it is."""
+    return v if isinstance(v, (ca.MX, ca.SX)) else ca.DM(v)
+
+
+def _mat(A):
+    """A point map (B, Bx) as a CasADi matrix: sparse as DM, an MX (a map that depends on a parameter) as it is."""
+    return A if isinstance(A, ca.MX) else dm(A)
+
+
+def _tmat(A):
+    """The transpose of a point map (the generalized force's B')."""
+    return A.T if isinstance(A, ca.MX) else dm(A.T.tocsr())
+
+
 def _split(Y: ca.MX, dim: int, P: int) -> list:
     return [Y[k * P:(k + 1) * P] for k in range(dim)]
 
@@ -45,14 +61,14 @@ def water_line_energy(wp: WetPoints, water: Water, g: float, X: ca.MX) -> ca.MX 
     """Potential [J] that corrects the gravity term's buoyancy (rho_w g A per length, everywhere) to rho_w g A s(xi)
     with xi = (surface - z + d/2) / d the section's immersion: rho_w g A (d P(xi) - (surface - z)), P = _smooth_fill.
     Zero where the section is under water (xi >= 1). None if no member has buoyancy."""
-    if not np.any(wp.area):
+    if not wp.buoyant:
         return None
     P = wp.P
-    z = ca.mtimes(dm(wp.B[(wp.dim - 1) * P:wp.dim * P]), X)
-    d = ca.DM(wp.d)
+    z = ca.mtimes(_mat(wp.B[(wp.dim - 1) * P:wp.dim * P, :]), X)
+    d = _col(wp.d)
     depth = water.surface - z
     xi = (depth + 0.5 * d) / d
-    coef = ca.DM(water.density * g * wp.area * wp.wL)
+    coef = _col(water.density * g * wp.area * wp.wL)
     return ca.dot(coef, d * _smooth_fill(xi) - depth)
 
 
@@ -75,7 +91,7 @@ def current_mx(water: Water, z: ca.MX, dim: int, scale) -> list:
 
 def point_positions(wp: WetPoints, X: ca.MX) -> list:
     """r at the wet points: dim columns of P."""
-    return _split(ca.mtimes(dm(wp.B), X), wp.dim, wp.P)
+    return _split(ca.mtimes(_mat(wp.B), X), wp.dim, wp.P)
 
 
 def drag_force(wp: WetPoints, water: Water, X: ca.MX, V: ca.MX | None, scale=1.0, flow: list | None = None) -> ca.MX:
@@ -85,12 +101,12 @@ def drag_force(wp: WetPoints, water: Water, X: ca.MX, V: ca.MX | None, scale=1.0
     continuation); flow: the waves' velocity at the points (dim columns), or None."""
     dim, P = wp.dim, wp.P
     r = point_positions(wp, X)
-    rx = _split(ca.mtimes(dm(wp.Bx), X), dim, P)
+    rx = _split(ca.mtimes(_mat(wp.Bx), X), dim, P)
     u = current_mx(water, r[-1], dim, scale)
     if flow is not None:
         u = [a + b for a, b in zip(u, flow)]
     if V is not None:
-        v = _split(ca.mtimes(dm(wp.B), V), dim, P)
+        v = _split(ca.mtimes(_mat(wp.B), V), dim, P)
         u = [a - b for a, b in zip(u, v)]
     n2 = sum(c * c for c in rx)
     ut_len = sum(a * b for a, b in zip(u, rx)) / ca.sqrt(n2)  # u_r . t
@@ -99,16 +115,16 @@ def drag_force(wp: WetPoints, water: Water, X: ca.MX, V: ca.MX | None, scale=1.0
     un = [a - b for a, b in zip(u, ut)]
     sp_n = ca.sqrt(sum(c * c for c in un) + EPS_SPEED ** 2)
     sp_t = ca.sqrt(ut_len * ut_len + EPS_SPEED ** 2)
-    kn = ca.DM(0.5 * water.density * wp.cd * wp.d * wp.wL)
-    kt = ca.DM(0.5 * water.density * wp.cd_axial * np.pi * wp.d * wp.wL)
+    kn = _col(0.5 * water.density * wp.cd * wp.d * wp.wL)
+    kt = _col(0.5 * water.density * wp.cd_axial * np.pi * wp.d * wp.wL)
     f = ca.vertcat(*[kn * sp_n * a + kt * sp_t * b for a, b in zip(un, ut)])
-    return ca.mtimes(dm(wp.B.T.tocsr()), f)
+    return ca.mtimes(_tmat(wp.B), f)
 
 
 def inertia_areas(wp: WetPoints) -> tuple[np.ndarray, np.ndarray]:
     """(A_b, A_m) per point [m^2]: the displaced area (0 where the member has no buoyancy) and the area the added
     mass is taken on (the displaced area, or pi d^2 / 4 of a member without buoyancy)."""
-    return wp.area, np.where(wp.area > 0, wp.area, np.pi * wp.d ** 2 / 4)
+    return wp.area, wp.inertia_area
 
 
 def fluid_inertia_force(wp: WetPoints, water: Water, X: ca.MX, acc: list) -> ca.MX:
@@ -118,14 +134,14 @@ def fluid_inertia_force(wp: WetPoints, water: Water, X: ca.MX, acc: list) -> ca.
     f = rho_w ((A_b + Ca A_m) a_n + (A_b + CaAx A_m) a_t), a_t = (acc . t) t, a_n = acc - a_t (MoorDyn's
     (1 + Can) and (1 + Cat) on the submerged volume); Q = B^T (w L f)."""
     dim, P = wp.dim, wp.P
-    rx = _split(ca.mtimes(dm(wp.Bx), X), dim, P)
+    rx = _split(ca.mtimes(_mat(wp.Bx), X), dim, P)
     n2 = sum(c * c for c in rx)
     at_len = sum(a * b for a, b in zip(acc, rx)) / n2  # (acc . r_x) / |r_x|^2: a_t = at_len r_x
     ab, am = inertia_areas(wp)
-    kn = ca.DM(water.density * (ab + wp.ca * am) * wp.wL)
-    kt = ca.DM(water.density * (ab + wp.ca_axial * am) * wp.wL)
+    kn = _col(water.density * (ab + wp.ca * am) * wp.wL)
+    kt = _col(water.density * (ab + wp.ca_axial * am) * wp.wL)
     f = ca.vertcat(*[kn * (a - at_len * c) + kt * at_len * c for a, c in zip(acc, rx)])
-    return ca.mtimes(dm(wp.B.T.tocsr()), f)
+    return ca.mtimes(_tmat(wp.B), f)
 
 
 def added_mass_matrix(wp: WetPoints, water: Water, x: np.ndarray):
@@ -146,3 +162,17 @@ def added_mass_matrix(wp: WetPoints, water: Water, x: np.ndarray):
             vals.append(m)
     D = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(dim * P, dim * P))
     return (wp.B.T @ D @ wp.B).tocsc()
+
+
+def added_mass_product(wp: WetPoints, water: Water, X: ca.MX, Acc: ca.MX) -> ca.MX:
+    """The added mass of added_mass_matrix times Acc (full coordinates) in a graph of the state X: B' (w L rho_w A
+    (ca (a - t (t . a)) + ca_axial t (t . a))), a = B Acc at the points, t the tangents of X (exact derivatives with
+    respect to the state and, through symbolic coefficients, to a parameter: ancf_sym.sensitivity.water_derivative)."""
+    dim, P = wp.dim, wp.P
+    rx = _split(ca.mtimes(_mat(wp.Bx), X), dim, P)
+    al = _split(ca.mtimes(_mat(wp.B), Acc), dim, P)
+    n2 = sum(c * c for c in rx)
+    ta = sum(a * c for a, c in zip(al, rx)) / n2  # (a . r_x) / |r_x|^2: (t . a) t = ta r_x
+    k = _col(water.density * inertia_areas(wp)[1] * wp.wL)
+    f = ca.vertcat(*[k * (wp.ca * (a - ta * c) + wp.ca_axial * ta * c) for a, c in zip(al, rx)])
+    return ca.mtimes(_tmat(wp.B), f)

@@ -30,6 +30,16 @@ class WetPoints:
         return len(self.wL)
 
     @property
+    def buoyant(self) -> bool:
+        """Does some member displace water (a water line term)?"""
+        return bool(np.any(self.area))
+
+    @property
+    def inertia_area(self) -> np.ndarray:
+        """The area the added mass is taken on: the displaced area, or pi d^2 / 4 of a member without buoyancy."""
+        return np.where(self.area > 0, self.area, np.pi * self.d ** 2 / 4)
+
+    @property
     def drag(self) -> bool:
         return bool(np.any(self.cd) or np.any(self.cd_axial))
 

@@ -43,14 +43,16 @@ def wave_number(omega: float, depth: float, g: float) -> float:
     return k
 
 
-def kinematics_mx(water: Water, g: float, r: list, t) -> tuple:
+def kinematics_mx(water: Water, g: float, r: list, t, k=None) -> tuple:
     """(eta, u, a) at points r (a list of dim coordinate columns, CasADi SX or MX) and time t (a scalar of the same
-    type): the surface elevation above each point, the water's velocity and acceleration (lists of dim columns)."""
+    type): the surface elevation above each point, the water's velocity and acceleration (lists of dim columns).
+    k: the wave number, if given (an expression of a parameter, ancf_sym.sensitivity.water_derivative), else
+    wave_number's."""
     wv = water.waves
     dim = len(r)
     h, amp = water.depth, wv.height / 2
     om = 2 * math.pi / wv.period
-    k = wave_number(om, h, g)
+    k = wave_number(om, h, g) if k is None else k
     beta = math.radians(wv.direction)
     e = (math.cos(beta), math.sin(beta)) if dim == 3 else (math.cos(beta),)
     xd = sum(ei * ri for ei, ri in zip(e, r[:dim - 1]))
@@ -61,7 +63,8 @@ def kinematics_mx(water: Water, g: float, r: list, t) -> tuple:
     if wv.stretching == "wheeler":
         z = h * (z + h) / (h + eta) - h
     z = ca.fmin(z, 0.0)
-    e1, e2, den = ca.exp(k * z), ca.exp(-k * (z + 2 * h)), 1.0 - math.exp(-2 * k * h)
+    e1, e2, den = ca.exp(k * z), ca.exp(-k * (z + 2 * h)), 1.0 - (math.exp(-2 * k * h) if isinstance(k, float) else
+                                                                  ca.exp(-2 * k * h))
     C, S = (e1 + e2) / den, (e1 - e2) / den  # cosh(k (z + h)) / sinh(k h), sinh(k (z + h)) / sinh(k h)
     ud, w = amp * om * C * c, amp * om * S * s
     ad, aw = amp * om * om * C * s, -amp * om * om * S * c

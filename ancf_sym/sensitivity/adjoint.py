@@ -40,21 +40,21 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
-import scipy.sparse.linalg as spla
 
 from ancf_sym import kernels
 from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.sensors import Sensor, SensorEval
-from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, damping_matrices, forcing, mass_solve, \
-    run_for_sensitivity, start_tangent, step_inputs, step_matrix, stiffness_damped, stiffness_damping_forcing
+from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, damping_matrices, forcing, \
+    run_for_sensitivity, step_inputs, step_matrix, stiffness_damped, stiffness_damping_forcing
 from ancf_sym.sensitivity.contact_dissipation import dissipation_forcing, dissipation_index
 from ancf_sym.sensitivity.collocation_run import COLLOCATION, collocation_adjoint, collocation_run
+from ancf_sym.sensitivity.length_derivative import LengthPiece
 from ancf_sym.sensitivity.run_start import velocity_map
 from ancf_sym.sensitivity.step_sequence import step_notes
-from ancf_sym.sensitivity.start_derivative import start_tangents, static_start_gradient
+from ancf_sym.sensitivity.start_derivative import own_start, start_tangents, static_start_gradient
 from ancf_sym.sensitivity.model_derivative import STIFFNESS_COLUMNS, ModelDerivative, model_derivative, \
     read_document
-from ancf_sym.scene.builder import SceneError
+from ancf_sym.sensitivity.static_start import StartSystem
 from ancf_sym.system.step_system import StepSystem
 from ancf_sym.util.casadi_buffers import bind
 from ancf_sym.util.sparsity import dm
@@ -312,6 +312,9 @@ def residual_sum(md: ModelDerivative, Lam: np.ndarray, X: np.ndarray, cache: dic
     share the bending term's)."""
     total = 0.0
     for pc in md.pieces:
+        if isinstance(pc, LengthPiece):  # (a prestrain: the kernels' length derivative at every state)
+            total += float(np.sum(Lam * pc.gradients(X)))
+            continue
         names = kernels.parameters(pc.element, pc.effect)
         group = STIFFNESS_COLUMNS.get(pc.effect, ("rhoA",) if pc.effect == "gravity" else ())
         cols = [names.index(c) for c in group if c in names]
@@ -401,23 +404,26 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
         _, evaluate = bind(f, [np.zeros(4 * nf), U], [acc, MUb])
         evaluate()
         MU[1:] = MUb[::-1]
-    MU[0] = mass_solve(run)(acc[2 * nf:3 * nf] + acc[3 * nf:], WL[0])  # (a_0 = abar_0; lam_0: its weights)
+    # the start (ancf_sym.sensitivity.static_start): a_0 = abar_0; lam_0: its weights; the static start's adjoint xi
+    own = own_start(run)
+    static = run.start is not None and run.start.static is not None and not own
+    MU[0], xi = StartSystem(run, static).adjoint(acc[:nf] + WQ[0], acc[2 * nf:3 * nf] + acc[3 * nf:],
+                                                 WL[0] if S.mc else None)
     Lam = S.full_v_rows(MU)
     LamR = Lam
-    # the start (ancf_sym.sensitivity.start_derivative): the output's adjoint of q_0, through a_0 and through a
-    # rotation's v_0 = v_0(q_0); a static start's dq_0/dp = -K_0^-1 E' dR/dp(x_0), its adjoint xi = K_0^-1 qbar_0
+    # a released or rotating static start (ancf_sym.sensitivity.start_derivative): the output's adjoint of q_0,
+    # through a_0 and through a rotation's v_0 = L q_0, then the statics' adjoint
     start_grad = None
-    if run.start is not None and run.start.static is not None:
+    if xi is not None:  # (dq_0/dp from the statics' dR/dp(x_0): its share of the gradient is -xi . dR_s/dp)
+        LamR = Lam.copy()
+        LamR[0] += S.full_v(xi)
+    elif own:
         Kq, Kv = start_tangents(run)
         qb0 = acc[:nf] + WQ[0] - Kq.T @ MU[0]
         Lv = velocity_map(run.start, S)
         if Lv is not None:
             qb0 = qb0 + Lv.T @ (acc[nf:2 * nf] + WV[0] - Kv.T @ MU[0])
-        if run.start.released:  # (the held scene's statics: its own adjoint)
-            start_grad = dict(zip(paths, static_start_gradient(run, list(paths), qb0)))
-        else:
-            LamR = Lam.copy()
-            LamR[0] += S.full_v(spla.splu(start_tangent(run)).solve(qb0))
+        start_grad = dict(zip(paths, static_start_gradient(run, list(paths), qb0)))
     grad, cache = {}, {}
     M = S.M
     for p in paths:
@@ -427,6 +433,10 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
             continue
         md = model_derivative(asm, d, p)
         g = -residual_sum(md, LamR, X, cache)
+        if md.water is not None:  # (lines in water: the water's forces at every state; the static start's at rest)
+            g -= float(np.sum(Lam * md.water.forcing(X, V, t, A)))
+            if options.start == "static":
+                g -= float((LamR[0] - Lam[0]) @ md.water.forcing(X[:1], None, None)[0])
         sd = stiffness_damping_forcing(run, p)  # (beta dK_el/dp (q_{n-1}) v_n)
         if sd is not None:
             g -= float(np.sum(MU * sd))

@@ -9,8 +9,8 @@ derivatives contracted with v) and the strain-rate coefficients dampings[i].axia
 linear in them; its tangents df/dq, df/dv are the step system's), and contact damping and friction: their
 tangents are in the same graph, their parameters contacts[i].mu | damping (and the friction's share of
 contacts[i].stiffness | hertz) in ancf_sym.sensitivity.contact_dissipation. Refused by name: lines in water, a
-beta on some members only or on energies without compiled third derivatives, and a static start with multiplier
-rows. Applied torques add their skew tangent to the step's matrix. Constraint rows with multipliers
+beta on energies without compiled third derivatives. Applied torques add their skew tangent to the step's matrix.
+Constraint rows with multipliers
 (rigid joints, bodies' rows) and drives make the step a KKT system: `step_matrix` builds its differentiated matrix,
 the run keeps the multipliers and the drives' time inputs.
 Time loads (analysis.loads) are applied as the run applies them; they depend on no scene parameter.
@@ -22,7 +22,6 @@ from dataclasses import dataclass, replace
 import casadi as ca
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from ancf_sym import kernels, registry
 from ancf_sym.contact import laws as contact
@@ -36,10 +35,13 @@ from ancf_sym.io.scene_toml import scene_from_dict
 from ancf_sym.model.assembly import Assembly
 from ancf_sym.scene.builder import SceneError
 from ancf_sym.sensitivity.contact_dissipation import dissipation_forcing, dissipation_index, dissipation_notes
+from ancf_sym.sensitivity.length_derivative import LengthPiece
 from ancf_sym.sensitivity.model_derivative import model_derivative, read_document
 from ancf_sym.sensitivity.paths import get_parameter, parse_path
 from ancf_sym.sensitivity.run_start import RunStart, run_start
 from ancf_sym.sensitivity.step_sequence import adaptive_steps, held_steps
+from ancf_sym.sensitivity.rayleigh_beta import beta_pieces
+from ancf_sym.sensitivity.water_derivative import water_refusals
 from ancf_sym.system import water
 from ancf_sym.system.damping import rayleigh_mx, strain_rate_mx
 from ancf_sym.system.forces import ELASTIC_LABELS
@@ -67,15 +69,41 @@ def damping_index(doc: dict, path: str) -> int | None:
     return p.keys[1]
 
 
-def check_dynamic_paths(scene, doc: dict, paths: list[str], asm=None) -> None:
+def check_dynamic_paths(scene, doc: dict, paths: list[str], asm=None, options: DynamicOptions | None = None
+                        ) -> None:
     """Refuse, before any step, a path that names no differentiable number of a dynamic run (asm: the run's
-    assembly; default dynamic_assembly(scene), which also takes scenes with drives that statics refuses)."""
+    assembly; default dynamic_assembly(scene), which also takes scenes with drives that statics refuses; options:
+    the run's, for what a prestrain needs of them)."""
     model_paths = [p for p in paths if damping_index(doc, p) is None and dissipation_index(doc, p) is None]
     for p in model_paths:
         get_parameter(doc, p)
     asm = dynamic_assembly(scene) if asm is None else asm
     for p in model_paths:
         model_derivative(asm, doc, p)
+        keys = parse_path(p).keys
+        if keys[-1] == "prestrain":
+            why = prestrain_run_refusal(asm, doc[keys[0]][keys[1]]["name"], options)
+            if why is not None:
+                raise SceneError(f"parameter path {p!r}: {why}")
+
+
+def prestrain_run_refusal(asm, name: str, options: DynamicOptions | None) -> str | None:
+    """Why a run's derivative by member `name`'s prestrain is not followed here (None: it is): a start at the
+    reference moves with it (its slopes are (1 + eps) t: not followed here); the stiffness and strain-rate damping's
+    kernels take the length too; a sensor or time load at a material coordinate moves in its element."""
+    if options is not None and options.start != "static":
+        return ("a prestrain in a run from the reference (the start's slopes (1 + eps) t move with it; "
+                "start = \"static\" is differentiated)")
+    if any(d.kind == "strain_rate" or (d.kind == "rayleigh" and d.beta) for d in asm.scene.dampings):
+        return "a prestrain with strain-rate or stiffness-proportional damping (their kernels take the length)"
+    for what, items in (("sensor", options.sensors if options is not None else []),
+                        ("time load", options.loads if options is not None else [])):
+        for it in items:
+            member, at = (it.get("member"), it.get("at", "end")) if isinstance(it, dict) else (it.member, it.at)
+            if member == name and isinstance(at, float):
+                return f"a {what} at the material coordinate {at:g} on the member (it moves with the prestrain; " \
+                       "put it at a node)"
+    return None
 
 
 def dynamic_assembly(scene):
@@ -91,15 +119,17 @@ def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
     why = []
     if opts.integrator not in ("newmark", "hht", "generalized_alpha", "radau", "gauss"):
         why.append(f"integrator {opts.integrator!r} (alpha schemes and collocation only)")
-    elif opts.integrator in ("radau", "gauss") and (S.mc or integ.kdamp.active):
-        why.append(f"integrator {opts.integrator!r} with constraint rows carrying multipliers or stiffness-"
-                   "proportional Rayleigh damping (collocation: forward sensitivities without them)")
-    if S.mc and opts.start == "static":
-        why.append("a static start with constraint rows carrying multipliers (rigid joints, bodies' rows, drives)")
+    elif opts.integrator in ("radau", "gauss") and (S.mc or integ.kdamp.active or water.has_forces(S.asm)):
+        why.append(f"integrator {opts.integrator!r} with constraint rows carrying multipliers, stiffness-"
+                   "proportional Rayleigh damping or lines in water (collocation: sensitivities without them)")
+    if S.mc and opts.start == "static" and (opts.release or opts.initial):
+        why.append("a static start with constraint rows carrying multipliers, released or rotating (release, "
+                   "initial)")
     if integ.kdamp.active:
         why += stiffness_damping_refusals(S)
-    if water.has_forces(S.asm):
-        why.append("lines in water (drag, added mass)")
+    why += water_refusals(S, opts)
+    if water.has_forces(S.asm) and (opts.initial or opts.v0 is not None or opts.from_result):
+        why.append("lines in water from a moving start (initial, v0, from_result)")
     if why:
         raise SceneError("dynamic sensitivities: not available with " + ", ".join(why))
 
@@ -112,14 +142,11 @@ def elastic_terms(S: StepSystem) -> list:
 
 
 def stiffness_damping_refusals(S: StepSystem) -> list[str]:
-    """What of a stiffness-proportional Rayleigh damping the derivative does not follow: a beta on some members
-    only (element weights other than 1), more than one rayleigh beta, an elastic energy without compiled third
-    derivatives (the kernels' Hessian-vector companions, cables' axial and bending)."""
+    """What of a stiffness-proportional Rayleigh damping the derivative does not follow: an elastic energy without
+    compiled third derivatives (the kernels' Hessian-vector companions: cables' axial and bending, beam3d's elastic
+    energies at their default quadrature). Betas per member (several entries) are followed
+    (ancf_sym.sensitivity.rayleigh_beta)."""
     why = []
-    ds = [d for d in S.asm.scene.dampings if d.kind == "rayleigh" and d.beta]
-    if len(ds) > 1 or ds[0].members is not None:
-        why.append("stiffness-proportional Rayleigh damping on some members only or given twice (beta: one "
-                   "[[dampings]] entry for the whole scene)")
     for ti, t in elastic_terms(S):
         if not registry.has_third_derivatives(t.element, t.effect, t.gauss):
             why.append(f"stiffness-proportional Rayleigh damping (beta) on {t.element}/{t.effect} energies (gauss "
@@ -198,12 +225,10 @@ def stiffness_damping_forcing(run: "AlphaRun", path: str) -> np.ndarray | None:
     if i is not None:
         if run.doc["dampings"][i]["type"] != "rayleigh" or parse_path(path).keys[2] != "beta":
             return None
-        # (C = beta K_el with K_el the elastic terms' Hessians, element weights 1: stiffness_damping_refusals)
-        pieces = [(t.element, t.effect, t.gauss, t.idx, t.P, 1.0) for _, t in elastic_terms(S)]
+        # (C's elastic part is sum_e beta_m(e) H_e: the Hessians on the members entry i gives their beta)
+        pieces = beta_pieces(S, run.scene, i, None)
     else:
-        md = model_derivative(run.asm, run.doc, path)
-        pieces = [(pc.element, pc.effect, pc.gauss, pc.idx, pc.P, S.rayleigh.beta) for pc in md.pieces
-                  if pc.label in ELASTIC_LABELS]
+        pieces = beta_pieces(S, run.scene, None, model_derivative(run.asm, run.doc, path).pieces)
     if not pieces:
         return None
     f = np.zeros(X.shape)
@@ -299,7 +324,7 @@ def run_for_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
     # release: the run's scene lacks the released supports, its start is the equilibrium of the given scene
     scene = released_scene(given, options.release) if options.release else given
     asm = Assembly(scene) if options.release else dynamic_assembly(scene)
-    check_dynamic_paths(scene, d, list(paths), asm)
+    check_dynamic_paths(scene, d, list(paths), asm, options)
     contact.check_dynamics(asm)  # (exact contact is a statics method: refused as the run refuses it)
     S = StepSystem.for_scene(asm)
     integ = make_integrator(S, options, Counters(), 0.0, options.newton.xtol * S.length_scale)
@@ -411,20 +436,25 @@ def forcing(run: AlphaRun, path: str, statics: bool = False) -> np.ndarray:
         if statics:
             return np.zeros((1, S.nf))
         if run.doc["dampings"][i]["type"] == "rayleigh":
-            if parse_path(path).keys[2] == "beta":
-                return stiffness_damping_forcing(run, path)
+            if parse_path(path).keys[2] == "beta":  # (None: the entry's beta acts on no element, later ones win)
+                sd = stiffness_damping_forcing(run, path)
+                return np.zeros((len(run.Q), S.nf)) if sd is None else sd
             return run.V @ S.M
         return strain_rate_forcing(run, i, parse_path(path).keys[2])
     md = model_derivative(run.asm, run.doc, path)
     X = run.X[:1] if statics else run.X
     R = np.zeros(X.shape)
     for pc in md.pieces:
-        if pc.effect == "gravity":  # (linear in q: a constant gradient)
+        if isinstance(pc, LengthPiece):  # (a prestrain: the kernels' length derivative at every state)
+            R += pc.gradients(X)
+        elif pc.effect == "gravity":  # (linear in q: a constant gradient)
             R += _gradients(pc, X[:1])
         else:
             R += _gradients(pc, X)
     if md.dQ is not None:
         R -= md.dQ
+    if md.water is not None:  # (lines in water: the drag, water line and waves' forces; statics: at rest)
+        R += md.water.forcing(X, None if statics else run.V_full, None if statics else run.t, run.A_full)
     if not statics and md.dM is not None:
         R += (md.dM @ (run.A_full + run.alpha_r * run.V_full).T).T
     F = np.asarray((S.E.T @ R.T).T)
@@ -468,11 +498,12 @@ def point_mask(run: AlphaRun, i: int) -> np.ndarray:
                            for name in order])
 
 
-def damping_tangents(S: StepSystem, x: ca.MX, v: ca.MX) -> tuple:
-    """(df_d/dx, df_d/dv) of the system's velocity-dependent damping force at (x, v) in a graph, or (None, None)."""
+def damping_tangents(S: StepSystem, x: ca.MX, v: ca.MX, t: ca.MX | None = None) -> tuple:
+    """(df_d/dx, df_d/dv) of the system's velocity-dependent damping force at (x, v) in a graph, or (None, None);
+    t: the time, where the force reads it (lines in water under waves)."""
     if S.damp_f is None:
         return None, None
-    _, dfx, dfv = S.damp_f(x, v)
+    _, dfx, dfv = S.damp_f(x, v, t) if water.timed(S.asm) else S.damp_f(x, v)
     return dfx, dfv
 
 
@@ -505,7 +536,9 @@ def step_matrix(S: StepSystem, cm: float, cc: float, C: ca.MX, x: ca.MX, v: ca.M
     add minus their force's Jacobian to A."""
     nf, mc = S.nf, S.mc
     A = cm * dm(S.M) + cc * C + S.forces_pf(x, ca.DM(S.par))[1]
-    dfx, dfv = damping_tangents(S, x, v)  # (strain-rate damping: its exact tangents at the step's end)
+    # (strain-rate damping, lines in water: their exact tangents at the step's end; under waves at its time, the
+    # last of the time inputs)
+    dfx, dfv = damping_tangents(S, x, v, y[-1] if water.timed(S.asm) else None)
     unsym = dfx is not None
     if dfx is not None:
         A = A + dfx + cc * dfv
@@ -527,33 +560,12 @@ def step_matrix(S: StepSystem, cm: float, cc: float, C: ca.MX, x: ca.MX, v: ca.M
 
 
 def start_tangent(run: AlphaRun) -> sp.csc_matrix:
-    """K(q_0) on the reduced coordinates: the static start's tangent and the initial acceleration's."""
-    return sp.csc_matrix(run.S.forces(run.Q[0])[1])
-
-
-def mass_solve(run: AlphaRun):
-    """A solver of the initial acceleration's matrix: M x = b, or with constraint rows [M J'; J 0] [x; y] = [b; c]
-    (c: 0 by default; J at the start; the matrix is symmetric, so the same solver serves the adjoint), returning x."""
+    """K(q_0) on the reduced coordinates: the static start's tangent and the initial acceleration's (with the
+    velocity-dependent forces' d f_d/dq at rest: lines in water, whose drag in a current and water line act at
+    rest; refused under waves, water_refusals)."""
     S = run.S
-    if not S.mc:
-        lu_m = spla.splu(S.M.tocsc())
-        return lambda b, c=None: lu_m.solve(np.asarray(b, float))
-    J = S.jac_phi(run.Q[0], run.t[0])
-    lu = spla.splu(sp.bmat([[S.M, J.T], [J, None]], format="csc"))
-    nf, mc = S.nf, S.mc
+    K = sp.csc_matrix(S.forces(run.Q[0])[1])
+    if S.damp_f is not None and not water.timed(S.asm):
+        K = (K + sp.csc_matrix(S.damp_f(run.Q[0], np.zeros(S.nf))[1].sparse())).tocsc()
+    return K
 
-    def solve(b: np.ndarray, c: np.ndarray | None = None) -> np.ndarray:
-        b = np.asarray(b, float)
-        pad = np.zeros((mc,) + b.shape[1:]) if c is None else np.asarray(c, float)
-        return lu.solve(np.concatenate([b, pad]))[:nf]
-    return solve
-
-
-def start_multipliers(run: AlphaRun, b: np.ndarray) -> np.ndarray:
-    """The multipliers' part of [M J'; J 0]^-1 [b; 0] at the start (columns of b): d lam_0/dp of the initial
-    acceleration."""
-    S = run.S
-    J = S.jac_phi(run.Q[0], run.t[0])
-    z = spla.splu(sp.bmat([[S.M, J.T], [J, None]], format="csc")).solve(np.concatenate([b, np.zeros((S.mc,) +
-                                                                                                      b.shape[1:])]))
-    return z[S.nf:]

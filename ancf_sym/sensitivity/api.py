@@ -27,7 +27,7 @@ def check_paths(scene: Scene, doc: dict, paths: list[str], analysis: dict | None
             options = options_from_dict(analysis)
         check_dynamic(scene, options)
         from ancf_sym.sensitivity.alpha_run import check_dynamic_paths  # (also dampings[i].alpha)
-        check_dynamic_paths(scene, doc, paths)
+        check_dynamic_paths(scene, doc, paths, options=options)
         return
     check_model_paths(scene, doc, paths)
 

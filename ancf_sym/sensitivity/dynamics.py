@@ -31,10 +31,11 @@ multipliers; no parameter enters a row), and the start's [M J'; J 0] [a_0; lam_0
 Stiffness-proportional Rayleigh damping (C_n = alpha M + beta K_el(q_n)) adds cc C_n to the tangent and
 C_n Bv + beta d(K_el(q) v_{n+1})/dq|_{q_n} S_n to the right-hand side (S_n: the previous state's sensitivity; the
 kernels' compiled Hessian-vector companions). Scope (refused by name before any step,
-ancf_sym.sensitivity.alpha_run): fixed steps (applied torques: their skew tangent in the step's matrix), no static
-start with multiplier rows; contact damping and friction enter as the strain-rate damping does (their tangents are
-in the same dissipation force), their coefficients' forcing from ancf_sym.sensitivity.contact_dissipation; time
-loads (analysis.loads) are applied as the run applies them.
+ancf_sym.sensitivity.alpha_run): fixed steps (applied torques: their skew tangent in the step's matrix); a static
+start with multiplier rows differentiates the equilibrium's KKT system (ancf_sym.sensitivity.static_start);
+contact damping and friction enter as the strain-rate damping does (their tangents are in the same dissipation
+force), their coefficients' forcing from ancf_sym.sensitivity.contact_dissipation; time loads (analysis.loads) are
+applied as the run applies them.
 """
 from __future__ import annotations
 
@@ -48,12 +49,13 @@ from ancf_sym.dynamics.run import make_integrator
 from ancf_sym.dynamics.sensors import Sensor, SensorEval
 from ancf_sym.system.step_system import StepSystem
 from ancf_sym.scene.builder import Scene
-from ancf_sym.sensitivity.alpha_run import contact_notes, dynamic_assembly, forcing, mass_solve, refuse_unsupported, \
-    damping_matrices, run_for_sensitivity, start_multipliers, step_inputs, step_matrix, stiffness_damped
+from ancf_sym.sensitivity.alpha_run import contact_notes, dynamic_assembly, forcing, refuse_unsupported, \
+    damping_matrices, run_for_sensitivity, step_inputs, step_matrix, stiffness_damped
 from ancf_sym.sensitivity.collocation_run import COLLOCATION, collocation_sensitivity
 from ancf_sym.sensitivity.run_start import velocity_map
+from ancf_sym.sensitivity.static_start import StartSystem
 from ancf_sym.sensitivity.step_sequence import step_notes
-from ancf_sym.sensitivity.start_derivative import start_tangents, static_start_columns
+from ancf_sym.sensitivity.start_derivative import own_start, start_tangents, static_start_columns
 from ancf_sym.util.casadi_buffers import bind
 from ancf_sym.util.sparsity import dm
 
@@ -171,22 +173,32 @@ def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
     run = run_for_sensitivity(doc, paths, options)
     S, asm, nf, P = run.S, run.asm, run.S.nf, len(paths)
     N = len(run.Q) - 1
-    # start: dq_0/dp of a static start (its statics sensitivity), dv_0/dp of a rotation of it, the initial
-    # acceleration M a_0 = -(R + C v_0 + f_d)(q_0, v_0, p) differentiated (ancf_sym.sensitivity.start_derivative)
-    Sq = static_start_columns(run, paths)
-    Lv = velocity_map(run.start, S)
-    Sv = Lv @ Sq if Lv is not None else np.zeros((nf, P))
-    Kq, Kv = start_tangents(run)
+    # start: the reference, or the equilibrium with its sensitivity (with its rows' multipliers); M a_0 = -R(q_0, p)
+    # (with rows: [M J'; J 0] [a_0; lam_0]) differentiated (ancf_sym.sensitivity.static_start); a released or
+    # rotating static start: dq_0, dv_0 = L dq_0 and the acceleration's K_q dq_0 + K_v dv_0
+    # (ancf_sym.sensitivity.start_derivative)
     Fs = np.stack([forcing(run, p) for p in paths], axis=2) if P else np.zeros((N + 1, nf, 0))  # (N + 1, nf, P)
-    r0 = Kq @ Sq + Fs[0] + (Kv @ Sv if Kv is not None else 0.0)
-    Sa = -mass_solve(run)(r0) if P else np.zeros((nf, 0))
+    own = own_start(run)
+    static = run.start is not None and run.start.static is not None and not own
+    F0s = np.column_stack([forcing(run, p, statics=True)[0] for p in paths]) if static and P else None
+    Sv = np.zeros((nf, P))
+    F0 = Fs[0]
+    if own:
+        Sq0 = static_start_columns(run, paths)
+        Lv = velocity_map(run.start, S)
+        Sv = Lv @ Sq0 if Lv is not None else Sv
+        Kq, Kv = start_tangents(run)
+        F0 = F0 + Kq @ Sq0 + (Kv @ Sv if Kv is not None else 0.0)
+    Sq, Sa, dl0 = StartSystem(run, static).forward(F0s, F0)
+    if own:
+        Sq = Sq0
     z0 = np.vstack([Sq, Sv, Sa, Sa])
     dq, dv = np.zeros((N + 1, nf, P)), np.zeros((N + 1, nf, P))
     mc = S.mc
     dl = np.zeros((N + 1, mc, P))
     dq[0], dv[0] = Sq, Sv
-    if mc and P:  # (the start's multipliers: [M J'; J 0] [a_0; lam_0] = [-R; -gamma] differentiated, dq_0 = 0)
-        dl[0] = start_multipliers(run, -r0)
+    if mc:
+        dl[0] = dl0
     if N and P:
         f = forward_sweep(S, options, run.alpha_r, N, P, run.H is not None)
         Z = np.zeros(4 * nf * P * N)

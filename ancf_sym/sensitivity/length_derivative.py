@@ -100,6 +100,13 @@ class LengthPiece:
             V, dV = V + a * ea, dV + a * ga
         return self.factor * float(V.sum()), self.factor * dV
 
+    def gradients(self, X: np.ndarray) -> np.ndarray:
+        """d gradient/deps assembled on the full coordinates at every state (rows of X), (len(X), n)."""
+        out = np.zeros(X.shape)
+        for k, x in enumerate(X):
+            out[k] = np.bincount(self.idx.ravel(), self.grad(x)[1].ravel(), minlength=X.shape[1])
+        return out
+
     def hessian(self, x: np.ndarray) -> np.ndarray:
         """d Hessian/deps per element (N, nd, nd): the identity differentiated twice; its third-derivative part
         from the compiled Hessian-vector companion (kept for the last x: every mode's derivative reads it)."""
@@ -167,8 +174,6 @@ def prestrain_refusal(asm, name: str) -> str | None:
     for j in scene.joints:
         if j.kind == "rigid" and scene.dim == 3 and name in (j.a[0], j.b[0]) and j.a[0] != j.b[0]:
             return "a spatial rigid joint to another member keeps the ratio of the reference slopes' lengths"
-    if getattr(scene, "water", None) is not None:
-        return "lines in water are not differentiated with respect to the prestrain"
     for t in asm.terms:
         if t.effect not in WEIGHTS and _member_rows(asm, t, name).any():
             return f"its {t.effect!r} energy has no length derivative here"

@@ -32,6 +32,7 @@ from ancf_sym.modal.contact_rows import contact_points
 from ancf_sym.sensitivity.contact_state import curved_contact_rows, drum_form, drum_terms
 from ancf_sym.sensitivity.model_derivative import ParameterError
 from ancf_sym.sensitivity.static import StaticSensitivity
+from ancf_sym.sensitivity.water_derivative import unsymmetric, water_terms
 
 REPEATED_REL = 1e-6  # relative gap below which two frequencies count as one repeated eigenvalue
 
@@ -56,9 +57,11 @@ class ModalSensitivity:
         self.static = StaticSensitivity(scene, modal.static, doc, modal.linearization, "frequency sensitivities")
         asm = self.static.asm
         self._rows = partition(asm).rows  # the exact rows kept with multipliers (rows of G)
-        if getattr(asm.scene, "water", None) is not None:
-            raise ParameterError("frequency sensitivities in water are not available (the added mass's and the drag's "
-                                 "derivatives are not in the model derivative)")
+        self._water = water_terms(asm)  # (lines in water: the water line's and the added mass's state derivatives)
+        self._left = unsymmetric(asm)  # (lines in a current: K unsymmetric, the left eigenvectors enter)
+        if self._left and self.static.m:
+            raise ParameterError("frequency sensitivities of lines in a current with constraint rows kept with "
+                                 "multipliers (rigid joints, bodies, exact contact) are not available")
         if contact.exact_contacts(asm):  # the held points are rows (as in the statics' sensitivity)
             drums = curved_contact_rows(asm)
             if drums:
@@ -111,6 +114,9 @@ class ModalSensitivity:
         Scenes with rigid joints (bilinear rows): not available. Repeated frequencies: NaN columns."""
         m, s = self.modal, self.static
         lin, asm = s.lin, s.asm
+        if self._left:
+            raise ParameterError("mode-shape derivatives of lines in a current (an unsymmetric K) are not available "
+                                 "(frequencies are)")
         if len(asm.exact.qrow):
             raise ParameterError("mode-shape derivatives with rigid joints (bilinear constraint rows kept in the "
                                  "modes) are not available")
@@ -138,6 +144,12 @@ class ModalSensitivity:
                 v, turn[nr:] = drum_terms(asm, x, fc, active, -dmu[nr:], self._mode_multipliers(k)[nr:], phi, dx)
                 dKphi = dKphi + v
             dMphi = E.T @ (md.dM @ phi) if md.dM is not None else np.zeros(len(y))
+            if self._water is not None:  # (the water line's change along dx; the added mass's at x and along dx)
+                dKphi = dKphi + self._water.third_vector(x, dx, phi)
+                dMphi = dMphi + E.T @ self._water.mass_vectors(x, phi, dx)[1]
+                if md.water is not None and md.water.added_mass_moves():  # (md.dM: at the reference's tangents)
+                    dMphi = dMphi + E.T @ (md.water.mass_vectors(x, phi, dx)[0] -
+                                           md.water.mass_vectors(asm.x0, phi, dx)[0])
             My = lin.M @ y
             col, row = sp.csc_matrix(My[:, None]), sp.csr_matrix(My[None, :])
             A = sp.bmat([[lin.K - w2 * lin.M, G.T, col], [G, None, None], [row, None, None]] if ng else
@@ -145,6 +157,33 @@ class ModalSensitivity:
             rhs = np.r_[-(E.T @ dKphi - dw2 * My - w2 * dMphi), -turn, -0.5 * float(y @ dMphi)]
             out[:, k] = E @ spla.spsolve(A, rhs)[:len(y)]
         return out
+
+    def _unsymmetric(self, k: int, md, x: np.ndarray, dx: np.ndarray) -> tuple[float, str | None]:
+        """(d f_k/dp, note) of lines in a current (no constraint rows): the left eigenvector psi of the reduced
+        pencil by two steps of inverse iteration on (K - sigma M)' next to w^2 (its error shrinks by (sigma - w^2) /
+        (gap) each step: sigma = w^2 (1 + 1e-9) leaves ~1e-18), then d w^2/dp = psi' (dK - w^2 dM) phi / psi' M phi
+        with dK the kernels' and the water's (the drag's load stiffness included) at fixed x plus their change along
+        dx. A complex w^2 (a mode the current feeds) has no frequency derivative here: NaN with a note."""
+        m, lin = self.modal, self.static.lin
+        if m.omega2_imag is not None and m.omega2_imag[k] != 0.0:
+            return np.nan, f"mode {k}: complex w^2 (the current feeds or damps it): no frequency derivative"
+        E, w2, phi = lin.E, float(m.omega2[k]), m.shapes[:, k]
+        y = spla.spsolve((E.T @ E).tocsc(), E.T @ phi)
+        lu = spla.splu((lin.K - w2 * (1 + 1e-9) * lin.M).T.tocsc())
+        z = lin.M.T @ y
+        for _ in range(2):
+            z = lu.solve(z)
+            z = z / np.linalg.norm(z)
+        psi = E @ z
+        dK = md.hessian_form(x, phi, psi) + float(psi @ self._third_vector(dx, phi))
+        dK += self._water.third_form(x, dx, phi, psi)
+        dM = float(psi @ (md.dM @ phi)) if md.dM is not None else 0.0
+        dM += self._water.mass_form(x, phi, dx, psi)[1]
+        if md.water is not None and md.water.added_mass_moves():  # (md.dM: at the reference's tangents)
+            x0 = self.static.asm.x0
+            dM += md.water.mass_form(x, phi, dx, psi)[0] - md.water.mass_form(x0, phi, dx, psi)[0]
+        dw2 = (dK - w2 * dM) / float(z @ (lin.M @ y))
+        return dw2 / (8 * np.pi ** 2 * m.frequencies[k]), None
 
     def _mode_multipliers(self, k: int) -> np.ndarray:
         """The mode's multipliers mu of the rows of G (K_L y + G'mu = w^2 M y, least squares)."""
@@ -199,6 +238,10 @@ class ModalSensitivity:
                 notes.append(f"mode {k}: repeated frequency {f[k]:.6g} Hz has no derivative")
                 continue
             phi = m.shapes[:, k]
+            if self._left:  # (an unsymmetric K: d w^2 = psi' (dK - w^2 dM) phi / psi' M phi, psi the left vector)
+                out[k], note = self._unsymmetric(k, md, x, dx)
+                notes += [note] if note else []
+                continue
             dK = md.hessian_form(x, phi, phi) + self._third(dx, phi)
             if dlam is not None:
                 dK += float(phi @ (Hq @ phi)) + self._row_turn(k, dx)
@@ -206,6 +249,11 @@ class ModalSensitivity:
                 fc, active, dfc = drums
                 dK += drum_form(asm, x, fc, active, dfc, self._mode_multipliers(k)[len(self._rows):], phi, dx)
             dM = float(phi @ (md.dM @ phi)) if md.dM is not None else 0.0
+            if self._water is not None:  # (the water line's Jacobian and the turning added mass move with dx)
+                dK += self._water.third_form(x, dx, phi)
+                dM += self._water.mass_form(x, phi, dx)[1]
+                if md.water is not None and md.water.added_mass_moves():  # (md.dM: at the reference's tangents)
+                    dM += md.water.mass_form(x, phi, dx)[0] - md.water.mass_form(asm.x0, phi, dx)[0]
             dw2 = dK - m.omega2[k] * dM
             out[k] = dw2 / (8 * np.pi ** 2 * f[k])
         return out, notes

@@ -28,8 +28,10 @@ from ancf_sym.model.assembly import Assembly
 from ancf_sym.model.loads import load_vector, point_mass_triplets
 from ancf_sym.model.terms import distributed_term, moment_term
 from ancf_sym.scene.builder import Scene
+from ancf_sym.sensitivity.body_derivative import body_derivative
 from ancf_sym.sensitivity.length_derivative import mass_derivative, prestrain_pieces, prestrain_refusal
 from ancf_sym.sensitivity.paths import ParameterPath, get_parameter, parse_path
+from ancf_sym.sensitivity.water_derivative import WaterTerms, gravity_pieces, water_tangent
 
 STIFFNESS_COLUMNS = {  # effect -> its coefficient columns (the energy is linear in them jointly)
     "axial_green": ("EA",), "axial_biot": ("EA",), "axial_decoupled": ("EA",), "axial_decoupled_biot": ("EA",),
@@ -77,6 +79,7 @@ class ModelDerivative:
     pieces: list = field(default_factory=list)
     dQ: np.ndarray | None = None
     mass: Callable[[], sp.csc_matrix] | None = field(default=None, repr=False)  # builds dM where the mass depends on p
+    water: WaterTerms | None = field(default=None, repr=False)  # lines in water: the water's terms' derivative
 
     @property
     def dM(self) -> sp.csc_matrix | None:
@@ -88,7 +91,7 @@ class ModelDerivative:
     @property
     def constant_residual(self) -> bool:
         """d grad Pi/dp does not depend on x: dead loads and the gravity kernel (linear in q) only."""
-        return all(pc.effect == "gravity" for pc in self.pieces)
+        return self.water is None and all(pc.effect == "gravity" for pc in self.pieces)
 
     def residual(self, x: np.ndarray) -> tuple[float, np.ndarray]:
         """(d Pi/dp, d grad Pi/dp) at fixed x (full coordinates)."""
@@ -101,6 +104,9 @@ class ModelDerivative:
         if self.dQ is not None:
             dPi -= float(self.dQ @ x)
             dR -= self.dQ
+        if self.water is not None:  # (the water line's potential; the drag and water line's forces)
+            dU, dr = self.water.residual(x)
+            dPi, dR = dPi + dU, dR + dr
         return dPi, dR
 
     def energies(self, x: np.ndarray) -> dict:
@@ -110,6 +116,8 @@ class ModelDerivative:
             out[pc.label] = out.get(pc.label, 0.0) + pc.grad(x)[0]
         if self.dQ is not None and np.any(self.dQ):
             out["loads"] = out.get("loads", 0.0) - float(self.dQ @ x)
+        if self.water is not None:  # (a result in water books the water line under gravity)
+            out["gravity"] = out.get("gravity", 0.0) + self.water.residual(x)[0]
         return out
 
     def hessian_vector(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
@@ -120,6 +128,8 @@ class ModelDerivative:
                 continue
             Hb = pc.hessian(x)
             out += np.bincount(pc.idx.ravel(), np.einsum("eij,ej->ei", Hb, u[pc.idx]).ravel(), minlength=len(x))
+        if self.water is not None:
+            out += self.water.hessian_vector(x, u)
         return out
 
     def hessian_form(self, x: np.ndarray, u: np.ndarray, v: np.ndarray) -> float:
@@ -129,6 +139,8 @@ class ModelDerivative:
             if pc.effect == "gravity":  # linear in q: no Hessian
                 continue
             out += float(np.einsum("ei,eij,ej->", u[pc.idx], pc.hessian(x), v[pc.idx]))
+        if self.water is not None:
+            out += self.water.hessian_form(x, u, v)
         return out
 
 
@@ -237,7 +249,53 @@ def _refuse_arcs(asm: Assembly, members: list[str], path: str) -> None:
 
 
 def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> ModelDerivative:
-    """d(model)/dp for p the number at `path` of the scene document `doc` that `asm` was built from."""
+    """d(model)/dp for p the number at `path` of the scene document `doc` that `asm` was built from (lines in
+    water: with the water's terms, ancf_sym.sensitivity.water_derivative)."""
+    if getattr(asm.scene, "water", None) is None:
+        return _dry_model_derivative(asm, doc, path)
+    p = path if isinstance(path, ParameterPath) else parse_path(path)
+    value = get_parameter(doc, p)
+
+    def refuse(why: str):
+        raise ParameterError(f"parameter path {p.text!r} = {value!r}: {why}")
+    tan = water_tangent(asm, doc, p.keys, value, refuse)
+    out = ModelDerivative(p.text, value) if p.keys[0] == "water" else _dry_model_derivative(asm, doc, p)
+    if p.keys == ("water", "seabed", "stiffness"):  # (the seabed's ground contacts: the law linear in k)
+        out.pieces = _seabed_pieces(asm, doc)
+        return out
+    if tan.dnet:  # (the gravity kernel carries the net weight rho A - rho_w A_displaced)
+        out.pieces = [pc for pc in out.pieces if pc.effect != "gravity"] + gravity_pieces(asm, tan, Piece)
+    terms = WaterTerms(asm, tan)
+    if tan.moves_water_terms():
+        out.water = terms
+    if terms.added_mass_moves():  # (the added mass at the state the dynamics' mass matrix takes it)
+        dry, state = out.mass, getattr(asm, "added_mass_state", None)
+        xm = asm.x0 if state is None else np.asarray(state, float)
+        out.mass = lambda: terms.mass(xm) if dry is None else (dry() + terms.mass(xm)).tocsc()
+    return out
+
+
+def _seabed_pieces(asm: Assembly, doc: dict) -> list[Piece]:
+    """The seabed's contact kernels with their stiffness column 1 (the document's own contacts come first in the
+    scene, then one ground contact per wet member)."""
+    from ancf_sym.contact import laws as contact
+    calls: list = []  # (the penalty contacts' normal-law kernel calls, in declaration order)
+    contact.energy_terms({}, asm.mesh, lambda _t, _label, *call: calls.append(call))
+    penalty = [k for k in asm.scene.contacts if k.method == "penalty"]
+    seabed = set(map(id, asm.scene.contacts[len(doc.get("contacts", [])):]))
+    out = []
+    for c, (element, effect, gauss, idx, P) in zip(penalty, calls):
+        if id(c) in seabed:
+            names = kernels.parameters(element, effect)
+            P = np.array(P, float)
+            P[:, names.index("k")] = 1.0
+            P[:, names.index("kh")] = 0.0
+            out.append(Piece(element, effect, gauss, np.asarray(idx), P, "contact"))
+    return out
+
+
+def _dry_model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> ModelDerivative:
+    """model_derivative of the model's kernels and loads (the water's terms aside)."""
     p = path if isinstance(path, ParameterPath) else parse_path(path)
     value = get_parameter(doc, p)
     keys, text = p.keys, p.text
@@ -278,7 +336,8 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         if any(scene.members[m].element == "beam3d" for m in members):
             refuse("a beam3d section's b x h enter its kernels nonlinearly (not differentiable here)")
         for i, c in enumerate(getattr(scene, "contacts", ())):
-            if c.member in members and "thickness" not in doc["contacts"][i]:
+            # (the seabed's contacts, after the document's, take water.seabed.thickness)
+            if c.member in members and i < len(doc.get("contacts", [])) and "thickness" not in doc["contacts"][i]:
                 refuse(f"the contact on member {c.member!r} takes its thickness from the section (give the "
                        "contact a thickness to differentiate the section)")
         shape = sec.get("shape")
@@ -298,8 +357,6 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         return out
     if keys[:2] == ("scene", "gravity") and len(keys) == 3:
         j = keys[2]
-        if asm.mesh.bodies and scene.dim == 3:
-            refuse("the weight of spatial rigid bodies is not differentiated here")
         for t in asm.terms:
             if t.label != "gravity":
                 continue
@@ -312,7 +369,7 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         e = np.zeros(scene.dim)
         e[j] = 1.0
         dQ = load_vector(_MeshView(asm.mesh, gravity=e, point_masses=getattr(scene, "point_masses", ())))
-        for name, o in asm.mesh.bodies.items():  # planar bodies: m g at the centre of mass (x, y first)
+        for name, o in asm.mesh.bodies.items():  # bodies: m g at the centre of mass (its coordinates first)
             dQ[o + j] += scene.bodies[name].mass
         out.dQ = dQ
         return out
@@ -345,14 +402,8 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         r, c, v = point_mass_triplets(view)
         out.mass = lambda: sp.csc_matrix((v, (r, c)), shape=(asm.n, asm.n))
         return out
-    if keys[0] == "bodies" and len(keys) == 3 and keys[2] == "mass":
-        if scene.dim == 3:
-            refuse("spatial bodies' masses are not differentiated here")
-        name = doc["bodies"][keys[1]]["name"]
-        o = asm.mesh.bodies[name]
-        out.dQ = np.zeros(asm.n)
-        out.dQ[o:o + 2] = np.asarray(scene.gravity, float)
-        out.mass = lambda: sp.csc_matrix((np.ones(2), (np.arange(o, o + 2), np.arange(o, o + 2))), shape=(asm.n, asm.n))
+    if keys[0] == "bodies" and len(keys) >= 3:
+        out.dQ, out.mass = body_derivative(asm, doc, keys, refuse)
         return out
     if keys[0] == "contacts" and len(keys) == 3 and keys[2] in ("stiffness", "hertz"):
         from ancf_sym.contact import laws as contact
@@ -386,7 +437,8 @@ def model_derivative(asm: Assembly, doc: dict, path: str | ParameterPath) -> Mod
         out.mass = lambda: mass_derivative(asm, [name], -1.0 / (1.0 + value))
         return out
     refuse("not a differentiable parameter here (materials.M.E | density, sections.S.area | I | diameter, "
-           "scene.gravity[j], loads[i].value[j], masses[i].mass, bodies[i].mass (2D), contacts[i].stiffness | hertz, "
+           "scene.gravity[j], loads[i].value[j], masses[i].mass, bodies[i].mass | inertia | force[j], "
+           "contacts[i].stiffness | hertz, "
            "members[i].prestrain, loops[i].prestrain)")
 
 

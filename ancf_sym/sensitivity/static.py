@@ -29,6 +29,7 @@ from ancf_sym.scene.builder import Scene
 from ancf_sym.statics.problem import StaticResult
 from ancf_sym.sensitivity.contact_state import check_differentiable
 from ancf_sym.sensitivity.model_derivative import ModelDerivative, model_derivative
+from ancf_sym.sensitivity.water_derivative import water_line_gradient
 
 
 class StaticSensitivity:
@@ -46,6 +47,7 @@ class StaticSensitivity:
         if contact.exact_contacts(result.assembly):
             check_differentiable(result.assembly, result, what)
         self.scene, self.result, self.doc = scene, result, doc
+        self.water = getattr(scene, "water", None) is not None  # (lines in water: the water statics' Jacobian)
         self.lin = linearization if linearization is not None else _stiffness(scene, result)
         self.asm = self.lin.assembly
         lin = self.lin
@@ -83,6 +85,8 @@ class StaticSensitivity:
         dx, dmu = self.solve(dR)
         md = self.model(path)
         de = md.energies(x)
+        if self.water:  # (the drag is no potential's: the gradient does not vanish on dx)
+            dPi += float(sum(self._label_gradients().values()) @ dx)
         out = {"potential": dPi, "energies": {lbl: de.get(lbl, 0.0) + float(g @ dx)
                                               for lbl, g in self._label_gradients().items()}, "members": {}}
         for name, mm in self.asm.mesh.members.items():
@@ -105,6 +109,9 @@ class StaticSensitivity:
             if asm.penalty is not None:
                 pc = asm.penalty
                 grads["penalty"] = pc.jacobian(x).T @ (pc.k * pc.value(x))
+            gw = water_line_gradient(asm, x) if self.water else None
+            if gw is not None:  # (in water the water line's energy is booked under gravity)
+                grads["gravity"] = grads.get("gravity", np.zeros(asm.n)) + gw
             self._grads = grads
         return self._grads
 
@@ -121,8 +128,12 @@ class StaticSensitivity:
             cols = np.unique(J.tocsr().indices)
             Jd = J[:, cols].toarray()
             dlam = np.linalg.lstsq(Jd.T, -r[cols], rcond=None)[0]
+            if self.water:  # (the statics in water report a support's force as the residual there: + its row's)
+                dlam = np.where(np.diff(J.tocsr().indptr) == 1, -dlam, dlam)
             for lbl, v in zip(asm.exact.labels, dlam):
                 forces.setdefault(lbl, []).append(float(v))
+        for name, dofs in getattr(getattr(self.result, "water", None), "drive_labels", ()):
+            forces[name] = [float(r[i]) for i in dofs]  # (fairleads held by drives in water: the residual there)
         if asm.penalty is not None:
             dc = asm.penalty.jacobian(self.result.x) @ dx
             for lbl, k, v in zip(asm.penalty.labels, asm.penalty.k, dc):
@@ -146,7 +157,8 @@ class StaticSensitivity:
                  ) -> np.ndarray:
         """dJ/dp for a scalar output J(x) (its gradient dJdx on the full coordinates; `partial(path)` its explicit
         derivative, if any) and many parameters: one adjoint solve, then dJ/dp_k = partial_k - w'dR_k."""
-        w = self._lu.solve(np.r_[self.lin.E.T @ dJdx, np.zeros(self.m)])  # (the KKT matrix is symmetric)
+        # (the KKT matrix is symmetric, but for lines in a current: the drag's load stiffness; transposed solve)
+        w = self._lu.solve(np.r_[self.lin.E.T @ dJdx, np.zeros(self.m)], trans="T" if self.water else "N")
         wx = self.lin.E @ w[:self.ny]
         x = self.result.x
         out = np.empty(len(paths))
@@ -161,7 +173,7 @@ def _stiffness(scene: Scene, result: StaticResult) -> Linearization:
     here directly where no row needs multipliers for its curvature (no exact contact, no bilinear rows): the usual
     scene, where the linearisation's other matrices would cost more than the sensitivity itself."""
     asm = result.assembly
-    if contact.exact_contacts(asm) or len(asm.exact.qrow):
+    if contact.exact_contacts(asm) or len(asm.exact.qrow) or getattr(scene, "water", None) is not None:
         return linearize(scene, result, damping_matrix=False)
     part = partition(asm)
     x = result.x

@@ -34,4 +34,4 @@ def test_hvp_matches_hessian_and_its_differences(element, effect):
 
 def test_hvp_refused_where_not_generated():
     with pytest.raises(ValueError, match="third-derivative"):
-        kernels.load_hvp("beam3d", "continuum")
+        kernels.load_hvp("beam3d", "gravity")

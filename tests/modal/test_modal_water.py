@@ -152,15 +152,6 @@ def test_unsymmetric_pencil_dense_and_sparse():
         assert np.allclose(K @ Y, (M @ Y) * w2, atol=1e-9)
 
 
-def test_frequency_sensitivities_in_water_are_refused():
-    from ancf_sym.sensitivity.model_derivative import ParameterError
-    from ancf_sym.sensitivity.modal import ModalSensitivity
-
-    s = taut(2)
-    with pytest.raises(ParameterError, match="in water"):
-        ModalSensitivity(modal_analysis(s, modes=1), s, {})
-
-
 def test_condensed_stiffness_in_a_current_is_the_fairleads():
     # the linearisation's condensation at a pinned end (unsymmetric in a current: not symmetrised) and the water
     # statics' mooring_stiffness are the same exact Schur complement: equal to round-off (1e-12)

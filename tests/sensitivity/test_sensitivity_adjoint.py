@@ -118,20 +118,6 @@ def test_strain_rate_damping(integrator):
         assert abs(g.gradient[p] - fd) <= 1e-5 * abs(fd), p
 
 
-@pytest.mark.parametrize("damping, contact, match", [
-    ({"type": "rayleigh", "beta": 1e-3, "members": ["rope"]}, None, "stiffness-proportional Rayleigh damping on "
-     "some members only")])  # (contact damping and friction: tests/sensitivity/test_sensitivity_friction.py)
-def test_unsupported_damping_refused_by_name(damping, contact, match):
-    doc = copy.deepcopy(DOC)
-    doc["dampings"] = [damping]
-    if contact:
-        doc["contacts"] = [contact]
-    with pytest.raises(SceneError, match=match):
-        dynamic_gradient(doc, ["materials.m.E"], opts(), OUTPUTS[0])
-    with pytest.raises(SceneError, match=match):
-        dynamic_sensitivity(doc, ["materials.m.E"], opts())
-
-
 def test_bad_paths_and_outputs_refused_before_any_step():
     with pytest.raises(KeyError, match=r"dampings\[0\].beta names nothing"):
         dynamic_gradient(DOC, ["dampings[0].beta"], opts(), OUTPUTS[0])

@@ -13,7 +13,6 @@ import pytest
 
 from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.newton import NewtonOptions
-from ancf_sym.scene import SceneError
 from ancf_sym.sensitivity import get_parameter, with_parameter
 from ancf_sym.sensitivity.adjoint import EnergyOutput, MultiplierOutput, SensorOutput, dynamic_gradient
 from ancf_sym.sensitivity.dynamics import dynamic_sensitivity
@@ -119,12 +118,6 @@ def test_multiplier_sensitivities_match_differences():
     D = [(lam(with_parameter(doc, p, v + h)) - lam(with_parameter(doc, p, v - h))) / (2 * h) for h in (s, s / 2)]
     fd = (4 * D[1] - D[0]) / 3
     assert np.max(np.abs(fw.dlam[p][-1] - fd)) <= 1e-5 * np.max(np.abs(fd))
-
-
-def test_still_refused_by_name():
-    """A static start with multiplier rows stays refused before any step."""
-    with pytest.raises(SceneError, match="static start"):
-        dynamic_sensitivity(JOINT, ["materials.m.E"], DynamicOptions(dt=2e-3, t_end=0.12, start="static"))
 
 
 @pytest.mark.parametrize("which", ["drive", "angle"])
