@@ -33,7 +33,7 @@ from ancf_sym.system.step_system import StepSystem
 @dataclass
 class RunStart:
     """The run's start: the run's scene (without the released supports), the scene whose statics starts the run
-    (held: with release; else the run's), full q0 and v0, the static result (start = "static" and not overridden by
+    (held: with release; else the given one), full q0 and v0, the static result (start = "static" and not overridden by
     a result.json: q0 then depends on the parameters), and the [[initial]] rotations (omega tables) whose velocities
     read q0."""
     scene: object
@@ -42,10 +42,7 @@ class RunStart:
     v0: np.ndarray
     static: object | None
     rotations: list
-
-    @property
-    def released(self) -> bool:
-        return self.held is not self.scene
+    released: bool  # (supports of the static start released for the run)
 
 
 def run_start(scene, asm, opts: DynamicOptions, static_result=None) -> RunStart:
@@ -71,7 +68,7 @@ def run_start(scene, asm, opts: DynamicOptions, static_result=None) -> RunStart:
         if arr.shape != (asm.n,) or not np.all(np.isfinite(arr)):
             raise SceneError(f"{name} must be {asm.n} finite numbers (the scene's coordinates), got {arr.size}")
     rotations = [s for s in (opts.initial or []) if "omega" in s]
-    return RunStart(asm.scene, scene, q0, v0, static, rotations)
+    return RunStart(asm.scene, scene, q0, v0, static, rotations, bool(opts.release))
 
 
 def velocity_of_coordinates(start: RunStart, asm, dq: np.ndarray) -> np.ndarray:

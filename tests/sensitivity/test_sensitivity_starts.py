@@ -171,3 +171,11 @@ def test_cli_release(tmp_path):
     ref = richardson(tip, doc, path)
     d_cli = np.asarray(got["sensors"]["tip"])[:, 1]
     assert np.max(np.abs(d_cli - ref)) <= 1e-5 * np.max(np.abs(ref))
+
+
+def test_release_is_read_from_the_options():
+    """A scene built again from the same document shares the cached assembly (whose scene is the first one built):
+    whether supports were released is the options', not a comparison of scene objects."""
+    for _ in range(2):
+        assert not run_for_sensitivity(DOC, [], options(start="static")).start.released
+    assert run_for_sensitivity(DOC, [], options(start="static", release=["pin rope@end"])).start.released
