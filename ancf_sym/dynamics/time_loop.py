@@ -63,6 +63,7 @@ class TimeLoop:
         # penalty contact: every accepted state checked for a surface the law's points missed (contact.gap)
         self.gaps = contact_gap.Watch(S) if contact_gap.checked_contacts(S.asm.scene) else None
         self.free = None  # contact scenes: chunks on the contact-free graph while out of reach (dynamics.reach)
+        self.on_step = None  # called as on_step(t_new) after each step accepted one at a time (the integrator's state)
         self.out_i = 0
         self._out = outputs.tolist() if outputs is not None else None  # (bisection in _accepted_many)
         if outputs is None or outputs[0] <= self.t + self.eps_t:
@@ -309,6 +310,8 @@ class TimeLoop:
             q_new, v_new = integ.new["q"].copy(), integ.new["v"].copy()
             fd = self.S.damping_force(q_new, v_new, t_new) if self.S.damped and self.book else None  # (K_el: this step)
             integ.accept()
+            if self.on_step is not None:
+                self.on_step(t_new)
             self._accepted(t, t_new, q_old, v_old, q_new, v_new, fd, integ.lam)
             self._check_energy()
             if self.gaps is not None:

@@ -47,8 +47,12 @@ from ancf_sym.dynamics.sensors import Sensor, SensorEval
 from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, damping_matrices, forcing, \
     run_for_sensitivity, step_inputs, step_matrix, stiffness_damped, stiffness_damping_forcing
 from ancf_sym.sensitivity.contact_dissipation import dissipation_forcing, dissipation_index
+from ancf_sym.sensitivity.collocation_run import COLLOCATION, collocation_adjoint, collocation_run
 from ancf_sym.sensitivity.length_derivative import LengthPiece
 from ancf_sym.sensitivity.kernel_direction import DirectionPiece
+from ancf_sym.sensitivity.run_start import velocity_map
+from ancf_sym.sensitivity.step_sequence import step_notes
+from ancf_sym.sensitivity.start_derivative import own_start, start_tangents, static_start_gradient
 from ancf_sym.sensitivity.model_derivative import STIFFNESS_COLUMNS, ModelDerivative, model_derivative, \
     read_document
 from ancf_sym.sensitivity.static_start import StartSystem
@@ -132,13 +136,15 @@ class DynamicGradient:
 _SWEEPS: dict = {}
 
 
-def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int) -> ca.Function:
+def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int, variable: bool = False
+                   ) -> ca.Function:
     """sweep(acc0, U) -> (acc, MU), U = [X; V; WQ; WV[; Lam; W][; X_prev]]: n backward steps (columns: steps N, N-1,
     .., 1) of the adjoint recursion (see the module docstring); acc = the adjoints flowing into (q, v, a, abar) of the
-    earlier state; Lam, W: the multipliers and drives' time inputs, X_prev: q_n (Rayleigh beta)."""
+    earlier state; Lam, W: the multipliers and drives' time inputs, X_prev: q_n (Rayleigh beta); variable: the step
+    sizes as U's last row (the scheme's coefficients per step), else h = dt."""
     sch = opts.scheme()
-    h = opts.dt
-    key = (S.graph_key, sch, h, alpha_r, S.rayleigh.beta if S.rayleigh is not None else 0.0, n, S.par.tobytes())
+    h = ca.MX.sym("h") if variable else opts.dt
+    key = (S.graph_key, sch, None if variable else h, alpha_r, S.rayleigh.beta if S.rayleigh is not None else 0.0, n, S.par.tobytes())
     if key in _SWEEPS:
         return _SWEEPS[key]
     nf = S.nf
@@ -174,7 +180,7 @@ def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int) 
     Sa = -af / (1 - af) * Bb
     Sab = h * (1 - gamma) * Bvb + am / (1 - af) * Bb - (0.5 - beta) / beta * Db
     u = ca.vertcat(x, v, wq, wv, *([y] if y is not None else []), *([xp] if xp is not None else []),
-                   *([wl] if mc else []))
+                   *([wl] if mc else []), *([h] if variable else []))
     step = ca.Function("adjoint_step", [acc, u], [ca.vertcat(Sq, Sv, Sa, Sab), mu])
     sweep = step.mapaccum("adjoint_steps", n)
     a0, U = ca.MX.sym("acc0", 4 * nf), ca.MX.sym("U", u.size1(), n)
@@ -337,6 +343,21 @@ def residual_sum(md: ModelDerivative, Lam: np.ndarray, X: np.ndarray, cache: dic
     return total
 
 
+def energy_partial(output, asm, doc: dict, path: str, X: np.ndarray, V: np.ndarray) -> float:
+    """An energy output's explicit derivative at the end state (the mass's in the kinetic energy, the energies' own
+    in the potential); 0 for other outputs and for damping paths."""
+    if not isinstance(output, EnergyOutput) or damping_index(doc, path) is not None or \
+            dissipation_index(doc, path) is not None:
+        return 0.0
+    md = model_derivative(asm, doc, path)
+    g = 0.0
+    if md.dM is not None and output.which in ("kinetic", "total"):
+        g += 0.5 * float(V[-1] @ (md.dM @ V[-1]))
+    if output.which in ("potential", "total"):
+        g += md.residual(X[-1])[0]
+    return g
+
+
 def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
                      output: SensorOutput | EnergyOutput | MultiplierOutput) -> DynamicGradient:
     """Run the scene of `doc` with `options` (fixed steps of an alpha scheme) and return the output's value and
@@ -346,7 +367,11 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
         names = [s.get("name") if isinstance(s, dict) else s.name for s in options.sensors]
         if output.sensor not in names:
             raise KeyError(f"output sensor {output.sensor!r}: no such sensor in analysis.sensors (named: {names})")
-    run = run_for_sensitivity(d, paths, options)
+    stages = None
+    if options.integrator in COLLOCATION:  # (Radau IIA, Gauss: ancf_sym.sensitivity.collocation_run)
+        run, stages, integ = collocation_run(d, paths, options)
+    else:
+        run = run_for_sensitivity(d, paths, options)
     S, asm, nf = run.S, run.asm, run.S.nf
     sensors = [SensorEval(Sensor.from_dict(sn, i), asm, i) for i, sn in enumerate(options.sensors)]
     Q, Vr, t = run.Q, run.V, run.t
@@ -362,28 +387,45 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
         WQ, WV = np.zeros((len(t), nf)), np.zeros((len(t), nf))
     else:
         value, WQ, WV = output_weights(output, sensors, S, t, X, V, Vr)
+    if stages is not None:
+        g = collocation_adjoint(run, stages, integ, list(paths), WQ, WV)
+        grad = {p: float(g[k]) + energy_partial(output, asm, d, p, X, V) for k, p in enumerate(paths)}
+        return DynamicGradient(value, grad, t, X, V, contact_notes(run) + step_notes(run))
     alpha_r = run.alpha_r
     # backward: steps N .. 1 in one compiled sweep, then the start (M a_0 = -R(q_0); the static start's adjoint)
     MU = np.zeros((N + 1, nf))
     acc = np.zeros(4 * nf)
     if N:
-        f = backward_sweep(S, options, alpha_r, N)
+        f = backward_sweep(S, options, alpha_r, N, run.H is not None)
         cols = [Q[:0:-1], Vr[:0:-1], WQ[:0:-1], WV[:0:-1]] + \
             ([run.Lam[:0:-1], run.W[:0:-1]] if step_inputs(S) else []) + \
-            ([Q[-2::-1]] if stiffness_damped(S) else []) + ([WL[:0:-1]] if S.mc else [])
+            ([Q[-2::-1]] if stiffness_damped(S) else []) + ([WL[:0:-1]] if S.mc else []) + \
+            ([run.H[::-1, None]] if run.H is not None else [])  # (the accepted step sizes, held)
         U = np.ascontiguousarray(np.hstack(cols))  # (column j: step N - j)
         MUb = np.zeros((N, nf))
         _, evaluate = bind(f, [np.zeros(4 * nf), U], [acc, MUb])
         evaluate()
         MU[1:] = MUb[::-1]
     # the start (ancf_sym.sensitivity.static_start): a_0 = abar_0; lam_0: its weights; the static start's adjoint xi
-    MU[0], xi = StartSystem(run).adjoint(acc[:nf] + WQ[0], acc[2 * nf:3 * nf] + acc[3 * nf:],
-                                         WL[0] if S.mc else None)
+    own = own_start(run)
+    static = run.start is not None and run.start.static is not None and not own
+    MU[0], xi = StartSystem(run, static).adjoint(acc[:nf] + WQ[0], acc[2 * nf:3 * nf] + acc[3 * nf:],
+                                                 WL[0] if S.mc else None)
     Lam = S.full_v_rows(MU)
     LamR = Lam
+    # a released or rotating static start (ancf_sym.sensitivity.start_derivative): the output's adjoint of q_0,
+    # through a_0 and through a rotation's v_0 = L q_0, then the statics' adjoint
+    start_grad = None
     if xi is not None:  # (dq_0/dp from the statics' dR/dp(x_0): its share of the gradient is -xi . dR_s/dp)
         LamR = Lam.copy()
         LamR[0] += S.full_v(xi)
+    elif own:
+        Kq, Kv = start_tangents(run)
+        qb0 = acc[:nf] + WQ[0] - Kq.T @ MU[0]
+        Lv = velocity_map(run.start, S)
+        if Lv is not None:
+            qb0 = qb0 + Lv.T @ (acc[nf:2 * nf] + WV[0] - Kv.T @ MU[0])
+        start_grad = dict(zip(paths, static_start_gradient(run, list(paths), qb0)))
     grad, cache = {}, {}
     M = S.M
     for p in paths:
@@ -411,5 +453,5 @@ def dynamic_gradient(doc: dict | str, paths: list[str], options: DynamicOptions,
                 g += 0.5 * float(V[-1] @ (dM @ V[-1]))
             if output.which in ("potential", "total"):
                 g += md.residual(X[-1])[0]
-        grad[p] = g
-    return DynamicGradient(value, grad, t, X, V, contact_notes(run))
+        grad[p] = g + (start_grad[p] if start_grad is not None else 0.0)
+    return DynamicGradient(value, grad, t, X, V, contact_notes(run) + step_notes(run))

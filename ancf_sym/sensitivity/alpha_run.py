@@ -26,6 +26,7 @@ import scipy.sparse as sp
 from ancf_sym import kernels, registry
 from ancf_sym.contact import laws as contact
 from ancf_sym.dynamics import DynamicOptions
+from ancf_sym.dynamics.initial import released_scene
 from ancf_sym.dynamics.newton import Counters
 from ancf_sym.dynamics.run import make_integrator
 from ancf_sym.dynamics.time_loads import LoadSum
@@ -38,6 +39,8 @@ from ancf_sym.sensitivity.kernel_direction import DirectionPiece
 from ancf_sym.sensitivity.length_derivative import LengthPiece
 from ancf_sym.sensitivity.model_derivative import ParameterError, model_derivative, read_document
 from ancf_sym.sensitivity.paths import get_parameter, parse_path
+from ancf_sym.sensitivity.run_start import RunStart, run_start
+from ancf_sym.sensitivity.step_sequence import adaptive_steps, held_steps
 from ancf_sym.sensitivity.rayleigh_beta import beta_pieces
 from ancf_sym.sensitivity.water_derivative import water_refusals
 from ancf_sym.system import water
@@ -127,18 +130,19 @@ def dynamic_assembly(scene):
 def refuse_unsupported(S: StepSystem, opts: DynamicOptions, integ) -> None:
     """SceneError naming every feature of the run whose derivative is not propagated."""
     why = []
-    if opts.integrator not in ("newmark", "hht", "generalized_alpha"):
-        why.append(f"integrator {opts.integrator!r} (alpha schemes only)")
-    if opts.adaptive:
-        why.append("adaptive steps")
-    elif abs(opts.t_start + opts.n_grid * opts.dt - opts.t_end) > 1e-9 * opts.dt:
-        why.append(f"a shorter last step (t_end - t_start = {opts.t_end - opts.t_start:g} s is not a whole number of "
-                   f"dt = {opts.dt:g} s)")
+    if opts.integrator not in ("newmark", "hht", "generalized_alpha", "radau", "gauss"):
+        why.append(f"integrator {opts.integrator!r} (alpha schemes and collocation only)")
+    elif opts.integrator in ("radau", "gauss") and (S.mc or integ.kdamp.active or water.has_forces(S.asm)):
+        why.append(f"integrator {opts.integrator!r} with constraint rows carrying multipliers, stiffness-"
+                   "proportional Rayleigh damping or lines in water (collocation: sensitivities without them)")
+    if S.mc and opts.start == "static" and (opts.release or opts.initial):
+        why.append("a static start with constraint rows carrying multipliers, released or rotating (release, "
+                   "initial)")
     if integ.kdamp.active:
         why += stiffness_damping_refusals(S)
     why += water_refusals(S, opts)
-    if opts.release or opts.from_result or opts.initial or opts.q0 is not None or opts.v0 is not None:
-        why.append("a start other than the reference or the static equilibrium at rest")
+    if water.has_forces(S.asm) and (opts.initial or opts.v0 is not None or opts.from_result):
+        why.append("lines in water from a moving start (initial, v0, from_result)")
     if why:
         raise SceneError("dynamic sensitivities: not available with " + ", ".join(why))
 
@@ -224,7 +228,7 @@ def _hessian_vectors(element: str, effect: str, gauss, idx: np.ndarray, P: np.nd
 def stiffness_damping_forcing(run: "AlphaRun", path: str) -> np.ndarray | None:
     """The Rayleigh stiffness damping's part of F_n on the reduced coordinates, (steps + 1, nf): d(beta K_el(q_{n-1})
     v_n)/dp at fixed states, beta dK_el/dp (q_{n-1}) v_n for a model path (the elastic pieces' Hessians) or
-    K_el(q_{n-1}) v_n for dampings[i].beta; row 0 is zero (v_0 = 0 in the start's acceleration). None: no beta, or
+    K_el(q_{n-1}) v_n for dampings[i].beta; row 0 at q_0, v_0 (the start's acceleration). None: no beta, or
     the path changes no elastic energy."""
     S = run.S
     if not stiffness_damped(S):
@@ -242,12 +246,11 @@ def stiffness_damping_forcing(run: "AlphaRun", path: str) -> np.ndarray | None:
         pieces = beta_pieces(S, run.scene, None, md.pieces)
     if not pieces:
         return None
-    f = np.zeros((len(X) - 1, X.shape[1]))
+    f = np.zeros(X.shape)
+    Xp = np.vstack([X[:1], X[:-1]])  # (row n: K_el(q_{n-1}) v_n; row 0: the start's acceleration, C(q_0) v_0)
     for element, effect, gauss, idx, P, c in pieces:
-        f += c * _hessian_vectors(element, effect, gauss, idx, P, X[:-1], Vf[1:])
-    out = np.zeros((len(X), S.nf))
-    out[1:] = np.asarray((S.E.T @ f.T).T)
-    return out
+        f += c * _hessian_vectors(element, effect, gauss, idx, P, Xp, Vf)
+    return np.asarray((S.E.T @ f.T).T)
 
 
 # -- the forward run: the package's compiled steps, every state kept -----------------------------------------------
@@ -296,7 +299,8 @@ class AlphaRun:
     """A run of the scene of `doc` kept for differentiation: the model (asm, S), the reduced states Q, V, A after
     each step (row 0: the start), the true multipliers Lam of the constraint rows and drives (steps + 1, mc), the
     full X, V_full, A_full, the step times t, the Rayleigh mass coefficient, the drives' time inputs W (steps + 1,
-    nw)."""
+    nw); the start (RunStart) and, for a run whose steps are not all dt (adaptive, a shorter last step), the
+    accepted step sizes H (steps,), else None."""
     doc: dict
     scene: object
     asm: object
@@ -309,6 +313,8 @@ class AlphaRun:
     alpha_r: float
     Lam: np.ndarray
     W: np.ndarray
+    start: RunStart | None = None
+    H: np.ndarray | None = None
 
     @property
     def X(self) -> np.ndarray:
@@ -323,38 +329,55 @@ class AlphaRun:
         return self.S.full_v_rows(self.A)
 
 
-def run_for_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptions) -> AlphaRun:
+def run_for_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptions,
+                        steps: np.ndarray | None = None) -> AlphaRun:
     """Check the run and the paths (refused before any step), then run the scene with the package's own alpha
-    steps, from the reference or the static equilibrium at rest."""
-    from ancf_sym.statics.problem import problem_for
-
+    steps from the start simulate builds (ancf_sym.sensitivity.run_start): fixed steps of dt (a shorter last one
+    taken as the run takes it), the adaptive run's accepted steps, or `steps` (step sizes [s]) held as given."""
     d = read_document(doc)
-    scene, _ = scene_from_dict(d)
-    asm = dynamic_assembly(scene)
+    given, _ = scene_from_dict(d)
+    # release: the run's scene lacks the released supports, its start is the equilibrium of the given scene
+    scene = released_scene(given, options.release) if options.release else given
+    asm = Assembly(scene) if options.release else dynamic_assembly(scene)
     check_dynamic_paths(scene, d, list(paths), asm, options)
     contact.check_dynamics(asm)  # (exact contact is a statics method: refused as the run refuses it)
     S = StepSystem.for_scene(asm)
     integ = make_integrator(S, options, Counters(), 0.0, options.newton.xtol * S.length_scale)
     refuse_unsupported(S, options, integ)
+    if options.integrator in ("radau", "gauss"):
+        raise SceneError(f"dynamic sensitivities: integrator {options.integrator!r}: the alpha schemes' run; "
+                         "collocation runs: ancf_sym.sensitivity.collocation_run")
     nf = S.nf
-    if options.start == "static":
-        res = problem_for(scene).solve()
-        if not res.success:
-            raise SceneError(f"dynamic sensitivities: the static start failed ({res.status})")
-        q0 = res.x
-    else:
-        q0 = asm.x0.copy()
+    start = run_start(given, asm, options)
     # time loads (analysis.loads): a forcing that no scene parameter changes, applied as the run applies it
     loads = LoadSum(options.loads, asm, S.E) if options.loads else None
     Q0 = loads(options.t_start) if loads else np.zeros(nf)
-    integ.initialize(S.reduce(q0), np.zeros(nf), Q0, options.t_start)
+    integ.initialize(S.reduce(start.q0), S.reduce(start.v0), Q0, options.t_start)
     integ.tol_q = options.newton.tol * max(float(np.max(np.abs(S.f_lin))), float(np.max(np.abs(S.M @ integ.a))),
                                            float(np.max(np.abs(Q0))), 1e-300)
-    Q, V, A, Lam = forward_states(S, integ, options, loads)
-    t = options.t_start + options.dt * np.arange(len(Q))
+    lam = slice(5 * nf, 5 * nf + S.mc)  # (the integrator's state: q, v, a, abar, a_prev, lam, controls)
+
+    def row() -> np.ndarray:
+        return np.r_[integ.state[:3 * nf], integ.state[lam]]
+    H = None if steps is None else np.asarray(steps, float).ravel()
+    last = options.t_end - (options.t_start + options.n_grid * options.dt)
+    if H is not None:
+        R = np.array(held_steps(integ, options.t_start, H, loads, row))
+    elif options.adaptive:
+        rows, H = adaptive_steps(S, integ, options, loads, row)
+        R = np.array(rows)
+    else:
+        Q, V, A, Lam = forward_states(S, integ, options, loads)
+        R = np.hstack([Q, V, A, Lam])
+        if last > 1e-9 * options.dt:  # (a shorter last step, as the time loop takes it)
+            R = np.vstack([R, held_steps(integ, options.t_start + options.n_grid * options.dt, [last], loads,
+                                         row)[1:]])
+            H = np.r_[np.full(options.n_grid, options.dt), last]
+    Q, V, A, Lam = R[:, :nf], R[:, nf:2 * nf], R[:, 2 * nf:3 * nf], R[:, 3 * nf:]
+    t = options.t_start + (options.dt * np.arange(len(Q)) if H is None else np.r_[0.0, np.cumsum(H)])
     W = np.array([S.w(ti) for ti in t]).reshape(len(t), S.nw)
     return AlphaRun(d, scene, asm, S, options, Q, V, A, t, S.rayleigh.alpha if S.rayleigh is not None else 0.0,
-                    Lam, W)
+                    Lam, W, start, H)
 
 
 def _scatter(idx: np.ndarray, n: int) -> sp.csr_matrix:

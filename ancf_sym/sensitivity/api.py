@@ -103,30 +103,28 @@ def add_to_result(result_file: Path, scene: Scene, scene_file: Path, analysis: d
 
 def _add_dynamic(result_file: Path, doc: dict, analysis: dict, paths: list[str]) -> None:
     """sensitivities[PATH] = {"t": the output times, "sensors": {NAME: d(record)/dp}} of a dynamics run, from its
-    forward sensitivities (ancf_sym.sensitivity.dynamics) at the output times that are step times."""
+    forward sensitivities (ancf_sym.sensitivity.dynamics) at its output times (ancf_sym.sensitivity.output_times)."""
     from ancf_sym.dynamics.options import options_from_dict
     from ancf_sym.io.json_out import write_json
     from ancf_sym.sensitivity.dynamics import dynamic_sensitivity
+    from ancf_sym.sensitivity.output_times import at_times
 
     import json
 
     opts = options_from_dict(analysis)
     ds = dynamic_sensitivity(doc, paths, opts)
     data = json.loads(result_file.read_text())
-    k = np.rint((np.asarray(data["t"], float) - ds.t[0]) / opts.dt).astype(int)
-    on_grid = (k >= 0) & (k < len(ds.t)) & np.isclose(ds.t[np.clip(k, 0, len(ds.t) - 1)], data["t"],
-                                                      rtol=0, atol=1e-9 * opts.dt)
-    k = k[on_grid]
+    # (output times inside a step: the run's Hermite interpolant of the step's ends, differentiated exactly)
+    times = np.asarray(data["t"], float)
+    ds = at_times(ds, times, 1e-9 * opts.dt)
     out = {}
     for p in paths:
-        entry: dict = {"t": np.asarray(data["t"], float)[on_grid], "sensors": {}}
+        entry: dict = {"t": times, "sensors": {}}
         for ev in ds.sensors:
             try:
-                entry["sensors"][ev.sensor.name] = ds.sensor(p, ev.sensor.name)[k]
+                entry["sensors"][ev.sensor.name] = ds.sensor(p, ev.sensor.name)
             except ValueError as exc:  # (curvature, body: named, not a silent gap)
                 entry.setdefault("notes", []).append(str(exc))
-        if not on_grid.all():
-            entry.setdefault("notes", []).append("derivatives at the output times that are step times only")
         for note in ds.notes:  # (contact events: where the derivative is one-sided)
             entry.setdefault("notes", []).append(note)
         out[p] = entry

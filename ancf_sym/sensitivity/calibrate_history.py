@@ -118,6 +118,9 @@ def calibrate_history(doc: dict | str | Path, data: SensorHistory | str | Path, 
     parameters = list(parameters)
     check_dynamic_paths(scene_from_dict(doc)[0], doc, parameters)  # (every path checked before any run)
     opts = dynamic_options(doc, options)
+    if opts.adaptive:  # (the residual would jump where the error control picks other steps between iterations)
+        raise SceneError("calibrate: analysis.adaptive = true: a sensor history is fitted on fixed steps (dt), "
+                         "whose run is a smooth function of the parameters")
     if not isinstance(data, SensorHistory):
         data = read_history(data)
     names = [s.get("name") if isinstance(s, dict) else s.name for s in opts.sensors]

@@ -51,7 +51,11 @@ from ancf_sym.system.step_system import StepSystem
 from ancf_sym.scene.builder import Scene
 from ancf_sym.sensitivity.alpha_run import contact_notes, dynamic_assembly, forcing, refuse_unsupported, \
     damping_matrices, run_for_sensitivity, step_inputs, step_matrix, stiffness_damped
+from ancf_sym.sensitivity.collocation_run import COLLOCATION, collocation_sensitivity
+from ancf_sym.sensitivity.run_start import velocity_map
 from ancf_sym.sensitivity.static_start import StartSystem
+from ancf_sym.sensitivity.step_sequence import step_notes
+from ancf_sym.sensitivity.start_derivative import own_start, start_tangents, static_start_columns
 from ancf_sym.util.casadi_buffers import bind
 from ancf_sym.util.sparsity import dm
 
@@ -116,14 +120,16 @@ def check_dynamic(scene: Scene, options: DynamicOptions) -> None:
 _SWEEPS: dict = {}
 
 
-def forward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int, P: int) -> ca.Function:
+def forward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int, P: int, variable: bool = False
+                  ) -> ca.Function:
     """sweep(z0, X, V, F[, Y]) -> (Z[, L]): n steps of the sensitivity recursion (module docstring) for P parameters;
     z = [Sq; Sv; Sa; Sab] (4 nf x P), X, V (nf x n): q_{n+1}, v_{n+1} per step, F (nf x n P): the forcing per step,
     Y ((mc + nw) x n): the true multipliers and the drives' time inputs per step (only with constraint rows); Z (4 nf
-    x n P): z after each step, L (mc x n P): d lam_{n+1}/dp; with Rayleigh beta one more input XP (nf x n): q_n."""
+    x n P): z after each step, L (mc x n P): d lam_{n+1}/dp; with Rayleigh beta one more input XP (nf x n): q_n;
+    variable: the step sizes (1 x n) as the last input (the scheme's coefficients per step), else h = dt."""
     sch = opts.scheme()
-    h = opts.dt
-    key = (S.graph_key, sch, h, alpha_r, S.rayleigh.beta if S.rayleigh is not None else 0.0, n, P, S.par.tobytes())
+    h = ca.MX.sym("h") if variable else opts.dt
+    key = (S.graph_key, sch, None if variable else h, alpha_r, S.rayleigh.beta if S.rayleigh is not None else 0.0, n, P, S.par.tobytes())
     if key in _SWEEPS:
         return _SWEEPS[key]
     nf, mc = S.nf, S.mc
@@ -151,34 +157,50 @@ def forward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int, P
     else:
         Sq1, outs = ca.solve(J, -rhs, solver), []
     step = ca.Function("sensitivity_step", [z, x, v, F] + ([y] if y is not None else []) +
-                       ([xp] if xp is not None else []),
+                       ([xp] if xp is not None else []) + ([h] if variable else []),
                        [ca.vertcat(Sq1, cc * Sq1 + Bv, cm * Sq1 + B, Sq1 / (h * h * beta) + D)] + outs)
     _SWEEPS[key] = f = step.mapaccum("sensitivity_sweep", n)
     return f
 
 
 def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptions) -> DynamicSensitivity:
-    """Run the scene of `doc` with `options` (fixed steps of an alpha scheme) and propagate d(state)/dp for every
-    path alongside (see the module docstring)."""
+    """Run the scene of `doc` with `options` (an alpha scheme or collocation, fixed or adaptive steps) and propagate
+    d(state)/dp for every path alongside (see the module docstring)."""
     paths = list(paths)
+    if options.integrator in COLLOCATION:  # (Radau IIA, Gauss: ancf_sym.sensitivity.collocation_run)
+        run, dq, dv = collocation_sensitivity(doc, paths, options)
+        return answer(run, paths, dq, dv, np.zeros((len(dq), 0, len(paths))))
     run = run_for_sensitivity(doc, paths, options)
     S, asm, nf, P = run.S, run.asm, run.S.nf, len(paths)
     N = len(run.Q) - 1
     # start: the reference, or the equilibrium with its sensitivity (with its rows' multipliers); M a_0 = -R(q_0, p)
-    # (with rows: [M J'; J 0] [a_0; lam_0]) differentiated (ancf_sym.sensitivity.static_start)
+    # (with rows: [M J'; J 0] [a_0; lam_0]) differentiated (ancf_sym.sensitivity.static_start); a released or
+    # rotating static start: dq_0, dv_0 = L dq_0 and the acceleration's K_q dq_0 + K_v dv_0
+    # (ancf_sym.sensitivity.start_derivative)
     Fs = np.stack([forcing(run, p) for p in paths], axis=2) if P else np.zeros((N + 1, nf, 0))  # (N + 1, nf, P)
-    F0s = np.column_stack([forcing(run, p, statics=True)[0] for p in paths]) \
-        if options.start == "static" and P else None
-    Sq, Sa, dl0 = StartSystem(run).forward(F0s, Fs[0])
-    z0 = np.vstack([Sq, np.zeros((nf, P)), Sa, Sa])
+    own = own_start(run)
+    static = run.start is not None and run.start.static is not None and not own
+    F0s = np.column_stack([forcing(run, p, statics=True)[0] for p in paths]) if static and P else None
+    Sv = np.zeros((nf, P))
+    F0 = Fs[0]
+    if own:
+        Sq0 = static_start_columns(run, paths)
+        Lv = velocity_map(run.start, S)
+        Sv = Lv @ Sq0 if Lv is not None else Sv
+        Kq, Kv = start_tangents(run)
+        F0 = F0 + Kq @ Sq0 + (Kv @ Sv if Kv is not None else 0.0)
+    Sq, Sa, dl0 = StartSystem(run, static).forward(F0s, F0)
+    if own:
+        Sq = Sq0
+    z0 = np.vstack([Sq, Sv, Sa, Sa])
     dq, dv = np.zeros((N + 1, nf, P)), np.zeros((N + 1, nf, P))
     mc = S.mc
     dl = np.zeros((N + 1, mc, P))
-    dq[0] = Sq
+    dq[0], dv[0] = Sq, Sv
     if mc:
         dl[0] = dl0
     if N and P:
-        f = forward_sweep(S, options, run.alpha_r, N, P)
+        f = forward_sweep(S, options, run.alpha_r, N, P, run.H is not None)
         Z = np.zeros(4 * nf * P * N)
         L = np.zeros(mc * P * N)
         # (column-major inputs: X's column j is q_{j+1}; F's columns j P .. j P + P - 1 step j + 1's parameters)
@@ -189,12 +211,23 @@ def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
             ins.append(np.ascontiguousarray(np.hstack([run.Lam[1:], run.W[1:]])).ravel())
         if stiffness_damped(S):
             ins.append(np.ascontiguousarray(run.Q[:-1]).ravel())
+        if run.H is not None:  # (the accepted step sizes, held)
+            ins.append(np.ascontiguousarray(run.H))
         _, evaluate = bind(f, ins, [Z] + ([L] if mc else []))
         evaluate()
         Zs = Z.reshape(N, P, 4 * nf)
         dq[1:] = Zs[:, :, :nf].transpose(0, 2, 1)
         dv[1:] = Zs[:, :, nf:2 * nf].transpose(0, 2, 1)
         dl[1:] = L.reshape(N, P, mc).transpose(0, 2, 1)
+    return answer(run, paths, dq, dv, dl)
+
+
+def answer(run, paths: list[str], dq: np.ndarray, dv: np.ndarray, dl: np.ndarray) -> DynamicSensitivity:
+    """The DynamicSensitivity of a kept run (alpha_run.AlphaRun) from the reduced derivatives per step (steps + 1,
+    nf | mc, P)."""
+    S, asm, nf, P = run.S, run.asm, run.S.nf, len(paths)
+    N = len(dq) - 1
+    options = run.options
 
     def full(d: np.ndarray) -> np.ndarray:  # (E d per step and parameter, as one gather)
         rows = S.full_v_rows(d.transpose(0, 2, 1).reshape(-1, nf))
@@ -202,5 +235,6 @@ def dynamic_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
     dx, dvf = (full(dq), full(dv)) if P else (np.zeros((N + 1, asm.n, 0)), np.zeros((N + 1, asm.n, 0)))
     sensors = [SensorEval(Sensor.from_dict(sn, i), asm, i) for i, sn in enumerate(options.sensors)]
     return DynamicSensitivity(run.t, run.X, run.V_full, {p: dx[:, :, k] for k, p in enumerate(paths)},
-                              {p: dvf[:, :, k] for k, p in enumerate(paths)}, asm, sensors, contact_notes(run),
+                              {p: dvf[:, :, k] for k, p in enumerate(paths)}, asm, sensors,
+                              contact_notes(run) + step_notes(run),
                               run.Lam, {p: dl[:, :, k] for k, p in enumerate(paths)})

@@ -49,9 +49,10 @@ def _rows(run: AlphaRun, lam: np.ndarray, a: np.ndarray) -> tuple[sp.csc_matrix,
 class StartSystem:
     """The start's two symmetric systems (module docstring), factorised once."""
 
-    def __init__(self, run: AlphaRun):
+    def __init__(self, run: AlphaRun, static: bool | None = None):
         S = self.S = run.S
-        self.static = run.options.start == "static"
+        # (static: q_0 is the run's static equilibrium, differentiated here; default the options' start)
+        self.static = run.options.start == "static" if static is None else static
         self.K0 = start_tangent(run)
         self.nf, self.mc = S.nf, S.mc
         self.a0, self.lam0 = run.A[0], run.Lam[0]

@@ -166,10 +166,3 @@ def test_contact_events_are_named():
         assert abs(g.gradient[p] - ref) <= 1e-8 * abs(ref), p
     early = dynamic_gradient(doc, paths, opts(), OUTPUTS[0])  # (0.2 s: the rope has not reached the ground)
     assert "no contact opens or closes" in early.notes[0]
-
-
-def test_partial_last_step_refused():
-    """The run would end with a shorter step, another scheme than the fixed steps differentiated: refused."""
-    o = DynamicOptions(dt=2e-3, t_end=0.0105, newton=TIGHT, sensors=SENSORS)
-    with pytest.raises(SceneError, match="shorter last step"):
-        dynamic_gradient(DOC, ["materials.m.E"], o, OUTPUTS[0])
