@@ -179,6 +179,8 @@ class WaterStatics:
             y_try, ok, status, it, inc, dec, rmax = self.newton(y, target, tol if last else STEP_TOL,
                                                                 max_iter if last else STEP_ITER, work)
             iters += it
+            if ok and self.stable_at(y_try, target) is False:  # (full Newton steps from far can end on a saddle:
+                ok, status = False, "unstable"  # a shorter continuation step starts nearer the stable branch)
             hist.append((target, status, it))
             if ok:
                 y, lam = y_try, target
@@ -203,7 +205,11 @@ class WaterStatics:
 
     def stability(self, x: np.ndarray) -> bool | None:
         """The symmetric part of the Jacobian positive definite on the tangent space of the multiplier rows."""
-        _, J = self._eval(self._y(x), 1.0)
+        return self.stable_at(self._y(x), 1.0)
+
+    def stable_at(self, y: np.ndarray, lam: float) -> bool | None:
+        """stability() at the reduced unknowns y and continuation parameter lam."""
+        _, J = self._eval(y, lam)
         ny = self.ny
         Jyy = J[:ny, :ny]
         return reduced_inertia(0.5 * (Jyy + Jyy.T), J[ny:, :ny] if self.m else None).stable
