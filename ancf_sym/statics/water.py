@@ -197,10 +197,11 @@ class WaterStatics:
         return E.indices[E.indptr[:-1]]
 
     def support_forces(self, x: np.ndarray) -> np.ndarray:
-        """Full vector: the supports' and drives' forces on the structure at x (R_full at the held coordinates)."""
+        """Full vector: the structure's forces on the supports and drives at x, the sign every statics result reports
+        (docs/scenes.md): minus the residual R_full at the held coordinates, which is the support's force on it."""
         R = np.asarray(self.full(x, 1.0, self.mu)[0]).ravel()
         out = np.zeros_like(R)
-        out[self.fixed] = R[self.fixed]
+        out[self.fixed] = -R[self.fixed]
         return out
 
     def stability(self, x: np.ndarray) -> bool | None:
@@ -273,12 +274,13 @@ def _details(ws: WaterStatics, x: np.ndarray) -> tuple[dict, dict, float]:
         energies["gravity"] = energies.get("gravity", 0.0) + float(ws.water_line(x))  # the weight it corrects)
     F = ws.support_forces(x)
     forces: dict = {}
-    for lbl, row in zip(asm.exact.labels, asm.exact.A.tocsr()):
-        cols = row.indices
-        if len(cols) == 1:
-            forces.setdefault(lbl, []).append(float(F[cols[0]]))
-    for r, v in zip(ws.rows, ws.mu):  # (rows kept with multipliers: J^T mu = -grad Pi, as the statics report them)
-        forces.setdefault(asm.exact.labels[r], []).append(float(v))
+    if asm.exact.m:  # every row's multiplier, as the dry statics report them: J' lam = -(grad Pi - Q_water) on the
+        r = np.asarray(ws.full(x, 1.0, np.zeros(ws.m))[0]).ravel()  # rows' coordinates (the rows the reduced
+        J = asm.exact.jacobian(x).tocsc()  # coordinates eliminate, e.g. a joint's identified positions, included)
+        cols = np.unique(J.tocsr().indices)
+        lam = np.linalg.lstsq(J[:, cols].toarray().T, -r[cols], rcond=None)[0]
+        for lbl, v in zip(asm.exact.labels, lam):
+            forces.setdefault(lbl, []).append(float(v))
     for name, dofs in ws.drive_labels:
         forces[name] = [float(F[i]) for i in dofs]
     viol = float(np.max(np.abs(asm.constraints.value(x)))) if asm.constraints.m else 0.0
