@@ -378,6 +378,9 @@ class StaticProblem:
             if ok and hold and not self._still_held(xs, held):
                 ok = False
                 attempts[-1]["rejected"] = "the held coordinates are loaded at its answer (no symmetry holds them)"
+            if ok and self._gaps and contact_gap.hidden(self.asm, xs)[1]:  # (full steps can land on a folded line
+                ok = False  # whose centre line dips through the ground between the law's points: try the next)
+                attempts[-1]["rejected"] = "its centre line passes through a contact surface between the law's points"
             if ok:
                 return True, xs, lg, "ipopt+newton"
         xk, lgk = x, None  # continuation from the last converged load level
