@@ -8,6 +8,9 @@ at their reference positions); from there the current (scaled by lam) and the fa
 from the reference to the drives' values at t = 0) reach lam = 1 in adaptive continuation steps, each solved by
 full Newton steps on a sparse LU. Convergence is judged as the scene's statics judges it (statics.criteria): the
 last update in units of the structure's length and |r . dz| in units of the load work, both <= tol.
+A continuation step is accepted where its Newton converged on a stable point whose conservative potential did
+not rise above the step's start by more than the drag's work can explain (WaterStatics.energy_rise); else it is
+retried shorter.
 Stability: the symmetric part of the Jacobian positive definite (inertia of its factorisation): for a conservative
 scene that is the Hessian's test; with drag a sufficient condition for a statically stable equilibrium.
 """
@@ -85,15 +88,17 @@ class WaterStatics:
         y, mu = z[:ny], z[ny:]
         x = ca.mtimes(dm(E), y) + c
         xs, mus = ca.MX.sym("x", n), ca.MX.sym("mu", m)
-        _, grad, hup, _ = asm.casadi_parts(xs)
+        pot, grad, hup, _ = asm.casadi_parts(xs)
         H = hup + hup.T - ca.diag(ca.diag(hup))
         Qw = ca.MX.zeros(n)
         Ub = water_line_energy(wp, w, g, xs)
         self.water_line = ca.Function("water_line", [xs], [Ub]) if Ub is not None else None
         if Ub is not None:
             Qw -= lam * ca.gradient(Ub, xs)  # (scaled by lam too: lam = 0 is the start's own problem)
-        if w.current is not None and wp.drag:
-            Qw += drag_force(wp, w, xs, None, lam)
+        Qd = drag_force(wp, w, xs, None, lam) if w.current is not None and wp.drag else ca.MX.zeros(n)
+        Qw += Qd
+        # a step's acceptance test: the conservative potential at lam (the water line's scaled as in R) and the drag
+        self.merit = ca.Function("water_merit", [xs, lam], [pot + (lam * Ub if Ub is not None else 0), Qd])
         Rf = grad - Qw
         Jf = H - ca.jacobian(Qw, xs)
         if m:
@@ -181,6 +186,8 @@ class WaterStatics:
             iters += it
             if ok and self.stable_at(y_try, target) is False:  # (full Newton steps from far can end on a saddle:
                 ok, status = False, "unstable"  # a shorter continuation step starts nearer the stable branch)
+            if ok and self.energy_rise(y, y_try, target) > (tol if last else STEP_TOL) * work:
+                ok, status = False, "energy_rise"  # (or on a tangled, stretched state: see energy_rise)
             hist.append((target, status, it))
             if ok:
                 y, lam = y_try, target
@@ -191,6 +198,20 @@ class WaterStatics:
                     return self.x_of(y, lam), False, "continuation_failed", iters, hist, (inc, dec, rmax)
         self.mu = y[self.ny:].copy()
         return self.x_of(y), True, "converged", iters, hist, (inc, dec, rmax)
+
+    def energy_rise(self, y0: np.ndarray, y1: np.ndarray, lam: float) -> float:
+        """How far the conservative potential at lam rises from the step's feasible start (y0's coordinates, the
+        fairleads where lam puts them) to its answer y1, beyond twice the drag's work estimate along the straight
+        way between them (|Q_d . dx| at both ends): without drag, the dry statics' rule (a minimiser started there
+        cannot rightly end higher); the drag can lift it by about the work it does. Full Newton steps from far
+        have ended on stable but tangled, stretched states (a kinked rope at +318 kJ where the answer is -1.7 kJ)
+        that only this tells apart."""
+        x0, x1 = self.x_of(y0, lam), self.x_of(y1, lam)
+        e0, q0 = self.merit(x0, lam)
+        e1, q1 = self.merit(x1, lam)
+        dx = x1 - x0
+        drag = abs(float(np.asarray(q0).ravel() @ dx)) + abs(float(np.asarray(q1).ravel() @ dx))
+        return float(e1) - float(e0) - 2.0 * drag
 
     def _roots(self) -> np.ndarray:
         E = self.E.tocsc()
