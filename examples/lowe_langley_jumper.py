@@ -93,8 +93,8 @@ def solve(n: int) -> tuple[dict, np.ndarray]:
     x0, rv = warm_start(n)
     r = solve_static(jumper(n), warm_start=x0)
     wall = time.perf_counter() - t
-    top = np.array(r.constraint_forces["top"]) / 1e3
-    bottom = np.array(r.constraint_forces["pin jumper@start"]) / 1e3
+    top = -np.array(r.constraint_forces["top"]) / 1e3  # (the supports' forces on the jumper: minus the reported
+    bottom = -np.array(r.constraint_forces["pin jumper@start"]) / 1e3  # jumper's force on them)
     rec = dict(n=n, H_kN=top[0], V_top_kN=top[1], V_bottom_kN=bottom[1], H_bottom_kN=-bottom[0],
                lowest_z_m=float(r.nodes("jumper")[:, 1].min()), iterations=rv.iterations + r.iterations, wall_s=wall,
                status=r.status, success=r.success, stable=r.stable)

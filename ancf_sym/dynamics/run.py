@@ -129,21 +129,7 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
             what = f"violates the velocity form of constraint {asm.exact.labels[k]!r} by {vv[k]:.3g}"
             raise SceneError(f"{_velocity_source(asm, opts, asm.exact.jacobian(q0).getrow(k).indices)}: {what}"
                              " (give a velocity the supports and joints allow, e.g. a rotation about a pin)")
-    drv = S.drives
-    if drv is not None and drv.m:  # the drives at t_start: position and velocity
-        w0 = drv.w(opts.t_start)
-        viol = np.abs(drv.value(q0, w0))
-        vv = np.abs(drv.jacobian(q0, w0) @ v0 + drv.time_terms(q0, v0, opts.t_start)[0])
-        for what, arr, tol in (("q0", viol, cons_tol), ("v0 (velocity form)", vv, 1e-8 * max(1.0, float(np.abs(v0).max())))):
-            if arr.max() > tol:
-                k = int(np.argmax(arr))
-                if what == "q0":
-                    what = _position_source(opts)
-                elif opts.initial or opts.from_result is not None:
-                    what = f"{_velocity_source(asm, opts, drv.jacobian(q0, w0).getrow(k).indices)} (velocity form)"
-                raise SceneError(f"{what} violates drive {drv.labels[k]!r} at t_start = {opts.t_start:g} s by "
-                                 f"{arr[k]:.3g} (start the body or node where and as fast as the drive prescribes, "
-                                 "e.g. a motion that starts from rest)")
+    check_drives_at_start(S, asm, q0, v0, opts, cons_tol)
     outputs = output_grid(opts)
     every = opts.output_every
     if every is None and outputs is None:  # default: about DEFAULT_OUTPUTS intervals
@@ -200,6 +186,29 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
     if free is not None:
         res.steps_out_of_reach = free.steps
     return res
+
+
+def check_drives_at_start(S: StepSystem, asm: Assembly, q0: np.ndarray, v0: np.ndarray, opts: DynamicOptions,
+                          cons_tol: float) -> None:
+    """Refuse (SceneError, before any step) a start state that the drives do not allow at t_start: the position
+    off a drive's value by more than cons_tol [m], or the velocity off its rate (a drive that starts moving with a
+    velocity jump while the start is at rest). The run and the dynamic sensitivities both check here."""
+    drv = S.drives
+    if drv is None or not drv.m:
+        return
+    w0 = drv.w(opts.t_start)
+    viol = np.abs(drv.value(q0, w0))
+    vv = np.abs(drv.jacobian(q0, w0) @ v0 + drv.time_terms(q0, v0, opts.t_start)[0])
+    for what, arr, tol in (("q0", viol, cons_tol), ("v0 (velocity form)", vv, 1e-8 * max(1.0, float(np.abs(v0).max())))):
+        if arr.max() > tol:
+            k = int(np.argmax(arr))
+            if what == "q0":
+                what = _position_source(opts)
+            elif opts.initial or opts.from_result is not None:
+                what = f"{_velocity_source(asm, opts, drv.jacobian(q0, w0).getrow(k).indices)} (velocity form)"
+            raise SceneError(f"{what} violates drive {drv.labels[k]!r} at t_start = {opts.t_start:g} s by "
+                             f"{arr[k]:.3g} (start the body or node where and as fast as the drive prescribes, "
+                             "e.g. a motion that starts from rest)")
 
 
 def run_dynamics(scene: Scene | Assembly, analysis: dict | DynamicOptions,

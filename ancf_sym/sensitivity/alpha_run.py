@@ -28,7 +28,7 @@ from ancf_sym.contact import laws as contact
 from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.initial import released_scene
 from ancf_sym.dynamics.newton import Counters
-from ancf_sym.dynamics.run import make_integrator
+from ancf_sym.dynamics.run import check_drives_at_start, make_integrator
 from ancf_sym.dynamics.time_loads import LoadSum
 from ancf_sym.dynamics.time_loop import chunk_size
 from ancf_sym.io.scene_toml import scene_from_dict
@@ -349,6 +349,8 @@ def run_for_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
                          "collocation runs: ancf_sym.sensitivity.collocation_run")
     nf = S.nf
     start = run_start(given, asm, options)
+    # (a drive that starts with a velocity jump from this start: refused as the run refuses it)
+    check_drives_at_start(S, asm, start.q0, start.v0, options, max(1e-8, 10 * options.newton.xtol) * S.length_scale)
     # time loads (analysis.loads): a forcing that no scene parameter changes, applied as the run applies it
     loads = LoadSum(options.loads, asm, S.E) if options.loads else None
     Q0 = loads(options.t_start) if loads else np.zeros(nf)

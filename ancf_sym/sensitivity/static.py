@@ -128,12 +128,10 @@ class StaticSensitivity:
             cols = np.unique(J.tocsr().indices)
             Jd = J[:, cols].toarray()
             dlam = np.linalg.lstsq(Jd.T, -r[cols], rcond=None)[0]
-            if self.water:  # (the statics in water report a support's force as the residual there: + its row's)
-                dlam = np.where(np.diff(J.tocsr().indptr) == 1, -dlam, dlam)
             for lbl, v in zip(asm.exact.labels, dlam):
                 forces.setdefault(lbl, []).append(float(v))
         for name, dofs in getattr(getattr(self.result, "water", None), "drive_labels", ()):
-            forces[name] = [float(r[i]) for i in dofs]  # (fairleads held by drives in water: the residual there)
+            forces[name] = [-float(r[i]) for i in dofs]  # (fairleads held by drives in water: minus the residual)
         if asm.penalty is not None:
             dc = asm.penalty.jacobian(self.result.x) @ dx
             for lbl, k, v in zip(asm.penalty.labels, asm.penalty.k, dc):

@@ -11,7 +11,7 @@ from ancf_sym.util.checks import SceneError
 
 def mooring_stiffness(result, member: str, at="end") -> np.ndarray:
     """(dim, dim) K = dF / du [N/m] at the held node (a pin or a position drive) of `member` at `at`: F the force the
-    support applies to the line there (result.constraint_forces), u the node's position, the rest of the line in
+    support applies to the line there (minus result.constraint_forces, which is the line's force on the support), u the node's position, the rest of the line in
     equilibrium (current and water line included). K = J_ff - J_fz KKT^-1 J_zf of the residual's exact Jacobian J
     (f: the node's coordinates, z: the free ones and the multipliers of rows kept exact). K_xx > 0: pulling the fairlead away raises the force holding it."""
     ws = getattr(result, "water", None)

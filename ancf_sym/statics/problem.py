@@ -368,7 +368,10 @@ class StaticProblem:
         """IPOPT's attempts: full steps, line search (first with the coordinates a symmetry holds fixed, where there
         are such: statics.held), load steps. (ok, x, lam_g, path)."""
         held = self._held(x)
+        best = None  # (penalty contact: a full-step answer, kept unless the line search's lies lower)
         for hold, line_search in ([(True, False), (True, True)] if held.size else []) + [(False, False), (False, True)]:
+            if best is not None and not (line_search and hold == best[0]):
+                break
             ok, status, it, xs, lg = self._run(x, None, 1.0, line_search, opts, held if hold else None)
             attempts.append({"method": "ipopt " + ("line search" if line_search else "full steps") +
                              (", symmetric coordinates held" if hold else ""), "status": status, "iterations": it})
@@ -378,8 +381,21 @@ class StaticProblem:
             if ok and hold and not self._still_held(xs, held):
                 ok = False
                 attempts[-1]["rejected"] = "the held coordinates are loaded at its answer (no symmetry holds them)"
+            if ok and self._gaps and contact_gap.hidden(self.asm, xs)[1]:  # (full steps can land on a folded line
+                ok = False  # whose centre line dips through the ground between the law's points: try the next)
+                attempts[-1]["rejected"] = "its centre line passes through a contact surface between the law's points"
+            if ok and best is not None:  # (the full steps' answer and the line search's: the lower potential)
+                if self.asm.energy(xs) < self.asm.energy(best[1]) - opts.tol * self.work:
+                    attempts[-1]["chosen"] = "potential below the full steps' answer"
+                    return True, xs, lg, "ipopt+newton"
+                return True, best[1], best[2], "ipopt+newton"
+            if ok and not line_search and self._penalty_contact:  # with penalty contact full steps can land on a
+                best = (hold, xs, lg)  # higher local minimum (a slack line folded on the seabed): the line search too
+                continue
             if ok:
                 return True, xs, lg, "ipopt+newton"
+        if best is not None:  # (the line search failed: the full steps' answer)
+            return True, best[1], best[2], "ipopt+newton"
         xk, lgk = x, None  # continuation from the last converged load level
         for k in range(1, opts.load_steps + 1):
             okk, status, it, xs, lg = self._run(xk, lgk, k / opts.load_steps, True, opts)

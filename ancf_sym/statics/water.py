@@ -8,6 +8,9 @@ at their reference positions); from there the current (scaled by lam) and the fa
 from the reference to the drives' values at t = 0) reach lam = 1 in adaptive continuation steps, each solved by
 full Newton steps on a sparse LU. Convergence is judged as the scene's statics judges it (statics.criteria): the
 last update in units of the structure's length and |r . dz| in units of the load work, both <= tol.
+A continuation step is accepted where its Newton converged on a stable point whose conservative potential did
+not rise above the step's start by more than the drag's work can explain (WaterStatics.energy_rise); else it is
+retried shorter.
 Stability: the symmetric part of the Jacobian positive definite (inertia of its factorisation): for a conservative
 scene that is the Hessian's test; with drag a sufficient condition for a statically stable equilibrium.
 """
@@ -85,15 +88,17 @@ class WaterStatics:
         y, mu = z[:ny], z[ny:]
         x = ca.mtimes(dm(E), y) + c
         xs, mus = ca.MX.sym("x", n), ca.MX.sym("mu", m)
-        _, grad, hup, _ = asm.casadi_parts(xs)
+        pot, grad, hup, _ = asm.casadi_parts(xs)
         H = hup + hup.T - ca.diag(ca.diag(hup))
         Qw = ca.MX.zeros(n)
         Ub = water_line_energy(wp, w, g, xs)
         self.water_line = ca.Function("water_line", [xs], [Ub]) if Ub is not None else None
         if Ub is not None:
             Qw -= lam * ca.gradient(Ub, xs)  # (scaled by lam too: lam = 0 is the start's own problem)
-        if w.current is not None and wp.drag:
-            Qw += drag_force(wp, w, xs, None, lam)
+        Qd = drag_force(wp, w, xs, None, lam) if w.current is not None and wp.drag else ca.MX.zeros(n)
+        Qw += Qd
+        # a step's acceptance test: the conservative potential at lam (the water line's scaled as in R) and the drag
+        self.merit = ca.Function("water_merit", [xs, lam], [pot + (lam * Ub if Ub is not None else 0), Qd])
         Rf = grad - Qw
         Jf = H - ca.jacobian(Qw, xs)
         if m:
@@ -179,6 +184,10 @@ class WaterStatics:
             y_try, ok, status, it, inc, dec, rmax = self.newton(y, target, tol if last else STEP_TOL,
                                                                 max_iter if last else STEP_ITER, work)
             iters += it
+            if ok and self.stable_at(y_try, target) is False:  # (full Newton steps from far can end on a saddle:
+                ok, status = False, "unstable"  # a shorter continuation step starts nearer the stable branch)
+            if ok and self.energy_rise(y, y_try, target) > (tol if last else STEP_TOL) * work:
+                ok, status = False, "energy_rise"  # (or on a tangled, stretched state: see energy_rise)
             hist.append((target, status, it))
             if ok:
                 y, lam = y_try, target
@@ -190,20 +199,39 @@ class WaterStatics:
         self.mu = y[self.ny:].copy()
         return self.x_of(y), True, "converged", iters, hist, (inc, dec, rmax)
 
+    def energy_rise(self, y0: np.ndarray, y1: np.ndarray, lam: float) -> float:
+        """How far the conservative potential at lam rises from the step's feasible start (y0's coordinates, the
+        fairleads where lam puts them) to its answer y1, beyond twice the drag's work estimate along the straight
+        way between them (|Q_d . dx| at both ends): without drag, the dry statics' rule (a minimiser started there
+        cannot rightly end higher); the drag can lift it by about the work it does. Full Newton steps from far
+        have ended on stable but tangled, stretched states (a kinked rope at +318 kJ where the answer is -1.7 kJ)
+        that only this tells apart."""
+        x0, x1 = self.x_of(y0, lam), self.x_of(y1, lam)
+        e0, q0 = self.merit(x0, lam)
+        e1, q1 = self.merit(x1, lam)
+        dx = x1 - x0
+        drag = abs(float(np.asarray(q0).ravel() @ dx)) + abs(float(np.asarray(q1).ravel() @ dx))
+        return float(e1) - float(e0) - 2.0 * drag
+
     def _roots(self) -> np.ndarray:
         E = self.E.tocsc()
         return E.indices[E.indptr[:-1]]
 
     def support_forces(self, x: np.ndarray) -> np.ndarray:
-        """Full vector: the supports' and drives' forces on the structure at x (R_full at the held coordinates)."""
+        """Full vector: the structure's forces on the supports and drives at x, the sign every statics result reports
+        (docs/scenes.md): minus the residual R_full at the held coordinates, which is the support's force on it."""
         R = np.asarray(self.full(x, 1.0, self.mu)[0]).ravel()
         out = np.zeros_like(R)
-        out[self.fixed] = R[self.fixed]
+        out[self.fixed] = -R[self.fixed]
         return out
 
     def stability(self, x: np.ndarray) -> bool | None:
         """The symmetric part of the Jacobian positive definite on the tangent space of the multiplier rows."""
-        _, J = self._eval(self._y(x), 1.0)
+        return self.stable_at(self._y(x), 1.0)
+
+    def stable_at(self, y: np.ndarray, lam: float) -> bool | None:
+        """stability() at the reduced unknowns y and continuation parameter lam."""
+        _, J = self._eval(y, lam)
         ny = self.ny
         Jyy = J[:ny, :ny]
         return reduced_inertia(0.5 * (Jyy + Jyy.T), J[ny:, :ny] if self.m else None).stable
@@ -267,12 +295,13 @@ def _details(ws: WaterStatics, x: np.ndarray) -> tuple[dict, dict, float]:
         energies["gravity"] = energies.get("gravity", 0.0) + float(ws.water_line(x))  # the weight it corrects)
     F = ws.support_forces(x)
     forces: dict = {}
-    for lbl, row in zip(asm.exact.labels, asm.exact.A.tocsr()):
-        cols = row.indices
-        if len(cols) == 1:
-            forces.setdefault(lbl, []).append(float(F[cols[0]]))
-    for r, v in zip(ws.rows, ws.mu):  # (rows kept with multipliers: J^T mu = -grad Pi, as the statics report them)
-        forces.setdefault(asm.exact.labels[r], []).append(float(v))
+    if asm.exact.m:  # every row's multiplier, as the dry statics report them: J' lam = -(grad Pi - Q_water) on the
+        r = np.asarray(ws.full(x, 1.0, np.zeros(ws.m))[0]).ravel()  # rows' coordinates (the rows the reduced
+        J = asm.exact.jacobian(x).tocsc()  # coordinates eliminate, e.g. a joint's identified positions, included)
+        cols = np.unique(J.tocsr().indices)
+        lam = np.linalg.lstsq(J[:, cols].toarray().T, -r[cols], rcond=None)[0]
+        for lbl, v in zip(asm.exact.labels, lam):
+            forces.setdefault(lbl, []).append(float(v))
     for name, dofs in ws.drive_labels:
         forces[name] = [float(F[i]) for i in dofs]
     viol = float(np.max(np.abs(asm.constraints.value(x)))) if asm.constraints.m else 0.0

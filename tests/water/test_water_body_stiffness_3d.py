@@ -135,7 +135,7 @@ def test_catenary_moored_body_against_central_differences():
         moved = [pp + R @ (f - p) for f in fl0]
         rr = solve_static(catenaries(moved), warm_start=r.x[:off])
         assert rr.success
-        f = [-np.asarray(rr.constraint_forces[f"pin l{k}@start"]) for k in range(3)]
+        f = [np.asarray(rr.constraint_forces[f"pin l{k}@start"]) for k in range(3)]  # (the lines' force on the pins)
         return np.r_[sum(f), sum(np.cross(m - pp, fk) for m, fk in zip(moved, f))]
 
     W0 = wrench(np.zeros(6))
