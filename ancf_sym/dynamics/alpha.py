@@ -80,7 +80,8 @@ class AlphaIntegrator:
         self._chunks: dict = {}  # this integrator's buffers of the chunk functions
         self.guard_on = False
         self._step_more = None  # (the step with iterations 3-6 bound to the step buffers: _step_call)
-        self._contact = bool(getattr(system.asm.scene, "contacts", ()))
+        # (full Newton: guarded chunks hold iterations 3-6; a kept factor's guarded chunk is the same step)
+        self._contact = not self.modified_graph and bool(getattr(system.asm.scene, "contacts", ()))
 
     # -- the state ---------------------------------------------------------------------------------------------
     @property
@@ -321,8 +322,8 @@ class AlphaIntegrator:
         """Chunks with the no-op guard after a failed step: on large states (the guard's switch costs nothing
         against a step there), and on any state after a chunk has failed early (a hard transient: the steps after
         a failure would be thrown away). Small states start without: the switch costs ~5 % of a 130-unknown step;
-        contact scenes start with it (a touchdown is a hard transient: the belt drive's first chunk failed at its
-        first step and threw 60 steps away, 7 % of the run's iterations)."""
+        contact scenes on full Newton start with it (a touchdown is a hard transient: the belt drive's first chunk
+        failed at its first step and threw 60 steps away, 7 % of the run's iterations)."""
         return self.guard_on or self.state_size >= chunks.LARGE_STATE or self._contact
 
     def chunk_function(self, n: int, guard: bool | None = None):
