@@ -1,7 +1,7 @@
 """The update tolerance's leftover-force bound per kind of unknown (ancf_sym.dynamics.alpha_step.work_scale,
-docs/hard_cases.md, Spinning bending-free cables): which unknowns are positions, and that the bound by kind is
-never tighter than kmax x max |dq| over all unknowns, and no looser than either kind's own
-product."""
+docs/hard_cases.md, Spinning bending-free cables): which unknowns are positions, and that the work per unit
+error by kind is at most kmax x max |dq| over all unknowns (the tolerance never tighter than before) and at least
+either kind's own product."""
 from __future__ import annotations
 
 import casadi as ca
