@@ -34,7 +34,7 @@ def compare(n: int) -> dict:
             x = np.ascontiguousarray(S.reduce(asm.x0), dtype=float) + 1e-3
             args = [x, np.zeros(S.mc), np.ones(nf + S.nw), np.array([4e6]), np.array([2e3]), np.ones(1),
                     np.zeros(nf), np.zeros(nf), np.ascontiguousarray(S.par)]
-            outs = [np.zeros(nf + S.mc), np.zeros(5)]
+            outs = [np.zeros(nf + S.mc), np.zeros(7)]
             runs[label] = (bind(S.iter_f, args, outs), outs)
     finally:
         band_mod.MIN_SIZE = keep

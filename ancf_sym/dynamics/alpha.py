@@ -79,6 +79,9 @@ class AlphaIntegrator:
         self._setup_step_buffers()
         self._chunks: dict = {}  # this integrator's buffers of the chunk functions
         self.guard_on = False
+        self._step_more = None  # (the step with iterations 3-6 bound to the step buffers: _step_call)
+        # (full Newton: guarded chunks hold iterations 3-6; a kept factor's guarded chunk is the same step)
+        self._contact = not self.modified_graph and bool(getattr(system.asm.scene, "contacts", ()))
 
     # -- the state ---------------------------------------------------------------------------------------------
     @property
@@ -158,7 +161,7 @@ class AlphaIntegrator:
             self._pload[:] = pload
             self._tols[:] = self.tol_q, self.tol_x
             self._system_inputs(self._col)
-            self._step[1]()
+            self._step_call()
             info = self._info
             k = self._count(info[1], info[2])
             finite = np.all(np.isfinite(self._s_out))
@@ -289,6 +292,21 @@ class AlphaIntegrator:
         self.h_prev = self._h_try
         self.kdamp.update(self.q)
 
+    def _step_call(self) -> None:
+        """One step graph call on the step buffers: where chunks are guarded and their step with the further
+        iterations 3-6 was built (small states after a hard transient, contact scenes), that step, on the same
+        buffers, so a step taken one by one (after a failed chunk, the grid's last steps that fill no chunk)
+        converges in the graph where a guarded chunk's would, not in the Python loop (belt drive: 51 of its last
+        59 steps did, 1-2 iterations each after the graph's two, on the absolute update tolerance)."""
+        more = self._graphs.get("step_more") if self.guard else None
+        if more is None:
+            self._step[1]()
+            return
+        if self._step_more is None:
+            _, _, args, outs = self._step
+            self._step_more = bind(more, args, outs, pooled_buffer(self._graphs, "step_more", more, self))
+        self._step_more[1]()
+
     # -- many steps in one call -------------------------------------------------------------------------------
     def guarded_step(self):
         """The step with the 'failed' flag of ancf_sym.dynamics.chunks.guarded (full Newton on small states: the
@@ -303,8 +321,10 @@ class AlphaIntegrator:
     def guard(self) -> bool:
         """Chunks with the no-op guard after a failed step: on large states (the guard's switch costs nothing
         against a step there), and on any state after a chunk has failed early (a hard transient: the steps after
-        a failure would be thrown away). Small states start without: the switch costs ~5 % of a 130-unknown step."""
-        return self.guard_on or self.state_size >= chunks.LARGE_STATE
+        a failure would be thrown away). Small states start without: the switch costs ~5 % of a 130-unknown step;
+        contact scenes on full Newton start with it (a touchdown is a hard transient: the belt drive's first chunk
+        failed at its first step and threw 60 steps away, 7 % of the run's iterations)."""
+        return self.guard_on or self.state_size >= chunks.LARGE_STATE or self._contact
 
     def chunk_function(self, n: int, guard: bool | None = None):
         guard = self.guard if guard is None else guard

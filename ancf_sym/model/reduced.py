@@ -212,6 +212,7 @@ class ReducedModel:
         self.gather = np.where(part.pos >= 0, part.pos, self.nf)  # full coordinate k = ext[gather[k]], ext[nf] = 0
         self.length_scale = asm.mesh.length_scale
         self.span = float(np.max(np.abs(asm.x0))) + 1.0
+        self.is_position = position_unknowns(part, asm)
 
     def full(self, xf: np.ndarray) -> np.ndarray:
         """Coordinates of the scene from the unknowns."""
@@ -243,3 +244,19 @@ class ReducedModel:
     def reduce_force(self, f_full: np.ndarray) -> np.ndarray:
         """Generalized force on the unknowns (E^T f)."""
         return self.part.reduce_vector(f_full) if np.ndim(f_full) == 1 else self.E.T @ f_full
+
+
+def position_unknowns(part: Partition, asm: Assembly) -> np.ndarray:
+    """Per unknown: True where it is a position [m] (a node's, a rigid body's centre), False for the gradients and a
+    body's unit axis vectors [-] (as statics.criteria.coordinate_scales)."""
+    dim = asm.scene.dim
+    full = np.zeros(asm.n, dtype=bool)
+    for mm in asm.mesh.members.values():
+        k = np.arange(mm.x0.size)
+        full[mm.offset + k[k % mm.node_size < dim]] = True
+    for o in asm.mesh.bodies.values():
+        full[o:o + dim] = True
+    mask = np.zeros(part.ny, dtype=bool)
+    free = part.pos >= 0
+    np.logical_or.at(mask, part.pos[free], full[free])
+    return mask

@@ -96,7 +96,7 @@ class StepSystem(ReducedModel):
 
     # what `_structure` sets (and structure_key from them): shared by the systems of one structure spec
     _STRUCTURE_ATTRS = ("part", "nf", "pos", "gather", "E", "cons", "mc", "drives", "nw", "linsol", "M_full", "M",
-                        "length_scale", "span", "force_calls", "graph_key")
+                        "length_scale", "span", "is_position", "force_calls", "graph_key")
 
     def _structure(self, asm: Assembly, linsol: str) -> None:
         """The reduced coordinates, kept constraint rows, drives, linear solver, mass matrix, scales and kernel calls:
@@ -373,9 +373,13 @@ class StepSystem(ReducedModel):
             fb = self._graphs["forces_band"] = band_force_graph(self, layout)  # (ancf_sym.system.band)
             g, Kb = fb(xf, par)
             r = add(add(self.mass_mx(add(mul(cm, xf), y)), g), p)
-            x, kmax, dzx = layout.solve_mx(add(mul(cm, ca.MX(ca.DM(layout.values(self.M)))), Kb), r)
+            A = add(mul(cm, ca.MX(ca.DM(layout.values(self.M)))), Kb)
+            x, kmax, dzx = layout.solve_mx(A, r)
             self._graphs["band_layout"] = layout  # (kkt_sparsity: its pattern, made on first use)
-            norms = ca.vertcat(ca.mmax(fabs(r)), 0, dzx, 0, kmax)
+            # (the diagonal's largest entry per kind of unknown: slot 0 of each column of the band)
+            k_pos, k_rest = (ca.mmax(fabs(A[list(map(int, (layout.w + 1) * j))])) if len(j) else ca.MX(0)
+                             for j in (np.flatnonzero(self.is_position), np.flatnonzero(~self.is_position)))
+            norms = ca.vertcat(ca.mmax(fabs(r)), 0, dzx, 0, kmax, k_pos, k_rest)
             self.iteration_f = ca.Function("newton_iteration", ins_it, [neg(x), norms], names_it, ["dz", "norms"])
             return
         # (the force graph's nodes in the iteration's graph, a call node would cost ~0.3 us of an iteration's ~22 us:
@@ -429,7 +433,9 @@ class StepSystem(ReducedModel):
         rq = ca.mmax(fabs(r_q))
         kkt_nz = mx_nonzeros(KKT)
         # largest entry (round-off floor): on the diagonal when the step matrix is positive definite
-        kmax = ca.mmax(fabs(ca.diag(KKT))) if self.linsol == "ldl" and not mc else ca.mmax(fabs(kkt_nz))
+        # (the largest of either kind of unknown's rows: kmax itself, no third pass over the entries)
+        k_pos, k_rest = self._largest_by_kind(KKT, kkt_nz)
+        kmax = ca.fmax(k_pos, k_rest)
         if not full_only:
             self._graphs["residual_f"] = ca.Function("step_residual", ins_it,
                                                      [rg, ca.vertcat(ca.mmax(ca.fabs(r_g)), rc)], names_it,
@@ -441,9 +447,29 @@ class StepSystem(ReducedModel):
         dz = neg(ca.solve(KKT, r, self.linsol))
         dzx = ca.mmax(fabs(dz[:nf]))
         dzl = ca.mmax(fabs(dz[nf:])) if mc else ca.MX(0)
-        # norms: |r_q|inf [N], |Phi|inf [m], |dx|inf, |dlam|inf (scaled: m), max |KKT|
-        self.iteration_f = ca.Function("newton_iteration", ins_it, [dz, ca.vertcat(rq, rc, dzx, dzl, kmax)], names_it,
+        # norms: |r_q|inf [N], |Phi|inf [m], |dx|inf, |dlam|inf (scaled: m), max |KKT|, and its largest entry in the
+        # rows of positions and of the other unknowns (alpha_step.update_tolerance)
+        self.iteration_f = ca.Function("newton_iteration", ins_it,
+                                       [dz, ca.vertcat(rq, rc, dzx, dzl, kmax, k_pos, k_rest)], names_it,
                                        ["dz", "norms"])
+
+    def _largest_by_kind(self, KKT: ca.MX, kkt_nz: ca.MX) -> tuple[ca.MX, ca.MX]:
+        """The largest |entry| of the step matrix in the rows of position unknowns and in the others (gradients, axis
+        vectors), as kmax: its diagonal where LDL^T applies, else every entry; an entry of a multiplier row counts
+        with the unknown of its column (its transpose's row)."""
+        nf, pos = self.nf, self.is_position
+        if not nf:
+            return ca.MX(0), ca.MX(0)
+        if self.linsol == "ldl" and not self.mc:
+            d = ca.diag(KKT)
+            sel = [np.flatnonzero(pos), np.flatnonzero(~pos)]
+            vals = [d[list(map(int, s))] if len(s) else None for s in sel]
+        else:
+            sp_ = KKT.sparsity()
+            rows, cols = np.array(sp_.row()), np.repeat(np.arange(sp_.size2()), np.diff(sp_.colind()))
+            kind = np.where(rows < nf, pos[np.minimum(rows, nf - 1)], pos[np.minimum(cols, nf - 1)])
+            vals = [kkt_nz[list(map(int, np.flatnonzero(m)))] if m.any() else None for m in (kind, ~kind)]
+        return tuple(ca.mmax(fabs(v)) if v is not None else ca.MX(0) for v in vals)
 
 
     def _band_layout(self) -> BandLayout | None:
@@ -481,7 +507,7 @@ class StepSystem(ReducedModel):
         self.cm, self.cc, self.kc = np.zeros(1), np.zeros(1), np.ones(1)
         self.kel = np.zeros(self.kel_sparsity.nnz()) if has_kel else None
         self.r, self.dz = np.zeros(self.nz), np.zeros(self.nz)
-        self.norms = np.zeros(5)
+        self.norms = np.zeros(7)
         self._jac_norms = np.zeros(3)
         self.floor = 0.0
         self._evals = None  # the compiled calls' buffers: bound on first use (`_bind`)
