@@ -531,6 +531,12 @@ class StaticProblem:
             if stable is False and opts.escape_saddle:
                 x_out, status, stable, it = self._leave_saddle(x_out, direction, status, opts, work, attempts)
                 iters += it
+                if stable is False:  # a saddle no nudge left: an equilibrium, not the minimum asked for
+                    ok, status = False, "Unstable_Stationary_Point"
+                    attempts.append({"method": "stability", "status": status, "iterations": 0,
+                                     "detail": "the equilibrium found is unstable (a saddle of the potential) and no "
+                                               "stable point of lower potential was found from it; its coordinates "
+                                               "are the result's x (escape_saddle=False accepts an unstable one)"})
         return self.make_result(ok, status, iters, time.perf_counter() - t0, x_out, stable, attempts, path,
                             run if ok else None)
 
