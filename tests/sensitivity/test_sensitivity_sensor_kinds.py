@@ -5,7 +5,8 @@ the adjoint of their reductions against the forward records.
 A planar rope with a tip mass (curvature |r_x x r_xx| / |r_x|^3 at a point), a planar pendulum body (x, y, angle,
 angular velocity) and a spatial body on a tilted revolute joint held by a bending rope (centre, world angular
 velocity, axes; the rope's 3D curvature). Tolerances: 1e-5 relative to the record's scale (the requirement; runs
-converged to xtol = 1e-13 of the length, differences' truncation O(h^4) at h = 1e-2 of the value: ~1e-8; a step of 1e-3 would meet the runs' round-off); forward
+converged to xtol = 1e-13 of the length, differences' truncation O(h^4) at h = 1e-2 of the value: ~1e-8; a step
+of 1e-3 would meet the runs' round-off); forward
 = adjoint to 1e-8 (the same solves transposed). A missing chain-rule term (the 1/|r_x|^3 factor's derivative, the
 omega's dv part) errs by O(1e-1..1)."""
 from __future__ import annotations
