@@ -44,6 +44,7 @@ import numpy as np
 from ancf_sym import kernels
 from ancf_sym.dynamics import DynamicOptions
 from ancf_sym.dynamics.sensors import Sensor, SensorEval
+from ancf_sym.sensitivity.sensor_jacobian import sensor_jacobian
 from ancf_sym.sensitivity.alpha_run import contact_notes, damping_index, damping_matrices, forcing, \
     run_for_sensitivity, step_inputs, step_matrix, stiffness_damped, stiffness_damping_forcing
 from ancf_sym.sensitivity.contact_dissipation import dissipation_forcing, dissipation_index
@@ -192,20 +193,6 @@ def backward_sweep(S: StepSystem, opts: DynamicOptions, alpha_r: float, n: int, 
 
 
 # -- outputs -------------------------------------------------------------------------------------------------------
-def _linear_map(ev: SensorEval, which: str, n: int) -> np.ndarray:
-    """The matrix of a sensor's linear map of the full coordinates (probe.r or probe.rx), (k, n)."""
-    mm = ev.mm
-    cols = np.arange(mm.offset, mm.offset + mm.x0.size)
-    f = ev.probe.r if which == "r" else ev.probe.rx
-    out = np.zeros((ev.dim, n))
-    e = np.zeros(n)
-    for c in cols:
-        e[c] = 1.0
-        out[:, c] = f(e)
-        e[c] = 0.0
-    return out
-
-
 def output_weights(out, sensors: list[SensorEval], S: StepSystem, t: np.ndarray, X: np.ndarray,
                    V: np.ndarray, Vr: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
     """(value, d value / dq_n, d value / dv_n) on the reduced coordinates, rows n = 0..N (X, V: full states,
@@ -230,22 +217,10 @@ def output_weights(out, sensors: list[SensorEval], S: StepSystem, t: np.ndarray,
         raise KeyError(f"output sensor {out.sensor!r}: no such sensor; sensors: {[e.sensor.name for e in sensors]}")
     if out.reduce not in REDUCTIONS:
         raise ValueError(f"output reduce {out.reduce!r}: one of {REDUCTIONS}")
-    kind, n = ev.sensor.kind, X.shape[1]
-    if kind in ("position", "displacement", "velocity"):
-        R = _linear_map(ev, "r", n)
-    elif kind == "coordinates":
-        R = np.zeros((len(ev.dofs), n))
-        R[np.arange(len(ev.dofs)), ev.dofs] = 1.0
-    elif kind == "strain":
-        R = _linear_map(ev, "rx", n)
-    else:
-        raise ValueError(f"output sensor {out.sensor!r}: a {kind} sensor is not differentiated here")
     y = np.array([ev(x, v) for x, v in zip(X, V)])[:, out.component]
-    if kind == "strain":  # |r_x| - 1: d/dx = r_x' R_x / |r_x|
-        rx = X @ R.T
-        G = (rx / np.linalg.norm(rx, axis=1, keepdims=True)) @ R
-    else:
-        G = np.repeat(R[out.component][None, :], N1, axis=0)
+    Js = [sensor_jacobian(ev, x, v) for x, v in zip(X, V)]  # (the record's exact Jacobians per step)
+    G = np.array([Jx[out.component] for Jx, _ in Js])
+    Gv = np.array([Jv[out.component] for _, Jv in Js])
     if out.reduce == "sum":
         w, val = np.ones(N1), float(y.sum())
     elif out.reduce == "end":
@@ -263,9 +238,8 @@ def output_weights(out, sensors: list[SensorEval], S: StepSystem, t: np.ndarray,
         if d.shape != y.shape:
             raise ValueError(f"output data: {d.size} values for {y.size} step times")
         w, val = y - d, 0.5 * float((y - d) @ (y - d))
-    Wr = np.asarray((E.T @ (w[:, None] * G).T).T)  # (E' maps a force on the full coordinates to the unknowns)
-    Z = np.zeros_like(Wr)
-    return (val, Z, Wr) if kind == "velocity" else (val, Wr, Z)
+    # (E' maps a force on the full coordinates to the unknowns)
+    return val, np.asarray((E.T @ (w[:, None] * G).T).T), np.asarray((E.T @ (w[:, None] * Gv).T).T)
 
 
 # -- the parameter terms: sum over steps of mu_n . dR/dp(x_n) -----------------------------------------------------

@@ -123,7 +123,7 @@ def _add_dynamic(result_file: Path, doc: dict, analysis: dict, paths: list[str])
         for ev in ds.sensors:
             try:
                 entry["sensors"][ev.sensor.name] = ds.sensor(p, ev.sensor.name)
-            except ValueError as exc:  # (curvature, body: named, not a silent gap)
+            except ValueError as exc:  # (a kind not differentiated: named, not a silent gap)
                 entry.setdefault("notes", []).append(str(exc))
         for note in ds.notes:  # (contact events: where the derivative is one-sided)
             entry.setdefault("notes", []).append(note)

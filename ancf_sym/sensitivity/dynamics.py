@@ -53,6 +53,7 @@ from ancf_sym.sensitivity.alpha_run import contact_notes, dynamic_assembly, forc
     damping_matrices, run_for_sensitivity, step_inputs, step_matrix, stiffness_damped
 from ancf_sym.sensitivity.collocation_run import COLLOCATION, collocation_sensitivity
 from ancf_sym.sensitivity.run_start import velocity_map
+from ancf_sym.sensitivity.sensor_jacobian import sensor_jacobian
 from ancf_sym.sensitivity.static_start import StartSystem
 from ancf_sym.sensitivity.step_sequence import step_notes
 from ancf_sym.sensitivity.start_derivative import own_start, start_tangents, static_start_columns
@@ -60,7 +61,6 @@ from ancf_sym.util.casadi_buffers import bind
 from ancf_sym.util.sparsity import dm
 
 
-LINEAR_SENSORS = ("position", "displacement", "velocity", "coordinates", "strain")  # (strain: by the chain rule)
 
 
 @dataclass
@@ -79,27 +79,17 @@ class DynamicSensitivity:
     dlam: dict = field(default_factory=dict)  # dlam[path]: their derivatives per step (the reactions')
 
     def sensor(self, path: str, name: str) -> np.ndarray:
-        """d(sensor record)/dp per step, (steps + 1, k): the sensor's kinds that are linear in the state
-        (position, displacement, velocity, coordinates) map dx, dv as they map x, v; strain |r_x| - 1 by the
-        chain rule (r_x . dr_x / |r_x|). Curvature and body sensors: not differentiated here."""
+        """d(sensor record)/dp per step, (steps + 1, k), for every sensor kind: dy = dy/dx dx + dy/dv dv with the
+        record's exact Jacobians (ancf_sym.sensitivity.sensor_jacobian: the linear kinds map dx, dv as they map
+        x, v; strain, curvature and the body sensors by the chain rule)."""
         ev = next((e for e in self.sensors if e.sensor.name == name), None)
         if ev is None:
             raise KeyError(f"sensor {name!r}: no such sensor; sensors: {[e.sensor.name for e in self.sensors]}")
-        kind = ev.sensor.kind
-        dx, dv = self.dx[path], self.dv[path]
-        if kind in ("position", "displacement"):
-            return np.array([ev.probe.r(d) for d in dx])
-        if kind == "velocity":
-            return np.array([ev.probe.r(d) for d in dv])
-        if kind == "coordinates":
-            return dx[:, ev.dofs]
-        if kind == "strain":
-            out = []
-            for x, d in zip(self.x, dx):
-                rx = ev.probe.rx(x)
-                out.append([float(rx @ ev.probe.rx(d)) / float(np.linalg.norm(rx))])
-            return np.array(out)
-        raise ValueError(f"sensor {name!r}: a {kind} sensor is not differentiated here (kinds: {LINEAR_SENSORS})")
+        out = []
+        for x, v, dx, dv in zip(self.x, self.v, self.dx[path], self.dv[path]):
+            Jx, Jv = sensor_jacobian(ev, x, v)
+            out.append(Jx @ dx + Jv @ dv)
+        return np.array(out)
 
     def nodes(self, path: str, member: str) -> np.ndarray:
         """d(node positions)/dp of a member over time: (steps + 1, nodes, dim)."""

@@ -510,8 +510,9 @@ def _penalty_call(asm: Assembly, c) -> tuple:
 def _contact_pieces(asm: Assembly, c, columns: dict, text: str, refuse: Callable) -> list:
     """Pieces of a penalty contact whose kernel parameters `columns` (name -> d/dp) change."""
     if c.method != "penalty":
-        refuse("an exact contact's geometry sits in its unilateral rows, which are not differentiated with respect "
-               "to it (give the contact a stiffness: method = \"penalty\")")
+        refuse("an exact contact's geometry sits in its unilateral rows, not in the model: differentiated in statics "
+               "only, by ancf_sym.sensitivity.StaticSensitivity (a fixed drum's radius, centre, a ground's level, a "
+               "thickness); elsewhere give the contact a stiffness: method = \"penalty\"")
     if c.dissipative:
         refuse("the contact's damping and friction forces depend on its geometry too (not differentiated here)")
     if getattr(c, "body", None) is not None:

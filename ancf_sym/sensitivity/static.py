@@ -28,7 +28,9 @@ from ancf_sym.model.reduced import partition
 from ancf_sym.scene.builder import Scene
 from ancf_sym.statics.problem import StaticResult
 from ancf_sym.sensitivity.contact_state import check_differentiable
+from ancf_sym.sensitivity.exact_contact_geometry import geometry_path, row_derivatives
 from ancf_sym.sensitivity.model_derivative import ModelDerivative, model_derivative
+from ancf_sym.sensitivity.paths import get_parameter
 from ancf_sym.sensitivity.water_derivative import water_line_gradient
 
 
@@ -60,31 +62,62 @@ class StaticSensitivity:
                              "cable without bending stiffness in a straight state): the equilibrium does not depend "
                              f"smoothly on the parameters there ({exc})") from None
         self._derivs: dict = {}
+        self._rows: dict = {}  # path -> the kept rows' terms of an exact contact's geometry
 
     # -- the model's derivative and the equilibrium's ------------------------------------------------------------
     def model(self, path: str) -> ModelDerivative:
         if path not in self._derivs:
-            self._derivs[path] = model_derivative(self.asm, self.doc, path)
+            where = geometry_path(self.asm, self.doc, path)
+            if where is not None:  # (an exact contact's geometry: in its rows only)
+                self._derivs[path] = ModelDerivative(path, get_parameter(self.doc, path))
+                self._rows[path] = self._row_terms(where)
+            else:
+                self._derivs[path] = model_derivative(self.asm, self.doc, path)
         return self._derivs[path]
 
-    def solve(self, dR: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(dx, dmu) for a residual derivative dR (full coordinates)."""
-        rhs = np.r_[-(self.lin.E.T @ dR), np.zeros(self.m)]
+    def _row_terms(self, where: tuple) -> tuple[np.ndarray, np.ndarray]:
+        """(dg/dp of the kept rows (m: zeros for the joints'), -sum_active f_i d(grad g_i)/dp (n))."""
+        dg, dgrad = row_derivatives(self.asm, self.result.x, where)
+        active = self._contact_active()
+        f = np.asarray(self.result.constraint_forces["contact"], float)
+        dR = np.zeros(self.asm.n)
+        held = set(active.tolist())
+        for row, v in dgrad:
+            if row in held:
+                dR -= f[row] * v
+        return np.r_[np.zeros(self.m - len(active)), dg[active]], dR
+
+    def residual(self, path: str) -> tuple[float, np.ndarray, np.ndarray]:
+        """(d Pi/dp at fixed x, the residual's d/dp (full coordinates), the kept rows' dg/dp (m))."""
+        dPi, dR = self.model(path).residual(self.result.x)
+        if path in self._rows:
+            dg, dRr = self._rows[path]
+            return dPi, dR + dRr, dg
+        return dPi, dR, np.zeros(self.m)
+
+    def solve(self, dR: np.ndarray, dg: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(dx, dmu) for a residual derivative dR (full coordinates) and the kept rows' dg (m; None: zero)."""
+        rhs = np.r_[-(self.lin.E.T @ dR), np.zeros(self.m) if dg is None else -dg]
         sol = self._lu.solve(rhs)
         return self.lin.E @ sol[:self.ny], sol[self.ny:]
 
     def dx(self, path: str) -> np.ndarray:
         """d x*/dp: full coordinates of the equilibrium per unit parameter."""
-        return self.solve(self.model(path).residual(self.result.x)[1])[0]
+        _, dR, dg = self.residual(path)
+        return self.solve(dR, dg)[0]
 
     def derivative(self, path: str) -> dict:
         """d/dp of the reported quantities, with their keys and shapes: potential, energies.LABEL,
         members.NAME.nodes / tip, constraint_forces.LABEL."""
         x = self.result.x
-        dPi, dR = self.model(path).residual(x)
-        dx, dmu = self.solve(dR)
+        dPi, dR, dg = self.residual(path)
+        dx, dmu = self.solve(dR, dg)
         md = self.model(path)
         de = md.energies(x)
+        if np.any(dg):  # (grad Pi = sum f_i grad g_i works on dx: sum f_i grad g_i . dx = -sum f_i dg_i/dp)
+            n_joint = self.m - len(self._contact_active())
+            f = np.asarray(self.result.constraint_forces["contact"], float)[self._contact_active()]
+            dPi -= float(f @ dg[n_joint:])
         if self.water:  # (the drag is no potential's: the gradient does not vanish on dx)
             dPi += float(sum(self._label_gradients().values()) @ dx)
         out = {"potential": dPi, "energies": {lbl: de.get(lbl, 0.0) + float(g @ dx)
@@ -158,11 +191,10 @@ class StaticSensitivity:
         # (the KKT matrix is symmetric, but for lines in a current: the drag's load stiffness; transposed solve)
         w = self._lu.solve(np.r_[self.lin.E.T @ dJdx, np.zeros(self.m)], trans="T" if self.water else "N")
         wx = self.lin.E @ w[:self.ny]
-        x = self.result.x
         out = np.empty(len(paths))
         for k, path in enumerate(paths):
-            dR = self.model(path).residual(x)[1]
-            out[k] = -(wx @ dR) + (partial(path) if partial is not None else 0.0)
+            _, dR, dg = self.residual(path)
+            out[k] = -(wx @ dR) - float(w[self.ny:] @ dg) + (partial(path) if partial is not None else 0.0)
         return out
 
 
