@@ -409,9 +409,9 @@ class StepSystem(ReducedModel):
         # (lines in water under waves: the water's forces read the time, the last of the time inputs w)
         dargs = [xf, vc + cc * xf] + ([w[-1]] if damping.timed(self) else [])
         if self.damp_f is not None:
-            fd, dfx, dfv = self.damp_f(*dargs)
+            fd, dft = damping.step_tangent_function(self)(*dargs, cc)  # (df/dx + cc df/dv: one sum per block)
             r_q += fd
-            S = S + dfx + cc * dfv
+            S = S + dft
         # the same residual from the gradient-only kernels (modified Newton: no Hessian work)
         r_g = None if full_only else Mu + cc * Cx + self.grad_pf(xf, par) + p
         if self.damp_f is not None and not full_only:
