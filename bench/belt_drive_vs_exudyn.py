@@ -186,7 +186,8 @@ def breakdown(n: int, k_n: float | None, repeats: int = 20) -> dict:
     xf, vf = ca.MX.sym("x", S.nf), ca.MX.sym("v", S.nf)
     X, V = S.x_full_mx(xf), ca.mtimes(dm(S.E), vf)
     contact_f = ca.Function("c", [xf, vf], list(damping.contact_dissipation_mx(S, X, V, ca.MX(S.cc[0]))))
-    rate_f = ca.Function("s", [xf, vf], damping.strain_rate_mx(S.strain_rate, xf, X, V, vf, E=S.E))
+    rate_f = ca.Function("s", [xf, vf], damping.strain_rate_mx(S.strain_rate, xf, X, V, vf, E=S.E,
+                                                                cc=ca.MX(S.cc[0])))  # (the step's summed tangent)
 
     def per_call(f):
         f()

@@ -155,12 +155,15 @@ def rayleigh_matrix(S: StepSystemView, kel: np.ndarray | None) -> sp.csc_matrix 
 
 
 def strain_rate_mx(sr: StrainRateData, xf: ca.MX, X: ca.MX, V: ca.MX, vf: ca.MX,
-                   E: sp.spmatrix | None = None) -> list[ca.MX]:
+                   E: sp.spmatrix | None = None, cc: ca.MX | None = None) -> list[ca.MX]:
     """(f_d, df_d/dx, df_d/dv) of the strain-rate dissipation for full coordinates X and velocities V (MX in the
     unknowns xf, vf): exact derivatives by AD of one vectorized graph, or (axial damping only, E = dX/dxf given)
-    in closed form (_axial_rate_mx)."""
+    in closed form (_axial_rate_mx). With cc (the step's velocity coefficient): (f_d, df_d/dx + cc df_d/dv)."""
     if E is not None and not np.any(sr.c_bending):
-        return _axial_rate_mx(sr, X, V, E)
+        return _axial_rate_mx(sr, X, V, E, cc)
+    if cc is not None:
+        f, dfx, dfv = strain_rate_mx(sr, xf, X, V, vf, E)
+        return [f, dfx + cc * dfv]
     d = sr.dim
     P = len(sr.wL)
     R, Rd, RR = ca.mtimes(dm(sr.Bx), X), ca.mtimes(dm(sr.Bx), V), ca.mtimes(dm(sr.Bxx), X)
@@ -186,7 +189,7 @@ def strain_rate_mx(sr: StrainRateData, xf: ca.MX, X: ca.MX, V: ca.MX, vf: ca.MX,
     return [fd, ca.jacobian(fd, xf), ca.jacobian(fd, vf)]
 
 
-def _axial_rate_mx(sr: StrainRateData, X: ca.MX, V: ca.MX, E: sp.spmatrix) -> list[ca.MX]:
+def _axial_rate_mx(sr: StrainRateData, X: ca.MX, V: ca.MX, E: sp.spmatrix, cc: ca.MX | None = None) -> list[ca.MX]:
     """Axial strain-rate damping D = 1/2 sum_p c_p w_p edot_p^2 in closed form: edot = m (r_x . r_x'), m = 1
     (Green) or 1/|r_x| (Biot), so f = B^T [c w edot m r_x] and both tangents are B^T A_p B with 2 x 2 (3 x 3) point
     blocks A_p (B = Bx E: r_x of the unknowns), assembled by one constant sparse map from the blocks to the
@@ -215,6 +218,8 @@ def _axial_rate_mx(sr: StrainRateData, X: ca.MX, V: ca.MX, E: sp.spmatrix) -> li
             Av.append(cw * m * m * rx[a] * rx[b])
             Ax.append(cw * ((de[b] * m + ed * dm_[b]) * rx[a] + (ed * m if a == b else 0)))
     pattern, M = _block_map(Bu, d, P)
+    if cc is not None:  # (the step's df/dx + cc df/dv: the point blocks summed, one map to the nonzeros)
+        return [f, ca.MX(pattern, ca.mtimes(M, ca.vertcat(*Ax) + cc * ca.vertcat(*Av)))]
     return [f, ca.MX(pattern, ca.mtimes(M, ca.vertcat(*Ax))), ca.MX(pattern, ca.mtimes(M, ca.vertcat(*Av)))]
 
 
@@ -380,8 +385,8 @@ def step_tangent_function(S: StepSystemView) -> ca.Function | None:
     for fp, Tp in parts[1:]:
         f, T = f + fp, T + Tp
     if S.strain_rate is not None:
-        o = strain_rate_mx(S.strain_rate, xf, X, V, vf, E=S.E)
-        f, T = (o[0], o[1] + cc * o[2]) if f is None else (o[0] + f, o[1] + cc * o[2] + T)
+        o = strain_rate_mx(S.strain_rate, xf, X, V, vf, E=S.E, cc=cc)
+        f, T = (o[0], o[1]) if f is None else (o[0] + f, o[1] + T)
     return ca.Function("damp_step", ins + [cc], [f, T], names + ["cc"], ["f", "df_dx_cc_df_dv"])
 
 
