@@ -56,3 +56,17 @@ def test_symmetric_positive_definite_steps_keep_ldl():
     sc.pin("c", "start")
     S = StepSystem.for_scene(Assembly(sc), linsol="auto_lu")
     assert S.mc == 0 and S.linsol == "ldl"
+
+
+def test_exactly_singular_step_matrix_is_a_failed_newton_not_an_error(belt):
+    """With the drives' time inputs all zero the driven angle's row (sin, cos of the prescribed angle) is zero: the
+    step matrix is exactly singular, which the LU refuses; Newton reports it as a failed solve (the step is then
+    rejected and the run ends with its status), it does not raise."""
+    from ancf_sym.dynamics.newton import Counters, Factor, NewtonOptions, newton
+
+    S = _system(belt, "auto_lu")
+    S.p[S.nf:] = 0.0
+    with pytest.raises(RuntimeError):  # (the LU's own refusal, which newton turns into an outcome)
+        S.iterate()
+    out = newton(S, Factor(), None, NewtonOptions(modified=False), Counters(), 1e-6, 1e-9)
+    assert not out.converged and out.reason == "singular iteration matrix"
