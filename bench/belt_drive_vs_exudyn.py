@@ -168,7 +168,7 @@ def exudyn_run(n: int, segments: int = 4):
 def breakdown(n: int, k_n: float | None, repeats: int = 20) -> dict:
     """Where one full Newton iteration of ancf_sym's step goes, at the settled start state (process time per call,
     min over `repeats` calls of each compiled function): the whole iteration (residual, KKT matrix, sparse QR
-    factorisation and solve), the residual alone, the contact damping/friction graph (the drums' dissipation
+    factorisation and solve: sparse LU), the residual alone, the contact damping/friction graph (the drums' dissipation
     kernels and the scatter of their Hessian blocks) and the belt's strain-rate damping graph."""
     import casadi as ca
     from ancf_sym.system import damping
@@ -178,14 +178,16 @@ def breakdown(n: int, k_n: float | None, repeats: int = 20) -> dict:
 
     clear_graph_cache()
     asm = Assembly(BD.scene(R2, OMEGA, TORQUE, n, k_n=k_n))
-    S = StepSystem.for_scene(asm)
+    S = StepSystem.for_scene(asm, linsol="auto_lu")  # (as a run builds it: ancf_sym.dynamics.run)
     S.x[:] = S.reduce(BD.start(asm, R2, n, k_n))
+    S.p[S.nf:] = S.w(T_END / 2)  # the drives' time inputs (all zero would leave the driven angle's row zero)
     sc = Scheme.generalized_alpha(0.6)  # the step coefficients of a run
     S.cm[0], S.cc[0], S.kc[0] = sc.cm(DT), sc.cc(DT), sc.cm(DT) * S.stiffness_scale()
     xf, vf = ca.MX.sym("x", S.nf), ca.MX.sym("v", S.nf)
     X, V = S.x_full_mx(xf), ca.mtimes(dm(S.E), vf)
-    contact_f = ca.Function("c", [xf, vf], list(damping.contact_dissipation_mx(S, X, V)))
-    rate_f = ca.Function("s", [xf, vf], damping.strain_rate_mx(S.strain_rate, xf, X, V, vf, E=S.E))
+    contact_f = ca.Function("c", [xf, vf], list(damping.contact_dissipation_mx(S, X, V, ca.MX(S.cc[0]))))
+    rate_f = ca.Function("s", [xf, vf], damping.strain_rate_mx(S.strain_rate, xf, X, V, vf, E=S.E,
+                                                                cc=ca.MX(S.cc[0])))  # (the step's summed tangent)
 
     def per_call(f):
         f()
@@ -236,7 +238,7 @@ def main():
     b = breakdown(a.elements, None)
     print(f"one Newton iteration of ancf_sym (Hertz scene), us: whole {b['iteration_us']:.0f} = contact damping + "
           f"friction kernels {b['contact_friction_us']:.0f} + strain-rate damping {b['strain_rate_us']:.0f} + "
-          f"the rest (elastic and normal-law kernels, assembly, sparse QR) {b['rest_us']:.0f}; residual alone "
+          f"the rest (elastic and normal-law kernels, assembly, sparse LU) {b['rest_us']:.0f}; residual alone "
           f"{b['residual_us']:.0f}")
     if a.json:
         with open(a.json, "w") as f:

@@ -161,7 +161,11 @@ class AlphaIntegrator:
             self._pload[:] = pload
             self._tols[:] = self.tol_q, self.tol_x
             self._system_inputs(self._col)
-            self._step_call()
+            try:
+                self._step_call()
+            except RuntimeError:  # (an exactly singular step matrix: the sparse LU refuses it) -> the Python loop
+                self._info[:] = 0.0
+                self._s_out[:] = np.nan
             info = self._info
             k = self._count(info[1], info[2])
             finite = np.all(np.isfinite(self._s_out))
@@ -392,7 +396,11 @@ class AlphaIntegrator:
         if ploads is not b.get("pload_from"):  # (a constant load array is copied in once)
             b["pload"][:] = ploads.T
             b["pload_from"] = ploads if not ploads.flags.writeable else None
-        ev()
+        try:
+            ev()
+        except RuntimeError:  # (an exactly singular step matrix, sparse LU): no step kept, the first is `attempt`'s
+            self.guard_on = True
+            return b["states"][:0], 0
         # (the checks on Python lists: right after the compiled call a numpy call costs ~5-10 us, a list method
         # ~1 us; the same tests and sums as on the arrays)
         states, isz = b["states"], self.info_size
@@ -439,7 +447,10 @@ class AlphaIntegrator:
                 self._pload[:] = ploads[:, j]
                 buf.set_arg(0, views[j])
                 buf.set_res(0, views[j + 1])
-                ev()
+                try:
+                    ev()
+                except RuntimeError:  # (an exactly singular step matrix, sparse LU): ends the run of steps here
+                    break
                 self._count(info[1], info[2])
                 # (a sum is finite only if every entry is)
                 if info[0] != 1 or not np.isfinite(rows[j + 1].sum()) or not all(np.isfinite(f.sum()) for f in f_out):

@@ -142,7 +142,10 @@ def newton(system: StepSystem, factor: Factor, key, opts: NewtonOptions, counter
     d_prev = None
     back = None  # (x, lam, dz, merit) of the last full update, kept for a line search
     while True:
-        system.iterate()
+        try:
+            system.iterate()
+        except RuntimeError:  # (an exactly singular step matrix: the sparse LU of the time steps refuses it)
+            return NewtonOutcome(False, it, "singular iteration matrix")
         counters.residuals += 1
         counters.jacobians += 1
         counters.factorizations += 1

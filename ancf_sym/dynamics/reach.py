@@ -65,7 +65,7 @@ class FreeChunks:
             return None
         free_scene = copy.copy(scene)
         free_scene.contacts = []
-        free_S = StepSystem.for_scene(Assembly(free_scene))
+        free_S = StepSystem.for_scene(Assembly(free_scene), linsol="auto_lu")  # (as the run's system)
         if free_S.nf != S.nf or free_S.mc != S.mc or free_S.nw != S.nw or not np.array_equal(free_S.pos, S.pos):
             return None
         free = AlphaIntegrator(free_S, integ.scheme, integ.opts, integ.tol_q, integ.tol_x, integ.counters)

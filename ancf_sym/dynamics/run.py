@@ -111,7 +111,7 @@ def simulate(scene: Scene | Assembly, options: DynamicOptions, progress: Callabl
     if system is None:
         if getattr(scene, "water", None) is not None:
             asm.added_mass_state = q0  # (lines in water: the added mass's tangents frozen at the start state)
-        system = StepSystem.for_scene(asm)
+        system = StepSystem.for_scene(asm, linsol="auto_lu")  # (time steps: sparse LU where QR would serve)
     S = system
     loads = LoadSum(opts.loads, asm, S.E) if opts.loads else None
     L = S.length_scale

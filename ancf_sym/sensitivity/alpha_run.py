@@ -341,7 +341,7 @@ def run_for_sensitivity(doc: dict | str, paths: list[str], options: DynamicOptio
     asm = Assembly(scene) if options.release else dynamic_assembly(scene)
     check_dynamic_paths(scene, d, list(paths), asm, options)
     contact.check_dynamics(asm)  # (exact contact is a statics method: refused as the run refuses it)
-    S = StepSystem.for_scene(asm)
+    S = StepSystem.for_scene(asm, linsol="auto_lu")  # (the time steps as simulate takes them: sparse LU)
     integ = make_integrator(S, options, Counters(), 0.0, options.newton.xtol * S.length_scale)
     refuse_unsupported(S, options, integ)
     if options.integrator in ("radau", "gauss"):

@@ -155,12 +155,15 @@ def rayleigh_matrix(S: StepSystemView, kel: np.ndarray | None) -> sp.csc_matrix 
 
 
 def strain_rate_mx(sr: StrainRateData, xf: ca.MX, X: ca.MX, V: ca.MX, vf: ca.MX,
-                   E: sp.spmatrix | None = None) -> list[ca.MX]:
+                   E: sp.spmatrix | None = None, cc: ca.MX | None = None) -> list[ca.MX]:
     """(f_d, df_d/dx, df_d/dv) of the strain-rate dissipation for full coordinates X and velocities V (MX in the
     unknowns xf, vf): exact derivatives by AD of one vectorized graph, or (axial damping only, E = dX/dxf given)
-    in closed form (_axial_rate_mx)."""
+    in closed form (_axial_rate_mx). With cc (the step's velocity coefficient): (f_d, df_d/dx + cc df_d/dv)."""
     if E is not None and not np.any(sr.c_bending):
-        return _axial_rate_mx(sr, X, V, E)
+        return _axial_rate_mx(sr, X, V, E, cc)
+    if cc is not None:
+        f, dfx, dfv = strain_rate_mx(sr, xf, X, V, vf, E)
+        return [f, dfx + cc * dfv]
     d = sr.dim
     P = len(sr.wL)
     R, Rd, RR = ca.mtimes(dm(sr.Bx), X), ca.mtimes(dm(sr.Bx), V), ca.mtimes(dm(sr.Bxx), X)
@@ -186,7 +189,7 @@ def strain_rate_mx(sr: StrainRateData, xf: ca.MX, X: ca.MX, V: ca.MX, vf: ca.MX,
     return [fd, ca.jacobian(fd, xf), ca.jacobian(fd, vf)]
 
 
-def _axial_rate_mx(sr: StrainRateData, X: ca.MX, V: ca.MX, E: sp.spmatrix) -> list[ca.MX]:
+def _axial_rate_mx(sr: StrainRateData, X: ca.MX, V: ca.MX, E: sp.spmatrix, cc: ca.MX | None = None) -> list[ca.MX]:
     """Axial strain-rate damping D = 1/2 sum_p c_p w_p edot_p^2 in closed form: edot = m (r_x . r_x'), m = 1
     (Green) or 1/|r_x| (Biot), so f = B^T [c w edot m r_x] and both tangents are B^T A_p B with 2 x 2 (3 x 3) point
     blocks A_p (B = Bx E: r_x of the unknowns), assembled by one constant sparse map from the blocks to the
@@ -215,6 +218,8 @@ def _axial_rate_mx(sr: StrainRateData, X: ca.MX, V: ca.MX, E: sp.spmatrix) -> li
             Av.append(cw * m * m * rx[a] * rx[b])
             Ax.append(cw * ((de[b] * m + ed * dm_[b]) * rx[a] + (ed * m if a == b else 0)))
     pattern, M = _block_map(Bu, d, P)
+    if cc is not None:  # (the step's df/dx + cc df/dv: the point blocks summed, one map to the nonzeros)
+        return [f, ca.MX(pattern, ca.mtimes(M, ca.vertcat(*Ax) + cc * ca.vertcat(*Av)))]
     return [f, ca.MX(pattern, ca.mtimes(M, ca.vertcat(*Ax))), ca.MX(pattern, ca.mtimes(M, ca.vertcat(*Av)))]
 
 
@@ -251,13 +256,17 @@ def _contact_inputs(S: StepSystemView, X: ca.MX, V: ca.MX):
         yield element, effect, None if gauss == 5 else gauss, Z, ca.DM(P.T), idx, nd, N
 
 
-def contact_dissipation_mx(S: StepSystemView, X: ca.MX, V: ca.MX):
+def contact_dissipation_mx(S: StepSystemView, X: ca.MX, V: ca.MX, cc: ca.MX | None = None):
     """(f, df/dx, df/dv) on the unknowns of step system S, for full coordinates X and velocities V (MX in S's
     unknowns x, v), or None without dissipative contact. From the kernels' _rows companions (the force dD/dv and
     its Jacobian blocks [df/dq, df/dv], the v-rows of D's Hessian): exact tangents, no differentiation through
-    the compiled calls, no work on the Hessian's q-q block."""
+    the compiled calls, no work on the Hessian's q-q block. With cc (the step's velocity coefficient, MX): (f,
+    df/dx + cc df/dv), the two blocks of each element summed before one scatter (the step matrix's term: half the
+    scatter work)."""
     if not contact.dissipation_calls(S.asm.mesh):
         return None
+    if cc is not None:
+        return _contact_step_tangent(S, X, V, cc)
     nf, pos = S.nf, S.pos
     fv, ft, hv, rx, cx, sx, rv, cv, sv = [], [], [], [], [], [], [], [], []
     n_h, balls = 0, {}
@@ -286,6 +295,32 @@ def contact_dissipation_mx(S: StepSystemView, X: ca.MX, V: ca.MX):
     return f, dfx, dfv
 
 
+def _contact_step_tangent(S: StepSystemView, X: ca.MX, V: ca.MX, cc: ca.MX) -> tuple:
+    """(f, df/dx + cc df/dv) of contact_dissipation_mx: per element the x block plus cc times the v block of the
+    kernel's Jacobian (nd x 2 nd), then one scatter of the nd x nd sums."""
+    nf, pos = S.nf, S.pos
+    fv, ft, hv, rr, cl, srcs = [], [], [], [], [], []
+    n_h, balls = 0, {}
+    for element, effect, gauss, Z, Pd, idx, nd, N in _contact_inputs(S, X, V):
+        rows = kernels.load_rows(element, effect, gauss)  # (only the blocks in reach: ancf_sym.system.contact_reach)
+        F, J = contact_reach.call(rows.map, element, effect, idx, Z, Pd, X, S.asm.scene.dim, balls)
+        fv.append(ca.vec(F))
+        ft.append(pos[idx.ravel()])
+        # J's columns: element e's x block at 2 e nd + b, its v block at (2 e + 1) nd + b; as nd^2 x 2N the blocks
+        # are the even and odd columns
+        Jr = ca.reshape(J, nd * nd, 2 * N)
+        hv.append(ca.vec(Jr[:, 0::2] + cc * Jr[:, 1::2]))  # entry e nd^2 + b nd + a: d f_a / d z_b
+        e, b, a = np.meshgrid(np.arange(N), np.arange(nd), np.arange(nd), indexing="ij")
+        row, col = pos[idx[e, a]].ravel(), pos[idx[e, b]].ravel()
+        ok = (row >= 0) & (col >= 0)
+        rr.append(row[ok])
+        cl.append(col[ok])
+        srcs.append(n_h + np.flatnonzero(ok))
+        n_h += N * nd * nd
+    f = gather_sum(fv, np.concatenate(ft), nf)
+    return f, scatter(hv, np.concatenate(rr), np.concatenate(cl), nf, np.concatenate(srcs), n_h)
+
+
 def contact_dissipation_force_mx(S: StepSystemView, X: ca.MX, V: ca.MX):
     """The force f of contact_dissipation_mx alone, from the kernels' (energy, gradient) companions: no Hessian
     work (the same gradient, summed in the same order), or None without dissipative contact."""
@@ -300,7 +335,7 @@ def contact_dissipation_force_mx(S: StepSystemView, X: ca.MX, V: ca.MX):
     return gather_sum(fv, np.concatenate(ft), S.nf)
 
 
-def _reach_switch(S: StepSystemView, xf: ca.MX, vf: ca.MX, X: ca.MX, dc: tuple) -> tuple:
+def _reach_switch(S: StepSystemView, xf: ca.MX, vf: ca.MX, X: ca.MX, dc: tuple, extra: tuple = ()) -> tuple:
     """The contact dissipation dc = (f, df/dx, df/dv) evaluated only where some element is in reach of a dissipative
     contact's surface at the iterate x itself: elsewhere every kernel returns exact zeros (the law is 0 at a positive
     gap, contact.gap's hull bound is below every gap the kernels sample), so a switch that skips them gives the same
@@ -318,12 +353,41 @@ def _reach_switch(S: StepSystemView, xf: ca.MX, vf: ca.MX, X: ca.MX, dc: tuple) 
         # out of reach only by more than round-off of the positions: the kernels' own gaps then stay positive
         floor = contact_gap.FLOOR * float(np.max(S.asm.mesh.members[c.member].elem_length))
         bounds.append(ca.mmin(b) - floor)
-    reach = ca.Function("contact_dissipation_all", [xf, vf], list(dc))
-    none = ca.Function("contact_out_of_reach", [xf, vf], [ca.MX.zeros(o.sparsity()) for o in dc])
+    ins = [xf, vf, *extra]  # (extra: the step's velocity coefficient of the summed tangent)
+    reach = ca.Function("contact_dissipation_all", ins, list(dc))
+    none = ca.Function("contact_out_of_reach", ins, [ca.MX.zeros(o.sparsity()) for o in dc])
     switch = ca.Function.conditional("contact_dissipation_in_reach", [none], reach)  # 0: none in reach
     in_reach = ca.mmin(ca.vertcat(*bounds)) <= 0
-    out = switch(in_reach, xf, vf)
+    out = switch(in_reach, *ins)
     return (out,) if len(dc) == 1 else tuple(out)
+
+
+def step_tangent_function(S: StepSystemView) -> ca.Function | None:
+    """damp_step_f(x, v[, t], cc) -> (f_d, df_d/dx + cc df_d/dv): damp_f's force and its term of the step matrix,
+    with dissipative contact's two blocks summed per element before their scatter (half its scatter work, one
+    sparse sum less in the step); None where damp_f is None."""
+    from ancf_sym.system import water
+
+    if S.damp_f is None:
+        return None
+    nf = S.nf
+    xf, vf, cc = ca.MX.sym("x", nf), ca.MX.sym("v", nf), ca.MX.sym("cc")
+    t = ca.MX.sym("t") if water.timed(S.asm) else None
+    ins, names = ([xf, vf], ["x", "v"]) if t is None else ([xf, vf, t], ["x", "v", "t"])
+    X, V = S.x_full_mx(xf), ca.mtimes(dm(S.E), vf)
+    parts = []  # (summed in damp_f's order: its force is the same, bit for bit)
+    if contact.dissipation_calls(S.asm.mesh):
+        parts.append(_reach_switch(S, xf, vf, X, contact_dissipation_mx(S, X, V, cc), (cc,)))
+    dw = water.force_mx(S, xf, vf, X, V, t)
+    if dw is not None:
+        parts.append((dw[0], dw[1] + cc * dw[2]))
+    f, T = parts[0] if parts else (None, None)
+    for fp, Tp in parts[1:]:
+        f, T = f + fp, T + Tp
+    if S.strain_rate is not None:
+        o = strain_rate_mx(S.strain_rate, xf, X, V, vf, E=S.E, cc=cc)
+        f, T = (o[0], o[1]) if f is None else (o[0] + f, o[1] + T)
+    return ca.Function("damp_step", ins + [cc], [f, T], names + ["cc"], ["f", "df_dx_cc_df_dv"])
 
 
 def dissipation_functions(S: StepSystemView) -> tuple[ca.Function | None, ca.Function | None]:
