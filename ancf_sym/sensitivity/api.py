@@ -13,12 +13,16 @@ import numpy as np
 from ancf_sym.scene.builder import Scene
 from ancf_sym.io.scene_toml import scene_from_dict
 from ancf_sym.statics.problem import StaticResult, problem_for
+from ancf_sym.sensitivity.exact_contact_geometry import geometry_path
 from ancf_sym.sensitivity.model_derivative import check_model_paths, read_document
+from ancf_sym.sensitivity.paths import get_parameter
 
 
-def check_paths(scene: Scene, doc: dict, paths: list[str], analysis: dict | None = None) -> None:
+def check_paths(scene: Scene, doc: dict, paths: list[str], analysis: dict | None = None,
+                modes: int | None = None) -> None:
     """Refuse, before any solving, a path that names no differentiable number of this scene (KeyError /
-    ValueError naming it), and a dynamics analysis whose sensitivities are not available."""
+    ValueError naming it), and a dynamics analysis whose sensitivities are not available (modes: frequencies asked
+    for too)."""
     if analysis is not None and analysis.get("type") == "dynamics":
         from ancf_sym.sensitivity.dynamics import check_dynamic
         options = getattr(analysis, "options", None)  # (the TOML reader's decoded options, else the table's)
@@ -29,6 +33,12 @@ def check_paths(scene: Scene, doc: dict, paths: list[str], analysis: dict | None
         from ancf_sym.sensitivity.alpha_run import check_dynamic_paths  # (also dampings[i].alpha)
         check_dynamic_paths(scene, doc, paths, options=options)
         return
+    if not (modes or (analysis is not None and analysis.get("type") == "modal")):
+        # (an exact contact's geometry: the statics differentiate its rows themselves, exact_contact_geometry)
+        for p in paths:
+            get_parameter(doc, p)
+        asm = problem_for(scene).asm
+        paths = [p for p in paths if geometry_path(asm, doc, p) is None]
     check_model_paths(scene, doc, paths)
 
 
@@ -41,7 +51,7 @@ def sensitivities(doc: dict | str | Path, paths: list[str], result: StaticResult
 
     d = read_document(doc)
     scene, _ = scene_from_dict(d)
-    check_paths(scene, d, list(paths))
+    check_paths(scene, d, list(paths), modes=modes)
     if result is None:
         result = problem_for(scene).solve()
     if not result.success:

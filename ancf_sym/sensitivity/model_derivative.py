@@ -511,8 +511,9 @@ def _contact_pieces(asm: Assembly, c, columns: dict, text: str, refuse: Callable
     """Pieces of a penalty contact whose kernel parameters `columns` (name -> d/dp) change."""
     if c.method != "penalty":
         refuse("an exact contact's geometry sits in its unilateral rows, not in the model: differentiated in statics "
-               "only, by ancf_sym.sensitivity.StaticSensitivity (a fixed drum's radius, centre, a ground's level, a "
-               "thickness); elsewhere give the contact a stiffness: method = \"penalty\"")
+               "only (StaticSensitivity, sensitivities() without modes, `ancf-sym run` of a statics analysis: a "
+               "fixed drum's radius, centre, a ground's level, a thickness); elsewhere give the contact a "
+               "stiffness: method = \"penalty\"")
     if c.dissipative:
         refuse("the contact's damping and friction forces depend on its geometry too (not differentiated here)")
     if getattr(c, "body", None) is not None:

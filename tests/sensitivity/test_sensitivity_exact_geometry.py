@@ -10,6 +10,8 @@ centre: see CASES); the adjoint gradient equals the direct one to 1e-9 (the same
 factorisation transposed). Leaving out the rows' dg/dp leaves dx zero for these paths (an error of 100 %)."""
 from __future__ import annotations
 
+import json
+
 import copy
 
 import numpy as np
@@ -76,3 +78,35 @@ def test_exact_contact_geometry_matches_differences(doc, path, rel, tol):
     # the adjoint: one scalar output (the sum of the coordinates), the same derivative
     g = S.gradient(np.ones(n), [path])[0]
     assert abs(g - exact[:n].sum()) <= 1e-9 * np.abs(exact[:n]).sum()
+
+
+
+def _toml(doc: dict, analysis: list[str]) -> str:
+    lines = [f"[scene]"] + [f"{k} = {json.dumps(v)}" for k, v in doc["scene"].items()]
+    for table in ("materials", "sections"):
+        for name, d in doc[table].items():
+            lines += [f"[{table}.{name}]"] + [f"{k} = {json.dumps(v)}" for k, v in d.items()]
+    for table in ("members", "supports", "loads", "contacts"):
+        for d in doc[table]:
+            lines += [f"[[{table}]]"] + [f"{k} = {json.dumps(v)}" for k, v in d.items()]
+    return "\n".join(lines + ["[analysis]"] + analysis) + "\n"
+
+
+def test_exact_contact_geometry_through_the_command_line(tmp_path):
+    """`ancf-sym run SCENE --sensitivity contacts[0].radius` on a statics scene with an exact drum: result.json
+    carries StaticSensitivity's derivative (the path check lets the statics' own rows take it); a modal analysis,
+    whose frequencies' derivative does not follow the rows' geometry, refuses the path by name before solving."""
+    from ancf_sym.cli import main
+
+    scene = tmp_path / "drum.toml"
+    scene.write_text(_toml(DRUM, ['type = "statics"']))
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "--out", str(out), "--quiet", "--sensitivity", "contacts[0].radius"]) == 0
+    got = json.loads((out / "result.json").read_text())["sensitivities"]["contacts[0].radius"]
+    res, _ = outputs(DRUM)
+    ref = StaticSensitivity(scene_from_dict(DRUM)[0], res, DRUM).derivative("contacts[0].radius")
+    assert got["potential"] == pytest.approx(ref["potential"], rel=1e-6)  # (two solves to the statics' tol)
+    modal = tmp_path / "modal.toml"
+    modal.write_text(_toml(DRUM, ['type = "modal"', "modes = 3"]))
+    assert main(["run", str(modal), "--out", str(tmp_path / "m"), "--quiet", "--sensitivity",
+                 "contacts[0].radius"]) != 0
